@@ -1,0 +1,34 @@
+# Two entry points: `make run` and `make test`. Both install what is missing first.
+# The system package list lives in packaging/apt-packages.txt (the Dockerfile reads the same file).
+PYTHON ?= python3
+VENV ?= .venv
+PY := $(VENV)/bin/python
+APT_PACKAGES := $(shell cat packaging/apt-packages.txt)
+STAMP := $(VENV)/.legplan-installed
+OUT ?= outputs
+
+.PHONY: run test install system-packages clean
+
+run: install
+	$(VENV)/bin/legplan --version
+
+test: install
+	$(PY) -m pytest -q
+
+install: $(STAMP)
+
+# dpkg -s answers in milliseconds when everything is there, so apt-get runs only on a new machine.
+system-packages:
+	@dpkg -s $(APT_PACKAGES) >/dev/null 2>&1 || { \
+	  echo "installing system packages: $(APT_PACKAGES)"; \
+	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(APT_PACKAGES); }
+
+$(STAMP): pyproject.toml packaging/apt-packages.txt
+	@$(MAKE) --no-print-directory system-packages
+	@test -x $(PY) || $(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --upgrade pip
+	$(PY) -m pip install -q -e '.[test]'
+	@touch $(STAMP)
+
+clean:
+	rm -rf $(VENV) build *.egg-info

@@ -1,0 +1,94 @@
+"""Validating artefact reader: one error type (`ArtefactError`) whose message names the file."""
+
+from __future__ import annotations
+
+import json
+import os
+from contextlib import contextmanager
+from pathlib import Path
+
+import h5py
+
+from legplan.artefacts.schema import ROOT_ATTRS, SCHEMA_VERSIONS
+from legplan.errors import ArtefactError
+
+
+@contextmanager
+def open_artefact(path: str | os.PathLike, kind: str | tuple[str, ...] | None = None):
+    """Open an artefact read-only after checking it is a legplan file of `kind` and known schema."""
+    path = Path(path)
+    if not path.exists():
+        raise ArtefactError(f"{path}: no such file")
+    if not path.is_file():
+        raise ArtefactError(f"{path}: not a file")
+    if not h5py.is_hdf5(path):
+        raise ArtefactError(f"{path}: not an HDF5 file")
+    try:
+        handle = h5py.File(path, "r")
+    except OSError as exc:
+        raise ArtefactError(f"{path}: truncated or corrupt HDF5 file ({exc})") from exc
+    with handle:
+        _validate_root(path, handle, kind)
+        yield handle
+
+
+def _validate_root(path: Path, handle: h5py.File, kind) -> None:
+    try:
+        actual = handle.attrs.get("legplan_kind")
+        version = handle.attrs.get("schema_version")
+    except OSError as exc:
+        raise ArtefactError(f"{path}: corrupt HDF5 attributes ({exc})") from exc
+    if actual is None:
+        raise ArtefactError(f"{path}: not a legplan artefact (no 'legplan_kind' attribute)")
+    actual = str(actual)
+    wanted = (kind,) if isinstance(kind, str) else kind
+    if wanted is not None and actual not in wanted:
+        raise ArtefactError(f"{path}: is a '{actual}' artefact, expected '{' or '.join(wanted)}'")
+    if actual not in SCHEMA_VERSIONS:
+        raise ArtefactError(f"{path}: unknown artefact kind '{actual}'")
+    if version is None:
+        raise ArtefactError(f"{path}: missing attribute 'schema_version'")
+    if int(version) > SCHEMA_VERSIONS[actual]:
+        raise ArtefactError(f"{path}: '{actual}' schema version {int(version)} is newer than this "
+                            f"legplan reads ({SCHEMA_VERSIONS[actual]}); upgrade legplan")
+    missing = [name for name in ROOT_ATTRS if name not in handle.attrs]
+    if missing:
+        raise ArtefactError(f"{path}: missing root attribute '{missing[0]}'")
+
+
+def require(handle: h5py.File | h5py.Group, name: str):
+    """The dataset or group `name`, or an `ArtefactError` naming the file and the missing item."""
+    try:
+        return handle[name]
+    except KeyError:
+        where = handle.file.filename
+        raise ArtefactError(f"{where}: missing dataset '{handle.name.rstrip('/')}/{name}'") from None
+    except OSError as exc:
+        raise ArtefactError(f"{handle.file.filename}: cannot read '{name}' ({exc})") from exc
+
+
+def read_provenance(handle: h5py.File) -> dict:
+    """Root attributes with JSON fields decoded."""
+    attrs = handle.attrs
+    return {
+        "kind": str(attrs["legplan_kind"]),
+        "schema_version": int(attrs["schema_version"]),
+        "legplan_version": str(attrs["legplan_version"]),
+        "created": str(attrs["created"]),
+        "command": json.loads(attrs["command"]),
+        "params": json.loads(attrs["params"]),
+        "seed": None if int(attrs["seed"]) < 0 else int(attrs["seed"]),
+        "inputs": json.loads(attrs["inputs"]),
+    }
+
+
+def read_summary(handle: h5py.File) -> dict[str, tuple[float, str]]:
+    """`/summary` as `{name: (value, units)}`; empty when the artefact has none."""
+    if "summary" not in handle:
+        return {}
+    rows = require(handle, "summary")[()]
+    return {_text(row["name"]): (float(row["value"]), _text(row["units"])) for row in rows}
+
+
+def _text(value) -> str:
+    return value.decode() if isinstance(value, bytes) else str(value)

@@ -1,0 +1,55 @@
+"""The `legplan` command: a click group whose subcommands are registered one module per group.
+
+Exit codes: 0 success; 1 the command ran but some items failed (their reasons are in the artefact);
+2 bad input (usage error, unreadable or invalid input). User errors print one line, no traceback
+unless `-v`.
+"""
+
+from __future__ import annotations
+
+import importlib
+import sys
+import traceback
+
+import click
+
+from legplan import __version__
+from legplan.cli.console import stderr, verbosity
+from legplan.cli.options import verbosity_opts
+from legplan.errors import LegplanError
+
+EXIT_ITEMS_FAILED = 1
+EXIT_BAD_INPUT = 2
+
+# One module per command group under legplan/cli/, each exposing `command`.
+COMMAND_MODULES = ("inspect_cmd",)
+
+
+class LegplanGroup(click.Group):
+    """Turns `LegplanError` (and OS errors on inputs) into a one-line message and exit code 2."""
+
+    def invoke(self, ctx: click.Context):
+        try:
+            return super().invoke(ctx)
+        except (LegplanError, OSError) as exc:
+            if verbosity() > 0:
+                traceback.print_exc(file=sys.stderr)
+            stderr.print(f"[bold red]Error:[/] {exc}", markup=True, highlight=False,
+                         soft_wrap=True)
+            ctx.exit(EXIT_BAD_INPUT)
+
+
+@click.group(cls=LegplanGroup, context_settings={"help_option_names": ["-h", "--help"]})
+@click.version_option(__version__, "--version", prog_name="legplan")
+@verbosity_opts
+def cli():
+    """Motion planning for legged robots: stages that read and write HDF5 artefacts.
+
+    Stages chain through files, e.g.
+    `legplan map build maps/gap_crossing.yaml -o map.h5` then
+    `legplan steps generate map.h5 --robot scarab2 ... -o steps.h5`.
+    """
+
+
+for _name in COMMAND_MODULES:
+    cli.add_command(importlib.import_module(f"legplan.cli.{_name}").command)

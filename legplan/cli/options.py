@@ -1,0 +1,43 @@
+"""The registry of options shared by every command (rasterio `rio` style).
+
+Use them as decorators so every command spells the same option the same way:
+`@output_opt @overwrite_opt @jobs_opt @seed_opt @verbosity_opts`.
+"""
+
+from __future__ import annotations
+
+import click
+
+from legplan.cli.console import set_verbosity, verbosity
+
+
+def _set_verbose(ctx, param, value):
+    if value:
+        set_verbosity(max(verbosity(), 0) + value)
+    return value
+
+
+def _set_quiet(ctx, param, value):
+    if value:
+        set_verbosity(-1)
+    return value
+
+
+def verbosity_opts(func):
+    """`-v/--verbose` (repeatable) and `-q/--quiet`; accepted on the group and on every command."""
+    func = click.option("-q", "--quiet", is_flag=True, expose_value=False, is_eager=True,
+                        callback=_set_quiet, help="Only errors; no progress bars.")(func)
+    return click.option("-v", "--verbose", count=True, expose_value=False, is_eager=True,
+                        callback=_set_verbose,
+                        help="More log output (-vv for debug); tracebacks on errors.")(func)
+
+
+output_opt = click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+                          help="Output artefact (HDF5) or image path.")
+overwrite_opt = click.option("--overwrite", is_flag=True, help="Replace an existing output.")
+jobs_opt = click.option("-j", "--jobs", type=click.IntRange(min=1), default=1, show_default=True,
+                        help="Worker processes for independent items.")
+seed_opt = click.option("--seed", type=int, default=0, show_default=True,
+                        help="Seed of every random choice; same inputs and seed, same artefact.")
+json_opt = click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout.")
+input_artefact = click.Path(exists=False, dir_okay=False)
