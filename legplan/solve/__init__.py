@@ -1,0 +1,30 @@
+"""Sparse nonlinear least squares: residual blocks + Levenberg-Marquardt (Algorithm 1, eq. (13)).
+
+    problem = Problem([VariableBlock("x", x0), VariableBlock("xi", xi0, schur_block=3)])
+    problem.add_residual(FunctionBlock(["x", "xi"], m, fn))          # fn(x, xi) -> (r, [Jx, Jxi])
+    problem.add_residual(HingeInequality(FunctionBlock(["x"], k, g)))  # g(x) ≤ 0, eq. (8b)
+    result = solve_lm(problem, LMParams(max_iterations=100, linear_solver="cholmod"))
+    result.status, result.reason, result.values["x"], result.timings
+
+A block that knows its JᵀJ derives from `StructuredBlock` and returns `NormalTerms` (dense,
+sparse or `BlockDiagonal` JᵀJ pieces and Jᵀh); variables with `schur_block` are eliminated by a
+Schur complement before factorising. Test every block with `check_jacobian(block, values)`.
+"""
+
+from legplan.solve.blocks import BlockDiagonal, FunctionBlock, NormalTerms, ResidualBlock, StructuredBlock
+from legplan.solve.inequality import HingeInequality, IntervalPenalty
+from legplan.solve.jaccheck import JacobianCheck, check_jacobian, check_normal_terms, numeric_jacobian
+from legplan.solve.linsolve import (CholmodSolver, DenseSolver, LinearSolver, NotPositiveDefiniteError,
+                                    ScipySolver, make_solver)
+from legplan.solve.lm import LMParams, LMResult, Status, Timings, solve_lm
+from legplan.solve.problem import NormalEquations, Problem
+from legplan.solve.schur import SchurSolver
+from legplan.solve.variables import VariableBlock, VariableLayout
+
+__all__ = [
+    "BlockDiagonal", "CholmodSolver", "DenseSolver", "FunctionBlock", "HingeInequality", "IntervalPenalty",
+    "JacobianCheck", "LMParams", "LMResult", "LinearSolver", "NormalEquations", "NormalTerms",
+    "NotPositiveDefiniteError", "Problem", "ResidualBlock", "SchurSolver", "ScipySolver", "Status",
+    "StructuredBlock", "Timings", "VariableBlock", "VariableLayout", "check_jacobian", "check_normal_terms",
+    "make_solver", "numeric_jacobian", "solve_lm",
+]

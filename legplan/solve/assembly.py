@@ -1,0 +1,39 @@
+"""COO → CSC assembly that sorts the index arrays once per sparsity pattern.
+
+The Jacobian J and the normal matrix JᵀJ of eq. (13) keep their sparsity pattern across LM
+iterations; only values change. `CooAssembler` remembers the (row, col) triplet order of the last
+pattern and the CSC slot of every triplet, so a refresh is one `np.bincount` (duplicates summed).
+Explicit zeros stay in the pattern, so a factorisation analysed once stays valid.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+
+class CooAssembler:
+    """Sum COO triplets into a CSC matrix of fixed `shape`; re-analyse only when indices change."""
+
+    def __init__(self, shape: tuple[int, int]):
+        self.shape = shape
+        self.version = 0  # incremented whenever the pattern changes
+        self._rows: np.ndarray | None = None
+        self._cols: np.ndarray | None = None
+
+    def _analyze(self, rows: np.ndarray, cols: np.ndarray) -> None:
+        nrows, ncols = self.shape
+        key = cols.astype(np.int64) * nrows + rows
+        unique, self._slot = np.unique(key, return_inverse=True)
+        self._indices = (unique % nrows).astype(np.int32)
+        self._indptr = np.zeros(ncols + 1, dtype=np.int32)
+        np.cumsum(np.bincount(unique // nrows, minlength=ncols), out=self._indptr[1:])
+        self._rows, self._cols = rows.copy(), cols.copy()
+        self.version += 1
+
+    def assemble(self, rows: np.ndarray, cols: np.ndarray, values: np.ndarray) -> sp.csc_matrix:
+        if not (self._rows is not None and self._rows.size == rows.size
+                and np.array_equal(self._rows, rows) and np.array_equal(self._cols, cols)):
+            self._analyze(rows, cols)
+        data = np.bincount(self._slot, weights=values, minlength=self._indices.size)
+        return sp.csc_matrix((data, self._indices, self._indptr), shape=self.shape)

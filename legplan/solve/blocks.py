@@ -1,0 +1,95 @@
+"""Residual blocks: small pieces of h(θ) of eq. (12), each with its own Jacobian block.
+
+A block reads a few named variable blocks and returns its residual values and, on request, one
+Jacobian block per variable it reads (dense ndarray when small, scipy.sparse otherwise). A block
+that knows the structure of its JᵀJ (e.g. Bézier weights: H = Σ_k kron(b_k b_kᵀ, G_kᵀG_k)) derives
+from `StructuredBlock` and returns that contribution to the normal equations of eq. (13) directly.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+
+import numpy as np
+import scipy.sparse as sp
+
+Matrix = np.ndarray | sp.sparray | sp.spmatrix
+
+
+@dataclass(frozen=True)
+class BlockDiagonal:
+    """A block-diagonal matrix given by its dense diagonal blocks, shape (count, m, m)."""
+
+    blocks: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        count, m, _ = self.blocks.shape
+        return count * m, count * m
+
+
+@dataclass
+class NormalTerms:
+    """A block's contribution to the normal equations of eq. (13): JᵀJ, Jᵀh and h itself.
+
+    `hessian[(i, j)]` with i ≤ j indexes the block's `variables`; it is dense, sparse, or (i == j
+    only) `BlockDiagonal`. The (j, i) term is implied by symmetry. `gradient[i]` is J_iᵀh.
+    Sizes are those of the full variable vectors; the problem drops fixed entries.
+    """
+
+    residual: np.ndarray
+    hessian: dict[tuple[int, int], Matrix | BlockDiagonal] = field(default_factory=dict)
+    gradient: list[np.ndarray] = field(default_factory=list)
+
+
+class ResidualBlock(ABC):
+    """A residual block over the variable blocks named in `variables` with `size` rows."""
+
+    variables: tuple[str, ...]
+    size: int
+
+    @abstractmethod
+    def evaluate(self, values: Sequence[np.ndarray], jacobians: bool) -> tuple[np.ndarray, list[Matrix] | None]:
+        """Residual (size,) and, if `jacobians`, one (size × len(values[i])) Jacobian per variable."""
+
+
+class StructuredBlock(ResidualBlock):
+    """A block that also contributes JᵀJ and Jᵀh directly (the "structured" assembly path)."""
+
+    @abstractmethod
+    def normal_terms(self, values: Sequence[np.ndarray]) -> NormalTerms:
+        """Residual, JᵀJ blocks and Jᵀh blocks at `values`; must equal those of `evaluate`."""
+
+
+def default_normal_terms(residual: np.ndarray, jacobians: Sequence[Matrix]) -> NormalTerms:
+    """JᵀJ and Jᵀh of one block from its Jacobian blocks (dense products go to BLAS)."""
+    terms = NormalTerms(residual)
+    for i, ji in enumerate(jacobians):
+        terms.gradient.append(np.asarray(ji.T @ residual).reshape(-1))
+        for j in range(i, len(jacobians)):
+            terms.hessian[(i, j)] = ji.T @ jacobians[j]
+    return terms
+
+
+class FunctionBlock(ResidualBlock):
+    """A residual block from a function `fn(*values) -> (r, [J_0, J_1, ...])`.
+
+    `residual_fn(*values) -> r` is optional; give it when the residual is much cheaper than the
+    Jacobians, since LM evaluates trial points without Jacobians (Algorithm 1, line 5).
+    """
+
+    def __init__(self, variables: Sequence[str], size: int,
+                 fn: Callable[..., tuple[np.ndarray, list[Matrix]]],
+                 residual_fn: Callable[..., np.ndarray] | None = None):
+        self.variables = tuple(variables)
+        self.size = int(size)
+        self._fn = fn
+        self._residual_fn = residual_fn
+
+    def evaluate(self, values, jacobians):
+        if not jacobians and self._residual_fn is not None:
+            return np.asarray(self._residual_fn(*values), float), None
+        r, jac = self._fn(*values)
+        return np.asarray(r, float), (list(jac) if jacobians else None)

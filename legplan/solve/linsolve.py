@@ -1,0 +1,146 @@
+"""Linear solvers for the damped normal equations (JᵀJ + βI) x = b of eq. (13).
+
+Each solver has `factorize(H, beta)` then `solve(rhs)`; a matrix that is not positive definite
+raises `NotPositiveDefiniteError` (LM then raises λ; Algorithm 1 counts it as a failed step).
+
+* ``cholmod`` (default): CHOLMOD via scikit-sparse. The fill-reducing ordering and symbolic
+  factorisation are computed once per sparsity pattern (`cholmod.analyze`); every λ change is a
+  numeric refactorisation `Factor.cholesky_inplace(H, beta=λ)`. Simplicial mode computes LDLᵀ and
+  does not complain about indefinite matrices, so the sign of D is checked here. Simplicial wins on
+  the step-planner-shaped matrices measured in bench/solve_lm.py; supernodal wins on matrices with
+  large dense fronts (3D meshes). Only the lower triangle of H is read.
+* ``scipy``: SuperLU (`scipy.sparse.linalg.splu`) in symmetric mode on H + βI. The fallback when
+  scikit-sparse is missing; refactors from scratch every time.
+* ``dense``: LAPACK Cholesky (`scipy.linalg.cho_factor`). Wins below roughly a thousand unknowns,
+  or whenever H is nearly dense (e.g. the reduced system after Schur elimination of slacks).
+"""
+
+from __future__ import annotations
+
+import logging
+import warnings
+from abc import ABC, abstractmethod
+
+import numpy as np
+import scipy.linalg
+import scipy.sparse as sp
+import scipy.sparse.linalg
+
+try:
+    from sksparse import cholmod
+except ImportError as exc:  # pragma: no cover - depends on the environment
+    cholmod = None
+    _CHOLMOD_IMPORT_ERROR = exc
+
+_fallback_warned = False
+
+log = logging.getLogger(__name__)
+
+SOLVER_NAMES = ("cholmod", "scipy", "dense")
+
+
+class NotPositiveDefiniteError(ArithmeticError):
+    """H + βI could not be factorised as a positive-definite matrix."""
+
+
+class LinearSolver(ABC):
+    """Factorise H + βI once, then solve for any right-hand side."""
+
+    name: str
+
+    @abstractmethod
+    def factorize(self, H: sp.spmatrix | np.ndarray, beta: float) -> None:
+        """Factorise H + βI; raise NotPositiveDefiniteError if it is not positive definite."""
+
+    @abstractmethod
+    def solve(self, rhs: np.ndarray) -> np.ndarray:
+        """x with (H + βI) x = rhs for the last factorised H, β."""
+
+
+class CholmodSolver(LinearSolver):
+    """CHOLMOD: analyse once per sparsity pattern, refactor numerically with beta = λ."""
+
+    name = "cholmod"
+
+    def __init__(self, mode: str = "simplicial", ordering_method: str = "default"):
+        if cholmod is None:
+            raise ImportError("scikit-sparse is not importable") from _CHOLMOD_IMPORT_ERROR
+        self.mode = mode
+        self.ordering_method = ordering_method
+        self._factor = None
+        self._pattern: tuple[np.ndarray, np.ndarray] | None = None
+        self.analyses = 0  # how many symbolic analyses were done (one per pattern)
+
+    def factorize(self, H, beta):
+        H = sp.csc_matrix(H)
+        if self._pattern is None or not (np.array_equal(self._pattern[0], H.indptr)
+                                         and np.array_equal(self._pattern[1], H.indices)):
+            self._factor = cholmod.analyze(H, mode=self.mode, ordering_method=self.ordering_method)
+            self._pattern = (H.indptr.copy(), H.indices.copy())
+            self.analyses += 1
+        try:
+            self._factor.cholesky_inplace(H, beta=beta)
+        except cholmod.CholmodNotPositiveDefiniteError as exc:
+            raise NotPositiveDefiniteError(str(exc)) from exc
+        if self.mode == "simplicial":
+            d = self._factor.D()
+            if not np.all(d > 0):
+                raise NotPositiveDefiniteError(f"LDLᵀ pivot {d.min():.3g} ≤ 0 at beta={beta:.3g}")
+
+    def solve(self, rhs):
+        return self._factor.solve_A(rhs)
+
+
+class ScipySolver(LinearSolver):
+    """SuperLU on H + βI with symmetric-mode options (no pattern reuse)."""
+
+    name = "scipy"
+
+    def factorize(self, H, beta):
+        n = H.shape[0]
+        A = sp.csc_matrix(H + beta * sp.identity(n, format="csc"))
+        try:
+            self._lu = scipy.sparse.linalg.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                                                options={"SymmetricMode": True})
+        except RuntimeError as exc:  # "Factor is exactly singular"
+            raise NotPositiveDefiniteError(str(exc)) from exc
+        if not np.all(self._lu.U.diagonal() > 0):  # no pivoting: U's diagonal holds the LDLᵀ pivots
+            raise NotPositiveDefiniteError(f"LU pivot ≤ 0 at beta={beta:.3g}")
+
+    def solve(self, rhs):
+        return self._lu.solve(rhs)
+
+
+class DenseSolver(LinearSolver):
+    """LAPACK Cholesky of the dense H + βI."""
+
+    name = "dense"
+
+    def factorize(self, H, beta):
+        A = H.toarray() if sp.issparse(H) else np.array(H, float)
+        A[np.diag_indices_from(A)] += beta
+        try:
+            self._cho = scipy.linalg.cho_factor(A, lower=True, check_finite=False)
+        except np.linalg.LinAlgError as exc:
+            raise NotPositiveDefiniteError(str(exc)) from exc
+
+    def solve(self, rhs):
+        return scipy.linalg.cho_solve(self._cho, rhs, check_finite=False)
+
+
+def make_solver(name: str = "cholmod", cholmod_mode: str = "simplicial") -> LinearSolver:
+    """A fresh solver by name; ``cholmod`` falls back to ``scipy`` (one warning) without sksparse."""
+    global _fallback_warned
+    if name == "cholmod":
+        if cholmod is None:
+            if not _fallback_warned:
+                _fallback_warned = True
+                warnings.warn(f"scikit-sparse unavailable ({_CHOLMOD_IMPORT_ERROR}); using the scipy SuperLU solver",
+                              RuntimeWarning, stacklevel=2)
+            return ScipySolver()
+        return CholmodSolver(mode=cholmod_mode)
+    if name == "scipy":
+        return ScipySolver()
+    if name == "dense":
+        return DenseSolver()
+    raise ValueError(f"linear solver must be one of {SOLVER_NAMES}, got {name!r}")

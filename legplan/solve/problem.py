@@ -1,0 +1,232 @@
+"""A least-squares problem: variable blocks plus weighted residual blocks, stacked into h(θ), J(θ).
+
+Two ways to build the normal equations (JᵀJ) Δθ = Jᵀh of eq. (13):
+
+* ``assembly="stacked"`` (general path): stack the weighted Jacobian blocks into one CSC matrix J
+  and form JᵀJ with one sparse product.
+* ``assembly="blocks"`` (structured path, default): sum per-block contributions. A
+  `StructuredBlock` returns its JᵀJ and Jᵀh blocks directly; any other block contributes
+  J_iᵀJ_j products of its own Jacobian blocks (dense blocks go to BLAS).
+
+Both paths scatter COO triplets through a `CooAssembler`, so index arrays are sorted once per
+sparsity pattern and later iterations only refresh values.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from legplan.solve.assembly import CooAssembler
+from legplan.solve.blocks import BlockDiagonal, Matrix, ResidualBlock, StructuredBlock, default_normal_terms
+from legplan.solve.variables import VariableBlock, VariableLayout
+
+ASSEMBLY_MODES = ("blocks", "stacked")
+
+
+@dataclass
+class NormalEquations:
+    """h(θ), H = JᵀJ (full symmetric CSC, diagonal always in the pattern) and g = Jᵀh."""
+
+    residual: np.ndarray
+    hessian: sp.csc_matrix
+    gradient: np.ndarray
+    pattern_version: int
+    evaluate_seconds: float
+    assemble_seconds: float
+
+
+class Problem:
+    """Variable blocks and residual blocks of a nonlinear least-squares problem min ½‖h(θ)‖²."""
+
+    def __init__(self, variables: Iterable[VariableBlock] = ()):
+        self._variables: list[VariableBlock] = list(variables)
+        self._blocks: list[tuple[ResidualBlock, float | np.ndarray]] = []
+        self._layout: VariableLayout | None = None
+        self._index_cache: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+
+    # --- building -------------------------------------------------------------------------------
+    def add_variable(self, block: VariableBlock) -> VariableBlock:
+        self._variables.append(block)
+        self._invalidate()
+        return block
+
+    def add_residual(self, block: ResidualBlock, weight: float | np.ndarray = 1.0) -> ResidualBlock:
+        """Add a residual block; `weight` multiplies its rows (scalar, or one per row)."""
+        names = {v.name for v in self._variables}
+        missing = [v for v in block.variables if v not in names]
+        if missing:
+            raise ValueError(f"{type(block).__name__} reads unknown variables {missing}")
+        if len(set(block.variables)) != len(block.variables):
+            raise ValueError(f"{type(block).__name__} lists a variable twice: {block.variables}")
+        w = np.asarray(weight, float)
+        if w.ndim and w.shape != (block.size,):
+            raise ValueError(f"weight must be a scalar or have {block.size} entries, got shape {w.shape}")
+        if w.ndim and isinstance(block, StructuredBlock):
+            raise ValueError("a StructuredBlock accepts only a scalar weight")
+        self._blocks.append((block, float(w) if not w.ndim else w))
+        self._invalidate()
+        return block
+
+    def _invalidate(self) -> None:
+        self._layout = None
+        self._index_cache.clear()
+        self._offsets = None
+        self._jac_assembler = None
+        self._hess_assembler = None
+
+    @property
+    def layout(self) -> VariableLayout:
+        if self._layout is None:
+            self._layout = VariableLayout(self._variables)
+            sizes = [b.size for b, _ in self._blocks]
+            self._offsets = np.concatenate([[0], np.cumsum(sizes, dtype=np.int64)])
+            self._jac_assembler = CooAssembler((int(self._offsets[-1]), self._layout.n))
+            self._hess_assembler = CooAssembler((self._layout.n, self._layout.n))
+        return self._layout
+
+    @property
+    def blocks(self) -> list[ResidualBlock]:
+        return [b for b, _ in self._blocks]
+
+    @property
+    def num_residuals(self) -> int:
+        return sum(b.size for b, _ in self._blocks)
+
+    # --- evaluation -----------------------------------------------------------------------------
+    def _block_values(self, values: dict[str, np.ndarray], block: ResidualBlock) -> list[np.ndarray]:
+        return [values[name] for name in block.variables]
+
+    def residual(self, theta: np.ndarray) -> np.ndarray:
+        """h(θ): weighted residuals of all blocks, stacked in the order they were added (eq. (12))."""
+        values = self.layout.values(theta)
+        parts = [w * self._checked(b, b.evaluate(self._block_values(values, b), False)[0]) for b, w in self._blocks]
+        return np.concatenate(parts) if parts else np.zeros(0)
+
+    @staticmethod
+    def _checked(block: ResidualBlock, r: np.ndarray) -> np.ndarray:
+        r = np.asarray(r, float).reshape(-1)
+        if r.size != block.size:
+            raise ValueError(f"{type(block).__name__} returned {r.size} residuals, declared size {block.size}")
+        return r
+
+    def _coo(self, key: tuple, term: Matrix | BlockDiagonal, rowmap: np.ndarray, colmap: np.ndarray):
+        """COO triplets of `term` in θ coordinates (rows via `rowmap`, cols via `colmap`, -1 = drop)."""
+        if isinstance(term, BlockDiagonal):
+            cached = self._index_cache.get(key + ("bd", term.blocks.shape))
+            if cached is None:
+                count, m, _ = term.blocks.shape
+                base = np.arange(count)[:, None, None] * m
+                r = np.broadcast_to(base + np.arange(m)[None, :, None], term.blocks.shape).reshape(-1)
+                c = np.broadcast_to(base + np.arange(m)[None, None, :], term.blocks.shape).reshape(-1)
+                cached = self._index_cache[key + ("bd", term.blocks.shape)] = self._mapped(r, c, rowmap, colmap)
+            rows, cols, keep = cached
+            return rows, cols, term.blocks.reshape(-1)[keep]
+        if sp.issparse(term):
+            coo = sp.coo_matrix(term)
+            rows, cols, keep = self._mapped(coo.row, coo.col, rowmap, colmap)
+            return rows, cols, coo.data[keep]
+        term = np.asarray(term, float)
+        cached = self._index_cache.get(key + ("dense", term.shape))
+        if cached is None:
+            r, c = np.indices(term.shape)
+            cached = self._index_cache[key + ("dense", term.shape)] = self._mapped(r.ravel(), c.ravel(), rowmap, colmap)
+        rows, cols, keep = cached
+        return rows, cols, term.reshape(-1)[keep]
+
+    @staticmethod
+    def _mapped(r, c, rowmap, colmap):
+        rows, cols = rowmap[r], colmap[c]
+        keep = (rows >= 0) & (cols >= 0)
+        return rows[keep], cols[keep], np.flatnonzero(keep)
+
+    def _weighted_linearization(self, values, index):
+        block, w = self._blocks[index]
+        r, jacs = block.evaluate(self._block_values(values, block), True)
+        r = self._checked(block, r)
+        if np.ndim(w) == 0:
+            return (r, list(jacs)) if w == 1.0 else (w * r, [w * j for j in jacs])
+        scaled = []
+        for j in jacs:
+            if sp.issparse(j):
+                j = sp.coo_matrix(j, copy=True)
+                j.data *= w[j.row]  # keeps explicit zeros (a product with diags(w) would drop them)
+            else:
+                j = w[:, None] * np.asarray(j, float)
+            scaled.append(j)
+        return w * r, scaled
+
+    def jacobian(self, theta: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix]:
+        """h(θ) and the stacked weighted Jacobian J (CSC, pattern cached across calls)."""
+        layout = self.layout
+        values = layout.values(theta)
+        residuals, rows, cols, vals = [], [], [], []
+        for k, (block, _) in enumerate(self._blocks):
+            r, jacs = self._weighted_linearization(values, k)
+            residuals.append(r)
+            rowmap = np.arange(self._offsets[k], self._offsets[k + 1])
+            for i, (name, jac) in enumerate(zip(block.variables, jacs)):
+                rr, cc, vv = self._coo(("J", k, i), jac, rowmap, layout.columns[name])
+                rows.append(rr), cols.append(cc), vals.append(vv)
+        J = self._jac_assembler.assemble(*(_cat(x, np.int64) for x in (rows, cols)), _cat(vals, float))
+        return _cat(residuals, float), J
+
+    def normal_equations(self, theta: np.ndarray, assembly: str = "blocks") -> NormalEquations:
+        """h, H = JᵀJ and g = Jᵀh at θ for eq. (13), by the chosen assembly path."""
+        if assembly not in ASSEMBLY_MODES:
+            raise ValueError(f"assembly must be one of {ASSEMBLY_MODES}, got {assembly!r}")
+        layout = self.layout
+        n = layout.n
+        diag = np.arange(n)
+        if assembly == "stacked":
+            t0 = time.perf_counter()
+            h, J = self.jacobian(theta)
+            t1 = time.perf_counter()
+            product = sp.coo_matrix(J.T.tocsr() @ J)
+            rows, cols, vals = [product.row, diag], [product.col, diag], [product.data, np.zeros(n)]
+            return self._finish(h, rows, cols, vals, J.T @ h, t1 - t0, t1)
+        t0 = time.perf_counter()
+        values = layout.values(theta)
+        terms = []
+        for k, (block, w) in enumerate(self._blocks):
+            if isinstance(block, StructuredBlock):
+                nt = block.normal_terms(self._block_values(values, block))
+                nt.residual = w * self._checked(block, nt.residual)
+                if w != 1.0:
+                    nt.hessian = {ij: _scaled(t, w * w) for ij, t in nt.hessian.items()}
+                    nt.gradient = [w * w * gi for gi in nt.gradient]
+            else:
+                nt = default_normal_terms(*self._weighted_linearization(values, k))
+            terms.append(nt)
+        t1 = time.perf_counter()
+        g = np.zeros(n)
+        rows, cols, vals = [diag], [diag], [np.zeros(n)]
+        for k, ((block, _), nt) in enumerate(zip(self._blocks, terms)):
+            maps = [layout.columns[name] for name in block.variables]
+            for i, gi in enumerate(nt.gradient):
+                keep = maps[i] >= 0
+                g[maps[i][keep]] += np.asarray(gi).reshape(-1)[keep]  # columns within one variable are distinct
+            for (i, j), term in nt.hessian.items():
+                rr, cc, vv = self._coo(("H", k, i, j), term, maps[i], maps[j])
+                rows.append(rr), cols.append(cc), vals.append(vv)
+                if i != j:
+                    rows.append(cc), cols.append(rr), vals.append(vv)
+        h = _cat([nt.residual for nt in terms], float)
+        return self._finish(h, rows, cols, vals, g, t1 - t0, t1)
+
+    def _finish(self, h, rows, cols, vals, g, evaluate_seconds, t_start) -> NormalEquations:
+        H = self._hess_assembler.assemble(_cat(rows, np.int64), _cat(cols, np.int64), _cat(vals, float))
+        return NormalEquations(h, H, g, self._hess_assembler.version, evaluate_seconds,
+                               time.perf_counter() - t_start)
+
+
+def _cat(parts: list[np.ndarray], dtype) -> np.ndarray:
+    return np.concatenate(parts).astype(dtype, copy=False) if parts else np.zeros(0, dtype)
+
+
+def _scaled(term, factor: float):
+    return BlockDiagonal(term.blocks * factor) if isinstance(term, BlockDiagonal) else term * factor

@@ -1,0 +1,85 @@
+"""Every linear solver gives the same step; non-PD matrices raise; CHOLMOD analyses once; Schur."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from legplan.solve import (CholmodSolver, NotPositiveDefiniteError, SchurSolver, make_solver)
+from legplan.solve import testproblems as tp
+
+
+def _spd(n=40, seed=0):
+    rng = np.random.default_rng(seed)
+    J = sp.random(3 * n, n, density=0.1, random_state=rng) + sp.eye(3 * n, n)
+    return sp.csc_matrix(J.T @ J), rng.standard_normal(n)
+
+
+@pytest.mark.parametrize("name", ["cholmod", "scipy", "dense"])
+def test_solvers_agree_with_dense_reference(name):
+    H, b = _spd()
+    for beta in (0.0, 0.3, 10.0):
+        solver = make_solver(name)
+        solver.factorize(H, beta)
+        expected = np.linalg.solve(H.toarray() + beta * np.eye(H.shape[0]), b)
+        np.testing.assert_allclose(solver.solve(b), expected, rtol=1e-9, atol=1e-12)
+
+
+@pytest.mark.parametrize("mode", ["simplicial", "supernodal"])
+def test_cholmod_modes_agree(mode):
+    H, b = _spd(80)
+    solver = CholmodSolver(mode=mode)
+    solver.factorize(H, 0.5)
+    np.testing.assert_allclose(solver.solve(b), np.linalg.solve(H.toarray() + 0.5 * np.eye(80), b), rtol=1e-9)
+
+
+@pytest.mark.parametrize("name", ["cholmod", "scipy", "dense"])
+def test_indefinite_matrix_raises_not_positive_definite(name):
+    H, _ = _spd()
+    indefinite = sp.csc_matrix(H - 1e3 * sp.eye(H.shape[0]))
+    solver = make_solver(name)
+    with pytest.raises(NotPositiveDefiniteError):
+        solver.factorize(indefinite, 0.0)
+    solver.factorize(indefinite, 2e3)  # enough damping makes it positive definite again
+
+
+def test_supernodal_indefinite_raises():
+    H, _ = _spd()
+    with pytest.raises(NotPositiveDefiniteError):
+        CholmodSolver(mode="supernodal").factorize(sp.csc_matrix(H - 1e3 * sp.eye(H.shape[0])), 0.0)
+
+
+def test_cholmod_analyses_once_per_pattern():
+    H, b = _spd()
+    solver = CholmodSolver()
+    for beta in (1.0, 0.1, 0.01):
+        solver.factorize(H, beta)
+    H2 = H.copy()
+    H2.data *= 2.0
+    solver.factorize(H2, 1.0)
+    assert solver.analyses == 1
+    solver.factorize(sp.csc_matrix(H + sp.eye(H.shape[0], k=5) + sp.eye(H.shape[0], k=-5)) + 10 * sp.eye(40), 1.0)
+    assert solver.analyses == 2
+
+
+def test_unknown_solver_name():
+    with pytest.raises(ValueError, match="linear solver"):
+        make_solver("pardiso")
+
+
+@pytest.mark.parametrize("inner", ["cholmod", "scipy", "dense"])
+def test_schur_elimination_equals_full_solve(inner):
+    problem = tp.bundle_adjustment_like(num_poses=4, num_landmarks=15)
+    ne = problem.normal_equations(problem.layout.initial())
+    eliminate, block = problem.layout.schur_columns()
+    for beta in (0.0, 1e-3, 1.0):
+        full = make_solver("dense")
+        full.factorize(ne.hessian, beta)
+        schur = SchurSolver(make_solver(inner), eliminate, block)
+        schur.factorize(ne.hessian, beta)
+        np.testing.assert_allclose(schur.solve(ne.gradient), full.solve(ne.gradient), rtol=1e-7, atol=1e-10)
+
+
+def test_schur_rejects_coupled_eliminated_variables():
+    H, _ = _spd(12)
+    with pytest.raises(ValueError, match="not block-diagonal"):
+        SchurSolver(make_solver("dense"), np.arange(6), 2).factorize(H, 0.0)

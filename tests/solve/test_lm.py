@@ -1,0 +1,115 @@
+"""SolveLM behaviour: Algorithm 1 damping, stop reasons, non-PD handling, solvers, scaling."""
+
+import numpy as np
+import pytest
+
+from legplan.solve import (BlockDiagonal, FunctionBlock, LMParams, NormalTerms, Problem, Status, StructuredBlock,
+                           VariableBlock, solve_lm)
+from legplan.solve import testproblems as tp
+
+
+def test_damping_follows_algorithm_1():
+    problem = tp.rosenbrock()
+    params = LMParams()
+    seen = []
+    result = solve_lm(problem, params, callback=lambda it, norm, lam: seen.append((it, norm, lam)))
+    assert [s[0] for s in seen] == list(range(1, result.iterations + 1))
+    lam = params.lambda_init
+    prev = result.initial_norm
+    for (_, norm, new_lam) in seen:
+        expected = lam * params.lambda_drop if norm < prev else lam * params.lambda_boost
+        assert new_lam == pytest.approx(expected)
+        assert norm <= prev  # only improving steps are accepted
+        lam, prev = new_lam, norm
+    assert result.norm_history == [s[1] for s in seen] and result.lambda_history == [s[2] for s in seen]
+    assert result.accepted_steps + result.rejected_steps == result.iterations
+    assert result.rejected_steps > 0  # Rosenbrock from (−1.2, 1) needs some rejected steps
+
+
+def test_max_iterations_reason():
+    result = solve_lm(tp.rosenbrock(), LMParams(max_iterations=3))
+    assert result.status is Status.MAX_ITERATIONS and result.iterations == 3
+    assert "MaxIt = 3" in result.reason and not result.success
+
+
+def test_lambda_too_large_reason():
+    result = solve_lm(tp.bundle_adjustment_like(num_poses=3, num_landmarks=10),
+                      LMParams(step_tolerance=0.0, lambda_max=1e3, max_iterations=500))
+    assert result.status is Status.STALLED and "lambda_max" in result.reason
+
+
+def test_numerical_failure_on_nan_start():
+    problem = Problem([VariableBlock("x", [-1.0])])
+    problem.add_residual(FunctionBlock(["x"], 1, lambda x: (np.full(1, np.nan), [np.ones((1, 1))])))
+    result = solve_lm(problem)
+    assert result.status is Status.NUMERICAL_FAILURE and "not finite" in result.reason
+
+
+def test_nan_trial_point_is_a_rejected_step():
+    # log(x) = 0 from x = 0.05: the undamped first step would leave the domain (x < 0)
+    problem = Problem([VariableBlock("x", [0.05])])
+    problem.add_residual(FunctionBlock(["x"], 1, lambda x: (np.log(x), [np.diag(1 / x)])))
+    with np.errstate(invalid="ignore"):
+        result = solve_lm(problem, LMParams(lambda_init=1e-6))
+    assert result.status is Status.CONVERGED
+    np.testing.assert_allclose(result.values["x"], [1.0])
+
+
+class _IndefiniteBlock(StructuredBlock):
+    """r = x − 1 whose normal terms lie: JᵀJ = −4I (indefinite), so small λ fails to factorise."""
+
+    variables = ("x",)
+    size = 3
+
+    def evaluate(self, values, jacobians):
+        return values[0] - 1, ([np.eye(3)] if jacobians else None)
+
+    def normal_terms(self, values):
+        r = values[0] - 1
+        return NormalTerms(r, {(0, 0): BlockDiagonal(-4 * np.eye(3)[None])}, [r])
+
+
+@pytest.mark.parametrize("solver", ["cholmod", "scipy", "dense"])
+def test_non_positive_definite_raises_lambda_instead_of_crashing(solver):
+    problem = Problem([VariableBlock("x", np.zeros(3))])
+    problem.add_residual(_IndefiniteBlock())
+    result = solve_lm(problem, LMParams(linear_solver=solver))
+    assert result.rejected_steps >= 4  # λ must grow from 1 past 4 (1.5⁴ > 4)
+    assert result.lambda_history[0] == pytest.approx(1.5)
+    assert result.status is not Status.NUMERICAL_FAILURE
+    assert result.norm < 0.1 * result.initial_norm
+
+
+@pytest.mark.parametrize("solver", ["cholmod", "scipy", "dense"])
+@pytest.mark.parametrize("assembly", ["blocks", "stacked"])
+def test_every_solver_and_assembly_gives_the_same_iterates(solver, assembly):
+    reference = solve_lm(tp.brown_almost_linear(), LMParams(linear_solver="dense", assembly="stacked"))
+    result = solve_lm(tp.brown_almost_linear(), LMParams(linear_solver=solver, assembly=assembly))
+    assert result.iterations == reference.iterations
+    np.testing.assert_allclose(result.norm_history, reference.norm_history, rtol=1e-6, atol=1e-12)
+
+
+def test_marquardt_scaling_converges_on_badly_scaled_problem():
+    # x0 in metres, x1 in micro-units: r = (x0 − 1, 1e6·x1 − 2, x0·1e6·x1 − 2)
+    def fn(x):
+        return (np.array([x[0] - 1, 1e6 * x[1] - 2, 1e6 * x[0] * x[1] - 2]),
+                [np.array([[1, 0], [0, 1e6], [1e6 * x[1], 1e6 * x[0]]])])
+    problem = Problem([VariableBlock("x", [3.0, 0.0])])
+    problem.add_residual(FunctionBlock(["x"], 3, fn))
+    result = solve_lm(problem, LMParams(marquardt_scaling=True))
+    assert result.status is Status.CONVERGED, result.reason
+    np.testing.assert_allclose(result.values["x"], [1.0, 2e-6])
+
+
+def test_timings_are_recorded():
+    result = solve_lm(tp.broyden_tridiagonal(200))
+    t = result.timings
+    assert min(t.evaluate, t.assemble, t.factorize, t.solve) > 0
+    assert t.total >= t.evaluate + t.assemble + t.factorize + t.solve
+
+
+def test_invalid_params():
+    with pytest.raises(ValueError):
+        LMParams(lambda_drop=2.0)
+    with pytest.raises(ValueError):
+        LMParams(linear_solver="mkl")

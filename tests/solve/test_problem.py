@@ -1,0 +1,90 @@
+"""Problem assembly: both assembly paths, fixed masks, bounds, weights, pattern reuse."""
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+
+from legplan.solve import FunctionBlock, LMParams, Problem, Status, VariableBlock, solve_lm
+from legplan.solve import testproblems as tp
+
+
+def _quadratic_problem(fixed=None, weight=1.0, lower=-np.inf, upper=np.inf):
+    """r = A x − b for x of size 4 plus r = y² − 1 for y of size 2, coupled through a third block."""
+    rng = np.random.default_rng(1)
+    A, b = rng.standard_normal((6, 4)), rng.standard_normal(6)
+    problem = Problem([VariableBlock("x", np.zeros(4), fixed=fixed, lower=lower, upper=upper),
+                       VariableBlock("y", [2.0, 3.0])])
+    problem.add_residual(FunctionBlock(["x"], 6, lambda x: (A @ x - b, [A])), weight=weight)
+    problem.add_residual(FunctionBlock(["y"], 2, lambda y: (y ** 2 - 1, [sp.diags(2 * y)])))
+    problem.add_residual(FunctionBlock(["x", "y"], 1, lambda x, y: (np.array([x[0] * y[1]]),
+                                                                    [np.array([[y[1], 0, 0, 0]]),
+                                                                     np.array([[0, x[0]]])])))
+    return problem, A, b
+
+
+def test_blocks_and_stacked_assembly_agree_and_match_jacobian():
+    problem, _, _ = _quadratic_problem(weight=np.arange(1.0, 7.0))
+    theta = np.linspace(-1, 1, problem.layout.n)
+    h, J = problem.jacobian(theta)
+    blocks = problem.normal_equations(theta, "blocks")
+    stacked = problem.normal_equations(theta, "stacked")
+    for ne in (blocks, stacked):
+        np.testing.assert_allclose(ne.residual, h)
+        np.testing.assert_allclose(ne.hessian.toarray(), (J.T @ J).toarray(), atol=1e-12)
+        np.testing.assert_allclose(ne.gradient, J.T @ h, atol=1e-12)
+
+
+def test_weights_scale_rows():
+    problem, A, b = _quadratic_problem(weight=2.0)
+    h = problem.residual(np.zeros(problem.layout.n))
+    np.testing.assert_allclose(h[:6], -2 * b)
+
+
+def test_fixed_entries_have_no_column_and_keep_their_value():
+    fixed = np.array([False, True, False, True])
+    problem, A, b = _quadratic_problem(fixed=fixed)
+    problem._variables[0].value[fixed] = [0.5, -0.25]
+    assert problem.layout.n == 2 + 2
+    result = solve_lm(problem)
+    x = result.values["x"]
+    np.testing.assert_array_equal(x[fixed], [0.5, -0.25])
+    _, J = problem.jacobian(result.theta)
+    assert J.shape == (9, 4)
+
+
+def test_bounds_are_respected_and_active_at_solution():
+    problem, A, b = _quadratic_problem(upper=0.05)
+    result = solve_lm(problem)
+    x = result.values["x"]
+    assert np.all(x <= 0.05 + 1e-15)
+    unconstrained = np.linalg.lstsq(A, b, rcond=None)[0]
+    assert np.any(unconstrained > 0.05)  # the bound matters for this data
+    assert np.any(np.isclose(x, 0.05))
+
+
+def test_pattern_is_analysed_once_while_values_change():
+    problem = tp.broyden_tridiagonal(50)
+    first = problem.normal_equations(np.zeros(50))
+    second = problem.normal_equations(np.ones(50))
+    assert first.pattern_version == second.pattern_version
+    assert not np.allclose(first.hessian.data, second.hessian.data)
+
+
+def test_bad_blocks_are_rejected():
+    problem = Problem([VariableBlock("x", np.zeros(2))])
+    with pytest.raises(ValueError, match="unknown variables"):
+        problem.add_residual(FunctionBlock(["z"], 1, lambda z: (z, [np.eye(1)])))
+    with pytest.raises(ValueError, match="weight"):
+        problem.add_residual(FunctionBlock(["x"], 2, lambda x: (x, [np.eye(2)])), weight=np.ones(3))
+    problem.add_residual(FunctionBlock(["x"], 3, lambda x: (x, [np.eye(2)])))
+    with pytest.raises(ValueError, match="declared size 3"):
+        problem.residual(np.zeros(2))
+
+
+def test_write_back_with_store():
+    problem = tp.rosenbrock()
+    result = solve_lm(problem)
+    assert result.status is Status.CONVERGED
+    problem.layout.store(result.theta)
+    np.testing.assert_allclose(problem.layout.initial(), [1.0, 1.0], atol=1e-10)
+    assert solve_lm(problem, LMParams()).iterations == 0
