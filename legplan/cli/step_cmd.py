@@ -1,0 +1,106 @@
+"""`legplan step plan|show`: Bézier + Levenberg-Marquardt single-step motion planning (Bézier paper Sec. III)."""
+
+from __future__ import annotations
+
+import click
+
+from legplan.cli.options import input_artefact, jobs_opt, output_opt, overwrite_opt, verbosity_opts
+from legplan.errors import LegplanError
+
+
+@click.group("step")
+def command():
+    """Plan single-step motions between consecutive configurations of a step sequence."""
+
+
+def _parse_params(values) -> dict[str, str]:
+    out = {}
+    for item in values:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise LegplanError(f"--param: expected key=value, got {item!r}")
+        out[key.strip()] = value.strip()
+    return out
+
+
+def _parse_range(text: str | None, pairs: int, steps_path: str) -> range:
+    """'a:b' (pairs a..b-1, either end optional) or 'i' over the `pairs` consecutive pairs."""
+    if text is None:
+        return range(pairs)
+    try:
+        if ":" in text:
+            a, b = text.split(":", 1)
+            start, stop = int(a) if a else 0, int(b) if b else pairs
+        else:
+            start = int(text)
+            stop = start + 1
+    except ValueError:
+        raise LegplanError(f"--steps: expected 'a:b' or an index, got {text!r}") from None
+    if not 0 <= start < stop <= pairs:
+        raise LegplanError(f"--steps {text}: {steps_path} has {pairs} consecutive pairs (indices 0..{pairs - 1})")
+    return range(start, stop)
+
+
+@command.command("plan")
+@click.argument("map_path", metavar="MAP", type=input_artefact)
+@click.argument("steps_path", metavar="STEPS", type=input_artefact)
+@output_opt
+@overwrite_opt
+@jobs_opt
+@click.option("--steps", "step_range", default=None, help="Pairs to plan, 'a:b' (python slice) or 'i'.")
+@click.option("--param", "params", multiple=True, metavar="KEY=VALUE",
+              help="Override a planner parameter (Table I: samples, max_degree, max_iterations, lambda_init, "
+                   "lambda_drop, lambda_boost, epsilon; also eps_num, clearance, ...).")
+@verbosity_opts
+@click.pass_context
+def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, step_range, params):
+    """Plan every consecutive pair of STEPS on MAP; write motion.h5 (exit 1 if any step failed)."""
+    from legplan.artefacts import check_output, open_artefact
+    from legplan.cli.console import progress_bar, stderr
+    from legplan.stepplan.batch import plan_sequence, write_motion
+    from legplan.stepplan.params import StepPlanParams
+    from legplan.stepseq.sequence import read_steps
+
+    check_output(output, overwrite)
+    settings = StepPlanParams.from_overrides(_parse_params(params))
+    with open_artefact(map_path, kind="map"):
+        pass
+    seq = read_steps(steps_path)
+    if len(seq) < 2:
+        raise LegplanError(f"{steps_path}: field 'q' needs at least 2 configurations, got {len(seq)}")
+    indices = _parse_range(step_range, len(seq) - 1, steps_path)
+    with progress_bar("planning steps") as progress:
+        records = plan_sequence(seq, map_path, settings, indices, jobs=jobs, progress=progress)
+    summary = write_motion(output, records, seq.robot, settings, inputs=[map_path, steps_path], overwrite=overwrite)
+    failed = [r for r in records if not r["success"]]
+    stderr.print(f"{summary['steps_succeeded']}/{summary['steps_planned']} steps planned; "
+                 f"worst dense stance-foot slip {summary['worst_violation'][0] * 1e3:.3f} mm; "
+                 f"median {summary['median_time'][0]:.2f} s, mean {summary['mean_time'][0]:.2f} s -> {output}",
+                 highlight=False)
+    for r in failed:
+        stderr.print(f"  step {r['index']}: {r['reason']}", highlight=False)
+    if failed:
+        ctx.exit(1)
+
+
+@command.command("show")
+@click.argument("motion_path", metavar="MOTION", type=input_artefact)
+@click.option("--map", "map_path", required=True, type=input_artefact, help="The map the motion was planned on.")
+@output_opt
+@overwrite_opt
+@verbosity_opts
+def show_cmd(motion_path, map_path, output, overwrite):
+    """PNG of MOTION: foot and CoM tracks over the terrain (side view) and Fig. 4 time histograms."""
+    from legplan.artefacts import check_output, open_artefact
+    from legplan.robots import load_robot
+    from legplan.stepplan.batch import read_motion
+    from legplan.stepplan.figures import plot_motion
+    from legplan.terrain import load_map
+
+    check_output(output, overwrite)
+    with open_artefact(motion_path, kind="motion") as f:
+        robot_name = str(f.attrs.get("robot", ""))
+    if not robot_name:
+        raise LegplanError(f"{motion_path}: missing root attribute 'robot'")
+    records = read_motion(motion_path)
+    plot_motion(output, load_robot(robot_name), load_map(map_path), records)

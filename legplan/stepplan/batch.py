@@ -1,0 +1,191 @@
+"""Plan every consecutive pair of a step sequence (in parallel) and write motion.h5.
+
+motion.h5 (kind "motion"):
+  root attrs   robot, parametrization ("x = [p, rotation vector, joints]")
+  /steps/NNNN  one group per planned pair (q_NNNN → q_NNNN+1), attrs success, reason, degree,
+               seconds, norm, index; datasets
+                 control_points (d+1, nx) x-space,  q_start / q_end (nq,) pinocchio order,
+                 stance (n_legs,) legs held on their footholds, footholds (n_legs, 3),
+                 lm_iterations (per degree tried, from d = 1), degree_norms ‖F̃‖ per degree,
+                 timings/{evaluate,assemble,factorize,solve} s,
+                 dense/{foot_slip, com_margin, clearance, joint_excess, length, roughness2, roughness3}
+  /summary     Table II rows (see `table2`).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import time
+import traceback
+from collections.abc import Callable, Sequence
+from concurrent.futures import ProcessPoolExecutor, as_completed
+
+import numpy as np
+
+from legplan.artefacts import open_artefact, require, write_artefact, write_dataset, write_summary
+from legplan.stepplan.measure import DENSE_UNITS, dense_check
+from legplan.stepplan.params import StepPlanParams
+from legplan.stepplan.planner import plan_step
+
+log = logging.getLogger(__name__)
+
+PARAMETRIZATION = "x = [base position (3), base rotation vector (3), joints]; quaternion = exp(rotation vector)"
+
+
+def motion_stance(stance_a, stance_b, footholds_a, footholds_b, tol: float = 1e-6) -> np.ndarray:
+    """Legs that stay on one foothold for the whole motion: in stance at both ends, same foothold."""
+    same = np.all(np.abs(np.asarray(footholds_a) - np.asarray(footholds_b)) <= tol, axis=-1)
+    return np.asarray(stance_a, bool) & np.asarray(stance_b, bool) & same
+
+
+class StepWorker:
+    """Everything one process needs: robot, terrain SDF and independent validator, loaded once."""
+
+    def __init__(self, robot_name: str, map_path: str, params: StepPlanParams):
+        from legplan.robots import load_robot
+        from legplan.terrain import load_map
+        from legplan.validate.checks import Validator
+
+        self.robot = load_robot(robot_name)
+        self.terrain = load_map(map_path)
+        self.validator = Validator(self.robot, self.terrain)
+        self.params = params
+
+    def plan(self, index: int, q_start, q_end, stance, footholds) -> dict:
+        """Plan one step and judge it; never raises (a failure is a record with a reason)."""
+        t0 = time.perf_counter()
+        record = {"index": index, "q_start": np.asarray(q_start), "q_end": np.asarray(q_end),
+                  "stance": np.asarray(stance, bool), "footholds": np.nan_to_num(np.asarray(footholds), nan=0.0)}
+        try:
+            plan = plan_step(self.robot, self.terrain.sdf, q_start, q_end, stance, record["footholds"], self.params)
+        except Exception as exc:  # a bad pair must not stop the batch
+            log.debug("step %d raised:\n%s", index, traceback.format_exc())
+            record.update(success=False, reason=f"{type(exc).__name__}: {exc}", seconds=time.perf_counter() - t0)
+            return record
+        record.update(success=plan.success, reason=plan.reason, seconds=plan.seconds, degree=plan.degree,
+                      norm=plan.norm, control_points=plan.control_points, timings=plan.timings,
+                      lm_iterations=np.array([d.iterations for d in plan.degrees]),
+                      degree_norms=np.array([d.norm for d in plan.degrees]))
+        check = dense_check(self.robot, self.validator, plan.control_points, stance, record["footholds"],
+                            self.params.dense_samples)
+        record["dense"] = check.as_dict()
+        return record
+
+
+_WORKER: StepWorker | None = None
+
+
+def _init_worker(robot_name, map_path, params):
+    global _WORKER
+    _WORKER = StepWorker(robot_name, map_path, params)
+
+
+def _run(args):
+    return _WORKER.plan(*args)
+
+
+def plan_sequence(seq, map_path: str, params: StepPlanParams, indices: Sequence[int], jobs: int = 1,
+                  progress: Callable[[int, int, str], None] | None = None) -> list[dict]:
+    """Plan pairs (q_i, q_{i+1}) for i in `indices` of a `StepSequence`; records sorted by index."""
+    tasks = []
+    for i in indices:
+        stance = motion_stance(seq.stance[i], seq.stance[i + 1], seq.footholds[i], seq.footholds[i + 1])
+        tasks.append((int(i), seq.q[i], seq.q[i + 1], stance, seq.footholds[i]))
+    records: list[dict] = []
+    failed = 0
+
+    def done(record):
+        nonlocal failed
+        records.append(record)
+        failed += not record["success"]
+        if progress is not None:
+            progress(len(records), len(tasks), f"step {record['index']} {record['seconds']:.2f}s, {failed} failed")
+
+    if jobs <= 1:
+        _init_worker(seq.robot, str(map_path), params)
+        for task in tasks:
+            done(_run(task))
+    else:
+        with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker,
+                                 initargs=(seq.robot, os.fspath(map_path), params)) as pool:
+            for future in as_completed([pool.submit(_run, task) for task in tasks]):
+                done(future.result())
+    return sorted(records, key=lambda r: r["index"])
+
+
+def table2(records: Sequence[dict]) -> dict:
+    """Table II quantities: steps planned / succeeded, worst violation (dense stance-foot slip, all
+    steps incl. failed), planning-time mean / median / mean for t < 50 s / mean for 1 s < t < 50 s."""
+    times = np.array([r["seconds"] for r in records], float)
+    dense = [r["dense"] for r in records if "dense" in r]
+
+    def mean(mask):
+        return float(times[mask].mean()) if np.any(mask) else float("nan")
+
+    def worst(key, fn):
+        values = [d[key] for d in dense]
+        return float(fn(values)) if values else float("nan")
+
+    return {
+        "steps_planned": len(records),
+        "steps_succeeded": int(sum(r["success"] for r in records)),
+        "worst_violation": (worst("foot_slip", max), "m"),
+        "mean_time": (mean(np.ones_like(times, bool)), "s"),
+        "median_time": (float(np.median(times)) if len(times) else float("nan"), "s"),
+        "mean_time_below_50s": (mean(times < 50), "s"),
+        "mean_time_1s_to_50s": (mean((times > 1) & (times < 50)), "s"),
+        "worst_com_margin": (worst("com_margin", min), "m"),
+        "worst_clearance": (worst("clearance", min), "m"),
+        "worst_joint_excess": (worst("joint_excess", max), "rad"),
+    }
+
+
+def write_motion(path, records: Sequence[dict], robot: str, params: StepPlanParams, *, inputs=(),
+                 overwrite: bool = False) -> dict:
+    """Write motion.h5 (layout in the module docstring); returns the summary rows."""
+    summary = table2(records)
+    with write_artefact(path, "motion", params=params.as_dict(), inputs=inputs, overwrite=overwrite) as f:
+        f.attrs["robot"] = robot
+        f.attrs["parametrization"] = PARAMETRIZATION
+        steps = f.create_group("steps")
+        for r in records:
+            g = steps.create_group(f"{r['index']:04d}")
+            g.attrs["index"] = r["index"]
+            g.attrs["success"] = bool(r["success"])
+            g.attrs["reason"] = r["reason"]
+            g.attrs["seconds"] = float(r["seconds"])
+            write_dataset(g, "q_start", r["q_start"], units="m|quaternion|rad")
+            write_dataset(g, "q_end", r["q_end"], units="m|quaternion|rad")
+            write_dataset(g, "stance", r["stance"].astype(np.uint8), units="bool")
+            write_dataset(g, "footholds", r["footholds"], units="m")
+            if "control_points" not in r:
+                continue
+            g.attrs["degree"] = int(r["degree"])
+            g.attrs["norm"] = float(r["norm"])
+            write_dataset(g, "control_points", r["control_points"], units="m|rad", description=PARAMETRIZATION)
+            write_dataset(g, "lm_iterations", r["lm_iterations"], description="SolveLM iterations at d = 1, 2, ...")
+            write_dataset(g, "degree_norms", r["degree_norms"], description="‖F̃‖ after each degree (eq. (12))")
+            timing = g.create_group("timings")
+            for key, value in r["timings"].items():
+                write_dataset(timing, key, float(value), units="s")
+            dense = g.create_group("dense")
+            for key, value in r["dense"].items():
+                write_dataset(dense, key, float(value), units=DENSE_UNITS[key])
+        write_summary(f, summary)
+    return summary
+
+
+def read_motion(path) -> list[dict]:
+    """The per-step records of motion.h5 (control points, success, times, dense checks)."""
+    out = []
+    with open_artefact(path, kind="motion") as f:
+        for name, g in require(f, "steps").items():
+            r = {key: g.attrs[key] for key in g.attrs}
+            for key in ("q_start", "q_end", "footholds", "stance", "control_points"):
+                if key in g:
+                    r[key] = g[key][()]
+            if "dense" in g:
+                r["dense"] = {k: float(v[()]) for k, v in g["dense"].items()}
+            out.append(r)
+    return out

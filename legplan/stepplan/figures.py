@@ -1,0 +1,75 @@
+"""Figures of a planned motion: foot and CoM tracks over the terrain (side view) and the per-step
+planning-time histograms of the paper's Fig. 4 (all steps; detail below 10 s; failures in red)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from legplan.geometry.bezier import evaluate
+
+
+def motion_tracks(robot, records, samples: int = 60):
+    """Foot positions (n, L, 3) and CoM (n, 3) along all planned steps, in order."""
+    feet, com = [], []
+    t = np.linspace(0.0, 1.0, samples)
+    for r in records:
+        if "control_points" not in r:
+            continue
+        Q = robot.from_vector(evaluate(r["control_points"], t))
+        feet.append(robot.foot_positions(Q))
+        com.append(robot.com(Q))
+    if not feet:
+        return np.zeros((0, len(robot.legs), 3)), np.zeros((0, 3))
+    return np.concatenate(feet), np.concatenate(com)
+
+
+def plot_motion(path, robot, terrain, records) -> None:
+    """Write a PNG: side view (x–z) of the terrain profile under the tracks, and Fig. 4 histograms."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    feet, com = motion_tracks(robot, records)
+    fig = plt.figure(figsize=(11, 7.5))
+    grid = fig.add_gridspec(2, 2, height_ratios=(1.3, 1.0))
+    side = fig.add_subplot(grid[0, :])
+    height = np.asarray(terrain.height)
+    x0, y0 = np.asarray(terrain.origin, float)[:2]
+    res = float(terrain.resolution)
+    xs = x0 + res * np.arange(height.shape[1])
+    if len(feet):
+        ys = y0 + res * np.arange(height.shape[0])
+        ylo, yhi = feet[..., 1].min() - 0.05, feet[..., 1].max() + 0.05
+        band = (ys >= ylo) & (ys <= yhi)
+        profile = height[band].max(axis=0) if band.any() else height.max(axis=0)
+    else:
+        profile = height.max(axis=0)
+    side.fill_between(xs, np.minimum(profile.min(), 0) - 0.05, profile, color="0.8", step="mid",
+                      label="terrain (max over the robot's y band)")
+    for leg in range(feet.shape[1]):
+        side.plot(feet[:, leg, 0], feet[:, leg, 2], lw=1.0, label=robot.legs[leg].name)
+    if len(com):
+        side.plot(com[:, 0], com[:, 2], "k--", lw=1.5, label="CoM")
+        side.set_xlim(min(feet[..., 0].min(), com[:, 0].min()) - 0.2, max(feet[..., 0].max(), com[:, 0].max()) + 0.2)
+    side.set_xlabel("x [m]")
+    side.set_ylabel("z [m]")
+    side.set_title("Foot and CoM tracks, side view")
+    side.legend(fontsize=7, ncol=4, loc="upper left")
+    times = np.array([r["seconds"] for r in records], float)
+    ok = np.array([bool(r["success"]) for r in records])
+    for ax, limit, title in ((fig.add_subplot(grid[1, 0]), None, "(a) all steps"),
+                             (fig.add_subplot(grid[1, 1]), 10.0, "(b) steps under 10 s")):
+        sel = times if limit is None else times[times < limit]
+        top = max(float(sel.max()) if len(sel) else 1.0, 1e-3)
+        bins = np.linspace(0.0, top * 1.0001, 21)
+        mask = np.ones_like(times, bool) if limit is None else times < limit
+        ax.hist([times[mask & ok], times[mask & ~ok]], bins=bins, stacked=True,
+                color=["tab:blue", "tab:red"], label=["succeeded", "failed"])
+        ax.set_xlabel("planning time [s]")
+        ax.set_ylabel("steps")
+        ax.set_title(f"Fig. 4{title}")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+    plt.close(fig)

@@ -1,0 +1,52 @@
+"""Independent judgement of a planned step: dense re-sampling checked with pinocchio FK + FCL.
+
+The planner samples its constraints at N points with its own residual code (SDF, batch kinematics);
+here the finished curve is re-sampled at ≥ 1000 parameters and every configuration is checked by
+`legplan.validate.Validator` (pinocchio frame placements, FCL distance to the triangulated
+heightmap), which shares no code with the residuals. Path quality: the terms of eq. (5),
+∫‖π^(k)‖ dt for k = 1, 2, 3, from the control points (x-space: metres and radians mixed).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass
+
+import numpy as np
+
+from legplan.geometry.bezier import derivative_norm_integrals, evaluate
+
+
+@dataclass(frozen=True)
+class DenseCheck:
+    """Worst values over the dense samples (units: m, m, m, rad)."""
+
+    foot_slip: float  # largest stance-foot distance from its foothold
+    com_margin: float  # smallest signed CoM distance to the support-polygon edges (< 0: outside)
+    clearance: float  # smallest sphere-terrain clearance, stance-foot spheres excluded (< 0: collision)
+    joint_excess: float  # largest excursion beyond a joint limit (0 inside)
+    length: float  # ∫‖π'‖ dt
+    roughness2: float  # ∫‖π''‖ dt
+    roughness3: float  # ∫‖π'''‖ dt
+
+    def as_dict(self) -> dict[str, float]:
+        return asdict(self)
+
+
+DENSE_UNITS = {"foot_slip": "m", "com_margin": "m", "clearance": "m", "joint_excess": "rad",
+               "length": "", "roughness2": "", "roughness3": ""}
+
+
+def dense_check(robot, validator, control_points, stance, footholds, samples: int = 1000) -> DenseCheck:
+    """Check the Bézier path of `control_points` (x-space) at `samples` uniform parameters."""
+    t = np.linspace(0.0, 1.0, samples)
+    Q = robot.from_vector(evaluate(control_points, t))
+    n = len(Q)
+    stance = np.broadcast_to(np.asarray(stance, bool), (n, len(stance)))
+    footholds = np.broadcast_to(np.asarray(footholds, float), (n,) + np.shape(footholds))
+    checks = validator.check(Q, stance, footholds)
+    slip = np.nan_to_num(checks.foot_slip, nan=0.0)
+    quality = derivative_norm_integrals(control_points, orders=(1, 2, 3))
+    return DenseCheck(foot_slip=float(slip.max(initial=0.0)), com_margin=float(checks.com_margin.min()),
+                      clearance=float(checks.clearance.min()),
+                      joint_excess=float(checks.joint_excess.max(initial=0.0)),
+                      length=float(quality[0]), roughness2=float(quality[1]), roughness3=float(quality[2]))

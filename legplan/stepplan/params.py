@@ -1,0 +1,69 @@
+"""Parameters of the Bézier + Levenberg-Marquardt step planner (paper Table I plus documented extras).
+
+Table I: N = 100, d_max = 10, MaxIt = 100, λ_init = 1, λ_drop = 0.1, λ_boost = 1.5, ε = 1 mm.
+Extras (not in Table I, chosen here):
+
+* `eps_num` (ε_num of Algorithm 1): SolveLM stops, and a degree is accepted, once ‖F̃_ε,N‖ ≤ ε_num
+  (eq. (12)). 1e-6: every hinge row is then ≤ 1 µm (m or rad), every stance foot within ε + 2 µm
+  of its foothold at the samples.
+* `clearance` = 2 cm (paper Sec. IV collision margin), `foot_clearance` = 0 for swing-foot spheres
+  (the relaxation near footholds, so the foot may land), `com_margin` = 0 (CoM inside the support
+  polygon, Sec. II-B item 2).
+* `dense_samples`: parameters t at which the finished path is re-checked independently (≥ 1000).
+* `linear_solver`, `assembly`: passed to `legplan.solve.LMParams` (`assembly="blocks"` uses the
+  structured JᵀJ of the Bézier block; "stacked" forms JᵀJ from the sparse Jacobian — the general path).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from legplan.errors import LegplanError
+
+
+@dataclass(frozen=True)
+class StepPlanParams:
+    samples: int = 100  # N of eq. (10): constraints are sampled at t_i = i/N, i = 1..N-1
+    max_degree: int = 10  # d_max
+    max_iterations: int = 100  # MaxIt of SolveLM
+    lambda_init: float = 1.0
+    lambda_drop: float = 0.1
+    lambda_boost: float = 1.5
+    epsilon: float = 1e-3  # ε of eq. (11b), m: allowed stance-foot deviation per foot
+    eps_num: float = 1e-6  # ε_num of Algorithm 1
+    clearance: float = 0.02  # m, sphere-terrain margin
+    foot_clearance: float = 0.0  # m, margin of swing-foot spheres
+    com_margin: float = 0.0  # m, CoM distance to every support-polygon edge
+    dense_samples: int = 1000  # independent re-check of the finished path
+    linear_solver: str = "cholmod"
+    assembly: str = "blocks"
+
+    def __post_init__(self):
+        checks = [("samples", self.samples >= 2), ("max_degree", self.max_degree >= 1),
+                  ("max_iterations", self.max_iterations >= 0), ("epsilon", self.epsilon > 0),
+                  ("eps_num", self.eps_num > 0), ("dense_samples", self.dense_samples >= 2),
+                  ("lambda_init", self.lambda_init > 0), ("lambda_drop", 0 < self.lambda_drop < 1),
+                  ("lambda_boost", self.lambda_boost > 1)]
+        for name, ok in checks:
+            if not ok:
+                raise LegplanError(f"step planner parameter '{name}' out of range: {getattr(self, name)!r}")
+
+    @classmethod
+    def from_overrides(cls, overrides: dict[str, str] | None = None, source: str = "--param") -> StepPlanParams:
+        """Defaults with `key=value` strings applied (values converted to the field's type)."""
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        values = {}
+        for key, text in (overrides or {}).items():
+            if key not in fields:
+                raise LegplanError(f"{source}: unknown step planner parameter '{key}' "
+                                   f"(known: {', '.join(sorted(fields))})")
+            kind = type(getattr(cls(), key))
+            try:
+                values[key] = kind(float(text)) if kind is int and "e" in str(text).lower() else kind(text)
+            except ValueError:
+                raise LegplanError(f"{source}: parameter '{key}' expects {kind.__name__}, got {text!r}") from None
+        return cls(**values)
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)

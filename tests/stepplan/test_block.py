@@ -1,0 +1,42 @@
+"""The Bézier constraint block of eq. (12): analytic Jacobian vs finite differences, structured JᵀJ."""
+
+import numpy as np
+
+from legplan.geometry.bezier import elevate
+from legplan.solve import check_jacobian, check_normal_terms
+from legplan.stepplan.block import BezierConstraintBlock, SampleConstraints
+from legplan.stepplan.params import StepPlanParams
+from legplan.stepplan.planner import contact_mode
+
+
+def _block(toy_robot, swing_over_hill, degree=3, samples=12):
+    hill, q0, q1, stance, feet = swing_over_hill
+    sc = SampleConstraints(toy_robot, hill, contact_mode(stance, feet, StepPlanParams()), 1e-3)
+    t = np.linspace(0, 1, samples + 1)[1:-1]
+    rng = np.random.default_rng(4)
+    P = elevate(np.stack([q0, q1]), degree - 1) + 0.02 * rng.normal(size=(degree + 1, 18))
+    xi = 0.002 * rng.normal(size=len(t) * sc.slack_size)
+    return BezierConstraintBlock(sc, degree, t), P, xi, sc
+
+
+def test_rows_per_sample(toy_robot, swing_over_hill):
+    block, P, xi, sc = _block(toy_robot, swing_over_hill)
+    r, G, S = sc.evaluate(P[:2], np.zeros((2, sc.slack_size)), True)
+    # 3 stance legs: 9 foot rows + 3 slack rows; triangle: 3 CoM rows; spheres: 1 swing foot + body;
+    # 12 joints: 24 limit rows
+    assert r.shape == (2, 9 + 3 + 3 + 2 + 24)
+    assert G.shape == (2, r.shape[1], 18) and S.shape == (2, r.shape[1], 9)
+    assert block.size == 11 * r.shape[1]
+
+
+def test_jacobian_matches_finite_differences(toy_robot, swing_over_hill):
+    block, P, xi, _ = _block(toy_robot, swing_over_hill)
+    r, _ = block.evaluate([P.reshape(-1), xi], False)
+    assert np.count_nonzero(r) > 20  # the check covers active constraints, not only zeros
+    report = check_jacobian(block, [P.reshape(-1), xi])
+    assert report.ok(atol=1e-5, rtol=1e-4), report
+
+
+def test_structured_normal_terms_equal_jtj(toy_robot, swing_over_hill):
+    block, P, xi, _ = _block(toy_robot, swing_over_hill)
+    assert check_normal_terms(block, [P.reshape(-1), xi]) < 1e-9
