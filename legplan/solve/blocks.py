@@ -63,13 +63,17 @@ class StructuredBlock(ResidualBlock):
         """Residual, JᵀJ blocks and Jᵀh blocks at `values`; must equal those of `evaluate`."""
 
 
-def default_normal_terms(residual: np.ndarray, jacobians: Sequence[Matrix]) -> NormalTerms:
-    """JᵀJ and Jᵀh of one block from its Jacobian blocks (dense products go to BLAS)."""
+def default_normal_terms(residual: np.ndarray, jacobians: Sequence[Matrix],
+                         product: Callable[[int, int, Matrix, Matrix], Matrix] | None = None) -> NormalTerms:
+    """JᵀJ and Jᵀh of one block from its Jacobian blocks (dense products go to BLAS).
+
+    `product(i, j, J_i, J_j)` computes J_iᵀJ_j; the default is the plain `J_i.T @ J_j`.
+    """
     terms = NormalTerms(residual)
     for i, ji in enumerate(jacobians):
         terms.gradient.append(np.asarray(ji.T @ residual).reshape(-1))
         for j in range(i, len(jacobians)):
-            terms.hessian[(i, j)] = ji.T @ jacobians[j]
+            terms.hessian[(i, j)] = ji.T @ jacobians[j] if product is None else product(i, j, ji, jacobians[j])
     return terms
 
 

@@ -49,12 +49,17 @@ class _ElementwiseWrapper(ResidualBlock):
         return r, ([_scale_rows(j, slope) for j in jacs] if jacobians else None)
 
 
+def hinge(g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """max(g, 0) and its slope (1 where active, 0 elsewhere): eq. (8b) for g ≤ 0 constraints."""
+    active = g > 0
+    return np.where(active, g, 0.0), active.astype(float)
+
+
 class HingeInequality(_ElementwiseWrapper):
     """g(θ) ≤ 0 as the residual max(g, 0) (eq. (8b))."""
 
     def _map(self, x):
-        active = x > 0
-        return np.where(active, x, 0.0), active.astype(float)
+        return hinge(x)
 
 
 class IntervalPenalty(_ElementwiseWrapper):

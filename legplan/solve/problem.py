@@ -9,7 +9,9 @@ Two ways to build the normal equations (JᵀJ) Δθ = Jᵀh of eq. (13):
   J_iᵀJ_j products of its own Jacobian blocks (dense blocks go to BLAS).
 
 Both paths scatter COO triplets through a `CooAssembler`, so index arrays are sorted once per
-sparsity pattern and later iterations only refresh values.
+sparsity pattern and later iterations only refresh values. Sparse products JᵢᵀJⱼ keep the
+structural pattern of |Jᵢ|ᵀ|Jⱼ| (scipy drops entries that happen to be zero, e.g. inactive
+inequality rows, which would otherwise change the pattern and force a new CHOLMOD analysis).
 """
 
 from __future__ import annotations
@@ -160,6 +162,26 @@ class Problem:
             scaled.append(j)
         return w * r, scaled
 
+    def _structural_product(self, key: tuple, a: Matrix, b: Matrix) -> Matrix:
+        """aᵀb; for sparse a, b as COO on the structural pattern of |a|ᵀ|b|, cached per pattern of a, b."""
+        if not (sp.issparse(a) and sp.issparse(b)):
+            return a.T @ b
+        a, b = sp.csc_matrix(a), sp.csc_matrix(b)
+        signature = (a.indptr, a.indices, b.indptr, b.indices)
+        cached = self._index_cache.get(key)
+        if cached is None or not all(np.array_equal(x, y) for x, y in zip(cached[0], signature)):
+            ones = lambda m: sp.csc_matrix((np.ones(m.nnz), m.indices, m.indptr), shape=m.shape)
+            struct = sp.coo_matrix(ones(a).T @ ones(b))
+            keys = struct.row.astype(np.int64) * b.shape[1] + struct.col
+            order = np.argsort(keys)
+            cached = self._index_cache[key] = (tuple(x.copy() for x in signature), struct.row, struct.col,
+                                               keys[order], order)
+        _, rows, cols, sorted_keys, order = cached
+        prod = sp.coo_matrix(a.T @ b)
+        data = np.zeros(rows.size)
+        data[order[np.searchsorted(sorted_keys, prod.row.astype(np.int64) * b.shape[1] + prod.col)]] = prod.data
+        return sp.coo_matrix((data, (rows, cols)), shape=(a.shape[1], b.shape[1]))
+
     def jacobian(self, theta: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix]:
         """h(θ) and the stacked weighted Jacobian J (CSC, pattern cached across calls)."""
         layout = self.layout
@@ -186,7 +208,7 @@ class Problem:
             t0 = time.perf_counter()
             h, J = self.jacobian(theta)
             t1 = time.perf_counter()
-            product = sp.coo_matrix(J.T.tocsr() @ J)
+            product = self._structural_product(("JtJ",), J, J)
             rows, cols, vals = [product.row, diag], [product.col, diag], [product.data, np.zeros(n)]
             return self._finish(h, rows, cols, vals, J.T @ h, t1 - t0, t1)
         t0 = time.perf_counter()
@@ -200,7 +222,8 @@ class Problem:
                     nt.hessian = {ij: _scaled(t, w * w) for ij, t in nt.hessian.items()}
                     nt.gradient = [w * w * gi for gi in nt.gradient]
             else:
-                nt = default_normal_terms(*self._weighted_linearization(values, k))
+                nt = default_normal_terms(*self._weighted_linearization(values, k),
+                                          product=lambda i, j, a, b, k=k: self._structural_product(("JtJ", k, i, j), a, b))
             terms.append(nt)
         t1 = time.perf_counter()
         g = np.zeros(n)

@@ -8,6 +8,9 @@ Order the unknowns of the damped system of eq. (13) as (kept k, eliminated e):
 Then (A + βI − B (D+βI)⁻¹ Bᵀ) x_k = b_k − B (D+βI)⁻¹ b_e and x_e = (D+βI)⁻¹ (b_e − Bᵀ x_k).
 (D+βI)⁻¹ is a batch of m×m inverses, so the only sparse factorisation is of the reduced system.
 `SchurSolver` is a `LinearSolver` wrapping another one, so LM does not know it is there.
+When B has at most `dense_limit` entries (e.g. few control points coupled to all slacks, as in
+the Bézier planner) B and the reduced matrix are dense and the products go to BLAS; otherwise
+they stay sparse (e.g. bundle adjustment with many poses).
 """
 
 from __future__ import annotations
@@ -22,13 +25,14 @@ from legplan.solve.linsolve import LinearSolver, NotPositiveDefiniteError
 class SchurSolver(LinearSolver):
     """Eliminate the columns `eliminate` (block-diagonal in H with blocks of `block` columns)."""
 
-    def __init__(self, inner: LinearSolver, eliminate: np.ndarray, block: int):
+    def __init__(self, inner: LinearSolver, eliminate: np.ndarray, block: int, dense_limit: int = 4_000_000):
         self.inner = inner
         self.name = f"schur+{inner.name}"
         self.eliminate = np.asarray(eliminate, np.int64)
         self.block = int(block)
         if self.eliminate.size % self.block:
             raise ValueError(f"{self.eliminate.size} eliminated columns are not a multiple of block={block}")
+        self.dense_limit = dense_limit
         self._pattern: tuple[np.ndarray, np.ndarray] | None = None
 
     def _analyze(self, H: sp.csc_matrix) -> None:
@@ -53,6 +57,7 @@ class SchurSolver(LinearSolver):
         self._aa = (np.flatnonzero(aa), klocal[rows[aa]], klocal[cols[aa]])
         ke = (er < 0) & (ec >= 0)
         self._ke = (np.flatnonzero(ke), klocal[rows[ke]], ec[ke])
+        self.dense = self.keep.size * self.eliminate.size <= self.dense_limit
         self._a_assembler = CooAssembler((self.keep.size, self.keep.size))
         self._b_assembler = CooAssembler((self.keep.size, self.eliminate.size))
         diag = np.arange(self.keep.size)
@@ -76,13 +81,22 @@ class SchurSolver(LinearSolver):
         Linv = np.linalg.inv(L)
         self._dinv = np.einsum("kji,kjl->kil", Linv, Linv)  # (L Lᵀ)⁻¹ = L⁻ᵀ L⁻¹
         count = self._d_shape[0]
-        dinv = sp.bsr_matrix((self._dinv, np.arange(count), np.arange(count + 1)), shape=(count * m, count * m))
+        nk, ne = self.keep.size, self.eliminate.size
         slots, kr, ec = self._ke
+        aslots = self._aa[0]
+        a_values = np.concatenate([H.data[aslots], np.full(nk, beta)])
+        if self.dense:
+            self._B = np.zeros((nk, ne))
+            self._B[kr, ec] = H.data[slots]
+            self._W = np.einsum("kbi,bij->kbj", self._B.reshape(nk, count, m), self._dinv).reshape(nk, ne)
+            A = np.zeros((nk, nk))
+            np.add.at(A, (self._a_rows, self._a_cols), a_values)
+            self.inner.factorize(A - self._W @ self._B.T, 0.0)
+            return
+        dinv = sp.bsr_matrix((self._dinv, np.arange(count), np.arange(count + 1)), shape=(ne, ne))
         self._B = self._b_assembler.assemble(kr, ec, H.data[slots]).tocsr()
         self._W = (self._B @ dinv).tocsr()  # B (D+βI)⁻¹
-        slots, _, _ = self._aa
-        A = self._a_assembler.assemble(self._a_rows, self._a_cols,
-                                       np.concatenate([H.data[slots], np.full(self.keep.size, beta)]))
+        A = self._a_assembler.assemble(self._a_rows, self._a_cols, a_values)
         self.inner.factorize(A - self._W @ self._B.T, 0.0)
 
     def solve(self, rhs):

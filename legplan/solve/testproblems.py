@@ -3,7 +3,8 @@
 Rosenbrock, Powell singular, Brown almost-linear and Broyden tridiagonal are from Moré, Garbow &
 Hillstrom, "Testing unconstrained optimization software" (1981), with their standard start points.
 `bundle_adjustment_like` is a planar pose/landmark problem with the block-sparse structure of bundle
-adjustment (landmarks eliminable by Schur complement). A problem's `residual` and `jacobian` are
+adjustment (landmarks eliminable by Schur complement). `step_planner_like` has the shape of the
+Bézier step planner's eq. (12) with a known root. A problem's `residual` and `jacobian` are
 what a reference solver (scipy.optimize.least_squares) gets, so both solve the same function.
 """
 
@@ -12,7 +13,11 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from scipy.special import comb
+
 from legplan.solve.blocks import FunctionBlock
+from legplan.solve.curve import SampledCurveBlock
+from legplan.solve.inequality import IntervalPenalty, hinge
 from legplan.solve.problem import Problem
 from legplan.solve.variables import VariableBlock
 
@@ -117,4 +122,65 @@ def bundle_adjustment_like(num_poses: int = 8, num_landmarks: int = 60, noise: f
     problem = Problem([VariableBlock("poses", start_poses, fixed=fixed),
                        VariableBlock("landmarks", start_landmarks, schur_block=2)])
     problem.add_residual(FunctionBlock(["poses", "landmarks"], 2 * m, fn, residual_fn=residual))
+    return problem
+
+
+class _SlackedMap(SampledCurveBlock):
+    """r_i = f(q_i) − f(q*_i) − ξ_i with f(q) = sin(Aq): eq. (11a) with a synthetic "kinematics" f."""
+
+    def __init__(self, basis, A, target):
+        super().__init__(("P", "xi"), basis, A.shape[1], A.shape[0], slack_dim=A.shape[0])
+        self.A, self.f_target = A, np.sin(target @ A.T)
+
+    def sample(self, q, xi, jacobians):
+        u = q @ self.A.T
+        r = np.sin(u) - self.f_target - xi
+        if not jacobians:
+            return r, None, None
+        S = np.broadcast_to(-np.eye(self.rows), (q.shape[0], self.rows, self.rows))
+        return r, np.cos(u)[:, :, None] * self.A, S
+
+
+class _Clearance(SampledCurveBlock):
+    """max(g, 0) for g_ij = sin(c_jᵀ(q_i − q*_i)) − ½ ≤ 0: synthetic "collision" rows of eq. (8)."""
+
+    def __init__(self, basis, C, target):
+        super().__init__(("P",), basis, C.shape[1], C.shape[0])
+        self.C, self.target = C, target
+
+    def sample(self, q, xi, jacobians):
+        u = (q - self.target) @ self.C.T
+        r, slope = hinge(np.sin(u) - 0.5)
+        return r, ((slope * np.cos(u))[:, :, None] * self.C if jacobians else None), None
+
+
+def step_planner_like(num_samples: int = 100, degree: int = 10, dim: int = 24, slack_dim: int = 18,
+                      num_clearance: int = 20, epsilon: float = 1e-3,
+                      rng: np.random.Generator | None = None) -> Problem:
+    """Synthetic problem shaped like eq. (12): a degree-`degree` Bézier curve in R^dim, end points fixed.
+
+    Per sample: `slack_dim` equations f(q_i) − f(q*_i) − ξ_i = 0 (eq. (11a)), |ξ_i| ≤ ε as an
+    interval penalty (eq. (11b)), and `num_clearance` hinge inequalities. The curve with control
+    points P* and ξ = 0 is a root. Start: straight line between the end points (as Algorithm 1),
+    ξ = 0. Columns: (degree − 1)·dim control-point entries plus num_samples·slack_dim slacks.
+    """
+    rng = np.random.default_rng(0) if rng is None else rng
+    t = np.linspace(0.0, 1.0, num_samples)
+    k = np.arange(degree + 1)
+    basis = comb(degree, k) * t[:, None] ** k * (1 - t[:, None]) ** (degree - k)
+    q_start, q_end = rng.uniform(-1, 1, dim), rng.uniform(-1, 1, dim)
+    line = q_start + (k / degree)[:, None] * (q_end - q_start)
+    truth = line + 0.3 * rng.standard_normal(line.shape) * ((k > 0) & (k < degree))[:, None]
+    target = basis @ truth
+    A = rng.standard_normal((slack_dim, dim)) / np.sqrt(dim)
+    C = rng.standard_normal((num_clearance, dim)) / np.sqrt(dim)
+    fixed = np.zeros(line.shape, bool)
+    fixed[[0, -1]] = True
+    problem = Problem([VariableBlock("P", line.ravel(), fixed=fixed.ravel()),
+                       VariableBlock("xi", np.zeros(num_samples * slack_dim), schur_block=slack_dim)])
+    problem.add_residual(_SlackedMap(basis, A, target))
+    n_xi = num_samples * slack_dim
+    slack = FunctionBlock(["xi"], n_xi, lambda xi: (xi, [sp.identity(n_xi, format="csr")]), residual_fn=lambda xi: xi)
+    problem.add_residual(IntervalPenalty(slack, -epsilon, epsilon))
+    problem.add_residual(_Clearance(basis, C, target))
     return problem

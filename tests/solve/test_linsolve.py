@@ -66,15 +66,16 @@ def test_unknown_solver_name():
         make_solver("pardiso")
 
 
+@pytest.mark.parametrize("dense_limit", [0, 10**7])
 @pytest.mark.parametrize("inner", ["cholmod", "scipy", "dense"])
-def test_schur_elimination_equals_full_solve(inner):
+def test_schur_elimination_equals_full_solve(inner, dense_limit):
     problem = tp.bundle_adjustment_like(num_poses=4, num_landmarks=15)
     ne = problem.normal_equations(problem.layout.initial())
     eliminate, block = problem.layout.schur_columns()
     for beta in (0.0, 1e-3, 1.0):
         full = make_solver("dense")
         full.factorize(ne.hessian, beta)
-        schur = SchurSolver(make_solver(inner), eliminate, block)
+        schur = SchurSolver(make_solver(inner), eliminate, block, dense_limit=dense_limit)
         schur.factorize(ne.hessian, beta)
         np.testing.assert_allclose(schur.solve(ne.gradient), full.solve(ne.gradient), rtol=1e-7, atol=1e-10)
 
