@@ -1,15 +1,17 @@
 """The terrain surface as an FCL triangle mesh, for checks independent of the planners' SDF.
 
-The heightmap h[iy, ix] (cell centres at origin + resolution * (ix, iy)) is triangulated with one
-vertex per cell centre and two triangles per grid square split along the (ix, iy)-(ix+1, iy+1)
-diagonal. `signed_distance(points)` is the Euclidean distance of each point to that mesh
-(`fcl.distance` against a zero-radius sphere), negative when the point lies below the surface.
+The terrain is the column solid of the heightmap (as `legplan.terrain` defines it): cell [iy, ix]
+is a square column of side r centred at origin + r (ix, iy) reaching up to h[iy, ix]. Its surface
+is triangulated exactly: two triangles for every column top and two for every vertical wall
+between neighbouring columns of different height. `signed_distance(points)` is the Euclidean
+distance of each point to that surface (`fcl.distance` against a zero-radius sphere), negative
+when the point lies inside the solid (below the top of its own column).
 
 Speed: an FCL query costs ~0.1 ms, so exact FCL distances are computed only where needed. Around a
 point whose window of half-width `window` is flat (min == max height), the nearest surface point of a
-point within `window` of the plane is straight below it, so the vertical gap is the exact distance.
-`distance_bounds` gives cheap lower/upper bounds used to find the closest of many spheres with few
-FCL calls (`Validator`).
+point within `window` of the plane is straight below (above) it, so the vertical gap is the exact
+distance. `distance_bounds` gives cheap lower/upper bounds used to find the closest of many spheres
+with few FCL calls (`Validator`).
 """
 
 from __future__ import annotations
@@ -30,49 +32,27 @@ class SurfaceMesh:
         self.height = np.asarray(height, dtype=float)
         self.origin = np.asarray(origin, dtype=float)[:2]
         self.resolution = float(resolution)
-        ny, nx = self.height.shape
-        if ny < 2 or nx < 2:
-            raise ValueError(f"heightmap must be at least 2x2 cells, got {self.height.shape}")
-        iy, ix = np.mgrid[0:ny, 0:nx]
-        vertices = np.stack([self.origin[0] + ix.ravel() * self.resolution,
-                             self.origin[1] + iy.ravel() * self.resolution,
-                             self.height.ravel()], axis=1)
-        corner = (iy[:-1, :-1] * nx + ix[:-1, :-1]).ravel()
-        triangles = np.concatenate([np.stack([corner, corner + 1, corner + nx + 1], axis=1),
-                                    np.stack([corner, corner + nx + 1, corner + nx], axis=1)])
+        if self.height.ndim != 2 or min(self.height.shape) < 1:
+            raise ValueError(f"heightmap must be a 2D array, got shape {self.height.shape}")
+        vertices, triangles = column_surface(self.height, self.origin, self.resolution)
         model = fcl.BVHModel()
         model.beginModel(len(vertices), len(triangles))
-        model.addSubModel(vertices, triangles.astype(np.int64))
+        model.addSubModel(vertices, triangles)
         model.endModel()
         self._mesh = fcl.CollisionObject(model, fcl.Transform())
         self._probe = fcl.CollisionObject(fcl.Sphere(_POINT_RADIUS), fcl.Transform())
         self._request = fcl.DistanceRequest()
-        # window (in cells) covering every triangle that has a point within `window` horizontally
-        half = int(math.ceil(window / self.resolution)) + 2
-        self.window = (half - 2) * self.resolution
+        # window (in cells) covering every column that has a point within `window` horizontally
+        half = int(math.ceil(window / self.resolution)) + 1
+        self.window = (half - 1) * self.resolution
         size = 2 * half + 1
         self._hmax = ndimage.maximum_filter(self.height, size=size, mode="nearest")
         self._hmin = ndimage.minimum_filter(self.height, size=size, mode="nearest")
 
-    def _cells(self, xy: np.ndarray):
-        """Grid coordinates: lower-left cell index (clipped) and the fractional offsets in it."""
-        g = (xy - self.origin) / self.resolution
-        ny, nx = self.height.shape
-        ix = np.clip(np.floor(g[:, 0]).astype(int), 0, nx - 2)
-        iy = np.clip(np.floor(g[:, 1]).astype(int), 0, ny - 2)
-        u = np.clip(g[:, 0] - ix, 0.0, 1.0)
-        v = np.clip(g[:, 1] - iy, 0.0, 1.0)
-        return ix, iy, u, v
-
     def surface_height(self, xy) -> np.ndarray:
-        """Height of the mesh straight above/below xy (n, 2) (clamped to the map border)."""
-        xy = np.asarray(xy, dtype=float)[:, :2]
-        ix, iy, u, v = self._cells(xy)
-        h = self.height
-        h00, h10, h01, h11 = h[iy, ix], h[iy, ix + 1], h[iy + 1, ix], h[iy + 1, ix + 1]
-        lower = u >= v  # triangle (0,0)-(1,0)-(1,1); else (0,0)-(1,1)-(0,1)
-        return np.where(lower, h00 + u * (h10 - h00) + v * (h11 - h10),
-                        h00 + v * (h01 - h00) + u * (h11 - h01))
+        """Top of the column containing each xy (n, 2) (border columns continue outside the map)."""
+        iy, ix = self._nearest_cell(np.asarray(xy, dtype=float)[:, :2])
+        return self.height[iy, ix]
 
     def _nearest_cell(self, xy: np.ndarray):
         g = np.rint((xy - self.origin) / self.resolution).astype(int)
@@ -129,3 +109,32 @@ class SurfaceMesh:
         if np.any(todo):
             out[todo] = self.fcl_distance(p[todo])
         return out
+
+
+def column_surface(height: np.ndarray, origin: np.ndarray, r: float):
+    """Vertices (4 ny nx, 3) and triangles (t, 3) of the tops and walls of the column solid."""
+    ny, nx = height.shape
+    iy, ix = np.mgrid[0:ny, 0:nx]
+    cx = origin[0] + r * ix
+    cy = origin[1] + r * iy
+    corners = []  # per cell: (-,-), (+,-), (+,+), (-,+)
+    for sx, sy in ((-1, -1), (1, -1), (1, 1), (-1, 1)):
+        corners.append(np.stack([cx + sx * r / 2, cy + sy * r / 2, height], axis=-1))
+    vertices = np.stack(corners, axis=2).reshape(-1, 3)  # index 4 * cell + corner
+    cell = (iy * nx + ix) * 4
+    tops = np.concatenate([np.stack([cell, cell + 1, cell + 2], -1).reshape(-1, 3),
+                           np.stack([cell, cell + 2, cell + 3], -1).reshape(-1, 3)])
+    walls = []
+    # wall between (iy, ix) and (iy, ix + 1): their shared edge is corner 1-2 of the left cell and
+    # corner 0-3 of the right cell
+    left, right = cell[:, :-1], cell[:, 1:]
+    differ = height[:, :-1] != height[:, 1:]
+    a, b = left[differ], right[differ]
+    walls += [np.stack([a + 1, a + 2, b + 3], -1), np.stack([a + 1, b + 3, b], -1)]
+    # wall between (iy, ix) and (iy + 1, ix): corner 3-2 of the lower cell, 0-1 of the upper cell
+    low, up = cell[:-1, :], cell[1:, :]
+    differ = height[:-1, :] != height[1:, :]
+    a, b = low[differ], up[differ]
+    walls += [np.stack([a + 3, a + 2, b + 1], -1), np.stack([a + 3, b + 1, b], -1)]
+    triangles = np.concatenate([tops] + walls).astype(np.int64)
+    return vertices, triangles

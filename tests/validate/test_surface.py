@@ -20,13 +20,11 @@ def test_point_over_flat_ground_distance_is_height_above_it():
     np.testing.assert_allclose(mesh.fcl_distance(pts), [0.05, 0.3, -0.02], atol=1e-8)
 
 
-def test_surface_height_interpolates_the_triangulation():
+def test_surface_height_is_the_top_of_the_containing_column():
     h = np.array([[0.0, 1.0], [2.0, 4.0]])
     mesh = SurfaceMesh(h, origin=(0.0, 0.0), resolution=1.0)
-    # lower triangle (0,0)-(1,0)-(1,1) at (0.75, 0.25): 0 + 0.75*1 + 0.25*(4-1)
-    # upper triangle (0,0)-(1,1)-(0,1) at (0.25, 0.75): 0 + 0.75*2 + 0.25*(4-2)
-    np.testing.assert_allclose(mesh.surface_height(np.array([[0.75, 0.25], [0.25, 0.75]])),
-                               [1.5, 2.0])
+    np.testing.assert_allclose(mesh.surface_height(np.array([[0.4, 0.1], [0.6, 0.4], [0.2, 0.7], [3.0, 3.0]])),
+                               [0.0, 1.0, 2.0, 4.0])
 
 
 def test_bounds_bracket_fcl_and_signed_distance_matches_fcl_everywhere():
@@ -40,9 +38,14 @@ def test_bounds_bracket_fcl_and_signed_distance_matches_fcl_everywhere():
     np.testing.assert_allclose(mesh.signed_distance(pts), exact, atol=1e-8)
 
 
-def test_point_beside_a_wall_measures_horizontal_distance():
+def test_point_beside_a_wall_measures_horizontal_distance_to_the_column_face():
     mesh = SurfaceMesh(_step_map(), origin=(0.0, 0.0), resolution=0.02)
-    # inside the pit, 5 cm from the x=0.8 -> 0.82 wall ramp, well below the rim
-    d = mesh.signed_distance(np.array([[0.75, 0.5, -0.1]]))[0]
-    assert 0.0 < d < 0.2 - 1e-3  # nearer than the pit floor 0.2 below
-    assert d == pytest.approx(mesh.fcl_distance(np.array([[0.75, 0.5, -0.1]]))[0])
+    # the pit columns end at x = 0.80 + 0.01; a point at x = 0.75, 0.1 m below the rim, is 0.06 m
+    # from that wall and 0.2 m above the pit floor
+    d = mesh.signed_distance(np.array([[0.75, 0.5, 0.0]]))[0]
+    assert d == pytest.approx(0.06, abs=1e-9)
+    # just above the rim edge, diagonal to the corner of the column top
+    d = mesh.signed_distance(np.array([[0.78, 0.5, 0.13]]))[0]
+    assert d == pytest.approx(np.hypot(0.03, 0.03), abs=1e-9)
+    # inside the ground column, 2 cm below its top and 5 cm from the wall: -0.02
+    assert mesh.signed_distance(np.array([[0.88, 0.5, 0.08]]))[0] == pytest.approx(-0.02, abs=1e-9)
