@@ -1,0 +1,396 @@
+"""`robot.yaml`: its schema, and its validation against the pinocchio model built from the URDF.
+
+A robot folder holds `robot.urdf` (kinematics, masses, mechanical joint limits) and `robot.yaml`:
+
+```yaml
+name: scarab2
+urdf: robot.urdf                   # optional, relative to the yaml file
+legs:                              # every actuated joint belongs to exactly one leg chain
+  - {name: lf, joints: [coxa_lf, femur_lf, tibia_lf], foot_frame: foot_lf}
+joint_limits:                      # optional planning limits [lower, upper] inside the URDF limits;
+  coxa_lf: [-0.4, 0.4]             # "{leg}" in a key is expanded for every leg
+collision_spheres:                 # centre = frame placement * offset; "{leg}" expanded per leg
+  - {link: base_link, offset: [0.06, 0.045, 0.0], radius: 0.06}
+  - {link: "foot_{leg}", offset: [0, 0, 0], radius: 0.008}   # foot: true|false (default: frame is the foot frame)
+nominal:                           # standing configuration, feet on z = 0 (checked to 1 mm)
+  base_height: 0.1019
+  joints: [0.0, -0.2, 0.0]         # one leg chain applied to every leg, or {leg name: [...]}
+navigation:                        # optional, for 2D navigation planners
+  footprint: [[x, y], ...]         # base-frame polygon (m), origin inside
+  inscribed_radius: 0.2            # optional, checked against the footprint when given
+  circumscribed_radius: 0.403
+  limits: {v_x_max: .., v_x_min: .., v_y_max: .., omega_max: .., a_x_max: .., a_y_max: .., alpha_max: ..}
+```
+
+Every error is a one-line `SpecError` naming the file and the field.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import yaml
+
+from legplan.errors import SpecError
+
+FOOT_HEIGHT_TOLERANCE = 1e-3  # m, |z| of every foot in the nominal stance
+RADIUS_TOLERANCE = 1e-3       # m, stated navigation radii vs the footprint
+LIMIT_NAMES = ("v_x_max", "v_x_min", "v_y_max", "omega_max", "a_x_max", "a_y_max", "alpha_max")
+
+
+@dataclass(frozen=True)
+class Leg:
+    """One leg chain. `joint_idx_q`/`joint_idx_v` index the full q (nq,) / v (nv,) vectors;
+    `joint_idx` indexes the actuated-joint arrays (`robot.joint_names`, `lower`, `upper`, the
+    joint part of x)."""
+
+    name: str
+    joint_names: tuple[str, ...]
+    joint_idx_q: tuple[int, ...]
+    joint_idx_v: tuple[int, ...]
+    joint_idx: tuple[int, ...]
+    foot_frame: str
+    foot_frame_id: int
+
+
+@dataclass(frozen=True)
+class SphereSet:
+    """Collision spheres (paper Fig. 2b): centre = oMf[frame_ids[k]] * offsets[k].
+
+    `leg_index[k]` is the leg whose joints move sphere k (-1: body); `is_foot[k]` marks foot-tip
+    spheres (their terrain clearance is relaxed near footholds, paper Sec. II-B)."""
+
+    frame_ids: np.ndarray
+    frame_names: tuple[str, ...]
+    offsets: np.ndarray
+    radii: np.ndarray
+    leg_index: np.ndarray
+    is_foot: np.ndarray
+
+    def __len__(self) -> int:
+        return len(self.radii)
+
+
+@dataclass(frozen=True)
+class KinodynamicLimits:
+    """Velocity/acceleration limits of the omnidirectional base (quadruped paper, Table I).
+
+    v_x_min is the largest backwards speed (a positive number)."""
+
+    v_x_max: float
+    v_x_min: float
+    v_y_max: float
+    omega_max: float
+    a_x_max: float
+    a_y_max: float
+    alpha_max: float
+
+
+@dataclass(frozen=True)
+class Navigation:
+    """2D navigation model: footprint polygon (k, 2) in the base frame, radii (m) and limits."""
+
+    footprint: np.ndarray
+    inscribed_radius: float
+    circumscribed_radius: float
+    limits: KinodynamicLimits
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """Everything `robot.yaml` + URDF define, validated; `RobotModel` is built from it."""
+
+    name: str
+    description: str
+    yaml_path: Path
+    urdf_path: Path
+    model: pin.Model
+    legs: tuple[Leg, ...]
+    lower: np.ndarray
+    upper: np.ndarray
+    spheres: SphereSet
+    q_nominal: np.ndarray
+    navigation: Navigation | None
+
+
+class _Reader:
+    """Typed access to the yaml mapping; every failure names the file and the field."""
+
+    def __init__(self, path: Path):
+        self.path = path
+
+    def fail(self, field: str, message: str):
+        raise SpecError(f"{self.path}: field '{field}' {message}")
+
+    def get(self, mapping: dict, key: str, field: str, kind=None, default=...):
+        if not isinstance(mapping, dict):
+            self.fail(field.rsplit(".", 1)[0] if "." in field else field, "must be a mapping")
+        if key not in mapping:
+            if default is ...:
+                self.fail(field, "is missing")
+            return default
+        value = mapping[key]
+        if kind is not None and not isinstance(value, kind):
+            self.fail(field, f"must be {_kind_name(kind)}, got {value!r}")
+        return value
+
+    def number(self, value, field: str) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+            self.fail(field, f"must be a finite number, got {value!r}")
+        return float(value)
+
+    def vector(self, value, field: str, length: int | None = None) -> np.ndarray:
+        if not isinstance(value, (list, tuple)) or (length is not None and len(value) != length):
+            self.fail(field, f"must be a list of {length or 'some'} numbers, got {value!r}")
+        return np.array([self.number(v, f"{field}[{i}]") for i, v in enumerate(value)])
+
+    def positive(self, value, field: str) -> float:
+        number = self.number(value, field)
+        if number <= 0:
+            self.fail(field, f"must be > 0, got {value!r}")
+        return number
+
+
+def _kind_name(kind) -> str:
+    names = {str: "a string", list: "a list", dict: "a mapping", bool: "true or false"}
+    return names.get(kind, getattr(kind, "__name__", str(kind)))
+
+
+def _read_yaml(path: Path) -> dict:
+    try:
+        text = path.read_text()
+    except OSError as exc:
+        raise SpecError(f"{path}: cannot read robot spec ({exc.strerror or exc})") from exc
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        where = f" at line {mark.line + 1}" if mark is not None else ""
+        raise SpecError(f"{path}: invalid YAML{where}") from exc
+    if not isinstance(data, dict):
+        raise SpecError(f"{path}: robot spec must be a YAML mapping")
+    return data
+
+
+def _build_model(reader: _Reader, data: dict) -> tuple[Path, pin.Model]:
+    urdf = reader.path.parent / reader.get(data, "urdf", "urdf", str, "robot.urdf")
+    if not urdf.is_file():
+        reader.fail("urdf", f"names a missing file {urdf}")
+    try:
+        model = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
+    except (RuntimeError, ValueError) as exc:
+        reader.fail("urdf", f"cannot be parsed by pinocchio ({str(exc).splitlines()[0]})")
+    for jid in range(2, model.njoints):
+        if model.nqs[jid] != 1 or model.nvs[jid] != 1:
+            reader.fail("urdf", f"joint '{model.names[jid]}' has nq={model.nqs[jid]}, nv={model.nvs[jid]}; "
+                        "only 1-DoF revolute/prismatic joints are supported")
+    return urdf, model
+
+
+def _parse_legs(reader: _Reader, data: dict, model: pin.Model) -> tuple[Leg, ...]:
+    entries = reader.get(data, "legs", "legs", list)
+    if not entries:
+        reader.fail("legs", "must list at least one leg")
+    legs, seen_joints, seen_names = [], {}, set()
+    for i, entry in enumerate(entries):
+        field = f"legs[{i}]"
+        name = reader.get(entry, "name", f"{field}.name", str)
+        if name in seen_names:
+            reader.fail(f"{field}.name", f"repeats leg name '{name}'")
+        seen_names.add(name)
+        joints = reader.get(entry, "joints", f"{field}.joints", list)
+        if not joints:
+            reader.fail(f"{field}.joints", "must list at least one joint")
+        ids = []
+        for k, joint in enumerate(joints):
+            if not isinstance(joint, str) or not model.existJointName(joint):
+                reader.fail(f"{field}.joints[{k}]", f"names unknown joint {joint!r} (not in the URDF)")
+            if joint in seen_joints:
+                reader.fail(f"{field}.joints[{k}]", f"joint '{joint}' already belongs to leg "
+                            f"'{seen_joints[joint]}'")
+            seen_joints[joint] = name
+            jid = model.getJointId(joint)
+            parent = ids[-1] if ids else 1
+            if model.parents[jid] != parent:
+                reader.fail(f"{field}.joints[{k}]", f"joint '{joint}' is not a child of "
+                            f"'{model.names[parent]}' (a leg is a chain from the base)")
+            ids.append(jid)
+        foot = reader.get(entry, "foot_frame", f"{field}.foot_frame", str)
+        foot_id = _frame_id(model, foot)
+        if foot_id is None:
+            reader.fail(f"{field}.foot_frame", f"names unknown frame '{foot}'")
+        if model.frames[foot_id].parentJoint != ids[-1]:
+            reader.fail(f"{field}.foot_frame", f"frame '{foot}' is not attached to the last leg joint "
+                        f"'{joints[-1]}'")
+        legs.append(Leg(name=name, joint_names=tuple(joints),
+                        joint_idx_q=tuple(int(model.idx_qs[j]) for j in ids),
+                        joint_idx_v=tuple(int(model.idx_vs[j]) for j in ids),
+                        joint_idx=tuple(int(model.idx_vs[j]) - 6 for j in ids),
+                        foot_frame=foot, foot_frame_id=int(foot_id)))
+    n_actuated = model.njoints - 2
+    if len(seen_joints) != n_actuated:
+        missing = [model.names[j] for j in range(2, model.njoints) if model.names[j] not in seen_joints]
+        reader.fail("legs", f"cover {len(seen_joints)} joints but the URDF has {n_actuated} actuated "
+                    f"joints (not in any leg: {', '.join(missing)})")
+    return tuple(legs)
+
+
+def _frame_id(model: pin.Model, name: str) -> int | None:
+    """Id of the frame `name`: the link (BODY) frame when a joint shares its name; None if unknown."""
+    if model.existFrame(name, pin.FrameType.BODY):
+        return int(model.getFrameId(name, pin.FrameType.BODY))
+    if model.existFrame(name):
+        try:
+            return int(model.getFrameId(name))
+        except ValueError:
+            return None
+    return None
+
+
+def _expand(key: str, legs) -> list[str]:
+    """Expand "{leg}" in a name for every leg."""
+    if "{leg}" not in key:
+        return [key]
+    return [key.replace("{leg}", leg.name) for leg in legs]
+
+
+def _parse_limits(reader: _Reader, data: dict, model: pin.Model, legs):
+    lower = np.array(model.lowerPositionLimit[7:], float)
+    upper = np.array(model.upperPositionLimit[7:], float)
+    limits = reader.get(data, "joint_limits", "joint_limits", dict, {})
+    for key, value in limits.items():
+        field = f"joint_limits.{key}"
+        names = _expand(str(key), legs)
+        pair = reader.vector(value, field, 2)
+        if pair[0] >= pair[1]:
+            reader.fail(field, f"lower {pair[0]} must be < upper {pair[1]}")
+        for name in names:
+            if not model.existJointName(name):
+                reader.fail(field, f"names unknown joint '{name}'")
+            k = int(model.idx_vs[model.getJointId(name)]) - 6
+            if pair[0] < lower[k] - 1e-12 or pair[1] > upper[k] + 1e-12:
+                reader.fail(field, f"[{pair[0]}, {pair[1]}] of joint '{name}' is outside the URDF limits "
+                            f"[{lower[k]}, {upper[k]}]")
+            lower[k], upper[k] = pair
+    return lower, upper
+
+
+def _parse_spheres(reader: _Reader, data: dict, model: pin.Model, legs) -> SphereSet:
+    entries = reader.get(data, "collision_spheres", "collision_spheres", list)
+    if not entries:
+        reader.fail("collision_spheres", "must list at least one sphere")
+    leg_of_joint = {jid: i for i, leg in enumerate(legs)
+                    for jid in (model.getJointId(n) for n in leg.joint_names)}
+    foot_frames = {leg.foot_frame_id for leg in legs}
+    frame_ids, names, offsets, radii, leg_index, is_foot = [], [], [], [], [], []
+    for i, entry in enumerate(entries):
+        field = f"collision_spheres[{i}]"
+        link = reader.get(entry, "link", f"{field}.link", str)
+        offset = reader.vector(reader.get(entry, "offset", f"{field}.offset", default=[0, 0, 0]),
+                               f"{field}.offset", 3)
+        radius = reader.positive(reader.get(entry, "radius", f"{field}.radius"), f"{field}.radius")
+        foot_flag = reader.get(entry, "foot", f"{field}.foot", bool, None)
+        for name in _expand(link, legs):
+            fid = _frame_id(model, name)
+            if fid is None:
+                reader.fail(f"{field}.link", f"names unknown link/frame '{name}'")
+            frame = model.frames[fid]
+            frame_ids.append(fid)
+            names.append(name)
+            offsets.append(offset)
+            radii.append(radius)
+            # The leg whose joints move the frame: the nearest leg joint among its supports.
+            leg = next((leg_of_joint[j] for j in reversed(list(model.supports[frame.parentJoint]))
+                        if j in leg_of_joint), -1)
+            leg_index.append(leg)
+            is_foot.append(fid in foot_frames if foot_flag is None else foot_flag)
+    return SphereSet(frame_ids=_frozen(np.array(frame_ids, int)), frame_names=tuple(names),
+                     offsets=_frozen(np.array(offsets, float).reshape(-1, 3)),
+                     radii=_frozen(np.array(radii, float)),
+                     leg_index=_frozen(np.array(leg_index, int)),
+                     is_foot=_frozen(np.array(is_foot, bool)))
+
+
+def _frozen(array: np.ndarray) -> np.ndarray:
+    array.setflags(write=False)
+    return array
+
+
+def _parse_nominal(reader: _Reader, data: dict, model: pin.Model, legs, lower, upper) -> np.ndarray:
+    nominal = reader.get(data, "nominal", "nominal", dict)
+    height = reader.number(reader.get(nominal, "base_height", "nominal.base_height"),
+                           "nominal.base_height")
+    joints = reader.get(nominal, "joints", "nominal.joints")
+    q = pin.neutral(model)
+    q[2] = height
+    for i, leg in enumerate(legs):
+        if isinstance(joints, dict):
+            field = f"nominal.joints.{leg.name}"
+            values = reader.vector(reader.get(joints, leg.name, field), field, len(leg.joint_names))
+        else:
+            field = "nominal.joints"
+            values = reader.vector(joints, field, len(leg.joint_names))
+        q[list(leg.joint_idx_q)] = values
+    inside = (q[7:] >= lower - 1e-9) & (q[7:] <= upper + 1e-9)
+    if not inside.all():
+        k = int(np.flatnonzero(~inside)[0])
+        reader.fail("nominal.joints", f"angle {q[7 + k]:.4f} of joint '{model.names[k + 2]}' is outside "
+                    f"its limits [{lower[k]:.4f}, {upper[k]:.4f}]")
+    data_ = model.createData()
+    pin.framesForwardKinematics(model, data_, q)
+    feet_z = np.array([data_.oMf[leg.foot_frame_id].translation[2] for leg in legs])
+    worst = int(np.argmax(np.abs(feet_z)))
+    if abs(feet_z[worst]) > FOOT_HEIGHT_TOLERANCE:
+        reader.fail("nominal.base_height", f"puts foot '{legs[worst].foot_frame}' at z = {feet_z[worst]:.4f} m, "
+                    f"not on the ground z = 0 (base_height {height - feet_z.mean():.4f} would)")
+    return _frozen(q)
+
+
+def _parse_navigation(reader: _Reader, data: dict) -> Navigation | None:
+    nav = reader.get(data, "navigation", "navigation", dict, None)
+    if nav is None:
+        return None
+    points = reader.get(nav, "footprint", "navigation.footprint", list)
+    if len(points) < 3:
+        reader.fail("navigation.footprint", "must have at least 3 vertices")
+    footprint = np.array([reader.vector(p, f"navigation.footprint[{i}]", 2) for i, p in enumerate(points)])
+    edges = np.roll(footprint, -1, axis=0) - footprint
+    cross = edges[:, 0] * footprint[:, 1] - edges[:, 1] * footprint[:, 0]  # edge x (0 - vertex)
+    if not (np.all(cross < 0) or np.all(cross > 0)):
+        reader.fail("navigation.footprint", "must be a convex polygon around the base origin")
+    inscribed = float(np.min(np.abs(cross) / np.linalg.norm(edges, axis=1)))
+    circumscribed = float(np.max(np.linalg.norm(footprint, axis=1)))
+    for key, computed in (("inscribed_radius", inscribed), ("circumscribed_radius", circumscribed)):
+        if key in nav:
+            stated = reader.positive(nav[key], f"navigation.{key}")
+            if abs(stated - computed) > RADIUS_TOLERANCE:
+                reader.fail(f"navigation.{key}", f"is {stated} but the footprint gives {computed:.4f}")
+    limits = reader.get(nav, "limits", "navigation.limits", dict)
+    unknown = sorted(set(limits) - set(LIMIT_NAMES))
+    if unknown:
+        reader.fail(f"navigation.limits.{unknown[0]}", f"is unknown (expected {', '.join(LIMIT_NAMES)})")
+    values = {name: reader.positive(reader.get(limits, name, f"navigation.limits.{name}"),
+                                    f"navigation.limits.{name}") for name in LIMIT_NAMES}
+    return Navigation(footprint=_frozen(footprint), inscribed_radius=inscribed,
+                      circumscribed_radius=circumscribed, limits=KinodynamicLimits(**values))
+
+
+def read_spec(yaml_path: str | Path) -> RobotSpec:
+    """Read and validate `robot.yaml` (and the URDF it names); raises `SpecError` on any problem."""
+    path = Path(yaml_path)
+    reader = _Reader(path)
+    data = _read_yaml(path)
+    name = reader.get(data, "name", "name", str, path.parent.name)
+    description = reader.get(data, "description", "description", str, "")
+    urdf, model = _build_model(reader, data)
+    legs = _parse_legs(reader, data, model)
+    lower, upper = _parse_limits(reader, data, model, legs)
+    spheres = _parse_spheres(reader, data, model, legs)
+    q_nominal = _parse_nominal(reader, data, model, legs, lower, upper)
+    navigation = _parse_navigation(reader, data)
+    return RobotSpec(name=name, description=description.strip(), yaml_path=path, urdf_path=urdf,
+                     model=model, legs=legs, lower=_frozen(lower), upper=_frozen(upper),
+                     spheres=spheres, q_nominal=q_nominal, navigation=navigation)
