@@ -62,7 +62,7 @@ class Validator:
         self.robot = robot
         self.model = robot.model
         self.data = self.model.createData()
-        self.surface = surface or SurfaceMesh(terrain.height, terrain.origin, terrain.resolution)
+        self.surface = surface or SurfaceMesh(terrain.height, terrain.grid.origin, terrain.grid.resolution)
         spheres = robot.spheres
         self._sphere_frames = np.asarray(spheres.frame_ids, int)
         self._frames, self._frame_slot = np.unique(self._sphere_frames, return_inverse=True)
