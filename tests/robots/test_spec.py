@@ -1,0 +1,88 @@
+"""robot.yaml validation: one-line SpecErrors naming the file and the field; the toy robot works."""
+
+import copy
+
+import numpy as np
+import pytest
+from robot_helpers import TOY_HIP, TOY_LINK, toy_spec, write_toy_robot
+
+from legplan.errors import LegplanError, SpecError
+from legplan.robots import load_robot, resolve_robot
+
+
+def test_toy_robot_loads_and_works(toy):
+    """Any free-flyer URDF + robot.yaml: 4 legs of 2 joints, other names, other frame names."""
+    assert (toy.nq, toy.nv, toy.n_joints, toy.n_legs) == (15, 14, 8, 4)
+    assert [leg.foot_frame for leg in toy.legs] == ["toe_a", "toe_b", "toe_c", "toe_d"]
+    np.testing.assert_allclose(toy.lower[1::2], -2.0)                  # "{leg}" planning limits
+    np.testing.assert_allclose(toy.lower[0::2], -2.5)                  # URDF limits elsewhere
+    assert toy.spheres.leg_index.tolist() == [-1, -1, 0, 1, 2, 3, 0, 1, 2, 3]
+    assert toy.spheres.is_foot.tolist() == [False] * 6 + [True] * 4
+    q = toy.q_nominal
+    assert q[2] == pytest.approx(2 * TOY_LINK * np.cos(TOY_HIP))
+    feet = toy.foot_positions(np.stack([q, q]))
+    np.testing.assert_allclose(feet[0, :, :2], [[0.2, 0.1], [0.2, -0.1], [-0.2, 0.1], [-0.2, -0.1]], atol=1e-12)
+    assert toy.foot_jacobians(q).shape == (1, 4, 3, 14)
+    assert toy.tangent_map(toy.to_vector(q)).shape == (1, 14, 14)
+    assert toy.mass == pytest.approx(3.0 + 8 * 0.2)
+
+
+def _broken(tmp_path, edit):
+    spec = copy.deepcopy(toy_spec())
+    edit(spec)
+    return write_toy_robot(tmp_path / "bad", spec)
+
+
+CASES = [
+    ("unknown foot frame", lambda s: s["legs"][1].update(foot_frame="toe_x"), r"legs\[1\]\.foot_frame.*toe_x"),
+    ("foot frame on another leg", lambda s: s["legs"][0].update(foot_frame="toe_b"), r"legs\[0\]\.foot_frame"),
+    ("sphere on missing link", lambda s: s["collision_spheres"][0].update(link="chassis"),
+     r"collision_spheres\[0\]\.link.*chassis"),
+    ("negative radius", lambda s: s["collision_spheres"][1].update(radius=-0.1),
+     r"collision_spheres\[1\]\.radius.*> 0"),
+    ("offset not 3 numbers", lambda s: s["collision_spheres"][2].update(offset=[0, 1]),
+     r"collision_spheres\[2\]\.offset"),
+    ("joints not in any leg", lambda s: s["legs"].pop(), r"'legs'.*6 joints.*8 actuated.*hip_d, knee_d"),
+    ("unknown joint", lambda s: s["legs"][2]["joints"].__setitem__(1, "elbow_c"), r"legs\[2\]\.joints\[1\].*elbow_c"),
+    ("joint twice", lambda s: s["legs"][1]["joints"].__setitem__(0, "hip_a"), r"legs\[1\]\.joints\[0\].*already"),
+    ("not a chain", lambda s: s["legs"][0].update(joints=["knee_a", "hip_a"]), r"legs\[0\]\.joints\[0\].*chain"),
+    ("missing legs", lambda s: s.pop("legs"), r"field 'legs' is missing"),
+    ("missing nominal", lambda s: s.pop("nominal"), r"field 'nominal' is missing"),
+    ("missing base height", lambda s: s["nominal"].pop("base_height"), r"nominal\.base_height' is missing"),
+    ("feet off the ground", lambda s: s["nominal"].update(base_height=0.5), r"nominal\.base_height.*toe_a.*z = 0"),
+    ("nominal outside limits", lambda s: s["nominal"].update(joints=[0.5, 0.0]), r"nominal\.joints.*knee_a"),
+    ("wrong nominal length", lambda s: s["nominal"].update(joints=[0.5, -1.0, 0.0]), r"nominal\.joints"),
+    ("limit outside URDF", lambda s: s["joint_limits"].update({"hip_a": [-3.0, 1.0]}),
+     r"joint_limits\.hip_a.*outside the URDF limits"),
+    ("limit on unknown joint", lambda s: s["joint_limits"].update({"wrist": [-1.0, 1.0]}),
+     r"joint_limits\.wrist.*unknown joint"),
+    ("reversed limits", lambda s: s["joint_limits"].update({"hip_b": [1.0, -1.0]}), r"joint_limits\.hip_b.*<"),
+    ("missing urdf", lambda s: s.update(urdf="nope.urdf"), r"field 'urdf'.*missing file"),
+    ("navigation limits missing key", lambda s: s.update(navigation={
+        "footprint": [[0.3, 0.2], [-0.3, 0.2], [-0.3, -0.2], [0.3, -0.2]], "limits": {"v_x_max": 1.0}}),
+     r"navigation\.limits\.v_x_min' is missing"),
+    ("navigation radius wrong", lambda s: s.update(navigation={
+        "footprint": [[0.3, 0.2], [-0.3, 0.2], [-0.3, -0.2], [0.3, -0.2]], "inscribed_radius": 0.3,
+        "limits": {}}), r"navigation\.inscribed_radius.*0\.2000"),
+]
+
+
+@pytest.mark.parametrize("edit,pattern", [c[1:] for c in CASES], ids=[c[0] for c in CASES])
+def test_spec_errors_name_file_and_field(tmp_path, edit, pattern):
+    path = _broken(tmp_path, edit)
+    with pytest.raises(SpecError, match=pattern) as info:
+        load_robot(path)
+    message = str(info.value)
+    assert message.startswith(f"{path}: field '") and "\n" not in message
+
+
+def test_yaml_syntax_and_unknown_robot(tmp_path):
+    folder = tmp_path / "broken"
+    write_toy_robot(folder)
+    (folder / "robot.yaml").write_text("legs: [unclosed\n")
+    with pytest.raises(SpecError, match=r"robot\.yaml: invalid YAML at line"):
+        load_robot(folder)
+    with pytest.raises(LegplanError, match="unknown robot.*scarab2"):
+        resolve_robot("no_such_robot")
+    with pytest.raises(LegplanError, match="no such robot folder"):
+        resolve_robot(tmp_path / "nothing" / "robot.yaml")
