@@ -83,9 +83,13 @@ def _joint_bounds(robot):
 
 
 def solve_ik(robot, sdf, mode: ContactMode, x0, *, targets: dict[int, np.ndarray] | None = None,
-             posture: Posture | None = None, foot_tolerance: float = 1e-4,
-             max_iterations: int = 100) -> IKResult:
-    """Find x near x0 satisfying `mode` (and foot `targets`); see the module docstring."""
+             posture: Posture | None = None, soft_targets: dict[int, np.ndarray] | None = None,
+             soft_weight: float = 1.0, foot_tolerance: float = 1e-4, max_iterations: int = 100) -> IKResult:
+    """Find x near x0 satisfying `mode` (and foot `targets`); see the module docstring.
+
+    `soft_targets` (leg -> point) join the posture term of the first solve with `soft_weight`
+    (e.g. keep a lifted foot up); they are not constraints.
+    """
     lower, upper = _joint_bounds(robot)
     x = np.clip(np.asarray(x0, float), lower, upper)
     blocks = constraint_blocks(robot, sdf, mode, targets)
@@ -100,6 +104,11 @@ def solve_ik(robot, sdf, mode: ContactMode, x0, *, targets: dict[int, np.ndarray
             w = np.asarray(posture.weights, float)
             ref = np.asarray(posture.reference, float)
             problem.add_residual(FunctionBlock(["x"], len(w), lambda v: (w * (v - ref), [np.diag(w)])))
+            if soft_targets:
+                legs = sorted(soft_targets)
+                pts = np.array([soft_targets[leg] for leg in legs])
+                problem.add_residual(FunctionBlock(["x"], 3 * len(legs), _single(
+                    lambda X: foot_target_terms(robot, X, legs, pts))), soft_weight)
         result = solve_lm(problem, params)
         x = result.values["x"]
         iterations += result.iterations

@@ -1,0 +1,427 @@
+"""Gait-free step-sequence generation on a foothold mask (the sequence q_1..q_k of eq. (2)).
+
+The body follows the straight line from start to goal. Each move picks one leg and one foothold by
+a score and appends up to three configurations, each found by whole-body IK (`solve_ik`):
+
+1. shift: all stance feet fixed, the CoM moved inside the support polygon of the other legs
+   (skipped when it already is there with the margin);
+2. lift: the chosen leg off the ground, its foot at an apex above the middle of its swing;
+3. touch-down: the foot on its new foothold.
+
+So consecutive configurations differ by one lift, one touch-down, or a body shift, and the CoM of
+every configuration lies inside the support polygon of the motion before and after it.
+
+Leg choice (gait-free): legs are tried by decreasing lag, the distance their foot trails the
+nominal foot position at the body pose a little ahead on the path; a leg is skipped when the
+polygon of the remaining stance legs cannot hold the CoM with the margin. Foothold choice: cells
+of the foothold mask within `step_radius` of the nominal position at the target pose, that make
+progress along the path, keep a distance to the other feet and lie within the leg's reach from the
+hip, ranked by distance to the nominal position. The first leg/foothold whose three IK solves
+succeed is taken. Nothing assumes a leg count or a robot: nominal offsets, hips and reach come from
+the robot's model and nominal configuration.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+import pinocchio as pin
+
+from legplan.contact.ik import Posture, solve_ik
+from legplan.contact.terms import ContactMode, com_terms
+from legplan.geometry.polygon import support_polygon
+
+log = logging.getLogger(__name__)
+
+
+@dataclass
+class GenerateParams:
+    """Parameters of the step-sequence generator (lengths in m, angles in rad)."""
+
+    com_margin: float = 0.03  # CoM distance to every support edge during planning
+    clearance: float = 0.02  # sphere clearance from the terrain (paper Sec. IV: 2 cm)
+    foot_clearance: float = 0.01  # swing-foot sphere clearance
+    step_radius: float | None = None  # foothold search radius around the nominal position
+    advance: float | None = None  # how far ahead of the body the target pose lies
+    lift_height: float = 0.05  # swing apex above the higher of the two footholds / terrain
+    min_progress: float = 0.02  # a move must bring the foot this much closer along the path
+    foot_separation: float | None = None  # minimum distance between two footholds (4 foot radii)
+    candidates: int = 6  # footholds tried per leg
+    candidate_stride: float = 0.02  # sub-sampling of the foothold mask
+    goal_tolerance: float = 0.05  # body distance to the goal that ends the sequence
+    max_moves: int = 200
+    posture_weights: tuple[float, float, float, float] = (0.3, 1.0, 1.0, 0.05)  # xy, z, rot, joints
+
+
+@dataclass
+class GeneratedSequence:
+    q: np.ndarray  # (k, nq)
+    stance: np.ndarray  # (k, L)
+    footholds: np.ndarray  # (k, L, 3), NaN for swing legs
+    success: bool
+    reason: str
+    moves: list[dict] = field(default_factory=list)
+
+
+class GenerationError(RuntimeError):
+    """The start configuration cannot be built (no foothold under a nominal foot, IK failure)."""
+
+
+@dataclass
+class _RobotGeometry:
+    """Robot-derived nominal geometry in the body frame (from q_nominal)."""
+
+    foot_offsets: np.ndarray  # (L, 3) nominal feet relative to the base, body frame
+    hip_offsets: np.ndarray  # (L, 3)
+    body_height: float  # base height above the mean nominal foot height
+    reach: np.ndarray  # (L,) largest hip-to-foot distance over sampled joint configurations
+
+    @classmethod
+    def of(cls, robot, rng: np.random.Generator) -> _RobotGeometry:
+        model, data = robot.model, robot.model.createData()
+        q = np.asarray(robot.q_nominal, float)
+        pin.framesForwardKinematics(model, data, q)
+        base = pin.XYZQUATToSE3(q[:7])
+        feet = np.array([data.oMf[leg.foot_frame_id].translation for leg in robot.legs])
+        hips = np.array([data.oMi[model.getJointId(leg.joint_names[0])].translation for leg in robot.legs])
+        to_body = base.rotation.T
+        foot_offsets = (feet - base.translation) @ to_body.T
+        hip_offsets = (hips - base.translation) @ to_body.T
+        reach = np.zeros(len(robot.legs))
+        samples = rng.uniform(robot.lower, robot.upper, size=(300, robot.n_joints))
+        Q = np.repeat(q[None], len(samples), axis=0)
+        Q[:, 7:] = samples
+        for qs in Q:
+            pin.framesForwardKinematics(model, data, qs)
+            for i, leg in enumerate(robot.legs):
+                hip = data.oMi[model.getJointId(leg.joint_names[0])].translation
+                reach[i] = max(reach[i], np.linalg.norm(data.oMf[leg.foot_frame_id].translation - hip))
+        return cls(foot_offsets, hip_offsets, float(base.translation[2] - feet[:, 2].mean()), reach)
+
+
+def _rot_z(yaw: float) -> np.ndarray:
+    c, s = math.cos(yaw), math.sin(yaw)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+class StepGenerator:
+    """Plans a step sequence for `robot` on `terrain` (needs `height`, `foothold`, `sdf`)."""
+
+    def __init__(self, robot, terrain, params: GenerateParams = GenerateParams(), seed: int = 0):
+        self.robot = robot
+        self.terrain = terrain
+        self.params = params
+        self.rng = np.random.default_rng(seed)
+        self.geometry = _RobotGeometry.of(robot, self.rng)
+        spread = np.linalg.norm(self.geometry.foot_offsets[:, :2] - self.geometry.hip_offsets[:, :2], axis=1)
+        self.step_radius = params.step_radius or 0.6 * float(spread.mean())
+        self.advance = params.advance or 0.5 * self.step_radius
+        self._cells = self._foothold_cells()
+        foot_radius = np.asarray(robot.spheres.radii)[np.asarray(robot.spheres.is_foot, bool)]
+        self.separation = params.foot_separation or 4.0 * float(foot_radius.max(initial=0.01))
+
+    # --- terrain ------------------------------------------------------------------------------
+    def _foothold_cells(self) -> np.ndarray:
+        """Foothold mask cell centres (m, 3), sub-sampled to `candidate_stride`."""
+        t = self.terrain
+        stride = max(1, int(round(self.params.candidate_stride / t.grid.resolution)))
+        mask = np.zeros_like(t.foothold, dtype=bool)
+        mask[::stride, ::stride] = t.foothold[::stride, ::stride]
+        iy, ix = np.nonzero(mask)
+        xy = np.asarray(t.grid.origin, float) + t.grid.resolution * np.stack([ix, iy], axis=1)
+        return np.column_stack([xy, t.height[iy, ix]])
+
+    def _nearest_foothold(self, point: np.ndarray, radius: float) -> np.ndarray | None:
+        d = np.linalg.norm(self._cells[:, :2] - point[:2], axis=1)
+        i = int(np.argmin(d)) if len(d) else -1
+        return None if i < 0 or d[i] > radius else self._cells[i].copy()
+
+    # --- poses --------------------------------------------------------------------------------
+    def _pose(self, s: float):
+        s = min(max(s, 0.0), 1.0)
+        xy = self.start[:2] + s * (self.goal[:2] - self.start[:2])
+        yaw = self.start[2] + s * _angle_diff(self.goal[2], self.start[2])
+        return xy, yaw
+
+    def _nominal_feet(self, xy, yaw) -> np.ndarray:
+        return np.r_[xy, 0.0] + self.geometry.foot_offsets @ _rot_z(yaw).T
+
+    def _progress(self, xy) -> float:
+        d = self.goal[:2] - self.start[:2]
+        length2 = float(d @ d)
+        return float((np.asarray(xy)[:2] - self.start[:2]) @ d / length2) if length2 > 0 else 1.0
+
+    def _posture(self, footholds: np.ndarray, stance: np.ndarray, yaw: float) -> Posture:
+        """Regularisation toward the body pose the footholds imply: nominal height and yaw."""
+        robot, geo = self.robot, self.geometry
+        R = _rot_z(yaw)
+        implied = footholds - geo.foot_offsets @ R.T
+        ref = np.array(robot.to_vector(robot.q_nominal[None])[0], float)
+        ref[:2] = implied[:, :2].mean(axis=0)
+        ref[2] = footholds[stance, 2].mean() + geo.body_height
+        ref[3:6] = pin.log3(R)
+        w_xy, w_z, w_rot, w_joint = self.params.posture_weights
+        weights = np.full(len(ref), w_joint)
+        weights[:2], weights[2], weights[3:6] = w_xy, w_z, w_rot
+        return Posture(ref, weights)
+
+    def _mode(self, stance, footholds, support) -> ContactMode:
+        p = self.params
+        return ContactMode(stance=stance, footholds=footholds, support=support, com_margin=p.com_margin,
+                           clearance=p.clearance, foot_clearance=p.foot_clearance)
+
+    # --- planning -----------------------------------------------------------------------------
+    def start_configuration(self):
+        """All legs on the footholds nearest their nominal positions at the start pose."""
+        xy, yaw = self._pose(0.0)
+        nominal = self._nominal_feet(xy, yaw)
+        footholds = np.empty_like(nominal)
+        for i, point in enumerate(nominal):
+            cell = self._nearest_foothold(point, self.step_radius)
+            if cell is None:
+                raise GenerationError(f"no foothold within {self.step_radius:.3f} m of the nominal position "
+                                      f"of leg {self.robot.legs[i].name} at the start pose")
+            footholds[i] = cell
+        stance = np.ones(len(nominal), bool)
+        posture = self._posture(footholds, stance, yaw)
+        result = solve_ik(self.robot, self.terrain.sdf, self._mode(stance, footholds, stance),
+                          posture.reference, posture=posture)
+        if not result.success:
+            raise GenerationError(f"IK failed for the start configuration: {result.reason}")
+        return result.x, stance, footholds
+
+    def plan(self, start, goal, progress=None) -> GeneratedSequence:
+        """Plan from start (x, y, yaw) to goal (x, y, yaw)."""
+        self.start = np.asarray(start, float)
+        self.goal = np.asarray(goal, float)
+        x, stance, footholds = self.start_configuration()
+        configs = [(x, stance.copy(), footholds.copy())]
+        moves: list[dict] = []
+        reason = f"reached max_moves = {self.params.max_moves} before the goal"
+        for move in range(self.params.max_moves):
+            if self._at_goal(x, stance, footholds):
+                reason = ""
+                break
+            outcome = self._move(x, stance, footholds, move)
+            if isinstance(outcome, str):
+                reason = outcome
+                break
+            new_configs, action, leg, cell = outcome
+            configs.extend(new_configs)
+            x, stance, footholds = (np.array(v, copy=True) for v in new_configs[-1])
+            moves.append({"move": move, "action": action, "leg": self.robot.legs[leg].name,
+                          "foothold": None if cell is None else cell.tolist(),
+                          "configurations": len(new_configs)})
+            log.info("move %d: %s leg %s (%d configurations)", move, action, self.robot.legs[leg].name,
+                     len(configs))
+            if progress is not None:
+                progress(min(max(self._progress(x[:2]), 0.0), 1.0), 1.0,
+                         f"move {move}: {action} {self.robot.legs[leg].name}")
+        X = np.array([c[0] for c in configs])
+        st = np.array([c[1] for c in configs])
+        fh = np.array([c[2] for c in configs])
+        fh[~st] = np.nan
+        return GeneratedSequence(self.robot.from_vector(X), st, fh, success=not reason, reason=reason,
+                                 moves=moves)
+
+    def _at_goal(self, x, stance, footholds) -> bool:
+        """Body within `goal_tolerance` of the goal, all legs down, none trailing its goal position."""
+        if not stance.all() or np.linalg.norm(x[:2] - self.goal[:2]) > self.params.goal_tolerance:
+            return False
+        xy, yaw = self._pose(1.0)
+        return bool(np.all(self._lags(footholds, xy, yaw) < self.params.min_progress + self.step_radius / 2))
+
+    def _lags(self, footholds, xy, yaw) -> np.ndarray:
+        return (self._nominal_feet(xy, yaw)[:, :2] - footholds[:, :2]) @ self._direction
+
+    @property
+    def _direction(self) -> np.ndarray:
+        d = self.goal[:2] - self.start[:2]
+        return d / max(float(np.linalg.norm(d)), 1e-12)
+
+    @property
+    def _length(self) -> float:
+        return float(np.linalg.norm(self.goal[:2] - self.start[:2]))
+
+    def _move(self, x, stance, footholds, move: int):
+        """One action: land a lifted leg, step a stance leg, or (when nothing else works) lift a
+        trailing leg and keep it up. Returns (configurations, action, leg, foothold) or a reason."""
+        p, names = self.params, [leg.name for leg in self.robot.legs]
+        s_target = min(1.0, self._progress(x[:2]) + self.advance / max(self._length, 1e-9))
+        xy, yaw = self._pose(s_target)
+        nominal = self._nominal_feet(xy, yaw)
+        lags = self._lags(footholds, xy, yaw)
+        failures = []
+        for leg in np.flatnonzero(~stance):  # land lifted legs first: more support
+            for cell in self._candidates(leg, stance, footholds, nominal[leg], xy, yaw):
+                configs, why = self._land(x, stance, footholds, leg, cell, yaw)
+                if configs is not None:
+                    return configs, "land", leg, cell
+                failures.append(f"land {names[leg]}: {why}")
+        order = [leg for leg in np.argsort(-lags, kind="stable") if stance[leg]]
+        for leg in order:
+            if lags[leg] < p.min_progress:
+                continue
+            support = stance.copy()
+            support[leg] = False
+            if not self._support_ok(footholds[support]):
+                failures.append(f"{names[leg]}: the other stance legs cannot hold the CoM")
+                continue
+            candidates = self._candidates(leg, stance, footholds, nominal[leg], xy, yaw)
+            if not len(candidates):
+                failures.append(f"no reachable foothold for leg {names[leg]} at move {move}")
+            for cell in candidates:
+                configs, why = self._step(x, stance, footholds, leg, cell, yaw)
+                if configs is not None:
+                    return configs, "step", leg, cell
+                failures.append(f"step {names[leg]} to {np.round(cell, 3).tolist()}: {why}")
+        for leg in order:  # nothing moved: lift the most trailing leg that can be spared
+            support = stance.copy()
+            support[leg] = False
+            if lags[leg] < p.min_progress or not self._support_ok(footholds[support]):
+                continue
+            configs, why = self._park(x, stance, footholds, leg, yaw)
+            if configs is not None:
+                return configs, "lift", leg, None
+            failures.append(f"lift {names[leg]}: {why}")
+        return f"move {move}: no leg can move (" + "; ".join(failures[:8]) + ")"
+
+    def _support_ok(self, points) -> bool:
+        if len(points) < 3:
+            return False
+        try:
+            poly = support_polygon(points)
+        except ValueError:
+            return False
+        return bool(poly.signed_distance(poly.vertices.mean(axis=0)[None])[0] >= self.params.com_margin)
+
+    def _candidates(self, leg, stance, footholds, nominal, xy, yaw) -> np.ndarray:
+        """Foothold cells for `leg`: near its nominal position, ahead of its last foothold, apart
+        from the other stance feet, within reach of the hip; nearest to nominal first."""
+        p, geo = self.params, self.geometry
+        cells = self._cells
+        near = np.linalg.norm(cells[:, :2] - nominal[:2], axis=1) <= self.step_radius
+        gain = (cells[:, :2] - footholds[leg, :2]) @ self._direction >= p.min_progress
+        others = footholds[stance & (np.arange(len(stance)) != leg)]
+        apart = np.all(np.linalg.norm(cells[:, None, :2] - others[None, :, :2], axis=2) >= self.separation,
+                       axis=1)
+        hip = np.r_[xy, 0.0] + geo.hip_offsets[leg] @ _rot_z(yaw).T
+        horizontal = np.linalg.norm(cells[:, :2] - hip[:2], axis=1)
+        vertical = geo.body_height + geo.hip_offsets[leg, 2]
+        ok = near & gain & apart & (np.hypot(horizontal, vertical) <= 0.95 * geo.reach[leg])
+        chosen = cells[ok]
+        order = np.argsort(np.linalg.norm(chosen[:, :2] - nominal[:2], axis=1), kind="stable")
+        return chosen[order[:p.candidates]]
+
+    def _shift(self, x, stance, footholds, support, lifted_targets, yaw):
+        """Body shift (stance feet fixed) putting the CoM inside the `support` polygon, if needed."""
+        mode = self._mode(stance, footholds, support)
+        if com_terms(self.robot, x[None], mode)[0].max() <= 0:
+            return x, None, ""
+        res = self._solve(mode, x, self._posture(footholds, stance, yaw), lifted_targets)
+        if not res.success:
+            return None, None, f"body shift IK failed ({res.reason})"
+        return res.x, (res.x, stance.copy(), footholds.copy()), ""
+
+    def _solve(self, mode, x, posture, soft=None, targets=None):
+        return solve_ik(self.robot, self.terrain.sdf, mode, x, posture=posture, targets=targets,
+                        soft_targets=soft)
+
+    def _raised(self, stance, footholds, yaw) -> dict[int, np.ndarray]:
+        """Soft targets of lifted legs: their nominal position `lift_height` above the stance feet."""
+        ref = self._posture(footholds, stance, yaw).reference
+        base = np.r_[ref[:2], ref[2] - self.geometry.body_height]
+        feet = base + self.geometry.foot_offsets @ _rot_z(yaw).T
+        feet[:, 2] += self.params.lift_height
+        return {int(leg): feet[leg] for leg in np.flatnonzero(~stance)}
+
+    def _step(self, x, stance, footholds, leg, cell, yaw):
+        """Shift, lift and touch-down configurations moving `leg` to `cell`, or (None, reason)."""
+        support = stance.copy()
+        support[leg] = False
+        configs = []
+        x, shift, why = self._shift(x, stance, footholds, support, self._raised(stance, footholds, yaw), yaw)
+        if x is None:
+            return None, why
+        if shift is not None:
+            configs.append(shift)
+        new = footholds.copy()
+        new[leg] = cell
+        apex = 0.5 * (footholds[leg] + cell)
+        apex[2] = max(footholds[leg, 2], cell[2], self._max_height_between(footholds[leg], cell)) \
+            + self.params.lift_height
+        res = self._solve(self._mode(support, footholds, support), x, self._posture(new, support, yaw),
+                          self._raised(support, new, yaw), {int(leg): apex})
+        if not res.success:
+            return None, f"lift IK failed ({res.reason})"
+        configs.append((res.x, support.copy(), footholds.copy()))
+        res = self._solve(self._mode(stance, new, support), res.x, self._posture(new, stance, yaw),
+                          self._raised(stance, new, yaw))
+        if not res.success:
+            return None, f"touch-down IK failed ({res.reason})"
+        configs.append((res.x, stance.copy(), new))
+        return configs, ""
+
+    def _land(self, x, stance, footholds, leg, cell, yaw):
+        """Touch-down of a lifted leg on `cell` (the support of the motion is the current stance)."""
+        after = stance.copy()
+        after[leg] = True
+        new = footholds.copy()
+        new[leg] = cell
+        res = self._solve(self._mode(after, new, stance), x, self._posture(new, after, yaw),
+                          self._raised(after, new, yaw))
+        if not res.success:
+            return None, f"touch-down IK failed ({res.reason})"
+        return [(res.x, after, new)], ""
+
+    def _park(self, x, stance, footholds, leg, yaw):
+        """Shift, then lift `leg` above its foothold and keep it up (no foothold within reach)."""
+        support = stance.copy()
+        support[leg] = False
+        configs = []
+        x, shift, why = self._shift(x, stance, footholds, support, self._raised(stance, footholds, yaw), yaw)
+        if x is None:
+            return None, why
+        if shift is not None:
+            configs.append(shift)
+        target = footholds[leg] + [0.0, 0.0, self.params.lift_height]
+        res = self._solve(self._mode(support, footholds, support), x, self._posture(footholds, support, yaw),
+                          self._raised(support, footholds, yaw), {int(leg): target})
+        if not res.success:
+            return None, f"lift IK failed ({res.reason})"
+        configs.append((res.x, support.copy(), footholds.copy()))
+        return configs, ""
+
+    def _max_height_between(self, a, b, samples: int = 20) -> float:
+        t = np.linspace(0.0, 1.0, samples)[:, None]
+        pts = a[None, :2] * (1 - t) + b[None, :2] * t
+        return float(np.max(self.terrain.height_at(pts, method="nearest")))
+
+
+def _angle_diff(a: float, b: float) -> float:
+    return (a - b + math.pi) % (2 * math.pi) - math.pi
+
+
+def params_dict(params: GenerateParams) -> dict:
+    return asdict(params)
+
+
+def generate_steps(robot, terrain, start, goal, *, params: GenerateParams = GenerateParams(), seed: int = 0,
+                   validator, progress=None):
+    """Plan, then check every configuration with the independent `validator`.
+
+    Returns (StepSequence, GeneratedSequence, ConfigChecks); raises `GenerationError` when not even
+    the start configuration exists.
+    """
+    from legplan.stepseq.robotinfo import robot_sha256
+    from legplan.stepseq.sequence import StepSequence
+
+    generated = StepGenerator(robot, terrain, params, seed).plan(start, goal, progress)
+    seq = StepSequence(q=generated.q, stance=generated.stance, footholds=generated.footholds,
+                       robot=robot.name, robot_sha256=robot_sha256(robot),
+                       leg_names=[leg.name for leg in robot.legs], joint_names=robot.joint_names)
+    checks = validator.check(seq.q, seq.stance, seq.footholds)
+    return seq, generated, checks
