@@ -38,7 +38,8 @@ from legplan.errors import SpecError
 
 FOOT_HEIGHT_TOLERANCE = 1e-3  # m, |z| of every foot in the nominal stance
 RADIUS_TOLERANCE = 1e-3       # m, stated navigation radii vs the footprint
-LIMIT_NAMES = ("v_x_max", "v_x_min", "v_y_max", "omega_max", "a_x_max", "a_y_max", "alpha_max")
+LIMIT_UNITS = {"v_x_max": "m/s", "v_x_min": "m/s", "v_y_max": "m/s", "omega_max": "rad/s",
+               "a_x_max": "m/s^2", "a_y_max": "m/s^2", "alpha_max": "rad/s^2"}  # Table I
 
 
 @dataclass(frozen=True)
@@ -369,11 +370,11 @@ def _parse_navigation(reader: _Reader, data: dict) -> Navigation | None:
             if abs(stated - computed) > RADIUS_TOLERANCE:
                 reader.fail(f"navigation.{key}", f"is {stated} but the footprint gives {computed:.4f}")
     limits = reader.get(nav, "limits", "navigation.limits", dict)
-    unknown = sorted(set(limits) - set(LIMIT_NAMES))
+    unknown = sorted(set(limits) - set(LIMIT_UNITS))
     if unknown:
-        reader.fail(f"navigation.limits.{unknown[0]}", f"is unknown (expected {', '.join(LIMIT_NAMES)})")
+        reader.fail(f"navigation.limits.{unknown[0]}", f"is unknown (expected {', '.join(LIMIT_UNITS)})")
     values = {name: reader.positive(reader.get(limits, name, f"navigation.limits.{name}"),
-                                    f"navigation.limits.{name}") for name in LIMIT_NAMES}
+                                    f"navigation.limits.{name}") for name in LIMIT_UNITS}
     return Navigation(footprint=_frozen(footprint), inscribed_radius=inscribed,
                       circumscribed_radius=circumscribed, limits=KinodynamicLimits(**values))
 

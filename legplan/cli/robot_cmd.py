@@ -1,0 +1,118 @@
+"""`legplan robot list|show`: the robots in the robots folder and what their model holds."""
+
+from __future__ import annotations
+
+import json
+
+import click
+
+from legplan.cli.options import json_opt, overwrite_opt, verbosity_opts
+
+
+@click.group("robot")
+@verbosity_opts
+def command():
+    """Robot models: robots/<name>/robot.urdf + robot.yaml (folder overridable by LEGPLAN_ROBOTS)."""
+
+
+@command.command("list")
+@json_opt
+@verbosity_opts
+def list_command(as_json):
+    """List the robots of the robots folder with their DOF and legs."""
+    from legplan.robots import list_robots, load_robot, robots_dir
+
+    rows = []
+    for name in list_robots():
+        robot = load_robot(name)
+        rows.append({"name": name, "dof": robot.nv, "nq": robot.nq, "legs": robot.n_legs,
+                     "spheres": len(robot.spheres), "mass": robot.mass,
+                     "navigation": robot.navigation is not None, "description": robot.description})
+    if as_json:
+        click.echo(json.dumps(rows, indent=2))
+        return
+    click.echo(f"robots in {robots_dir()}:")
+    for row in rows:
+        nav = ", navigation" if row["navigation"] else ""
+        click.echo(f"  {row['name']:<14} {row['dof']:>3} DOF  {row['legs']} legs  {row['spheres']:>3} spheres  "
+                   f"{row['mass']:.2f} kg{nav}")
+
+
+def robot_summary(robot) -> dict:
+    """Everything `robot show` prints, as JSON-ready data."""
+    spheres = robot.spheres
+    summary = {
+        "name": robot.name, "description": robot.description, "yaml": str(robot.yaml_path),
+        "urdf": str(robot.urdf_path), "nq": robot.nq, "nv": robot.nv, "n_joints": robot.n_joints,
+        "mass": robot.mass, "base_height": float(robot.q_nominal[2]),
+        "legs": [{"name": leg.name, "joints": list(leg.joint_names), "foot_frame": leg.foot_frame}
+                 for leg in robot.legs],
+        "joints": [{"name": name, "lower": float(lo), "upper": float(hi), "nominal": float(q)}
+                   for name, lo, hi, q in zip(robot.joint_names, robot.lower, robot.upper,
+                                              robot.q_nominal[7:])],
+        "spheres": [{"frame": spheres.frame_names[k], "offset": spheres.offsets[k].tolist(),
+                     "radius": float(spheres.radii[k]),
+                     "leg": robot.legs[spheres.leg_index[k]].name if spheres.leg_index[k] >= 0 else None,
+                     "foot": bool(spheres.is_foot[k])} for k in range(len(spheres))],
+        "navigation": None,
+    }
+    nav = robot.navigation
+    if nav is not None:
+        summary["navigation"] = {"footprint": nav.footprint.tolist(),
+                                 "inscribed_radius": nav.inscribed_radius,
+                                 "circumscribed_radius": nav.circumscribed_radius,
+                                 "limits": vars(nav.limits)}
+    return summary
+
+
+@command.command("show")
+@click.argument("robot")
+@click.option("--png", type=click.Path(dir_okay=False), help="Also draw the nominal stance to this PNG.")
+@overwrite_opt
+@json_opt
+@verbosity_opts
+def show_command(robot, png, overwrite, as_json):
+    """Show ROBOT (a name or a path to a robot folder / robot.yaml): DOF, legs, limits, spheres."""
+    from legplan.artefacts import check_output
+    from legplan.robots import load_robot
+    from legplan.robots.spec import LIMIT_UNITS
+
+    if png:
+        check_output(png, overwrite)
+    model = load_robot(robot)
+    info = robot_summary(model)
+    if png:
+        from legplan.robots.draw import draw_robot
+
+        draw_robot(model, model.q_nominal, png)
+    if as_json:
+        click.echo(json.dumps(info, indent=2))
+        return
+    click.echo(f"{info['name']}: {info['nv']} DOF (nq {info['nq']}), {len(info['legs'])} legs, "
+               f"{info['n_joints']} joints, {len(info['spheres'])} spheres, {info['mass']:.3f} kg")
+    if info["description"]:
+        click.echo(f"  {info['description']}")
+    click.echo(f"  spec: {info['yaml']}\n  urdf: {info['urdf']}")
+    click.echo(f"  nominal base height: {info['base_height']:.4f} m")
+    click.echo("  legs:")
+    for leg in info["legs"]:
+        click.echo(f"    {leg['name']}: {' -> '.join(leg['joints'])} -> {leg['foot_frame']}")
+    click.echo("  joint limits [rad] (nominal):")
+    for joint in info["joints"]:
+        click.echo(f"    {joint['name']:<16} [{joint['lower']:+.3f}, {joint['upper']:+.3f}]  ({joint['nominal']:+.3f})")
+    click.echo("  collision spheres:")
+    for sphere in info["spheres"]:
+        owner = "body" if sphere["leg"] is None else f"leg {sphere['leg']}"
+        foot = ", foot" if sphere["foot"] else ""
+        offset = ", ".join(f"{v:+.4f}" for v in sphere["offset"])
+        click.echo(f"    {sphere['frame']:<16} r {sphere['radius']:.4f} m at ({offset})  [{owner}{foot}]")
+    nav = info["navigation"]
+    if nav is None:
+        click.echo("  navigation: none")
+    else:
+        click.echo(f"  navigation: footprint {nav['footprint']} m, inscribed radius "
+                   f"{nav['inscribed_radius']:.4f} m, circumscribed radius {nav['circumscribed_radius']:.4f} m")
+        for name, value in nav["limits"].items():
+            click.echo(f"    {name:<10} {value:g} {LIMIT_UNITS[name]}")
+    if png:
+        click.echo(f"  stance picture: {png}")

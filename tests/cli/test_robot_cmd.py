@@ -1,0 +1,55 @@
+"""`legplan robot list|show`."""
+
+import json
+import sys
+from pathlib import Path
+
+from click.testing import CliRunner
+
+from legplan.cli.main import cli
+
+sys.path.insert(0, str(Path(__file__).parents[1] / "robots"))
+from robot_helpers import write_toy_robot  # noqa: E402
+
+
+def run(*args, env=None):
+    return CliRunner().invoke(cli, [str(a) for a in args], env=env)
+
+
+def test_robot_list():
+    result = run("robot", "list")
+    assert result.exit_code == 0, result.output
+    assert "scarab2" in result.output and "24 DOF" in result.output and "jueying_mini" in result.output
+    rows = {row["name"]: row for row in json.loads(run("robot", "list", "--json").output)}
+    assert rows["scarab2"]["legs"] == 6 and rows["jueying_mini"]["navigation"] is True
+
+
+def test_robot_list_uses_env_folder(tmp_path):
+    write_toy_robot(tmp_path / "toy")
+    result = run("robot", "list", "--json", env={"LEGPLAN_ROBOTS": str(tmp_path)})
+    assert result.exit_code == 0, result.output
+    assert [row["name"] for row in json.loads(result.output)] == ["toy"]
+
+
+def test_robot_show_text_json_and_png(tmp_path):
+    png = tmp_path / "stance.png"
+    result = run("robot", "show", "jueying_mini", "--png", png)
+    assert result.exit_code == 0, result.output
+    assert "18 DOF" in result.output and "alpha_max  0.52 rad/s^2" in result.output
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert run("robot", "show", "jueying_mini", "--png", png).exit_code == 2       # exists
+    info = json.loads(run("robot", "show", "scarab2", "--json").output)
+    assert (info["nv"], info["nq"], len(info["legs"]), len(info["joints"])) == (24, 25, 6, 18)
+    assert info["navigation"] is None and len(info["spheres"]) == 28
+
+
+def test_robot_show_by_path_and_errors(tmp_path):
+    folder = tmp_path / "toy"
+    write_toy_robot(folder)
+    assert "toy: 14 DOF" in run("robot", "show", folder).output
+    result = run("robot", "show", "no_such_robot")
+    assert result.exit_code == 2 and "unknown robot" in result.stderr
+    (folder / "robot.yaml").write_text("name: toy\n")
+    result = run("robot", "show", folder / "robot.yaml")
+    assert result.exit_code == 2 and "field 'legs' is missing" in result.stderr
+    assert len(result.stderr.strip().splitlines()) == 1
