@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import os
+
 import click
 
 from legplan.cli.options import input_artefact, jobs_opt, output_opt, overwrite_opt, verbosity_opts
@@ -54,7 +56,12 @@ def _parse_range(text: str | None, pairs: int, steps_path: str) -> range:
 @verbosity_opts
 @click.pass_context
 def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, step_range, params):
-    """Plan every consecutive pair of STEPS on MAP; write motion.h5 (exit 1 if any step failed)."""
+    """Plan every consecutive pair of STEPS on MAP; write motion.h5 (exit 1 if any step failed).
+
+    Each worker process plans on one core (single-threaded BLAS); use --jobs for parallelism.
+    """
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")  # before numpy loads: BLAS threads only contend with --jobs
     from legplan.artefacts import check_output, open_artefact
     from legplan.cli.console import progress_bar, stderr
     from legplan.stepplan.batch import plan_sequence, write_motion

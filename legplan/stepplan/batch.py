@@ -68,7 +68,7 @@ class StepWorker:
                       lm_iterations=np.array([d.iterations for d in plan.degrees]),
                       degree_norms=np.array([d.norm for d in plan.degrees]))
         check = dense_check(self.robot, self.validator, plan.control_points, stance, record["footholds"],
-                            self.params.dense_samples)
+                            self.params.dense_samples, self.params.relax_radius)
         record["dense"] = check.as_dict()
         return record
 

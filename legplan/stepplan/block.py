@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 
 from legplan.contact.terms import (ContactMode, collision_terms, com_terms, joint_limit_terms,
-                                   stance_foot_terms)
+                                   sphere_margins, stance_foot_terms)
 from legplan.geometry.bezier import bernstein_matrix
 from legplan.solve.curve import SampledCurveBlock
 from legplan.solve.inequality import hinge
@@ -39,10 +39,12 @@ class SampleConstraints:
     Rows per configuration, in order: stance-foot equality f − ξ (eq. (11a), 3 per stance leg);
     slack bound max(‖ξ_l‖ − ε, 0) per stance leg (eq. (11b)); CoM inside the support polygon, one
     hinge per edge; sphere clearance vs the SDF, one hinge per checked sphere; joint limits, two
-    hinges per joint. Inequalities come from `legplan.contact.terms` (g ≤ 0) through eq. (8b).
+    hinges per joint. Inequalities come from `legplan.contact.terms` (g ≤ 0) through eq. (8b); the
+    collision rows of swing-foot spheres get a margin relaxed near the swing footholds.
     """
 
-    def __init__(self, robot, sdf, mode: ContactMode, epsilon: float):
+    def __init__(self, robot, sdf, mode: ContactMode, epsilon: float, *, swing_ends=None,
+                 relax_radius: float = 0.05):
         self.robot = robot
         self.sdf = sdf
         self.mode = mode
@@ -50,9 +52,50 @@ class SampleConstraints:
         self.legs = np.flatnonzero(mode.stance)
         self.slack_size = 3 * len(self.legs)
         self.nx = robot.nv
+        self._relaxation(swing_ends, relax_radius)
         probe = self.evaluate(np.atleast_2d(robot.to_vector(robot.q_nominal[None])),
                               np.zeros((1, self.slack_size)), False)[0]
         self.size = probe.shape[1]
+
+    def _relaxation(self, swing_ends, radius: float) -> None:
+        """Collision rows of swing-foot spheres whose margin is relaxed near the swing footholds.
+
+        `swing_ends` (2, n_spheres, 3): sphere centres at q_start and q_end. The required clearance
+        of a swing-foot sphere at centre c ramps linearly from −(radius + ε) (the tip may touch the
+        foothold, within the foot tolerance ε) at either end position to `mode.clearance` at distance
+        ≥ `relax_radius` (Sec. IV: "2 cm collision margin locally relaxed around the footholds").
+        """
+        margins = sphere_margins(self.robot, self.mode)
+        checked = np.flatnonzero(~np.isnan(margins))
+        spheres = self.robot.spheres
+        legs = np.asarray(spheres.leg_index)
+        swing_foot = np.asarray(spheres.is_foot, bool) & (legs >= 0)
+        swing_foot &= ~np.where(legs >= 0, self.mode.stance[np.maximum(legs, 0)], False)
+        self.relaxed_spheres = np.flatnonzero(swing_foot) if swing_ends is not None else np.zeros(0, int)
+        self.relaxed_rows = np.searchsorted(checked, self.relaxed_spheres)
+        self.relax_radius = float(radius)
+        if self.relaxed_spheres.size:
+            self.relax_ends = np.asarray(swing_ends, float)[:, self.relaxed_spheres]
+            r = np.asarray(spheres.radii, float)[self.relaxed_spheres]
+            self.relax_floor = -(r + self.epsilon) - self.mode.foot_clearance  # relative to the term's margin
+            self.relax_span = self.mode.clearance + r + self.epsilon
+
+    def _relaxed_margin(self, X, Q, jacobians: bool):
+        """Margin change (n, k) of the relaxed rows and its Jacobian (n, k, nx) (see `_relaxation`)."""
+        c = self.robot.sphere_centres(Q)[:, self.relaxed_spheres]
+        diff = c[None] - self.relax_ends[:, None]                      # (2, n, k, 3)
+        dist = np.linalg.norm(diff, axis=-1)
+        nearest = np.argmin(dist, axis=0)                                # (n, k)
+        d = np.take_along_axis(dist, nearest[None], 0)[0]
+        ramp = np.clip(d / self.relax_radius, 0.0, 1.0)
+        delta = self.relax_floor + self.relax_span * ramp
+        if not jacobians:
+            return delta, None
+        unit = np.take_along_axis(diff, nearest[None, ..., None], 0)[0] / np.maximum(d, 1e-12)[..., None]
+        slope = self.relax_span / self.relax_radius * ((d > 0) & (d < self.relax_radius))
+        jac_c = np.einsum("nkav,nvx->nkax", self.robot.sphere_jacobians(Q)[:, self.relaxed_spheres],
+                          self.robot.tangent_map(X))
+        return delta, np.einsum("nk,nka,nkax->nkx", slope, unit, jac_c)
 
     def evaluate(self, X: np.ndarray, Xi: np.ndarray, jacobians: bool):
         """r (n, m) and, with `jacobians`, G (n, m, nx) and S (n, m, s)."""
@@ -61,13 +104,19 @@ class SampleConstraints:
         n, nx = X.shape
         k = len(self.legs)
         Q = robot.from_vector(X)
+        robot.kinematics(Q, jacobians=True)  # one batch pass; the terms below (all with Jacobians) hit its cache
         f, jf = stance_foot_terms(robot, X, mode, Q)
         f = f - Xi
         xi = Xi.reshape(n, k, 3)
         norms = np.linalg.norm(xi, axis=2)
         slack, _ = _hinge(norms - self.epsilon, None)
-        ineq = [com_terms(robot, X, mode, Q), collision_terms(robot, X, mode, self.sdf, Q),
-                joint_limit_terms(robot, X)]
+        collision, jc = collision_terms(robot, X, mode, self.sdf, Q)
+        if self.relaxed_spheres.size:
+            delta, jd = self._relaxed_margin(X, Q, jacobians)
+            collision[:, self.relaxed_rows] += delta
+            if jacobians:
+                jc[:, self.relaxed_rows] += jd
+        ineq = [com_terms(robot, X, mode, Q), (collision, jc), joint_limit_terms(robot, X)]
         hinged = [_hinge(g, j if jacobians else None) for g, j in ineq]
         r = np.concatenate([f, slack] + [h for h, _ in hinged], axis=1)
         if not jacobians:

@@ -22,7 +22,7 @@ class DenseCheck:
 
     foot_slip: float  # largest stance-foot distance from its foothold
     com_margin: float  # smallest signed CoM distance to the support-polygon edges (< 0: outside)
-    clearance: float  # smallest sphere-terrain clearance, stance-foot spheres excluded (< 0: collision)
+    clearance: float  # smallest sphere-terrain clearance (< 0: collision); see `dense_check`
     joint_excess: float  # largest excursion beyond a joint limit (0 inside)
     length: float  # ∫‖π'‖ dt
     roughness2: float  # ∫‖π''‖ dt
@@ -36,17 +36,35 @@ DENSE_UNITS = {"foot_slip": "m", "com_margin": "m", "clearance": "m", "joint_exc
                "length": "", "roughness2": "", "roughness3": ""}
 
 
-def dense_check(robot, validator, control_points, stance, footholds, samples: int = 1000) -> DenseCheck:
-    """Check the Bézier path of `control_points` (x-space) at `samples` uniform parameters."""
+def dense_check(robot, validator, control_points, stance, footholds, samples: int = 1000,
+                relax_radius: float = 0.05) -> DenseCheck:
+    """Check the Bézier path of `control_points` (x-space) at `samples` uniform parameters.
+
+    Clearance is the FCL surface distance of each sphere centre minus its radius, over all spheres
+    except stance feet and except swing-foot spheres within `relax_radius` of their lift-off or
+    touch-down position (where the planner lets the foot reach the terrain).
+    """
     t = np.linspace(0.0, 1.0, samples)
     Q = robot.from_vector(evaluate(control_points, t))
     n = len(Q)
-    stance = np.broadcast_to(np.asarray(stance, bool), (n, len(stance)))
-    footholds = np.broadcast_to(np.asarray(footholds, float), (n,) + np.shape(footholds))
-    checks = validator.check(Q, stance, footholds)
+    stance = np.asarray(stance, bool)
+    checks = validator.check(Q, np.broadcast_to(stance, (n, len(stance))),
+                             np.broadcast_to(np.asarray(footholds, float), (n,) + np.shape(footholds)))
     slip = np.nan_to_num(checks.foot_slip, nan=0.0)
+    _, centres, _ = validator.kinematics(Q)
+    spheres = robot.spheres
+    legs = np.asarray(spheres.leg_index)
+    on_stance_leg = np.where(legs >= 0, stance[np.maximum(legs, 0)], False)
+    is_foot = np.asarray(spheres.is_foot, bool)
+    checked = np.broadcast_to(~(is_foot & on_stance_leg), (n, len(legs))).copy()
+    swing_feet = np.flatnonzero(is_foot & ~on_stance_leg & (legs >= 0))
+    if swing_feet.size:
+        ends = centres[[0, -1]][:, swing_feet]
+        near = np.linalg.norm(centres[:, None, swing_feet] - ends[None], axis=-1).min(axis=1) < relax_radius
+        checked[:, swing_feet] &= ~near
+    gap = validator.surface.signed_distance(centres[checked]) - np.asarray(spheres.radii)[np.nonzero(checked)[1]]
     quality = derivative_norm_integrals(control_points, orders=(1, 2, 3))
     return DenseCheck(foot_slip=float(slip.max(initial=0.0)), com_margin=float(checks.com_margin.min()),
-                      clearance=float(checks.clearance.min()),
+                      clearance=float(gap.min(initial=np.inf)),
                       joint_excess=float(checks.joint_excess.max(initial=0.0)),
                       length=float(quality[0]), roughness2=float(quality[1]), roughness3=float(quality[2]))

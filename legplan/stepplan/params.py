@@ -6,9 +6,10 @@ Extras (not in Table I, chosen here):
 * `eps_num` (ε_num of Algorithm 1): SolveLM stops, and a degree is accepted, once ‖F̃_ε,N‖ ≤ ε_num
   (eq. (12)). 1e-6: every hinge row is then ≤ 1 µm (m or rad), every stance foot within ε + 2 µm
   of its foothold at the samples.
-* `clearance` = 2 cm (paper Sec. IV collision margin), `foot_clearance` = 0 for swing-foot spheres
-  (the relaxation near footholds, so the foot may land), `com_margin` = 0 (CoM inside the support
-  polygon, Sec. II-B item 2).
+* `clearance` = 2 cm (paper Sec. IV collision margin) for every sphere except stance feet; for
+  swing-foot spheres it is relaxed within `relax_radius` = 5 cm of the swing leg's lift-off and
+  touch-down positions, down to "the tip may touch, within ε" (`SampleConstraints`).
+  `com_margin` = 0 (CoM inside the support polygon, Sec. II-B item 2).
 * `dense_samples`: parameters t at which the finished path is re-checked independently (≥ 1000).
 * `linear_solver`, `assembly`: passed to `legplan.solve.LMParams` (`assembly="blocks"` uses the
   structured JᵀJ of the Bézier block; "stacked" forms JᵀJ from the sparse Jacobian — the general path).
@@ -33,7 +34,7 @@ class StepPlanParams:
     epsilon: float = 1e-3  # ε of eq. (11b), m: allowed stance-foot deviation per foot
     eps_num: float = 1e-6  # ε_num of Algorithm 1
     clearance: float = 0.02  # m, sphere-terrain margin
-    foot_clearance: float = 0.0  # m, margin of swing-foot spheres
+    relax_radius: float = 0.05  # m, swing-foot margin relaxation around its footholds
     com_margin: float = 0.0  # m, CoM distance to every support-polygon edge
     dense_samples: int = 1000  # independent re-check of the finished path
     linear_solver: str = "cholmod"
@@ -42,7 +43,7 @@ class StepPlanParams:
     def __post_init__(self):
         checks = [("samples", self.samples >= 2), ("max_degree", self.max_degree >= 1),
                   ("max_iterations", self.max_iterations >= 0), ("epsilon", self.epsilon > 0),
-                  ("eps_num", self.eps_num > 0), ("dense_samples", self.dense_samples >= 2),
+                  ("eps_num", self.eps_num > 0), ("relax_radius", self.relax_radius > 0), ("dense_samples", self.dense_samples >= 2),
                   ("lambda_init", self.lambda_init > 0), ("lambda_drop", 0 < self.lambda_drop < 1),
                   ("lambda_boost", self.lambda_boost > 1)]
         for name, ok in checks:

@@ -80,7 +80,7 @@ class StepPlan:
 
 def contact_mode(stance, footholds, params: StepPlanParams) -> ContactMode:
     return ContactMode(stance=stance, footholds=footholds, com_margin=params.com_margin,
-                       clearance=params.clearance, foot_clearance=params.foot_clearance)
+                       clearance=params.clearance, foot_clearance=0.0)
 
 
 def plan_step(robot, sdf, q_start, q_end, stance, footholds, params: StepPlanParams = StepPlanParams()) -> StepPlan:
@@ -91,7 +91,9 @@ def plan_step(robot, sdf, q_start, q_end, stance, footholds, params: StepPlanPar
     """
     t_start = time.perf_counter()
     x0, x1 = path_vectors(robot, np.asarray(q_start, float), np.asarray(q_end, float))
-    constraints = SampleConstraints(robot, sdf, contact_mode(stance, footholds, params), params.epsilon)
+    ends = robot.sphere_centres(robot.from_vector(np.stack([x0, x1])))
+    constraints = SampleConstraints(robot, sdf, contact_mode(stance, footholds, params), params.epsilon,
+                                    swing_ends=ends, relax_radius=params.relax_radius)
     t = uniform_parameters(params.samples + 1)[1:-1]  # interior t_i = i/N; the ends are fixed
     lm = LMParams(lambda_init=params.lambda_init, lambda_drop=params.lambda_drop,
                   lambda_boost=params.lambda_boost, max_iterations=params.max_iterations,

@@ -11,7 +11,9 @@ from legplan.stepplan.planner import contact_mode
 
 def _block(toy_robot, swing_over_hill, degree=3, samples=12):
     hill, q0, q1, stance, feet = swing_over_hill
-    sc = SampleConstraints(toy_robot, hill, contact_mode(stance, feet, StepPlanParams()), 1e-3)
+    ends = toy_robot.sphere_centres(np.stack([q0, q1]))
+    sc = SampleConstraints(toy_robot, hill, contact_mode(stance, feet, StepPlanParams()), 1e-3,
+                           swing_ends=ends, relax_radius=0.3)
     t = np.linspace(0, 1, samples + 1)[1:-1]
     rng = np.random.default_rng(4)
     P = elevate(np.stack([q0, q1]), degree - 1) + 0.02 * rng.normal(size=(degree + 1, 18))

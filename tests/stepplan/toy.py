@@ -52,6 +52,9 @@ class ToyRobot:
         self.spheres = ToySpheres(np.zeros(5, int), np.zeros((5, 3)), np.array([0.0, 0, 0, 0, 0.1]),
                                   np.array([0, 1, 2, 3, -1]), np.array([True, True, True, True, False]))
 
+    def kinematics(self, Q, jacobians=True):
+        """Nothing to cache: every call below is analytic."""
+
     def to_vector(self, Q):
         return np.array(Q, float)
 
