@@ -1,0 +1,81 @@
+"""A regular 2D grid of square cells: the frame shared by the heightmap and every 2D layer.
+
+Arrays are indexed `[iy, ix]`; `origin` is the world (x, y) of the centre of cell `[0, 0]`, so the
+centre of cell `[iy, ix]` is `origin + resolution * (ix, iy)` and the grid covers
+`[x0 - r/2, x0 + (nx - 1/2) r] x [y0 - r/2, y0 + (ny - 1/2) r]`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+
+@dataclass(frozen=True)
+class Grid2D:
+    """Geometry of a cell grid: `origin` (x0, y0) of cell [0, 0]'s centre, `resolution` (m), `shape` (ny, nx)."""
+
+    origin: tuple[float, float]
+    resolution: float
+    shape: tuple[int, int]
+
+    @property
+    def xs(self) -> np.ndarray:
+        """World x of the cell centres of one row, shape (nx,)."""
+        return self.origin[0] + self.resolution * np.arange(self.shape[1])
+
+    @property
+    def ys(self) -> np.ndarray:
+        """World y of the cell centres of one column, shape (ny,)."""
+        return self.origin[1] + self.resolution * np.arange(self.shape[0])
+
+    def centres(self) -> tuple[np.ndarray, np.ndarray]:
+        """World (X, Y) of every cell centre, each of shape (ny, nx)."""
+        return np.meshgrid(self.xs, self.ys)
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """Outer cell edges (xmin, xmax, ymin, ymax), e.g. for `imshow(extent=...)`."""
+        half = 0.5 * self.resolution
+        return (self.origin[0] - half, self.xs[-1] + half, self.origin[1] - half, self.ys[-1] + half)
+
+    def continuous_index(self, xy) -> tuple[np.ndarray, np.ndarray]:
+        """Fractional (ix, iy) of world points `xy` (n, 2): cell centres sit at integers."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        return ((xy[:, 0] - self.origin[0]) / self.resolution,
+                (xy[:, 1] - self.origin[1]) / self.resolution)
+
+    def cell_of(self, xy) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """(iy, ix, inside) of the cell containing each point; indices clipped into the grid."""
+        u, v = self.continuous_index(xy)
+        ix, iy = np.rint(u).astype(np.int64), np.rint(v).astype(np.int64)
+        inside = (ix >= 0) & (ix < self.shape[1]) & (iy >= 0) & (iy < self.shape[0])
+        return np.clip(iy, 0, self.shape[0] - 1), np.clip(ix, 0, self.shape[1] - 1), inside
+
+    def nearest(self, array: np.ndarray, xy) -> np.ndarray:
+        """Value of the cell containing each point (border cells repeat outside the grid)."""
+        iy, ix, _ = self.cell_of(xy)
+        return np.asarray(array)[iy, ix]
+
+    def bilinear(self, array: np.ndarray, xy) -> np.ndarray:
+        """Bilinear interpolation of a cell-centred `array` (ny, nx) at points `xy` (n, 2).
+
+        Outside the grid the border values are repeated (the point is clamped into the grid).
+        """
+        array = np.asarray(array, dtype=float)
+        u, v = self.continuous_index(xy)
+        ix, tx = _cell_and_fraction(u, self.shape[1])
+        iy, ty = _cell_and_fraction(v, self.shape[0])
+        ix1 = np.minimum(ix + 1, self.shape[1] - 1)
+        iy1 = np.minimum(iy + 1, self.shape[0] - 1)
+        bottom = array[iy, ix] * (1 - tx) + array[iy, ix1] * tx
+        top = array[iy1, ix] * (1 - tx) + array[iy1, ix1] * tx
+        return bottom * (1 - ty) + top * ty
+
+
+def _cell_and_fraction(u: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
+    """Lower corner index in [0, n-2] and fraction in [0, 1] of clamped coordinates `u`."""
+    clamped = np.clip(u, 0.0, n - 1.0)
+    lower = np.clip(np.floor(clamped).astype(np.int64), 0, max(n - 2, 0))
+    return lower, clamped - lower
