@@ -23,6 +23,7 @@ class DenseCheck:
     foot_slip: float  # largest stance-foot distance from its foothold
     com_margin: float  # smallest signed CoM distance to the support-polygon edges (< 0: outside)
     clearance: float  # smallest sphere-terrain clearance (< 0: collision); see `dense_check`
+    swing_foot_tip: float  # smallest terrain distance of a swing-foot sphere centre, whole path
     joint_excess: float  # largest excursion beyond a joint limit (0 inside)
     length: float  # ∫‖π'‖ dt
     roughness2: float  # ∫‖π''‖ dt
@@ -32,7 +33,7 @@ class DenseCheck:
         return asdict(self)
 
 
-DENSE_UNITS = {"foot_slip": "m", "com_margin": "m", "clearance": "m", "joint_excess": "rad",
+DENSE_UNITS = {"foot_slip": "m", "com_margin": "m", "clearance": "m", "swing_foot_tip": "m", "joint_excess": "rad",
                "length": "", "roughness2": "", "roughness3": ""}
 
 
@@ -42,7 +43,9 @@ def dense_check(robot, validator, control_points, stance, footholds, samples: in
 
     Clearance is the FCL surface distance of each sphere centre minus its radius, over all spheres
     except stance feet and except swing-foot spheres within `relax_radius` of their lift-off or
-    touch-down position (where the planner lets the foot reach the terrain).
+    touch-down position (where the planner lets the foot reach the terrain); there the swing foot
+    is judged by `swing_foot_tip`, the surface distance of its sphere centre (the foot point for
+    robots whose foot sphere sits on the foot frame) — ≥ −ε means it never sinks into the terrain.
     """
     t = np.linspace(0.0, 1.0, samples)
     Q = robot.from_vector(evaluate(control_points, t))
@@ -58,13 +61,15 @@ def dense_check(robot, validator, control_points, stance, footholds, samples: in
     is_foot = np.asarray(spheres.is_foot, bool)
     checked = np.broadcast_to(~(is_foot & on_stance_leg), (n, len(legs))).copy()
     swing_feet = np.flatnonzero(is_foot & ~on_stance_leg & (legs >= 0))
+    tip = np.inf
     if swing_feet.size:
+        tip = float(validator.surface.signed_distance(centres[:, swing_feet].reshape(-1, 3)).min())
         ends = centres[[0, -1]][:, swing_feet]
         near = np.linalg.norm(centres[:, None, swing_feet] - ends[None], axis=-1).min(axis=1) < relax_radius
         checked[:, swing_feet] &= ~near
     gap = validator.surface.signed_distance(centres[checked]) - np.asarray(spheres.radii)[np.nonzero(checked)[1]]
     quality = derivative_norm_integrals(control_points, orders=(1, 2, 3))
     return DenseCheck(foot_slip=float(slip.max(initial=0.0)), com_margin=float(checks.com_margin.min()),
-                      clearance=float(gap.min(initial=np.inf)),
+                      clearance=float(gap.min(initial=np.inf)), swing_foot_tip=tip,
                       joint_excess=float(checks.joint_excess.max(initial=0.0)),
                       length=float(quality[0]), roughness2=float(quality[1]), roughness3=float(quality[2]))
