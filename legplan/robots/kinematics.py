@@ -5,7 +5,7 @@ sphere centres and the centres of mass of the bodies (whose mass-weighted mean i
 Per configuration one `pin.computeJointJacobians` (forward kinematics + joint Jacobians in the
 WORLD frame) is run and the joint placements are read; everything else is batched numpy:
 
-    p = R_j o + t_j,        J_p = S_j ⊙ (J_lin − [p]× J_ang)      (LOCAL_WORLD_ALIGNED, w.r.t. v)
+    p = R_j o + t_j,        J_p = S_j ⊙ (J_lin + J_ang × p)      (LOCAL_WORLD_ALIGNED, w.r.t. v)
 
 where (J_lin; J_ang) are the columns of `data.J` (spatial velocity at the world origin) and S_j
 masks the columns of the joints supporting joint j. The CoM Jacobian is Σ m_b J_{c_b} / M.
@@ -17,8 +17,6 @@ from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
-
-from legplan.robots.so3 import skew
 
 
 @dataclass(frozen=True)
@@ -78,7 +76,7 @@ class KinematicsWorkspace:
             for k in model.supports[j]:
                 if k > 0:
                     support[j, model.idx_vs[k]:model.idx_vs[k] + model.nvs[k]] = True
-        self._mask = support[self._points.joints]
+        self._mask = support[self._points.joints]                        # (p, nv)
         self._cache_key: np.ndarray | None = None
         self._cache: Kinematics | None = None
 
@@ -104,13 +102,12 @@ class KinematicsWorkspace:
                 J[i] = data.J
             else:
                 pin.forwardKinematics(model, data, q)
-            for s, j in enumerate(used):
-                placements[i, s] = oMi[j].homogeneous
+            placements[i] = [oMi[j].homogeneous for j in used]
         H = placements[:, self._slot]                                     # (n, p, 4, 4)
         points = np.einsum("npij,pj->npi", H[..., :3, :3], self._points.offsets) + H[..., :3, 3]
         jac = None
         if jacobians:
-            jac = J[:, None, :3, :] - skew(points) @ J[:, None, 3:, :]    # (n, p, 3, nv)
+            jac = _point_jacobians(J, points)
             jac *= self._mask[None, :, None, :]
         n_feet, n_spheres, _ = self._groups
         feet, spheres = slice(0, n_feet), slice(n_feet, n_feet + n_spheres)
@@ -123,6 +120,18 @@ class KinematicsWorkspace:
             sphere_jacobians=None if jac is None else _read_only(jac[:, spheres]),
             com_jacobian=None if jac is None else _read_only(
                 np.einsum("b,nbij->nij", self._weights, jac[:, bodies])))
+
+
+def _point_jacobians(J: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """J_lin + J_ang × p: WORLD joint Jacobians (n, 6, nv), points (n, p, 3) -> (n, p, 3, nv)."""
+    lin, ang = J[:, None, :3, :], J[:, None, 3:, :]
+    px, py, pz = (points[:, :, k, None] for k in range(3))
+    jac = np.empty(points.shape + (J.shape[-1],))
+    jac[:, :, 0] = ang[:, :, 1] * pz - ang[:, :, 2] * py
+    jac[:, :, 1] = ang[:, :, 2] * px - ang[:, :, 0] * pz
+    jac[:, :, 2] = ang[:, :, 0] * py - ang[:, :, 1] * px
+    jac += lin
+    return jac
 
 
 def _read_only(array: np.ndarray) -> np.ndarray:
