@@ -50,7 +50,6 @@ class GenerateParams:
     min_progress: float = 0.02  # a move must bring the foot this much closer along the path
     foot_separation: float | None = None  # minimum distance between two footholds (4 foot radii)
     candidates: int = 6  # footholds tried per leg
-    candidate_stride: float = 0.02  # sub-sampling of the foothold mask
     goal_tolerance: float = 0.05  # body distance to the goal that ends the sequence
     max_moves: int = 200
     posture_weights: tuple[float, float, float, float] = (0.3, 1.0, 1.0, 0.05)  # xy, z, rot, joints
@@ -120,17 +119,15 @@ class StepGenerator:
         self.step_radius = params.step_radius or 0.6 * float(spread.mean())
         self.advance = params.advance or 0.5 * self.step_radius
         self._cells = self._foothold_cells()
+        self._body_target: np.ndarray | None = None
         foot_radius = np.asarray(robot.spheres.radii)[np.asarray(robot.spheres.is_foot, bool)]
         self.separation = params.foot_separation or 4.0 * float(foot_radius.max(initial=0.01))
 
     # --- terrain ------------------------------------------------------------------------------
     def _foothold_cells(self) -> np.ndarray:
-        """Foothold mask cell centres (m, 3), sub-sampled to `candidate_stride`."""
+        """Foothold mask cell centres (m, 3)."""
         t = self.terrain
-        stride = max(1, int(round(self.params.candidate_stride / t.grid.resolution)))
-        mask = np.zeros_like(t.foothold, dtype=bool)
-        mask[::stride, ::stride] = t.foothold[::stride, ::stride]
-        iy, ix = np.nonzero(mask)
+        iy, ix = np.nonzero(t.foothold)
         xy = np.asarray(t.grid.origin, float) + t.grid.resolution * np.stack([ix, iy], axis=1)
         return np.column_stack([xy, t.height[iy, ix]])
 
@@ -155,12 +152,13 @@ class StepGenerator:
         return float((np.asarray(xy)[:2] - self.start[:2]) @ d / length2) if length2 > 0 else 1.0
 
     def _posture(self, footholds: np.ndarray, stance: np.ndarray, yaw: float) -> Posture:
-        """Regularisation toward the body pose the footholds imply: nominal height and yaw."""
+        """Regularisation toward the target body position on the path (or, before the first move,
+        the position the stance footholds imply), nominal height above them, and yaw."""
         robot, geo = self.robot, self.geometry
         R = _rot_z(yaw)
-        implied = footholds - geo.foot_offsets @ R.T
+        implied = (footholds - geo.foot_offsets @ R.T)[stance, :2].mean(axis=0)
         ref = np.array(robot.to_vector(robot.q_nominal[None])[0], float)
-        ref[:2] = implied[:, :2].mean(axis=0)
+        ref[:2] = implied if self._body_target is None else self._body_target
         ref[2] = footholds[stance, 2].mean() + geo.body_height
         ref[3:6] = pin.log3(R)
         w_xy, w_z, w_rot, w_joint = self.params.posture_weights
@@ -254,9 +252,13 @@ class StepGenerator:
         xy, yaw = self._pose(s_target)
         nominal = self._nominal_feet(xy, yaw)
         lags = self._lags(footholds, xy, yaw)
+        self._body_target = xy
         failures = []
         for leg in np.flatnonzero(~stance):  # land lifted legs first: more support
-            for cell in self._candidates(leg, stance, footholds, nominal[leg], xy, yaw):
+            candidates = self._candidates(leg, stance, footholds, nominal[leg], xy, yaw)
+            if not len(candidates):
+                failures.append(f"no reachable foothold for lifted leg {names[leg]}")
+            for cell in candidates:
                 configs, why = self._land(x, stance, footholds, leg, cell, yaw)
                 if configs is not None:
                     return configs, "land", leg, cell
@@ -264,6 +266,7 @@ class StepGenerator:
         order = [leg for leg in np.argsort(-lags, kind="stable") if stance[leg]]
         for leg in order:
             if lags[leg] < p.min_progress:
+                failures.append(f"{names[leg]}: {lags[leg] * 1e3:.0f} mm behind, nothing to gain")
                 continue
             support = stance.copy()
             support[leg] = False
@@ -278,6 +281,10 @@ class StepGenerator:
                 if configs is not None:
                     return configs, "step", leg, cell
                 failures.append(f"step {names[leg]} to {np.round(cell, 3).tolist()}: {why}")
+        configs, why = self._advance_body(x, stance, footholds, yaw)
+        if configs is not None:
+            return configs, "shift", int(np.flatnonzero(stance)[0]), None
+        failures.append(f"body shift: {why}")
         for leg in order:  # nothing moved: lift the most trailing leg that can be spared
             support = stance.copy()
             support[leg] = False
@@ -364,6 +371,17 @@ class StepGenerator:
             return None, f"touch-down IK failed ({res.reason})"
         configs.append((res.x, stance.copy(), new))
         return configs, ""
+
+    def _advance_body(self, x, stance, footholds, yaw):
+        """Body shift toward the target pose with every stance foot fixed (progress or a reason)."""
+        res = self._solve(self._mode(stance, footholds, stance), x, self._posture(footholds, stance, yaw),
+                          self._raised(stance, footholds, yaw))
+        if not res.success:
+            return None, f"IK failed ({res.reason})"
+        gained = (res.x[:2] - x[:2]) @ self._direction
+        if gained < self.params.min_progress / 2:
+            return None, f"body gains only {gained * 1e3:.0f} mm"
+        return [(res.x, stance.copy(), footholds.copy())], ""
 
     def _land(self, x, stance, footholds, leg, cell, yaw):
         """Touch-down of a lifted leg on `cell` (the support of the motion is the current stance)."""

@@ -1,0 +1,93 @@
+"""`legplan steps`: generate on a small flat map, export/import round trip, show, import errors."""
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from legplan.cli.main import cli
+from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
+
+EXAMPLE = Path(__file__).parents[1] / "data" / "steps_example.csv"
+
+
+@pytest.fixture(scope="module")
+def flat_map(tmp_path_factory):
+    grid = Grid2D(origin=(-0.6, -0.4), resolution=0.01, shape=(81, 121))
+    path = tmp_path_factory.mktemp("maps") / "flat.h5"
+    save_map(terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat_small"), path)
+    return path
+
+
+@pytest.fixture(scope="module")
+def generated(flat_map, tmp_path_factory):
+    out = tmp_path_factory.mktemp("steps") / "steps.h5"
+    result = CliRunner().invoke(cli, ["steps", "generate", str(flat_map), "--robot", "scarab2",
+                                      "--start", "-0.05", "0", "0", "--goal", "0.05", "0", "0",
+                                      "-o", str(out), "-q"])
+    assert result.exit_code == 0, result.output + result.stderr
+    return out
+
+
+def _content(path):
+    with h5py.File(path, "r") as f:
+        return {name: f[name][()] for name in ("q", "stance", "footholds")}, dict(f.attrs)
+
+
+def test_generated_sequence_is_valid_and_switches_one_leg_at_a_time(generated):
+    data, attrs = _content(generated)
+    assert attrs["robot"] == "scarab2" and attrs["success"]
+    stance = data["stance"].astype(bool)
+    assert len(stance) >= 4
+    assert np.all(np.abs(np.diff(stance.astype(int), axis=0)).sum(axis=1) <= 1)
+    with h5py.File(generated, "r") as f:
+        summary = {row["name"].decode(): row["value"] for row in f["summary"][()]}
+    assert summary["worst_foot_gap"] <= 1e-3
+    assert summary["min_com_margin"] > 0 and summary["min_clearance"] > 0
+
+
+@pytest.mark.parametrize("suffix", ["csv", "json", "yaml"])
+def test_export_import_round_trip(generated, flat_map, tmp_path, suffix):
+    runner = CliRunner()
+    exported = tmp_path / f"steps.{suffix}"
+    assert runner.invoke(cli, ["steps", "export", str(generated), "-o", str(exported)]).exit_code == 0
+    again = tmp_path / "again.h5"
+    result = runner.invoke(cli, ["steps", "import", str(exported), "--robot", "scarab2", "--map",
+                                 str(flat_map), "-o", str(again), "--strict"])
+    assert result.exit_code == 0, result.stderr
+    before, attrs_before = _content(generated)
+    after, attrs_after = _content(again)
+    np.testing.assert_array_equal(before["q"], after["q"])
+    np.testing.assert_array_equal(before["stance"], after["stance"])
+    np.testing.assert_array_equal(before["footholds"], after["footholds"])
+    for key in ("robot", "robot_sha256", "leg_names", "joint_names"):
+        assert attrs_before[key] == attrs_after[key]
+
+
+def test_example_file_imports_and_shows(flat_map, tmp_path):
+    runner = CliRunner()
+    out = tmp_path / "example.h5"
+    result = runner.invoke(cli, ["steps", "import", str(EXAMPLE), "--robot", "scarab2", "--map",
+                                 str(flat_map), "-o", str(out)])
+    assert result.exit_code == 0, result.stderr
+    png = tmp_path / "example.png"
+    result = runner.invoke(cli, ["steps", "show", str(out), "--map", str(flat_map), "-o", str(png)])
+    assert result.exit_code == 0, result.stderr
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_invalid_row_exits_2_and_writes_nothing(flat_map, tmp_path):
+    lines = EXAMPLE.read_text().splitlines()
+    header = lines[1].split(",")
+    row = lines[3].split(",")
+    row[header.index("coxa_rf")] = "0.9"
+    bad = tmp_path / "bad.csv"
+    bad.write_text("\n".join(lines[:3] + [",".join(row)] + lines[4:]) + "\n")
+    out = tmp_path / "bad.h5"
+    result = CliRunner().invoke(cli, ["steps", "import", str(bad), "--robot", "scarab2", "--map",
+                                      str(flat_map), "-o", str(out)])
+    assert result.exit_code == 2
+    assert "row 1: field 'coxa_rf'" in result.stderr
+    assert not out.exists()
