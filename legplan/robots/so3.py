@@ -3,7 +3,7 @@
 They implement the vector parametrization of the base orientation used by the Bézier planner
 (paper eq. (1b), SE(3) ≡ R^6): the orientation is the rotation vector ω = θ·axis with θ in [0, π].
 All functions take stacks (n, ...) and have no Python loop; they agree with pinocchio's
-`exp3`, `log3` and `Jexp3` (tests/robots/test_vector.py).
+`exp3`, `log3` and `Jexp3` (tests/robots/test_robot_vector.py).
 Quaternions are in pinocchio's configuration order (x, y, z, w).
 """
 
