@@ -32,9 +32,9 @@ from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
-import yaml
 
 from legplan.errors import SpecError
+from legplan.specio import read_yaml_mapping
 
 FOOT_HEIGHT_TOLERANCE = 1e-3  # m, |z| of every foot in the nominal stance
 RADIUS_TOLERANCE = 1e-3       # m, stated navigation radii vs the footprint
@@ -158,22 +158,6 @@ class _Reader:
 def _kind_name(kind) -> str:
     names = {str: "a string", list: "a list", dict: "a mapping", bool: "true or false"}
     return names.get(kind, getattr(kind, "__name__", str(kind)))
-
-
-def _read_yaml(path: Path) -> dict:
-    try:
-        text = path.read_text()
-    except OSError as exc:
-        raise SpecError(f"{path}: cannot read robot spec ({exc.strerror or exc})") from exc
-    try:
-        data = yaml.safe_load(text)
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark is not None else ""
-        raise SpecError(f"{path}: invalid YAML{where}") from exc
-    if not isinstance(data, dict):
-        raise SpecError(f"{path}: robot spec must be a YAML mapping")
-    return data
 
 
 def _build_model(reader: _Reader, data: dict) -> tuple[Path, pin.Model]:
@@ -383,7 +367,7 @@ def read_spec(yaml_path: str | Path) -> RobotSpec:
     """Read and validate `robot.yaml` (and the URDF it names); raises `SpecError` on any problem."""
     path = Path(yaml_path)
     reader = _Reader(path)
-    data = _read_yaml(path)
+    data = read_yaml_mapping(path, "robot spec")
     name = reader.get(data, "name", "name", str, path.parent.name)
     description = reader.get(data, "description", "description", str, "")
     urdf, model = _build_model(reader, data)
