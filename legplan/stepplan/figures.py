@@ -35,8 +35,8 @@ def plot_motion(path, robot, terrain, records) -> None:
     grid = fig.add_gridspec(2, 2, height_ratios=(1.3, 1.0))
     side = fig.add_subplot(grid[0, :])
     height = np.asarray(terrain.height)
-    x0, y0 = np.asarray(terrain.origin, float)[:2]
-    res = float(terrain.resolution)
+    x0, y0 = np.asarray(terrain.grid.origin, float)[:2]
+    res = float(terrain.grid.resolution)
     xs = x0 + res * np.arange(height.shape[1])
     if len(feet):
         ys = y0 + res * np.arange(height.shape[0])

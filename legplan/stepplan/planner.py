@@ -92,7 +92,8 @@ def plan_step(robot, sdf, q_start, q_end, stance, footholds, params: StepPlanPar
     t_start = time.perf_counter()
     x0, x1 = path_vectors(robot, np.asarray(q_start, float), np.asarray(q_end, float))
     ends = robot.sphere_centres(robot.from_vector(np.stack([x0, x1])))
-    constraints = SampleConstraints(robot, sdf, contact_mode(stance, footholds, params), params.epsilon,
+    constraints = SampleConstraints(robot, sdf, contact_mode(stance, footholds, params),
+                                    params.slack_fraction * params.epsilon,
                                     swing_ends=ends, relax_radius=params.relax_radius)
     t = uniform_parameters(params.samples + 1)[1:-1]  # interior t_i = i/N; the ends are fixed
     lm = LMParams(lambda_init=params.lambda_init, lambda_drop=params.lambda_drop,

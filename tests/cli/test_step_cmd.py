@@ -1,0 +1,86 @@
+"""`legplan step plan|show` end to end on a small box map with a hand-made jueying_mini sequence."""
+
+import json
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from legplan.artefacts import read_summary
+from legplan.cli.main import cli
+from legplan.stepseq.sequence import StepSequence, write_steps
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "stepplan"))
+from scenes import box_scene  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("stepcli")
+    robot, terrain, map_path, q, stance, footholds = box_scene(tmp)
+    seq = StepSequence(q=q, stance=stance, footholds=footholds, robot=robot.name, robot_sha256="test",
+                       leg_names=[leg.name for leg in robot.legs], joint_names=robot.joint_names)
+    validator_checks = _checks(robot, terrain, seq)
+    steps_path = tmp / "steps.h5"
+    write_steps(steps_path, seq, validator_checks)
+    return tmp, map_path, steps_path
+
+
+def _checks(robot, terrain, seq):
+    from legplan.validate.checks import Validator
+    return Validator(robot, terrain).check(seq.q, seq.stance, seq.footholds)
+
+
+def test_plan_writes_every_step_and_table2(inputs):
+    tmp, map_path, steps_path = inputs
+    out = tmp / "motion.h5"
+    result = CliRunner().invoke(cli, ["step", "plan", str(map_path), str(steps_path), "-o", str(out), "-q",
+                                      "--param", "samples=60"])
+    assert result.exit_code == 0, result.output + str(result.exception)
+    with h5py.File(out, "r") as f:
+        assert f.attrs["legplan_kind"] == "motion"
+        assert sorted(f["steps"]) == ["0000", "0001"]
+        swing = f["steps/0001"]
+        assert swing.attrs["success"] and swing.attrs["degree"] >= 2
+        P = swing["control_points"][()]
+        assert P.shape == (swing.attrs["degree"] + 1, 18)
+        assert swing["lm_iterations"].shape == (swing.attrs["degree"],)
+        assert swing["dense/foot_slip"][()] <= 1.0e-3 + 1e-5
+        assert json.loads(f.attrs["params"])["samples"] == 60
+        summary = read_summary(f)
+    assert summary["steps_planned"][0] == 2 and summary["steps_succeeded"][0] == 2
+    assert summary["worst_violation"][1] == "m" and 0 <= summary["worst_violation"][0] <= 1.0e-3 + 1e-5
+    png = tmp / "motion.png"
+    shown = CliRunner().invoke(cli, ["step", "show", str(out), "--map", str(map_path), "-o", str(png)])
+    assert shown.exit_code == 0, shown.output + str(shown.exception)
+    assert png.stat().st_size > 10_000
+
+
+def test_failed_step_is_recorded_and_exit_1(inputs):
+    tmp, map_path, steps_path = inputs
+    out = tmp / "failed.h5"
+    result = CliRunner().invoke(cli, ["step", "plan", str(map_path), str(steps_path), "-o", str(out),
+                                      "--steps", "1:2", "--param", "max_degree=1", "--param", "samples=20"])
+    assert result.exit_code == 1
+    assert "d_max = 1" in result.stderr
+    with h5py.File(out, "r") as f:
+        assert list(f["steps"]) == ["0001"]
+        step = f["steps/0001"]
+        assert not step.attrs["success"] and "ε_num" in step.attrs["reason"]
+        assert np.isfinite(step["dense/foot_slip"][()])
+
+
+@pytest.mark.parametrize("args, message", [
+    (["--param", "nope=1"], "unknown step planner parameter 'nope'"),
+    (["--param", "samples"], "expected key=value"),
+    (["--steps", "5:9"], "has 2 consecutive pairs"),
+])
+def test_bad_input_exit_2_without_output(inputs, args, message):
+    tmp, map_path, steps_path = inputs
+    out = tmp / "bad.h5"
+    result = CliRunner().invoke(cli, ["step", "plan", str(map_path), str(steps_path), "-o", str(out), *args])
+    assert result.exit_code == 2 and message in result.stderr
+    assert not out.exists()
