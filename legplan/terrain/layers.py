@@ -42,10 +42,11 @@ def foothold_mask(height: np.ndarray, resolution: float, params: FootholdParams,
                   holes: np.ndarray | None = None) -> np.ndarray:
     """Cells where a foot may stand: locally flat, not a hole, eroded by `edge_margin`.
 
-    Flatness: max - min of the height over a disk of radius `flat_radius` <= `flat_tolerance`
-    (the terrain is taken to continue as its border cells beyond the grid).
+    Flatness: max - min of the height over a disk of radius `flat_radius` (at least one cell, so
+    the 4-neighbours always count) <= `flat_tolerance`; the terrain is taken to continue as its
+    border cells beyond the grid.
     """
-    footprint = disk(params.flat_radius / resolution)
+    footprint = disk(max(params.flat_radius / resolution, 1.0))
     spread = (maximum_filter(height, footprint=footprint, mode="nearest")
               - minimum_filter(height, footprint=footprint, mode="nearest"))
     flat = spread <= params.flat_tolerance + 1e-9
