@@ -52,6 +52,8 @@ class GenerateParams:
     candidates: int = 6  # footholds tried per leg
     goal_tolerance: float = 0.05  # body distance to the goal that ends the sequence
     max_moves: int = 200
+    restarts: int = 1  # IK retries from a seeded random perturbation
+    restart_noise: float = 0.05  # std of that perturbation (m, rad)
     posture_weights: tuple[float, float, float, float] = (0.3, 1.0, 1.0, 0.05)  # xy, z, rot, joints
 
 
@@ -334,8 +336,16 @@ class StepGenerator:
         return res.x, (res.x, stance.copy(), footholds.copy()), ""
 
     def _solve(self, mode, x, posture, soft=None, targets=None):
-        return solve_ik(self.robot, self.terrain.sdf, mode, x, posture=posture, targets=targets,
-                        soft_targets=soft)
+        """IK from x; on failure once more from a seeded random perturbation of x (local minima)."""
+        res = solve_ik(self.robot, self.terrain.sdf, mode, x, posture=posture, targets=targets,
+                       soft_targets=soft)
+        for _ in range(self.params.restarts):
+            if res.success:
+                break
+            start = x + self.rng.normal(scale=self.params.restart_noise, size=x.shape)
+            res = solve_ik(self.robot, self.terrain.sdf, mode, start, posture=posture, targets=targets,
+                           soft_targets=soft)
+        return res
 
     def _raised(self, stance, footholds, yaw) -> dict[int, np.ndarray]:
         """Soft targets of lifted legs: their nominal position `lift_height` above the stance feet."""

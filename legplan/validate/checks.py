@@ -64,13 +64,16 @@ class Validator:
         self.data = self.model.createData()
         self.surface = surface or SurfaceMesh(terrain.height, terrain.grid.origin, terrain.grid.resolution)
         spheres = robot.spheres
-        self._sphere_frames = np.asarray(spheres.frame_ids, int)
-        self._frames, self._frame_slot = np.unique(self._sphere_frames, return_inverse=True)
+        foot_frames = [leg.foot_frame_id for leg in robot.legs]
+        self._frames_all, slots = np.unique(np.r_[foot_frames, np.asarray(spheres.frame_ids, int)],
+                                            return_inverse=True)
+        self._frames_all = [int(f) for f in self._frames_all]
+        self._foot_slot, self._sphere_slot = slots[:len(foot_frames)], slots[len(foot_frames):]
         self._offsets = np.asarray(spheres.offsets, float)
         self._radii = np.asarray(spheres.radii, float)
         self._sphere_leg = np.asarray(spheres.leg_index, int)
         self._sphere_is_foot = np.asarray(spheres.is_foot, bool)
-        self._foot_frames = [leg.foot_frame_id for leg in robot.legs]
+        self._n_legs = len(foot_frames)
         self._joint_q = _actuated_q_indices(self.model, robot.joint_names)
         self._lower = np.asarray(robot.lower, float)
         self._upper = np.asarray(robot.upper, float)
@@ -79,22 +82,18 @@ class Validator:
         """Foot positions (n, L, 3), sphere centres (n, S, 3) and CoM (n, 3) by pinocchio FK."""
         Q = np.atleast_2d(np.asarray(Q, float))
         n = len(Q)
-        feet = np.empty((n, len(self._foot_frames), 3))
-        rot = np.empty((n, len(self._frames), 3, 3))
-        trans = np.empty((n, len(self._frames), 3))
+        frames = self._frames_all
+        placements = np.empty((n, len(frames), 4, 4))
         com = np.empty((n, 3))
-        model, data, oMf = self.model, self.data, self.data.oMf
+        model, data = self.model, self.data
         for i, q in enumerate(Q):
             pin.framesForwardKinematics(model, data, q)
-            for j, fid in enumerate(self._foot_frames):
-                feet[i, j] = oMf[fid].translation
-            for j, fid in enumerate(self._frames):
-                placement = oMf[int(fid)]
-                rot[i, j] = placement.rotation
-                trans[i, j] = placement.translation
+            oMf = data.oMf.tolist()
+            placements[i] = [oMf[f].homogeneous for f in frames]
             com[i] = pin.centerOfMass(model, data, q, False)
-        centres = (np.einsum("nsij,sj->nsi", rot[:, self._frame_slot], self._offsets)
-                   + trans[:, self._frame_slot])
+        feet = placements[:, self._foot_slot][..., :3, 3]
+        sph = placements[:, self._sphere_slot]
+        centres = np.einsum("nsij,sj->nsi", sph[..., :3, :3], self._offsets) + sph[..., :3, 3]
         return feet, centres, com
 
     def check(self, Q, stance, footholds=None) -> ConfigChecks:
@@ -105,7 +104,7 @@ class Validator:
         """
         Q = np.atleast_2d(np.asarray(Q, float))
         n = len(Q)
-        stance = np.broadcast_to(np.asarray(stance, bool), (n, len(self._foot_frames)))
+        stance = np.broadcast_to(np.asarray(stance, bool), (n, self._n_legs))
         feet, centres, com = self.kinematics(Q)
         gap = np.full(stance.shape, np.nan)
         if stance.any():

@@ -7,10 +7,10 @@ between neighbouring columns of different height. `signed_distance(points)` is t
 distance of each point to that surface (`fcl.distance` against a zero-radius sphere), negative
 when the point lies inside the solid (below the top of its own column).
 
-Speed: an FCL query costs ~0.1 ms, so exact FCL distances are computed only where needed. Around a
-point whose window of half-width `window` is flat (min == max height), the nearest surface point of a
-point within `window` of the plane is straight below (above) it, so the vertical gap is the exact
-distance. `distance_bounds` gives cheap lower/upper bounds used to find the closest of many spheres
+Speed: an FCL query costs ~0.1 ms, so exact FCL distances are computed only where needed. When
+the vertical gap of a point to its column top is at most the horizontal distance to the nearest
+column face (the cell's "flat radius"), the nearest surface point is straight below (above) it, so
+the gap is the exact distance. `distance_bounds` gives cheap lower/upper bounds used to find the closest of many spheres
 with few FCL calls (`Validator`).
 """
 
@@ -47,7 +47,19 @@ class SurfaceMesh:
         self.window = (half - 1) * self.resolution
         size = 2 * half + 1
         self._hmax = ndimage.maximum_filter(self.height, size=size, mode="nearest")
-        self._hmin = ndimage.minimum_filter(self.height, size=size, mode="nearest")
+        # flat radius: horizontal distance from anywhere in a cell to the nearest column face
+        # (a face lies half a cell beyond a cell whose height differs from a 4-neighbour's)
+        h = self.height
+        edge = np.zeros(h.shape, bool)
+        edge[:, :-1] |= h[:, :-1] != h[:, 1:]
+        edge[:, 1:] |= h[:, :-1] != h[:, 1:]
+        edge[:-1, :] |= h[:-1, :] != h[1:, :]
+        edge[1:, :] |= h[:-1, :] != h[1:, :]
+        if edge.any():
+            centre = ndimage.distance_transform_edt(~edge) * self.resolution
+            self._flat = np.maximum(centre - 0.5 * self.resolution - 0.5 * math.sqrt(2) * self.resolution, 0.0)
+        else:
+            self._flat = np.full(h.shape, np.inf)
 
     def surface_height(self, xy) -> np.ndarray:
         """Top of the column containing each xy (n, 2) (border columns continue outside the map)."""
@@ -67,17 +79,18 @@ class SurfaceMesh:
     def distance_bounds(self, points):
         """Bounds lb <= d <= ub of the signed surface distance d of points (n, 3), and `exact` mask.
 
-        Above the surface: d <= vertical gap, and d >= min(window, z - max height in the window).
-        Below it: vertical gap <= d <= 0. Where the window is flat and the gap within it, lb = ub.
+        Above the surface: d <= vertical gap, and d >= min(window, z - max height in the window) and
+        d >= min(gap, flat radius). Below it: vertical gap <= d <= 0. Where the gap is within the
+        flat radius (distance to the nearest column face), lb = ub = gap.
         """
         p = np.asarray(points, dtype=float)
         gap = self.vertical_gap(p)
         iy, ix = self._nearest_cell(p[:, :2])
-        hmax, hmin = self._hmax[iy, ix], self._hmin[iy, ix]
+        hmax, flat = self._hmax[iy, ix], self._flat[iy, ix]
         above = gap >= 0.0
-        lb = np.where(above, np.minimum(self.window, p[:, 2] - hmax), gap)
+        lb = np.where(above, np.maximum(np.minimum(self.window, p[:, 2] - hmax), np.minimum(gap, flat)), gap)
         ub = np.where(above, gap, 0.0)
-        exact = (hmax == hmin) & (np.abs(gap) <= self.window) & self.inside_map(p[:, :2])
+        exact = (np.abs(gap) <= flat) & self.inside_map(p[:, :2])
         lb = np.where(exact, gap, lb)
         ub = np.where(exact, gap, ub)
         return lb, ub, exact
