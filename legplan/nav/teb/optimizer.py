@@ -1,0 +1,174 @@
+"""TEB optimization (Sec. IV, eq. (24)): rounds of band resizing and sparse LM on R(B) = Σ γ_k R_k(B).
+
+Each outer round resizes the band (`resize`), builds the least-squares problem over the free poses
+and all ΔT_i (bounded below by dt_min), and runs `inner_iterations` LM iterations of the solver core
+(CHOLMOD). Terms (weights w multiply squared residuals, so rows are scaled by √w):
+
+* velocity / angular velocity limits of eq. (23), TEB interval penalty with margin ε; forward and
+  lateral rows weighted by γ_forward, γ_lateral;
+* acceleration / angular acceleration limits of eq. (23) (plus start and goal velocity rows when given);
+* time optimality ΔT_i; attraction to the global path; repulsion from obstacles (lower bounds
+  min_obstacle_distance with ε and inflation_distance on the distance field); via points; the
+  yaw-change penalty; the differential-drive residual when `omnidirectional` is False.
+"""
+
+from __future__ import annotations
+
+import logging
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from legplan.nav.teb.band import Band, wrap_angle
+from legplan.nav.teb.distance import DistanceField
+from legplan.nav.teb.params import TebParams
+from legplan.nav.teb.reference import GlobalPath
+from legplan.nav.teb.residuals import (DT, POSES, AccelerationBlock, ClearanceBlock, NonholonomicBlock, PathBlock,
+                                       TimeBlock, VelocityBlock, ViaPointBlock, YawChangeBlock)
+from legplan.nav.teb.resize import resize
+from legplan.robots.spec import KinodynamicLimits
+from legplan.solve import IntervalPenalty, LMParams, Problem, VariableBlock, solve_lm
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class ViaPoint:
+    """A point the band passes through; `heading` (rad, NaN = free) is held there."""
+
+    xy: tuple[float, float]
+    heading: float = float("nan")
+
+
+@dataclass
+class Scene:
+    """What the band is optimized against: global path, obstacle distance, via points, and the
+    body-frame velocities at the start and goal (None = free)."""
+
+    path: GlobalPath | None = None
+    distance: DistanceField | None = None
+    via: tuple[ViaPoint, ...] = ()
+    start_velocity: np.ndarray | None = None
+    goal_velocity: np.ndarray | None = field(default_factory=lambda: np.zeros(3))
+
+
+@dataclass(frozen=True)
+class RoundStats:
+    poses: int
+    iterations: int
+    seconds: float
+    initial_norm: float
+    final_norm: float
+
+
+@dataclass
+class TebResult:
+    band: Band
+    rounds: list[RoundStats]
+    seconds: float
+
+    @property
+    def iterations(self) -> int:
+        return sum(r.iterations for r in self.rounds)
+
+
+def optimize_band(band: Band, limits: KinodynamicLimits, params: TebParams = TebParams(),
+                  scene: Scene = Scene()) -> TebResult:
+    """Refine `band` by `params.outer_iterations` rounds of resize + LM (see module docstring)."""
+    clock = time.perf_counter()
+    rounds = []
+    lm = LMParams(max_iterations=params.inner_iterations * params.tries_per_iteration, tolerance=0.0,
+                  step_tolerance=0.0, lambda_boost=params.lambda_boost, assembly="stacked")
+    for _ in range(params.outer_iterations):
+        t0 = time.perf_counter()
+        band = resize(band, params)
+        problem = build_problem(band, limits, params, scene)
+        result = solve_lm(problem, lm)
+        poses = result.values[POSES].reshape(-1, 3)
+        poses[:, 2] = wrap_angle(poses[:, 2])
+        band = Band(poses, result.values[DT], band.fixed)
+        rounds.append(RoundStats(band.n, result.iterations, time.perf_counter() - t0, result.initial_norm, result.norm))
+    log.debug("TEB: %d rounds, %d poses, %.1f ms", len(rounds), band.n, 1e3 * (time.perf_counter() - clock))
+    return TebResult(band, rounds, time.perf_counter() - clock)
+
+
+def build_problem(band: Band, limits: KinodynamicLimits, params: TebParams, scene: Scene) -> Problem:
+    """The least-squares problem of eq. (24) for the current band (variables `poses`, `dt`)."""
+    n = band.n
+    fixed = np.repeat(band.fixed, 3)
+    problem = Problem([VariableBlock(POSES, band.poses.ravel(), fixed=fixed),
+                       VariableBlock(DT, band.dt, lower=params.dt_min)])
+    eps = params.epsilon
+    m = n - 1
+    v_lower = np.tile([-limits.v_x_min, -limits.v_y_max, -limits.omega_max], m)
+    v_upper = np.tile([limits.v_x_max, limits.v_y_max, limits.omega_max], m)
+    v_weight = np.tile(np.sqrt([params.weight_velocity * params.gamma_forward,
+                                params.weight_velocity * params.gamma_lateral, params.weight_omega]), m)
+    problem.add_residual(IntervalPenalty(VelocityBlock(n), v_lower, v_upper, eps), v_weight)
+    accel = AccelerationBlock(n, scene.start_velocity, scene.goal_velocity)
+    if accel.size:
+        rows = accel.size // 3
+        a_bound = np.tile([limits.a_x_max, limits.a_y_max, limits.alpha_max], rows)
+        a_weight = np.tile(np.sqrt([params.weight_acceleration * params.gamma_forward,
+                                    params.weight_acceleration * params.gamma_lateral, params.weight_alpha]), rows)
+        problem.add_residual(IntervalPenalty(accel, -a_bound, a_bound, eps), a_weight)
+    problem.add_residual(TimeBlock(n), np.sqrt(params.weight_time))
+    if scene.path is not None and params.weight_path > 0:
+        problem.add_residual(_path_block(band, scene.path, params), np.sqrt(params.weight_path))
+    if scene.distance is not None:
+        clearance = ClearanceBlock(n, scene.distance)
+        problem.add_residual(IntervalPenalty(clearance, params.min_obstacle_distance, np.inf, eps),
+                             np.sqrt(params.weight_obstacle))
+        if params.weight_inflation > 0:
+            problem.add_residual(IntervalPenalty(clearance, params.inflation_distance, np.inf, 0.0),
+                                 np.sqrt(params.weight_inflation))
+    if scene.via:
+        via = _via_block(band, scene.via)
+        if via is not None:
+            k = len(via.index)
+            weights = np.concatenate([np.full(2 * k, np.sqrt(params.weight_viapoint)),
+                                      np.full(len(via.with_heading), np.sqrt(params.weight_via_heading))])
+            problem.add_residual(via, weights)
+    if params.weight_yaw_change > 0:
+        problem.add_residual(YawChangeBlock(n), np.sqrt(params.weight_yaw_change))
+    if not params.omnidirectional:
+        problem.add_residual(NonholonomicBlock(n), np.sqrt(params.weight_nonholonomic))
+    return problem
+
+
+def _path_block(band: Band, path: GlobalPath, params: TebParams) -> PathBlock:
+    """Attraction block; pose i searches the path within ±path_window of arc length around the
+    point at the same fraction of the duration (band and path timings are proportional)."""
+    fraction = band.times / max(band.duration, 1e-12)
+    s_path = path.arc_length
+    t_path = path.times[0] + fraction * path.duration
+    s_i = np.interp(t_path, path.times, s_path)
+    first = np.searchsorted(s_path, s_i - params.path_window, side="right") - 1
+    width = int(np.ceil(2 * params.path_window / path.spacing)) + 2
+    return PathBlock(band.n, path.points, np.maximum(first, 0), width)
+
+
+def _via_block(band: Band, via: tuple[ViaPoint, ...]) -> ViaPointBlock | None:
+    """Each via point is assigned to its nearest free pose (re-assigned every round, as in TEB)."""
+    free = np.flatnonzero(~band.fixed)
+    if free.size == 0:
+        return None
+    points = np.array([v.xy for v in via], float)
+    d = np.sum((band.poses[free, None, :2] - points[None]) ** 2, axis=2)
+    index = free[np.argmin(d, axis=0)]
+    return ViaPointBlock(band.n, index, points, [v.heading for v in via])
+
+
+def limit_violations(band: Band, limits: KinodynamicLimits) -> dict[str, float]:
+    """Largest excess over each Table I limit (≥ 0; 0 = satisfied), in the limit's units."""
+    v = band.velocities()
+    a = band.accelerations()
+    out = {"v_x_max": v[:, 0].max(initial=0.0) - limits.v_x_max,
+           "v_x_min": -v[:, 0].min(initial=0.0) - limits.v_x_min,
+           "v_y_max": np.abs(v[:, 1]).max(initial=0.0) - limits.v_y_max,
+           "omega_max": np.abs(v[:, 2]).max(initial=0.0) - limits.omega_max,
+           "a_x_max": np.abs(a[:, 0]).max(initial=0.0) - limits.a_x_max,
+           "a_y_max": np.abs(a[:, 1]).max(initial=0.0) - limits.a_y_max,
+           "alpha_max": np.abs(a[:, 2]).max(initial=0.0) - limits.alpha_max}
+    return {k: max(float(x), 0.0) for k, x in out.items()}

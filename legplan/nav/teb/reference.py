@@ -1,0 +1,85 @@
+"""`GlobalPath`: the front end's path as TEB sees it — positions with a timing, resampled by arc length.
+
+Kinodynamic A* gives a timed trajectory (`legplan.nav.trajectory.Trajectory`): the band starts from
+its positions *and* timing (Sec. IV). The grid A* gives position-only waypoints: as in TEB's usual
+initialization they are timed at a constant nominal speed. Either way the path is stored as points
+(K, 2) at times (K,), evenly spaced in arc length (`spacing`), which is also the polyline the
+attraction term (`PathBlock`) measures against.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from legplan.nav.trajectory import Trajectory
+
+
+@dataclass(frozen=True)
+class GlobalPath:
+    points: np.ndarray  # (K, 2) m
+    times: np.ndarray  # (K,) s, non-decreasing
+    spacing: float  # m between consecutive points (the last gap may be shorter)
+
+    @property
+    def duration(self) -> float:
+        return float(self.times[-1] - self.times[0])
+
+    @property
+    def arc_length(self) -> np.ndarray:
+        return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(self.points, axis=0).T))])
+
+    @property
+    def length(self) -> float:
+        return float(self.arc_length[-1])
+
+    @classmethod
+    def from_samples(cls, times: np.ndarray, points: np.ndarray, spacing: float = 0.1) -> GlobalPath:
+        """Resample densely timed points (t, p) to `spacing` in arc length (stops collapse to one point)."""
+        points = np.asarray(points, float).reshape(-1, 2)
+        times = np.asarray(times, float).reshape(-1)
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))])
+        if s[-1] <= 0.0:
+            return cls(points[[0, -1]], times[[0, -1]], spacing)
+        grid = np.unique(np.concatenate([np.arange(0.0, s[-1], spacing), [s[-1]]]))
+        keep = np.concatenate([[True], np.diff(s) > 0])  # strictly increasing s for interpolation
+        s_k, t_k, p_k = s[keep], times[keep], points[keep]
+        new_points = np.column_stack([np.interp(grid, s_k, p_k[:, 0]), np.interp(grid, s_k, p_k[:, 1])])
+        new_times = np.interp(grid, s_k, t_k)
+        new_times[-1] = times[-1]
+        return cls(new_points, new_times, spacing)
+
+    @classmethod
+    def from_trajectory(cls, trajectory: Trajectory, spacing: float = 0.1, time_step: float = 0.02) -> GlobalPath:
+        t, p, _, _ = trajectory.sample(time_step)
+        return cls.from_samples(t, p, spacing)
+
+    @classmethod
+    def from_waypoints(cls, waypoints: np.ndarray, speed: float, spacing: float = 0.1) -> GlobalPath:
+        """Position-only waypoints timed at constant `speed` (TEB's initialization of a plain path)."""
+        waypoints = np.asarray(waypoints, float).reshape(-1, 2)
+        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(waypoints, axis=0).T))])
+        return cls.from_samples(s / speed, waypoints, spacing)
+
+    def at_time(self, t) -> tuple[np.ndarray, np.ndarray]:
+        """Positions (m, 2) and velocities (m, 2) at times t, piecewise linear between points."""
+        t = np.clip(np.atleast_1d(np.asarray(t, float)), self.times[0], self.times[-1])
+        p = np.column_stack([np.interp(t, self.times, self.points[:, 0]), np.interp(t, self.times, self.points[:, 1])])
+        dt = np.diff(self.times)
+        seg_v = np.where(dt[:, None] > 0, np.diff(self.points, axis=0) / np.maximum(dt, 1e-12)[:, None], 0.0)
+        k = np.clip(np.searchsorted(self.times, t, side="right") - 1, 0, len(dt) - 1) if len(dt) else None
+        v = seg_v[k] if k is not None else np.zeros_like(p)
+        return p, v
+
+    def nearest_index(self, point, lo: int = 0, hi: int | None = None) -> int:
+        """Index of the path point nearest to `point` among points lo … hi − 1."""
+        hi = len(self.points) if hi is None else hi
+        d = np.sum((self.points[lo:hi] - np.asarray(point, float)) ** 2, axis=1)
+        return lo + int(np.argmin(d))
+
+    def slice(self, lo: int, hi: int) -> GlobalPath:
+        """Points lo … hi − 1 (at least two), times shifted to start at zero."""
+        hi = max(hi, lo + 2)
+        lo = max(min(lo, len(self.points) - 2), 0)
+        return GlobalPath(self.points[lo:hi].copy(), self.times[lo:hi] - self.times[lo], self.spacing)
