@@ -42,11 +42,15 @@ def plot_motion(path, robot, terrain, records) -> None:
         ys = y0 + res * np.arange(height.shape[0])
         ylo, yhi = feet[..., 1].min() - 0.05, feet[..., 1].max() + 0.05
         band = (ys >= ylo) & (ys <= yhi)
-        profile = height[band].max(axis=0) if band.any() else height.max(axis=0)
+        band = band if band.any() else np.ones(len(ys), bool)
     else:
-        profile = height.max(axis=0)
-    side.fill_between(xs, np.minimum(profile.min(), 0) - 0.05, profile, color="0.8", step="mid",
-                      label="terrain (max over the robot's y band)")
+        band = np.ones(height.shape[0], bool)
+    top, low = height[band].max(axis=0), height[band].min(axis=0)
+    floor = max(float(low.min()), -0.15) - 0.02
+    side.fill_between(xs, floor, np.maximum(low, floor), color="0.6", step="mid",
+                      label="terrain, lowest in the robot's y band")
+    side.fill_between(xs, np.maximum(low, floor), top, color="0.85", step="mid",
+                      label="highest in the band (beams, pillars)")
     for leg in range(feet.shape[1]):
         side.plot(feet[:, leg, 0], feet[:, leg, 2], lw=1.0, label=robot.legs[leg].name)
     if len(com):
