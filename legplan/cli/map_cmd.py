@@ -71,9 +71,9 @@ def import_(kind, path, output, resolution, origin, scale, obstacle_height, over
     if kind == "ros":
         from pathlib import Path
 
-        from legplan.terrain.spec import read_yaml
+        from legplan.specio import read_yaml_mapping
 
-        inputs.append(Path(path).parent / read_yaml(path)["image"])
+        inputs.append(Path(path).parent / read_yaml_mapping(path, "ROS map file")["image"])
     save_map(terrain, output, params=params, inputs=inputs, overwrite=overwrite)
     _report(terrain, output)
 

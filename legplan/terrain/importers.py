@@ -25,7 +25,7 @@ import numpy as np
 from legplan.errors import SpecError
 from legplan.terrain.grid import Grid2D
 from legplan.terrain.primitives import Fields
-from legplan.terrain.spec import read_yaml
+from legplan.specio import read_yaml_mapping
 from legplan.terrain.terrain_map import TerrainMap, check_memory, terrain_from_heightmap
 
 PASSABLE = frozenset(".GS")
@@ -93,7 +93,7 @@ def _obstacle_terrain(blocked: np.ndarray, grid: Grid2D, name: str, obstacle_hei
 def import_ros(yaml_path: str | os.PathLike, *, obstacle_height: float = 1.0, **options) -> TerrainMap:
     """A ROS map_server map (YAML + PGM/PNG) as a terrain of obstacle columns (module docstring)."""
     source = str(yaml_path)
-    data = read_yaml(yaml_path)
+    data = read_yaml_mapping(yaml_path, "ROS map file")
     fields = Fields(data, "map", source)
     if not isinstance(data.get("image"), str):
         raise SpecError(f"{source}: field 'image' must name the map image file")

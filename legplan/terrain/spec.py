@@ -19,9 +19,9 @@ from dataclasses import fields as dataclass_fields
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 from legplan.errors import SpecError
+from legplan.specio import read_yaml_mapping
 from legplan.terrain.grid import Grid2D
 from legplan.terrain.layers import FootholdParams, NavParams
 from legplan.terrain.primitives import Fields, rasterize
@@ -29,22 +29,6 @@ from legplan.terrain.sdf import Progress
 from legplan.terrain.terrain_map import SdfParams, TerrainMap, check_memory, terrain_from_heightmap
 
 TOP_LEVEL = ("name", "resolution", "extent", "ground", "primitives", "foothold", "nav", "sdf")
-
-
-def read_yaml(path: str | os.PathLike) -> dict:
-    """A YAML mapping from `path`, or a one-line `SpecError`."""
-    path = Path(path)
-    if not path.is_file():
-        raise SpecError(f"{path}: no such spec file")
-    try:
-        data = yaml.safe_load(path.read_text())
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark is not None else ""
-        raise SpecError(f"{path}: invalid YAML{where}") from exc
-    if not isinstance(data, dict):
-        raise SpecError(f"{path}: spec must be a YAML mapping")
-    return data
 
 
 def section(data: dict, key: str, cls, source: str, none_ok: tuple[str, ...] = ()):
@@ -87,7 +71,7 @@ def parse_grid(data: dict, source: str) -> Grid2D:
 def build_map(spec_path: str | os.PathLike, progress: Progress | None = None) -> TerrainMap:
     """Parse, validate and build the map described by the YAML spec at `spec_path`."""
     source = str(spec_path)
-    data = read_yaml(spec_path)
+    data = read_yaml_mapping(spec_path, "map spec")
     for key in data:
         if key not in TOP_LEVEL:
             raise SpecError(f"{source}: field '{key}' is unknown (known: {', '.join(TOP_LEVEL)})")

@@ -43,7 +43,7 @@ def test_spec_errors_name_file_and_field(tmp_path, body, field):
 
 
 def test_missing_spec_file(tmp_path):
-    with pytest.raises(SpecError, match="no such spec file"):
+    with pytest.raises(SpecError, match=r"absent.yaml: cannot read map spec \(No such file"):
         build_map(tmp_path / "absent.yaml")
 
 
