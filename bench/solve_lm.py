@@ -1,0 +1,168 @@
+"""Benchmark legplan.solve LM against scipy.optimize.least_squares (not a test).
+
+Problems: the step-planner-shaped synthetic problem (N=100 samples, degree 10, 24 columns per
+control point, 18 slacks per sample; eq. (12) shape, known root) and Broyden tridiagonal with
+n = 10,000 and 100,000. Every solver starts at the same point and stops at the same tolerance
+‖h‖ < TOL (scipy through its callback). Each configuration is rebuilt and run REPEATS times in this
+process; the median wall time is reported with its ratio to the named reference.
+
+    .venv/bin/python bench/solve_lm.py [--repeats 5] [--skip-exact]
+
+Writes bench/results/solve_lm.json and appends rows to BENCHMARKS.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import platform
+import statistics
+import time
+from pathlib import Path
+
+import numpy as np
+from scipy.optimize import least_squares
+
+from legplan.solve import CholmodSolver, LMParams, solve_lm
+from legplan.solve import testproblems as tp
+
+TOL = 1e-8
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def legplan_run(make, params):
+    problem = make()
+    t0 = time.perf_counter()
+    result = solve_lm(problem, params)
+    wall = time.perf_counter() - t0
+    t = result.timings
+    return wall, result.norm, {"iterations": result.iterations, "status": result.status.value,
+                               "evaluate_s": t.evaluate, "assemble_s": t.assemble,
+                               "factorize_s": t.factorize, "solve_s": t.solve}
+
+
+def scipy_run(make, tr_solver):
+    problem = make()
+    theta0 = problem.layout.initial()
+    if tr_solver == "exact":
+        jac = lambda th: problem.jacobian(th)[1].toarray()  # noqa: E731 - exact needs a dense Jacobian
+    else:
+        jac = lambda th: problem.jacobian(th)[1]  # noqa: E731
+
+    def stop(intermediate_result):
+        if np.sqrt(2 * intermediate_result.cost) < TOL:
+            raise StopIteration
+
+    t0 = time.perf_counter()
+    res = least_squares(problem.residual, theta0, jac=jac, method="trf", tr_solver=tr_solver,
+                        xtol=1e-15, ftol=1e-15, gtol=1e-15, callback=stop, max_nfev=500)
+    wall = time.perf_counter() - t0
+    return wall, float(np.linalg.norm(res.fun)), {"nfev": int(res.nfev), "njev": int(res.njev), "status": int(res.status)}
+
+
+def measure(name, fn, repeats):
+    walls, norm, info = [], None, None
+    for _ in range(repeats):
+        wall, norm, info = fn()
+        walls.append(wall)
+    row = {"config": name, "median_s": statistics.median(walls), "runs": walls, "final_norm": norm, **info}
+    print(f"  {name:34s} median {row['median_s']:8.3f} s  ‖h‖={norm:.2e}  {info}", flush=True)
+    return row
+
+
+def cholmod_mode_comparison(make):
+    """Factorisation time of the step-planner JᵀJ (no Schur) per CHOLMOD mode, and forming JᵀJ."""
+    problem = make()
+    theta = problem.layout.initial()
+    _, J = problem.jacobian(theta)
+    t0 = time.perf_counter()
+    H = (J.T @ J).tocsc()
+    form = time.perf_counter() - t0
+    out = {"J_shape": list(J.shape), "J_nnz": int(J.nnz), "H_nnz": int(H.nnz), "scipy_JtJ_s": form}
+    for mode in ("simplicial", "supernodal"):
+        solver = CholmodSolver(mode=mode)
+        solver.factorize(H, 1.0)
+        times = []
+        for lam in (0.5, 0.25, 0.125, 0.0625, 0.03125):
+            t0 = time.perf_counter()
+            solver.factorize(H, lam)
+            times.append(time.perf_counter() - t0)
+        out[f"cholmod_{mode}_refactor_s"] = statistics.median(times)
+    blocks = problem.normal_equations(theta, "blocks")
+    out["structured_normal_equations_s"] = blocks.evaluate_seconds + blocks.assemble_seconds
+    return out
+
+
+def cpu_model() -> str:
+    for line in Path("/proc/cpuinfo").read_text().splitlines():
+        if line.startswith("model name"):
+            return line.split(":", 1)[1].strip()
+    return platform.processor() or "unknown"
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=5)
+    parser.add_argument("--skip-exact", action="store_true", help="skip scipy trf/exact (dense SVD, minutes)")
+    args = parser.parse_args()
+    step = lambda: tp.step_planner_like(epsilon=3e-2)  # noqa: E731
+    base = LMParams(tolerance=TOL)
+    cases = {
+        "step_planner_like": (step, [
+            ("legplan LM + cholmod (structured, Schur)", lambda: legplan_run(step, base)),
+            ("legplan LM + scipy (structured, Schur)", lambda: legplan_run(step, LMParams(tolerance=TOL, linear_solver="scipy"))),
+            ("legplan LM + dense (structured, Schur)", lambda: legplan_run(step, LMParams(tolerance=TOL, linear_solver="dense"))),
+            ("legplan LM + cholmod (stacked, no Schur)", lambda: legplan_run(step, LMParams(tolerance=TOL, assembly="stacked", schur=False))),
+            ("scipy least_squares trf/lsmr", lambda: scipy_run(step, "lsmr")),
+            *([] if args.skip_exact else [("scipy least_squares trf/exact", lambda: scipy_run(step, "exact"))]),
+        ]),
+    }
+    for n in (10_000, 100_000):
+        make = lambda n=n: tp.broyden_tridiagonal(n)  # noqa: E731
+        cases[f"broyden_tridiagonal_{n}"] = (make, [
+            ("legplan LM + cholmod", lambda make=make: legplan_run(make, base)),
+            ("legplan LM + scipy", lambda make=make: legplan_run(make, LMParams(tolerance=TOL, linear_solver="scipy"))),
+            ("scipy least_squares trf/lsmr", lambda make=make: scipy_run(make, "lsmr")),
+        ])
+    results = {"tolerance": TOL, "repeats": args.repeats, "machine": platform.machine(), "cpu": cpu_model(),
+               "date": datetime.date.today().isoformat(), "problems": {}}
+    for pname, (make, configs) in cases.items():
+        print(pname, flush=True)
+        rows = []
+        for name, fn in configs:
+            repeats = 1 if name.endswith("trf/exact") else args.repeats  # dense SVD per iteration: minutes per run
+            rows.append(measure(name, fn, repeats))
+        ours = rows[0]["median_s"]
+        for row in rows:
+            row["ratio_vs_legplan_cholmod"] = row["median_s"] / ours
+        entry = {"rows": rows}
+        if pname == "step_planner_like":
+            entry["factorization"] = cholmod_mode_comparison(make)
+            print("  ", entry["factorization"], flush=True)
+        results["problems"][pname] = entry
+    out = ROOT / "bench" / "results" / "solve_lm.json"
+    out.parent.mkdir(parents=True, exist_ok=True)
+    out.write_text(json.dumps(results, indent=2) + "\n")
+    write_markdown(results)
+
+
+def write_markdown(results):
+    path = ROOT / "BENCHMARKS.md"
+    if not path.exists():
+        path.write_text("# Benchmarks\n\n| date | machine | cpu | benchmark | problem | config | median (s) | ratio | reference | notes |\n"
+                        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n")
+    lines = []
+    for pname, entry in results["problems"].items():
+        for row in entry["rows"]:
+            ratio = row["ratio_vs_legplan_cholmod"]
+            runs = len(row["runs"])
+            lines.append(f"| {results['date']} | {results['machine']} | {results['cpu']} | solve_lm | {pname} | "
+                         f"{row['config']} | {row['median_s']:.3f} | {ratio:.2f}× | legplan LM + cholmod | "
+                         f"‖h‖={row['final_norm']:.1e}, tol {results['tolerance']:.0e}, median of {runs} |\n")
+    with path.open("a") as f:
+        f.writelines(lines)
+
+
+if __name__ == "__main__":
+    main()
