@@ -1,0 +1,107 @@
+"""The nav.h5 layout (kind "nav") written by `legplan nav search`, and its reader.
+
+Root attributes: the standard provenance (ARCHITECTURE.md) with `params` = the `NavParams` used
+plus "planner" and "robot".
+`/queries/NNNN` (one group per query, in input order), attributes:
+    success (bool), reason (str, "" on success), planner ("kinoastar" | "astar"),
+    start, goal (px, py, vx, vy; m, m/s), expansions, planning_time (s),
+    time_per_expansion (s), cost (search objective g), effort J = ∫||a||² dt (m²/s³),
+    duration T (s), path_length (m), min_clearance (m, distance field at dense samples),
+    max_speed_axis (m/s), max_accel_axis (m/s²) — NaN for the numbers of a failed query.
+  datasets (successful queries only):
+    segments (N, 9): `SEGMENT_COLUMNS` px py vx vy ax ay jx jy duration, attr `columns`, `units`
+        (comma-separated per column) — `Trajectory(segments)` rebuilds the trajectory exactly;
+    t (K,) s, p (K, 2) m, v (K, 2) m/s, a (K, 2) m/s² — dense samples, step ≤ `DENSE_STEP`;
+    waypoints (W, 2) m — grid A* only: its position-only path.
+`/summary`: queries, succeeded, success_rate, median/max planning_time, median expansions,
+    median time_per_expansion, median effort, duration, path_length, min of min_clearance.
+Later stages (TEB refinement) add their own groups beside `/queries` and read these.
+"""
+
+from __future__ import annotations
+
+import h5py
+import numpy as np
+
+from legplan.artefacts import require, write_dataset, write_summary
+from legplan.nav.collision import NavGrid
+from legplan.nav.result import SearchResult
+from legplan.nav.trajectory import SEGMENT_COLUMNS, SEGMENT_UNITS, Trajectory
+
+DENSE_STEP = 0.02  # s
+NAN = float("nan")
+
+
+def trajectory_metrics(trajectory: Trajectory | None, grid: NavGrid) -> dict[str, float]:
+    """Effort, duration, path length, clearance and per-axis extrema judged on dense samples."""
+    if trajectory is None:
+        return {name: NAN for name in ("effort", "duration", "path_length", "min_clearance",
+                                       "max_speed_axis", "max_accel_axis")}
+    _, p, v, a = trajectory.sample(DENSE_STEP)
+    return {"effort": trajectory.effort(), "duration": trajectory.duration,
+            "path_length": trajectory.path_length(),
+            "min_clearance": float(grid.clearance_at(p).min()),
+            "max_speed_axis": float(np.abs(v).max()), "max_accel_axis": float(np.abs(a).max())}
+
+
+def write_query(parent: h5py.Group, index: int, result: SearchResult, grid: NavGrid) -> dict:
+    """Write one query group; returns its scalar metrics (for the summary)."""
+    group = parent.create_group(f"{index:04d}")
+    metrics = {"expansions": result.expansions, "planning_time": result.planning_time,
+               "time_per_expansion": result.time_per_expansion, "cost": result.cost,
+               **trajectory_metrics(result.trajectory, grid)}
+    group.attrs["success"] = bool(result.success)
+    group.attrs["reason"] = result.reason
+    group.attrs["planner"] = result.planner
+    group.attrs["start"] = result.start
+    group.attrs["goal"] = result.goal
+    for name, value in metrics.items():
+        group.attrs[name] = value
+    if result.trajectory is not None:
+        write_dataset(group, "segments", result.trajectory.segments, units=",".join(SEGMENT_UNITS),
+                      columns=",".join(SEGMENT_COLUMNS))
+        t, p, v, a = result.trajectory.sample(DENSE_STEP)
+        write_dataset(group, "t", t, units="s")
+        write_dataset(group, "p", p, units="m")
+        write_dataset(group, "v", v, units="m/s")
+        write_dataset(group, "a", a, units="m/s^2")
+    if result.waypoints is not None:
+        write_dataset(group, "waypoints", result.waypoints, units="m")
+    return {"success": result.success, **metrics}
+
+
+def write_summary_table(handle: h5py.File, rows: list[dict]) -> None:
+    ok = [row for row in rows if row["success"]]
+
+    def median(name, source=rows):
+        values = [row[name] for row in source if np.isfinite(row[name])]
+        return float(np.median(values)) if values else NAN
+
+    write_summary(handle, {
+        "queries": len(rows), "succeeded": len(ok),
+        "success_rate": len(ok) / len(rows) if rows else NAN,
+        "median_planning_time": (median("planning_time"), "s"),
+        "max_planning_time": (max((r["planning_time"] for r in rows), default=NAN), "s"),
+        "median_expansions": median("expansions"),
+        "median_time_per_expansion": (median("time_per_expansion"), "s"),
+        "median_effort": (median("effort", ok), "m^2/s^3"),
+        "median_duration": (median("duration", ok), "s"),
+        "median_path_length": (median("path_length", ok), "m"),
+        "min_clearance": (min((r["min_clearance"] for r in ok), default=NAN), "m"),
+    })
+
+
+def read_queries(handle: h5py.File) -> list[dict]:
+    """Every query of an open nav artefact: attrs as a dict plus `trajectory` (or None) and
+    `waypoints` (or None)."""
+    queries = []
+    group = require(handle, "queries")
+    for name in sorted(group):
+        item = group[name]
+        entry = {key: (value.item() if isinstance(value, np.generic) else value)
+                 for key, value in item.attrs.items()}
+        entry["name"] = name
+        entry["trajectory"] = Trajectory(item["segments"][()]) if "segments" in item else None
+        entry["waypoints"] = item["waypoints"][()] if "waypoints" in item else None
+        queries.append(entry)
+    return queries

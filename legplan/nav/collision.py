@@ -1,0 +1,128 @@
+"""`NavGrid`: the search's view of a map's navigation layers (occupancy-derived distance, costmap).
+
+Hard constraint (Sec. III-C). A cell is *lethal* when its distance to the nearest obstacle is below
+the inscribed radius l1 (there the costmap holds C_max, eq. (15)); cells outside the map are
+lethal too. Trajectories are sampled so that consecutive samples are at most one cell apart per
+axis, and a sample is rejected when any lethal cell lies in the 3×3 block around its cell
+(`blocked`, the lethal mask dilated by one cell). Between two samples every point lies within half
+a cell (per axis) of one of them, so it lies in that sample's 3×3 block: the continuous trajectory
+never enters a lethal cell, at the price of one cell of extra margin.
+
+Soft constraint (Sec. III-D): `cost` is the costmap value F(s) of eqs. (15)–(16), read at the same
+samples for the collision cost of eq. (18).
+
+Lookups are flat gathers into arrays padded by one lethal cell on every side, with indices clipped
+into the padding, so points outside the map read as lethal without a bounds branch.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from scipy.ndimage import binary_dilation
+
+from legplan.errors import LegplanError
+
+
+@dataclass(frozen=True)
+class NavGrid:
+    """Costmap F (ny, nx), distance field (ny, nx) in m, lethal radius l1, origin of cell [0, 0]'s
+    centre (x0, y0) in m, square cell size `resolution` in m. Row index is y, column index is x."""
+
+    costmap: np.ndarray
+    distance: np.ndarray
+    l1: float
+    origin: tuple[float, float]
+    resolution: float
+    lethal: np.ndarray = field(init=False, repr=False)  # (ny, nx) distance < l1
+    # Padded (ny + 2) * (nx + 2) flat arrays indexed by `flat_index` (hot-path gathers).
+    blocked_flat: np.ndarray = field(init=False, repr=False)
+    cost_flat: np.ndarray = field(init=False, repr=False)
+    distance_flat: np.ndarray = field(init=False, repr=False)
+
+    def __post_init__(self):
+        costmap = np.asarray(self.costmap, float)
+        distance = np.asarray(self.distance, float)
+        if costmap.ndim != 2 or costmap.shape != distance.shape:
+            raise LegplanError(f"nav grid: costmap {costmap.shape} and distance {distance.shape} "
+                               "must be 2D arrays of the same shape")
+        if not self.resolution > 0:
+            raise LegplanError(f"nav grid: field 'resolution' must be > 0, got {self.resolution}")
+        lethal = distance < self.l1
+        blocked = binary_dilation(np.pad(lethal, 1, constant_values=True),
+                                  structure=np.ones((3, 3), bool))
+        blocked[[0, -1], :] = True
+        blocked[:, [0, -1]] = True
+        setter = object.__setattr__
+        setter(self, "costmap", costmap)
+        setter(self, "distance", distance)
+        setter(self, "origin", (float(self.origin[0]), float(self.origin[1])))
+        setter(self, "lethal", lethal)
+        setter(self, "blocked_flat", blocked.ravel())
+        setter(self, "cost_flat", np.pad(costmap, 1, mode="edge").ravel())
+        setter(self, "distance_flat", np.pad(distance, 1, constant_values=0.0).ravel())
+
+    @classmethod
+    def from_terrain(cls, terrain, lethal_radius: float | None = None) -> NavGrid:
+        """The view of a `legplan.terrain.TerrainMap`'s /nav layers; `lethal_radius` (e.g. the
+        robot's inscribed radius) raises l1 when larger than the map's costmap l1."""
+        l1 = terrain.nav_params.l1 if lethal_radius is None else max(terrain.nav_params.l1,
+                                                                       lethal_radius)
+        return cls(terrain.costmap, terrain.distance, l1, terrain.grid.origin,
+                   terrain.grid.resolution)
+
+    @classmethod
+    def from_map(cls, path, lethal_radius: float | None = None) -> NavGrid:
+        """Load a map.h5 artefact (`legplan.terrain.load_map`) and view its /nav layers."""
+        from legplan.terrain import load_map
+
+        return cls.from_terrain(load_map(path), lethal_radius)
+
+    @property
+    def shape(self) -> tuple[int, int]:
+        return self.costmap.shape
+
+    @property
+    def extent(self) -> tuple[float, float, float, float]:
+        """(xmin, xmax, ymin, ymax) of the map's cell edges, m."""
+        ny, nx = self.shape
+        half = 0.5 * self.resolution
+        x0, y0 = self.origin
+        return (x0 - half, x0 + (nx - 0.5) * self.resolution, y0 - half,
+                y0 + (ny - 0.5) * self.resolution)
+
+    def flat_index(self, points: np.ndarray) -> np.ndarray:
+        """Index into the padded flat arrays of the cell holding each point (..., 2) → (...)."""
+        ny, nx = self.shape
+        scaled = (points - self.origin) * (1.0 / self.resolution) + 1.5
+        ix = np.clip(scaled[..., 0], 0, nx + 1).astype(np.intp)
+        iy = np.clip(scaled[..., 1], 0, ny + 1).astype(np.intp)
+        return iy * (nx + 2) + ix
+
+    def blocked_at(self, points: np.ndarray) -> np.ndarray:
+        """True where a point's 3×3 cell block holds a lethal cell or leaves the map (hard)."""
+        return self.blocked_flat[self.flat_index(points)]
+
+    def lethal_at(self, points: np.ndarray) -> np.ndarray:
+        """True where the point's own cell is lethal or outside the map (no margin)."""
+        lethal = np.pad(self.lethal, 1, constant_values=True).ravel()
+        return lethal[self.flat_index(points)]
+
+    def cost_at(self, points: np.ndarray) -> np.ndarray:
+        """Costmap value F(s) at each point (eq. (15)); outside the map the border value."""
+        return self.cost_flat[self.flat_index(points)]
+
+    def clearance_at(self, points: np.ndarray) -> np.ndarray:
+        """Distance to the nearest obstacle at each point's cell, m; 0 outside the map."""
+        return self.distance_flat[self.flat_index(points)]
+
+    def cell_center(self, iy: np.ndarray, ix: np.ndarray) -> np.ndarray:
+        """World coordinates (..., 2) of cell centres."""
+        return np.stack([self.origin[0] + ix * self.resolution,
+                         self.origin[1] + iy * self.resolution], axis=-1)
+
+    def cell_of(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(iy, ix) of the cells holding the points (may fall outside the map)."""
+        scaled = np.floor((np.asarray(points, float) - self.origin) / self.resolution + 0.5)
+        return scaled[..., 1].astype(np.intp), scaled[..., 0].astype(np.intp)

@@ -1,0 +1,94 @@
+"""Parameters of the nav search (kinodynamic A*, Sec. III, and the grid A* reference).
+
+Limits. The paper plans p, ṗ in the world frame with |v_d| ≤ v_max and |a_d| ≤ u_max per axis
+d ∈ {x, y} (U = [-u_max, u_max]², Sec. III-A) and leaves heading to the TEB back end. We take the
+forward limits of Table I for both axes: v_max = v_x max = 0.75 m/s, a_max = a_x max = 1.0 m/s²
+(the robot turns to face its direction of travel; the lateral limits 0.20 m/s, 0.17 m/s² bound
+only side-stepping, which TEB handles). Per-axis bounds let a diagonal motion reach √2·v_max; set
+`v_max` lower with `--param` if the speed itself must stay below 0.75 m/s.
+
+Search. `mu` gives (2μ+1)² inputs of duration `tau` (eq. (6)); `rho` weighs time against effort
+(eq. (5)); `rho_c` weighs the collision cost (eq. (19)); `weight` ≥ 1 multiplies the heuristic
+(weighted A*, cost ≤ weight × optimal on the lattice). States are hashed on a grid of
+`pos_res` (m) × `vel_res` (m/s). Nodes within `oneshot_radius` of the goal try the analytic
+expansion. `goal_tolerance`/`goal_vel_tolerance` > 0 also accept a node that lands that close to
+the goal state (the tests use it for exact lattice goals).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+from legplan.errors import LegplanError
+
+_TRUE, _FALSE = ("1", "true", "yes", "on"), ("0", "false", "no", "off")
+
+
+@dataclass(frozen=True)
+class NavParams:
+    v_max: float = 0.75  # m/s per axis (Table I v_x max)
+    a_max: float = 1.0  # m/s² per axis (Table I a_x max)
+    mu: int = 2  # (2μ+1)² motion primitives
+    tau: float = 0.4  # s, primitive duration
+    rho: float = 1.0  # time weight ρ of eq. (5)
+    rho_c: float = 0.01  # collision-cost weight ρ_c of eq. (19) (C_max = 100 → ρ_c·F ≤ 1)
+    weight: float = 1.5  # heuristic weight (1 = plain A*)
+    time_bound: bool = True  # heuristic minimizes over T ≥ max|Δp_d| / v_max
+    pos_res: float = 0.1  # m, state hash grid
+    vel_res: float = 0.2  # m/s, state hash grid
+    oneshot_radius: float = 5.0  # m
+    goal_tolerance: float = 0.0  # m
+    goal_vel_tolerance: float = 0.0  # m/s
+    max_expansions: int = 200_000
+
+    def __post_init__(self):
+        checks = [("v_max", self.v_max > 0), ("a_max", self.a_max > 0), ("mu", self.mu >= 1),
+                  ("tau", self.tau > 0), ("rho", self.rho > 0), ("rho_c", self.rho_c >= 0),
+                  ("weight", self.weight >= 1), ("pos_res", self.pos_res > 0),
+                  ("vel_res", self.vel_res > 0), ("oneshot_radius", self.oneshot_radius >= 0),
+                  ("goal_tolerance", self.goal_tolerance >= 0),
+                  ("goal_vel_tolerance", self.goal_vel_tolerance >= 0),
+                  ("max_expansions", self.max_expansions >= 1)]
+        for name, ok in checks:
+            if not ok:
+                raise LegplanError(f"nav parameter '{name}' out of range: {getattr(self, name)!r}")
+
+    @classmethod
+    def for_robot(cls, navigation) -> NavParams:
+        """Defaults with v_max, a_max from a robot's `navigation.limits` (forward values)."""
+        limits = navigation.limits
+        return cls(v_max=float(limits.v_x_max), a_max=float(limits.a_x_max))
+
+    def replace(self, **changes) -> NavParams:
+        return dataclasses.replace(self, **changes)
+
+    def with_overrides(self, overrides: dict[str, str], source: str = "--param") -> NavParams:
+        """A copy with `key=value` text overrides converted to each field's type."""
+        names = {f.name for f in dataclasses.fields(self)}
+        changes = {}
+        for key, text in overrides.items():
+            if key not in names:
+                raise LegplanError(f"{source}: unknown nav parameter '{key}' "
+                                   f"(known: {', '.join(sorted(names))})")
+            changes[key] = _convert(type(getattr(self, key)), key, str(text), source)
+        return self.replace(**changes)
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+
+def _convert(kind: type, key: str, text: str, source: str):
+    if kind is bool:
+        if text.lower() in _TRUE + _FALSE:
+            return text.lower() in _TRUE
+    else:
+        try:
+            number = float(text)
+            if kind is float:
+                return number
+            if number.is_integer():
+                return int(number)
+        except ValueError:
+            pass
+    raise LegplanError(f"{source}: parameter '{key}' expects {kind.__name__}, got {text!r}")
