@@ -67,7 +67,7 @@ def write_query(parent: h5py.Group, index: int, result: SearchResult, grid: NavG
         write_dataset(group, "a", a, units="m/s^2")
     if result.waypoints is not None:
         write_dataset(group, "waypoints", result.waypoints, units="m")
-    return {"success": result.success, **metrics}
+    return {"success": result.success, "reason": result.reason, **metrics}
 
 
 def write_summary_table(handle: h5py.File, rows: list[dict]) -> None:
