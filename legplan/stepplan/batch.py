@@ -9,6 +9,9 @@ motion.h5 (kind "motion"):
                  lm_iterations (per degree tried, from d = 1), degree_norms ‖F̃‖ per degree,
                  timings/{evaluate,assemble,factorize,solve} s,
                  dense/{foot_slip, com_margin, clearance, joint_excess, length, roughness2, roughness3}
+               A record of another planner (legplan.baselines) carries `waypoints` (k, nx), a
+               piecewise-linear x-space path, instead of control_points / degree / LM data, and
+               its own attrs (`record["attrs"]`); `dense` and `timings` are written for both.
   /summary     Table II rows (see `table2`).
 """
 
@@ -31,6 +34,7 @@ from legplan.stepplan.planner import plan_step
 log = logging.getLogger(__name__)
 
 PARAMETRIZATION = "x = [base position (3), base rotation vector (3), joints]; quaternion = exp(rotation vector)"
+POLYLINE = "piecewise-linear path through these x-space waypoints, uniform in x-space arc length; " + PARAMETRIZATION
 
 
 def motion_stance(stance_a, stance_b, footholds_a, footholds_b, tol: float = 1e-6) -> np.ndarray:
@@ -142,12 +146,15 @@ def table2(records: Sequence[dict]) -> dict:
 
 
 def write_motion(path, records: Sequence[dict], robot: str, params: StepPlanParams, *, inputs=(),
-                 overwrite: bool = False) -> dict:
-    """Write motion.h5 (layout in the module docstring); returns the summary rows."""
+                 overwrite: bool = False, attrs: dict | None = None) -> dict:
+    """Write motion.h5 (layout in the module docstring; `attrs`: extra root attributes, e.g. the
+    planner of a baseline); returns the summary rows. `params` is anything with `as_dict()`."""
     summary = table2(records)
     with write_artefact(path, "motion", params=params.as_dict(), inputs=inputs, overwrite=overwrite) as f:
         f.attrs["robot"] = robot
         f.attrs["parametrization"] = PARAMETRIZATION
+        for key, value in (attrs or {}).items():
+            f.attrs[key] = value
         steps = f.create_group("steps")
         for r in records:
             g = steps.create_group(f"{r['index']:04d}")
@@ -159,19 +166,24 @@ def write_motion(path, records: Sequence[dict], robot: str, params: StepPlanPara
             write_dataset(g, "q_end", r["q_end"], units="m|quaternion|rad")
             write_dataset(g, "stance", r["stance"].astype(np.uint8), units="bool")
             write_dataset(g, "footholds", r["footholds"], units="m")
-            if "control_points" not in r:
-                continue
-            g.attrs["degree"] = int(r["degree"])
-            g.attrs["norm"] = float(r["norm"])
-            write_dataset(g, "control_points", r["control_points"], units="m|rad", description=PARAMETRIZATION)
-            write_dataset(g, "lm_iterations", r["lm_iterations"], description="SolveLM iterations at d = 1, 2, ...")
-            write_dataset(g, "degree_norms", r["degree_norms"], description="‖F̃‖ after each degree (eq. (12))")
-            timing = g.create_group("timings")
-            for key, value in r["timings"].items():
-                write_dataset(timing, key, float(value), units="s")
-            dense = g.create_group("dense")
-            for key, value in r["dense"].items():
-                write_dataset(dense, key, float(value), units=DENSE_UNITS[key])
+            for key, value in r.get("attrs", {}).items():
+                g.attrs[key] = value
+            if "control_points" in r:
+                g.attrs["degree"] = int(r["degree"])
+                g.attrs["norm"] = float(r["norm"])
+                write_dataset(g, "control_points", r["control_points"], units="m|rad", description=PARAMETRIZATION)
+                write_dataset(g, "lm_iterations", r["lm_iterations"], description="SolveLM iterations at d = 1, 2, ...")
+                write_dataset(g, "degree_norms", r["degree_norms"], description="‖F̃‖ after each degree (eq. (12))")
+            if "waypoints" in r:
+                write_dataset(g, "waypoints", r["waypoints"], units="m|rad", description=POLYLINE)
+            if "timings" in r:
+                timing = g.create_group("timings")
+                for key, value in r["timings"].items():
+                    write_dataset(timing, key, float(value), units="s")
+            if "dense" in r:
+                dense = g.create_group("dense")
+                for key, value in r["dense"].items():
+                    write_dataset(dense, key, float(value), units=DENSE_UNITS[key])
         write_summary(f, summary)
     return summary
 
@@ -182,7 +194,7 @@ def read_motion(path) -> list[dict]:
     with open_artefact(path, kind="motion") as f:
         for name, g in require(f, "steps").items():
             r = {key: g.attrs[key] for key in g.attrs}
-            for key in ("q_start", "q_end", "footholds", "stance", "control_points"):
+            for key in ("q_start", "q_end", "footholds", "stance", "control_points", "waypoints"):
                 if key in g:
                     r[key] = g[key][()]
             if "dense" in g:

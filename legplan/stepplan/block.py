@@ -33,6 +33,37 @@ def _hinge(g: np.ndarray, jac: np.ndarray | None):
     return r, (None if jac is None else jac * slope[..., None])
 
 
+class _ValuesOnly:
+    """The robot seen through `legplan.contact.terms` when only residual values are wanted.
+
+    LM evaluates every trial point without Jacobians (Algorithm 1, line 5), and most trial points
+    are rejected. The contact terms always return Jacobians, so this view gives them Jacobians of
+    zero width: `tangent_map` is (n, nv, 0) and the kinematic Jacobians are broadcast zeros, so every
+    J_x product is empty and only the values (one forward-kinematics pass, no Jacobians) cost time.
+    """
+
+    def __init__(self, robot):
+        self._robot = robot
+
+    def __getattr__(self, name):
+        return getattr(self._robot, name)
+
+    def _zeros(self, positions):
+        return np.broadcast_to(np.zeros(1), positions.shape + (self._robot.nv,))
+
+    def foot_jacobians(self, Q):
+        return self._zeros(self._robot.foot_positions(Q))
+
+    def sphere_jacobians(self, Q):
+        return self._zeros(self._robot.sphere_centres(Q))
+
+    def com_jacobian(self, Q):
+        return self._zeros(self._robot.com(Q))
+
+    def tangent_map(self, X):
+        return np.zeros((len(X), self._robot.nv, 0))
+
+
 class SampleConstraints:
     """Residual rows of one step at a batch of configurations X (n, nx) with slacks Xi (n, s).
 
@@ -46,6 +77,7 @@ class SampleConstraints:
     def __init__(self, robot, sdf, mode: ContactMode, epsilon: float, *, swing_ends=None,
                  relax_radius: float = 0.05):
         self.robot = robot
+        self._values_only = _ValuesOnly(robot)
         self.sdf = sdf
         self.mode = mode
         self.epsilon = float(epsilon)
@@ -99,12 +131,12 @@ class SampleConstraints:
 
     def evaluate(self, X: np.ndarray, Xi: np.ndarray, jacobians: bool):
         """r (n, m) and, with `jacobians`, G (n, m, nx) and S (n, m, s)."""
-        robot, mode = self.robot, self.mode
+        robot, mode = (self.robot if jacobians else self._values_only), self.mode
         X = np.atleast_2d(X)
         n, nx = X.shape
         k = len(self.legs)
         Q = robot.from_vector(X)
-        robot.kinematics(Q, jacobians=True)  # one batch pass; the terms below (all with Jacobians) hit its cache
+        robot.kinematics(Q, jacobians=jacobians)  # one batch pass; the terms below hit its cache
         f, jf = stance_foot_terms(robot, X, mode, Q)
         f = f - Xi
         xi = Xi.reshape(n, k, 3)

@@ -41,14 +41,28 @@ def dense_check(robot, validator, control_points, stance, footholds, samples: in
                 relax_radius: float = 0.05) -> DenseCheck:
     """Check the Bézier path of `control_points` (x-space) at `samples` uniform parameters.
 
-    Clearance is the FCL surface distance of each sphere centre minus its radius, over all spheres
-    except stance feet and except swing-foot spheres within `relax_radius` of their lift-off or
-    touch-down position (where the planner lets the foot reach the terrain); there the swing foot
-    is judged by `swing_foot_tip`, the surface distance of its sphere centre (the foot point for
-    robots whose foot sphere sits on the foot frame) — ≥ −ε means it never sinks into the terrain.
+    The constraints are judged by `check_path`; the quality terms are the exact eq. (5) integrals
+    ∫‖π^(k)‖ dt, k = 1, 2, 3, of the Bézier curve.
     """
     t = np.linspace(0.0, 1.0, samples)
-    Q = robot.from_vector(evaluate(control_points, t))
+    quality = derivative_norm_integrals(control_points, orders=(1, 2, 3))
+    return check_path(robot, validator, evaluate(control_points, t), stance, footholds, quality, relax_radius)
+
+
+def check_path(robot, validator, X, stance, footholds, quality, relax_radius: float = 0.05) -> DenseCheck:
+    """Judge the dense samples X (n, nx) (x-space, in path order) of any path between two footholds.
+
+    `quality` holds the path's (length, roughness2, roughness3) terms of eq. (5), computed by the
+    caller for its kind of path.
+
+    Clearance is the FCL surface distance of each sphere centre minus its radius, over all spheres
+    except stance feet and except swing-foot spheres within `relax_radius` of their lift-off or
+    touch-down position (the first and last sample, where the planner lets the foot reach the
+    terrain); there the swing foot is judged by `swing_foot_tip`, the surface distance of its
+    sphere centre (the foot point for robots whose foot sphere sits on the foot frame) — ≥ −ε
+    means it never sinks into the terrain.
+    """
+    Q = robot.from_vector(np.asarray(X, float))
     n = len(Q)
     stance = np.asarray(stance, bool)
     checks = validator.check(Q, np.broadcast_to(stance, (n, len(stance))),
@@ -68,7 +82,6 @@ def dense_check(robot, validator, control_points, stance, footholds, samples: in
         near = np.linalg.norm(centres[:, None, swing_feet] - ends[None], axis=-1).min(axis=1) < relax_radius
         checked[:, swing_feet] &= ~near
     gap = validator.surface.signed_distance(centres[checked]) - np.asarray(spheres.radii)[np.nonzero(checked)[1]]
-    quality = derivative_norm_integrals(control_points, orders=(1, 2, 3))
     return DenseCheck(foot_slip=float(slip.max(initial=0.0)), com_margin=float(checks.com_margin.min()),
                       clearance=float(gap.min(initial=np.inf)), swing_foot_tip=tip,
                       joint_excess=float(checks.joint_excess.max(initial=0.0)),

@@ -68,3 +68,22 @@ def test_unreachable_end_fails_with_reason(scene):
     plan = plan_step(robot, scene[1].sdf, q0, q1, np.ones(6, bool), feet, StepPlanParams(samples=30, max_degree=3))
     assert not plan.success and "ε_num" in plan.reason
     assert [d.degree for d in plan.degrees] == [1, 2, 3]
+
+
+def test_values_only_path_matches_full_evaluation(scene):
+    from legplan.geometry.bezier import elevate
+    from legplan.stepplan.block import SampleConstraints
+    from legplan.stepplan.planner import contact_mode, path_vectors
+
+    robot, terrain, _, q, _, footholds = scene
+    stance = np.array([False, True, True, True])
+    x0, x1 = path_vectors(robot, q[1], q[2])
+    ends = robot.sphere_centres(robot.from_vector(np.stack([x0, x1])))
+    sc = SampleConstraints(robot, terrain.sdf, contact_mode(stance, footholds[1], StepPlanParams()), 1e-3,
+                           swing_ends=ends)
+    X = elevate(np.stack([x0, x1]), 5) + 0.01 * np.random.default_rng(0).normal(size=(7, robot.nx))
+    Xi = 0.002 * np.random.default_rng(1).normal(size=(7, sc.slack_size))
+    full = sc.evaluate(X, Xi, True)[0]
+    values = sc.evaluate(X + 0.0, Xi, False)[0]
+    assert np.count_nonzero(full) > 10
+    assert np.allclose(values, full, atol=1e-12)
