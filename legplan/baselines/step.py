@@ -1,0 +1,195 @@
+"""OMPL baseline of `legplan step plan`: constrained RRT-Connect per consecutive pair of a steps.h5.
+
+For the pair (q_i, q_{i+1}) the legs in stance at both ends on the same foothold
+(`legplan.stepplan.motion_stance`) define the manifold (`StanceConstraint`); a configuration is
+valid when it meets the inequality constraints of the Bézier planner itself — CoM inside the
+support polygon with `com_margin`, every checked sphere `clearance` clear of the SDF (swing-foot
+margin relaxed near its footholds) and the joint limits — evaluated by the step planner's own
+`SampleConstraints` (the equality rows are the manifold and are not part of validity), so both
+planners solve the same problem. The start and goal vectors are those of the Bézier planner
+(`path_vectors`, end rotation vector unwrapped towards the start).
+
+The result is a piecewise-linear x-space path through the manifold states of the interpolated
+OMPL solution. It is judged like a Bézier step (`legplan.stepplan.measure.check_path`): re-sampled
+at `dense_samples` points uniform in x-space arc length and checked by the independent validator.
+Quality terms of eq. (5) with t ∈ [0, 1] proportional to arc length, by finite differences of
+the dense samples (spacing h = 1/(n − 1)): length = Σ‖Δx‖ (exact), roughness2 = Σ‖Δ²x‖/h (the
+sum of the velocity jumps at the corners, independent of h once h is below the waypoint spacing),
+roughness3 = Σ‖Δ³x‖/h² (∫‖π'''‖ is unbounded for a polyline: the value grows as 1/h and is
+reported for completeness only, at the stated dense_samples).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from legplan.errors import LegplanError
+
+log = logging.getLogger(__name__)
+
+
+@dataclass(frozen=True)
+class StepBaselineParams:
+    time_budget: float = 10.0  # s of OMPL solve() per step
+    space: str = "atlas"  # projected | atlas | tangent
+    seed: int = 0  # step i is planned with OMPL seed `seed + i`
+    tolerance: float = 1e-4  # m, constraint tolerance of the projection (OMPL default)
+    delta: float = 0.02  # constrained-space step in x units (m | rad)
+    simplify_time: float = 0.0  # s of path shortcutting after the first solution (0: none)
+    waypoints: int = 100  # states asked of the interpolated solution (capped by the geodesic step `delta`)
+    position_margin: float = 0.1  # m, ambient bounds around the start/goal base positions
+    rotation_margin: float = 0.5  # rad, ambient bounds around the start/goal rotation vectors
+    # the step planner's constraint settings (StepPlanParams), for the same problem:
+    epsilon: float = 1e-3
+    slack_fraction: float = 0.95
+    clearance: float = 0.02
+    relax_radius: float = 0.05
+    com_margin: float = 0.0
+    dense_samples: int = 1000
+
+    def __post_init__(self):
+        from legplan.baselines.constrained import SPACES
+
+        if self.space not in SPACES:
+            raise LegplanError(f"--space: expected one of {', '.join(SPACES)}, got {self.space!r}")
+        checks = [("time_budget", self.time_budget > 0), ("tolerance", self.tolerance > 0),
+                  ("delta", self.delta > 0), ("simplify_time", self.simplify_time >= 0),
+                  ("waypoints", self.waypoints >= 2), ("dense_samples", self.dense_samples >= 4),
+                  ("seed", self.seed >= 0)]
+        for name, ok in checks:
+            if not ok:
+                raise LegplanError(f"step baseline parameter '{name}' out of range: {getattr(self, name)!r}")
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @property
+    def planner(self) -> str:
+        return f"ompl-rrtconnect-{self.space}"
+
+
+def polyline_samples(waypoints: np.ndarray, count: int) -> np.ndarray:
+    """`count` points (count, n) uniform in arc length along the polyline through `waypoints` (k, n)."""
+    W = np.asarray(waypoints, float)
+    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(W, axis=0), axis=1))])
+    if s[-1] <= 0.0:
+        return np.repeat(W[:1], count, axis=0)
+    keep = np.concatenate([[True], np.diff(s) > 0])
+    s, W = s[keep], W[keep]
+    target = np.linspace(0.0, s[-1], count)
+    return np.stack([np.interp(target, s, W[:, j]) for j in range(W.shape[1])], axis=1)
+
+
+def polyline_quality(X: np.ndarray) -> tuple[float, float, float]:
+    """(length, roughness2, roughness3) of eq. (5) by finite differences of dense samples X (n, nx),
+    uniform in t ∈ [0, 1] (see the module docstring for what they mean on a polyline)."""
+    h = 1.0 / (len(X) - 1)
+    terms = [float(np.linalg.norm(np.diff(X, k, axis=0), axis=1).sum() * h / h ** k) for k in (1, 2, 3)]
+    return terms[0], terms[1], terms[2]
+
+
+def ambient_bounds(robot, x0, x1, params: StepBaselineParams) -> tuple[np.ndarray, np.ndarray]:
+    """Box of the sampling space: base position and rotation vector around the two ends, joint limits."""
+    ends = np.stack([x0, x1])
+    low = np.r_[ends[:, :3].min(0) - params.position_margin, ends[:, 3:6].min(0) - params.rotation_margin,
+                robot.lower]
+    high = np.r_[ends[:, :3].max(0) + params.position_margin, ends[:, 3:6].max(0) + params.rotation_margin,
+                 robot.upper]
+    return low, high
+
+
+def step_validity(robot, sdf, x0, x1, stance, footholds, params: StepBaselineParams) -> Callable[[np.ndarray], bool]:
+    """valid(x): the Bézier planner's inequality rows (CoM, clearance, joint limits) all met at x."""
+    from legplan.stepplan.block import SampleConstraints
+    from legplan.stepplan.planner import contact_mode
+
+    ends = robot.sphere_centres(robot.from_vector(np.stack([x0, x1])))
+    constraints = SampleConstraints(robot, sdf, contact_mode(stance, footholds, params),
+                                    params.slack_fraction * params.epsilon, swing_ends=ends,
+                                    relax_radius=params.relax_radius)
+    first = 4 * len(constraints.legs)  # stance-foot equality (3 per leg) and slack-bound rows come first
+    slack = np.zeros((1, constraints.slack_size))
+
+    def valid(x: np.ndarray) -> bool:
+        rows = constraints.evaluate(x[None], slack, False)[0]
+        return bool(np.all(rows[0, first:] <= 0.0))
+
+    return valid
+
+
+class StepBaselineWorker:
+    """Robot, terrain and independent validator, loaded once; `plan` judges one pair like `StepWorker`."""
+
+    def __init__(self, robot_name: str, map_path: str, params: StepBaselineParams):
+        from legplan.robots import load_robot
+        from legplan.terrain import load_map
+        from legplan.validate.checks import Validator
+
+        self.robot = load_robot(robot_name)
+        self.terrain = load_map(map_path)
+        self.validator = Validator(self.robot, self.terrain)
+        self.params = params
+
+    def plan(self, index: int, q_start, q_end, stance, footholds) -> dict:
+        """Plan and judge one step; never raises (a failure is a record with a reason)."""
+        from legplan.baselines.constrained import StanceConstraint, plan_constrained
+        from legplan.stepplan.measure import check_path
+        from legplan.stepplan.planner import path_vectors
+
+        p, robot = self.params, self.robot
+        t0 = time.perf_counter()
+        footholds = np.nan_to_num(np.asarray(footholds, float), nan=0.0)
+        record = {"index": index, "q_start": np.asarray(q_start), "q_end": np.asarray(q_end),
+                  "stance": np.asarray(stance, bool), "footholds": footholds}
+        try:
+            x0, x1 = path_vectors(robot, np.asarray(q_start, float), np.asarray(q_end, float))
+            valid = step_validity(robot, self.terrain.sdf, x0, x1, stance, footholds, p)
+            problems = [name for name, x in (("start", x0), ("goal", x1)) if not valid(x)]
+            if problems:
+                record.update(success=False, seconds=time.perf_counter() - t0,
+                              reason=f"{' and '.join(problems)} violate the step constraints (CoM, clearance or "
+                                     "joint limits)")
+                return record
+            constraint = StanceConstraint(robot, stance, footholds, p.tolerance)
+            low, high = ambient_bounds(robot, x0, x1, p)
+            result = plan_constrained(constraint, valid, x0, x1, low, high, space=p.space,
+                                      time_budget=p.time_budget, seed=p.seed + int(index), delta=p.delta,
+                                      simplify_time=p.simplify_time, waypoints=p.waypoints)
+        except Exception as exc:  # a bad pair must not stop the batch
+            log.debug("step %d raised", index, exc_info=True)
+            record.update(success=False, reason=f"{type(exc).__name__}: {exc}", seconds=time.perf_counter() - t0)
+            return record
+        record.update(success=result.success, reason=result.reason, seconds=result.seconds,
+                      attrs={"planner": p.planner, "ompl_status": result.status},
+                      timings={"solve": result.solve_seconds, "total": result.seconds})
+        if result.waypoints is not None:
+            record["waypoints"] = result.waypoints
+            dense = polyline_samples(result.waypoints, p.dense_samples)
+            check = check_path(robot, self.validator, dense, stance, footholds, polyline_quality(dense),
+                               p.relax_radius)
+            record["dense"] = check.as_dict()
+        return record
+
+
+def plan_sequence_baseline(seq, map_path, params: StepBaselineParams, indices: Sequence[int],
+                           progress: Callable[[int, int, str], None] | None = None) -> list[dict]:
+    """Plan pairs (q_i, q_{i+1}) for i in `indices` of a `StepSequence` one after another (OMPL's
+    seed is process-wide); records in index order, ready for `legplan.stepplan.write_motion`."""
+    from legplan.stepplan.batch import motion_stance
+
+    worker = StepBaselineWorker(seq.robot, str(map_path), params)
+    records, failed = [], 0
+    for i in indices:
+        stance = motion_stance(seq.stance[i], seq.stance[i + 1], seq.footholds[i], seq.footholds[i + 1])
+        record = worker.plan(int(i), seq.q[i], seq.q[i + 1], stance, seq.footholds[i])
+        records.append(record)
+        failed += not record["success"]
+        if progress is not None:
+            progress(len(records), len(indices), f"step {i} {record['seconds']:.2f}s, {failed} failed")
+    return records
