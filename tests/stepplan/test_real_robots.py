@@ -87,3 +87,25 @@ def test_values_only_path_matches_full_evaluation(scene):
     values = sc.evaluate(X + 0.0, Xi, False)[0]
     assert np.count_nonzero(full) > 10
     assert np.allclose(values, full, atol=1e-12)
+
+
+def test_block_jacobian_on_quadruped_matches_finite_differences(scene):
+    from legplan.geometry.bezier import elevate
+    from legplan.solve import check_jacobian
+    from legplan.stepplan.block import BezierConstraintBlock, SampleConstraints
+    from legplan.stepplan.planner import contact_mode, path_vectors
+
+    robot, terrain, _, q, _, footholds = scene
+    stance = np.array([False, True, True, True])
+    x0, x1 = path_vectors(robot, q[1], q[2])
+    ends = robot.sphere_centres(robot.from_vector(np.stack([x0, x1])))
+    sc = SampleConstraints(robot, terrain.sdf, contact_mode(stance, footholds[1], StepPlanParams()), 1e-3,
+                           swing_ends=ends)
+    block = BezierConstraintBlock(sc, 3, np.linspace(0, 1, 7)[1:-1])
+    rng = np.random.default_rng(5)
+    P = elevate(np.stack([x0, x1]), 2) + 0.01 * rng.normal(size=(4, robot.nx))
+    xi = 0.002 * rng.normal(size=5 * sc.slack_size)
+    r, _ = block.evaluate([P.reshape(-1), xi], False)
+    assert np.count_nonzero(r) > 20
+    report = check_jacobian(block, [P.reshape(-1), xi], step=1e-7)
+    assert report.ok(atol=1e-5, rtol=1e-3), report
