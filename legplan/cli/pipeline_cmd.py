@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import shlex
 from pathlib import Path
 
 import click
@@ -45,7 +46,7 @@ def run_cmd(ctx, pipeline_file, out_dir, force, dry_run, jobs):
         for decision in plan_run(pipeline, out, force=force):
             verb = "run " if decision.run else "skip"
             click.echo(f"{verb} {decision.name}: {decision.reason}")
-            click.echo(f"     legplan {' '.join(decision.argv)}")
+            click.echo(f"     legplan {shlex.join(decision.argv)}")
         return
 
     def show(result):
@@ -76,4 +77,4 @@ def show_cmd(pipeline_file, out_dir):
     for spec in pipeline.stages:
         stage = resolve_stage(pipeline, spec, out)
         after = f" (after {', '.join(stage.depends_on)})" if stage.depends_on else ""
-        click.echo(f"{stage.name}{after}: legplan {' '.join(stage.argv)}")
+        click.echo(f"{stage.name}{after}: legplan {shlex.join(stage.argv)}")

@@ -64,11 +64,15 @@ def resolve_stage(pipeline: Pipeline, stage: StageSpec, out_dir: str | os.PathLi
     options: list[str] = []
     for key, value in stage.params.items():
         flag = key if key.startswith("-") else f"--{key}"
-        for item in value if isinstance(value, list) else [value]:
-            if item is True:
-                options.append(flag)
-            elif item is not False:
-                options += [flag, fill(str(item))]
+        if value is True:
+            options.append(flag)
+        elif isinstance(value, list):
+            options += [flag, *(fill(str(item)) for item in value)]
+        elif isinstance(value, dict):
+            for name, item in value.items():
+                options += [flag, f"{name}={fill(str(item))}"]
+        elif value is not False:
+            options += [flag, fill(str(value))]
     output = outputs[stage.name]
     provenance = _norm(out_dir / stage.provenance) if stage.provenance else output
     argv = (*command, *options, "-o", str(output), "--overwrite")

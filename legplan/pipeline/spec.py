@@ -7,7 +7,11 @@
         command: [map, build, "{maps}/gap_crossing.yaml"]
         inputs: ["{maps}/gap_crossing.yaml"]
         output: map.h5                    # relative to --out; a directory when it ends in "/"
-        params: {resolution: 0.02}        # extra CLI options: --resolution 0.02
+        params:                           # extra CLI options:
+          seed: 3                         #   --seed 3
+          start: [-0.6, 0.0, 0.0]         #   --start -0.6 0.0 0.0 (one option, several values)
+          param: {samples: 30}            #   --param samples=30 (repeated KEY=VALUE options)
+          json: true                      #   --json (false: omitted)
       - name: report
         command: [report, "{stages.map.output}"]
         inputs: ["{stages.map.output}"]
@@ -160,9 +164,10 @@ def _parse_stage(path: Path, index: int, raw) -> StageSpec:
     if not isinstance(params, dict):
         raise SpecError(f"{path}: field '{where}.params' must map option names to values")
     for key, value in params.items():
-        values = value if isinstance(value, list) else [value]
-        if not all(isinstance(v, (str, int, float, bool)) for v in values):
-            raise SpecError(f"{path}: field '{where}.params.{key}' must be a scalar or a list of scalars")
+        values = list(value.values()) if isinstance(value, dict) else value if isinstance(value, list) else [value]
+        if value is None or not all(isinstance(v, (str, int, float, bool)) for v in values):
+            raise SpecError(f"{path}: field '{where}.params.{key}' must be a scalar, a list of scalars "
+                            "(one option, several values) or a mapping (repeated KEY=VALUE options)")
     provenance = raw.get("provenance")
     if output.endswith("/") and not isinstance(provenance, str):
         raise SpecError(f"{path}: field '{where}.provenance' is required for a directory output "
@@ -177,7 +182,8 @@ def _parse_stage(path: Path, index: int, raw) -> StageSpec:
 
 def _param_texts(params: dict):
     for value in params.values():
-        for item in value if isinstance(value, list) else [value]:
+        values = value.values() if isinstance(value, dict) else value if isinstance(value, list) else [value]
+        for item in values:
             if isinstance(item, str):
                 yield item
 

@@ -22,7 +22,7 @@ def stage(name, command=("fake", "make"), **extra):
     ([stage("a", inputs=["{stages.a.output}"])], "references its own output"),
     ([stage("a", colour="red")], "unknown field 'stages.a.colour'"),
     ([{"name": "r", "command": ["report"], "output": "report/"}], "field 'stages.r.provenance' is required"),
-    ([stage("a", params={"x": {"nested": 1}})], "field 'stages.a.params.x' must be a scalar"),
+    ([stage("a", params={"x": {"nested": [1]}})], "field 'stages.a.params.x' must be a scalar"),
     ([{"name": "a", "command": ["x"], "output": "../escape.h5"}], "must stay inside --out"),
 ])
 def test_spec_errors_name_file_and_field(write_pipeline, stages, message):
@@ -47,7 +47,8 @@ def test_order_dependencies_and_resolution(tmp_path, write_pipeline):
         stage("report", command=["report", "{stages.a.output}", "{stages.b.output}"], output="rep/",
               provenance="rep/report.h5"),
         stage("b", command=["fake", "make", "{stages.a.output}"], params={"flag": True, "off": False,
-                                                                        "param": ["x=1", "y=2"]}),
+                                                                        "param": {"x": 1, "y": 2},
+                                                                        "start": [-0.6, 0, 0]}),
         stage("a", command=["fake", "make", "{data}/in.yaml"], inputs=["{data}/in.yaml"]),
     ]})
     pipeline = load_pipeline(path)
@@ -60,6 +61,6 @@ def test_order_dependencies_and_resolution(tmp_path, write_pipeline):
     assert a.argv == ("fake", "make", str(data), "-o", str(out / "a.h5"), "--overwrite")
     assert a.inputs == (data,)
     b = resolve_stage(pipeline, pipeline.stage("b"), out)
-    assert b.argv[3:9] == ("--flag", "--param", "x=1", "--param", "y=2", "-o")
+    assert b.argv[3:13] == ("--flag", "--param", "x=1", "--param", "y=2", "--start", "-0.6", "0", "0", "-o")
     report = resolve_stage(pipeline, pipeline.stage("report"), out)
     assert report.output == out / "rep" and report.provenance == out / "rep" / "report.h5"

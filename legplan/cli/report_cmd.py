@@ -1,0 +1,34 @@
+"""`legplan report ARTEFACT... -o DIR`: an HTML page of artefacts (provenance, /summary, figures)."""
+
+from __future__ import annotations
+
+import click
+
+from legplan.cli.options import input_artefact, overwrite_opt, verbosity_opts
+
+
+@click.command("report")
+@click.argument("artefacts", nargs=-1, required=True, type=input_artefact)
+@click.option("-o", "--output", required=True, type=click.Path(file_okay=False),
+              help="Report directory (index.html, PNGs, report.h5 with provenance).")
+@click.option("--title", default="legplan report", show_default=True, help="Page title.")
+@overwrite_opt
+@verbosity_opts
+@click.pass_context
+def command(ctx, artefacts, output, title, overwrite):
+    """Write an HTML report of ARTEFACTS into a directory (exit 1 if some figure failed)."""
+    from legplan.cli.console import progress_bar, stderr
+    from legplan.report import write_report
+    from legplan.report.writer import check_report_dir
+
+    check_report_dir(output, overwrite)
+    with progress_bar("report") as progress:
+        result = write_report(list(artefacts), output, title=title, overwrite=overwrite, progress=progress)
+    figures = sum(len(s.figures) for s in result.sections)
+    stderr.print(f"{len(result.sections)} artefacts, {figures} figures -> {result.directory}/index.html",
+                 highlight=False)
+    for section in result.sections:
+        for failure in section.failures:
+            stderr.print(f"  {section.path}: figure {failure.name} failed: {failure.message}", highlight=False)
+    if result.failures:
+        ctx.exit(1)

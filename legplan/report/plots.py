@@ -1,0 +1,110 @@
+"""Generic report figures (matplotlib Agg, no pyplot state): gridded layers, per-item times and
+violations, and the fallback listing of an artefact's datasets."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import h5py
+import numpy as np
+from matplotlib.figure import Figure
+
+from legplan.artefacts import open_artefact, read_provenance
+from legplan.report.items import read_items
+
+
+def new_figure(width: float, height: float) -> Figure:
+    return Figure(figsize=(width, height), layout="constrained")
+
+
+def grid_extent(dataset: h5py.Dataset) -> list[float]:
+    """imshow extent of a grid whose `origin` is cell [0, 0]'s centre and `resolution` its size."""
+    x0, y0 = np.asarray(dataset.attrs["origin"], float)[:2]
+    r = float(dataset.attrs["resolution"])
+    ny, nx = dataset.shape[:2]
+    return [x0 - r / 2, x0 + r * (nx - 0.5), y0 - r / 2, y0 + r * (ny - 0.5)]
+
+
+def map_input(path: Path) -> Path | None:
+    """The first input of kind "map" recorded in the artefact's provenance, if it still exists."""
+    with open_artefact(path) as handle:
+        inputs = read_provenance(handle)["inputs"]
+    found = next((Path(r["path"]) for r in inputs if r["kind"] == "map"), None)
+    return found if found is not None and found.exists() else None
+
+
+def grid_figure(path: Path, png: Path, layers: list[tuple[str, str, str]]) -> str | None:
+    """One panel per present 2-D grid dataset `(name, title, colormap)`, in world coordinates."""
+    with open_artefact(path) as handle:
+        present = [(handle[name], title, cmap) for name, title, cmap in layers
+                   if name in handle and handle[name].ndim == 2 and "resolution" in handle[name].attrs]
+        if not present:
+            return None
+        fig = new_figure(5.0 * len(present), 4.2)
+        for ax, (dataset, title, cmap) in zip(fig.subplots(1, len(present), squeeze=False)[0], present):
+            image = ax.imshow(dataset[()], origin="lower", extent=grid_extent(dataset), cmap=cmap,
+                              interpolation="nearest")
+            units = dataset.attrs.get("units", "")
+            fig.colorbar(image, ax=ax, shrink=0.8, label=f"{title} [{units}]" if units else title)
+            ax.set_title(title)
+            ax.set_xlabel("x [m]")
+            ax.set_ylabel("y [m]")
+        names = ", ".join(dataset.name for dataset, _, _ in present)
+    fig.savefig(png, dpi=100)
+    return f"Grid layers: {names}."
+
+
+def items_figure(path: Path, png: Path, time_key: str, violation_key: str | None, unit: str,
+                 noun: str) -> str | None:
+    """Per-item planning-time histogram (succeeded / failed stacked, as the Bézier paper's Fig. 4)
+    and, when `violation_key` is present, the violation of every item."""
+    with open_artefact(path) as handle:
+        items = read_items(handle)
+    rows = [item for item in items.values() if time_key in item]
+    if not rows:
+        return None
+    times = np.array([item[time_key] for item in rows])
+    ok = np.array([item["success"] for item in rows])
+    violations = np.array([item.get(violation_key, np.nan) for item in rows]) if violation_key else None
+    panels = 2 if violations is not None and np.isfinite(violations).any() else 1
+    fig = new_figure(5.5 * panels, 3.8)
+    axes = fig.subplots(1, panels, squeeze=False)[0]
+    top = max(float(np.nanmax(times)), 1e-6)
+    axes[0].hist([times[ok], times[~ok]], bins=np.linspace(0.0, top * 1.0001, 21), stacked=True,
+                 color=["tab:blue", "tab:red"], label=["succeeded", "failed"])
+    axes[0].set_xlabel("planning time [s]")
+    axes[0].set_ylabel(f"{noun}s")
+    axes[0].set_title(f"Planning time per {noun}")
+    axes[0].legend(fontsize=8)
+    if panels == 2:
+        index = np.arange(len(rows))
+        axes[1].bar(index, violations, color=np.where(ok, "tab:blue", "tab:red"))
+        axes[1].set_xlabel(f"{noun} index")
+        axes[1].set_ylabel(f"{violation_key} [{unit}]")
+        axes[1].set_title(f"{violation_key} per {noun} (red: failed)")
+    fig.savefig(png, dpi=100)
+    return (f"{len(rows)} {noun}s, {int(ok.sum())} succeeded; planning time ('{time_key}') histogram"
+            + (f" and '{violation_key}' per {noun}." if panels == 2 else "."))
+
+
+def datasets_figure(path: Path, png: Path) -> str:
+    """Fallback: a table of every dataset (name, shape, dtype, units)."""
+    rows = []
+    with open_artefact(path) as handle:
+        def visit(name, obj):
+            if isinstance(obj, h5py.Dataset) and name != "summary":
+                units = obj.attrs.get("units", "")
+                rows.append(["/" + name, "x".join(map(str, obj.shape)) or "scalar", str(obj.dtype),
+                             units.decode() if isinstance(units, bytes) else str(units)])
+        handle.visititems(visit)
+    shown = rows[:40] or [["(no datasets)", "", "", ""]]
+    fig = new_figure(9.0, 0.6 + 0.28 * len(shown))
+    ax = fig.subplots()
+    ax.axis("off")
+    table = ax.table(cellText=shown, colLabels=["dataset", "shape", "dtype", "units"], loc="upper center",
+                     cellLoc="left", colLoc="left")
+    table.auto_set_font_size(False)
+    table.set_fontsize(8)
+    fig.savefig(png, dpi=100)
+    more = f" (first 40 of {len(rows)})" if len(rows) > 40 else ""
+    return f"Datasets{more}; no figure is registered for this kind."
