@@ -1,14 +1,8 @@
 import numpy as np
 import pytest
 
-from legplan.robots import load_robot
 from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
 from legplan.validate import Validator
-
-
-@pytest.fixture(scope="session")
-def scarab():
-    return load_robot("scarab2")
 
 
 @pytest.fixture(scope="session")
