@@ -1,0 +1,84 @@
+"""`legplan nav search|show`: single query, batch with a failing query (exit 1), bad input (exit 2)."""
+
+import h5py
+import numpy as np
+from click.testing import CliRunner
+
+from legplan.artefacts import open_artefact, read_summary
+from legplan.cli.main import cli
+from legplan.nav import Trajectory
+from legplan.terrain import Grid2D, NavParams, save_map, terrain_from_heightmap
+
+
+def run(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+def small_map(tmp_path):
+    """8 m × 5 m at 0.1 m with one 1 m × 2 m block."""
+    height = np.zeros((50, 80))
+    height[10:30, 35:45] = 0.5
+    grid = Grid2D((0.05, 0.05), 0.1, height.shape)
+    terrain = terrain_from_heightmap(height, grid, name="block", nav=NavParams())
+    path = tmp_path / "map.h5"
+    save_map(terrain, path)
+    return path
+
+
+def test_single_query_with_start_velocity_and_show(tmp_path):
+    map_path = small_map(tmp_path)
+    out = tmp_path / "nav.h5"
+    result = run("nav", "search", map_path, "--start", 1, 2, "--start-vel", 0.4, 0, "--goal", 7, 2,
+                 "-o", out, "--param", "weight=2", "-q")
+    assert result.exit_code == 0, result.output
+    with open_artefact(out, kind="nav") as handle:
+        query = handle["queries/0000"]
+        assert query.attrs["success"] and query.attrs["planner"] == "kinoastar"
+        trajectory = Trajectory(query["segments"][()])
+        np.testing.assert_allclose(trajectory.evaluate([0.0])[1][0], [0.4, 0.0])
+        assert query.attrs["duration"] == trajectory.duration
+        assert query.attrs["min_clearance"] >= 0.2
+        assert query["p"].attrs["units"] == "m" and query["a"].attrs["units"] == "m/s^2"
+        summary = read_summary(handle)
+        assert summary["succeeded"][0] == 1 and summary["median_planning_time"][1] == "s"
+    png = tmp_path / "nav.png"
+    result = run("nav", "show", out, "--map", map_path, "-o", png)
+    assert result.exit_code == 0, result.output
+    assert png.stat().st_size > 1000
+
+
+def test_batch_with_a_failing_query_exits_1_and_records_reasons(tmp_path):
+    map_path = small_map(tmp_path)
+    queries = tmp_path / "queries.csv"
+    queries.write_text("start_x,start_y,start_vx,start_vy,goal_x,goal_y,goal_vx,goal_vy\n"
+                       "1,1,0,0,7,4,0,0\n"
+                       "4,2,0,0,7,4,0,0\n"
+                       "1,4,0,0,6,1,0,0\n")
+    for planner in ("kinoastar", "astar"):
+        out = tmp_path / f"{planner}.h5"
+        result = run("nav", "search", map_path, "--queries", queries, "--planner", planner,
+                     "-o", out, "--param", "weight=2")
+        assert result.exit_code == 1, result.output
+        assert "0001: failed: start in collision" in result.stderr
+        with h5py.File(out) as handle:
+            assert [bool(handle[f"queries/000{i}"].attrs["success"]) for i in range(3)] == \
+                [True, False, True]
+            assert "segments" not in handle["queries/0001"]
+            assert handle["queries/0000"].attrs["planner"] == planner
+            assert ("waypoints" in handle["queries/0000"]) == (planner == "astar")
+            assert read_summary(handle)["succeeded"][0] == 2
+
+
+def test_bad_inputs_exit_2_without_output(tmp_path):
+    map_path = small_map(tmp_path)
+    out = tmp_path / "nav.h5"
+    result = run("nav", "search", map_path, "--start", 1, 1, "-o", out)
+    assert result.exit_code == 2 and "--goal" in result.output
+    result = run("nav", "search", map_path, "--start", 1, 1, "--goal", 5, 1, "--param", "bogus=1",
+                 "-o", out)
+    assert result.exit_code == 2 and "unknown nav parameter 'bogus'" in result.output
+    bad = tmp_path / "q.csv"
+    bad.write_text("start_x,start_y\n1,2\n")
+    result = run("nav", "search", map_path, "--queries", bad, "-o", out)
+    assert result.exit_code == 2 and "missing column 'start_vx'" in result.output
+    assert not out.exists()

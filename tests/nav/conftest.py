@@ -1,0 +1,29 @@
+"""Shared fixtures of the nav search tests: small NavGrids built through `legplan.terrain`."""
+
+import numpy as np
+import pytest
+
+from legplan.nav import NavGrid
+from legplan.terrain import costmap_from_distance, obstacle_distance
+
+
+def grid_from_occupancy(occupancy, resolution, l1=0.1, l2=0.4, c_max=100.0, lambda_c=5.0,
+                        origin=None):
+    occupancy = np.asarray(occupancy, bool)
+    distance = obstacle_distance(occupancy, resolution)
+    costmap = costmap_from_distance(distance, l1, l2, c_max, lambda_c)
+    origin = (0.5 * resolution, 0.5 * resolution) if origin is None else origin
+    return NavGrid(costmap, distance, l1, origin, resolution)
+
+
+@pytest.fixture
+def pillars_grid():
+    """10 m × 6 m at 5 cm with three round pillars and a wall stub."""
+    resolution = 0.05
+    ny, nx = 120, 200
+    y, x = (np.mgrid[0:ny, 0:nx] + 0.5) * resolution
+    occupancy = np.zeros((ny, nx), bool)
+    for cx, cy, r in ((3.0, 3.0, 0.8), (6.0, 1.5, 0.6), (6.5, 4.5, 0.7)):
+        occupancy |= (x - cx) ** 2 + (y - cy) ** 2 < r * r
+    occupancy[:80, 85:88] |= True
+    return grid_from_occupancy(occupancy, resolution, l1=0.2, l2=0.6)

@@ -1,0 +1,128 @@
+"""Kinodynamic A*: hard constraints on resampling, start velocity, lattice optimality, failures."""
+
+import heapq
+
+import numpy as np
+import pytest
+
+from legplan.nav import NavParams, plan_kinodynamic
+from legplan.nav.primitives import input_lattice, sample_count
+
+from conftest import grid_from_occupancy
+
+PARAMS = NavParams(weight=2.0)
+
+
+def assert_feasible(grid, result, params):
+    """Limits and lethal cells checked on a resampling 10× denser than the search's samples."""
+    assert result.success, result.reason
+    trajectory = result.trajectory
+    step = grid.resolution / params.v_max / 10.0
+    _, p, v, a = trajectory.sample(step)
+    assert not grid.lethal_at(p).any()
+    assert np.abs(v).max() <= params.v_max + 1e-9
+    assert np.abs(a).max() <= params.a_max + 1e-9
+    np.testing.assert_allclose(p[0], result.start[:2], atol=1e-12)
+    np.testing.assert_allclose(v[0], result.start[2:], atol=1e-12)
+    end_p, end_v = trajectory.end_state()
+    np.testing.assert_allclose(end_p, result.goal[:2], atol=1e-9)
+    np.testing.assert_allclose(end_v, result.goal[2:], atol=1e-9)
+
+
+@pytest.mark.parametrize("start, goal", [((0.5, 0.5, 0, 0), (9.5, 5.5, 0, 0)),
+                                         ((0.5, 5.5, 0, 0.3), (9.5, 0.5, 0.2, 0)),
+                                         ((5.0, 5.5, 0, 0), (3.0, 0.4, 0, 0))])
+def test_paths_are_feasible_and_collision_free_under_dense_resampling(pillars_grid, start, goal):
+    result = plan_kinodynamic(pillars_grid, start, goal, PARAMS)
+    assert_feasible(pillars_grid, result, PARAMS)
+    assert result.expansions > 0 and np.isfinite(result.cost)
+
+
+def test_nonzero_start_velocity_is_kept_without_turning_around():
+    grid = grid_from_occupancy(np.zeros((80, 200), bool), 0.05)
+    start, goal = (1.0, 2.0, 0.7, 0.0), (8.0, 2.0, 0.0, 0.0)
+    result = plan_kinodynamic(grid, start, goal, PARAMS)
+    assert_feasible(grid, result, PARAMS)
+    _, _, v, _ = result.trajectory.sample(0.01)
+    assert v[:, 0].min() >= -1e-9  # never backs up (paper Fig. 4)
+    # From rest the same goal takes longer: the initial velocity is used, not discarded.
+    rest = plan_kinodynamic(grid, (1.0, 2.0, 0.0, 0.0), goal, PARAMS)
+    assert result.trajectory.duration < rest.trajectory.duration
+
+
+def maze():
+    """6 m × 6 m maze at 0.25 m: walls force a detour."""
+    cells = np.zeros((24, 24), bool)
+    cells[0, :] = cells[-1, :] = cells[:, 0] = cells[:, -1] = True
+    cells[:16, 8] = True
+    cells[8:, 16] = True
+    return grid_from_occupancy(cells, 0.25, l1=0.05, origin=(0.125, 0.125))
+
+
+def lattice_dijkstra(grid, params, start, goal):
+    """Exhaustive uniform-cost search over the same primitive lattice (exact states, no hashing)."""
+    inputs = input_lattice(params.mu, params.a_max)
+    tau = params.tau
+    t = np.linspace(0.0, tau, sample_count(params.v_max, tau, grid.resolution))[:, None]
+    source = (tuple(start[:2]), tuple(start[2:]))
+    target = (tuple(goal[:2]), tuple(goal[2:]))
+    best = {source: 0.0}
+    heap = [(0.0, source)]
+    while heap:
+        cost, state = heapq.heappop(heap)
+        if cost > best[state]:
+            continue
+        if state == target:
+            return cost
+        p, v = np.array(state[0]), np.array(state[1])
+        for u in inputs:
+            v_end = v + u * tau
+            if np.abs(v_end).max() > params.v_max:
+                continue
+            samples = p + v * t + 0.5 * u * t**2
+            if grid.blocked_at(samples).any():
+                continue
+            child = (tuple(samples[-1]), tuple(v_end))
+            child_cost = cost + (u @ u + params.rho) * tau
+            if child_cost < best.get(child, np.inf):
+                best[child] = child_cost
+                heapq.heappush(heap, (child_cost, child))
+    return np.inf
+
+
+def test_search_finds_the_lattice_optimum_of_an_exhaustive_search():
+    grid = maze()
+    # τ = 1, a = 1, v_max = 1: velocities are integers, positions multiples of 0.5 m, so the hash
+    # grid (0.5 m, 0.2 m/s) separates every lattice state and A* must match uniform-cost search.
+    params = NavParams(v_max=1.0, a_max=1.0, mu=1, tau=1.0, rho=1.0, rho_c=0.0, weight=1.0,
+                       pos_res=0.5, vel_res=0.2, oneshot_radius=0.0, goal_tolerance=1e-9,
+                       goal_vel_tolerance=1e-9)
+    start, goal = np.array([1.0, 1.0, 0.0, 0.0]), np.array([5.0, 1.0, 0.0, 0.0])
+    result = plan_kinodynamic(grid, start, goal, params)
+    optimum = lattice_dijkstra(grid, params, start, goal)
+    assert result.success and np.isfinite(optimum)
+    assert result.cost == pytest.approx(optimum, abs=1e-9)
+    assert result.trajectory.effort() + params.rho * result.trajectory.duration == \
+        pytest.approx(optimum, abs=1e-9)
+    # Weighted A* stays within its bound.
+    weighted = plan_kinodynamic(grid, start, goal, params.replace(weight=2.0))
+    assert optimum - 1e-9 <= weighted.cost <= 2.0 * optimum + 1e-9
+
+
+def test_failure_reasons(pillars_grid):
+    result = plan_kinodynamic(pillars_grid, (3.0, 3.0, 0, 0), (9.0, 5.0, 0, 0), PARAMS)
+    assert not result.success and result.reason == "start in collision"
+    result = plan_kinodynamic(pillars_grid, (0.5, 0.5, 0, 0), (12.0, 5.0, 0, 0), PARAMS)
+    assert result.reason == "goal outside the map"
+    result = plan_kinodynamic(pillars_grid, (0.5, 0.5, 2.0, 0), (9.0, 5.0, 0, 0), PARAMS)
+    assert result.reason.startswith("start velocity exceeds")
+    result = plan_kinodynamic(pillars_grid, (0.5, 0.5, 0, 0), (9.5, 5.5, 0, 0),
+                              PARAMS.replace(max_expansions=5))
+    assert result.reason == "expansion limit (5) reached" and result.expansions == 5
+    assert result.trajectory is None
+    walled = np.zeros((24, 24), bool)
+    walled[6:18, 6] = walled[6:18, 17] = walled[6, 6:18] = walled[17, 6:18] = True
+    grid = grid_from_occupancy(walled, 0.1)
+    coarse = PARAMS.replace(pos_res=0.3, vel_res=0.5, mu=1)
+    result = plan_kinodynamic(grid, (0.3, 0.3, 0, 0), (1.2, 1.2, 0, 0), coarse)
+    assert result.reason == "goal unreachable (open list exhausted)"
