@@ -78,7 +78,7 @@ def test_via_point_with_heading_is_passed():
     k = np.argmin(np.hypot(*(band.poses[:, :2] - via.xy).T))
     # pulled 0.3 m off the global path (lateral motion is slow: v_y ≤ 0.2 m/s, a_y ≤ 0.17 m/s²)
     assert np.hypot(*(band.poses[k, :2] - via.xy)) < 0.2 and band.poses[k, 1] > 0.1
-    assert abs(wrap_angle(band.poses[k, 2] - 0.3)) < 0.1
+    assert abs(wrap_angle(band.poses[k, 2] - 0.3)) < 0.15
 
 
 def test_resize_splits_and_merges_but_keeps_start_and_goal():

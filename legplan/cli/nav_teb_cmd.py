@@ -1,0 +1,178 @@
+"""`legplan nav refine|simulate`: the TEB back end (quadruped paper Sec. IV, V-C 3).
+
+These commands are registered on the `nav` group of `nav_cmd.py`.
+"""
+
+from __future__ import annotations
+
+import click
+
+from legplan.cli.console import progress_bar
+from legplan.cli.options import input_artefact, output_opt, overwrite_opt, verbosity_opts
+
+robot_opt = click.option("--robot", default="jueying_mini", show_default=True,
+                         help="Robot name or robot.yaml path (its navigation limits, Table I).")
+rounds_opt = click.option("--outer", type=click.IntRange(min=1), default=4, show_default=True,
+                          help="TEB outer rounds (resize + LM).")
+inner_opt = click.option("--inner", type=click.IntRange(min=1), default=5, show_default=True,
+                         help="TEB inner iterations per round.")
+omni_opt = click.option("--omni/--non-omni", default=True, show_default=True,
+                        help="Omnidirectional model, or differential drive (lateral velocity zero).")
+
+
+def _floats(text: str, option: str, counts: tuple[int, ...]) -> list[float]:
+    from legplan.errors import LegplanError
+    try:
+        values = [float(v) for v in text.split(",")]
+    except ValueError:
+        values = []
+    if len(values) not in counts:
+        raise LegplanError(f"option '{option}': expected {' or '.join(map(str, counts))} comma-separated "
+                           f"numbers, got {text!r}")
+    return values
+
+
+def _limits(robot: str):
+    from legplan.errors import LegplanError
+    from legplan.robots import load_robot
+
+    model = load_robot(robot)
+    if model.navigation is None:
+        raise LegplanError(f"{robot}: robot.yaml has no 'navigation' section (limits of Table I)")
+    return model.navigation
+
+
+@click.command("refine")
+@click.argument("map_path", metavar="MAP", type=input_artefact)
+@click.argument("nav_path", metavar="NAV", type=input_artefact)
+@output_opt
+@robot_opt
+@rounds_opt
+@inner_opt
+@omni_opt
+@overwrite_opt
+@verbosity_opts
+@click.pass_context
+def refine(ctx, map_path, nav_path, output, robot, outer, inner, omni, overwrite):
+    """Refine every successful query of NAV (from `nav search`) with the TEB on MAP."""
+    import h5py
+
+    from legplan.artefacts import check_output, open_artefact, write_artefact, write_summary
+    from legplan.nav.artefact import read_queries
+    from legplan.nav.teb.artefact import write_refinement
+    from legplan.nav.teb.distance import DistanceField
+    from legplan.nav.teb.params import TebParams
+    from legplan.nav.teb.refine import query_path, refine_path
+    from legplan.terrain import load_map
+
+    check_output(output, overwrite)
+    navigation = _limits(robot)
+    terrain = load_map(map_path)
+    field = DistanceField.from_terrain(terrain)
+    params = TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni)
+    with open_artefact(nav_path, kind="nav") as source:
+        queries = read_queries(source)
+    rows = []
+    with write_artefact(output, "nav", params={"teb": params.as_dict(), "robot": robot}, inputs=[map_path, nav_path],
+                        overwrite=overwrite) as f, h5py.File(nav_path, "r") as source, \
+            progress_bar("refining") as progress:
+        f.copy(source["queries"], "queries")
+        for i, query in enumerate(queries):
+            progress(i, len(queries), query["name"])
+            if not query["success"]:
+                continue
+            path = query_path(query["trajectory"], query["waypoints"], navigation.limits.v_x_max)
+            refinement = refine_path(path, navigation.limits, params, field)
+            rows.append(write_refinement(f["queries"][query["name"]], refinement))
+        progress(len(queries), len(queries), "done")
+        _summary(write_summary, f, len(queries), rows)
+    click.echo(f"wrote {output}: {len(rows)} of {len(queries)} queries refined")
+    if len(rows) < len(queries):
+        ctx.exit(1)
+
+
+def _summary(write_summary, handle, count, rows):
+    import numpy as np
+
+    def median(key):
+        return float(np.median([r[key] for r in rows])) if rows else float("nan")
+
+    write_summary(handle, {"queries": count, "refined": len(rows),
+                           "median_total_time": (median("total_time"), "s"),
+                           "median_effort": (median("effort"), "m^2/s^3"),
+                           "median_seconds": (median("seconds"), "s"),
+                           "max_violation": max((r["max_violation"] for r in rows), default=float("nan")),
+                           "min_clearance": (min((r["min_clearance"] for r in rows), default=float("nan")), "m")})
+
+
+@click.command("simulate")
+@click.argument("map_path", metavar="MAP", type=input_artefact)
+@robot_opt
+@click.option("--start", required=True, help="Start pose x,y[,yaw] (m, rad).")
+@click.option("--goal", required=True, help="Goal x,y[,yaw] (m, rad).")
+@click.option("--via", multiple=True, help="Via point x,y[,yaw[,dwell]] (m, rad, s); repeatable, in order.")
+@click.option("--face-target", default=None, help="x,y: hold the heading towards this point on the way "
+                                                    "(omnidirectional side-stepping, Table III).")
+@click.option("--hidden-obstacles", type=click.Path(dir_okay=False), default=None,
+              help="YAML with `obstacles: [map primitives]` missing from the initial map; sensed in range.")
+@click.option("--planner", type=click.Choice(["kinoastar", "astar"]), default="kinoastar", show_default=True,
+              help="Global planner (astar: grid A* waypoints, the Table II baseline).")
+@click.option("--sensing-radius", type=float, default=4.0, show_default=True, help="m.")
+@click.option("--max-time", type=float, default=300.0, show_default=True, help="Simulated seconds.")
+@rounds_opt
+@inner_opt
+@omni_opt
+@output_opt
+@overwrite_opt
+@verbosity_opts
+@click.pass_context
+def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacles, planner, sensing_radius,
+             max_time, outer, inner, omni, output, overwrite):
+    """Receding-horizon run on MAP: global plan, TEB at 10 Hz on a 5 m window, hidden obstacles."""
+    import numpy as np
+
+    from legplan.artefacts import check_output, write_artefact, write_summary
+    from legplan.nav.params import NavParams
+    from legplan.nav.simulate import (Goal, SimParams, World, grid_planner, hidden_obstacles as load_hidden,
+                                      kinodynamic_planner, simulate as run)
+    from legplan.nav.teb.artefact import write_simulation
+    from legplan.nav.teb.params import TebParams
+    from legplan.terrain import load_map
+
+    check_output(output, overwrite)
+    start_v = _floats(start, "--start", (2, 3))
+    goal_v = _floats(goal, "--goal", (2, 3))
+    goals = []
+    for text in via:
+        v = _floats(text, "--via", (2, 3, 4))
+        goals.append(Goal((v[0], v[1]), v[2] if len(v) > 2 else float("nan"), v[3] if len(v) > 3 else 0.0))
+    goals.append(Goal((goal_v[0], goal_v[1]), goal_v[2] if len(goal_v) > 2 else float("nan")))
+    target = tuple(_floats(face_target, "--face-target", (2,))) if face_target else None
+    navigation = _limits(robot)
+    terrain = load_map(map_path)
+    hidden = (load_hidden(hidden_obstacles, terrain.grid) if hidden_obstacles
+              else np.zeros(terrain.grid.shape, bool))
+    world = World(terrain.grid, terrain.occupancy, hidden, terrain.nav_params, navigation.footprint)
+    search = NavParams()
+    plan = (kinodynamic_planner(search) if planner == "kinoastar"
+            else grid_planner(search, navigation.limits.v_x_max))
+    teb = TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni)
+    sim = SimParams(sensing_radius=sensing_radius, max_time=max_time,
+                    yaw="target" if target else "velocity", target=target)
+    pose = np.array([start_v[0], start_v[1], start_v[2] if len(start_v) > 2 else 0.0])
+    with progress_bar("simulating") as progress:
+        result = run(world, plan, pose, goals, navigation.limits, teb, sim, progress)
+    params = {"teb": teb.as_dict(), "planner": planner, "robot": robot, "start": list(pose),
+              "goals": [[*g.xy, g.heading, g.dwell] for g in goals], "sensing_radius": sensing_radius}
+    inputs = [map_path] + ([hidden_obstacles] if hidden_obstacles else [])
+    with write_artefact(output, "nav", params=params, inputs=inputs, overwrite=overwrite) as f:
+        metrics = write_simulation(f, result)
+        write_summary(f, {"success": float(result.success), "running_time": (metrics["running_time"], "s"),
+                          "effort": (metrics["effort"], "m^2/s^3"), "collisions": metrics["collisions"],
+                          "replans": metrics["replans"],
+                          "median_cycle_seconds": (metrics["median_cycle_seconds"], "s")})
+    status = "reached the goal" if result.success else f"failed: {result.reason}"
+    click.echo(f"wrote {output}: {status} in {result.times[-1]:.1f} s, effort {metrics['effort']:.3f}, "
+               f"{result.collisions} collisions, median TEB cycle {1e3 * metrics['median_cycle_seconds']:.0f} ms")
+    if not result.success or result.collisions:
+        ctx.exit(1)
