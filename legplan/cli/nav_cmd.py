@@ -133,3 +133,6 @@ def _parse_params(items) -> dict[str, str]:
             raise LegplanError(f"--param: expected KEY=VALUE, got {item!r}")
         overrides[key.strip()] = value.strip()
     return overrides
+
+from legplan.cli.nav_teb_cmd import refine, simulate  # noqa: E402  (TEB back end, issue 8)
+command.add_command(refine); command.add_command(simulate)
