@@ -1,0 +1,281 @@
+"""OMPL baselines of `legplan nav search`: geometric planners in R² and control planners on the
+2D double integrator, returning the nav layer's `SearchResult` so nav.h5 and its metrics are shared.
+
+Hard constraint: the nav search's own (`legplan.nav.NavGrid`): a position is valid when its 3×3
+cell block holds no lethal cell (distance to the nearest obstacle < l1, the inscribed radius) and
+it lies inside the map (`NavGrid.blocked_at`). Straight motions are checked by `SegmentValidator`
+at points at most one cell apart, which by the NavGrid argument keeps the whole segment out of
+lethal cells — the guarantee the A* planners have.
+
+Geometric planners ("rrtconnect", "rrtstar", "prmstar") plan positions in the map's bounding box
+with OMPL's path-length objective, shortcut the solution (`og.PathSimplifier`, `simplify_time`)
+and time-parametrize the polyline exactly like the grid A* baseline of the nav package
+(`legplan.nav.trajectory.trapezoidal_polyline`: stop at every vertex, trapezoidal speed under the
+per-axis v_max, a_max). RRT* and PRM* are anytime: they use the whole `time_budget`; the time to
+their first solution is measured by a second run with the same seed whose cost threshold accepts
+any solution (OMPL stops there), so the sample sequence up to that solution is the same.
+
+Control planners ("kpiece-control" with an orthogonal position projection, "rrt-control") plan
+states (p, v) ∈ R⁴ with controls a ∈ [−a_max, a_max]² held for 1..`max_control_steps` steps of
+`propagation_step` s; propagation is the exact constant-acceleration solution p + v t + a t²/2,
+v + a t (no ODE loop), every step's state checked (position as above, |v_d| ≤ v_max). The
+propagation step makes consecutive checked positions at most one cell apart at full speed. The goal
+is reached within `goal_tolerance` of the goal state (Euclidean in (p, v), m and m/s mixed);
+the solution's controls are exactly the nav `Trajectory` segments (constant a, zero jerk).
+
+`expansions` in the result counts the planner's motion checks (geometric) or propagation steps
+(control), OMPL's nearest analogue of A* node expansions. OMPL's seed: `legplan.baselines.runtime`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import logging
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from legplan.baselines.runtime import ompl_modules, real_vector_bounds, seed_ompl
+from legplan.errors import LegplanError
+from legplan.nav.collision import NavGrid
+from legplan.nav.result import SearchResult, endpoint_problem
+from legplan.nav.trajectory import Trajectory, trapezoidal_polyline
+
+log = logging.getLogger(__name__)
+
+GEOMETRIC = ("rrtconnect", "rrtstar", "prmstar")
+CONTROL = ("kpiece-control", "rrt-control")
+NAV_PLANNERS = GEOMETRIC + CONTROL
+ANYTIME = ("rrtstar", "prmstar")
+
+_ob, _og, _oc = ompl_modules().ob, ompl_modules().og, ompl_modules().oc
+
+
+@dataclass(frozen=True)
+class NavBaselineParams:
+    planner: str = "rrtconnect"
+    time_budget: float = 1.0  # s of OMPL solve() per query
+    seed: int = 0  # query i is planned with OMPL seed `seed + i`
+    v_max: float = 0.75  # m/s per axis (the nav search's, `NavParams.for_robot`)
+    a_max: float = 1.0  # m/s² per axis
+    simplify_time: float = 0.2  # s of shortcutting of a geometric solution
+    goal_tolerance: float = 0.25  # control planners: distance to the goal state (m, m/s mixed)
+    max_control_steps: int = 10  # control planners: a control lasts 1..this many steps
+    projection_cell: float = 0.5  # m, KPIECE1 grid cell of the position projection
+
+    def __post_init__(self):
+        if self.planner not in NAV_PLANNERS:
+            raise LegplanError(f"--planner: expected one of {', '.join(NAV_PLANNERS)}, got {self.planner!r}")
+        checks = [("time_budget", self.time_budget > 0), ("v_max", self.v_max > 0), ("a_max", self.a_max > 0),
+                  ("simplify_time", self.simplify_time >= 0), ("goal_tolerance", self.goal_tolerance > 0),
+                  ("max_control_steps", self.max_control_steps >= 1), ("seed", self.seed >= 0),
+                  ("projection_cell", self.projection_cell > 0)]
+        for name, ok in checks:
+            if not ok:
+                raise LegplanError(f"nav baseline parameter '{name}' out of range: {getattr(self, name)!r}")
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    @property
+    def label(self) -> str:
+        return f"ompl-{self.planner}"
+
+
+@dataclass(frozen=True)
+class BaselineOutcome:
+    """A `SearchResult` plus what only a sampling-based planner has."""
+
+    result: SearchResult
+    time_to_first_solution: float  # s (NaN when none was found)
+    final_cost: float  # OMPL objective of the returned path: its length (geometric) or NaN
+    goal_error: float  # distance of the trajectory's end state to the goal state (m, m/s)
+    seed: int
+
+    def attrs(self) -> dict:
+        return {"time_to_first_solution": self.time_to_first_solution, "final_cost": self.final_cost,
+                "goal_error": self.goal_error, "seed": self.seed}
+
+
+class SegmentValidator(_ob.MotionValidator):
+    """Straight motions in R² checked at points ≤ one cell apart against `NavGrid.blocked_at`."""
+
+    def __init__(self, si, grid: NavGrid):
+        super().__init__(si)
+        self.grid = grid
+        self.calls = 0
+
+    def checkMotion(self, a, b):
+        self.calls += 1
+        p = np.array([a[0], a[1]])
+        d = np.array([b[0], b[1]]) - p
+        count = int(math.ceil(max(abs(d[0]), abs(d[1])) / self.grid.resolution)) + 1
+        s = np.linspace(0.0, 1.0, count + 1)[:, None]
+        return not self.grid.blocked_at(p + s * d).any()
+
+
+def _state(si, values):
+    state = si.allocState()
+    for i, v in enumerate(values):
+        state[i] = float(v)
+    return state
+
+
+def plan_baseline(grid: NavGrid, start, goal, params: NavBaselineParams, seed: int) -> BaselineOutcome:
+    """Plan one query (start, goal states (px, py, vx, vy)); never raises for planning failures."""
+    clock = time.perf_counter()
+    start = np.asarray(start, float).reshape(4)
+    goal = np.asarray(goal, float).reshape(4)
+    problem = endpoint_problem(grid, start, goal, params.v_max)
+    if problem:
+        result = SearchResult(False, problem, params.label, start, goal, 0, time.perf_counter() - clock)
+        return BaselineOutcome(result, math.nan, math.nan, math.nan, seed)
+    if params.planner in GEOMETRIC:
+        return _plan_geometric(grid, start, goal, params, seed, clock)
+    return _plan_control(grid, start, goal, params, seed, clock)
+
+
+def _geometric_run(grid, start, goal, params, seed, first_only: bool):
+    """One OMPL run; returns (pdef, si, validator, seconds)."""
+    ob, og = _ob, _og
+    seed_ompl(seed)
+    space = ob.RealVectorStateSpace(2)
+    xmin, xmax, ymin, ymax = grid.extent
+    space.setBounds(real_vector_bounds([xmin, ymin], [xmax, ymax]))
+    si = ob.SpaceInformation(space)
+    si.setStateValidityChecker(lambda s: not grid.blocked_at(np.array([s[0], s[1]])))
+    validator = SegmentValidator(si, grid)
+    si.setMotionValidator(validator)
+    si.setup()
+    pdef = ob.ProblemDefinition(si)
+    pdef.setStartAndGoalStates(_state(si, start[:2]), _state(si, goal[:2]))
+    objective = ob.PathLengthOptimizationObjective(si)
+    if first_only:
+        objective.setCostThreshold(ob.Cost(math.inf))
+    pdef.setOptimizationObjective(objective)
+    planner = {"rrtconnect": og.RRTConnect, "rrtstar": og.RRTstar, "prmstar": og.PRMstar}[params.planner](si)
+    planner.setProblemDefinition(pdef)
+    planner.setup()
+    t0 = time.perf_counter()
+    # a C++ termination condition: PRM* checks it from a second thread, which must not need the GIL
+    planner.solve(ob.timedPlannerTerminationCondition(float(params.time_budget)))
+    return pdef, si, validator, time.perf_counter() - t0
+
+
+def _plan_geometric(grid, start, goal, params, seed, clock) -> BaselineOutcome:
+    pdef, si, validator, seconds = _geometric_run(grid, start, goal, params, seed, first_only=False)
+    first = seconds if pdef.hasExactSolution() else math.nan
+    if params.planner in ANYTIME and pdef.hasExactSolution():
+        probe, _, _, first = _geometric_run(grid, start, goal, params, seed, first_only=True)
+        first = first if probe.hasExactSolution() else math.nan
+    if not pdef.hasExactSolution():
+        reason = f"OMPL {params.planner}: no exact solution within the {params.time_budget:g} s budget"
+        result = SearchResult(False, reason, params.label, start, goal, validator.calls, time.perf_counter() - clock)
+        return BaselineOutcome(result, math.nan, math.nan, math.nan, seed)
+    path = pdef.getSolutionPath()
+    if params.simplify_time > 0:
+        _og.PathSimplifier(si).simplify(path, float(params.simplify_time))
+    waypoints = np.array([[s[0], s[1]] for s in path.getStates()])
+    trajectory = trapezoidal_polyline(waypoints, params.v_max, params.a_max)
+    cost = float(path.length())
+    result = SearchResult(True, "", params.label, start, goal, validator.calls, time.perf_counter() - clock,
+                          cost, trajectory, waypoints)
+    end_p, end_v = trajectory.end_state()
+    error = float(np.linalg.norm(np.r_[end_p, end_v] - goal))
+    return BaselineOutcome(result, first, cost, error, seed)
+
+
+def _plan_control(grid, start, goal, params, seed, clock) -> BaselineOutcome:
+    ob, oc = _ob, _oc
+    seed_ompl(seed)
+    v, a = params.v_max, params.a_max
+    xmin, xmax, ymin, ymax = grid.extent
+    space = ob.RealVectorStateSpace(4)
+    space.setBounds(real_vector_bounds([xmin, ymin, -v, -v], [xmax, ymax, v, v]))
+    controls = oc.RealVectorControlSpace(space, 2)
+    controls.setBounds(real_vector_bounds([-a, -a], [a, a]))
+    si = oc.SpaceInformation(space, controls)
+    steps = [0]
+
+    def propagate(state, control, duration, out):
+        steps[0] += 1
+        ax, ay = control[0], control[1]
+        vx, vy = state[2], state[3]
+        out[0] = state[0] + duration * (vx + 0.5 * ax * duration)
+        out[1] = state[1] + duration * (vy + 0.5 * ay * duration)
+        out[2] = vx + ax * duration
+        out[3] = vy + ay * duration
+
+    def valid(state):
+        if abs(state[2]) > v or abs(state[3]) > v:
+            return False
+        return not grid.blocked_at(np.array([state[0], state[1]]))
+
+    si.setStatePropagator(propagate)
+    si.setStateValidityChecker(valid)
+    # consecutive checked positions ≤ one cell apart at the largest speed √2·v_max
+    si.setPropagationStepSize(grid.resolution / (math.sqrt(2.0) * v))
+    si.setMinMaxControlDuration(1, int(params.max_control_steps))
+    if params.planner == "kpiece-control":
+        cell = float(params.projection_cell)
+        space.registerDefaultProjection(ob.RealVectorOrthogonalProjectionEvaluator(space, [cell, cell], [0, 1]))
+    si.setup()
+    pdef = ob.ProblemDefinition(si)
+    pdef.setStartAndGoalStates(_state(si, start), _state(si, goal), float(params.goal_tolerance))
+    planner = (oc.KPIECE1 if params.planner == "kpiece-control" else oc.RRT)(si)
+    planner.setProblemDefinition(pdef)
+    planner.setup()
+    t0 = time.perf_counter()
+    planner.solve(ob.timedPlannerTerminationCondition(float(params.time_budget)))
+    seconds = time.perf_counter() - t0
+    if not pdef.hasExactSolution():
+        reason = (f"OMPL {params.planner}: did not reach the goal within {params.goal_tolerance:g} "
+                  f"in the {params.time_budget:g} s budget")
+        result = SearchResult(False, reason, params.label, start, goal, steps[0], time.perf_counter() - clock)
+        return BaselineOutcome(result, math.nan, math.nan, math.nan, seed)
+    path = pdef.getSolutionPath()
+    states = [[s[i] for i in range(4)] for s in path.getStates()]
+    pieces = [(np.array(x[:2]), np.array(x[2:]), np.array([c[0], c[1]]), np.zeros(2), d)
+              for x, c, d in zip(states, path.getControls(), path.getControlDurations())]
+    trajectory = Trajectory.from_pieces(pieces)
+    end_p, end_v = trajectory.end_state()
+    error = float(np.linalg.norm(np.r_[end_p, end_v] - goal))
+    result = SearchResult(True, "", params.label, start, goal, steps[0], time.perf_counter() - clock,
+                          trajectory=trajectory)
+    return BaselineOutcome(result, seconds, math.nan, error, seed)
+
+
+def plan_queries(grid: NavGrid, queries: np.ndarray, params: NavBaselineParams, progress=None) -> list[BaselineOutcome]:
+    """Plan every query row (start px py vx vy, goal px py vx vy); query i with seed `params.seed + i`."""
+    outcomes = []
+    for index, query in enumerate(np.asarray(queries, float).reshape(-1, 8)):
+        if progress is not None:
+            progress(index, len(queries), f"query {index}")
+        outcomes.append(plan_baseline(grid, query[:4], query[4:], params, params.seed + index))
+    if progress is not None:
+        progress(len(outcomes), len(outcomes))
+    return outcomes
+
+
+def write_nav_baseline(path, outcomes: list[BaselineOutcome], grid: NavGrid, params: NavBaselineParams,
+                       robot: str, *, inputs=(), overwrite: bool = False) -> list[dict]:
+    """nav.h5 through the nav search's writer (`legplan.nav.artefact`), plus per query the attrs
+    time_to_first_solution (s), final_cost, goal_error and seed; returns the summary rows."""
+    from legplan.artefacts import write_artefact
+    from legplan.nav.artefact import write_query, write_summary_table
+
+    rows = []
+    with write_artefact(path, "nav", params={**params.as_dict(), "planner": params.label, "robot": robot},
+                        seed=params.seed, inputs=inputs, overwrite=overwrite) as handle:
+        handle.attrs["planner"] = params.label
+        handle.attrs["robot"] = robot
+        group = handle.create_group("queries")
+        for index, outcome in enumerate(outcomes):
+            row = write_query(group, index, outcome.result, grid)
+            for key, value in outcome.attrs().items():
+                group[f"{index:04d}"].attrs[key] = value
+            rows.append({**row, **outcome.attrs()})
+        write_summary_table(handle, rows)
+    return rows
