@@ -25,11 +25,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from legplan.baselines.names import CONSTRAINED_SPACES
 from legplan.baselines.runtime import ompl_modules, real_vector_bounds, seed_ompl, state_values
 
 log = logging.getLogger(__name__)
-
-SPACES = ("projected", "atlas", "tangent")
 
 _ob = ompl_modules().ob
 _og = ompl_modules().og
@@ -87,8 +86,8 @@ def plan_constrained(constraint, valid: Callable[[np.ndarray], bool], x_start, x
     geodesic's resolution `delta`, so there may be fewer states). Start and goal off the manifold by more than the tolerance are projected first.
     """
     ob, og = _ob, _og
-    if space not in SPACES:
-        raise ValueError(f"space must be one of {SPACES}, got {space!r}")
+    if space not in CONSTRAINED_SPACES:
+        raise ValueError(f"space must be one of {CONSTRAINED_SPACES}, got {space!r}")
     t0 = time.perf_counter()
     seed_ompl(seed)
     dim = len(x_start)

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from legplan.baselines.names import GEOMETRIC_PLANNERS, NAV_PLANNERS
 from legplan.baselines.runtime import ompl_modules, real_vector_bounds, seed_ompl
 from legplan.errors import LegplanError
 from legplan.nav.collision import NavGrid
@@ -45,9 +46,6 @@ from legplan.nav.trajectory import Trajectory, trapezoidal_polyline
 
 log = logging.getLogger(__name__)
 
-GEOMETRIC = ("rrtconnect", "rrtstar", "prmstar")
-CONTROL = ("kpiece-control", "rrt-control")
-NAV_PLANNERS = GEOMETRIC + CONTROL
 ANYTIME = ("rrtstar", "prmstar")
 
 _ob, _og, _oc = ompl_modules().ob, ompl_modules().og, ompl_modules().oc
@@ -132,7 +130,7 @@ def plan_baseline(grid: NavGrid, start, goal, params: NavBaselineParams, seed: i
     if problem:
         result = SearchResult(False, problem, params.label, start, goal, 0, time.perf_counter() - clock)
         return BaselineOutcome(result, math.nan, math.nan, math.nan, seed)
-    if params.planner in GEOMETRIC:
+    if params.planner in GEOMETRIC_PLANNERS:
         return _plan_geometric(grid, start, goal, params, seed, clock)
     return _plan_control(grid, start, goal, params, seed, clock)
 

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from legplan.baselines.names import CONSTRAINED_SPACES
 from legplan.errors import LegplanError
 
 log = logging.getLogger(__name__)
@@ -54,10 +55,8 @@ class StepBaselineParams:
     dense_samples: int = 1000
 
     def __post_init__(self):
-        from legplan.baselines.constrained import SPACES
-
-        if self.space not in SPACES:
-            raise LegplanError(f"--space: expected one of {', '.join(SPACES)}, got {self.space!r}")
+        if self.space not in CONSTRAINED_SPACES:
+            raise LegplanError(f"--space: expected one of {', '.join(CONSTRAINED_SPACES)}, got {self.space!r}")
         checks = [("time_budget", self.time_budget > 0), ("tolerance", self.tolerance > 0),
                   ("delta", self.delta > 0), ("simplify_time", self.simplify_time >= 0),
                   ("waypoints", self.waypoints >= 2), ("dense_samples", self.dense_samples >= 4),

@@ -1,0 +1,142 @@
+"""`legplan baseline nav|step`: OMPL sampling-based planners on the same problems, same artefacts.
+
+    legplan baseline nav map.h5 --start 0.5 0.5 --goal 29.5 29.5 --planner rrtstar -o nav_ompl.h5
+    legplan baseline step map.h5 steps.h5 --steps 3:10 --space atlas -o motion_ompl.h5
+
+nav.h5 / motion.h5 are written by the nav search's and the step planner's own writers, so
+`legplan inspect`, `legplan compare` and `legplan report` read them like ours. Exit 1 when any
+query or step failed (written, with its reason).
+"""
+
+from __future__ import annotations
+
+import click
+
+from legplan.baselines.names import CONSTRAINED_SPACES, NAV_PLANNERS
+from legplan.cli.main import EXIT_ITEMS_FAILED
+from legplan.cli.options import input_artefact, output_opt, overwrite_opt, seed_opt, verbosity_opts
+
+PAIR = (float, float)
+
+
+@click.group("baseline")
+@verbosity_opts
+def command():
+    """OMPL baselines of `nav search` and `step plan` (kinds "nav" and "motion")."""
+
+
+@command.command("nav")
+@click.argument("map_path", metavar="MAP", type=input_artefact)
+@click.option("--robot", default="jueying_mini", show_default=True,
+              help="Robot whose navigation limits and inscribed radius are used.")
+@click.option("--start", type=PAIR, metavar="X Y", help="Start position (m).")
+@click.option("--start-vel", type=PAIR, default=(0.0, 0.0), show_default=True, metavar="VX VY",
+              help="Start velocity (m/s); used by the control planners.")
+@click.option("--goal", type=PAIR, metavar="X Y", help="Goal position (m).")
+@click.option("--goal-vel", type=PAIR, default=(0.0, 0.0), show_default=True, metavar="VX VY",
+              help="Goal velocity (m/s); used by the control planners.")
+@click.option("--queries", "queries_path", type=click.Path(dir_okay=False),
+              help="CSV of queries (the `nav search` format) instead of --start/--goal.")
+@click.option("--planner", type=click.Choice(NAV_PLANNERS), default="rrtconnect", show_default=True)
+@click.option("--time-budget", type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True,
+              help="Seconds of OMPL solve() per query.")
+@seed_opt
+@output_opt
+@overwrite_opt
+@verbosity_opts
+@click.pass_context
+def nav_cmd(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path, planner, time_budget,
+            seed, output, overwrite):
+    """Plan MAP's navigation queries with an OMPL planner; write nav.h5 (query i uses seed SEED + i)."""
+    import numpy as np
+
+    from legplan.artefacts import check_output
+    from legplan.baselines.nav import NavBaselineParams, plan_queries, write_nav_baseline
+    from legplan.cli.console import progress_bar, stderr
+    from legplan.errors import LegplanError
+    from legplan.nav import NavGrid, NavParams
+    from legplan.nav.queries import read_queries_csv
+    from legplan.robots import load_robot
+
+    check_output(output, overwrite)
+    if queries_path is not None and (start is not None or goal is not None):
+        raise LegplanError("baseline nav: give either --queries or --start/--goal, not both")
+    if queries_path is None and (start is None or goal is None):
+        raise LegplanError("baseline nav: --start and --goal are required (or --queries FILE)")
+    if seed < 0:
+        raise LegplanError(f"--seed must be >= 0, got {seed}")
+    navigation = load_robot(robot).navigation
+    if navigation is None:
+        raise LegplanError(f"robot '{robot}': robot.yaml has no 'navigation' section")
+    limits = NavParams.for_robot(navigation)
+    params = NavBaselineParams(planner=planner, time_budget=time_budget, seed=seed, v_max=limits.v_max,
+                               a_max=limits.a_max)
+    queries = (read_queries_csv(queries_path) if queries_path is not None
+               else np.array([[*start, *start_vel, *goal, *goal_vel]]))
+    grid = NavGrid.from_map(map_path, lethal_radius=navigation.inscribed_radius)
+    with progress_bar(f"baseline nav ({planner})") as progress:
+        outcomes = plan_queries(grid, queries, params, progress)
+    inputs = [map_path] + ([queries_path] if queries_path else [])
+    rows = write_nav_baseline(output, outcomes, grid, params, robot, inputs=inputs, overwrite=overwrite)
+    failed = [index for index, row in enumerate(rows) if not row["success"]]
+    stderr.print(f"{len(rows) - len(failed)}/{len(rows)} queries planned (ompl {planner}, {time_budget:g} s "
+                 f"budget) -> {output}", highlight=False)
+    for index, row in enumerate(rows):
+        if row["success"]:
+            stderr.print(f"  {index:04d}: first solution {row['time_to_first_solution']:.3f} s, "
+                         f"T={row['duration']:.2f} s, J={row['effort']:.3f}, length {row['path_length']:.2f} m, "
+                         f"clearance {row['min_clearance']:.2f} m", highlight=False)
+        else:
+            stderr.print(f"  {index:04d}: failed: {row['reason']}", highlight=False)
+    if failed:
+        ctx.exit(EXIT_ITEMS_FAILED)
+
+
+@command.command("step")
+@click.argument("map_path", metavar="MAP", type=input_artefact)
+@click.argument("steps_path", metavar="STEPS", type=input_artefact)
+@click.option("--steps", "step_range", default=None, help="Pairs to plan, 'a:b' (python slice) or 'i'.")
+@click.option("--time-budget", type=click.FloatRange(min=0, min_open=True), default=10.0, show_default=True,
+              help="Seconds of OMPL solve() per step.")
+@click.option("--space", type=click.Choice(CONSTRAINED_SPACES), default="atlas", show_default=True,
+              help="OMPL constrained state space.")
+@seed_opt
+@output_opt
+@overwrite_opt
+@verbosity_opts
+@click.pass_context
+def step_cmd(ctx, map_path, steps_path, step_range, time_budget, space, seed, output, overwrite):
+    """Constrained RRT-Connect for every consecutive pair of STEPS on MAP; write motion.h5.
+
+    Step i uses seed SEED + i. Metrics are those of `legplan step plan` (dense re-check by the
+    independent validator); exit 1 if any step failed."""
+    from legplan.artefacts import check_output, open_artefact
+    from legplan.baselines.step import StepBaselineParams, plan_sequence_baseline
+    from legplan.cli.console import progress_bar, stderr
+    from legplan.cli.step_cmd import _parse_range
+    from legplan.errors import LegplanError
+    from legplan.stepplan.batch import write_motion
+    from legplan.stepseq.sequence import read_steps
+
+    check_output(output, overwrite)
+    if seed < 0:
+        raise LegplanError(f"--seed must be >= 0, got {seed}")
+    params = StepBaselineParams(time_budget=time_budget, space=space, seed=seed)
+    with open_artefact(map_path, kind="map"):
+        pass
+    seq = read_steps(steps_path)
+    if len(seq) < 2:
+        raise LegplanError(f"{steps_path}: field 'q' needs at least 2 configurations, got {len(seq)}")
+    indices = _parse_range(step_range, len(seq) - 1, steps_path)
+    with progress_bar(f"baseline step ({params.planner})") as progress:
+        records = plan_sequence_baseline(seq, map_path, params, indices, progress=progress)
+    summary = write_motion(output, records, seq.robot, params, inputs=[map_path, steps_path], overwrite=overwrite,
+                           attrs={"planner": params.planner})
+    failed = [r for r in records if not r["success"]]
+    stderr.print(f"{summary['steps_succeeded']}/{summary['steps_planned']} steps planned ({params.planner}); "
+                 f"worst dense stance-foot slip {summary['worst_violation'][0] * 1e3:.3f} mm; "
+                 f"median {summary['median_time'][0]:.2f} s -> {output}", highlight=False)
+    for r in failed:
+        stderr.print(f"  step {r['index']}: {r['reason']}", highlight=False)
+    if failed:
+        ctx.exit(EXIT_ITEMS_FAILED)
