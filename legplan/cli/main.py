@@ -22,7 +22,7 @@ EXIT_ITEMS_FAILED = 1
 EXIT_BAD_INPUT = 2
 
 # One module per command group under legplan/cli/, each exposing `command`.
-COMMAND_MODULES = ("inspect_cmd", "step_cmd", "pipeline_cmd", "robot_cmd", "steps_cmd", "map_cmd", "report_cmd", "nav_cmd", "baseline_cmd")
+COMMAND_MODULES = ("inspect_cmd", "step_cmd", "pipeline_cmd", "robot_cmd", "steps_cmd", "map_cmd", "report_cmd", "nav_cmd", "compare_cmd", "baseline_cmd")
 
 
 class LegplanGroup(click.Group):

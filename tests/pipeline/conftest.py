@@ -1,11 +1,6 @@
-from pathlib import Path
-
 import pytest
 import yaml
 
-HERE = Path(__file__).parent
-FAKE_ENTRY = (f"import sys; sys.path.insert(0, {str(HERE)!r}); "
-              "from fake_stage import cli; cli(prog_name='legplan')")
 
 
 @pytest.fixture

@@ -5,8 +5,13 @@ up-to-date detection without depending on any planner.
 """
 
 import sys
+from pathlib import Path
 
 import click
+
+# `python -c` snippet that runs this group as if it were `legplan` (see run_pipeline's `entry`).
+FAKE_ENTRY = (f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
+              "from fake_stage import cli; cli(prog_name='legplan')")
 
 
 @click.group()

@@ -4,7 +4,7 @@ import os
 import time
 
 import yaml
-from conftest import FAKE_ENTRY
+from fake_stage import FAKE_ENTRY
 
 from legplan.artefacts import open_artefact, read_summary
 from legplan.pipeline import load_pipeline, plan_run, run_pipeline

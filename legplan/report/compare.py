@@ -1,0 +1,173 @@
+"""Compare two artefacts of the same kind metric by metric, for regression runs.
+
+Compared: every `/summary` row; per-item results (groups with a `success` attr): success of each
+item present in both, items present in only one, every numeric item attr / scalar dataset (worst
+item per metric) and every item array whose shape is the same in both (max |difference|, e.g.
+trajectories and control points; arrays whose shapes differ are listed but not judged).
+
+Tolerances: a value is within tolerance when |b - a| <= abs + rel * |a|. Defaults: times (units
+"s" or a name containing "time" or "seconds") abs 0.05 s + rel 50%; everything else (violations,
+counts, trajectories) abs 1e-6 + rel 1e-6. Overrides `{pattern: "50%" | "0.01"}`: a glob matched
+against the metric name (summary row name, or item attr/dataset name); "N%" is relative, a plain
+number absolute; the last matching override wins. NaN equals NaN.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import math
+import os
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from legplan.artefacts import open_artefact, read_provenance, read_summary
+from legplan.errors import ArtefactError, LegplanError
+from legplan.report.items import read_items
+
+TIME_TOLERANCE = (0.05, 0.5)
+TIGHT_TOLERANCE = (1e-6, 1e-6)
+
+
+@dataclass(frozen=True)
+class Tolerance:
+    abs: float
+    rel: float
+
+    def holds(self, a: float, b: float) -> bool:
+        if math.isnan(a) or math.isnan(b):
+            return math.isnan(a) and math.isnan(b)
+        return abs(b - a) <= self.abs + self.rel * abs(a)
+
+    def __str__(self) -> str:
+        parts = ([f"{self.abs:g}"] if self.abs else []) + ([f"{self.rel * 100:g}%"] if self.rel else [])
+        return " + ".join(parts) or "exact"
+
+
+@dataclass(frozen=True)
+class MetricDiff:
+    name: str
+    a: float | str
+    b: float | str
+    ok: bool
+    tolerance: str = ""
+    units: str = ""
+    note: str = ""
+
+
+@dataclass
+class Comparison:
+    kind: str
+    a: str
+    b: str
+    rows: list[MetricDiff] = field(default_factory=list)
+
+    @property
+    def ok(self) -> bool:
+        return all(row.ok for row in self.rows)
+
+    def as_dict(self) -> dict:
+        return {"kind": self.kind, "a": self.a, "b": self.b, "ok": self.ok,
+                "rows": [asdict(row) for row in self.rows]}
+
+
+def parse_tolerances(items) -> dict[str, Tolerance]:
+    """`["mean_time=20%", "worst_*=1e-4"]` -> `{pattern: Tolerance}` (LegplanError on bad syntax)."""
+    out = {}
+    for item in items:
+        name, sep, value = item.partition("=")
+        try:
+            if not sep or not name.strip():
+                raise ValueError
+            value = value.strip()
+            number = float(value[:-1]) / 100 if value.endswith("%") else float(value)
+            if number < 0 or math.isnan(number):
+                raise ValueError
+        except ValueError:
+            raise LegplanError(f"--tol: expected NAME=NUMBER or NAME=PERCENT%, got {item!r}") from None
+        out[name.strip()] = Tolerance(0.0, number) if value.endswith("%") else Tolerance(number, 0.0)
+    return out
+
+
+def tolerance_for(name: str, units: str, overrides: dict[str, Tolerance]) -> Tolerance:
+    chosen = None
+    for pattern, tolerance in overrides.items():
+        if fnmatch.fnmatchcase(name, pattern):
+            chosen = tolerance
+    if chosen is not None:
+        return chosen
+    leaf = name.rsplit("/", 1)[-1]
+    if units == "s" or "time" in leaf or "seconds" in leaf:
+        return Tolerance(*TIME_TOLERANCE)
+    return Tolerance(*TIGHT_TOLERANCE)
+
+
+def compare_artefacts(path_a: str | os.PathLike, path_b: str | os.PathLike,
+                      tolerances: dict[str, Tolerance] | None = None) -> Comparison:
+    """Metric-by-metric comparison of two artefacts; `ArtefactError` when the kinds differ."""
+    overrides = tolerances or {}
+    with open_artefact(path_a) as fa, open_artefact(path_b) as fb:
+        kind_a, kind_b = read_provenance(fa)["kind"], read_provenance(fb)["kind"]
+        if kind_a != kind_b:
+            raise ArtefactError(f"{path_b}: is a '{kind_b}' artefact, cannot compare with {path_a} ('{kind_a}')")
+        summary_a, summary_b = read_summary(fa), read_summary(fb)
+        items_a, items_b = read_items(fa), read_items(fb)
+    result = Comparison(kind_a, str(path_a), str(path_b))
+    for name in [*summary_a, *(n for n in summary_b if n not in summary_a)]:
+        if name not in summary_a or name not in summary_b:
+            side = "B" if name not in summary_a else "A"
+            result.rows.append(MetricDiff(name, summary_a.get(name, ("-",))[0], summary_b.get(name, ("-",))[0],
+                                          False, note=f"only in {side}"))
+            continue
+        (a, units), (b, _) = summary_a[name], summary_b[name]
+        tolerance = tolerance_for(name, units, overrides)
+        result.rows.append(MetricDiff(name, a, b, tolerance.holds(a, b), str(tolerance), units=units))
+    if items_a or items_b:
+        result.rows.extend(_item_rows(items_a, items_b, overrides))
+    return result
+
+
+def _item_rows(items_a: dict, items_b: dict, overrides) -> list[MetricDiff]:
+    rows = []
+    only = sorted(set(items_a) ^ set(items_b))
+    common = [name for name in items_a if name in items_b]
+    ok_a = sum(item["success"] for item in items_a.values())
+    ok_b = sum(item["success"] for item in items_b.values())
+    rows.append(MetricDiff("items succeeded", f"{ok_a}/{len(items_a)}", f"{ok_b}/{len(items_b)}",
+                           ok_a == ok_b and len(items_a) == len(items_b)))
+    if only:
+        rows.append(MetricDiff("items in one artefact only", len(set(items_a) - set(items_b)),
+                               len(set(items_b) - set(items_a)), False, note=", ".join(only[:5])))
+    flipped = [name for name in common if items_a[name]["success"] != items_b[name]["success"]]
+    for name in flipped:
+        a, b = items_a[name], items_b[name]
+        rows.append(MetricDiff(f"{name} success", str(a["success"]), str(b["success"]), False,
+                               note=b["reason"] or a["reason"]))
+    keys = sorted({key for name in common for key in items_a[name]
+                   if key not in ("success", "reason", "arrays") and key in items_b[name]})
+    for key in keys:
+        tolerance = tolerance_for(key, "", overrides)
+        pairs = [(name, items_a[name][key], items_b[name][key]) for name in common]
+        bad = [(name, a, b) for name, a, b in pairs if not tolerance.holds(a, b)]
+        name, a, b = bad[0] if bad else max(pairs, key=lambda p: _gap(p[1], p[2]))
+        note = f"{len(bad)} of {len(pairs)} items differ, first {name}" if bad else f"largest at {name}"
+        rows.append(MetricDiff(f"item {key}", a, b, not bad, str(tolerance), note=note))
+    arrays = sorted({key for name in common for key in items_a[name]["arrays"] if key in items_b[name]["arrays"]})
+    for key in arrays:
+        tolerance = tolerance_for(key, "", overrides)
+        same = [(name, items_a[name]["arrays"][key], items_b[name]["arrays"][key]) for name in common
+                if key in items_a[name]["arrays"] and key in items_b[name]["arrays"]]
+        shaped = [(name, a, b) for name, a, b in same if a.shape == b.shape]
+        gaps = [(float(np.max(np.abs(b.astype(float) - a.astype(float)), initial=0.0)), name) for name, a, b in shaped]
+        worst, where = max(gaps, default=(0.0, ""))
+        within = all(np.all(np.abs(b - a) <= tolerance.abs + tolerance.rel * np.abs(a))
+                     for _, a, b in ((n, x.astype(float), y.astype(float)) for n, x, y in shaped))
+        note = f"max |Δ| over {len(shaped)} items" + (f" at {where}" if where else "")
+        if len(shaped) < len(same):
+            note += f"; {len(same) - len(shaped)} with different shapes not compared"
+        rows.append(MetricDiff(f"item {key} (array)", 0.0, worst, bool(within), str(tolerance), note=note))
+    return rows
+
+
+def _gap(a: float, b: float) -> float:
+    return 0.0 if math.isnan(a) and math.isnan(b) else math.inf if math.isnan(a) or math.isnan(b) else abs(b - a)
