@@ -92,13 +92,19 @@ class NavGrid:
         return (x0 - half, x0 + (nx - 0.5) * self.resolution, y0 - half,
                 y0 + (ny - 0.5) * self.resolution)
 
+    def to_cells(self, points: np.ndarray) -> np.ndarray:
+        """Points (..., 2) in padded-cell units: the cell holding a point is floor of this."""
+        return (points - self.origin) * (1.0 / self.resolution) + 1.5
+
     def flat_index(self, points: np.ndarray) -> np.ndarray:
         """Index into the padded flat arrays of the cell holding each point (..., 2) → (...)."""
+        return self.flat_index_cells(self.to_cells(points))
+
+    def flat_index_cells(self, cells: np.ndarray) -> np.ndarray:
+        """`flat_index` of points already in padded-cell units (`to_cells`); off-map → padding."""
         ny, nx = self.shape
-        scaled = (points - self.origin) * (1.0 / self.resolution) + 1.5
-        ix = np.clip(scaled[..., 0], 0, nx + 1).astype(np.intp)
-        iy = np.clip(scaled[..., 1], 0, ny + 1).astype(np.intp)
-        return iy * (nx + 2) + ix
+        index = np.fmin(np.fmax(cells, 0.0), (nx + 1, ny + 1)).astype(np.intp)
+        return index[..., 1] * (nx + 2) + index[..., 0]
 
     def blocked_at(self, points: np.ndarray) -> np.ndarray:
         """True where a point's 3×3 cell block holds a lethal cell or leaves the map (hard)."""

@@ -41,9 +41,6 @@ def cost_at(T, c1, c2, c3, rho):
     return ((-c1 / 3.0 * inv - c2 / 2.0) * inv - c3) * inv + rho * T
 
 
-_SIGNS = np.array([[1.0], [-1.0]])
-
-
 def depressed_quartic_roots(p, q, r):
     """Real roots of x⁴ + p x² + q x + r = 0 by Ferrari's method: (4, ...) with NaN for complex.
 
@@ -51,31 +48,41 @@ def depressed_quartic_roots(p, q, r):
     is -q²/8 ≤ 0); its largest real root comes from Cardano's formula (one real root) or the
     trigonometric form (three real roots). With s = √(2y) and o = q/(2s) = ±√(y² + p y + p²/4 - r)
     (sign of q; either sign when q = 0, the biquadratic case) the quartic splits into
-    x² ∓ s x + p/2 + y ± o = 0. Callers in hot loops run under `np.errstate(invalid="ignore")`.
+    x² ∓ s x + p/2 + y ± o = 0. Written with few, cheap ufuncs (no np.where on the roots, no
+    np.clip): it runs once per expansion. Call under `np.errstate(invalid="ignore")`.
     """
     pp = p * p
     c = 0.25 * pp - r
-    P = c - pp / 3.0
-    Q = (2.0 / 27.0 * pp - c / 3.0) * p - 0.125 * q * q
-    disc = 0.25 * Q * Q + P * P * P / 27.0
-    sq = np.sqrt(np.abs(disc))
-    m = np.sqrt(np.abs(P) / 3.0) + 1e-300
-    trig = 2.0 * m * np.cos(np.arccos(np.clip(1.5 * Q / (P * m), -1.0, 1.0)) / 3.0)
-    z = np.where(disc > 0.0, np.cbrt(-0.5 * Q + sq) + np.cbrt(-0.5 * Q - sq), trig)
-    y = np.maximum(z - p / 3.0, 0.0)
-    offset = np.copysign(np.sqrt(np.maximum(y * (y + p) + c, 0.0)), q)
-    signs = _SIGNS.reshape((2,) + (1,) * np.ndim(y))
-    half = 0.5 * np.sqrt(2.0 * y) * signs
-    root = np.sqrt(half * half - (0.5 * p + y + offset * signs))
-    return np.concatenate([half + root, half - root])
+    P = c - pp * (1.0 / 3.0)
+    Q = (pp * (2.0 / 27.0) - c * (1.0 / 3.0)) * p - 0.125 * q * q
+    disc = 0.25 * Q * Q + P * P * P * (1.0 / 27.0)
+    sq = np.sqrt(disc)  # NaN where three real roots
+    cardano = np.cbrt(sq - 0.5 * Q) - np.cbrt(sq + 0.5 * Q)
+    m = np.sqrt(P * (-1.0 / 3.0))  # NaN where P > 0 (then disc > 0)
+    cosine = np.fmin(np.fmax(1.5 * Q / (P * m), -1.0), 1.0)
+    trig = 2.0 * m * np.cos(np.arccos(cosine) * (1.0 / 3.0))
+    z = np.where(disc > 0.0, cardano, trig)
+    y = np.fmax(z - p * (1.0 / 3.0), 0.0)
+    offset = np.copysign(np.sqrt(np.fmax(y * (y + p) + c, 0.0)), q)
+    half = np.sqrt(0.5 * y)  # s / 2
+    base = half * half - 0.5 * p - y
+    root_plus = np.sqrt(base - offset)  # x² - s x + (p/2 + y + o) = 0
+    root_minus = np.sqrt(base + offset)  # x² + s x + (p/2 + y - o) = 0
+    roots = np.empty((4,) + np.shape(half))
+    roots[0] = half + root_plus
+    roots[1] = half - root_plus
+    roots[2] = root_minus - half
+    roots[3] = -half - root_minus
+    return roots
 
 
-def _candidate_costs(c1, c2, c3, t_lb, rho):
-    """Candidate durations (4, ...) — quartic roots raised to at least t_lb (> 0), so complex or
-    too-short roots become t_lb itself — and J* at each (eq. (9))."""
-    T = np.fmax(depressed_quartic_roots(c3 / rho, c2 / rho, c1 / rho), t_lb)
+def _candidate_costs(p, q, r, t_lb):
+    """Candidate durations (4, ...) — roots of T⁴ + p T² + q T + r (the quartic divided by ρ)
+    raised to at least t_lb (> 0), so complex or too-short roots become t_lb itself — and
+    J*(T) / ρ at each (eq. (9))."""
+    T = np.fmax(depressed_quartic_roots(p, q, r), t_lb)
     inv = 1.0 / T
-    return T, ((c1 / -3.0 * inv - 0.5 * c2) * inv - c3) * inv + rho * T
+    return T, ((r * (-1.0 / 3.0) * inv - 0.5 * q) * inv - p) * inv + T
 
 
 def min_time_cost(pc, vc, pg, vg, rho: float, v_max: float | None = None):
@@ -88,10 +95,11 @@ def min_time_cost(pc, vc, pg, vg, rho: float, v_max: float | None = None):
     pc, vc, pg, vg = np.broadcast_arrays(*(np.asarray(a, float) for a in (pc, vc, pg, vg)))
     c1, c2, c3 = quartic_coefficients(pc, vc, pg, vg)
     t_lb = _MIN_T if v_max is None else np.maximum(np.abs(pg - pc).max(axis=-1) / v_max, _MIN_T)
-    with np.errstate(invalid="ignore"):
-        T, costs = _candidate_costs(c1, c2, c3, t_lb, rho)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        T, costs = _candidate_costs(c3 / rho, c2 / rho, c1 / rho, t_lb)
     best = costs.argmin(axis=0)[None]
-    return (np.take_along_axis(costs, best, axis=0)[0], np.take_along_axis(T, best, axis=0)[0])
+    return (rho * np.take_along_axis(costs, best, axis=0)[0],
+            np.take_along_axis(T, best, axis=0)[0])
 
 
 _MIN_T = 1e-9
@@ -101,9 +109,9 @@ class ChildHeuristic:
     """h for all children of one node at once, for a fixed goal and primitive set (hot path).
 
     A child's Δ = D - (τ²/2) u and velocities v0 + τu are affine in the input u, so c1, c2, c3 and
-    Δ are one small matrix product [1, u_x, u_y, |u|²] · W(node) (W from the node's scalars);
-    then the vectorized quartic roots and the candidate costs. Call under
-    `np.errstate(invalid="ignore")`.
+    Δ are one small matrix product [1, u_x, u_y, |u|²] · W(node) (W from the node's scalars, with
+    1/ρ folded in); then the vectorized quartic roots and the candidate costs. Call under
+    `np.errstate(invalid="ignore", divide="ignore")`.
     """
 
     def __init__(self, inputs, tau, pg, vg, rho, v_max: float | None):
@@ -119,7 +127,6 @@ class ChildHeuristic:
         sx, sy = (v0 + self.vg).tolist()
         v0x, v0y = v0.tolist()
         gx, gy = self.vg.tolist()
-        rho = self.rho
         weights = np.array([
             [-36.0 * (dx * dx + dy * dy), 72.0 * h2 * dx, 72.0 * h2 * dy, -36.0 * h2 * h2],
             [24.0 * (sx * dx + sy * dy), 24.0 * (tau * dx - h2 * sx), 24.0 * (tau * dy - h2 * sy),
@@ -128,13 +135,13 @@ class ChildHeuristic:
              -4.0 * tau * (2.0 * v0x + gx), -4.0 * tau * (2.0 * v0y + gy), -4.0 * tau * tau],
             [dx, -h2, 0.0, 0.0],
             [dy, 0.0, -h2, 0.0]])
-        c1, c2, c3, delta_x, delta_y = weights @ self.features
+        weights[:3] *= 1.0 / self.rho
+        r, q, p, delta_x, delta_y = weights @ self.features
         if self.inv_v is None:
             t_lb = _MIN_T
         else:
             t_lb = np.maximum(np.maximum(np.abs(delta_x), np.abs(delta_y)) * self.inv_v, _MIN_T)
-        costs = _candidate_costs(c1, c2, c3, t_lb, rho)[1]
-        return np.minimum(np.minimum(costs[0], costs[1]), np.minimum(costs[2], costs[3]))
+        return self.rho * _candidate_costs(p, q, r, t_lb)[1].min(axis=0)
 
 
 def optimal_polynomial(pc, vc, pg, vg, T: float):

@@ -33,7 +33,7 @@ class NavParams:
     tau: float = 0.4  # s, primitive duration
     rho: float = 1.0  # time weight ρ of eq. (5)
     rho_c: float = 0.01  # collision-cost weight ρ_c of eq. (19) (C_max = 100 → ρ_c·F ≤ 1)
-    weight: float = 1.5  # heuristic weight (1 = plain A*)
+    weight: float = 2.0  # heuristic weight (1 = plain A*; cost ≤ weight × lattice optimum)
     time_bound: bool = True  # heuristic minimizes over T ≥ max|Δp_d| / v_max
     pos_res: float = 0.1  # m, state hash grid
     vel_res: float = 0.2  # m/s, state hash grid

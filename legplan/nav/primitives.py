@@ -38,10 +38,12 @@ class PrimitiveSet:
     tau: float
     samples: int
     rho: float
+    resolution: float  # m, of the grid the samples are checked on
     base_cost: np.ndarray = field(init=False)  # (M,) (||u||² + ρ) τ, eq. (8)
     _times: np.ndarray = field(init=False, repr=False)  # (S, 1)
     _half_ut2: np.ndarray = field(init=False, repr=False)  # (M, S, 2)
     _ut: np.ndarray = field(init=False, repr=False)  # (M, S, 2)
+    _half_ut2_cells: np.ndarray = field(init=False, repr=False)  # (M, S, 2) in cells
 
     def __post_init__(self):
         t = np.linspace(0.0, self.tau, self.samples)[:, None]
@@ -51,21 +53,20 @@ class PrimitiveSet:
         setter(self, "_times", t)
         setter(self, "_half_ut2", 0.5 * u * t**2)
         setter(self, "_ut", u * t)
+        setter(self, "_half_ut2_cells", self._half_ut2 / self.resolution)
 
     @classmethod
     def build(cls, mu: int, a_max: float, tau: float, v_max: float, resolution: float,
               rho: float) -> PrimitiveSet:
-        return cls(input_lattice(mu, a_max), tau, sample_count(v_max, tau, resolution), rho)
-
-    def states(self, p0: np.ndarray, v0: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Sampled positions and velocities (M, S, 2) of every primitive from (p0, v0)."""
-        return p0 + v0 * self._times + self._half_ut2, v0 + self._ut
+        return cls(input_lattice(mu, a_max), tau, sample_count(v_max, tau, resolution), rho,
+                   resolution)
 
     def expand(self, grid: NavGrid, p0: np.ndarray, v0: np.ndarray, v_max: float, rho_c: float):
         """All children of (p0, v0): end positions (M, 2), end velocities (M, 2), edge costs (M,)
         including ρ_c × collision cost (eqs. (8), (18)), and the feasibility mask (M,)."""
-        positions, velocities = self.states(p0, v0)
-        index = grid.flat_index(positions)
+        cells = grid.to_cells(p0) + (v0 / self.resolution) * self._times + self._half_ut2_cells
+        index = grid.flat_index_cells(cells)
+        velocities = v0 + self._ut
         end_v = velocities[:, -1]
         feasible = ~grid.blocked_flat[index].any(axis=1) & (np.abs(end_v).max(axis=1) <= v_max)
         cost = self.base_cost
@@ -73,4 +74,5 @@ class PrimitiveSet:
             speed = np.sqrt((velocities * velocities).sum(axis=2))
             dt = self.tau / (self.samples - 1)
             cost = cost + (rho_c * dt) * (grid.cost_flat[index] * speed).sum(axis=1)
-        return positions[:, -1], end_v, cost, feasible
+        end_p = p0 + v0 * self.tau + self._half_ut2[:, -1]
+        return end_p, end_v, cost, feasible
