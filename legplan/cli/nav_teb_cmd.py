@@ -153,7 +153,7 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
     hidden = (load_hidden(hidden_obstacles, terrain.grid) if hidden_obstacles
               else np.zeros(terrain.grid.shape, bool))
     world = World(terrain.grid, terrain.occupancy, hidden, terrain.nav_params, navigation.footprint)
-    search = NavParams()
+    search = NavParams.for_robot(navigation)
     plan = (kinodynamic_planner(search) if planner == "kinoastar"
             else grid_planner(search, navigation.limits.v_x_max))
     teb = TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni)

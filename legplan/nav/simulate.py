@@ -66,8 +66,9 @@ class SimParams:
     heading_tolerance: float = 0.1  # rad
     stop_speed: float = 0.05  # m/s, "at rest" for arrival at a via point
     max_time: float = 300.0  # s
-    yaw: str = "velocity"  # yaw policy on the way: "velocity" or "target" (face the next goal's target)
+    yaw: str = "velocity"  # yaw policy on the way: "velocity", "target" (face `target`) or "heading"
     target: tuple[float, float] | None = None  # world point faced with yaw "target"
+    heading: float = 0.0  # rad, held with yaw "heading"
 
 
 @dataclass
@@ -285,10 +286,7 @@ def _teb_command(world: World, path: GlobalPath, index: int, robot: Robot, goal:
     end = int(np.searchsorted(s, s[index] + params.window, side="right"))
     local = _local_path(path, index, end, robot.pose[:2], float(np.hypot(*robot.velocity[:2])))
     at_goal_window = end >= len(path.points)
-    if params.yaw == "target" and params.target is not None:
-        policy = YawPolicy("target", target=params.target)
-    else:
-        policy = YawPolicy("velocity")
+    policy = YawPolicy(params.yaw, heading=params.heading, target=params.target or (0.0, 0.0))
     heading = goal.heading if at_goal_window and np.isfinite(goal.heading) else None
     local_goal = np.array(goal.xy) if at_goal_window else local.points[-1]
     if hold or np.hypot(*(robot.pose[:2] - goal.xy)) < params.goal_tolerance and at_goal_window:
