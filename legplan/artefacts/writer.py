@@ -66,9 +66,17 @@ def write_artefact(path: str | os.PathLike, kind: str, *, params: Mapping | None
             attrs["seed"] = -1 if seed is None else int(seed)
             attrs["inputs"] = canonical_json(records)
             yield handle
+        os.chmod(tmp, 0o666 & ~_current_umask())
         os.replace(tmp, path)
     finally:
         tmp.unlink(missing_ok=True)
+
+
+def _current_umask() -> int:
+    """The process umask (mkstemp creates files 0600; artefacts get the usual permissions)."""
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
 
 
 def write_dataset(group: h5py.Group, name: str, data, *, units: str | None = None,

@@ -54,6 +54,15 @@ def test_same_inputs_give_byte_identical_artefacts(tmp_path, monkeypatch):
     assert sha256_file(tmp_path / "a.h5") == sha256_file(tmp_path / "b.h5")
 
 
+def test_artefact_permissions_follow_umask(tmp_path):
+    old = os.umask(0o022)
+    try:
+        _write_map(tmp_path / "map.h5")
+    finally:
+        os.umask(old)
+    assert (tmp_path / "map.h5").stat().st_mode & 0o777 == 0o644
+
+
 def test_failure_mid_write_leaves_no_file(tmp_path):
     path = tmp_path / "map.h5"
     with pytest.raises(RuntimeError):
