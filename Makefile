@@ -11,6 +11,8 @@ OUT ?= outputs
 
 run: install
 	$(VENV)/bin/legplan --version
+	$(VENV)/bin/legplan pipeline run pipelines/gap_crossing.yaml --out $(OUT)/gap_crossing
+	@echo "report: $(OUT)/gap_crossing/report/index.html"
 
 test: install
 	$(PY) -m pytest -q
