@@ -70,31 +70,54 @@ def nav_queries(path: Path, png: Path) -> str | None:
 
 @figure("nav", "paths")
 def nav_paths(path: Path, png: Path) -> str | None:
-    """Every successful query's path over the map's costmap, and its speed profile |v|(t)."""
+    """Every query's path and velocity arrows over the costmap, by `legplan nav show`'s plotting code."""
+    from legplan.nav import NavGrid
+    from legplan.nav.artefact import read_queries
+    from legplan.nav.plot import render_nav
+
+    terrain = map_input(path)
     with open_artefact(path, kind="nav") as handle:
-        tracks = [(name, group["t"][()], group["p"][()], group["v"][()])
-                  for name, group in require(handle, "queries").items() if "p" in group]
+        queries = read_queries(handle) if "queries" in handle else []
+    if terrain is None or not queries:
+        return None
+    render_nav(NavGrid.from_map(terrain), queries, png)
+    return f"{len(queries)} queries over the costmap of {terrain.name}."
+
+
+@figure("nav", "profiles")
+def nav_profiles(path: Path, png: Path) -> str | None:
+    """Speed profiles |v|(t) of every planned query and of a simulated run; the simulated path
+    over the map's costmap when the artefact holds a `/simulation`."""
+    with open_artefact(path, kind="nav") as handle:
+        tracks = [(name, g["t"][()], g["v"][()]) for name, g in handle["queries"].items() if "v" in g] \
+            if "queries" in handle else []
+        simulated = None
+        if "simulation" in handle and "state" in handle["simulation"]:
+            state = handle["simulation/state"][()]
+            simulated = state[:, :2]
+            tracks.append(("simulation", handle["simulation/t"][()], state[:, 3:5]))
     if not tracks:
         return None
-    fig = new_figure(11.0, 4.5)
-    top, speed = fig.subplots(1, 2)
-    terrain = map_input(path)
-    if terrain is not None:
-        with open_artefact(terrain, kind="map") as handle:
-            costmap = require(handle, "nav/costmap")
-            top.imshow(costmap[()], origin="lower", extent=grid_extent(costmap), cmap="magma",
-                       interpolation="nearest")
-    for name, t, p, v in tracks:
-        top.plot(p[:, 0], p[:, 1], lw=1.2, label=name)
-        speed.plot(t, np.linalg.norm(v, axis=1), lw=1.0, label=name)
-    top.set_xlabel("x [m]")
-    top.set_ylabel("y [m]")
-    top.set_title("Paths over the costmap" if terrain is not None else "Paths")
-    top.set_aspect("equal")
-    speed.set_xlabel("t [s]")
-    speed.set_ylabel("|v| [m/s]")
-    speed.set_title("Velocity profiles")
+    fig = new_figure(11.0 if simulated is not None else 6.0, 4.5)
+    axes = fig.subplots(1, 2 if simulated is not None else 1, squeeze=False)[0]
+    for name, t, v in tracks:
+        axes[0].plot(t, np.linalg.norm(v, axis=1), lw=1.0, label=name)
+    axes[0].set_xlabel("t [s]")
+    axes[0].set_ylabel("|v| [m/s]")
+    axes[0].set_title("Velocity profiles")
     if len(tracks) <= 10:
-        speed.legend(fontsize=7)
+        axes[0].legend(fontsize=7)
+    if simulated is not None:
+        terrain = map_input(path)
+        if terrain is not None:
+            with open_artefact(terrain, kind="map") as handle:
+                costmap = require(handle, "nav/costmap")
+                axes[1].imshow(costmap[()], origin="lower", extent=grid_extent(costmap), cmap="magma",
+                               interpolation="nearest")
+        axes[1].plot(simulated[:, 0], simulated[:, 1], "c-", lw=1.2)
+        axes[1].set_aspect("equal")
+        axes[1].set_xlabel("x [m]")
+        axes[1].set_ylabel("y [m]")
+        axes[1].set_title("Simulated path")
     fig.savefig(png, dpi=100)
-    return f"{len(tracks)} planned paths and their speed profiles."
+    return f"Speed profiles of {len(tracks)} trajectories" + (" and the simulated path." if simulated is not None else ".")
