@@ -97,12 +97,15 @@ def polyline_quality(X: np.ndarray) -> tuple[float, float, float]:
 
 
 def ambient_bounds(robot, x0, x1, params: StepBaselineParams) -> tuple[np.ndarray, np.ndarray]:
-    """Box of the sampling space: base position and rotation vector around the two ends, joint limits."""
+    """Box of the sampling space: base position and rotation vector around the two ends, joint limits
+    widened to the ends' joints ± `END_EXEMPTION`: a sequence's configuration may exceed a limit by its
+    IK tolerance (and its projection onto the manifold move a little further), and OMPL rejects a
+    start or goal outside the bounds; validity still enforces the limits everywhere else."""
     ends = np.stack([x0, x1])
     low = np.r_[ends[:, :3].min(0) - params.position_margin, ends[:, 3:6].min(0) - params.rotation_margin,
-                robot.lower]
+                np.minimum(robot.lower, ends[:, 6:].min(0) - END_EXEMPTION)]
     high = np.r_[ends[:, :3].max(0) + params.position_margin, ends[:, 3:6].max(0) + params.rotation_margin,
-                 robot.upper]
+                 np.maximum(robot.upper, ends[:, 6:].max(0) + END_EXEMPTION)]
     return low, high
 
 
@@ -173,7 +176,7 @@ class StepBaselineWorker:
             return record
         record.update(success=result.success, reason=result.reason, seconds=result.seconds,
                       attrs={"planner": p.planner, "ompl_status": result.status},
-                      timings={"solve": result.solve_seconds, "total": result.seconds})
+                      timings={"ompl_solve": result.solve_seconds, "total": result.seconds})
         if result.waypoints is not None:
             record["waypoints"] = result.waypoints
             dense = polyline_samples(result.waypoints, p.dense_samples)
