@@ -11,7 +11,7 @@ second solve without it removes the small bias the regularisation leaves in the 
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -43,33 +43,54 @@ class IKResult:
     stages: list[str] = field(default_factory=list)
 
 
-def _single(term):
-    """Adapt a batched term fn(X (n, nx)) -> (values (n, m), jac (n, m, nx)) to one configuration."""
-    def fn(x):
-        values, jac = term(x[None, :])
-        return values[0], [jac[0]]
-    return fn
+class _TermCache:
+    """All constraint terms of one configuration, evaluated together and kept for the last x.
+
+    Every block of `constraint_blocks` reads its rows from here, so the kinematics run once per
+    point (the LM evaluates a trial point, then linearises at it when it is accepted).
+    """
+
+    def __init__(self, terms: dict):
+        self.terms = terms  # name -> batched term fn(X, Q) -> (values (1, m), jac (1, m, nx))
+        self._key: bytes | None = None
+        self._values: dict = {}
+
+    def block(self, robot, name: str):
+        def fn(x):
+            key = np.asarray(x, float).tobytes()
+            if key != self._key:
+                X = np.asarray(x, float)[None, :]
+                Q = robot.from_vector(X)
+                self._values = {n: term(X, Q) for n, term in self.terms.items()}
+                self._key = key
+            values, jac = self._values[name]
+            return values[0], [jac[0]]
+        return fn
 
 
 def constraint_blocks(robot, sdf, mode: ContactMode, targets: dict[int, np.ndarray] | None = None):
     """Residual blocks over variable "x" for one configuration: [(block, kind)] with kind eq|ineq."""
-    blocks = []
+    terms, sizes, kinds = {}, {}, {}
     k = int(mode.stance.sum())
     if k:
-        blocks.append((FunctionBlock(["x"], 3 * k, _single(
-            lambda X: stance_foot_terms(robot, X, mode))), "eq"))
+        terms["stance"] = lambda X, Q: stance_foot_terms(robot, X, mode, Q)
+        sizes["stance"], kinds["stance"] = 3 * k, "eq"
     if targets:
         legs = sorted(targets)
         pts = np.array([targets[leg] for leg in legs])
-        blocks.append((FunctionBlock(["x"], 3 * len(legs), _single(
-            lambda X: foot_target_terms(robot, X, legs, pts))), "eq"))
-    h = len(mode.polygon.b)
-    blocks.append((HingeInequality(FunctionBlock(["x"], h, _single(
-        lambda X: com_terms(robot, X, mode)))), "com"))
+        terms["targets"] = lambda X, Q: foot_target_terms(robot, X, legs, pts, Q)
+        sizes["targets"], kinds["targets"] = 3 * len(legs), "eq"
+    terms["com"] = lambda X, Q: com_terms(robot, X, mode, Q)
+    sizes["com"], kinds["com"] = len(mode.polygon.b), "com"
     if sdf is not None:
-        n_checked = int(np.sum(~np.isnan(sphere_margins(robot, mode))))
-        blocks.append((HingeInequality(FunctionBlock(["x"], n_checked, _single(
-            lambda X: collision_terms(robot, X, mode, sdf)))), "collision"))
+        terms["collision"] = lambda X, Q: collision_terms(robot, X, mode, sdf, Q)
+        sizes["collision"] = int(np.sum(~np.isnan(sphere_margins(robot, mode))))
+        kinds["collision"] = "collision"
+    cache = _TermCache(terms)
+    blocks = []
+    for name in terms:
+        block = FunctionBlock(["x"], sizes[name], cache.block(robot, name))
+        blocks.append((block if kinds[name] == "eq" else HingeInequality(block), kinds[name]))
     return blocks
 
 
@@ -84,16 +105,20 @@ def _joint_bounds(robot):
 
 def solve_ik(robot, sdf, mode: ContactMode, x0, *, targets: dict[int, np.ndarray] | None = None,
              posture: Posture | None = None, soft_targets: dict[int, np.ndarray] | None = None,
-             soft_weight: float = 1.0, foot_tolerance: float = 1e-4, max_iterations: int = 100) -> IKResult:
+             soft_weight: float = 1.0, foot_tolerance: float = 1e-4, max_iterations: int = 100,
+             posture_step_tolerance: float = 1e-6) -> IKResult:
     """Find x near x0 satisfying `mode` (and foot `targets`); see the module docstring.
 
     `soft_targets` (leg -> point) join the posture term of the first solve with `soft_weight`
-    (e.g. keep a lifted foot up); they are not constraints.
+    (e.g. keep a lifted foot up); they are not constraints. The regularised solve stops when its
+    step falls below `posture_step_tolerance` relative to |x|.
     """
     lower, upper = _joint_bounds(robot)
     x = np.clip(np.asarray(x0, float), lower, upper)
     blocks = constraint_blocks(robot, sdf, mode, targets)
-    params = LMParams(max_iterations=max_iterations, linear_solver="dense", tolerance=1e-9)
+    polish = LMParams(max_iterations=max_iterations, linear_solver="dense", tolerance=1e-9)
+    # the regularised solve only has to land near a good configuration: stop once its steps are small
+    regularise = replace(polish, step_tolerance=posture_step_tolerance)
     stages, iterations = [], 0
     phases = [True, False] if posture is not None else [False]
     for regularised in phases:
@@ -107,9 +132,9 @@ def solve_ik(robot, sdf, mode: ContactMode, x0, *, targets: dict[int, np.ndarray
             if soft_targets:
                 legs = sorted(soft_targets)
                 pts = np.array([soft_targets[leg] for leg in legs])
-                problem.add_residual(FunctionBlock(["x"], 3 * len(legs), _single(
-                    lambda X: foot_target_terms(robot, X, legs, pts))), soft_weight)
-        result = solve_lm(problem, params)
+                soft = _TermCache({"soft": lambda X, Q: foot_target_terms(robot, X, legs, pts, Q)})
+                problem.add_residual(FunctionBlock(["x"], 3 * len(legs), soft.block(robot, "soft")), soft_weight)
+        result = solve_lm(problem, regularise if regularised else polish)
         x = result.values["x"]
         iterations += result.iterations
         stages.append(f"{'posture' if regularised else 'polish'}: {result.status.value} "

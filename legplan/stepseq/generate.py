@@ -14,11 +14,11 @@ every configuration lies inside the support polygon of the motion before and aft
 Leg choice (gait-free): legs are tried by decreasing lag, the distance their foot trails the
 nominal foot position at the body pose a little ahead on the path; a leg is skipped when the
 polygon of the remaining stance legs cannot hold the CoM with the margin. Foothold choice: cells
-of the foothold mask within `step_radius` of the nominal position at the target pose, that make
-progress along the path, keep a distance to the other feet and lie within the leg's reach from the
-hip, ranked by distance to the nominal position. The first leg/foothold whose three IK solves
-succeed is taken. Nothing assumes a leg count or a robot: nominal offsets, hips and reach come from
-the robot's model and nominal configuration.
+of the foothold mask inside the leg's workspace at the target pose (sampled from the joint limits,
+`_RobotGeometry`), that make progress along the path and keep a distance to the other feet,
+ranked by distance to the nominal position. The first leg/foothold whose three IK solves
+succeed is taken. Nothing assumes a leg count or a robot: nominal offsets, hips and workspaces
+come from the robot's model and nominal configuration.
 """
 
 from __future__ import annotations
@@ -41,10 +41,11 @@ log = logging.getLogger(__name__)
 class GenerateParams:
     """Parameters of the step-sequence generator (lengths in m, angles in rad)."""
 
-    com_margin: float = 0.03  # CoM distance to every support edge during planning
+    com_margin: float = 0.015  # CoM distance to every support edge during planning
     clearance: float = 0.02  # sphere clearance from the terrain (paper Sec. IV: 2 cm)
     foot_clearance: float = 0.01  # swing-foot sphere clearance
-    step_radius: float | None = None  # foothold search radius around the nominal position
+    step_radius: float | None = None  # start footholds' search radius around the nominal positions
+    reach_slack: float = 0.015  # candidate footholds lie this far inside the leg workspace radii
     advance: float | None = None  # how far ahead of the body the target pose lies
     lift_height: float = 0.05  # swing apex above the higher of the two footholds / terrain
     min_progress: float = 0.02  # a move must bring the foot this much closer along the path
@@ -73,15 +74,25 @@ class GenerationError(RuntimeError):
 
 @dataclass
 class _RobotGeometry:
-    """Robot-derived nominal geometry in the body frame (from q_nominal)."""
+    """Robot-derived nominal geometry in the body frame (from q_nominal) and each leg's workspace.
+
+    The workspace of a leg is the set of horizontal foot offsets from its hip it reaches with the
+    foot `body_height` below the base (within `band`), sampled over the joint limits and stored in
+    polar form: per bearing bin (`bin_width` rad) the smallest and largest hip-to-foot distance,
+    over the half plane on the outer side of the hip (toward the nominal foot). This assumes the workspace is star-shaped around the hip along each bearing (true for the usual
+    yaw-hip, pitch-pitch legs) and nothing else about the robot.
+    """
 
     foot_offsets: np.ndarray  # (L, 3) nominal feet relative to the base, body frame
     hip_offsets: np.ndarray  # (L, 3)
     body_height: float  # base height above the mean nominal foot height
-    reach: np.ndarray  # (L,) largest hip-to-foot distance over sampled joint configurations
+    radius_min: np.ndarray  # (L, B) per bearing bin, NaN where no sample fell
+    radius_max: np.ndarray  # (L, B)
+    bin_width: float
 
     @classmethod
-    def of(cls, robot, rng: np.random.Generator) -> _RobotGeometry:
+    def of(cls, robot, rng: np.random.Generator, samples: int = 6000, band: float = 0.01,
+           bin_width: float = math.radians(3.0)) -> _RobotGeometry:
         model, data = robot.model, robot.model.createData()
         q = np.asarray(robot.q_nominal, float)
         pin.framesForwardKinematics(model, data, q)
@@ -91,16 +102,43 @@ class _RobotGeometry:
         to_body = base.rotation.T
         foot_offsets = (feet - base.translation) @ to_body.T
         hip_offsets = (hips - base.translation) @ to_body.T
-        reach = np.zeros(len(robot.legs))
-        samples = rng.uniform(robot.lower, robot.upper, size=(300, robot.n_joints))
-        Q = np.repeat(q[None], len(samples), axis=0)
-        Q[:, 7:] = samples
-        for qs in Q:
-            pin.framesForwardKinematics(model, data, qs)
-            for i, leg in enumerate(robot.legs):
-                hip = data.oMi[model.getJointId(leg.joint_names[0])].translation
-                reach[i] = max(reach[i], np.linalg.norm(data.oMf[leg.foot_frame_id].translation - hip))
-        return cls(foot_offsets, hip_offsets, float(base.translation[2] - feet[:, 2].mean()), reach)
+        body_height = float(base.translation[2] - feet[:, 2].mean())
+        Q = np.repeat(q[None], samples, axis=0)
+        Q[:, 7:] = rng.uniform(robot.lower, robot.upper, size=(samples, robot.n_joints))
+        offsets = (robot.foot_positions(Q) - base.translation) @ to_body.T  # (n, L, 3)
+        bins = int(math.ceil(2 * math.pi / bin_width))
+        radius_min = np.full((len(robot.legs), bins), np.nan)
+        radius_max = np.full((len(robot.legs), bins), np.nan)
+        for i in range(len(robot.legs)):
+            rel = offsets[:, i] - hip_offsets[i]
+            outward = foot_offsets[i, :2] - hip_offsets[i, :2]
+            rel = rel[(np.abs(offsets[:, i, 2] + body_height) <= band) & (rel[:, :2] @ outward > 0)]
+            radius = np.hypot(rel[:, 0], rel[:, 1])
+            which = _bearing_bin(rel, bin_width, bins)
+            for b in np.unique(which):
+                radius_min[i, b] = radius[which == b].min()
+                radius_max[i, b] = radius[which == b].max()
+        return cls(foot_offsets, hip_offsets, body_height, radius_min, radius_max, bin_width)
+
+    def reachable(self, leg: int, relative: np.ndarray, slack: float) -> np.ndarray:
+        """(n,) True where the horizontal offsets `relative` (n, 2) from the hip (body frame) lie
+        inside the leg's workspace with `slack` (m) to its inner and outer radius; a bearing bin
+        counts only when both neighbouring bins were reached too (away from the coxa limits), and
+        its outer radius is the largest of the three (the samples are sparse)."""
+        bins = self.radius_min.shape[1]
+        which = _bearing_bin(relative, self.bin_width, bins)
+        radius = np.hypot(relative[:, 0], relative[:, 1])
+        hi = np.fmax(np.fmax(self.radius_max[leg], np.roll(self.radius_max[leg], 1)),
+                     np.roll(self.radius_max[leg], -1))
+        lo = self.radius_min[leg]
+        known = ~np.isnan(self.radius_min[leg])
+        known &= np.roll(known, 1) & np.roll(known, -1)
+        return known[which] & (radius >= lo[which] + slack) & (radius <= hi[which] - slack)
+
+
+def _bearing_bin(relative: np.ndarray, bin_width: float, bins: int) -> np.ndarray:
+    angle = np.arctan2(relative[:, 1], relative[:, 0]) % (2 * math.pi)
+    return np.minimum((angle / bin_width).astype(int), bins - 1)
 
 
 def _rot_z(yaw: float) -> np.ndarray:
@@ -308,19 +346,17 @@ class StepGenerator:
         return bool(poly.signed_distance(poly.vertices.mean(axis=0)[None])[0] >= self.params.com_margin)
 
     def _candidates(self, leg, stance, footholds, nominal, xy, yaw) -> np.ndarray:
-        """Foothold cells for `leg`: near its nominal position, ahead of its last foothold, apart
-        from the other stance feet, within reach of the hip; nearest to nominal first."""
+        """Foothold cells for `leg`: inside its workspace at the pose (xy, yaw), ahead of its last
+        foothold, apart from the other stance feet; nearest to `nominal` first."""
         p, geo = self.params, self.geometry
         cells = self._cells
-        near = np.linalg.norm(cells[:, :2] - nominal[:2], axis=1) <= self.step_radius
         gain = (cells[:, :2] - footholds[leg, :2]) @ self._direction >= p.min_progress
         others = footholds[stance & (np.arange(len(stance)) != leg)]
         apart = np.all(np.linalg.norm(cells[:, None, :2] - others[None, :, :2], axis=2) >= self.separation,
                        axis=1)
         hip = np.r_[xy, 0.0] + geo.hip_offsets[leg] @ _rot_z(yaw).T
-        horizontal = np.linalg.norm(cells[:, :2] - hip[:2], axis=1)
-        vertical = geo.body_height + geo.hip_offsets[leg, 2]
-        ok = near & gain & apart & (np.hypot(horizontal, vertical) <= 0.95 * geo.reach[leg])
+        relative = (cells[:, :2] - hip[:2]) @ _rot_z(yaw)[:2, :2]  # world -> body frame
+        ok = gain & apart & geo.reachable(leg, relative, p.reach_slack)
         chosen = cells[ok]
         order = np.argsort(np.linalg.norm(chosen[:, :2] - nominal[:2], axis=1), kind="stable")
         return chosen[order[:p.candidates]]
