@@ -314,7 +314,12 @@ class StepGenerator:
                 failures.append(f"{names[leg]}: the other stance legs cannot hold the CoM")
                 continue
             candidates = self._candidates(leg, stance, footholds, nominal[leg], xy, yaw)
-            if not len(candidates):
+            if not len(candidates) and stance.all():  # holds the body back, cannot step yet: lift it
+                configs, why = self._park(x, stance, footholds, leg, yaw)
+                if configs is not None:
+                    return configs, "lift", leg, None
+                failures.append(f"lift {names[leg]} (no reachable foothold): {why}")
+            elif not len(candidates):
                 failures.append(f"no reachable foothold for leg {names[leg]} at move {move}")
             for cell in candidates:
                 configs, why = self._step(x, stance, footholds, leg, cell, yaw)
