@@ -1,29 +1,36 @@
 # Two entry points: `make run` and `make test`. Both install what is missing first.
-# The system package list lives in packaging/apt-packages.txt (the Dockerfile reads the same file).
+# The system package list lives in packaging/apt-packages.txt (the Dockerfile reads the same file);
+# packaging/apt-packages-test.txt adds what only the tests need (Chromium renders the HTML report).
 PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
 APT_PACKAGES := $(shell cat packaging/apt-packages.txt)
+APT_TEST_PACKAGES := $(shell cat packaging/apt-packages-test.txt)
 STAMP := $(VENV)/.legplan-installed
 OUT ?= outputs
 
-.PHONY: run test install system-packages clean
+.PHONY: run test install system-packages test-system-packages clean
 
 run: install
 	$(VENV)/bin/legplan --version
 	$(VENV)/bin/legplan pipeline run pipelines/gap_crossing.yaml --out $(OUT)/gap_crossing
 	@echo "report: $(OUT)/gap_crossing/report/index.html"
 
-test: install
+test: install test-system-packages
 	$(PY) -m pytest -q
 
 install: $(STAMP)
 
 # dpkg -s answers in milliseconds when everything is there, so apt-get runs only on a new machine.
+apt_install = dpkg -s $(1) >/dev/null 2>&1 || { \
+  echo "installing system packages: $(1)"; \
+  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(1); }
+
 system-packages:
-	@dpkg -s $(APT_PACKAGES) >/dev/null 2>&1 || { \
-	  echo "installing system packages: $(APT_PACKAGES)"; \
-	  apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $(APT_PACKAGES); }
+	@$(call apt_install,$(APT_PACKAGES))
+
+test-system-packages:
+	@$(call apt_install,$(APT_TEST_PACKAGES))
 
 $(STAMP): pyproject.toml packaging/apt-packages.txt
 	@$(MAKE) --no-print-directory system-packages

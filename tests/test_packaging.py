@@ -18,6 +18,12 @@ def test_dockerfile_and_makefile_share_the_package_list_and_pip_line():
     assert re.search(r'^ENTRYPOINT \["legplan"\]', dockerfile, re.M)
 
 
+def test_test_only_packages_stay_out_of_the_image():
+    makefile = (ROOT / "Makefile").read_text()
+    assert "test: install test-system-packages" in makefile
+    assert "apt-packages-test.txt" not in (ROOT / "Dockerfile").read_text()
+
+
 def test_package_list_has_suitesparse_and_build_tools():
     packages = (ROOT / "packaging/apt-packages.txt").read_text().split()
     assert {"libsuitesparse-dev", "build-essential"} <= set(packages)
