@@ -91,3 +91,31 @@ def test_invalid_row_exits_2_and_writes_nothing(flat_map, tmp_path):
     assert result.exit_code == 2
     assert "row 1: field 'coxa_rf'" in result.stderr
     assert not out.exists()
+
+
+def test_gap_crossing_end_to_end(tmp_path):
+    """Issue 5: `steps generate` crosses maps/gap_crossing.yaml; every configuration passes the
+    independent validator and consecutive ones differ by one lift/touch-down or a body shift."""
+    from legplan.robots import load_robot
+    from legplan.stepseq import read_steps
+    from legplan.terrain import load_map
+    from legplan.validate import Validator
+
+    runner = CliRunner()
+    map_path, out = tmp_path / "map.h5", tmp_path / "steps.h5"
+    spec = Path(__file__).parents[2] / "maps" / "gap_crossing.yaml"
+    assert runner.invoke(cli, ["map", "build", str(spec), "-o", str(map_path), "-q"]).exit_code == 0
+    result = runner.invoke(cli, ["steps", "generate", str(map_path), "--robot", "scarab2", "--start", "-0.6",
+                                 "0", "0", "--goal", "0.6", "0", "0", "-o", str(out), "-q"])
+    assert result.exit_code == 0, result.stderr
+    seq = read_steps(out)
+    assert len(seq) >= 80
+    assert seq.q[0, 0] < -0.5 and seq.q[-1, 0] > 0.5  # from one side of the gap (x in [-0.2, 0.2]) to the other
+    checks = Validator(load_robot("scarab2"), load_map(map_path)).check(seq.q, seq.stance, seq.footholds)
+    assert checks.valid(foot_tolerance=1e-3).all()
+    assert np.all(checks.com_margin > 0) and np.all(checks.clearance > 0)
+    switched = np.abs(np.diff(seq.stance.astype(int), axis=0)).sum(axis=1)
+    assert np.all(switched <= 1)
+    held = seq.stance[1:] & seq.stance[:-1]  # legs in stance on both sides of a transition stay put
+    moved = np.linalg.norm(np.nan_to_num(seq.footholds[1:] - seq.footholds[:-1]), axis=2)
+    assert np.all(moved[held] == 0.0)
