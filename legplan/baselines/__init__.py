@@ -1,11 +1,19 @@
-"""OMPL baselines: the sampling-based planners users would otherwise run, on the same problems.
+"""OMPL baselines: the sampling-based planners users would otherwise run, on the same problems,
+written as the same artefacts with the same metrics as ours.
+
+Step planning (`legplan.baselines.step`, `constrained`): constrained RRT-Connect (Kingston, Moll &
+Kavraki) on the stance-foot manifold in the x-parametrization, validity = the Bézier planner's own
+inequality rows; judged by `legplan.stepplan.measure.check_path`, written by `write_motion`:
 
     records = plan_sequence_baseline(read_steps("steps.h5"), "map.h5", StepBaselineParams(), range(n))
     write_motion("motion_ompl.h5", records, robot, params, attrs={"planner": params.planner})
 
-Step baseline (`legplan.baselines.step`): constrained RRT-Connect (Kingston, Moll & Kavraki) on the
-stance-foot manifold, judged by the step planner's dense check. Navigation baseline
-(`legplan.baselines.nav`): geometric RRT-Connect / RRT* / PRM* in R² and control-based KPIECE1 /
-RRT on the 2D double integrator, written as nav.h5 with the nav search's metrics.
-Importing a module that touches OMPL sets up the process-wide runtime (`runtime.py`).
+Navigation (`legplan.baselines.nav`): RRT-Connect / RRT* / PRM* in R² and KPIECE1 / RRT on the 2D
+double integrator, returning the nav layer's `SearchResult`; written by the nav writer:
+
+    outcomes = plan_queries(NavGrid.from_map("map.h5", l1), queries, NavBaselineParams("rrtstar"))
+    write_nav_baseline("nav_ompl.h5", outcomes, grid, params, "jueying_mini")
+
+Importing a module that touches OMPL sets up the process-wide runtime (`runtime.py`: seeding,
+log level, exit-time nanobind leak reports silenced). `names.py` needs no OMPL.
 """
