@@ -285,8 +285,9 @@ class StepGenerator:
         return float(np.linalg.norm(self.goal[:2] - self.start[:2]))
 
     def _move(self, x, stance, footholds, move: int):
-        """One action: land a lifted leg, step a stance leg, or (when nothing else works) lift a
-        trailing leg and keep it up. Returns (configurations, action, leg, foothold) or a reason."""
+        """One action: land a lifted leg, step a stance leg, or lift a trailing leg and keep it up
+        (when all legs stand and it has no reachable foothold yet, or when nothing else works).
+        Returns (configurations, action, leg, foothold) or a reason."""
         p, names = self.params, [leg.name for leg in self.robot.legs]
         s_target = min(1.0, self._progress(x[:2]) + self.advance / max(self._length, 1e-9))
         xy, yaw = self._pose(s_target)
