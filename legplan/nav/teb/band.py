@@ -60,13 +60,13 @@ class Band:
 
     def velocities(self) -> np.ndarray:
         """Body-frame (v_x, v_y, ω) of every interval, (n − 1, 3), eq. (23)."""
-        return interval_velocities(self.poses, self.dt)[0]
+        return interval_velocities(self.poses, self.dt, jacobian=False)[0]
 
     def accelerations(self) -> np.ndarray:
         """Body-frame (a_x, a_y, α) between consecutive intervals, (n − 2, 3), eq. (23)."""
         if self.n < 3:
             return np.zeros((0, 3))
-        return interval_accelerations(self.poses, self.dt)[0]
+        return interval_accelerations(self.poses, self.dt, jacobian=False)[0]
 
     def effort(self) -> float:
         """Translational effort Σ (a_x² + a_y²)·(ΔT_i + ΔT_{i+1})/2, the band's discrete eq. (4)."""
@@ -83,21 +83,25 @@ class VelocityJacobian:
     d_dt: np.ndarray
 
 
-def interval_velocities(poses: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, VelocityJacobian]:
-    """v_i = (dx_i, dy_i, Δθ_i)/ΔT_i of eqs. (21)–(23), rotated by θ_i (eq. (22)), and its Jacobian."""
+def interval_velocities(poses: np.ndarray, dt: np.ndarray, jacobian: bool = True) -> tuple[np.ndarray, VelocityJacobian | None]:
+    """v_i = (dx_i, dy_i, Δθ_i)/ΔT_i of eqs. (21)–(23), rotated by θ_i (eq. (22)), and (if
+    `jacobian`) its Jacobian."""
     poses = np.asarray(poses, float).reshape(-1, 3)
     delta = poses[1:] - poses[:-1]
     c, s = np.cos(poses[:-1, 2]), np.sin(poses[:-1, 2])
     dx = c * delta[:, 0] + s * delta[:, 1]
     dy = -s * delta[:, 0] + c * delta[:, 1]
     inv = 1.0 / dt
-    v = np.stack([dx, dy, wrap_angle(delta[:, 2])], axis=1) * inv[:, None]
-    zero, one = np.zeros_like(c), np.ones_like(c)
-    d_end = np.stack([np.stack([c, s, zero], 1), np.stack([-s, c, zero], 1), np.stack([zero, zero, one], 1)], 1)
-    d_start = -d_end.copy()
-    d_start[:, 0, 2] = dy
-    d_start[:, 1, 2] = -dx
-    return v, VelocityJacobian(d_start * inv[:, None, None], d_end * inv[:, None, None], -v * inv[:, None])
+    v = np.empty((len(dt), 3))
+    v[:, 0], v[:, 1], v[:, 2] = dx * inv, dy * inv, wrap_angle(delta[:, 2]) * inv
+    if not jacobian:
+        return v, None
+    d_end = np.zeros((len(dt), 3, 3))
+    d_end[:, 0, 0], d_end[:, 0, 1], d_end[:, 1, 0], d_end[:, 1, 1], d_end[:, 2, 2] = c * inv, s * inv, -s * inv, c * inv, inv
+    d_start = -d_end
+    d_start[:, 0, 2] = dy * inv
+    d_start[:, 1, 2] = -dx * inv
+    return v, VelocityJacobian(d_start, d_end, -v * inv[:, None])
 
 
 @dataclass(frozen=True)
@@ -111,12 +115,16 @@ class AccelerationJacobian:
     d_dt1: np.ndarray
 
 
-def interval_accelerations(poses: np.ndarray, dt: np.ndarray) -> tuple[np.ndarray, AccelerationJacobian]:
-    """a_i = (v_{i+1} − v_i) / ((ΔT_i + ΔT_{i+1})/2) of eq. (23) for i = 0 … n − 3, and its Jacobian."""
-    v, jv = interval_velocities(poses, dt)
+def interval_accelerations(poses: np.ndarray, dt: np.ndarray, velocities=None,
+                           jacobian: bool = True) -> tuple[np.ndarray, AccelerationJacobian | None]:
+    """a_i = (v_{i+1} − v_i) / ((ΔT_i + ΔT_{i+1})/2) of eq. (23) for i = 0 … n − 3, and (if
+    `jacobian`) its Jacobian; `velocities` = `interval_velocities(poses, dt, jacobian)` if already known."""
+    v, jv = interval_velocities(poses, dt, jacobian) if velocities is None else velocities
     total = dt[:-1] + dt[1:]
     k = (2.0 / total)[:, None]
     a = (v[1:] - v[:-1]) * k
+    if not jacobian:
+        return a, None
     kk = k[:, :, None]
     d_total = -a / total[:, None]
     jac = AccelerationJacobian(d_pose0=-kk * jv.d_start[:-1], d_pose1=kk * (jv.d_start[1:] - jv.d_end[:-1]),

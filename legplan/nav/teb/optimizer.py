@@ -24,11 +24,12 @@ from legplan.nav.teb.band import Band, wrap_angle
 from legplan.nav.teb.distance import DistanceField
 from legplan.nav.teb.params import TebParams
 from legplan.nav.teb.reference import GlobalPath
-from legplan.nav.teb.residuals import (DT, POSES, AccelerationBlock, ClearanceBlock, NonholonomicBlock, PathBlock,
-                                       TimeBlock, VelocityBlock, ViaPointBlock, YawChangeBlock)
+from legplan.nav.teb.objective import TebObjective, Weighted, weighted
+from legplan.nav.teb.residuals import (BAND, AccelerationTerm, ClearanceTerm, NonholonomicTerm, PathTerm, TimeTerm,
+                                       VelocityTerm, ViaPointTerm, YawChangeTerm, band_vector, split_vector)
 from legplan.nav.teb.resize import resize
 from legplan.robots.spec import KinodynamicLimits
-from legplan.solve import IntervalPenalty, LMParams, Problem, VariableBlock, solve_lm
+from legplan.solve import LMParams, Problem, VariableBlock, solve_lm
 
 log = logging.getLogger(__name__)
 
@@ -79,65 +80,71 @@ def optimize_band(band: Band, limits: KinodynamicLimits, params: TebParams = Teb
     clock = time.perf_counter()
     rounds = []
     lm = LMParams(max_iterations=params.inner_iterations * params.tries_per_iteration, tolerance=0.0,
-                  step_tolerance=0.0, lambda_boost=params.lambda_boost, assembly="stacked")
+                  step_tolerance=0.0, lambda_boost=params.lambda_boost, assembly="blocks")
     for _ in range(params.outer_iterations):
         t0 = time.perf_counter()
         band = resize(band, params)
         problem = build_problem(band, limits, params, scene)
         result = solve_lm(problem, lm)
-        poses = result.values[POSES].reshape(-1, 3)
+        poses, dt = split_vector(result.values[BAND], band.n)
         poses[:, 2] = wrap_angle(poses[:, 2])
-        band = Band(poses, result.values[DT], band.fixed)
+        band = Band(poses, dt, band.fixed)
         rounds.append(RoundStats(band.n, result.iterations, time.perf_counter() - t0, result.initial_norm, result.norm))
     log.debug("TEB: %d rounds, %d poses, %.1f ms", len(rounds), band.n, 1e3 * (time.perf_counter() - clock))
     return TebResult(band, rounds, time.perf_counter() - clock)
 
 
 def build_problem(band: Band, limits: KinodynamicLimits, params: TebParams, scene: Scene) -> Problem:
-    """The least-squares problem of eq. (24) for the current band (variables `poses`, `dt`)."""
+    """The least-squares problem of eq. (24) for the current band: one variable `band` (z of
+    `band_vector`; fixed poses held, ΔT_i ≥ dt_min) and one `TebObjective` over it."""
     n = band.n
-    fixed = np.repeat(band.fixed, 3)
-    problem = Problem([VariableBlock(POSES, band.poses.ravel(), fixed=fixed),
-                       VariableBlock(DT, band.dt, lower=params.dt_min)])
+    fixed = np.concatenate([np.repeat(band.fixed, 3), np.zeros(n - 1, bool)])
+    lower = np.concatenate([np.full(3 * n, -np.inf), np.full(n - 1, params.dt_min)])
+    problem = Problem([VariableBlock(BAND, band_vector(band), fixed=fixed, lower=lower)])
+    problem.add_residual(TebObjective(n, objective_terms(band, limits, params, scene)))
+    return problem
+
+
+def objective_terms(band: Band, limits: KinodynamicLimits, params: TebParams, scene: Scene) -> list[Weighted]:
+    """The weighted terms of eq. (24) (see module docstring); weights enter as √w."""
+    n = band.n
     eps = params.epsilon
     m = n - 1
     v_lower = np.tile([-limits.v_x_min, -limits.v_y_max, -limits.omega_max], m)
     v_upper = np.tile([limits.v_x_max, limits.v_y_max, limits.omega_max], m)
     v_weight = np.tile(np.sqrt([params.weight_velocity * params.gamma_forward,
                                 params.weight_velocity * params.gamma_lateral, params.weight_omega]), m)
-    problem.add_residual(IntervalPenalty(VelocityBlock(n), v_lower, v_upper, eps), v_weight)
-    accel = AccelerationBlock(n, scene.start_velocity, scene.goal_velocity)
+    terms = [weighted(VelocityTerm(n), v_weight, v_lower, v_upper, eps)]
+    accel = AccelerationTerm(n, scene.start_velocity, scene.goal_velocity)
     if accel.size:
         rows = accel.size // 3
         a_bound = np.tile([limits.a_x_max, limits.a_y_max, limits.alpha_max], rows)
         a_weight = np.tile(np.sqrt([params.weight_acceleration * params.gamma_forward,
                                     params.weight_acceleration * params.gamma_lateral, params.weight_alpha]), rows)
-        problem.add_residual(IntervalPenalty(accel, -a_bound, a_bound, eps), a_weight)
-    problem.add_residual(TimeBlock(n), np.sqrt(params.weight_time))
+        terms.append(weighted(accel, a_weight, -a_bound, a_bound, eps))
+    terms.append(weighted(TimeTerm(n), np.sqrt(params.weight_time)))
     if scene.path is not None and params.weight_path > 0:
-        problem.add_residual(_path_block(band, scene.path, params), np.sqrt(params.weight_path))
+        terms.append(weighted(_path_term(band, scene.path, params), np.sqrt(params.weight_path)))
     if scene.distance is not None:
-        clearance = ClearanceBlock(n, scene.distance)
-        problem.add_residual(IntervalPenalty(clearance, params.min_obstacle_distance, np.inf, eps),
-                             np.sqrt(params.weight_obstacle))
+        clearance = ClearanceTerm(n, scene.distance)
+        terms.append(weighted(clearance, np.sqrt(params.weight_obstacle), params.min_obstacle_distance, np.inf, eps))
         if params.weight_inflation > 0:
-            problem.add_residual(IntervalPenalty(clearance, params.inflation_distance, np.inf, 0.0),
-                                 np.sqrt(params.weight_inflation))
+            terms.append(weighted(clearance, np.sqrt(params.weight_inflation), params.inflation_distance, np.inf))
     if scene.via:
-        via = _via_block(band, scene.via)
+        via = _via_term(band, scene.via)
         if via is not None:
             k = len(via.index)
-            weights = np.concatenate([np.full(2 * k, np.sqrt(params.weight_viapoint)),
-                                      np.full(len(via.with_heading), np.sqrt(params.weight_via_heading))])
-            problem.add_residual(via, weights)
+            terms.append(weighted(via, np.concatenate([np.full(2 * k, np.sqrt(params.weight_viapoint)),
+                                                       np.full(len(via.with_heading),
+                                                               np.sqrt(params.weight_via_heading))])))
     if params.weight_yaw_change > 0:
-        problem.add_residual(YawChangeBlock(n), np.sqrt(params.weight_yaw_change))
+        terms.append(weighted(YawChangeTerm(n), np.sqrt(params.weight_yaw_change)))
     if not params.omnidirectional:
-        problem.add_residual(NonholonomicBlock(n), np.sqrt(params.weight_nonholonomic))
-    return problem
+        terms.append(weighted(NonholonomicTerm(n), np.sqrt(params.weight_nonholonomic)))
+    return terms
 
 
-def _path_block(band: Band, path: GlobalPath, params: TebParams) -> PathBlock:
+def _path_term(band: Band, path: GlobalPath, params: TebParams) -> PathTerm:
     """Attraction block; pose i searches the path within ±path_window of arc length around the
     point at the same fraction of the duration (band and path timings are proportional)."""
     fraction = band.times / max(band.duration, 1e-12)
@@ -146,10 +153,10 @@ def _path_block(band: Band, path: GlobalPath, params: TebParams) -> PathBlock:
     s_i = np.interp(t_path, path.times, s_path)
     first = np.searchsorted(s_path, s_i - params.path_window, side="right") - 1
     width = int(np.ceil(2 * params.path_window / path.spacing)) + 2
-    return PathBlock(band.n, path.points, np.maximum(first, 0), width)
+    return PathTerm(band.n, path.points, np.maximum(first, 0), width)
 
 
-def _via_block(band: Band, via: tuple[ViaPoint, ...]) -> ViaPointBlock | None:
+def _via_term(band: Band, via: tuple[ViaPoint, ...]) -> ViaPointTerm | None:
     """Each via point is assigned to its nearest free pose (re-assigned every round, as in TEB)."""
     free = np.flatnonzero(~band.fixed)
     if free.size == 0:
@@ -157,7 +164,7 @@ def _via_block(band: Band, via: tuple[ViaPoint, ...]) -> ViaPointBlock | None:
     points = np.array([v.xy for v in via], float)
     d = np.sum((band.poses[free, None, :2] - points[None]) ** 2, axis=2)
     index = free[np.argmin(d, axis=0)]
-    return ViaPointBlock(band.n, index, points, [v.heading for v in via])
+    return ViaPointTerm(band.n, index, points, [v.heading for v in via])
 
 
 def limit_violations(band: Band, limits: KinodynamicLimits) -> dict[str, float]:

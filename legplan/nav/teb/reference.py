@@ -4,7 +4,7 @@ Kinodynamic A* gives a timed trajectory (`legplan.nav.trajectory.Trajectory`): t
 its positions *and* timing (Sec. IV). The grid A* gives position-only waypoints: as in TEB's usual
 initialization they are timed at a constant nominal speed. Either way the path is stored as points
 (K, 2) at times (K,), evenly spaced in arc length (`spacing`), which is also the polyline the
-attraction term (`PathBlock`) measures against.
+attraction term (`PathTerm`) measures against.
 """
 
 from __future__ import annotations
