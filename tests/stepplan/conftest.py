@@ -8,19 +8,7 @@ import pytest
 
 sys.path.insert(0, str(Path(__file__).parent))
 
-from toy import HIPS, WAVE, ToyHill, ToyRobot  # noqa: E402
-
-
-def toy_configuration(base, feet) -> np.ndarray:
-    """Toy configuration with base position `base`, no rotation, feet at `feet` (4, 3) (Newton on the joints)."""
-    q = np.zeros(18)
-    q[:3] = base
-    target = (np.asarray(feet, float) - np.asarray(base, float) - HIPS).reshape(-1)
-    j = target.copy()
-    for _ in range(50):
-        j -= (j + WAVE * np.sin(j) - target) / (1 + WAVE * np.cos(j))
-    q[6:] = j
-    return q
+from toy import HIPS, ToyHill, ToyRobot, toy_configuration  # noqa: E402
 
 
 @pytest.fixture

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from conftest import toy_configuration
+from toy import toy_configuration
 from legplan.errors import LegplanError
 from legplan.geometry.bezier import evaluate
 from legplan.stepplan.params import StepPlanParams

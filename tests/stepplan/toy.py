@@ -122,3 +122,15 @@ class ToyHill:
 
     def values(self, points):
         return self.value_and_gradient(points)[0]
+
+
+def toy_configuration(base, feet) -> np.ndarray:
+    """Toy configuration with base position `base`, no rotation, feet at `feet` (4, 3) (Newton on the joints)."""
+    q = np.zeros(18)
+    q[:3] = base
+    target = (np.asarray(feet, float) - np.asarray(base, float) - HIPS).reshape(-1)
+    j = target.copy()
+    for _ in range(50):
+        j -= (j + WAVE * np.sin(j) - target) / (1 + WAVE * np.cos(j))
+    q[6:] = j
+    return q
