@@ -2,6 +2,10 @@
 
 Each solver has `factorize(H, beta)` then `solve(rhs)`; a matrix that is not positive definite
 raises `NotPositiveDefiniteError` (LM then raises λ; Algorithm 1 counts it as a failed step).
+`factorize` is `set_matrix(H)` (work that depends on H only: conversion, symbolic analysis, the
+Schur pieces of `SchurSolver`) followed by `refactor(beta)` (the numeric factorisation of H + βI).
+LM calls `set_matrix` once per linearisation and `refactor(λ)` once per iteration, so a rejected
+step (same H, larger λ) repeats only the λ-dependent work.
 
 * ``cholmod`` (default): CHOLMOD via scikit-sparse. The fill-reducing ordering and symbolic
   factorisation are computed once per sparsity pattern (`cholmod.analyze`); every λ change is a
@@ -48,9 +52,18 @@ class LinearSolver(ABC):
 
     name: str
 
-    @abstractmethod
     def factorize(self, H: sp.spmatrix | np.ndarray, beta: float) -> None:
         """Factorise H + βI; raise NotPositiveDefiniteError if it is not positive definite."""
+        self.set_matrix(H)
+        self.refactor(beta)
+
+    @abstractmethod
+    def set_matrix(self, H: sp.spmatrix | np.ndarray) -> None:
+        """Take H for the following `refactor` calls (H must not be modified while in use)."""
+
+    @abstractmethod
+    def refactor(self, beta: float) -> None:
+        """Factorise H + βI for the H of the last `set_matrix`."""
 
     @abstractmethod
     def solve(self, rhs: np.ndarray) -> np.ndarray:
@@ -71,15 +84,18 @@ class CholmodSolver(LinearSolver):
         self._pattern: tuple[np.ndarray, np.ndarray] | None = None
         self.analyses = 0  # how many symbolic analyses were done (one per pattern)
 
-    def factorize(self, H, beta):
+    def set_matrix(self, H):
         H = sp.csc_matrix(H)
         if self._pattern is None or not (np.array_equal(self._pattern[0], H.indptr)
                                          and np.array_equal(self._pattern[1], H.indices)):
             self._factor = cholmod.analyze(H, mode=self.mode, ordering_method=self.ordering_method)
             self._pattern = (H.indptr.copy(), H.indices.copy())
             self.analyses += 1
+        self._matrix = H
+
+    def refactor(self, beta):
         try:
-            self._factor.cholesky_inplace(H, beta=beta)
+            self._factor.cholesky_inplace(self._matrix, beta=beta)
         except cholmod.CholmodNotPositiveDefiniteError as exc:
             raise NotPositiveDefiniteError(str(exc)) from exc
         if self.mode == "simplicial":
@@ -96,9 +112,12 @@ class ScipySolver(LinearSolver):
 
     name = "scipy"
 
-    def factorize(self, H, beta):
-        n = H.shape[0]
-        A = sp.csc_matrix(H + beta * sp.identity(n, format="csc"))
+    def set_matrix(self, H):
+        self._matrix = sp.csc_matrix(H)
+
+    def refactor(self, beta):
+        n = self._matrix.shape[0]
+        A = sp.csc_matrix(self._matrix + beta * sp.identity(n, format="csc"))
         try:
             self._lu = scipy.sparse.linalg.splu(A, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
                                                 options={"SymmetricMode": True})
@@ -116,8 +135,11 @@ class DenseSolver(LinearSolver):
 
     name = "dense"
 
-    def factorize(self, H, beta):
-        A = H.toarray() if sp.issparse(H) else np.array(H, float)
+    def set_matrix(self, H):
+        self._matrix = H.toarray() if sp.issparse(H) else np.asarray(H, float)
+
+    def refactor(self, beta):
+        A = self._matrix.copy()
         A[np.diag_indices_from(A)] += beta
         try:
             self._cho = scipy.linalg.cho_factor(A, lower=True, check_finite=False)

@@ -140,6 +140,7 @@ def solve_lm(problem: Problem, params: LMParams = LMParams(), theta0: np.ndarray
                 return finish(Status.NUMERICAL_FAILURE, "residual or Jacobian not finite at the current point",
                               it, norm, initial, hist_h, hist_l, accepted, rejected)
             H, g, scale = _damping_system(linearization.hessian, linearization.gradient, params.marquardt_scaling)
+            matrix_set = False
         if norm < params.tolerance:
             return finish(Status.CONVERGED, f"‖h‖ = {norm:.3e} < ε_num = {params.tolerance:.1e}",
                           it, norm, initial, hist_h, hist_l, accepted, rejected)
@@ -153,7 +154,10 @@ def solve_lm(problem: Problem, params: LMParams = LMParams(), theta0: np.ndarray
         step = None
         t0 = time.perf_counter()
         try:
-            solver.factorize(H, lam)
+            if not matrix_set:  # once per linearisation; a rejected step only refactors at the new λ
+                solver.set_matrix(H)
+                matrix_set = True
+            solver.refactor(lam)
             t1 = time.perf_counter()
             timings.factorize += t1 - t0
             step = -scale * solver.solve(scale * g)

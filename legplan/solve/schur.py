@@ -6,7 +6,11 @@ Order the unknowns of the damped system of eq. (13) as (kept k, eliminated e):
     [Bᵀ       D + βI] [x_e] = [b_e],   D block-diagonal with m×m blocks.
 
 Then (A + βI − B (D+βI)⁻¹ Bᵀ) x_k = b_k − B (D+βI)⁻¹ b_e and x_e = (D+βI)⁻¹ (b_e − Bᵀ x_k).
-(D+βI)⁻¹ is a batch of m×m inverses, so the only sparse factorisation is of the reduced system.
+(D+βI)⁻¹ is a batch of m×m blocks, so the only sparse factorisation is of the reduced system.
+Per linearisation (`set_matrix`) the blocks are eigendecomposed once, D = V diag(e) Vᵀ, and
+U = B·blockdiag(V) is formed; then for every β (`refactor`, one per LM iteration)
+(D+βI)⁻¹ = V diag(1/(e+β)) Vᵀ and the reduced matrix is A + βI − U diag(1/(e+β)) Uᵀ: one scaled
+product, no per-β block inverses.
 `SchurSolver` is a `LinearSolver` wrapping another one, so LM does not know it is there.
 When B has at most `dense_limit` entries (e.g. few control points coupled to all slacks, as in
 the Bézier planner) B and the reduced matrix are dense and the products go to BLAS; otherwise
@@ -65,45 +69,65 @@ class SchurSolver(LinearSolver):
         self._a_cols = np.concatenate([self._aa[2], diag])
         self._pattern = (H.indptr.copy(), H.indices.copy())
 
-    def factorize(self, H, beta):
+    def set_matrix(self, H):
+        """Per-linearisation work: D = V diag(e) Vᵀ (batched eigh), U = B·blockdiag(V), A.
+
+        With these, (D + βI)⁻¹ = V diag(1/(e+β)) Vᵀ and B (D+βI)⁻¹ Bᵀ = U diag(1/(e+β)) Uᵀ, so a
+        new β (a rejected LM step) costs one scaled product and the inner factorisation.
+        """
         H = sp.csc_matrix(H)
         if self._pattern is None or not (np.array_equal(self._pattern[0], H.indptr)
                                          and np.array_equal(self._pattern[1], H.indices)):
             self._analyze(H)
-        m = self.block
+        count, m, _ = self._d_shape
+        nk, ne = self.keep.size, self.eliminate.size
         D = np.zeros(self._d_shape)
         D[self._dd_index] = H.data[self._dd_slots]
-        D += beta * np.eye(m)
-        try:
-            L = np.linalg.cholesky(D)
-        except np.linalg.LinAlgError as exc:
-            raise NotPositiveDefiniteError(f"an eliminated {m}×{m} block is not positive definite") from exc
-        Linv = np.linalg.inv(L)
-        self._dinv = np.einsum("kji,kjl->kil", Linv, Linv)  # (L Lᵀ)⁻¹ = L⁻ᵀ L⁻¹
-        count = self._d_shape[0]
-        nk, ne = self.keep.size, self.eliminate.size
+        if not np.all(np.isfinite(D)):
+            raise NotPositiveDefiniteError("an eliminated block is not finite")
+        self._e, self._V = np.linalg.eigh(D)  # reads the lower triangle, like a Cholesky factorisation
         slots, kr, ec = self._ke
         aslots = self._aa[0]
-        a_values = np.concatenate([H.data[aslots], np.full(nk, beta)])
+        a_values = np.concatenate([H.data[aslots], np.zeros(nk)])
         if self.dense:
-            self._B = np.zeros((nk, ne))
-            self._B[kr, ec] = H.data[slots]
-            self._W = np.einsum("kbi,bij->kbj", self._B.reshape(nk, count, m), self._dinv).reshape(nk, ne)
-            A = np.zeros((nk, nk))
-            np.add.at(A, (self._a_rows, self._a_cols), a_values)
-            self.inner.factorize(A - self._W @ self._B.T, 0.0)
+            B = np.zeros((nk, ne))
+            B[kr, ec] = H.data[slots]
+            self._B = B
+            self._U = (B.reshape(nk, count, m).transpose(1, 0, 2) @ self._V).transpose(1, 0, 2).reshape(nk, ne)
+            self._A = np.zeros((nk, nk))
+            np.add.at(self._A, (self._a_rows, self._a_cols), a_values)
             return
-        dinv = sp.bsr_matrix((self._dinv, np.arange(count), np.arange(count + 1)), shape=(ne, ne))
+        vblocks = sp.bsr_matrix((self._V, np.arange(count), np.arange(count + 1)), shape=(ne, ne))
         self._B = self._b_assembler.assemble(kr, ec, H.data[slots]).tocsr()
-        self._W = (self._B @ dinv).tocsr()  # B (D+βI)⁻¹
-        A = self._a_assembler.assemble(self._a_rows, self._a_cols, a_values)
-        self.inner.factorize(A - self._W @ self._B.T, 0.0)
+        self._U = (self._B @ vblocks).tocsr()
+        self._A = self._a_assembler.assemble(self._a_rows, self._a_cols, a_values)
+
+    def refactor(self, beta):
+        """Factorise the reduced system A + βI − U diag(1/(e+β)) Uᵀ for this β."""
+        shifted = self._e + beta
+        scale = np.abs(self._e).max(axis=1, initial=0.0) + abs(beta)
+        if not np.all(shifted > self.block * np.finfo(float).eps * scale[:, None]):
+            raise NotPositiveDefiniteError(f"an eliminated {self.block}×{self.block} block is not positive definite")
+        self._s = 1.0 / shifted  # (count, m)
+        s = self._s.reshape(-1)
+        if self.dense:
+            reduced = self._A - (self._U * s) @ self._U.T
+        else:
+            reduced = self._A - (self._U @ sp.diags(s)) @ self._U.T
+        self.inner.factorize(reduced, beta)
+
+    def _dinv(self, v: np.ndarray) -> np.ndarray:
+        """(D + βI)⁻¹ v per block, v (count, m): V diag(s) Vᵀ v."""
+        vt = (self._V.transpose(0, 2, 1) @ v[:, :, None])[:, :, 0] * self._s
+        return (self._V @ vt[:, :, None])[:, :, 0]
 
     def solve(self, rhs):
         bk, be = rhs[self.keep], rhs[self.eliminate]
-        xk = self.inner.solve(bk - self._W @ be)
-        r = (be - self._B.T @ xk).reshape(self._d_shape[:2])
+        count, m, _ = self._d_shape
+        vbe = (self._V.transpose(0, 2, 1) @ be.reshape(count, m, 1))[:, :, 0] * self._s
+        xk = self.inner.solve(bk - self._U @ vbe.reshape(-1))
+        r = (be - self._B.T @ xk).reshape(count, m)
         x = np.empty_like(rhs)
         x[self.keep] = xk
-        x[self.eliminate] = np.einsum("kij,kj->ki", self._dinv, r).reshape(-1)
+        x[self.eliminate] = self._dinv(r).reshape(-1)
         return x

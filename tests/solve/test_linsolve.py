@@ -84,3 +84,60 @@ def test_schur_rejects_coupled_eliminated_variables():
     H, _ = _spd(12)
     with pytest.raises(ValueError, match="not block-diagonal"):
         SchurSolver(make_solver("dense"), np.arange(6), 2).factorize(H, 0.0)
+
+
+@pytest.mark.parametrize("name", ["cholmod", "scipy", "dense"])
+def test_refactor_at_new_beta_equals_fresh_factorisation(name):
+    H, b = _spd()
+    reused = make_solver(name)
+    reused.set_matrix(H)
+    for beta in (1e-3, 0.3, 10.0):
+        reused.refactor(beta)
+        fresh = make_solver(name)
+        fresh.factorize(H, beta)
+        np.testing.assert_allclose(reused.solve(b), fresh.solve(b), rtol=1e-12, atol=1e-14)
+
+
+def _schur_reference(H, rhs, eliminate, m, beta):
+    """Schur complement with explicit per-block inverses (D_k + βI)⁻¹, the textbook form."""
+    H = H.toarray()
+    keep = np.setdiff1d(np.arange(H.shape[0]), eliminate)
+    A, B = H[np.ix_(keep, keep)], H[np.ix_(keep, eliminate)]
+    D = H[np.ix_(eliminate, eliminate)] + beta * np.eye(eliminate.size)
+    count = eliminate.size // m
+    Dinv = np.zeros_like(D)
+    for k in range(count):
+        sl = slice(k * m, (k + 1) * m)
+        Dinv[sl, sl] = np.linalg.inv(D[sl, sl])
+    xk = np.linalg.solve(A + beta * np.eye(keep.size) - B @ Dinv @ B.T, rhs[keep] - B @ Dinv @ rhs[eliminate])
+    x = np.empty_like(rhs)
+    x[keep] = xk
+    x[eliminate] = Dinv @ (rhs[eliminate] - B.T @ xk)
+    return x
+
+
+@pytest.mark.parametrize("dense_limit", [0, 10**7])
+def test_schur_eigenbasis_refactor_matches_explicit_block_inverses(dense_limit):
+    problem = tp.step_planner_like(num_samples=12, degree=4, dim=5, slack_dim=3, num_clearance=4, epsilon=0.05)
+    theta = problem.layout.initial() + 0.2 * np.random.default_rng(1).standard_normal(problem.layout.n)
+    ne = problem.normal_equations(theta)
+    eliminate, block = problem.layout.schur_columns()
+    schur = SchurSolver(make_solver("cholmod"), eliminate, block, dense_limit=dense_limit)
+    schur.set_matrix(ne.hessian)
+    # one set_matrix, several λ as after rejected LM steps; at β = 1e-6 cond(H + βI) ≈ 5e6
+    for beta, rtol in ((1e-6, 1e-8), (1e-2, 1e-10), (1.0, 1e-10), (1.5e3, 1e-10)):
+        schur.refactor(beta)
+        np.testing.assert_allclose(schur.solve(ne.gradient),
+                                   _schur_reference(ne.hessian, ne.gradient, eliminate, block, beta),
+                                   rtol=rtol, atol=1e-12)
+
+
+def test_schur_refactor_raises_on_indefinite_eliminated_block():
+    H = sp.csc_matrix(np.diag([4.0, 4.0, -1.0, 2.0]) + np.diag([0.5, 0.0, 0.0], 1) + np.diag([0.5, 0.0, 0.0], -1))
+    schur = SchurSolver(make_solver("dense"), np.array([2, 3]), 2)
+    schur.set_matrix(H)
+    with pytest.raises(NotPositiveDefiniteError):
+        schur.refactor(0.5)
+    schur.refactor(2.0)  # −1 + 2 > 0: positive definite again
+    np.testing.assert_allclose(schur.solve(np.ones(4)), np.linalg.solve(H.toarray() + 2 * np.eye(4), np.ones(4)),
+                               rtol=1e-12)
