@@ -61,7 +61,7 @@ def write_artefact(path: str | os.PathLike, kind: str, *, params: Mapping | None
             attrs["schema_version"] = SCHEMA_VERSIONS[kind]
             attrs["legplan_version"] = __version__
             attrs["created"] = created_timestamp()
-            attrs["command"] = canonical_json(list(sys.argv if command is None else command))
+            attrs["command"] = canonical_json(["legplan", *sys.argv[1:]] if command is None else list(command))
             attrs["params"] = canonical_json(dict(params or {}))
             attrs["seed"] = -1 if seed is None else int(seed)
             attrs["inputs"] = canonical_json(records)
