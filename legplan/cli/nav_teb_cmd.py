@@ -119,6 +119,8 @@ def _summary(write_summary, handle, count, rows):
               help="Global planner (astar: grid A* waypoints, the Table II baseline).")
 @click.option("--sensing-radius", type=float, default=4.0, show_default=True, help="m.")
 @click.option("--max-time", type=float, default=300.0, show_default=True, help="Simulated seconds.")
+@click.option("--warm-start/--cold-start", default=True, show_default=True,
+              help="Warm-start each cycle's band from the previous one, or re-initialize it every cycle.")
 @rounds_opt
 @inner_opt
 @omni_opt
@@ -127,7 +129,7 @@ def _summary(write_summary, handle, count, rows):
 @verbosity_opts
 @click.pass_context
 def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacles, planner, sensing_radius,
-             max_time, outer, inner, omni, output, overwrite):
+             max_time, warm_start, outer, inner, omni, output, overwrite):
     """Receding-horizon run on MAP: global plan, TEB at 10 Hz on a 5 m window, hidden obstacles."""
     import numpy as np
 
@@ -157,13 +159,14 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
     plan = (kinodynamic_planner(search) if planner == "kinoastar"
             else grid_planner(search, navigation.limits.v_x_max))
     teb = TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni)
-    sim = SimParams(sensing_radius=sensing_radius, max_time=max_time,
+    sim = SimParams(sensing_radius=sensing_radius, max_time=max_time, warm_start=warm_start,
                     yaw="target" if target else "velocity", target=target)
     pose = np.array([start_v[0], start_v[1], start_v[2] if len(start_v) > 2 else 0.0])
     with progress_bar("simulating") as progress:
         result = run(world, plan, pose, goals, navigation.limits, teb, sim, progress)
     params = {"teb": teb.as_dict(), "planner": planner, "robot": robot, "start": list(pose),
-              "goals": [[*g.xy, g.heading, g.dwell] for g in goals], "sensing_radius": sensing_radius}
+              "goals": [[*g.xy, g.heading, g.dwell] for g in goals], "sensing_radius": sensing_radius,
+              "warm_start": warm_start}
     inputs = [map_path] + ([hidden_obstacles] if hidden_obstacles else [])
     with write_artefact(output, "nav", params=params, inputs=inputs, overwrite=overwrite) as f:
         metrics = write_simulation(f, result)

@@ -2,8 +2,9 @@
 
 The global planner (kinodynamic A*, or a position-only planner for the Table II baseline) plans on
 the *known* map. At `rate` Hz the TEB optimizes a local band over the next `window` metres of the
-global path, starting at the robot's current pose and body velocity, and the first interval's
-body-frame velocity is sent as the command. The robot is an omnidirectional base (or a
+global path, starting at the robot's current pose and body velocity (warm-started from the
+previous cycle's band, `LocalPlanner`), and the first interval's body-frame velocity is sent as
+the command. The robot is an omnidirectional base (or a
 differential-drive one: lateral velocity zero) that tracks the command under the Table I velocity
 and acceleration limits. Obstacles hidden from the initial map become known once within
 `sensing_radius`; the nav layers are then rebuilt and, if the remaining global path now crosses
@@ -12,6 +13,8 @@ a lethal cell, the global planner replans from the current state.
 A mission is a list of goals; every goal but the last is a via point where the robot stops, turns
 to the goal's heading (e.g. facing a target, Table III) and stays `dwell` seconds.
 Collisions are counted against the *true* occupancy (known + hidden) with the robot footprint.
+A run ends unsuccessfully, with the reason recorded, after `max_time` simulated seconds, after
+`max_wall_seconds` of wall time, or when the robot stalls (moves < `stall_distance` in `stall_time`).
 """
 
 from __future__ import annotations
@@ -27,12 +30,13 @@ from legplan.errors import SpecError
 from legplan.nav.collision import NavGrid
 from legplan.nav.gridastar import plan_grid
 from legplan.nav.kinoastar import plan_kinodynamic
-from legplan.nav.teb.band import wrap_angle
+from legplan.nav.teb.band import Band, wrap_angle
 from legplan.nav.teb.distance import DistanceField
 from legplan.nav.teb.initialize import initial_band
 from legplan.nav.teb.optimizer import Scene, optimize_band
 from legplan.nav.teb.params import TebParams
 from legplan.nav.teb.reference import GlobalPath
+from legplan.nav.teb.warmstart import shift_band
 from legplan.nav.teb.yaw import YawPolicy
 from legplan.robots.spec import KinodynamicLimits
 from legplan.terrain.grid import Grid2D
@@ -65,7 +69,11 @@ class SimParams:
     goal_tolerance: float = 0.1  # m
     heading_tolerance: float = 0.1  # rad
     stop_speed: float = 0.05  # m/s, "at rest" for arrival at a via point
-    max_time: float = 300.0  # s
+    max_time: float = 300.0  # s of simulated time before the run fails
+    stall_time: float = 20.0  # s: the run fails when the robot moved less than `stall_distance` in this time
+    stall_distance: float = 0.3  # m
+    max_wall_seconds: float = float("inf")  # wall-clock budget of the run
+    warm_start: bool = True  # warm-start the local band from the previous cycle
     yaw: str = "velocity"  # yaw policy on the way: "velocity", "target" (face `target`) or "heading"
     target: tuple[float, float] | None = None  # world point faced with yaw "target"
     heading: float = 0.0  # rad, held with yaw "heading"
@@ -81,6 +89,8 @@ class SimResult:
     cycle_times: np.ndarray  # (c,) s, simulation time of each cycle
     compute_seconds: np.ndarray  # (c,) s wall time of the TEB per cycle
     band_poses: np.ndarray  # (c,) band sizes
+    band_iterations: np.ndarray  # (c,) LM iterations per cycle
+    cold_starts: int  # cycles whose band was (re-)initialized from the global path
     replans: int
     replan_seconds: float
     collisions: int  # substeps with the footprint on an occupied cell of the true map
@@ -189,9 +199,11 @@ def simulate(world: World, planner: GlobalPlanner, start_pose, goals: list[Goal]
     robot = Robot(start_pose, limits, teb.omnidirectional)
     h = 1.0 / (params.rate * params.substeps)
     log_t, log_s = [0.0], [np.concatenate([robot.pose, robot.velocity])]
-    commands, cycle_t, compute, sizes, goal_times = [], [], [], [], []
+    commands, cycle_t, compute, sizes, iterations, goal_times = [], [], [], [], [], []
     replans, replan_seconds, collisions = 0, 0.0, 0
     t = 0.0
+    local_planner = LocalPlanner(limits, teb, params)
+    wall_start = time.perf_counter()
 
     def plan(goal: Goal):
         nonlocal replans, replan_seconds
@@ -204,8 +216,8 @@ def simulate(world: World, planner: GlobalPlanner, start_pose, goals: list[Goal]
 
     def finish(success, reason):
         return SimResult(success, reason, np.array(log_t), np.array(log_s), np.array(commands).reshape(-1, 3),
-                         np.array(cycle_t), np.array(compute), np.array(sizes), replans, replan_seconds,
-                         collisions, goal_times)
+                         np.array(cycle_t), np.array(compute), np.array(sizes), np.array(iterations),
+                         local_planner.cold_starts, replans, replan_seconds, collisions, goal_times)
 
     world.sense(robot.pose[:2], params.sensing_radius)
     for k, goal in enumerate(goals):
@@ -215,26 +227,38 @@ def simulate(world: World, planner: GlobalPlanner, start_pose, goals: list[Goal]
             return finish(False, f"global planner failed for goal {k}: {path}")
         progress_index = 0
         dwell_until = None
+        local_planner.reset()
+        anchor, anchor_t = robot.pose[:2].copy(), t
         while True:
             if t > params.max_time:
                 return finish(False, f"time limit {params.max_time} s reached before goal {k}")
+            if time.perf_counter() - wall_start > params.max_wall_seconds:
+                return finish(False, f"wall-clock budget {params.max_wall_seconds} s used up at t = {t:.1f} s "
+                                     f"before goal {k}")
             pose = robot.pose
             if dwell_until is None and _arrived(robot, goal, params, final):
                 goal_times.append(t)
                 dwell_until = t + goal.dwell
             if dwell_until is not None and t >= dwell_until - 1e-9:
                 break
+            if dwell_until is not None or np.hypot(*(pose[:2] - anchor)) >= params.stall_distance:
+                anchor, anchor_t = pose[:2].copy(), t
+            elif t - anchor_t > params.stall_time:
+                return finish(False, f"stalled: moved < {params.stall_distance} m in {params.stall_time} s at "
+                                     f"({pose[0]:.2f}, {pose[1]:.2f}), t = {t:.1f} s, before goal {k}")
             if world.sense(pose[:2], params.sensing_radius) and world.nav_grid.lethal_at(path.points[progress_index:]).any():
                 path = plan(goal)
                 if isinstance(path, str):
                     return finish(False, f"replanning failed for goal {k}: {path}")
                 progress_index = 0
+                local_planner.reset()
             progress_index = _advance(path, pose[:2], progress_index, params.window)
             clock = time.perf_counter()
-            command, n_poses = _teb_command(world, path, progress_index, robot, goal, limits, teb, params,
-                                            hold=dwell_until is not None)
+            command, n_poses, n_iterations = local_planner.command(world, path, progress_index, robot, goal, t,
+                                                                   hold=dwell_until is not None)
             compute.append(time.perf_counter() - clock)
             sizes.append(n_poses)
+            iterations.append(n_iterations)
             commands.append(command)
             cycle_t.append(t)
             for _ in range(params.substeps):
@@ -279,26 +303,52 @@ def _local_path(path: GlobalPath, index: int, end: int, xy: np.ndarray, speed: f
     return GlobalPath(np.vstack([xy, path.points[lo:end]]), times, path.spacing)
 
 
-def _teb_command(world: World, path: GlobalPath, index: int, robot: Robot, goal: Goal, limits, teb: TebParams,
-                 params: SimParams, hold: bool) -> tuple[np.ndarray, int]:
-    """One TEB cycle on the local window; returns the first interval's body velocity and band size."""
-    s = path.arc_length
-    end = int(np.searchsorted(s, s[index] + params.window, side="right"))
-    local = _local_path(path, index, end, robot.pose[:2], float(np.hypot(*robot.velocity[:2])))
-    at_goal_window = end >= len(path.points)
-    policy = YawPolicy(params.yaw, heading=params.heading, target=params.target or (0.0, 0.0))
-    heading = goal.heading if at_goal_window and np.isfinite(goal.heading) else None
-    local_goal = np.array(goal.xy) if at_goal_window else local.points[-1]
-    if hold or np.hypot(*(robot.pose[:2] - goal.xy)) < params.goal_tolerance and at_goal_window:
-        local = GlobalPath(np.array([robot.pose[:2], goal.xy]), np.array([0.0, 0.0]), path.spacing)
-    band = initial_band(local, teb.dt_ref, policy, start_pose=robot.pose, goal_heading=heading)
-    band.poses[-1, :2] = local_goal
-    if band.n == 2 and heading is None:
-        band.poses[-1, 2] = robot.pose[2]
-    scene = Scene(path=local, distance=world.distance, start_velocity=robot.velocity.copy(),
-                  goal_velocity=np.zeros(3) if at_goal_window else None)
-    result = optimize_band(band, limits, teb, scene)
-    return result.band.velocities()[0], result.band.n
+class LocalPlanner:
+    """The TEB of the receding horizon: each cycle optimizes a local band over the next `window`
+    metres of the global path. The band is warm-started from the previous cycle's band shifted by
+    the elapsed time (`shift_band`); it is re-initialized from the global path after a (re)plan,
+    for a new goal, while holding at a goal, and when the shifted band is invalid."""
+
+    def __init__(self, limits: KinodynamicLimits, teb: TebParams, params: SimParams):
+        self.limits, self.teb, self.params = limits, teb, params
+        self.policy = YawPolicy(params.yaw, heading=params.heading, target=params.target or (0.0, 0.0))
+        self.band: Band | None = None
+        self.band_time = 0.0
+        self.cold_starts = 0
+
+    def reset(self) -> None:
+        """Forget the previous band (the next cycle re-initializes)."""
+        self.band = None
+
+    def command(self, world: World, path: GlobalPath, index: int, robot: Robot, goal: Goal, t: float,
+                hold: bool) -> tuple[np.ndarray, int, int]:
+        """One cycle: the first interval's body velocity, the band size and the LM iterations."""
+        params, teb = self.params, self.teb
+        s = path.arc_length
+        end = int(np.searchsorted(s, s[index] + params.window, side="right"))
+        local = _local_path(path, index, end, robot.pose[:2], float(np.hypot(*robot.velocity[:2])))
+        at_goal_window = end >= len(path.points)
+        heading = goal.heading if at_goal_window and np.isfinite(goal.heading) else None
+        local_goal = np.array(goal.xy) if at_goal_window else local.points[-1]
+        if hold or np.hypot(*(robot.pose[:2] - goal.xy)) < params.goal_tolerance and at_goal_window:
+            local = GlobalPath(np.array([robot.pose[:2], goal.xy]), np.array([0.0, 0.0]), path.spacing)
+            self.band = None
+        cold = initial_band(local, teb.dt_ref, self.policy, start_pose=robot.pose, goal_heading=heading)
+        cold.poses[-1, :2] = local_goal
+        if cold.n == 2 and heading is None:
+            cold.poses[-1, 2] = robot.pose[2]
+        band = None
+        if params.warm_start and self.band is not None and not hold:
+            band = shift_band(self.band, t - self.band_time, robot.pose, cold.poses[-1], teb.dt_min)
+        if band is None:
+            band = cold
+            self.cold_starts += 1
+        scene = Scene(path=local, distance=world.distance, start_velocity=robot.velocity.copy(),
+                      goal_velocity=np.zeros(3) if at_goal_window else None)
+        result = optimize_band(band, self.limits, teb, scene)
+        self.band = None if hold else result.band
+        self.band_time = t
+        return result.band.velocities()[0], result.band.n, result.iterations
 
 
 def kinodynamic_planner(params) -> GlobalPlanner:

@@ -13,8 +13,10 @@ A failed query keeps its search group and gets no `teb/`.
 `legplan nav simulate` writes `/simulation`:
     t (k,) s; state (k, 6) [x, y, θ, v_x, v_y, ω] (body-frame velocities); command (c, 3);
     cycle_t (c,) s; compute_seconds (c,) s (TEB wall time per cycle); band_poses (c,);
+    band_iterations (c,) (LM iterations per cycle);
     goal_times (g,) s (arrival at each goal, before its dwell);
-  attrs: success, reason, running_time (s), effort (m²/s³), collisions, replans, replan_seconds.
+  attrs: success, reason, running_time (s), effort (m²/s³), collisions, replans, replan_seconds,
+    cold_starts (cycles whose band was initialized from the global path), median/max_cycle_seconds.
 """
 
 from __future__ import annotations
@@ -57,9 +59,10 @@ def write_simulation(handle: h5py.File, result) -> dict[str, float]:
     write_dataset(group, "cycle_t", result.cycle_times, units="s")
     write_dataset(group, "compute_seconds", result.compute_seconds, units="s")
     write_dataset(group, "band_poses", result.band_poses)
+    write_dataset(group, "band_iterations", result.band_iterations)
     write_dataset(group, "goal_times", np.array(result.goal_times), units="s")
     metrics = {"running_time": result.running_time, "effort": result.effort(), "collisions": result.collisions,
-               "replans": result.replans, "replan_seconds": result.replan_seconds,
+               "replans": result.replans, "replan_seconds": result.replan_seconds, "cold_starts": result.cold_starts,
                "median_cycle_seconds": float(np.median(result.compute_seconds)) if len(result.compute_seconds) else np.nan,
                "max_cycle_seconds": float(np.max(result.compute_seconds)) if len(result.compute_seconds) else np.nan}
     group.attrs["success"] = bool(result.success)

@@ -76,20 +76,26 @@ class TebResult:
 
 def optimize_band(band: Band, limits: KinodynamicLimits, params: TebParams = TebParams(),
                   scene: Scene = Scene()) -> TebResult:
-    """Refine `band` by `params.outer_iterations` rounds of resize + LM (see module docstring)."""
+    """Refine `band` by up to `params.outer_iterations` rounds of resize + LM (see module docstring;
+    the rounds stop early when one no longer lowers ‖h‖ by `round_tolerance`)."""
     clock = time.perf_counter()
     rounds = []
     lm = LMParams(max_iterations=params.inner_iterations * params.tries_per_iteration, tolerance=0.0,
-                  step_tolerance=0.0, lambda_boost=params.lambda_boost, assembly="blocks")
+                  step_tolerance=params.step_tolerance, lambda_boost=params.lambda_boost, assembly="blocks")
     for _ in range(params.outer_iterations):
         t0 = time.perf_counter()
-        band = resize(band, params)
+        resized = resize(band, params)
+        unchanged = resized.n == band.n and np.array_equal(resized.dt, band.dt)
+        band = resized
         problem = build_problem(band, limits, params, scene)
         result = solve_lm(problem, lm)
         poses, dt = split_vector(result.values[BAND], band.n)
         poses[:, 2] = wrap_angle(poses[:, 2])
         band = Band(poses, dt, band.fixed)
         rounds.append(RoundStats(band.n, result.iterations, time.perf_counter() - t0, result.initial_norm, result.norm))
+        if unchanged and \
+                result.initial_norm - result.norm <= params.round_tolerance * result.initial_norm:
+            break
     log.debug("TEB: %d rounds, %d poses, %.1f ms", len(rounds), band.n, 1e3 * (time.perf_counter() - clock))
     return TebResult(band, rounds, time.perf_counter() - clock)
 

@@ -6,7 +6,8 @@ weights γ_k of eq. (24): they multiply the weights of the forward (x) and later
 velocity and acceleration penalties ("a greater weight for the forward direction", Sec. V-C 2).
 
 Band resolution follows TEB's defaults: `dt_ref` 0.3 s with hysteresis 0.1 s, 4 outer rounds of
-resizing × 5 inner iterations. g2o's LM retries a rejected step with more damping inside one
+resizing × 5 inner iterations; the rounds stop early (a warm-started band usually needs one) once
+a round lowers ‖h‖ by less than `round_tolerance` relatively and resizing left the band as it was. g2o's LM retries a rejected step with more damping inside one
 iteration; our LM counts every try, so an inner iteration gets `tries_per_iteration` LM iterations. `epsilon` is the penalty margin ε of the interval penalty (the
 penalty becomes active ε inside each bound, in the bound's own units).
 
@@ -35,6 +36,8 @@ class TebParams:
     inner_iterations: int = 5
     tries_per_iteration: int = 3  # LM iterations (accepted or rejected) per TEB inner iteration
     lambda_boost: float = 3.0  # LM damping increase after a rejected step
+    round_tolerance: float = 0.01  # stop the rounds once one lowers ‖h‖ by less than this fraction
+    step_tolerance: float = 1e-6  # LM stops a round when a step is below this fraction of ‖z‖
     epsilon: float = 0.01  # penalty margin ε (m/s, rad/s, m/s², rad/s²)
     # kinematics
     omnidirectional: bool = True
@@ -64,7 +67,8 @@ class TebParams:
                   ("min_poses", self.min_poses >= 2), ("max_poses", self.max_poses >= self.min_poses),
                   ("outer_iterations", self.outer_iterations >= 1),
                   ("inner_iterations", self.inner_iterations >= 1), ("epsilon", self.epsilon >= 0),
-                  ("tries_per_iteration", self.tries_per_iteration >= 1), ("lambda_boost", self.lambda_boost > 1),
+                  ("tries_per_iteration", self.tries_per_iteration >= 1),
+                  ("round_tolerance", self.round_tolerance >= 0), ("step_tolerance", self.step_tolerance >= 0), ("lambda_boost", self.lambda_boost > 1),
                   ("inflation_distance", self.inflation_distance >= self.min_obstacle_distance >= 0),
                   ("path_window", self.path_window > 0)]
         checks += [(f.name, getattr(self, f.name) >= 0) for f in dataclasses.fields(self)
