@@ -32,16 +32,32 @@ def verbosity() -> int:
 
 @contextmanager
 def progress_bar(description: str):
-    """Yields a `progress(done, total, message="")` callback drawing a bar on stderr (none if -q)."""
+    """Yields a `progress(done, total, message="")` callback drawing a bar on stderr (none if -q).
+
+    The bar appears at the first update, so a command that fails before any work shows only its
+    one-line error.
+    """
     if verbosity() < 0:
         yield lambda done, total, message="": None
         return
     columns = (TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
                TimeElapsedColumn(), TextColumn("{task.fields[message]}"))
-    with Progress(*columns, console=stderr, transient=False) as bar:
-        task = bar.add_task(description, total=None, message="")
+    bar = Progress(*columns, console=stderr, transient=False)
+    task = bar.add_task(description, total=None, message="")
 
-        def update(done: int, total: int, message: str = "") -> None:
-            bar.update(task, completed=done, total=total, message=message)
+    def update(done: int, total: int, message: str = "") -> None:
+        if not bar.live.is_started:
+            bar.start()
+        bar.update(task, completed=done, total=total, message=message)
 
+    try:
         yield update
+    finally:
+        if bar.live.is_started:
+            bar.stop()
+
+
+def status(message: str) -> None:
+    """A one-line outcome of a producing command ("wrote map.h5: ..."): stderr, silenced by -q."""
+    if verbosity() >= 0:
+        stderr.print(message, highlight=False, markup=False, soft_wrap=True)

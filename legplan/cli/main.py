@@ -14,7 +14,7 @@ import traceback
 import click
 
 from legplan import __version__
-from legplan.cli.console import stderr, verbosity
+from legplan.cli.console import set_verbosity, stderr, verbosity
 from legplan.cli.options import verbosity_opts
 from legplan.errors import LegplanError
 
@@ -27,6 +27,11 @@ COMMAND_MODULES = ("inspect_cmd", "step_cmd", "pipeline_cmd", "robot_cmd", "step
 
 class LegplanGroup(click.Group):
     """Turns `LegplanError` (and OS errors on inputs) into a one-line message and exit code 2."""
+
+    def make_context(self, info_name, args, parent=None, **extra):
+        if parent is None:
+            set_verbosity(0)  # each invocation starts at the default; -v/-q callbacks adjust it
+        return super().make_context(info_name, args, parent=parent, **extra)
 
     def invoke(self, ctx: click.Context):
         try:

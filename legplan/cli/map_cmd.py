@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from legplan.cli.console import progress_bar
+from legplan.cli.console import progress_bar, status
 from legplan.cli.options import input_artefact, output_opt, overwrite_opt, verbosity_opts
 
 
@@ -91,13 +91,13 @@ def show(path, output, overwrite):
 
     check_output(output, overwrite)
     render_map(load_map(path), output)
-    click.echo(f"wrote {output}")
+    status(f"wrote {output}")
 
 
 def _report(terrain, output) -> None:
     ny, nx = terrain.grid.shape
     summary = terrain.summary()
-    click.echo(f"wrote {output}: {terrain.name} {nx}x{ny} cells at {terrain.grid.resolution:g} m, "
+    status(f"wrote {output}: {terrain.name} {nx}x{ny} cells at {terrain.grid.resolution:g} m, "
                f"SDF {terrain.sdf.shape[0]} layers, height {summary['height_min'][0]:.3g}.."
                f"{summary['height_max'][0]:.3g} m, footholds {summary['foothold_fraction']:.1%}, "
                f"occupied {summary['occupied_fraction']:.1%}")

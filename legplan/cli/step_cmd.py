@@ -63,7 +63,7 @@ def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, step_range, par
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, "1")  # before numpy loads: BLAS threads only contend with --jobs
     from legplan.artefacts import check_output, open_artefact
-    from legplan.cli.console import progress_bar, stderr
+    from legplan.cli.console import progress_bar, status, stderr
     from legplan.stepplan.batch import plan_sequence, write_motion
     from legplan.stepplan.params import StepPlanParams
     from legplan.stepseq.sequence import read_steps
@@ -80,10 +80,9 @@ def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, step_range, par
         records = plan_sequence(seq, map_path, settings, indices, jobs=jobs, progress=progress)
     summary = write_motion(output, records, seq.robot, settings, inputs=[map_path, steps_path], overwrite=overwrite)
     failed = [r for r in records if not r["success"]]
-    stderr.print(f"{summary['steps_succeeded']}/{summary['steps_planned']} steps planned; "
-                 f"worst dense stance-foot slip {summary['worst_violation'][0] * 1e3:.3f} mm; "
-                 f"median {summary['median_time'][0]:.2f} s, mean {summary['mean_time'][0]:.2f} s -> {output}",
-                 highlight=False)
+    status(f"{summary['steps_succeeded']}/{summary['steps_planned']} steps planned; "
+           f"worst dense stance-foot slip {summary['worst_violation'][0] * 1e3:.3f} mm; "
+           f"median {summary['median_time'][0]:.2f} s, mean {summary['mean_time'][0]:.2f} s -> {output}")
     for r in failed:
         stderr.print(f"  step {r['index']}: {r['reason']}", highlight=False)
     if failed:

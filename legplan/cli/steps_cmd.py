@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from legplan.cli.console import progress_bar, stderr
+from legplan.cli.console import progress_bar, status, stderr
 from legplan.cli.options import input_artefact, output_opt, overwrite_opt, seed_opt, verbosity_opts
 
 
@@ -57,7 +57,7 @@ def import_cmd(path, robot_name, map_path, strict, foot_tolerance, output, overw
     write_steps(output, result.sequence, result.checks,
                 params={"robot": robot_name, "strict": strict, "foot_tolerance": foot_tolerance},
                 inputs=[path, map_path], overwrite=overwrite)
-    click.echo(f"{output}: {len(result.sequence)} configurations imported")
+    status(f"wrote {output}: {len(result.sequence)} configurations imported")
 
 
 @command.command("generate")
@@ -96,7 +96,7 @@ def generate_cmd(ctx, map_path, robot_name, start, goal, max_moves, output, over
     write_steps(output, seq, checks, params={"robot": robot_name, "start": list(start),
                                               "goal": list(goal), **params.__dict__},
                 seed=seed, inputs=[map_path], overwrite=overwrite, extra=extra)
-    click.echo(f"{output}: {len(seq)} configurations, {len(generated.moves)} leg moves")
+    status(f"wrote {output}: {len(seq)} configurations, {len(generated.moves)} leg moves")
     if not generated.success:
         stderr.print(f"[bold red]Generation stopped:[/] {generated.reason}", highlight=False)
         ctx.exit(1)

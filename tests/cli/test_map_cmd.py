@@ -60,3 +60,14 @@ def test_import_ros_movingai_heightmap(tmp_path):
     assert result.exit_code == 0, result.output
     terrain = load_map(tmp_path / "h.h5")
     assert terrain.grid.origin == (1.0, 2.0) and np.allclose(terrain.height, 0.2)
+
+
+def test_producing_command_keeps_stdout_clean_and_quiet_silences_status(tmp_path):
+    out = tmp_path / "map.h5"
+    loud = _run("map", "build", MAPS / "single_pallet.yaml", "-o", out)
+    assert loud.exit_code == 0 and loud.stdout == ""
+    assert f"wrote {out}" in loud.stderr
+    quiet = _run("map", "build", MAPS / "single_pallet.yaml", "-o", out, "--overwrite", "-q")
+    assert quiet.exit_code == 0 and quiet.stdout == "" and quiet.stderr == ""
+    again = _run("map", "show", out, "-o", tmp_path / "map.png")
+    assert f"wrote {tmp_path / 'map.png'}" in again.stderr  # -q of the previous call does not linger

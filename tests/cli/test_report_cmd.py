@@ -14,7 +14,7 @@ from legplan.cli.main import cli  # noqa: E402
 def test_report_writes_index_and_refuses_existing(tmp_path):
     map_path = write_map(tmp_path / "map.h5")
     out = tmp_path / "rep"
-    result = CliRunner().invoke(cli, ["report", str(map_path), "-o", str(out), "-q"])
+    result = CliRunner().invoke(cli, ["report", str(map_path), "-o", str(out)])
     assert result.exit_code == 0, result.output
     assert "cells_x" in (out / "index.html").read_text()
     assert "1 artefacts, 1 figures" in result.stderr
