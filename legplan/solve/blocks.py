@@ -9,7 +9,7 @@ from `StructuredBlock` and returns that contribution to the normal equations of 
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,6 +53,15 @@ class ResidualBlock(ABC):
     @abstractmethod
     def evaluate(self, values: Sequence[np.ndarray], jacobians: bool) -> tuple[np.ndarray, list[Matrix] | None]:
         """Residual (size,) and, if `jacobians`, one (size × len(values[i])) Jacobian per variable."""
+
+    def residual_chunks(self, values: Sequence[np.ndarray]) -> Iterator[np.ndarray]:
+        """The residual in pieces whose squared norms add up to ‖r‖² (any partition, any order).
+
+        LM judges a trial point only by ‖h‖ against the current one (Algorithm 1, line 5); pieces
+        let it stop evaluating once the partial sum already exceeds it (`Problem.trial_norm`).
+        Default: one piece, the whole residual.
+        """
+        yield self.evaluate(values, False)[0]
 
 
 class StructuredBlock(ResidualBlock):

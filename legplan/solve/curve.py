@@ -9,7 +9,9 @@ are
     g_P  = Σ_i b_i ⊗ G_iᵀr_i,             g_ξ_i = S_iᵀr_i,
 
 which `SampledCurveBlock.normal_terms` computes without ever forming J. Give the slack variable
-`schur_block=slack_dim` to have LM eliminate it.
+`schur_block=slack_dim` to have LM eliminate it. `sample` treats the samples independently (row i
+depends on q_i, ξ_i and the block's data for sample i only): trial points are evaluated in sample
+groups (`residual_chunks`) so that LM can reject a worse point before evaluating every sample.
 """
 
 from __future__ import annotations
@@ -36,17 +38,37 @@ class SampledCurveBlock(StructuredBlock):
         self.basis = np.asarray(basis, float)
         self.dim, self.rows, self.slack_dim = int(dim), int(rows), int(slack_dim)
         self.size = self.basis.shape[0] * self.rows
+        self._chunks: tuple[int, list[np.ndarray]] | None = None
 
     @abstractmethod
-    def sample(self, q: np.ndarray, xi: np.ndarray | None, jacobians: bool
+    def sample(self, q: np.ndarray, xi: np.ndarray | None, jacobians: bool, index: slice | np.ndarray
                ) -> tuple[np.ndarray, np.ndarray | None, np.ndarray | None]:
-        """r (N, m) and, if `jacobians`, G = ∂r/∂q (N, m, dim) and S = ∂r/∂ξ (N, m, slack_dim) or None."""
+        """r (n, m) and, if `jacobians`, G = ∂r/∂q (n, m, dim) and S = ∂r/∂ξ (n, m, slack_dim) or None.
+
+        q, xi hold the samples `index` (a slice or sample numbers into the rows of `basis`), for
+        blocks with per-sample data; row i must depend on q_i, ξ_i (and that data) only.
+        """
 
     def _sample(self, values, jacobians):
         n = self.basis.shape[0]
         q = self.basis @ values[0].reshape(-1, self.dim)
         xi = values[1].reshape(n, self.slack_dim) if self.slack_dim else None
-        return self.sample(q, xi, jacobians)
+        return self.sample(q, xi, jacobians, slice(None))
+
+    def residual_chunks(self, values):
+        """Residuals of interleaved sample groups: 1/8, 1/8, 1/4 and 1/2 of the samples, spread
+        along the curve, so a trial point that is worse overall is usually detected early."""
+        n = self.basis.shape[0]
+        if self._chunks is None or self._chunks[0] != n:
+            order = np.concatenate([np.arange(k, n, 8) for k in range(8)])
+            ends = [np.arange(k, n, 8).size for k in range(8)]
+            cuts = np.cumsum(ends)[[0, 1, 3, 7]]
+            self._chunks = (n, np.split(order, cuts[:-1]))
+        points = values[0].reshape(-1, self.dim)
+        xi = values[1].reshape(n, self.slack_dim) if self.slack_dim else None
+        for idx in self._chunks[1]:
+            if idx.size:
+                yield self.sample(self.basis[idx] @ points, None if xi is None else xi[idx], False, idx)[0].reshape(-1)
 
     def evaluate(self, values, jacobians):
         r, G, S = self._sample(values, jacobians)

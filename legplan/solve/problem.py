@@ -109,6 +109,27 @@ class Problem:
         parts = [w * self._checked(b, b.evaluate(self._block_values(values, b), False)[0]) for b, w in self._blocks]
         return np.concatenate(parts) if parts else np.zeros(0)
 
+    def trial_norm(self, theta: np.ndarray, bound: float) -> float:
+        """‖h(θ)‖ if it is below `bound`; otherwise some value ≥ `bound` (or NaN if h is not finite).
+
+        Sums the squares of the blocks' `residual_chunks` and stops as soon as the partial sum
+        reaches bound², so a trial point of LM that is worse than the current one (a rejected step,
+        Algorithm 1 line 9) is usually judged from part of the residual; the accept/reject
+        decision is the same as with the full ‖h(θ)‖.
+        """
+        values = self.layout.values(theta)
+        limit = bound * bound
+        total = 0.0
+        for block, w in self._blocks:
+            args = self._block_values(values, block)
+            chunks = block.residual_chunks(args) if np.ndim(w) == 0 else iter([w * block.evaluate(args, False)[0]])
+            scale = w * w if np.ndim(w) == 0 else 1.0
+            for chunk in chunks:
+                total += scale * float(np.dot(chunk, chunk))
+                if not total < limit:  # also stops on NaN
+                    return float(np.sqrt(total))
+        return float(np.sqrt(total))
+
     @staticmethod
     def _checked(block: ResidualBlock, r: np.ndarray) -> np.ndarray:
         r = np.asarray(r, float).reshape(-1)

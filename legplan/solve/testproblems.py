@@ -132,9 +132,9 @@ class _SlackedMap(SampledCurveBlock):
         super().__init__(("P", "xi"), basis, A.shape[1], A.shape[0], slack_dim=A.shape[0])
         self.A, self.f_target = A, np.sin(target @ A.T)
 
-    def sample(self, q, xi, jacobians):
+    def sample(self, q, xi, jacobians, index):
         u = q @ self.A.T
-        r = np.sin(u) - self.f_target - xi
+        r = np.sin(u) - self.f_target[index] - xi
         if not jacobians:
             return r, None, None
         S = np.broadcast_to(-np.eye(self.rows), (q.shape[0], self.rows, self.rows))
@@ -148,8 +148,8 @@ class _Clearance(SampledCurveBlock):
         super().__init__(("P",), basis, C.shape[1], C.shape[0])
         self.C, self.target = C, target
 
-    def sample(self, q, xi, jacobians):
-        u = (q - self.target) @ self.C.T
+    def sample(self, q, xi, jacobians, index):
+        u = (q - self.target[index]) @ self.C.T
         r, slope = hinge(np.sin(u) - 0.5)
         return r, ((slope * np.cos(u))[:, :, None] * self.C if jacobians else None), None
 

@@ -185,5 +185,5 @@ class BezierConstraintBlock(SampledCurveBlock):
         super().__init__(("P", "xi"), bernstein_matrix(self.degree, self.t), constraints.nx,
                          constraints.size, constraints.slack_size)
 
-    def sample(self, q, xi, jacobians):
-        return self.constraints.evaluate(q, xi, jacobians)
+    def sample(self, q, xi, jacobians, index):
+        return self.constraints.evaluate(q, xi, jacobians)  # no per-sample data: rows depend on q_k, ξ_k only

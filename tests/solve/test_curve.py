@@ -67,3 +67,26 @@ def test_schur_path_gives_the_same_lm_iterates_as_the_full_system(small):
     assert (fast.accepted_steps, fast.rejected_steps) == (full.accepted_steps, full.rejected_steps)
     np.testing.assert_allclose(fast.norm_history, full.norm_history, rtol=1e-8, atol=1e-13)
     np.testing.assert_allclose(fast.lambda_history, full.lambda_history, rtol=1e-12)
+
+
+def test_trial_norm_is_exact_below_the_bound_and_at_least_the_bound_above(small):
+    theta = _point(small, seed=7)
+    full = float(np.linalg.norm(small.residual(theta)))
+    assert small.trial_norm(theta, np.inf) == pytest.approx(full, rel=1e-13)
+    assert small.trial_norm(theta, 1.0001 * full) == pytest.approx(full, rel=1e-13)
+    for bound in (0.1 * full, 0.5 * full, 0.9999 * full):
+        partial = small.trial_norm(theta, bound)
+        assert bound <= partial <= full * (1 + 1e-13)
+    assert small.trial_norm(theta, 1e-3 * full) < full  # stopped before the last chunk
+
+
+def test_early_reject_gives_the_same_lm_iterates(small):
+    theta = small.layout.initial()
+    start = theta + 3.0 * np.random.default_rng(5).standard_normal(theta.size)
+    runs = [solve_lm(small, LMParams(tolerance=1e-9, max_iterations=40, early_reject=flag), theta0=start)
+            for flag in (False, True)]
+    assert runs[0].rejected_steps > 0
+    assert [(r.accepted_steps, r.rejected_steps, r.status) for r in runs[1:]] == \
+        [(runs[0].accepted_steps, runs[0].rejected_steps, runs[0].status)]
+    np.testing.assert_allclose(runs[1].norm_history, runs[0].norm_history, rtol=1e-12, atol=0)
+    np.testing.assert_allclose(runs[1].theta, runs[0].theta, rtol=1e-10, atol=1e-13)
