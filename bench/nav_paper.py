@@ -131,7 +131,8 @@ def refine_times(terrain, queries):
             t0 = time.perf_counter()
             ref = refine_path(path, NAV.limits, TebParams(), field)
             runs.append(time.perf_counter() - t0)
-        out.append({"length": path.length, "poses": ref.band.n, "seconds": float(np.median(runs)),
+        out.append({"length": path.length, "poses": ref.band.n, "rounds": len(ref.result.rounds),
+                    "seconds": float(np.median(runs)),
                     "max_violation": max(ref.violations.values()), "total_time": ref.band.duration})
     return out
 
@@ -188,9 +189,9 @@ def main():
         lines.append(f"| {'warm start' if c['warm_start'] else 're-initialized every cycle'} | {c['cycles']} | "
                      f"{c['median_ms']:.1f} | {c['p95_ms']:.1f} | {c['median_iterations']:.0f} | {c['median_poses']:.0f} |")
     lines += ["", f"All Table II/III cycles (warm start): median {result['cycle_median_ms']:.1f} ms, p95 "
-              f"{result['cycle_p95_ms']:.1f} ms (target ≤ 20 ms). Whole-trajectory refine (≤ 4×5): " + ", ".join(
-                  f"{r['length']:.0f} m/{r['poses']} poses {1e3 * r['seconds']:.0f} ms, max violation "
-                  f"{r['max_violation']:.3f}" for r in refine) + " (target ≤ 300 ms, violation ≤ ε = 0.01)."]
+              f"{result['cycle_p95_ms']:.1f} ms (target ≤ 20 ms). Whole-trajectory refine (`refine_path`): " + ", ".join(
+                  f"{r['length']:.0f} m/{r['poses']} poses/{r['rounds']} rounds {1e3 * r['seconds']:.0f} ms, max violation "
+                  f"{r['max_violation']:.3f}" for r in refine) + " (target ≤ 300 ms, violation ≤ ε = 0.01; rounds beyond 4 run only while a limit is exceeded)."]
     text = "\n".join(lines) + "\n"
     print(text)
     if not args.no_append:
