@@ -60,10 +60,13 @@ class LMParams:
     assembly: str = "blocks"  # "blocks" (structured) | "stacked" (general)
     schur: bool = True  # eliminate variables that declare schur_block
     early_reject: bool = True  # stop evaluating a trial point once its partial ‖h‖ ≥ current ‖h‖ (same iterates)
+    stall_window: int = 0  # opt-in stall stop (not Algorithm 1; 0 = off), see `solve_lm`
 
     def __post_init__(self):
         if not (0 < self.lambda_drop < 1 < self.lambda_boost):
             raise ValueError("need 0 < lambda_drop < 1 < lambda_boost")
+        if self.stall_window < 0:
+            raise ValueError("need stall_window ≥ 0")
         if self.lambda_init <= 0 or self.max_iterations < 0:
             raise ValueError("need lambda_init > 0 and max_iterations ≥ 0")
         if self.linear_solver not in SOLVER_NAMES:
@@ -111,6 +114,10 @@ def solve_lm(problem: Problem, params: LMParams = LMParams(), theta0: np.ndarray
 
     `callback(iteration, norm, lam)` is called after every iteration. The variable blocks are not
     modified; use `problem.layout.store(result.theta)` to write the solution back.
+
+    Opt-in stall stop (`params.stall_window` = W > 0, a departure from Algorithm 1): after each
+    iteration, extrapolate the decrease of ‖h‖ over the last W iterations geometrically; if at that
+    rate ‖h‖ < ε_num would need more iterations than remain before MaxIt, stop with STALLED.
     """
     t_start = time.perf_counter()
     layout = problem.layout
@@ -199,7 +206,23 @@ def solve_lm(problem: Problem, params: LMParams = LMParams(), theta0: np.ndarray
         log.debug("iteration %d: ‖h‖=%.6e λ=%.3e %s", it + 1, norm, lam, "accepted" if linearization is None else "rejected")
         if callback is not None:
             callback(it + 1, norm, lam)
+        if params.stall_window and len(hist_h) > params.stall_window:
+            past = hist_h[-1 - params.stall_window]
+            remaining = params.max_iterations - (it + 1)
+            if remaining > 0 and norm >= params.tolerance and _out_of_reach(norm, past, params, remaining):
+                return finish(Status.STALLED, f"‖h‖ went from {past:.3e} to {norm:.3e} over the last "
+                              f"{params.stall_window} iterations: ε_num = {params.tolerance:.1e} out of reach "
+                              f"within the {remaining} iterations left at that rate (stall_window)",
+                              it + 1, norm, initial, hist_h, hist_l, accepted, rejected)
     raise AssertionError("unreachable: the loop returns at it == max_iterations")
+
+
+def _out_of_reach(norm: float, past: float, params: LMParams, remaining: int) -> bool:
+    """Whether the geometric rate (norm/past)^(1/W) needs more than `remaining` iterations to ε_num."""
+    if norm >= past:
+        return True
+    needed = params.stall_window * np.log(params.tolerance / norm) / np.log(norm / past)
+    return needed > remaining
 
 
 def _damping_system(H: sp.csc_matrix, g: np.ndarray, marquardt: bool):

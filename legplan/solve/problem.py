@@ -151,7 +151,11 @@ class Problem:
             return rows, cols, term.blocks.reshape(-1)[keep]
         if sp.issparse(term):
             coo = sp.coo_matrix(term)
-            rows, cols, keep = self._mapped(coo.row, coo.col, rowmap, colmap)
+            cached = self._index_cache.get(key + ("sparse",))
+            if cached is None or not (np.array_equal(cached[0], coo.row) and np.array_equal(cached[1], coo.col)):
+                cached = self._index_cache[key + ("sparse",)] = (coo.row.copy(), coo.col.copy(),
+                                                                  self._mapped(coo.row, coo.col, rowmap, colmap))
+            rows, cols, keep = cached[2]
             return rows, cols, coo.data[keep]
         term = np.asarray(term, float)
         cached = self._index_cache.get(key + ("dense", term.shape))
@@ -192,15 +196,21 @@ class Problem:
         cached = self._index_cache.get(key)
         if cached is None or not all(np.array_equal(x, y) for x, y in zip(cached[0], signature)):
             ones = lambda m: sp.csc_matrix((np.ones(m.nnz), m.indices, m.indptr), shape=m.shape)
-            struct = sp.coo_matrix(ones(a).T @ ones(b))
-            keys = struct.row.astype(np.int64) * b.shape[1] + struct.col
-            order = np.argsort(keys)
-            cached = self._index_cache[key] = (tuple(x.copy() for x in signature), struct.row, struct.col,
-                                               keys[order], order)
-        _, rows, cols, sorted_keys, order = cached
-        prod = sp.coo_matrix(a.T @ b)
-        data = np.zeros(rows.size)
-        data[order[np.searchsorted(sorted_keys, prod.row.astype(np.int64) * b.shape[1] + prod.col)]] = prod.data
+            struct = sp.csr_matrix(ones(a).T @ ones(b))
+            struct.sort_indices()
+            rows = np.repeat(np.arange(struct.shape[0]), np.diff(struct.indptr))
+            keys = rows.astype(np.int64) * b.shape[1] + struct.indices  # increasing: CSR with sorted indices
+            cached = self._index_cache[key] = (tuple(x.copy() for x in signature), rows, struct.indices.copy(),
+                                               struct.indptr.copy(), keys)
+        _, rows, cols, indptr, keys = cached
+        prod = sp.csr_matrix(a.T @ b)
+        prod.sort_indices()
+        if prod.nnz == cols.size and np.array_equal(prod.indptr, indptr) and np.array_equal(prod.indices, cols):
+            data = prod.data  # no entry cancelled to an exact zero: same pattern, same order
+        else:
+            prow = np.repeat(np.arange(prod.shape[0]), np.diff(prod.indptr))
+            data = np.zeros(rows.size)
+            data[np.searchsorted(keys, prow.astype(np.int64) * b.shape[1] + prod.indices)] = prod.data
         return sp.coo_matrix((data, (rows, cols)), shape=(a.shape[1], b.shape[1]))
 
     def jacobian(self, theta: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix]:

@@ -14,6 +14,10 @@ Extras (not in Table I, chosen here):
   touch-down positions, down to "the tip may touch, within ε" (`SampleConstraints`).
   `com_margin` = 0 (CoM inside the support polygon, Sec. II-B item 2).
 * `dense_samples`: parameters t at which the finished path is re-checked independently (≥ 1000).
+* `stall_window` (default 0 = off, Algorithm 1 as published): opt-in stall stop of SolveLM, a
+  departure from Algorithm 1 — a degree is abandoned (next degree, Algorithm 1 line 4) once the
+  decrease of ‖F̃‖ over the last `stall_window` iterations, extrapolated geometrically, cannot reach
+  ε_num before MaxIt (`legplan.solve.LMParams.stall_window`). Use `--param stall_window=10`.
 * `linear_solver`, `assembly`: passed to `legplan.solve.LMParams` (`assembly="blocks"` uses the
   structured JᵀJ of the Bézier block; "stacked" forms JᵀJ from the sparse Jacobian — the general path).
 """
@@ -41,6 +45,7 @@ class StepPlanParams:
     relax_radius: float = 0.05  # m, swing-foot margin relaxation around its footholds
     com_margin: float = 0.0  # m, CoM distance to every support-polygon edge
     dense_samples: int = 1000  # independent re-check of the finished path
+    stall_window: int = 0  # opt-in SolveLM stall stop (departure from Algorithm 1); 0 = off
     linear_solver: str = "cholmod"
     assembly: str = "blocks"
 
@@ -50,7 +55,7 @@ class StepPlanParams:
                   ("eps_num", self.eps_num > 0), ("relax_radius", self.relax_radius > 0),
                   ("slack_fraction", 0 < self.slack_fraction <= 1), ("dense_samples", self.dense_samples >= 2),
                   ("lambda_init", self.lambda_init > 0), ("lambda_drop", 0 < self.lambda_drop < 1),
-                  ("lambda_boost", self.lambda_boost > 1)]
+                  ("lambda_boost", self.lambda_boost > 1), ("stall_window", self.stall_window >= 0)]
         for name, ok in checks:
             if not ok:
                 raise LegplanError(f"step planner parameter '{name}' out of range: {getattr(self, name)!r}")

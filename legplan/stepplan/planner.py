@@ -98,7 +98,8 @@ def plan_step(robot, sdf, q_start, q_end, stance, footholds, params: StepPlanPar
     t = uniform_parameters(params.samples + 1)[1:-1]  # interior t_i = i/N; the ends are fixed
     lm = LMParams(lambda_init=params.lambda_init, lambda_drop=params.lambda_drop,
                   lambda_boost=params.lambda_boost, max_iterations=params.max_iterations,
-                  tolerance=params.eps_num, linear_solver=params.linear_solver, assembly=params.assembly)
+                  tolerance=params.eps_num, linear_solver=params.linear_solver, assembly=params.assembly,
+                  stall_window=params.stall_window)
     timings = {"evaluate": 0.0, "assemble": 0.0, "factorize": 0.0, "solve": 0.0}
     P = np.stack([x0, x1])
     records: list[DegreeRecord] = []

@@ -113,3 +113,23 @@ def test_invalid_params():
         LMParams(lambda_drop=2.0)
     with pytest.raises(ValueError):
         LMParams(linear_solver="mkl")
+
+
+
+def test_stall_stop_is_off_by_default_and_stops_an_out_of_reach_run():
+    # Powell singular converges only linearly (singular Jacobian at the root): 1e-20 is out of reach
+    params = dict(max_iterations=60, tolerance=1e-20)
+    plain = solve_lm(tp.powell_singular(), LMParams(**params))
+    assert plain.status is Status.MAX_ITERATIONS and plain.iterations == 60
+    stalled = solve_lm(tp.powell_singular(), LMParams(stall_window=5, **params))
+    assert stalled.status is Status.STALLED and "stall_window" in stalled.reason
+    assert 5 < stalled.iterations < plain.iterations
+    assert stalled.norm_history == plain.norm_history[:stalled.iterations]  # Algorithm 1 iterates up to the stop
+    # a fast run is not cut ...
+    fast = solve_lm(tp.brown_almost_linear(), LMParams(stall_window=3))
+    assert fast.status is Status.CONVERGED and fast.iterations == solve_lm(tp.brown_almost_linear()).iterations
+    # ... but a slow phase before fast convergence is (why the stop is opt-in): Rosenbrock's valley
+    assert solve_lm(tp.rosenbrock()).status is Status.CONVERGED
+    assert solve_lm(tp.rosenbrock(), LMParams(stall_window=10)).status is Status.STALLED
+    with pytest.raises(ValueError):
+        LMParams(stall_window=-1)
