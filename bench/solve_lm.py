@@ -6,9 +6,12 @@ n = 10,000 and 100,000. Every solver starts at the same point and stops at the s
 ‖h‖ < TOL (scipy through its callback). Each configuration is rebuilt and run REPEATS times in this
 process; the median wall time is reported with its ratio to the named reference.
 
-    .venv/bin/python bench/solve_lm.py [--repeats 5] [--skip-exact]
+    .venv/bin/python bench/solve_lm.py [--repeats 5] [--skip-exact] [--no-append]
 
-Writes bench/results/solve_lm.json and appends rows to BENCHMARKS.md.
+Every solver runs with one BLAS thread (OPENBLAS/OMP/MKL_NUM_THREADS=1 unless set): on the shared
+2-core machine multithreaded BLAS oversubscribes the cores and slows scipy's LSMR far more than
+CHOLMOD, which made earlier ratios look better than they are. Writes bench/results/solve_lm.json
+(with the load average before and after) and appends rows to BENCHMARKS.md.
 """
 
 from __future__ import annotations
@@ -16,12 +19,16 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
+import os
 import platform
 import statistics
 import time
 from pathlib import Path
 
-import numpy as np
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # before numpy/scipy load BLAS
+
+import numpy as np  # noqa: E402
 from scipy.optimize import least_squares
 
 from legplan.solve import CholmodSolver, LMParams, solve_lm
@@ -105,7 +112,9 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--skip-exact", action="store_true", help="skip scipy trf/exact (dense SVD, minutes)")
+    parser.add_argument("--no-append", action="store_true", help="do not append rows to BENCHMARKS.md")
     args = parser.parse_args()
+    load_before = os.getloadavg()
     step = lambda: tp.step_planner_like(epsilon=3e-2)  # noqa: E731
     base = LMParams(tolerance=TOL)
     cases = {
@@ -141,10 +150,12 @@ def main():
             entry["factorization"] = cholmod_mode_comparison(make)
             print("  ", entry["factorization"], flush=True)
         results["problems"][pname] = entry
+    results["load_average_1_5_15"] = {"before": load_before, "after": os.getloadavg()}
     out = ROOT / "bench" / "results" / "solve_lm.json"
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(results, indent=2) + "\n")
-    write_markdown(results)
+    if not args.no_append:
+        write_markdown(results)
 
 
 def write_markdown(results):
@@ -153,13 +164,15 @@ def write_markdown(results):
         path.write_text("# Benchmarks\n\n| date | machine | cpu | benchmark | problem | config | median (s) | ratio | reference | notes |\n"
                         "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n")
     lines = []
+    load = " → ".join(f"{results['load_average_1_5_15'][k][0]:.1f}" for k in ("before", "after"))
     for pname, entry in results["problems"].items():
         for row in entry["rows"]:
             ratio = row["ratio_vs_legplan_cholmod"]
             runs = len(row["runs"])
             lines.append(f"| {results['date']} | {results['machine']} | {results['cpu']} | solve_lm | {pname} | "
                          f"{row['config']} | {row['median_s']:.3f} | {ratio:.2f}× | legplan LM + cholmod | "
-                         f"‖h‖={row['final_norm']:.1e}, tol {results['tolerance']:.0e}, median of {runs} |\n")
+                         f"‖h‖={row['final_norm']:.1e}, tol {results['tolerance']:.0e}, median of {runs}, 1 BLAS thread, "
+                         f"load {load} |\n")
     with path.open("a") as f:
         f.writelines(lines)
 

@@ -1,12 +1,15 @@
 """Benchmark of `legplan step plan` against Table II of the Bézier step-planning paper.
 
     .venv/bin/python bench/step_plan.py [--map map.h5 --steps steps.h5] [--jobs 1] [--profile-steps 5]
+                                        [--stall-window 10]
 
 Without --map/--steps the gap-crossing scenario is built (`legplan map build maps/gap_crossing.yaml`)
 and a step sequence generated (`legplan steps generate`, scarab2). Every consecutive pair is planned
 on one core per worker (default 1 worker, as in the paper's single-thread timings); writes
 bench/results/step_plan.json and appends the Table II rows (ours vs paper) plus the time breakdown
-to BENCHMARKS.md with machine and date. A second, profiled pass over a few non-trivial steps
+to BENCHMARKS.md with machine, date and load average. With --stall-window W the whole swings are
+planned a second time with the opt-in SolveLM stall stop (`stall_window=W`, a departure from
+Algorithm 1) and reported as a third column. A profiled pass over a few non-trivial steps
 attributes the time to kinematics, SDF, residual terms, JᵀJ assembly, Schur + factorisation.
 """
 
@@ -14,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import cProfile
+import dataclasses
 import datetime
 import json
 import os
@@ -42,7 +46,9 @@ PROFILE_GROUPS = (("robot kinematics (pinocchio FK + Jacobians)", "robots/kinema
                   ("constraint rows (contact terms + slacks)", "stepplan/block.py:evaluate"),
                   ("structured JᵀJ (kron) terms", "solve/curve.py:normal_terms"),
                   ("normal-equation assembly", "solve/problem.py:_finish"),
-                  ("Schur elimination + factorisation", "solve/schur.py:factorize"),
+                  ("trial points (early-reject residual)", "solve/problem.py:trial_norm"),
+                  ("Schur set-up per linearisation (eigh, U)", "solve/schur.py:set_matrix"),
+                  ("Schur reduced matrix + factorisation per λ", "solve/schur.py:refactor"),
                   ("triangular solves", "solve/schur.py:solve"),
                   ("dense re-check (validator, FCL)", "stepplan/measure.py:dense_check"))
 
@@ -122,6 +128,8 @@ def main(argv=None) -> int:
     ap.add_argument("--jobs", type=int, default=1)
     ap.add_argument("--param", action="append", default=[], help="key=value planner override")
     ap.add_argument("--profile-steps", type=int, default=5, help="non-trivial steps in the profiled pass")
+    ap.add_argument("--stall-window", type=int, default=0,
+                    help="also plan the whole swings with the opt-in SolveLM stall stop (stall_window=W)")
     ap.add_argument("--no-append", action="store_true", help="do not append to BENCHMARKS.md")
     args = ap.parse_args(argv)
 
@@ -130,6 +138,7 @@ def main(argv=None) -> int:
     from legplan.stepseq.sequence import read_steps
 
     params = StepPlanParams.from_overrides(dict(p.split("=", 1) for p in args.param))
+    load_before = os.getloadavg()
     variants = {}
     with tempfile.TemporaryDirectory() as tmp:
         if args.map is None or args.steps is None:
@@ -137,8 +146,12 @@ def main(argv=None) -> int:
         else:
             map_path, steps_path = args.map, args.steps
         generated = read_steps(steps_path)
-        for name, seq in (("as generated", generated), ("whole swings", merge_swings(generated))):
-            records = plan_sequence(seq, map_path, params, range(len(seq) - 1), jobs=args.jobs,
+        runs = [("as generated", generated, params), ("whole swings", merge_swings(generated), params)]
+        if args.stall_window:
+            stall = dataclasses.replace(params, stall_window=args.stall_window)
+            runs.append((f"whole swings, stall_window={args.stall_window}", runs[1][1], stall))
+        for name, seq, run_params in runs:
+            records = plan_sequence(seq, map_path, run_params, range(len(seq) - 1), jobs=args.jobs,
                                     progress=lambda d, n, m: print(f"\r{d}/{n} {m}", end="", file=sys.stderr))
             print(file=sys.stderr)
             variants[name] = (seq, records)
@@ -149,15 +162,18 @@ def main(argv=None) -> int:
     result = {"date": datetime.date.today().isoformat(), "machine": machine(), "robot": generated.robot,
               "map": str(map_path if args.map else "maps/gap_crossing.yaml"), "params": params.as_dict(),
               "jobs": args.jobs, "paper": PAPER, "profile_steps_whole_swings": profiled, "profile_s": breakdown,
-              "variants": {}}
+              "load_average_1_5_15": {"before": load_before, "after": os.getloadavg()}, "variants": {}}
     lines = [f"\n## step_plan — Bézier + LM single-step planner vs paper Table II ({result['date']})\n",
-             f"Machine: {result['machine']}; robot {generated.robot}; {result['map']} with the sequence of "
+             f"Machine: {result['machine']}, load average (1/5/15 min) {' / '.join(f'{x:.1f}' for x in load_before)} "
+             f"before, {' / '.join(f'{x:.1f}' for x in result['load_average_1_5_15']['after'])} after (shared machine); "
+             f"robot {generated.robot}; {result['map']} with the sequence of "
              f"`legplan steps generate` ({len(generated)} configurations); --jobs {args.jobs} (one BLAS thread); params "
              f"{json.dumps({k: v for k, v in params.as_dict().items() if k in ('samples', 'max_degree', 'max_iterations', 'epsilon', 'eps_num', 'slack_fraction')})}. "
              "'as generated': every consecutive pair (the generator inserts a lifted configuration mid-swing); "
              "'whole swings': mid-swing configurations dropped, each pair a full foothold-to-foothold swing as in the "
              "paper. Paper: C++/MKL Pardiso, i7-10700 @ 4.8 GHz, 89 steps.\n",
-             "| Table II row | ours, as generated | ours, whole swings | paper |", "|---|---|---|---|"]
+             "| Table II row | " + " | ".join(f"ours, {name}" for name in variants) + " | paper |",
+             "|---|" + "---|" * (len(variants) + 1)]
     summaries = {}
     for name, (seq, records) in variants.items():
         summary = {k: (v[0] if isinstance(v, tuple) else v) for k, v in table2(records).items()}

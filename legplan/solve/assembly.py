@@ -3,7 +3,9 @@
 The Jacobian J and the normal matrix JᵀJ of eq. (13) keep their sparsity pattern across LM
 iterations; only values change. `CooAssembler` remembers the (row, col) triplet order of the last
 pattern and the CSC slot of every triplet, so a refresh is one `np.bincount` (duplicates summed).
-Explicit zeros stay in the pattern, so a factorisation analysed once stays valid.
+Explicit zeros stay in the pattern, so a factorisation analysed once stays valid. `assemble_parts`
+takes the triplets in pieces and skips even the index comparison when the pieces are the same
+cached arrays as last time.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ class CooAssembler:
         self.version = 0  # incremented whenever the pattern changes
         self._rows: np.ndarray | None = None
         self._cols: np.ndarray | None = None
+        self._pieces: tuple[list[np.ndarray], list[np.ndarray]] | None = None
 
     def _analyze(self, rows: np.ndarray, cols: np.ndarray) -> None:
         nrows, ncols = self.shape
@@ -36,4 +39,22 @@ class CooAssembler:
                 and np.array_equal(self._rows, rows) and np.array_equal(self._cols, cols)):
             self._analyze(rows, cols)
         data = np.bincount(self._slot, weights=values, minlength=self._indices.size)
+        return sp.csc_matrix((data, self._indices, self._indptr), shape=self.shape)
+
+    def assemble_parts(self, rows: list[np.ndarray], cols: list[np.ndarray], values: list[np.ndarray]
+                       ) -> sp.csc_matrix:
+        """`assemble` of triplets given in pieces. When every index piece is the same array object as
+        in the previous call (cached index arrays, never modified), the indices are neither
+        concatenated nor compared again; only the values are summed into their slots."""
+        pieces = self._pieces
+        if not (pieces is not None and len(pieces[0]) == len(rows) and len(pieces[1]) == len(cols)
+                and all(a is b for a, b in zip(pieces[0], rows)) and all(a is b for a, b in zip(pieces[1], cols))):
+            index = [np.concatenate(p).astype(np.int64, copy=False) if p else np.zeros(0, np.int64)
+                     for p in (rows, cols)]
+            if not (self._rows is not None and self._rows.size == index[0].size
+                    and np.array_equal(self._rows, index[0]) and np.array_equal(self._cols, index[1])):
+                self._analyze(*index)
+            self._pieces = (list(rows), list(cols))  # holding them keeps the identity test sound
+        vals = np.concatenate(values) if values else np.zeros(0)
+        data = np.bincount(self._slot, weights=vals, minlength=self._indices.size)
         return sp.csc_matrix((data, self._indices, self._indptr), shape=self.shape)

@@ -89,6 +89,7 @@ class Problem:
             self._offsets = np.concatenate([[0], np.cumsum(sizes, dtype=np.int64)])
             self._jac_assembler = CooAssembler((int(self._offsets[-1]), self._layout.n))
             self._hess_assembler = CooAssembler((self._layout.n, self._layout.n))
+            self._diagonal = np.arange(self._layout.n)  # one object: the assembler sees a cached index piece
         return self._layout
 
     @property
@@ -225,7 +226,7 @@ class Problem:
             for i, (name, jac) in enumerate(zip(block.variables, jacs)):
                 rr, cc, vv = self._coo(("J", k, i), jac, rowmap, layout.columns[name])
                 rows.append(rr), cols.append(cc), vals.append(vv)
-        J = self._jac_assembler.assemble(*(_cat(x, np.int64) for x in (rows, cols)), _cat(vals, float))
+        J = self._jac_assembler.assemble_parts(rows, cols, vals)
         return _cat(residuals, float), J
 
     def normal_equations(self, theta: np.ndarray, assembly: str = "blocks") -> NormalEquations:
@@ -234,7 +235,7 @@ class Problem:
             raise ValueError(f"assembly must be one of {ASSEMBLY_MODES}, got {assembly!r}")
         layout = self.layout
         n = layout.n
-        diag = np.arange(n)
+        diag = self._diagonal
         if assembly == "stacked":
             t0 = time.perf_counter()
             h, J = self.jacobian(theta)
@@ -273,7 +274,7 @@ class Problem:
         return self._finish(h, rows, cols, vals, g, t1 - t0, t1)
 
     def _finish(self, h, rows, cols, vals, g, evaluate_seconds, t_start) -> NormalEquations:
-        H = self._hess_assembler.assemble(_cat(rows, np.int64), _cat(cols, np.int64), _cat(vals, float))
+        H = self._hess_assembler.assemble_parts(rows, cols, vals)
         return NormalEquations(h, H, g, self._hess_assembler.version, evaluate_seconds,
                                time.perf_counter() - t_start)
 

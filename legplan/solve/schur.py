@@ -67,6 +67,7 @@ class SchurSolver(LinearSolver):
         diag = np.arange(self.keep.size)
         self._a_rows = np.concatenate([self._aa[1], diag])
         self._a_cols = np.concatenate([self._aa[2], diag])
+        self._a_flat = self._a_rows * self.keep.size + self._a_cols
         self._pattern = (H.indptr.copy(), H.indices.copy())
 
     def set_matrix(self, H):
@@ -94,8 +95,7 @@ class SchurSolver(LinearSolver):
             B[kr, ec] = H.data[slots]
             self._B = B
             self._U = (B.reshape(nk, count, m).transpose(1, 0, 2) @ self._V).transpose(1, 0, 2).reshape(nk, ne)
-            self._A = np.zeros((nk, nk))
-            np.add.at(self._A, (self._a_rows, self._a_cols), a_values)
+            self._A = np.bincount(self._a_flat, weights=a_values, minlength=nk * nk).reshape(nk, nk)
             return
         vblocks = sp.bsr_matrix((self._V, np.arange(count), np.arange(count + 1)), shape=(ne, ne))
         self._B = self._b_assembler.assemble(kr, ec, H.data[slots]).tocsr()

@@ -88,3 +88,19 @@ def test_write_back_with_store():
     problem.layout.store(result.theta)
     np.testing.assert_allclose(problem.layout.initial(), [1.0, 1.0], atol=1e-10)
     assert solve_lm(problem, LMParams()).iterations == 0
+
+
+@pytest.mark.parametrize("assembly", ["blocks", "stacked"])
+def test_sparse_jtj_entry_cancelling_to_zero_keeps_pattern_and_values(assembly):
+    """JᵀJ of J = [[1, a], [1, −a]] has an off-diagonal 1·a − 1·a = 0 exactly at every a: the entry
+    stays in the pattern (value 0) and every other value is right, whichever product path is taken."""
+    def fn(x):
+        J = sp.csr_matrix(np.array([[1.0, x[1]], [1.0, -x[1]], [0.0, x[0]]]))
+        return np.array([x[0] + x[1] ** 2, x[0] - x[1] ** 2, x[0] * x[1]]), [J]
+    problem = Problem([VariableBlock("x", [0.5, 2.0])])
+    problem.add_residual(FunctionBlock(["x"], 3, fn))
+    for theta in (np.array([0.5, 2.0]), np.array([0.0, 3.0]), np.array([1.5, -1.0])):
+        ne = problem.normal_equations(theta, assembly)
+        J = fn(theta)[1][0].toarray()
+        assert ne.hessian.nnz == 4  # full 2×2 pattern, cancelled or not
+        np.testing.assert_allclose(ne.hessian.toarray(), J.T @ J, rtol=1e-15, atol=0)
