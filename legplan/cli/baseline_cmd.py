@@ -52,7 +52,7 @@ def nav_cmd(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path
 
     from legplan.artefacts import check_output
     from legplan.baselines.nav import NavBaselineParams, plan_queries, write_nav_baseline
-    from legplan.cli.console import progress_bar, stderr
+    from legplan.cli.console import progress_bar, status, stderr
     from legplan.errors import LegplanError
     from legplan.nav import NavGrid, NavParams
     from legplan.nav.queries import read_queries_csv
@@ -79,13 +79,13 @@ def nav_cmd(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path
     inputs = [map_path] + ([queries_path] if queries_path else [])
     rows = write_nav_baseline(output, outcomes, grid, params, robot, inputs=inputs, overwrite=overwrite)
     failed = [index for index, row in enumerate(rows) if not row["success"]]
-    stderr.print(f"{len(rows) - len(failed)}/{len(rows)} queries planned (ompl {planner}, {time_budget:g} s "
-                 f"budget) -> {output}", highlight=False)
+    status(f"{len(rows) - len(failed)}/{len(rows)} queries planned (ompl {planner}, {time_budget:g} s "
+           f"budget) -> {output}")
     for index, row in enumerate(rows):
         if row["success"]:
-            stderr.print(f"  {index:04d}: first solution {row['time_to_first_solution']:.3f} s, "
-                         f"T={row['duration']:.2f} s, J={row['effort']:.3f}, length {row['path_length']:.2f} m, "
-                         f"clearance {row['min_clearance']:.2f} m", highlight=False)
+            status(f"  {index:04d}: first solution {row['time_to_first_solution']:.3f} s, "
+                   f"T={row['duration']:.2f} s, J={row['effort']:.3f}, length {row['path_length']:.2f} m, "
+                   f"clearance {row['min_clearance']:.2f} m")
         else:
             stderr.print(f"  {index:04d}: failed: {row['reason']}", highlight=False)
     if failed:
@@ -112,7 +112,7 @@ def step_cmd(ctx, map_path, steps_path, step_range, time_budget, space, seed, ou
     independent validator); exit 1 if any step failed."""
     from legplan.artefacts import check_output, open_artefact
     from legplan.baselines.step import StepBaselineParams, plan_sequence_baseline
-    from legplan.cli.console import progress_bar, stderr
+    from legplan.cli.console import progress_bar, status, stderr
     from legplan.cli.step_cmd import _parse_range
     from legplan.errors import LegplanError
     from legplan.stepplan.batch import write_motion
@@ -133,9 +133,9 @@ def step_cmd(ctx, map_path, steps_path, step_range, time_budget, space, seed, ou
     summary = write_motion(output, records, seq.robot, params, inputs=[map_path, steps_path], overwrite=overwrite,
                            attrs={"planner": params.planner})
     failed = [r for r in records if not r["success"]]
-    stderr.print(f"{summary['steps_succeeded']}/{summary['steps_planned']} steps planned ({params.planner}); "
-                 f"worst dense stance-foot slip {summary['worst_violation'][0] * 1e3:.3f} mm; "
-                 f"median {summary['median_time'][0]:.2f} s -> {output}", highlight=False)
+    status(f"{summary['steps_succeeded']}/{summary['steps_planned']} steps planned ({params.planner}); "
+           f"worst dense stance-foot slip {summary['worst_violation'][0] * 1e3:.3f} mm; "
+           f"median {summary['median_time'][0]:.2f} s -> {output}")
     for r in failed:
         stderr.print(f"  step {r['index']}: {r['reason']}", highlight=False)
     if failed:

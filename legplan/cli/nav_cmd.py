@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import click
 
-from legplan.cli.console import progress_bar
+from legplan.cli.console import progress_bar, status, stderr
 from legplan.cli.main import EXIT_ITEMS_FAILED
 from legplan.cli.options import input_artefact, output_opt, overwrite_opt, verbosity_opts
 
@@ -90,15 +90,14 @@ def search(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path,
             progress(len(queries), len(queries))
         write_summary_table(handle, rows)
     failed = [(index, row) for index, row in enumerate(rows) if not row["success"]]
-    click.echo(f"wrote {output}: {len(rows) - len(failed)}/{len(rows)} queries planned "
-               f"({planner})")
+    status(f"wrote {output}: {len(rows) - len(failed)}/{len(rows)} queries planned ({planner})")
     for index, row in enumerate(rows):
         if row["success"]:
-            click.echo(f"  {index:04d}: T={row['duration']:.2f} s, J={row['effort']:.3f}, "
-                       f"length {row['path_length']:.2f} m, clearance {row['min_clearance']:.2f} m, "
-                       f"{row['expansions']} expansions in {row['planning_time']:.3f} s")
+            status(f"  {index:04d}: T={row['duration']:.2f} s, J={row['effort']:.3f}, "
+                   f"length {row['path_length']:.2f} m, clearance {row['min_clearance']:.2f} m, "
+                   f"{row['expansions']} expansions in {row['planning_time']:.3f} s")
     for index, row in failed:
-        click.echo(f"  {index:04d}: failed: {row['reason']}", err=True)
+        stderr.print(f"  {index:04d}: failed: {row['reason']}", highlight=False, markup=False)
     if failed:
         ctx.exit(EXIT_ITEMS_FAILED)
 
@@ -120,7 +119,7 @@ def show(nav_path, map_path, output, overwrite):
     with open_artefact(nav_path, kind="nav") as handle:
         queries = read_queries(handle)
     render_nav(NavGrid.from_map(map_path), queries, output)
-    click.echo(f"wrote {output}")
+    status(f"wrote {output}")
 
 
 def _parse_params(items) -> dict[str, str]:

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import click
 
-from legplan.cli.console import progress_bar
+from legplan.cli.console import progress_bar, status
 from legplan.cli.options import input_artefact, output_opt, overwrite_opt, verbosity_opts
 
 robot_opt = click.option("--robot", default="jueying_mini", show_default=True,
@@ -86,7 +86,7 @@ def refine(ctx, map_path, nav_path, output, robot, outer, inner, omni, overwrite
             rows.append(write_refinement(f["queries"][query["name"]], refinement))
         progress(len(queries), len(queries), "done")
         _summary(write_summary, f, len(queries), rows)
-    click.echo(f"wrote {output}: {len(rows)} of {len(queries)} queries refined")
+    status(f"wrote {output}: {len(rows)} of {len(queries)} queries refined")
     if len(rows) < len(queries):
         ctx.exit(1)
 
@@ -174,8 +174,8 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
                           "effort": (metrics["effort"], "m^2/s^3"), "collisions": metrics["collisions"],
                           "replans": metrics["replans"],
                           "median_cycle_seconds": (metrics["median_cycle_seconds"], "s")})
-    status = "reached the goal" if result.success else f"failed: {result.reason}"
-    click.echo(f"wrote {output}: {status} in {result.times[-1]:.1f} s, effort {metrics['effort']:.3f}, "
-               f"{result.collisions} collisions, median TEB cycle {1e3 * metrics['median_cycle_seconds']:.0f} ms")
+    outcome = "reached the goal" if result.success else f"failed: {result.reason}"
+    status(f"wrote {output}: {outcome} in {result.times[-1]:.1f} s, effort {metrics['effort']:.3f}, "
+           f"{result.collisions} collisions, median TEB cycle {1e3 * metrics['median_cycle_seconds']:.0f} ms")
     if not result.success or result.collisions:
         ctx.exit(1)
