@@ -14,9 +14,8 @@ import click
 
 from legplan.baselines.names import CONSTRAINED_SPACES, NAV_PLANNERS
 from legplan.cli.main import EXIT_ITEMS_FAILED
+from legplan.cli.nav_options import query_opts, resolve_queries, robot_navigation
 from legplan.cli.options import input_artefact, output_opt, overwrite_opt, seed_opt, verbosity_opts
-
-PAIR = (float, float)
 
 
 @click.group("baseline")
@@ -29,14 +28,7 @@ def command():
 @click.argument("map_path", metavar="MAP", type=input_artefact)
 @click.option("--robot", default="jueying_mini", show_default=True,
               help="Robot whose navigation limits and inscribed radius are used.")
-@click.option("--start", type=PAIR, metavar="X Y", help="Start position (m).")
-@click.option("--start-vel", type=PAIR, default=(0.0, 0.0), show_default=True, metavar="VX VY",
-              help="Start velocity (m/s); used by the control planners.")
-@click.option("--goal", type=PAIR, metavar="X Y", help="Goal position (m).")
-@click.option("--goal-vel", type=PAIR, default=(0.0, 0.0), show_default=True, metavar="VX VY",
-              help="Goal velocity (m/s); used by the control planners.")
-@click.option("--queries", "queries_path", type=click.Path(dir_okay=False),
-              help="CSV of queries (the `nav search` format) instead of --start/--goal.")
+@query_opts("; used by the control planners")
 @click.option("--planner", type=click.Choice(NAV_PLANNERS), default="rrtconnect", show_default=True)
 @click.option("--time-budget", type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True,
               help="Seconds of OMPL solve() per query.")
@@ -48,36 +40,22 @@ def command():
 def nav_cmd(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path, planner, time_budget,
             seed, output, overwrite):
     """Plan MAP's navigation queries with an OMPL planner; write nav.h5 (query i uses seed SEED + i)."""
-    import numpy as np
-
     from legplan.artefacts import check_output
     from legplan.baselines.nav import NavBaselineParams, plan_queries, write_nav_baseline
     from legplan.cli.console import progress_bar, status, stderr
-    from legplan.errors import LegplanError
     from legplan.nav import NavGrid, NavParams
-    from legplan.nav.queries import read_queries_csv
-    from legplan.robots import load_robot
 
     check_output(output, overwrite)
-    if queries_path is not None and (start is not None or goal is not None):
-        raise LegplanError("baseline nav: give either --queries or --start/--goal, not both")
-    if queries_path is None and (start is None or goal is None):
-        raise LegplanError("baseline nav: --start and --goal are required (or --queries FILE)")
-    if seed < 0:
-        raise LegplanError(f"--seed must be >= 0, got {seed}")
-    navigation = load_robot(robot).navigation
-    if navigation is None:
-        raise LegplanError(f"robot '{robot}': robot.yaml has no 'navigation' section")
+    queries, query_files = resolve_queries("baseline nav", start, start_vel, goal, goal_vel, queries_path)
+    navigation = robot_navigation(robot)
     limits = NavParams.for_robot(navigation)
     params = NavBaselineParams(planner=planner, time_budget=time_budget, seed=seed, v_max=limits.v_max,
                                a_max=limits.a_max)
-    queries = (read_queries_csv(queries_path) if queries_path is not None
-               else np.array([[*start, *start_vel, *goal, *goal_vel]]))
     grid = NavGrid.from_map(map_path, lethal_radius=navigation.inscribed_radius)
     with progress_bar(f"baseline nav ({planner})") as progress:
         outcomes = plan_queries(grid, queries, params, progress)
-    inputs = [map_path] + ([queries_path] if queries_path else [])
-    rows = write_nav_baseline(output, outcomes, grid, params, robot, inputs=inputs, overwrite=overwrite)
+    rows = write_nav_baseline(output, outcomes, grid, params, robot, inputs=[map_path, *query_files],
+                              overwrite=overwrite)
     failed = [index for index, row in enumerate(rows) if not row["success"]]
     status(f"{len(rows) - len(failed)}/{len(rows)} queries planned (ompl {planner}, {time_budget:g} s "
            f"budget) -> {output}")
@@ -119,8 +97,6 @@ def step_cmd(ctx, map_path, steps_path, step_range, time_budget, space, seed, ou
     from legplan.stepseq.sequence import read_steps
 
     check_output(output, overwrite)
-    if seed < 0:
-        raise LegplanError(f"--seed must be >= 0, got {seed}")
     params = StepBaselineParams(time_budget=time_budget, space=space, seed=seed)
     with open_artefact(map_path, kind="map"):
         pass

@@ -14,9 +14,8 @@ import click
 
 from legplan.cli.console import progress_bar, status, stderr
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import input_artefact, output_opt, overwrite_opt, verbosity_opts
-
-PAIR = (float, float)
+from legplan.cli.nav_options import query_opts, resolve_queries, robot_navigation
+from legplan.cli.options import input_artefact, output_opt, overwrite_opt, param_opt, verbosity_opts
 
 
 @click.group("nav")
@@ -29,63 +28,38 @@ def command():
 @click.argument("map_path", metavar="MAP", type=input_artefact)
 @click.option("--robot", default="jueying_mini", show_default=True,
               help="Robot whose navigation limits (Table I) and inscribed radius are used.")
-@click.option("--start", type=PAIR, metavar="X Y", help="Start position (m).")
-@click.option("--start-vel", type=PAIR, default=(0.0, 0.0), show_default=True, metavar="VX VY",
-              help="Start velocity (m/s, world frame).")
-@click.option("--goal", type=PAIR, metavar="X Y", help="Goal position (m).")
-@click.option("--goal-vel", type=PAIR, default=(0.0, 0.0), show_default=True, metavar="VX VY",
-              help="Goal velocity (m/s, world frame).")
-@click.option("--queries", "queries_path", type=click.Path(dir_okay=False),
-              help="CSV of queries: start_x,start_y,start_vx,start_vy,goal_x,goal_y,goal_vx,goal_vy "
-                   "(instead of --start/--goal).")
+@query_opts("")
 @click.option("--planner", type=click.Choice(["kinoastar", "astar"]), default="kinoastar",
               show_default=True)
-@click.option("--param", "param_items", multiple=True, metavar="KEY=VALUE",
-              help="Override a search parameter (legplan.nav.NavParams), e.g. weight=2, mu=1.")
+@param_opt("Override a search parameter (legplan.nav.NavParams), e.g. weight=2, mu=1.")
 @output_opt
 @overwrite_opt
 @verbosity_opts
 @click.pass_context
 def search(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path, planner,
-           param_items, output, overwrite):
+           params, output, overwrite):
     """Plan start → goal on MAP's costmap; every query is written (with its reason if it failed).
 
     Exit 1 when any query failed."""
-    import numpy as np
-
     from legplan.artefacts import check_output, write_artefact
-    from legplan.errors import LegplanError
     from legplan.nav import PLANNERS, NavGrid, NavParams
     from legplan.nav.artefact import write_query, write_summary_table
-    from legplan.nav.queries import read_queries_csv
-    from legplan.robots import load_robot
 
     check_output(output, overwrite)
-    if queries_path is not None and (start is not None or goal is not None):
-        raise LegplanError("nav search: give either --queries or --start/--goal, not both")
-    if queries_path is None and (start is None or goal is None):
-        raise LegplanError("nav search: --start and --goal are required (or --queries FILE)")
-    overrides = _parse_params(param_items)
-    navigation = load_robot(robot).navigation
-    if navigation is None:
-        raise LegplanError(f"robot '{robot}': robot.yaml has no 'navigation' section")
-    params = NavParams.for_robot(navigation).with_overrides(overrides)
-    if queries_path is not None:
-        queries = read_queries_csv(queries_path)
-    else:
-        queries = np.array([[*start, *start_vel, *goal, *goal_vel]])
+    queries, query_files = resolve_queries("nav search", start, start_vel, goal, goal_vel, queries_path)
+    navigation = robot_navigation(robot)
+    settings = NavParams.for_robot(navigation).with_overrides(params)
     grid = NavGrid.from_map(map_path, lethal_radius=navigation.inscribed_radius)
     plan = PLANNERS[planner]
-    inputs = [map_path] + ([queries_path] if queries_path else [])
     rows = []
-    with write_artefact(output, "nav", params={**params.as_dict(), "planner": planner,
-                                               "robot": robot}, inputs=inputs,
+    with write_artefact(output, "nav", params={**settings.as_dict(), "planner": planner,
+                                               "robot": robot}, inputs=[map_path, *query_files],
                         overwrite=overwrite) as handle:
         group = handle.create_group("queries")
         with progress_bar(f"nav search ({planner})") as progress:
             for index, query in enumerate(queries):
                 progress(index, len(queries), f"query {index}")
-                result = plan(grid, query[:4], query[4:], params)
+                result = plan(grid, query[:4], query[4:], settings)
                 rows.append(write_query(group, index, result, grid))
             progress(len(queries), len(queries))
         write_summary_table(handle, rows)
@@ -121,17 +95,6 @@ def show(nav_path, map_path, output, overwrite):
     render_nav(NavGrid.from_map(map_path), queries, output)
     status(f"wrote {output}")
 
-
-def _parse_params(items) -> dict[str, str]:
-    from legplan.errors import LegplanError
-
-    overrides = {}
-    for item in items:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise LegplanError(f"--param: expected KEY=VALUE, got {item!r}")
-        overrides[key.strip()] = value.strip()
-    return overrides
 
 from legplan.cli.nav_teb_cmd import refine, simulate  # noqa: E402  (TEB back end, issue 8)
 command.add_command(refine); command.add_command(simulate)

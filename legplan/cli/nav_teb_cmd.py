@@ -8,6 +8,7 @@ from __future__ import annotations
 import click
 
 from legplan.cli.console import progress_bar, status
+from legplan.cli.nav_options import robot_navigation
 from legplan.cli.options import input_artefact, output_opt, overwrite_opt, verbosity_opts
 
 robot_opt = click.option("--robot", default="jueying_mini", show_default=True,
@@ -30,16 +31,6 @@ def _floats(text: str, option: str, counts: tuple[int, ...]) -> list[float]:
         raise LegplanError(f"option '{option}': expected {' or '.join(map(str, counts))} comma-separated "
                            f"numbers, got {text!r}")
     return values
-
-
-def _limits(robot: str):
-    from legplan.errors import LegplanError
-    from legplan.robots import load_robot
-
-    model = load_robot(robot)
-    if model.navigation is None:
-        raise LegplanError(f"{robot}: robot.yaml has no 'navigation' section (limits of Table I)")
-    return model.navigation
 
 
 @click.command("refine")
@@ -66,7 +57,7 @@ def refine(ctx, map_path, nav_path, output, robot, outer, inner, omni, overwrite
     from legplan.terrain import load_map
 
     check_output(output, overwrite)
-    navigation = _limits(robot)
+    navigation = robot_navigation(robot)
     terrain = load_map(map_path)
     field = DistanceField.from_terrain(terrain)
     params = TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni)
@@ -150,7 +141,7 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
         goals.append(Goal((v[0], v[1]), v[2] if len(v) > 2 else float("nan"), v[3] if len(v) > 3 else 0.0))
     goals.append(Goal((goal_v[0], goal_v[1]), goal_v[2] if len(goal_v) > 2 else float("nan")))
     target = tuple(_floats(face_target, "--face-target", (2,))) if face_target else None
-    navigation = _limits(robot)
+    navigation = robot_navigation(robot)
     terrain = load_map(map_path)
     hidden = (load_hidden(hidden_obstacles, terrain.grid) if hidden_obstacles
               else np.zeros(terrain.grid.shape, bool))

@@ -32,12 +32,28 @@ def verbosity_opts(func):
                         help="More log output (-vv for debug); tracebacks on errors.")(func)
 
 
+def _key_values(ctx, param, values) -> dict[str, str]:
+    overrides = {}
+    for item in values:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise click.BadParameter(f"expected KEY=VALUE, got {item!r}", ctx=ctx, param=param)
+        overrides[key.strip()] = value.strip()
+    return overrides
+
+
+def param_opt(help_text: str):
+    """`--param KEY=VALUE` (repeatable), passed to the command as a dict `params` of strings."""
+    return click.option("--param", "params", multiple=True, metavar="KEY=VALUE",
+                        callback=_key_values, help=help_text)
+
+
 output_opt = click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
                           help="Output artefact (HDF5) or image path.")
 overwrite_opt = click.option("--overwrite", is_flag=True, help="Replace an existing output.")
 jobs_opt = click.option("-j", "--jobs", type=click.IntRange(min=1), default=1, show_default=True,
                         help="Worker processes for independent items.")
-seed_opt = click.option("--seed", type=int, default=0, show_default=True,
+seed_opt = click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
                         help="Seed of every random choice; same inputs and seed, same artefact.")
 json_opt = click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout.")
 input_artefact = click.Path(exists=False, dir_okay=False)

@@ -6,23 +6,13 @@ import os
 
 import click
 
-from legplan.cli.options import input_artefact, jobs_opt, output_opt, overwrite_opt, verbosity_opts
+from legplan.cli.options import input_artefact, jobs_opt, output_opt, overwrite_opt, param_opt, verbosity_opts
 from legplan.errors import LegplanError
 
 
 @click.group("step")
 def command():
     """Plan single-step motions between consecutive configurations of a step sequence."""
-
-
-def _parse_params(values) -> dict[str, str]:
-    out = {}
-    for item in values:
-        key, sep, value = item.partition("=")
-        if not sep or not key.strip():
-            raise LegplanError(f"--param: expected key=value, got {item!r}")
-        out[key.strip()] = value.strip()
-    return out
 
 
 def _parse_range(text: str | None, pairs: int, steps_path: str) -> range:
@@ -50,9 +40,8 @@ def _parse_range(text: str | None, pairs: int, steps_path: str) -> range:
 @overwrite_opt
 @jobs_opt
 @click.option("--steps", "step_range", default=None, help="Pairs to plan, 'a:b' (python slice) or 'i'.")
-@click.option("--param", "params", multiple=True, metavar="KEY=VALUE",
-              help="Override a planner parameter (Table I: samples, max_degree, max_iterations, lambda_init, "
-                   "lambda_drop, lambda_boost, epsilon; also eps_num, clearance, ...).")
+@param_opt("Override a planner parameter (Table I: samples, max_degree, max_iterations, lambda_init, "
+           "lambda_drop, lambda_boost, epsilon; also eps_num, clearance, ...).")
 @verbosity_opts
 @click.pass_context
 def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, step_range, params):
@@ -69,7 +58,7 @@ def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, step_range, par
     from legplan.stepseq.sequence import read_steps
 
     check_output(output, overwrite)
-    settings = StepPlanParams.from_overrides(_parse_params(params))
+    settings = StepPlanParams.from_overrides(params)
     with open_artefact(map_path, kind="map"):
         pass
     seq = read_steps(steps_path)

@@ -75,7 +75,7 @@ def test_failed_step_is_recorded_and_exit_1(inputs):
 
 @pytest.mark.parametrize("args, message", [
     (["--param", "nope=1"], "unknown step planner parameter 'nope'"),
-    (["--param", "samples"], "expected key=value"),
+    (["--param", "samples"], "expected KEY=VALUE, got 'samples'"),
     (["--steps", "5:9"], "has 2 consecutive pairs"),
 ])
 def test_bad_input_exit_2_without_output(inputs, args, message):

@@ -1,0 +1,56 @@
+"""Options and helpers shared by the navigation commands (`nav search|refine|simulate`, `baseline nav`)."""
+
+from __future__ import annotations
+
+import click
+
+PAIR = (float, float)
+
+
+def query_opts(velocity_help: str):
+    """`--start X Y [--start-vel VX VY] --goal X Y [--goal-vel VX VY]` or `--queries FILE`."""
+    options = (
+        click.option("--start", type=PAIR, metavar="X Y", help="Start position (m)."),
+        click.option("--start-vel", type=PAIR, default=(0.0, 0.0), show_default=True,
+                     metavar="VX VY", help=f"Start velocity (m/s, world frame){velocity_help}."),
+        click.option("--goal", type=PAIR, metavar="X Y", help="Goal position (m)."),
+        click.option("--goal-vel", type=PAIR, default=(0.0, 0.0), show_default=True,
+                     metavar="VX VY", help=f"Goal velocity (m/s, world frame){velocity_help}."),
+        click.option("--queries", "queries_path", type=click.Path(dir_okay=False),
+                     help="CSV of queries: start_x,start_y,start_vx,start_vy,goal_x,goal_y,goal_vx,"
+                          "goal_vy (instead of --start/--goal)."),
+    )
+
+    def decorate(func):
+        for option in reversed(options):
+            func = option(func)
+        return func
+
+    return decorate
+
+
+def resolve_queries(command: str, start, start_vel, goal, goal_vel, queries_path):
+    """The (n, 8) query array of the options above, and the input files it came from."""
+    import numpy as np
+
+    from legplan.errors import LegplanError
+    from legplan.nav.queries import read_queries_csv
+
+    if queries_path is not None and (start is not None or goal is not None):
+        raise LegplanError(f"{command}: give either --queries or --start/--goal, not both")
+    if queries_path is None and (start is None or goal is None):
+        raise LegplanError(f"{command}: --start and --goal are required (or --queries FILE)")
+    if queries_path is not None:
+        return read_queries_csv(queries_path), [queries_path]
+    return np.array([[*start, *start_vel, *goal, *goal_vel]]), []
+
+
+def robot_navigation(robot: str):
+    """The `navigation` section (footprint, radii, Table I limits) of a robot, or a one-line error."""
+    from legplan.errors import LegplanError
+    from legplan.robots import load_robot
+
+    navigation = load_robot(robot).navigation
+    if navigation is None:
+        raise LegplanError(f"robot '{robot}': robot.yaml has no 'navigation' section (limits of Table I)")
+    return navigation
