@@ -6,7 +6,7 @@ For n = 100 configurations of a robot (default scarab2) it times
   reference: the direct pinocchio loop per configuration: computeJointJacobians +
              updateFramePlacements, getFrameJacobian(LOCAL_WORLD_ALIGNED) per foot and per sphere
              frame (shifted to the sphere centre), jacobianCenterOfMass.
-Median of several runs; writes bench/results/robot_kinematics.json and appends a row to BENCHMARKS.md.
+Median of several runs; writes bench/results/robot_kinematics.json and updates its section of BENCHMARKS.md.
     .venv/bin/python bench/robot_kinematics.py [--robot scarab2] [--n 100] [--repeats 15] [--no-append]
 """
 
@@ -14,26 +14,16 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import json
-import platform
 import sys
 import time
-from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
+from common import load_average, machine, update_benchmarks, write_result
+
 from legplan.robots import load_robot
 from legplan.robots.so3 import skew
-
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def cpu_model() -> str:
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return "unknown CPU"
 
 
 def reference_pass(robot, Q):
@@ -92,12 +82,11 @@ def main(argv=None) -> int:
         "n_feet": robot.n_legs, "n_spheres": len(robot.spheres), "nv": robot.nv,
         "ours_per_config_us": t_ours / args.n * 1e6, "reference_per_config_us": t_ref / args.n * 1e6,
         "tangent_map_per_config_us": t_tangent / args.n * 1e6, "speedup_vs_reference": t_ref / t_ours,
-        "machine": f"{cpu_model()}, {platform.machine()}",
+        "machine": machine(), "load_average": load_average(),
         "date": datetime.date.today().isoformat(),
     }
-    (ROOT / "bench/results").mkdir(parents=True, exist_ok=True)
-    (ROOT / "bench/results/robot_kinematics.json").write_text(json.dumps(result, indent=2))
-    row = (f"\n## robot kinematics ({result['date']}, {result['machine']})\n"
+    write_result("robot_kinematics", result)
+    row = (f"## robot kinematics ({result['date']}, {result['machine']}, load {result['load_average']:.1f})\n\n"
            f"{robot.name}: foot + sphere + CoM Jacobians (with positions) of {args.n} configurations "
            f"({robot.n_legs} feet, {len(robot.spheres)} spheres, nv {robot.nv}), median of {args.repeats} runs: "
            f"{result['ours_per_config_us']:.1f} µs/configuration (legplan.robots batch) vs "
@@ -105,8 +94,7 @@ def main(argv=None) -> int:
            f"ratio {result['speedup_vs_reference']:.1f}x; tangent_map {result['tangent_map_per_config_us']:.2f} µs/configuration.\n")
     print(row)
     if not args.no_append:
-        with open(ROOT / "BENCHMARKS.md", "a") as fh:
-            fh.write(row)
+        update_benchmarks("robot_kinematics", row)
     return 0
 
 

@@ -5,7 +5,7 @@
           grid (two transforms, occupied and free, combined as a voxel signed distance).
   lookup: SignedDistanceField.value_and_gradient on batches of 10k random points in the SDF box vs
           reference: scipy.ndimage.map_coordinates (order 1, value only, no gradient).
-Median of several runs; writes bench/results/terrain.json and appends rows to BENCHMARKS.md.
+Median of several runs; writes bench/results/terrain.json and updates its section of BENCHMARKS.md.
     .venv/bin/python bench/terrain.py [--repeats 5] [--batches 20] [--no-append]
 """
 
@@ -14,26 +14,18 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import platform
 import statistics
 import time
-from pathlib import Path
 
 import numpy as np
 from scipy.ndimage import distance_transform_edt, map_coordinates
 
+from common import ROOT, load_average, machine, update_benchmarks, write_result
+
 from legplan.terrain import build_map, heightmap_sdf
 from legplan.terrain.sdf import sdf_layers
 
-ROOT = Path(__file__).resolve().parents[1]
 SPEC = ROOT / "maps" / "gap_crossing.yaml"
-
-
-def cpu_model() -> str:
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return "unknown CPU"
 
 
 def median_time(func, repeats: int) -> float:
@@ -87,7 +79,7 @@ def main() -> None:
     reference_rate = points / median_time(lookup_reference, args.repeats)
 
     result = {
-        "date": datetime.date.today().isoformat(), "cpu": cpu_model(), "machine": platform.machine(),
+        "date": datetime.date.today().isoformat(), "machine": machine(), "load_average": load_average(),
         "map": "gap_crossing", "sdf_shape": list(sdf.shape), "repeats": args.repeats,
         "sdf_build_s": build, "reference_edt3d_build_s": reference,
         "build_ratio_vs_reference": reference / build,
@@ -95,14 +87,13 @@ def main() -> None:
         "lookup_ratio_vs_reference": ours_rate / reference_rate, "batch_size": 10_000,
         "batches": args.batches,
     }
-    out = ROOT / "bench" / "results" / "terrain.json"
-    out.write_text(json.dumps(result, indent=2) + "\n")
+    write_result("terrain", result)
     print(json.dumps(result, indent=2))
     if not args.no_append:
         shape = "x".join(map(str, sdf.shape))
-        with open(ROOT / "BENCHMARKS.md", "a") as stream:
-            stream.write(
-                f"\n## terrain SDF ({result['date']}, {result['cpu']}, {result['machine']})\n"
+        update_benchmarks(
+                "terrain",
+                f"## terrain SDF ({result['date']}, {result['machine']}, load {result['load_average']:.1f})\n\n"
                 f"gap_crossing SDF build ({shape} voxels at 1 cm), median of {args.repeats} runs: "
                 f"{build:.2f} s (legplan.terrain.heightmap_sdf) vs {reference:.2f} s (reference: "
                 f"scipy 3D distance_transform_edt, occupied + free), ratio {reference / build:.2f}x.\n"

@@ -6,7 +6,7 @@ body heights close to the terrain so many spheres are near it) it times
   ours:      Validator.check (pinocchio FK per configuration, CoM margin, clearance with distance
              bounds so that only candidate spheres go to FCL);
   reference: the same FK, then fcl.distance for every sphere of every configuration (brute force).
-Median of several runs; writes bench/results/validate_check.json and appends a row to BENCHMARKS.md.
+Median of several runs; writes bench/results/validate_check.json and updates its section of BENCHMARKS.md.
     .venv/bin/python bench/validate_check.py [--n 1000] [--repeats 5] [--no-append]
 """
 
@@ -15,24 +15,16 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import platform
 import time
-from pathlib import Path
 
 import numpy as np
+
+from common import ROOT, load_average, machine, update_benchmarks, write_result
 
 from legplan.robots import load_robot
 from legplan.terrain import build_map
 from legplan.validate import Validator
 
-ROOT = Path(__file__).resolve().parents[1]
-
-
-def cpu_model() -> str:
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return "unknown CPU"
 
 
 def configurations(robot, n, rng):
@@ -72,17 +64,16 @@ def main() -> None:
     exempt[:, robot.spheres.leg_index < 0] = False
     d[exempt] = np.inf
     assert np.allclose(d.min(axis=1), checks.clearance, atol=1e-9)
-    result = {"date": datetime.date.today().isoformat(), "cpu": cpu_model(), "machine": platform.machine(),
+    result = {"date": datetime.date.today().isoformat(), "machine": machine(), "load_average": load_average(),
               "n": args.n, "spheres": len(robot.spheres), "mesh_build_s": build,
               "ours_s": float(np.median(ours)), "brute_force_fcl_s": float(np.median(brute)),
               "ratio": float(np.median(brute) / np.median(ours))}
-    out = ROOT / "bench" / "results" / "validate_check.json"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(result, indent=2))
+    write_result("validate_check", result)
     print(json.dumps(result, indent=2))
     if not args.no_append:
-        with (ROOT / "BENCHMARKS.md").open("a") as f:
-            f.write(f"\n## validator dense check ({result['date']}, {result['cpu']}, {result['machine']})\n"
+        update_benchmarks("validate_check",
+                          f"## validator dense check ({result['date']}, {result['machine']}, "
+                          f"load {result['load_average']:.1f})\n\n"
                     f"scarab2 on gap_crossing: Validator.check of {args.n} configurations (28 spheres), "
                     f"median of {args.repeats} runs: {result['ours_s'] * 1e3:.0f} ms "
                     f"({result['ours_s'] / args.n * 1e6:.0f} µs/configuration) vs "

@@ -1,0 +1,50 @@
+"""What every benchmark shares: the machine it ran on, its JSON result, and its own section of
+BENCHMARKS.md (replaced on each run, so a rerun updates its rows instead of piling up new ones)."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+BENCHMARKS = ROOT / "BENCHMARKS.md"
+
+
+def cpu_model() -> str:
+    for line in Path("/proc/cpuinfo").read_text().splitlines():
+        if line.startswith("model name"):
+            return line.split(":", 1)[1].strip()
+    return "unknown CPU"
+
+
+def machine() -> str:
+    """CPU model, architecture and core count, e.g. 'AMD EPYC 7B13, x86_64, 2 cores'."""
+    return f"{cpu_model()}, {platform.machine()}, {os.cpu_count()} cores"
+
+
+def load_average() -> float:
+    """One-minute load average: the machine is shared, so every result records it."""
+    return os.getloadavg()[0]
+
+
+def write_result(name: str, result: dict) -> Path:
+    """bench/results/<name>.json."""
+    path = ROOT / "bench" / "results" / f"{name}.json"
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(json.dumps(result, indent=1, default=float) + "\n")
+    return path
+
+
+def update_benchmarks(name: str, markdown: str) -> None:
+    """Replace the `name` section of BENCHMARKS.md (between its markers), or append it."""
+    begin, end = f"<!-- bench:{name} -->", f"<!-- /bench:{name} -->"
+    block = f"{begin}\n{markdown.strip()}\n{end}"
+    text = BENCHMARKS.read_text() if BENCHMARKS.exists() else "# Benchmarks\n"
+    if begin in text and end in text:
+        head, rest = text.split(begin, 1)
+        text = head + block + rest.split(end, 1)[1]
+    else:
+        text = text.rstrip() + "\n\n" + block + "\n"
+    BENCHMARKS.write_text(text)
