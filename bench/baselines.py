@@ -15,7 +15,7 @@ Navigation: maps/nav_30m.yaml, --queries seeded start/goal pairs of bench/nav_se
 (`sample_queries`), jueying_mini limits. Ours: kinodynamic A* and grid A* (`legplan.nav.PLANNERS`);
 OMPL: RRT-Connect, RRT*, PRM* (--nav-budget s) and KPIECE1 / RRT on the double integrator
 (--control-budget s). Metrics from `legplan.nav.artefact.trajectory_metrics` for every planner.
-Writes bench/results/baselines.json and appends tables to BENCHMARKS.md.
+Writes bench/results/baselines.json and updates its section of BENCHMARKS.md.
 """
 
 from __future__ import annotations
@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import datetime
 import importlib.util
-import json
 import os
 import sys
 import tempfile
@@ -33,8 +32,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import numpy as np  # noqa: E402
-
-ROOT = Path(__file__).resolve().parents[1]
+from common import ROOT, load_average, machine, update_benchmarks, write_result  # noqa: E402
 
 
 def bench_module(name: str):
@@ -132,13 +130,9 @@ def run_nav(args, progress) -> dict:
     return out
 
 
-def machine() -> str:
-    return bench_module("step_plan").machine()
-
-
 def markdown(result) -> list[str]:
     date, steps, nav = result["date"], result["steps"], result["nav"]
-    lines = [f"\n## baselines — ours vs OMPL 2.0.1, same problems, same run ({date})\n",
+    lines = [f"## baselines — ours vs OMPL 2.0.1, same problems, same run ({date}, load {result['load_average']:.1f})\n",
              f"Machine: {result['machine']}; single process, one BLAS thread. Steps: scarab2 on "
              f"maps/gap_crossing.yaml, `legplan steps generate` sequence ({steps['configurations']} configurations), "
              "every pair of both bench/step_plan.py variants; ours = Bézier + LM (`legplan step plan` defaults), "
@@ -192,16 +186,15 @@ def main() -> None:
         return lambda done, total, message="": print(f"\r{label}: {done}/{total} {message}   ", end="",
                                                      file=sys.stderr)
 
-    result = {"date": datetime.date.today().isoformat(), "machine": machine(), "seed": args.seed,
+    result = {"date": datetime.date.today().isoformat(), "machine": machine(), "load_average": load_average(),
+              "seed": args.seed,
               "steps": run_steps(args, progress), "nav": run_nav(args, progress)}
     print(file=sys.stderr)
-    (ROOT / "bench" / "results").mkdir(exist_ok=True)
-    (ROOT / "bench" / "results" / "baselines.json").write_text(json.dumps(result, indent=1))
+    write_result("baselines", result)
     lines = markdown(result)
     print("\n".join(lines))
     if not args.no_append:
-        with open(ROOT / "BENCHMARKS.md", "a") as handle:
-            handle.write("\n".join(lines) + "\n")
+        update_benchmarks("baselines", "\n".join(lines))
 
 
 if __name__ == "__main__":

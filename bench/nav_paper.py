@@ -11,7 +11,7 @@ heading 0 (side-stepping) vs the differential-drive variant. Time of each leg (a
 minus the dwell) and total.
 TEB compute: median/max wall time per simulation cycle (5 m window) and refining whole nav_30m
 kinodynamic A* trajectories (`refine_path`, 4 × 5 iterations).
-Writes bench/results/nav_paper.json and appends rows to BENCHMARKS.md.
+Writes bench/results/nav_paper.json and updates its section of BENCHMARKS.md.
     .venv/bin/python bench/nav_paper.py [--pairs 4] [--seed 0] [--jobs 2] [--no-append]
 """
 
@@ -19,13 +19,12 @@ from __future__ import annotations
 
 import argparse
 import datetime
-import json
-import platform
 import time
 from concurrent.futures import ProcessPoolExecutor
-from pathlib import Path
 
 import numpy as np
+
+from common import ROOT, load_average, machine, update_benchmarks, write_result
 
 from legplan.nav import NavParams
 from legplan.nav.simulate import Goal, SimParams, World, grid_planner, kinodynamic_planner, simulate
@@ -38,20 +37,12 @@ from legplan.terrain import build_map
 from legplan.terrain.grid import Grid2D
 from legplan.terrain.layers import NavParams as CostmapParams
 
-ROOT = Path(__file__).resolve().parents[1]
 PAPER_II = [(27.362, 31.794, 4.7630, 5.5047), (16.298, 25.395, 5.1730, 6.8421),
             (25.338, 31.000, 5.1201, 5.8651), (25.975, 25.594, 4.1946, 7.4720)]
 PAPER_III = {"omni": [11, 10, 11, 32], "non-omni": [11, 20, 23, 54]}
 NAV = load_robot("jueying_mini").navigation
 WALL_BUDGET = 240.0  # s of wall time per simulation run before it is recorded as failed
 CYCLE_SIM_TIME = 15.0  # s simulated for the warm/cold cycle-time comparison
-
-
-def cpu_model() -> str:
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return "unknown CPU"
 
 
 def sample_pairs(terrain, count, rng):
@@ -157,16 +148,15 @@ def main():
         cycle = list(pool.map(run_cycle, [True, False]))
     refine = refine_times(terrain, [((0.5, 0.5), (29.5, 29.5)), ((0.5, 15.0), (29.5, 15.0)), ((6.0, 0.5), (24.0, 29.5))])
     cycles = np.concatenate([r["cycle_seconds"] for r in table2 + table3])
-    result = {"machine": f"{cpu_model()} ({platform.machine()})", "date": datetime.date.today().isoformat(),
+    result = {"machine": machine(), "load_average": load_average(), "date": datetime.date.today().isoformat(),
               "pairs": [[list(s), list(g), y] for s, g, y in pairs], "table2": table2, "table3": table3,
               "refine": refine, "cycle": cycle, "cycle_median_ms": 1e3 * float(np.median(cycles)),
               "cycle_p95_ms": 1e3 * float(np.percentile(cycles, 95))}
-    (ROOT / "bench" / "results").mkdir(parents=True, exist_ok=True)
     slim = {**result, "table2": [{k: v for k, v in r.items() if k != "cycle_seconds"} for r in table2],
             "table3": [{k: v for k, v in r.items() if k != "cycle_seconds"} for r in table3]}
-    (ROOT / "bench" / "results" / "nav_paper.json").write_text(json.dumps(slim, indent=1))
-    lines = [f"\n## nav_paper — closed-loop kinodynamic A* + TEB vs paper Tables II/III ({result['date']}, "
-             f"{result['machine']}; 2 runs in parallel on a shared machine)\n",
+    write_result("nav_paper", slim)
+    lines = [f"## nav_paper — closed-loop kinodynamic A* + TEB vs paper Tables II/III ({result['date']}, "
+             f"{result['machine']}, load {result['load_average']:.1f}; 2 runs in parallel)\n",
              "| pair | dist (m) | ours T kino / A* (s) | ours J kino / A* (m²/s³) | collisions | "
              "paper T kino / A* (s) | paper J kino / A* |", "|---|---|---|---|---|---|---|"]
     for k in range(len(pairs)):
@@ -195,8 +185,7 @@ def main():
     text = "\n".join(lines) + "\n"
     print(text)
     if not args.no_append:
-        with open(ROOT / "BENCHMARKS.md", "a") as f:
-            f.write(text)
+        update_benchmarks("nav_paper", text)
 
 
 if __name__ == "__main__":
