@@ -158,21 +158,23 @@ def main():
         write_markdown(results)
 
 
+HEADER = ("| date | machine | benchmark | case | config | median (s) | ratio | reference | notes |\n"
+          "| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n")
+
+
 def write_markdown(results):
+    """Append a section: one row per configuration, ratio = its median / legplan LM + cholmod's."""
     path = ROOT / "BENCHMARKS.md"
-    if not path.exists():
-        path.write_text("# Benchmarks\n\n| date | machine | cpu | benchmark | problem | config | median (s) | ratio | reference | notes |\n"
-                        "| --- | --- | --- | --- | --- | --- | --- | --- | --- | --- |\n")
-    lines = []
     load = " → ".join(f"{results['load_average_1_5_15'][k][0]:.1f}" for k in ("before", "after"))
+    lines = [f"\n## solve_lm — legplan LM vs scipy least_squares ({results['date']})\n",
+             f"Every solver from the same start to ‖h‖ < {results['tolerance']:.0e}, one BLAS thread, "
+             f"1-min load average {load} (shared 2-core machine).\n\n", HEADER]
+    machine = f"{results['cpu']}, {results['machine']}"
     for pname, entry in results["problems"].items():
         for row in entry["rows"]:
-            ratio = row["ratio_vs_legplan_cholmod"]
-            runs = len(row["runs"])
-            lines.append(f"| {results['date']} | {results['machine']} | {results['cpu']} | solve_lm | {pname} | "
-                         f"{row['config']} | {row['median_s']:.3f} | {ratio:.2f}× | legplan LM + cholmod | "
-                         f"‖h‖={row['final_norm']:.1e}, tol {results['tolerance']:.0e}, median of {runs}, 1 BLAS thread, "
-                         f"load {load} |\n")
+            lines.append(f"| {results['date']} | {machine} | solve_lm | {pname} | {row['config']} | "
+                         f"{row['median_s']:.3f} | {row['ratio_vs_legplan_cholmod']:.2f}× | legplan LM + cholmod | "
+                         f"‖h‖={row['final_norm']:.1e}, median of {len(row['runs'])} |\n")
     with path.open("a") as f:
         f.writelines(lines)
 
