@@ -68,3 +68,20 @@ def test_params_overrides():
         StepPlanParams.from_overrides({"samples": "many"})
     with pytest.raises(LegplanError, match="'epsilon' out of range"):
         StepPlanParams.from_overrides({"epsilon": "-1"})
+
+
+def test_stall_window_is_passed_to_solve_lm_and_off_by_default(toy_robot, swing_over_hill, monkeypatch):
+    """`--param stall_window=W` reaches SolveLM (opt-in departure from Algorithm 1); default 0 = off."""
+    import legplan.stepplan.planner as planner
+
+    seen = []
+    real = planner.solve_lm
+    monkeypatch.setattr(planner, "solve_lm", lambda problem, lm: seen.append(lm.stall_window) or real(problem, lm))
+    hill, q0, q1, stance, feet = swing_over_hill
+    assert StepPlanParams().stall_window == 0
+    plan = plan_step(toy_robot, hill, q0, q1, stance, feet,
+                     StepPlanParams.from_overrides({"samples": "20", "stall_window": "10"}))
+    assert seen and set(seen) == {10}
+    assert plan.degree >= 2 and np.isfinite(plan.norm)
+    with pytest.raises(LegplanError):
+        StepPlanParams(stall_window=-1)
