@@ -3,7 +3,9 @@
 `TebObjective` stacks weighted terms (`residuals.py`). A term with bounds goes through the TEB
 interval penalty r = max(0, x − (upper − ε)) + max(0, (lower + ε) − x) (built from
 `legplan.solve.inequality.hinge`); its Jacobian rows are scaled by the penalty's slope, which
-keeps inactive rows in the pattern with zero values.
+keeps inactive rows in the pattern with zero values. The penalty is applied once to the stacked
+values of all terms (unbounded rows have bounds ∓∞ and pass through unchanged), and a term that
+appears in several entries (clearance: obstacle and inflation bounds) is evaluated once.
 
 The pattern of the stacked Jacobian J (rows R, cols C) is fixed for a given band size and term
 set, so the constructor precomputes every pair (p, q) of Jacobian entries sharing a row and the
@@ -19,7 +21,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from legplan.nav.teb.residuals import BAND, Term, split_vector
+from legplan.nav.teb.residuals import BAND, BandState, Term
 from legplan.solve import NormalTerms, StructuredBlock
 from legplan.solve.inequality import hinge
 
@@ -37,14 +39,6 @@ class Weighted:
     @property
     def bounded(self) -> bool:
         return self.lower is not None
-
-    def penalty(self, x: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Interval penalty of x and its slope (identity when the term has no bounds)."""
-        if not self.bounded:
-            return x, np.ones_like(x)
-        above, s_above = hinge(x - (self.upper - self.epsilon))
-        below, s_below = hinge((self.lower + self.epsilon) - x)
-        return above + below, s_above - s_below
 
 
 def weighted(term: Term, weight, lower=None, upper=None, epsilon: float = 0.0) -> Weighted:
@@ -72,7 +66,18 @@ class TebObjective(StructuredBlock):
         self.rows = np.concatenate([e.term.rows + o for e, o in zip(self.entries, offsets)]) if self.entries \
             else np.zeros(0, np.int64)
         self.cols = np.concatenate([e.term.cols for e in self.entries]) if self.entries else np.zeros(0, np.int64)
+        self._stack_bounds()
         self._pairs()
+
+    def _stack_bounds(self) -> None:
+        """Row weights, penalty thresholds (lower + ε, upper − ε; ∓∞ for unbounded rows) and the
+        unbounded-row indicator, stacked over all entries."""
+        def stacked(part):
+            return np.concatenate([part(e) for e in self.entries]) if self.entries else np.zeros(0)
+        self._weight = stacked(lambda e: e.weight)
+        self._low = stacked(lambda e: e.lower + e.epsilon if e.bounded else np.full(e.term.size, -np.inf))
+        self._high = stacked(lambda e: e.upper - e.epsilon if e.bounded else np.full(e.term.size, np.inf))
+        self._free = stacked(lambda e: np.full(e.term.size, float(not e.bounded)))
 
     def _pairs(self) -> None:
         """Entry pairs (p, q) sharing a Jacobian row and the JᵀJ slot of each (see module docstring)."""
@@ -90,20 +95,21 @@ class TebObjective(StructuredBlock):
         self._h_rows, self._h_cols = unique // self.columns, unique % self.columns
 
     def _linearize(self, z: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        poses, dt = split_vector(np.asarray(z, float), self.n)
+        state = BandState(z, self.n, jacobian)
         cache: dict[int, tuple] = {}
-        residuals, values = [], []
         for e in self.entries:
-            key = id(e.term)
-            if key not in cache:
-                cache[key] = e.term.linearize(poses, dt, jacobian)
-            x, vals = cache[key]
-            r, slope = e.penalty(x)
-            residuals.append(e.weight * r)
-            if jacobian:
-                values.append((e.weight * slope)[e.term.rows] * vals)
-        h = np.concatenate(residuals) if residuals else np.zeros(0)
-        return h, ((np.concatenate(values) if values else np.zeros(0)) if jacobian else None)
+            if id(e.term) not in cache:
+                cache[id(e.term)] = e.term.linearize(state)
+        parts = [cache[id(e.term)] for e in self.entries]
+        x = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0)
+        above, s_above = hinge(x - self._high)
+        below, s_below = hinge(self._low - x)
+        h = self._weight * (above + below + self._free * x)
+        if not jacobian:
+            return h, None
+        row_scale = self._weight * (s_above - s_below + self._free)
+        vals = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0)
+        return h, row_scale[self.rows] * vals
 
     def evaluate(self, values, jacobians):
         h, vals = self._linearize(values[0], jacobians)

@@ -1,7 +1,7 @@
 """Residual terms of the TEB objective R(B) = Σ_k γ_k R_k(B) of eq. (24), with fixed-pattern Jacobians.
 
 Every term reads the band vector z = [x_0, y_0, θ_0, x_1, …, θ_{n−1}, ΔT_0, …, ΔT_{n−2}]
-(`band_vector`) and returns its values with the *values* of its Jacobian on a COO pattern
+(`band_vector`, seen through a `BandState`) and returns its values with the *values* of its Jacobian on a COO pattern
 (`rows`, `cols`) that is computed once per band size in the constructor; an iteration refreshes
 only numpy value arrays (no scipy.sparse objects). Terms that express limits return the limited
 quantity itself; `TebObjective` (objective.py) turns it into the TEB interval penalty.
@@ -23,6 +23,7 @@ the sparse Jacobian from the pattern), so `check_jacobian` tests it directly.
 from __future__ import annotations
 
 from abc import abstractmethod
+from functools import cached_property
 
 import numpy as np
 import scipy.sparse as sp
@@ -61,9 +62,22 @@ def flat(*values) -> np.ndarray:
     return np.concatenate([np.asarray(v, float).ravel() for v in values])
 
 
+class BandState:
+    """One evaluation point of the band: poses (n, 3), intervals dt (n − 1,), whether Jacobians are
+    wanted, and the interval velocities of eqs. (21)–(23) computed once for all terms that use them."""
+
+    def __init__(self, z: np.ndarray, n: int, jacobian: bool):
+        self.poses, self.dt = split_vector(np.asarray(z, float), n)
+        self.jacobian = jacobian
+
+    @cached_property
+    def velocities(self):
+        return interval_velocities(self.poses, self.dt, self.jacobian)
+
+
 class Term(ResidualBlock):
-    """A TEB term over z: `linearize(poses, dt, jacobian)` -> (values (size,), Jacobian values on
-    (`rows`, `cols`) or None)."""
+    """A TEB term over z: `linearize(state)` -> (values (size,), Jacobian values on (`rows`, `cols`)
+    when `state.jacobian`, else None)."""
 
     variables = (BAND,)
 
@@ -74,12 +88,11 @@ class Term(ResidualBlock):
         self.rows, self.cols = rows, cols
 
     @abstractmethod
-    def linearize(self, poses: np.ndarray, dt: np.ndarray, jacobian: bool) -> tuple[np.ndarray, np.ndarray | None]:
-        """Values and (if `jacobian`) Jacobian values on the fixed pattern."""
+    def linearize(self, state: BandState) -> tuple[np.ndarray, np.ndarray | None]:
+        """Values and (if `state.jacobian`) Jacobian values on the fixed pattern."""
 
     def evaluate(self, values, jacobians):
-        poses, dt = split_vector(np.asarray(values[0], float), self.n)
-        x, vals = self.linearize(poses, dt, jacobians)
+        x, vals = self.linearize(BandState(values[0], self.n, jacobians))
         if not jacobians:
             return x, None
         return x, [sp.coo_matrix((vals, (self.rows, self.cols)), shape=(self.size, self.columns))]
@@ -93,9 +106,9 @@ class VelocityTerm(Term):
         r, i = 3 * np.arange(m), np.arange(m)
         super().__init__(n, 3 * m, *pattern([(r, 3 * i, (3, 3)), (r, 3 * i + 3, (3, 3)), (r, 3 * n + i, (3, 1))]))
 
-    def linearize(self, poses, dt, jacobian):
-        v, jv = interval_velocities(poses, dt, jacobian)
-        return v.ravel(), (flat(jv.d_start, jv.d_end, jv.d_dt) if jacobian else None)
+    def linearize(self, state):
+        v, jv = state.velocities
+        return v.ravel(), (flat(jv.d_start, jv.d_end, jv.d_dt) if state.jacobian else None)
 
 
 class AccelerationTerm(Term):
@@ -120,9 +133,10 @@ class AccelerationTerm(Term):
         rows, cols = pattern(pieces) if pieces else (np.zeros(0, np.int64), np.zeros(0, np.int64))
         super().__init__(n, row, rows, cols)
 
-    def linearize(self, poses, dt, jacobian):
+    def linearize(self, state):
+        poses, dt, jacobian = state.poses, state.dt, state.jacobian
         parts, vals = [], []
-        v, jv = velocities = interval_velocities(poses, dt, jacobian)
+        v, jv = velocities = state.velocities
         if self.inner:
             a, ja = interval_accelerations(poses, dt, velocities, jacobian)
             parts.append(a.ravel())
@@ -145,8 +159,8 @@ class TimeTerm(Term):
         super().__init__(n, n - 1, np.arange(n - 1), 3 * n + np.arange(n - 1))
         self._ones = np.ones(n - 1)
 
-    def linearize(self, poses, dt, jacobian):
-        return dt.copy(), (self._ones if jacobian else None)
+    def linearize(self, state):
+        return state.dt.copy(), (self._ones if state.jacobian else None)
 
 
 class PathTerm(Term):
@@ -182,11 +196,11 @@ class PathTerm(Term):
         direction = ab[rows, best] / np.sqrt(length2[rows, best])[:, None]
         return c, direction, (tb > 0.0) & (tb < 1.0)
 
-    def linearize(self, poses, dt, jacobian):
-        p = poses[:, :2]
+    def linearize(self, state):
+        p = state.poses[:, :2]
         c, direction, interior = self.nearest(p)
         r = (p - c).ravel()
-        if not jacobian:
+        if not state.jacobian:
             return r, None
         return r, (np.eye(2)[None] - interior[:, None, None] * direction[:, :, None] * direction[:, None, :]).ravel()
 
@@ -199,9 +213,9 @@ class ClearanceTerm(Term):
         i = np.arange(n)
         super().__init__(n, n, *pattern([(i, 3 * i, (1, 2))]))
 
-    def linearize(self, poses, dt, jacobian):
-        value, gradient = self.field.value_and_gradient(poses[:, :2])
-        return value, (gradient.ravel() if jacobian else None)
+    def linearize(self, state):
+        value, gradient = self.field.value_and_gradient(state.poses[:, :2])
+        return value, (gradient.ravel() if state.jacobian else None)
 
 
 class ViaPointTerm(Term):
@@ -220,9 +234,10 @@ class ViaPointTerm(Term):
                                                        (2 * k + np.arange(len(hi)), 3 * hi + 2, (1, 1))]))
         self._values = flat(np.broadcast_to(np.eye(2), (k, 2, 2)), np.ones(len(hi)))
 
-    def linearize(self, poses, dt, jacobian):
+    def linearize(self, state):
+        poses = state.poses
         r = np.concatenate([(poses[self.index, :2] - self.points).ravel(), wrap_angle(poses[self._hi, 2] - self.heading)])
-        return r, (self._values if jacobian else None)
+        return r, (self._values if state.jacobian else None)
 
 
 class YawChangeTerm(Term):
@@ -233,8 +248,8 @@ class YawChangeTerm(Term):
         super().__init__(n, n - 1, *pattern([(i, 3 * i + 2, (1, 4))]))
         self._values = np.tile([-1.0, 0.0, 0.0, 1.0], n - 1)
 
-    def linearize(self, poses, dt, jacobian):
-        return wrap_angle(np.diff(poses[:, 2])), (self._values if jacobian else None)
+    def linearize(self, state):
+        return wrap_angle(np.diff(state.poses[:, 2])), (self._values if state.jacobian else None)
 
 
 class NonholonomicTerm(Term):
@@ -245,12 +260,13 @@ class NonholonomicTerm(Term):
         i = np.arange(n - 1)
         super().__init__(n, n - 1, *pattern([(i, 3 * i, (1, 6))]))
 
-    def linearize(self, poses, dt, jacobian):
+    def linearize(self, state):
+        poses = state.poses
         delta = poses[1:, :2] - poses[:-1, :2]
         c, s = np.cos(poses[:, 2]), np.sin(poses[:, 2])
         cs, ss = c[:-1] + c[1:], s[:-1] + s[1:]
         r = cs * delta[:, 1] - ss * delta[:, 0]
-        if not jacobian:
+        if not state.jacobian:
             return r, None
         d_theta0 = -s[:-1] * delta[:, 1] - c[:-1] * delta[:, 0]
         d_theta1 = -s[1:] * delta[:, 1] - c[1:] * delta[:, 0]
