@@ -42,7 +42,7 @@ def nav_cmd(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path
     """Plan MAP's navigation queries with an OMPL planner; write nav.h5 (query i uses seed SEED + i)."""
     from legplan.artefacts import check_output
     from legplan.baselines.nav import NavBaselineParams, plan_queries, write_nav_baseline
-    from legplan.cli.console import progress_bar, status, stderr
+    from legplan.cli.console import progress_bar, status, stderr_line
     from legplan.nav import NavGrid, NavParams
 
     check_output(output, overwrite)
@@ -65,7 +65,7 @@ def nav_cmd(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path
                    f"T={row['duration']:.2f} s, J={row['effort']:.3f}, length {row['path_length']:.2f} m, "
                    f"clearance {row['min_clearance']:.2f} m")
         else:
-            stderr.print(f"  {index:04d}: failed: {row['reason']}", highlight=False)
+            stderr_line(f"  {index:04d}: failed: {row['reason']}")
     if failed:
         ctx.exit(EXIT_ITEMS_FAILED)
 
@@ -90,7 +90,7 @@ def step_cmd(ctx, map_path, steps_path, step_range, time_budget, space, seed, ou
     independent validator); exit 1 if any step failed."""
     from legplan.artefacts import check_output, open_artefact
     from legplan.baselines.step import StepBaselineParams, plan_sequence_baseline
-    from legplan.cli.console import progress_bar, status, stderr
+    from legplan.cli.console import progress_bar, status, stderr_line
     from legplan.cli.step_cmd import _parse_range
     from legplan.errors import LegplanError
     from legplan.stepplan.batch import write_motion
@@ -113,6 +113,6 @@ def step_cmd(ctx, map_path, steps_path, step_range, time_budget, space, seed, ou
            f"worst dense stance-foot slip {summary['worst_violation'][0] * 1e3:.3f} mm; "
            f"median {summary['median_time'][0]:.2f} s -> {output}")
     for r in failed:
-        stderr.print(f"  step {r['index']}: {r['reason']}", highlight=False)
+        stderr_line(f"  step {r['index']}: {r['reason']}")
     if failed:
         ctx.exit(EXIT_ITEMS_FAILED)

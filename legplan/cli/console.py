@@ -12,6 +12,7 @@ from contextlib import contextmanager
 from rich.console import Console
 from rich.logging import RichHandler
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.text import Text
 
 stderr = Console(stderr=True)
 _state = {"verbosity": 0}
@@ -61,3 +62,12 @@ def status(message: str) -> None:
     """A one-line outcome of a producing command ("wrote map.h5: ..."): stderr, silenced by -q."""
     if verbosity() >= 0:
         stderr.print(message, highlight=False, markup=False, soft_wrap=True)
+
+
+def stderr_line(message: str, label: str = "", style: str = "bold red") -> None:
+    """One line on stderr that is never wrapped (so it greps as one line) and never parsed as
+    markup (paths and reasons may hold brackets): an optional styled `label`, then `message`.
+    For errors, warnings, failed items and pipeline stage lines; shown even with -q."""
+    line = Text(f"{label} ", style=style) if label else Text()
+    line.append(message)
+    stderr.print(line, highlight=False, soft_wrap=True)

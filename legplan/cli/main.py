@@ -14,7 +14,7 @@ import traceback
 import click
 
 from legplan import __version__
-from legplan.cli.console import set_verbosity, stderr, verbosity
+from legplan.cli.console import set_verbosity, stderr_line, verbosity
 from legplan.cli.options import verbosity_opts
 from legplan.errors import LegplanError
 
@@ -39,8 +39,7 @@ class LegplanGroup(click.Group):
         except (LegplanError, OSError) as exc:
             if verbosity() > 0:
                 traceback.print_exc(file=sys.stderr)
-            stderr.print(f"[bold red]Error:[/] {exc}", markup=True, highlight=False,
-                         soft_wrap=True)
+            stderr_line(str(exc), "Error:")
             ctx.exit(EXIT_BAD_INPUT)
 
 

@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import click
 
-from legplan.cli.console import progress_bar, status, stderr
+from legplan.cli.console import progress_bar, status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
 from legplan.cli.nav_options import query_opts, resolve_queries, robot_navigation
 from legplan.cli.options import input_artefact, output_opt, overwrite_opt, param_opt, verbosity_opts
@@ -71,7 +71,7 @@ def search(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path,
                    f"length {row['path_length']:.2f} m, clearance {row['min_clearance']:.2f} m, "
                    f"{row['expansions']} expansions in {row['planning_time']:.3f} s")
     for index, row in failed:
-        stderr.print(f"  {index:04d}: failed: {row['reason']}", highlight=False, markup=False)
+        stderr_line(f"  {index:04d}: failed: {row['reason']}")
     if failed:
         ctx.exit(EXIT_ITEMS_FAILED)
 

@@ -37,7 +37,7 @@ def run_cmd(ctx, pipeline_file, out_dir, force, dry_run, jobs):
     A stage is skipped when its output's recorded provenance (command, params, input sha256)
     matches what would run now; timestamps are never used.
     """
-    from legplan.cli.console import progress_bar, stderr
+    from legplan.cli.console import progress_bar, stderr_line
     from legplan.pipeline import load_pipeline, plan_run, run_pipeline
 
     pipeline = load_pipeline(pipeline_file)
@@ -50,15 +50,14 @@ def run_cmd(ctx, pipeline_file, out_dir, force, dry_run, jobs):
         return
 
     def show(result):
-        stderr.print(f"[{_STYLE[result.status]}]{result.status:>12}[/] {result.name}: {result.reason}"
-                     + (f" ({result.seconds:.1f} s)" if result.returncode is not None else ""),
-                     markup=True, highlight=False, soft_wrap=True)
+        stderr_line(f"{result.name}: {result.reason}"
+                + (f" ({result.seconds:.1f} s)" if result.returncode is not None else ""),
+                f"{result.status:>12}", _STYLE[result.status])
 
     with progress_bar(f"pipeline {pipeline.name}") as progress:
         result = run_pipeline(pipeline, out, force=force, jobs=jobs, progress=progress, on_result=show)
     for failed in result.failed:
-        stderr.print(f"[bold red]stage '{failed.name}' failed:[/] {failed.reason} (log: {failed.log})",
-                     markup=True, highlight=False, soft_wrap=True)
+        stderr_line(f"{failed.reason} (log: {failed.log})", f"stage '{failed.name}' failed:")
     if not result.ok:
         ctx.exit(1)
 

@@ -17,7 +17,7 @@ from legplan.cli.options import input_artefact, overwrite_opt, verbosity_opts
 @click.pass_context
 def command(ctx, artefacts, output, title, overwrite):
     """Write an HTML report of ARTEFACTS into a directory (exit 1 if some figure failed)."""
-    from legplan.cli.console import progress_bar, status, stderr
+    from legplan.cli.console import progress_bar, status, stderr_line
     from legplan.report import write_report
     from legplan.report.writer import check_report_dir
 
@@ -28,6 +28,6 @@ def command(ctx, artefacts, output, title, overwrite):
     status(f"{len(result.sections)} artefacts, {figures} figures -> {result.directory}/index.html")
     for section in result.sections:
         for failure in section.failures:
-            stderr.print(f"  {section.path}: figure {failure.name} failed: {failure.message}", highlight=False)
+            stderr_line(f"  {section.path}: figure {failure.name} failed: {failure.message}")
     if result.failures:
         ctx.exit(1)

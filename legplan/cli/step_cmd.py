@@ -52,7 +52,7 @@ def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, step_range, par
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, "1")  # before numpy loads: BLAS threads only contend with --jobs
     from legplan.artefacts import check_output, open_artefact
-    from legplan.cli.console import progress_bar, status, stderr
+    from legplan.cli.console import progress_bar, status, stderr_line
     from legplan.stepplan.batch import plan_sequence, write_motion
     from legplan.stepplan.params import StepPlanParams
     from legplan.stepseq.sequence import read_steps
@@ -73,7 +73,7 @@ def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, step_range, par
            f"worst dense stance-foot slip {summary['worst_violation'][0] * 1e3:.3f} mm; "
            f"median {summary['median_time'][0]:.2f} s, mean {summary['mean_time'][0]:.2f} s -> {output}")
     for r in failed:
-        stderr.print(f"  step {r['index']}: {r['reason']}", highlight=False)
+        stderr_line(f"  step {r['index']}: {r['reason']}")
     if failed:
         ctx.exit(1)
 

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import click
 
-from legplan.cli.console import progress_bar, status, stderr
+from legplan.cli.console import progress_bar, status, stderr_line
 from legplan.cli.options import input_artefact, output_opt, overwrite_opt, seed_opt, verbosity_opts
 
 
@@ -48,10 +48,10 @@ def import_cmd(path, robot_name, map_path, strict, foot_tolerance, output, overw
     errors = result.errors(strict)
     for issue in result.issues:
         if issue not in errors:
-            stderr.print(f"[yellow]Warning:[/] {path}: {issue}", highlight=False)
+            stderr_line(f"{path}: {issue}", "Warning:", "yellow")
     if errors:
         for issue in errors[:-1]:
-            stderr.print(f"[bold red]Error:[/] {path}: {issue}", highlight=False)
+            stderr_line(f"{path}: {issue}", "Error:")
         more = f" ({len(errors)} errors in {len({i.row for i in errors})} rows)" if len(errors) > 1 else ""
         raise SpecError(f"{path}: {errors[-1]}{more}; nothing written")
     write_steps(output, result.sequence, result.checks,
@@ -84,7 +84,7 @@ def generate_cmd(ctx, map_path, robot_name, start, goal, max_moves, output, over
             seq, generated, checks = generate_steps(robot, terrain, start, goal, params=params, seed=seed,
                                                     validator=validator, progress=progress)
     except GenerationError as exc:
-        stderr.print(f"[bold red]Generation failed:[/] {exc}; nothing written", highlight=False)
+        stderr_line(f"{exc}; nothing written", "Generation failed:")
         ctx.exit(1)
 
     def extra(f):
@@ -98,7 +98,7 @@ def generate_cmd(ctx, map_path, robot_name, start, goal, max_moves, output, over
                 seed=seed, inputs=[map_path], overwrite=overwrite, extra=extra)
     status(f"wrote {output}: {len(seq)} configurations, {len(generated.moves)} leg moves")
     if not generated.success:
-        stderr.print(f"[bold red]Generation stopped:[/] {generated.reason}", highlight=False)
+        stderr_line(generated.reason, "Generation stopped:")
         ctx.exit(1)
 
 

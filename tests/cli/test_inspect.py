@@ -55,3 +55,11 @@ def test_bad_inputs_exit_2_with_one_line(tmp_path):
 def test_usage_error_exits_2():
     assert run("inspect").exit_code == 2
     assert run("no-such-command").exit_code == 2
+
+
+def test_error_line_is_never_wrapped_nor_read_as_markup(tmp_path):
+    path = tmp_path / ("[bold]" + "x" * 150 + ".h5")
+    result = run("inspect", path)
+    assert result.exit_code == 2
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert len(lines) == 1 and str(path) in lines[0]
