@@ -27,7 +27,16 @@ class CooAssembler:
     def _analyze(self, rows: np.ndarray, cols: np.ndarray) -> None:
         nrows, ncols = self.shape
         key = cols.astype(np.int64) * nrows + rows
-        unique, self._slot = np.unique(key, return_inverse=True)
+        # np.unique with a stable sort: triplets from cached patterns arrive as a few sorted runs,
+        # which a stable (merging) sort handles in about linear time.
+        order = np.argsort(key, kind="stable")
+        ordered = key[order]
+        first = np.empty(ordered.size, bool)
+        first[:1] = True
+        np.not_equal(ordered[1:], ordered[:-1], out=first[1:])
+        unique = ordered[first]
+        self._slot = np.empty(key.size, np.intp)
+        self._slot[order] = np.cumsum(first) - 1
         self._indices = (unique % nrows).astype(np.int32)
         self._indptr = np.zeros(ncols + 1, dtype=np.int32)
         np.cumsum(np.bincount(unique // nrows, minlength=ncols), out=self._indptr[1:])
@@ -41,11 +50,15 @@ class CooAssembler:
         data = np.bincount(self._slot, weights=values, minlength=self._indices.size)
         return sp.csc_matrix((data, self._indices, self._indptr), shape=self.shape)
 
-    def assemble_parts(self, rows: list[np.ndarray], cols: list[np.ndarray], values: list[np.ndarray]
+    def assemble_parts(self, rows: list[np.ndarray], cols: list[np.ndarray], values: list[np.ndarray | None]
                        ) -> sp.csc_matrix:
-        """`assemble` of triplets given in pieces. When every index piece is the same array object as
-        in the previous call (cached index arrays, never modified), the indices are neither
-        concatenated nor compared again; only the values are summed into their slots."""
+        """`assemble` of triplets given in pieces; a `None` values piece is structural (zeros).
+
+        When every index piece is the same array object as in the previous call (cached index
+        arrays, never modified), the indices are neither concatenated nor compared again; only the
+        values are summed into their slots. A piece whose slots are consecutive (e.g. a product
+        already in CSC order) is added as a slice, the others by one `np.bincount`.
+        """
         pieces = self._pieces
         if not (pieces is not None and len(pieces[0]) == len(rows) and len(pieces[1]) == len(cols)
                 and all(a is b for a, b in zip(pieces[0], rows)) and all(a is b for a, b in zip(pieces[1], cols))):
@@ -55,6 +68,30 @@ class CooAssembler:
                     and np.array_equal(self._rows, index[0]) and np.array_equal(self._cols, index[1])):
                 self._analyze(*index)
             self._pieces = (list(rows), list(cols))  # holding them keeps the identity test sound
-        vals = np.concatenate(values) if values else np.zeros(0)
-        data = np.bincount(self._slot, weights=vals, minlength=self._indices.size)
+            self._plan = self._piece_plan([r.size for r in rows])
+        ranges, scattered, scattered_slots = self._plan
+        parts = [values[k] for k in scattered if values[k] is not None]
+        if parts:
+            slots = scattered_slots if len(parts) == len(scattered) else np.concatenate(
+                [self._piece_slots[k] for k in scattered if values[k] is not None])
+            data = np.bincount(slots, weights=np.concatenate(parts), minlength=self._indices.size)
+        else:
+            data = np.zeros(self._indices.size)
+        for k, start, stop in ranges:
+            if values[k] is not None:
+                data[start:stop] += values[k]
         return sp.csc_matrix((data, self._indices, self._indptr), shape=self.shape)
+
+    def _piece_plan(self, sizes: list[int]):
+        """Per piece: a slice of the CSC data if its slots are consecutive, else bincount slots."""
+        bounds = np.concatenate([[0], np.cumsum(sizes, dtype=np.int64)])
+        self._piece_slots = [self._slot[bounds[k]:bounds[k + 1]] for k in range(len(sizes))]
+        ranges, scattered = [], []
+        for k, slots in enumerate(self._piece_slots):
+            if slots.size and slots[-1] - slots[0] == slots.size - 1 and np.all(np.diff(slots) == 1):
+                ranges.append((k, int(slots[0]), int(slots[-1]) + 1))
+            else:
+                scattered.append(k)
+        scattered_slots = (np.concatenate([self._piece_slots[k] for k in scattered]) if scattered
+                           else np.zeros(0, np.intp))
+        return ranges, scattered, scattered_slots

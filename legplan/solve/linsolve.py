@@ -12,7 +12,10 @@ step (same H, larger λ) repeats only the λ-dependent work.
   numeric refactorisation `Factor.cholesky_inplace(H, beta=λ)`. Simplicial mode computes LDLᵀ and
   does not complain about indefinite matrices, so the sign of D is checked here. Simplicial wins on
   the step-planner-shaped matrices measured in bench/solve_lm.py; supernodal wins on matrices with
-  large dense fronts (3D meshes). Only the lower triangle of H is read.
+  large dense fronts (3D meshes). Only the lower triangle of H is read. The default ordering
+  ``"auto"`` keeps the natural order when its fill is provably within `NATURAL_FILL_SLACK` of the
+  least any order can give (banded or nearly dense H: no reordering can help, and AMD's analysis
+  of a 100k-unknown band costs more than a numeric factorisation), else CHOLMOD's default.
 * ``scipy``: SuperLU (`scipy.sparse.linalg.splu`) in symmetric mode on H + βI. The fallback when
   scikit-sparse is missing; refactors from scratch every time.
 * ``dense``: LAPACK Cholesky (`scipy.linalg.cho_factor`). Wins below roughly a thousand unknowns,
@@ -41,6 +44,7 @@ _fallback_warned = False
 log = logging.getLogger(__name__)
 
 SOLVER_NAMES = ("cholmod", "scipy", "dense")
+NATURAL_FILL_SLACK = 1.25  # "auto" ordering: natural when its fill bound ≤ this × the least fill possible
 
 
 class NotPositiveDefiniteError(ArithmeticError):
@@ -75,7 +79,7 @@ class CholmodSolver(LinearSolver):
 
     name = "cholmod"
 
-    def __init__(self, mode: str = "simplicial", ordering_method: str = "default"):
+    def __init__(self, mode: str = "simplicial", ordering_method: str = "auto"):
         if cholmod is None:
             raise ImportError("scikit-sparse is not importable") from _CHOLMOD_IMPORT_ERROR
         self.mode = mode
@@ -88,7 +92,10 @@ class CholmodSolver(LinearSolver):
         H = sp.csc_matrix(H)
         if self._pattern is None or not (np.array_equal(self._pattern[0], H.indptr)
                                          and np.array_equal(self._pattern[1], H.indices)):
-            self._factor = cholmod.analyze(H, mode=self.mode, ordering_method=self.ordering_method)
+            ordering = self.ordering_method
+            if ordering == "auto":
+                ordering = "natural" if natural_order_suffices(H) else "default"
+            self._factor = cholmod.analyze(H, mode=self.mode, ordering_method=ordering)
             self._pattern = (H.indptr.copy(), H.indices.copy())
             self.analyses += 1
         self._matrix = H
@@ -105,6 +112,26 @@ class CholmodSolver(LinearSolver):
 
     def solve(self, rhs):
         return self._factor.solve_A(rhs)
+
+
+def natural_order_suffices(H: sp.csc_matrix) -> bool:
+    """Whether Cholesky of the structurally symmetric H in its natural order has at most
+    `NATURAL_FILL_SLACK` times the fill of the best order.
+
+    In the natural order row i of L lies within the envelope, columns f_i..i with f_i the first
+    nonzero column of row i of H, so nnz(L) ≤ Σ_i (i − f_i + 1); in any order nnz(L) ≥ n + (the
+    strictly lower entries of H) ≥ (nnz(H) + n)/2. f_i is the first row of column i (symmetry).
+    A one-triangle H (no entry above the diagonal) is not judged: False.
+    """
+    n = H.shape[0]
+    H = H if H.has_sorted_indices else H.sorted_indices()
+    index = np.arange(n)
+    first = index.copy()
+    nonempty = np.diff(H.indptr) > 0
+    first[nonempty] = np.minimum(H.indices[H.indptr[:-1][nonempty]], index[nonempty])
+    if H.nnz > n and np.array_equal(first, index):  # off-diagonal entries, none above the diagonal
+        return False
+    return float(np.sum(index - first)) + n <= NATURAL_FILL_SLACK * (H.nnz + n) / 2
 
 
 class ScipySolver(LinearSolver):

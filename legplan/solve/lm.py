@@ -11,6 +11,8 @@ negative of that, which is what is computed here.
 A trial point is evaluated without Jacobians and, by default (`early_reject`), only until its
 partial ‖h‖ reaches the current ‖h‖ (`Problem.trial_norm`): the decision of line 5, and so every
 iterate, is the same as with the full residual, but most rejected points cost a fraction of it.
+An accepted point is linearised (Jacobians, eq. (13)) only if another iteration follows: not after
+the step that meets ε_num, nor at MaxIt; the norm reported then is that of the accepted trial point.
 
 Options beyond the paper: Marquardt scaling (λ·diag(JᵀJ) instead of λI, applied as a column
 scaling so CHOLMOD's beta = λ refactorisation still applies), projection onto box bounds, and
@@ -141,7 +143,8 @@ def solve_lm(problem: Problem, params: LMParams = LMParams(), theta0: np.ndarray
     linearization = None
     norm = initial = np.inf
     for it in range(params.max_iterations + 1):
-        if linearization is None:
+        # no linearisation where the loop stops anyway (see the module docstring)
+        if linearization is None and (it == 0 or (norm >= params.tolerance and it < params.max_iterations)):
             linearization = problem.normal_equations(theta, params.assembly)
             timings.evaluate += linearization.evaluate_seconds
             timings.assemble += linearization.assemble_seconds

@@ -170,6 +170,8 @@ class Problem:
     def _mapped(r, c, rowmap, colmap):
         rows, cols = rowmap[r], colmap[c]
         keep = (rows >= 0) & (cols >= 0)
+        if keep.all():  # no fixed entry: a slice takes the values without copying them
+            return rows, cols, slice(None)
         return rows[keep], cols[keep], np.flatnonzero(keep)
 
     def _weighted_linearization(self, values, index):
@@ -189,30 +191,40 @@ class Problem:
         return w * r, scaled
 
     def _structural_product(self, key: tuple, a: Matrix, b: Matrix) -> Matrix:
-        """aᵀb; for sparse a, b as COO on the structural pattern of |a|ᵀ|b|, cached per pattern of a, b."""
+        """aᵀb; for sparse a, b as COO on the structural pattern of |a|ᵀ|b| in column-major order.
+
+        scipy computes bᵀa (CSR, i.e. aᵀb in CSC) with its entries in an order that depends on the
+        input patterns only, dropping entries that cancel to exact zero. Cached per pattern of a, b:
+        the sorted pattern (from the product of the patterns, its entry numbers sorted along) and
+        the slot of every entry of that order, so a refresh is one product and one scatter. A
+        product with cancelled entries is placed by a search instead.
+        """
         if not (sp.issparse(a) and sp.issparse(b)):
             return a.T @ b
-        a, b = sp.csc_matrix(a), sp.csc_matrix(b)
-        signature = (a.indptr, a.indices, b.indptr, b.indices)
+        bt, a = sp.csc_matrix(b).T, sp.csr_matrix(a)  # CSR bᵀ and CSR a: one conversion at most
+        signature = (bt.indptr, bt.indices, a.indptr, a.indices)
         cached = self._index_cache.get(key)
         if cached is None or not all(np.array_equal(x, y) for x, y in zip(cached[0], signature)):
-            ones = lambda m: sp.csc_matrix((np.ones(m.nnz), m.indices, m.indptr), shape=m.shape)
-            struct = sp.csr_matrix(ones(a).T @ ones(b))
-            struct.sort_indices()
-            rows = np.repeat(np.arange(struct.shape[0]), np.diff(struct.indptr))
-            keys = rows.astype(np.int64) * b.shape[1] + struct.indices  # increasing: CSR with sorted indices
-            cached = self._index_cache[key] = (tuple(x.copy() for x in signature), rows, struct.indices.copy(),
-                                               struct.indptr.copy(), keys)
-        _, rows, cols, indptr, keys = cached
-        prod = sp.csr_matrix(a.T @ b)
-        prod.sort_indices()
-        if prod.nnz == cols.size and np.array_equal(prod.indptr, indptr) and np.array_equal(prod.indices, cols):
-            data = prod.data  # no entry cancelled to an exact zero: same pattern, same order
-        else:
-            prow = np.repeat(np.arange(prod.shape[0]), np.diff(prod.indptr))
-            data = np.zeros(rows.size)
-            data[np.searchsorted(keys, prow.astype(np.int64) * b.shape[1] + prod.indices)] = prod.data
-        return sp.coo_matrix((data, (rows, cols)), shape=(a.shape[1], b.shape[1]))
+            ones = lambda m: sp.csr_matrix((np.ones(m.nnz), m.indices, m.indptr), shape=m.shape)
+            struct = ones(bt) @ ones(a)  # bᵀa in scipy's entry order
+            order = (struct.indptr.copy(), struct.indices.copy())
+            struct.data = np.arange(struct.nnz, dtype=float)
+            struct.sort_indices()  # column-major aᵀb; data: where each entry was
+            slots = np.empty(struct.nnz, np.intp)
+            slots[struct.data.astype(np.intp)] = np.arange(struct.nnz)
+            cols = np.repeat(np.arange(struct.shape[0]), np.diff(struct.indptr))
+            template = sp.coo_matrix((np.zeros(struct.nnz), (struct.indices, cols)), shape=struct.shape[::-1])
+            cached = self._index_cache[key] = [tuple(x.copy() for x in signature), template, (*order, slots)]
+        _, template, (indptr, indices, slots) = cached
+        prod = bt @ a
+        if not (np.array_equal(indptr, prod.indptr) and np.array_equal(indices, prod.indices)):
+            keys = template.col.astype(np.int64) * template.shape[0] + template.row  # increasing
+            pcols = np.repeat(np.arange(prod.shape[0], dtype=np.int64), np.diff(prod.indptr))
+            slots = np.searchsorted(keys, pcols * template.shape[0] + prod.indices)
+            cached[2] = (prod.indptr.copy(), prod.indices.copy(), slots)
+        data = np.empty(template.nnz) if prod.nnz == template.nnz else np.zeros(template.nnz)
+        data[slots] = prod.data
+        return sp.coo_matrix((data, (template.row, template.col)), shape=template.shape)
 
     def jacobian(self, theta: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix]:
         """h(θ) and the stacked weighted Jacobian J (CSC, pattern cached across calls)."""
@@ -241,7 +253,7 @@ class Problem:
             h, J = self.jacobian(theta)
             t1 = time.perf_counter()
             product = self._structural_product(("JtJ",), J, J)
-            rows, cols, vals = [product.row, diag], [product.col, diag], [product.data, np.zeros(n)]
+            rows, cols, vals = [product.row, diag], [product.col, diag], [product.data, None]
             return self._finish(h, rows, cols, vals, J.T @ h, t1 - t0, t1)
         t0 = time.perf_counter()
         values = layout.values(theta)
@@ -259,7 +271,7 @@ class Problem:
             terms.append(nt)
         t1 = time.perf_counter()
         g = np.zeros(n)
-        rows, cols, vals = [diag], [diag], [np.zeros(n)]
+        rows, cols, vals = [diag], [diag], [None]  # structural diagonal
         for k, ((block, _), nt) in enumerate(zip(self._blocks, terms)):
             maps = [layout.columns[name] for name in block.variables]
             for i, gi in enumerate(nt.gradient):

@@ -5,6 +5,7 @@ import pytest
 import scipy.sparse as sp
 
 from legplan.solve import (CholmodSolver, NotPositiveDefiniteError, SchurSolver, make_solver)
+from legplan.solve.linsolve import natural_order_suffices
 from legplan.solve import testproblems as tp
 
 
@@ -141,3 +142,32 @@ def test_schur_refactor_raises_on_indefinite_eliminated_block():
     schur.refactor(2.0)  # −1 + 2 > 0: positive definite again
     np.testing.assert_allclose(schur.solve(np.ones(4)), np.linalg.solve(H.toarray() + 2 * np.eye(4), np.ones(4)),
                                rtol=1e-12)
+
+
+def test_natural_order_only_where_it_is_provably_near_optimal():
+    n = 200
+    band = sp.diags([np.ones(n - 2), np.ones(n - 1), 4 * np.ones(n), np.ones(n - 1), np.ones(n - 2)],
+                    [-2, -1, 0, 1, 2], format="csc")
+    arrow = sp.lil_matrix((n, n))
+    arrow.setdiag(2.0 * n)
+    arrow[0, :] = arrow[:, 0] = 1.0
+    arrow[0, 0] = 2.0 * n
+    shuffle = np.random.default_rng(0).permutation(n)
+    assert natural_order_suffices(band)
+    assert natural_order_suffices(sp.csc_matrix(np.ones((30, 30))))  # dense: every order fills it
+    assert not natural_order_suffices(sp.csc_matrix(band[shuffle][:, shuffle]))
+    assert not natural_order_suffices(sp.csc_matrix(arrow))  # dense first row: natural order fills L
+    assert not natural_order_suffices(sp.csc_matrix(sp.tril(band)))  # one triangle: not judged
+
+
+@pytest.mark.parametrize("H", [sp.diags([np.ones(99), 3 * np.ones(100), np.ones(99)], [-1, 0, 1], format="csc"),
+                               _spd(60)[0]])
+def test_auto_ordering_solves_like_cholmods_default_ordering(H):
+    b = np.random.default_rng(2).standard_normal(H.shape[0])
+    for beta in (1e-3, 1.0):
+        auto, default = CholmodSolver(), CholmodSolver(ordering_method="default")
+        auto.factorize(H, beta)
+        default.factorize(H, beta)
+        np.testing.assert_allclose(auto.solve(b), default.solve(b), rtol=1e-12)
+        np.testing.assert_allclose(auto.solve(b), np.linalg.solve(H.toarray() + beta * np.eye(H.shape[0]), b),
+                                   rtol=1e-10)

@@ -133,3 +133,18 @@ def test_stall_stop_is_off_by_default_and_stops_an_out_of_reach_run():
     assert solve_lm(tp.rosenbrock(), LMParams(stall_window=10)).status is Status.STALLED
     with pytest.raises(ValueError):
         LMParams(stall_window=-1)
+
+
+@pytest.mark.parametrize("max_iterations", [3, 100])
+def test_no_linearisation_once_the_loop_stops(max_iterations):
+    """After the step that meets ε_num, or at MaxIt, LM stops without linearising the new point;
+    the norm it reports is ‖h‖ of the accepted trial point."""
+    problem = tp.broyden_tridiagonal(200)
+    calls = []
+    linearize = problem.normal_equations
+    problem.normal_equations = lambda theta, assembly: calls.append(1) or linearize(theta, assembly)
+    result = solve_lm(problem, LMParams(max_iterations=max_iterations, tolerance=1e-8))
+    assert result.rejected_steps == 0
+    assert len(calls) == result.accepted_steps == result.iterations
+    np.testing.assert_allclose(result.norm, np.linalg.norm(problem.residual(result.theta)), rtol=1e-12)
+    assert result.status is (Status.CONVERGED if max_iterations == 100 else Status.MAX_ITERATIONS)
