@@ -6,8 +6,8 @@
 Without --map/--steps the gap-crossing scenario is built (`legplan map build maps/gap_crossing.yaml`)
 and a step sequence generated (`legplan steps generate`, scarab2). Every consecutive pair is planned
 on one core per worker (default 1 worker, as in the paper's single-thread timings); writes
-bench/results/step_plan.json and appends the Table II rows (ours vs paper) plus the time breakdown
-to BENCHMARKS.md with machine, date and load average. With --stall-window W the whole swings are
+bench/results/step_plan.json and replaces its section of BENCHMARKS.md (Table II rows, ours vs paper,
+plus the time breakdown) with machine, date and load average. With --stall-window W the whole swings are
 planned a second time with the opt-in SolveLM stall stop (`stall_window=W`, a departure from
 Algorithm 1) and reported as a third column. A profiled pass over a few non-trivial steps
 attributes the time to kinematics, SDF, residual terms, JᵀJ assembly, Schur + factorisation.
@@ -21,7 +21,6 @@ import dataclasses
 import datetime
 import json
 import os
-import platform
 import pstats
 import sys
 import tempfile
@@ -32,7 +31,8 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np  # noqa: E402
 
-ROOT = Path(__file__).resolve().parents[1]
+from common import ROOT, machine, update_benchmarks, write_result  # noqa: E402
+
 PAPER = {"steps_planned": 89, "steps_succeeded": 85, "worst_violation": 1.73e-3, "mean_time": 24.3,
          "median_time": 6.7, "mean_time_below_50s": 6.7, "mean_time_1s_to_50s": 11.1}
 LABELS = {"steps_planned": "Steps planned", "steps_succeeded": "Steps succeeded",
@@ -51,15 +51,6 @@ PROFILE_GROUPS = (("robot kinematics (pinocchio FK + Jacobians)", "robots/kinema
                   ("Schur reduced matrix + factorisation per λ", "solve/schur.py:refactor"),
                   ("triangular solves", "solve/schur.py:solve"),
                   ("dense re-check (validator, FCL)", "stepplan/measure.py:dense_check"))
-
-
-def machine() -> str:
-    cpu = "unknown CPU"
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            cpu = line.split(":", 1)[1].strip()
-            break
-    return f"{cpu}, {platform.machine()}"
 
 
 def scenario(workdir: Path, robot_name: str, start, goal) -> tuple[Path, Path]:
@@ -130,7 +121,7 @@ def main(argv=None) -> int:
     ap.add_argument("--profile-steps", type=int, default=5, help="non-trivial steps in the profiled pass")
     ap.add_argument("--stall-window", type=int, default=0,
                     help="also plan the whole swings with the opt-in SolveLM stall stop (stall_window=W)")
-    ap.add_argument("--no-append", action="store_true", help="do not append to BENCHMARKS.md")
+    ap.add_argument("--no-append", action="store_true", help="do not update BENCHMARKS.md")
     args = ap.parse_args(argv)
 
     from legplan.stepplan.batch import plan_sequence, table2
@@ -163,7 +154,7 @@ def main(argv=None) -> int:
               "map": str(map_path if args.map else "maps/gap_crossing.yaml"), "params": params.as_dict(),
               "jobs": args.jobs, "paper": PAPER, "profile_steps_whole_swings": profiled, "profile_s": breakdown,
               "load_average_1_5_15": {"before": load_before, "after": os.getloadavg()}, "variants": {}}
-    lines = [f"\n## step_plan — Bézier + LM single-step planner vs paper Table II ({result['date']})\n",
+    lines = [f"## step_plan — Bézier + LM single-step planner vs paper Table II ({result['date']})\n",
              f"Machine: {result['machine']}, load average (1/5/15 min) {' / '.join(f'{x:.1f}' for x in load_before)} "
              f"before, {' / '.join(f'{x:.1f}' for x in result['load_average_1_5_15']['after'])} after (shared machine); "
              f"robot {generated.robot}; {result['map']} with the sequence of "
@@ -196,8 +187,7 @@ def main(argv=None) -> int:
                      f"degree reached per step (count for d = 0..): {np.bincount(info['degrees']).tolist()}; "
                      f"max time {max(info['times_s']):.2f} s; LM time split: "
                      + ", ".join(f"{k} {v:.2f} s ({v / max(lm_total, 1e-12):.0%})" for k, v in timings.items()))
-    (ROOT / "bench/results").mkdir(parents=True, exist_ok=True)
-    (ROOT / "bench/results/step_plan.json").write_text(json.dumps(result, indent=2))
+    write_result("step_plan", result)
     if breakdown:
         lines.append(f"\nProfile of the {len(profiled)} slowest whole-swing steps {profiled} (cumulative s, groups "
                      f"overlap; total {breakdown['total']:.2f} s): "
@@ -205,8 +195,7 @@ def main(argv=None) -> int:
     text = "\n".join(lines) + "\n"
     print(text)
     if not args.no_append:
-        with open(ROOT / "BENCHMARKS.md", "a") as fh:
-            fh.write(text)
+        update_benchmarks("step_plan", text)
     return 0
 
 
