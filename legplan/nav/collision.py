@@ -9,7 +9,8 @@ a cell (per axis) of one of them, so it lies in that sample's 3×3 block: the co
 never enters a lethal cell, at the price of one cell of extra margin.
 
 Soft constraint (Sec. III-D): `cost` is the costmap value F(s) of eqs. (15)–(16), read at the same
-samples for the collision cost of eq. (18).
+samples for the collision cost of eq. (18). `hard_cost_flat` merges both for the search: F(s), or
++inf where the sample is blocked, so one gather gives the collision sum and its feasibility.
 
 Lookups are flat gathers into arrays padded by one lethal cell on every side, with indices clipped
 into the padding, so points outside the map read as lethal without a bounds branch.
@@ -39,6 +40,7 @@ class NavGrid:
     # Padded (ny + 2) * (nx + 2) flat arrays indexed by `flat_index` (hot-path gathers).
     blocked_flat: np.ndarray = field(init=False, repr=False)
     cost_flat: np.ndarray = field(init=False, repr=False)
+    hard_cost_flat: np.ndarray = field(init=False, repr=False)  # cost_flat, +inf where blocked
     distance_flat: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -61,6 +63,7 @@ class NavGrid:
         setter(self, "lethal", lethal)
         setter(self, "blocked_flat", blocked.ravel())
         setter(self, "cost_flat", np.pad(costmap, 1, mode="edge").ravel())
+        setter(self, "hard_cost_flat", np.where(self.blocked_flat, np.inf, self.cost_flat))
         setter(self, "distance_flat", np.pad(distance, 1, constant_values=0.0).ravel())
 
     @classmethod

@@ -7,8 +7,10 @@ For a double integrator moving from (p_c, v_c) to (p_g, v_g) in time T, the mini
 
 dJ*/dT = 0 multiplied by T⁴ is the depressed quartic ρT⁴ + c3 T² + c2 T + c1 = 0 with
 c1 = -36|Δ|², c2 = 24 (v_c + v_g)·Δ, c3 = -4 (|v_c|² + v_c·v_g + |v_g|²). Its real roots come from
-Ferrari's method in closed form (vectorized over many states; `numpy.roots` is ~100× slower per
-state); h = J*(T_h) at the positive root with the least cost (eq. (11)).
+Ferrari's method in closed form; h = J*(T_h) at the positive root with the least cost (eq. (11)).
+The search evaluates h one state at a time in plain Python floats (`GoalHeuristic`): it needs h
+only for the few children that enter the open list, and a scalar evaluation (~2 µs) costs far
+less than the fixed per-call overhead of the ~60 numpy ufuncs a vectorized Ferrari needs.
 
 Admissibility. Any trajectory reaching the goal state in time T (the search's chain of constant
 inputs plus the final one-shot cubic) costs ∫||a||² + ρT ≥ J*(T) ≥ min_T J*(T): h is a lower bound
@@ -22,7 +24,12 @@ search (f = g + w·h) trades the optimality bound w for fewer expansions (weight
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
+
+_MIN_T = 1e-9
+
 
 def quartic_coefficients(pc, vc, pg, vg):
     """(c1, c2, c3) of dJ*/dT · T⁴ = ρT⁴ + c3 T² + c2 T + c1, per state (arrays (..., 2) in)."""
@@ -41,48 +48,54 @@ def cost_at(T, c1, c2, c3, rho):
     return ((-c1 / 3.0 * inv - c2 / 2.0) * inv - c3) * inv + rho * T
 
 
-def depressed_quartic_roots(p, q, r):
-    """Real roots of x⁴ + p x² + q x + r = 0 by Ferrari's method: (4, ...) with NaN for complex.
+def depressed_quartic_roots(p: float, q: float, r: float) -> list[float]:
+    """Real roots of x⁴ + p x² + q x + r = 0 by Ferrari's method (floats in, list out).
 
     The resolvent cubic y³ + p y² + (p²/4 - r) y - q²/8 = 0 has a real root y ≥ 0 (its value at 0
-    is -q²/8 ≤ 0); its largest real root comes from Cardano's formula (one real root) or the
-    trigonometric form (three real roots). With s = √(2y) and o = q/(2s) = ±√(y² + p y + p²/4 - r)
-    (sign of q; either sign when q = 0, the biquadratic case) the quartic splits into
-    x² ∓ s x + p/2 + y ± o = 0. Written with few, cheap ufuncs (no np.where on the roots, no
-    np.clip): it runs once per expansion. Call under `np.errstate(invalid="ignore")`.
+    is -q²/8 ≤ 0). With y = z - p/3 it is z³ + 3A z + 2B = 0, A = -(p²/36 + r/3),
+    B = p (r/6 - p²/216) - q²/16; its largest real root is Cardano's z = ∛(√D - B) - ∛(√D + B)
+    when D = B² + A³ > 0 (one real root), else the trigonometric 2√-A cos(acos(B / (A√-A)) / 3).
+    With s = √(2y) and o = ±√(y² + p y + p²/4 - r) (sign of q; either when q = 0) the quartic
+    splits into x² ∓ s x + p/2 + y ± o = 0, whose discriminants are s²/4 - p/2 - y ∓ o =
+    -(y + p)/2 ∓ o.
     """
     pp = p * p
-    c = 0.25 * pp - r
-    P = c - pp * (1.0 / 3.0)
-    Q = (pp * (2.0 / 27.0) - c * (1.0 / 3.0)) * p - 0.125 * q * q
-    disc = 0.25 * Q * Q + P * P * P * (1.0 / 27.0)
-    sq = np.sqrt(disc)  # NaN where three real roots
-    cardano = np.cbrt(sq - 0.5 * Q) - np.cbrt(sq + 0.5 * Q)
-    m = np.sqrt(P * (-1.0 / 3.0))  # NaN where P > 0 (then disc > 0)
-    cosine = np.fmin(np.fmax(1.5 * Q / (P * m), -1.0), 1.0)
-    trig = 2.0 * m * np.cos(np.arccos(cosine) * (1.0 / 3.0))
-    z = np.where(disc > 0.0, cardano, trig)
-    y = np.fmax(z - p * (1.0 / 3.0), 0.0)
-    offset = np.copysign(np.sqrt(np.fmax(y * (y + p) + c, 0.0)), q)
-    half = np.sqrt(0.5 * y)  # s / 2
-    base = half * half - 0.5 * p - y
-    root_plus = np.sqrt(base - offset)  # x² - s x + (p/2 + y + o) = 0
-    root_minus = np.sqrt(base + offset)  # x² + s x + (p/2 + y - o) = 0
-    roots = np.empty((4,) + np.shape(half))
-    roots[0] = half + root_plus
-    roots[1] = half - root_plus
-    roots[2] = root_minus - half
-    roots[3] = -half - root_minus
+    A = pp * (-1.0 / 36.0) - r * (1.0 / 3.0)
+    B = p * (r * (1.0 / 6.0) - pp * (1.0 / 216.0)) - q * q * (1.0 / 16.0)
+    disc = B * B + A * A * A
+    if disc > 0.0:
+        sq = math.sqrt(disc)
+        z = math.cbrt(sq - B) - math.cbrt(sq + B)
+    else:  # A ≤ 0 here; A = 0 means the triple root z = 0
+        m = math.sqrt(-A)
+        cosine = min(max(B / (A * m), -1.0), 1.0) if m > 0.0 else 0.0
+        z = 2.0 * m * math.cos(math.acos(cosine) * (1.0 / 3.0))
+    y = max(z - p * (1.0 / 3.0), 0.0)
+    offset = math.sqrt(max(y * (y + p) + 0.25 * pp - r, 0.0))
+    if q < 0.0:
+        offset = -offset
+    half = math.sqrt(0.5 * y)  # s / 2
+    base = -0.5 * (y + p)
+    roots = []
+    if base >= offset:  # x² - s x + (p/2 + y + o) = 0
+        root = math.sqrt(base - offset)
+        roots += [half + root, half - root]
+    if base >= -offset:  # x² + s x + (p/2 + y - o) = 0
+        root = math.sqrt(base + offset)
+        roots += [root - half, -half - root]
     return roots
 
 
-def _candidate_costs(p, q, r, t_lb):
-    """Candidate durations (4, ...) — roots of T⁴ + p T² + q T + r (the quartic divided by ρ)
-    raised to at least t_lb (> 0), so complex or too-short roots become t_lb itself — and
-    J*(T) / ρ at each (eq. (9))."""
-    T = np.fmax(depressed_quartic_roots(p, q, r), t_lb)
-    inv = 1.0 / T
-    return T, ((r * (-1.0 / 3.0) * inv - 0.5 * q) * inv - p) * inv + T
+def _minimize(p: float, q: float, r: float, t_lb: float) -> tuple[float, float]:
+    """(min J*/ρ, T) over T ≥ t_lb > 0 for J*'/ρ · T⁴ = T⁴ + p T² + q T + r (eq. (11)): the
+    candidates are t_lb and the real roots above it, J*(T)/ρ = ((-r/3 /T - q/2)/T - p)/T + T."""
+    best, best_T = math.inf, t_lb
+    for T in [t_lb] + [root for root in depressed_quartic_roots(p, q, r) if root > t_lb]:
+        inv = 1.0 / T
+        cost = ((r * (-1.0 / 3.0) * inv - 0.5 * q) * inv - p) * inv + T
+        if cost < best:
+            best, best_T = cost, T
+    return best, best_T
 
 
 def min_time_cost(pc, vc, pg, vg, rho: float, v_max: float | None = None):
@@ -94,54 +107,35 @@ def min_time_cost(pc, vc, pg, vg, rho: float, v_max: float | None = None):
     """
     pc, vc, pg, vg = np.broadcast_arrays(*(np.asarray(a, float) for a in (pc, vc, pg, vg)))
     c1, c2, c3 = quartic_coefficients(pc, vc, pg, vg)
-    t_lb = _MIN_T if v_max is None else np.maximum(np.abs(pg - pc).max(axis=-1) / v_max, _MIN_T)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        T, costs = _candidate_costs(c3 / rho, c2 / rho, c1 / rho, t_lb)
-    best = costs.argmin(axis=0)[None]
-    return (rho * np.take_along_axis(costs, best, axis=0)[0],
-            np.take_along_axis(T, best, axis=0)[0])
+    t_lb = np.full(c1.shape, _MIN_T) if v_max is None else \
+        np.maximum(np.abs(pg - pc).max(axis=-1) / v_max, _MIN_T)
+    minima = [_minimize(*args) for args in zip((c3 / rho).ravel().tolist(),
+                                              (c2 / rho).ravel().tolist(),
+                                              (c1 / rho).ravel().tolist(), t_lb.ravel().tolist())]
+    cost, T = np.array(minima, float).reshape(-1, 2).T
+    return rho * cost.reshape(c1.shape), T.reshape(c1.shape)
 
 
-_MIN_T = 1e-9
+class GoalHeuristic:
+    """h(state) = min_T J*(T) to a fixed goal for one state given as floats (the search's hot
+    path): eqs. (9)–(11) with the coefficients of `quartic_coefficients` written out in scalars."""
 
-
-class ChildHeuristic:
-    """h for all children of one node at once, for a fixed goal and primitive set (hot path).
-
-    A child's Δ = D - (τ²/2) u and velocities v0 + τu are affine in the input u, so c1, c2, c3 and
-    Δ are one small matrix product [1, u_x, u_y, |u|²] · W(node) (W from the node's scalars, with
-    1/ρ folded in); then the vectorized quartic roots and the candidate costs. Call under
-    `np.errstate(invalid="ignore", divide="ignore")`.
-    """
-
-    def __init__(self, inputs, tau, pg, vg, rho, v_max: float | None):
-        self.features = np.stack([np.ones(len(inputs)), inputs[:, 0], inputs[:, 1],
-                                  (inputs**2).sum(axis=1)])  # (4, M)
-        self.tau, self.rho = float(tau), float(rho)
-        self.pg, self.vg = np.asarray(pg, float), np.asarray(vg, float)
+    def __init__(self, pg, vg, rho: float, v_max: float | None):
+        self.gx, self.gy = (float(x) for x in pg)
+        self.gvx, self.gvy = (float(x) for x in vg)
+        self.goal_speed2 = self.gvx * self.gvx + self.gvy * self.gvy
+        self.rho = float(rho)
         self.inv_v = None if v_max is None else 1.0 / v_max
 
-    def __call__(self, p0: np.ndarray, v0: np.ndarray) -> np.ndarray:
-        tau, h2 = self.tau, 0.5 * self.tau**2
-        dx, dy = (self.pg - p0 - v0 * tau).tolist()
-        sx, sy = (v0 + self.vg).tolist()
-        v0x, v0y = v0.tolist()
-        gx, gy = self.vg.tolist()
-        weights = np.array([
-            [-36.0 * (dx * dx + dy * dy), 72.0 * h2 * dx, 72.0 * h2 * dy, -36.0 * h2 * h2],
-            [24.0 * (sx * dx + sy * dy), 24.0 * (tau * dx - h2 * sx), 24.0 * (tau * dy - h2 * sy),
-             -24.0 * tau * h2],
-            [-4.0 * (v0x * v0x + v0y * v0y + v0x * gx + v0y * gy + gx * gx + gy * gy),
-             -4.0 * tau * (2.0 * v0x + gx), -4.0 * tau * (2.0 * v0y + gy), -4.0 * tau * tau],
-            [dx, -h2, 0.0, 0.0],
-            [dy, 0.0, -h2, 0.0]])
-        weights[:3] *= 1.0 / self.rho
-        r, q, p, delta_x, delta_y = weights @ self.features
-        if self.inv_v is None:
-            t_lb = _MIN_T
-        else:
-            t_lb = np.maximum(np.maximum(np.abs(delta_x), np.abs(delta_y)) * self.inv_v, _MIN_T)
-        return self.rho * _candidate_costs(p, q, r, t_lb)[1].min(axis=0)
+    def __call__(self, px: float, py: float, vx: float, vy: float) -> float:
+        dx, dy = self.gx - px, self.gy - py
+        gvx, gvy = self.gvx, self.gvy
+        inv_rho = 1.0 / self.rho
+        r = -36.0 * (dx * dx + dy * dy) * inv_rho
+        q = 24.0 * ((vx + gvx) * dx + (vy + gvy) * dy) * inv_rho
+        p = -4.0 * (vx * vx + vy * vy + vx * gvx + vy * gvy + self.goal_speed2) * inv_rho
+        t_lb = _MIN_T if self.inv_v is None else max(max(abs(dx), abs(dy)) * self.inv_v, _MIN_T)
+        return self.rho * _minimize(p, q, r, t_lb)[0]
 
 
 def optimal_polynomial(pc, vc, pg, vg, T: float):

@@ -7,6 +7,11 @@ h = J*(T_h) (eqs. (9)–(12), `heuristic.py`). States are hashed on a position-v
 (closed set), and the open list is a `heapq` with lazy deletion: an improved node is pushed again
 and stale entries (g above the node's best) are skipped on pop, so heap keys are never mutated.
 
+One expansion: `PrimitiveSet.expand` evaluates all children at once in numpy (samples, hard
+constraints, edge costs, end states), `_KeyEncoder` hashes them in the same batch, and a short
+Python loop drops the children whose cell is closed or already reached at most as cheaply. Only
+the survivors — a few of the (2μ+1)² children — get their heuristic, one scalar evaluation each.
+
 Analytic expansion: a node within `oneshot_radius` of the goal tries the optimal cubic of eq. (9)
 with T = T_h straight to the goal state; it is accepted when its samples are collision-free and
 its velocity and acceleration extrema are within the limits.
@@ -16,12 +21,13 @@ from __future__ import annotations
 
 import heapq
 import logging
+import math
 import time
 
 import numpy as np
 
 from legplan.nav.collision import NavGrid
-from legplan.nav.heuristic import ChildHeuristic, min_time_cost, optimal_polynomial
+from legplan.nav.heuristic import GoalHeuristic, min_time_cost, optimal_polynomial
 from legplan.nav.params import NavParams
 from legplan.nav.primitives import PrimitiveSet, sample_count
 from legplan.nav.result import SearchResult, endpoint_problem
@@ -51,41 +57,38 @@ def plan_kinodynamic(grid: NavGrid, start, goal, params: NavParams = NavParams()
 
 
 def _search(grid, start, goal, params, progress, finish):
-    prims = PrimitiveSet.build(params.mu, params.a_max, params.tau, params.v_max,
-                               grid.resolution, params.rho)
-    pg, vg = goal[:2], goal[2:]
-    rho, v_max, rho_c, weight = params.rho, params.v_max, params.rho_c, params.weight
-    bound = v_max if params.time_bound else None
-    heuristic = ChildHeuristic(prims.inputs, prims.tau, pg, vg, rho, bound)
+    prims = PrimitiveSet.build(params, grid)
+    heuristic = GoalHeuristic(goal[:2], goal[2:], params.rho,
+                              params.v_max if params.time_bound else None)
     encode = _KeyEncoder(grid, params)
-    oneshot_r2 = params.oneshot_radius ** 2
+    gx, gy, gvx, gvy = goal.tolist()
+    weight, oneshot_r2 = params.weight, params.oneshot_radius ** 2
     tol, vtol = params.goal_tolerance, params.goal_vel_tolerance
     check_tolerance = tol > 0 or vtol > 0
+    inf = math.inf
 
-    start_key = encode.one(start[:2], start[2:])
-    # node: (g, parent key, input index, end positions, end velocities, row) — the state is
-    # row `row` of the batch arrays produced when the node was generated.
-    nodes = {start_key: (0.0, None, -1, start[None, :2], start[None, 2:], 0)}
-    h0 = float(min_time_cost(start[:2], start[2:], pg, vg, rho, bound)[0])
-    heap = [(weight * h0, 0.0, start_key)]
-    closed = set()
+    state = tuple(start.tolist())
+    start_key = encode(start[:, None]).tolist()[0]
+    # best[key]: g of the cheapest state reaching the cell, -inf once the cell is closed.
+    # nodes[key]: (parent key, input index, (px, py, vx, vy)) of that state.
+    best = {start_key: 0.0}
+    nodes = {start_key: (None, -1, state)}
+    heap = [(weight * heuristic(*state), 0.0, start_key)]
     expansions = 0
-    heappush, heappop = heapq.heappush, heapq.heappop
+    heappush, heappop, best_get = heapq.heappush, heapq.heappop, best.get
     while heap:
         _, g, key = heappop(heap)
-        if key in closed:
+        if best[key] != g:  # closed, or a stale entry of a since improved cell
             continue
-        node = nodes[key]
-        if g > node[0]:
-            continue
-        closed.add(key)
+        best[key] = -inf
         expansions += 1
-        p, v = node[3][node[5]], node[4][node[5]]
-        if check_tolerance and np.max(np.abs(p - pg)) <= tol and np.max(np.abs(v - vg)) <= vtol:
+        px, py, vx, vy = state = nodes[key][2]
+        if check_tolerance and max(abs(px - gx), abs(py - gy)) <= tol and \
+                max(abs(vx - gvx), abs(vy - gvy)) <= vtol:
             return finish(True, "", expansions, g, _reconstruct(nodes, key, prims, None))
-        delta = p - pg
-        if delta[0] * delta[0] + delta[1] * delta[1] <= oneshot_r2:
-            shot = analytic_expansion(grid, p, v, pg, vg, params)
+        if (px - gx) ** 2 + (py - gy) ** 2 <= oneshot_r2:
+            shot = analytic_expansion(grid, np.array(state[:2]), np.array(state[2:]),
+                                      goal[:2], goal[2:], params)
             if shot is not None:
                 piece, shot_cost = shot
                 return finish(True, "", expansions, g + shot_cost,
@@ -94,46 +97,45 @@ def _search(grid, start, goal, params, progress, finish):
             return finish(False, f"expansion limit ({params.max_expansions}) reached", expansions)
         if progress is not None and expansions % 2000 == 0:
             progress(expansions, params.max_expansions, f"g={g:.1f}")
-        end_p, end_v, cost, feasible = prims.expand(grid, p, v, v_max, rho_c)
-        rows = np.flatnonzero(feasible).tolist()
+        ends, cost, feasible = prims.expand(px, py, vx, vy)
+        rows = feasible.nonzero()[0].tolist()
         if not rows:
             continue
-        g_children = g + cost
-        f_children = (g_children + weight * heuristic(p, v)).tolist()
-        keys = encode.many(end_p, end_v).tolist()
-        g_children = g_children.tolist()
+        keys = encode(ends).tolist()
+        cost = cost.tolist()
+        end_px, end_py, end_vx, end_vy = ends.tolist()
         for row in rows:
-            child = keys[row]
-            if child in closed:
+            child, g_child = keys[row], g + cost[row]
+            if best_get(child, inf) <= g_child:  # closed, or reached at least as cheaply
                 continue
-            g_child = g_children[row]
-            old = nodes.get(child)
-            if old is not None and old[0] <= g_child:
-                continue
-            nodes[child] = (g_child, key, row, end_p, end_v, row)
-            heappush(heap, (f_children[row], g_child, child))
+            best[child] = g_child
+            child_state = (end_px[row], end_py[row], end_vx[row], end_vy[row])
+            nodes[child] = (key, row, child_state)
+            heappush(heap, (g_child + weight * heuristic(*child_state), g_child, child))
     return finish(False, "goal unreachable (open list exhausted)", expansions)
 
 
 class _KeyEncoder:
-    """One Python int per hash cell: (ix, iy) of `pos_res`, (ivx, ivy) of `vel_res`."""
+    """One integer-valued float per hash cell of an end-state block (4, n) (rows px, py, vx, vy):
+    (ix, iy) = floor((p - corner) / pos_res), (ivx, ivy) = rint(v / vel_res) ∈ [-k, k], combined
+    as ((ix·ny + iy)·(2k + 1) + ivx)·(2k + 1) + ivy — balanced digits, so distinct cells give
+    distinct keys, all exact in float64."""
 
     def __init__(self, grid: NavGrid, params: NavParams):
         xmin, xmax, ymin, ymax = grid.extent
-        self.origin = np.array([xmin, ymin])
-        self.inv_p = 1.0 / params.pos_res
-        self.inv_v = 1.0 / params.vel_res
-        self.vel_span = 2 * int(np.ceil(params.v_max * self.inv_v)) + 3
-        self.vel_offset = self.vel_span // 2
-        self.ny = int(np.ceil((ymax - ymin) * self.inv_p)) + 2
+        inv_p, inv_v = 1.0 / params.pos_res, 1.0 / params.vel_res
+        self.corner = np.array([xmin, ymin, 0.0, 0.0])[:, None]
+        self.scale = np.array([inv_p, inv_p, inv_v, inv_v])[:, None]
+        vel_span = 2 * int(np.ceil(params.v_max * inv_v)) + 3
+        ny = int(np.ceil((ymax - ymin) * inv_p)) + 2
+        self.radix = np.array([ny * vel_span * vel_span, vel_span * vel_span, vel_span, 1.0])
 
-    def many(self, p: np.ndarray, v: np.ndarray) -> np.ndarray:
-        ip = np.floor((p - self.origin) * self.inv_p).astype(np.int64)
-        iv = np.rint(v * self.inv_v).astype(np.int64) + self.vel_offset
-        return ((ip[:, 0] * self.ny + ip[:, 1]) * self.vel_span + iv[:, 0]) * self.vel_span + iv[:, 1]
-
-    def one(self, p: np.ndarray, v: np.ndarray) -> int:
-        return int(self.many(p[None], v[None])[0])
+    def __call__(self, ends: np.ndarray) -> np.ndarray:
+        scaled = (ends - self.corner) * self.scale
+        cells = np.empty_like(scaled)
+        np.floor(scaled[:2], out=cells[:2])
+        np.rint(scaled[2:], out=cells[2:])
+        return self.radix @ cells
 
 
 ONESHOT_STRETCH = (1.0, 1.25, 1.5, 2.0, 3.0)
@@ -187,15 +189,13 @@ def _reconstruct(nodes, key, prims: PrimitiveSet, last_piece) -> Trajectory:
     pieces = [] if last_piece is None else [last_piece]
     zero = np.zeros(2)
     while True:
-        _, parent, prim, _, _, _ = nodes[key]
+        parent, prim, _ = nodes[key]
         if parent is None:
             break
-        parent_node = nodes[parent]
-        p0 = parent_node[3][parent_node[5]]
-        v0 = parent_node[4][parent_node[5]]
-        pieces.append((p0, v0, prims.inputs[prim], zero, prims.tau))
+        state = np.array(nodes[parent][2])
+        pieces.append((state[:2], state[2:], prims.inputs[prim], zero, prims.tau))
         key = parent
     if not pieces:
-        node = nodes[key]
-        pieces.append((node[3][node[5]], node[4][node[5]], zero, zero, 0.0))
+        state = np.array(nodes[key][2])
+        pieces.append((state[:2], state[2:], zero, zero, 0.0))
     return Trajectory.from_pieces(reversed(pieces))

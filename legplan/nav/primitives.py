@@ -2,9 +2,14 @@
 
 Inputs: the lattice {-u_max, -(μ-1)/μ u_max, …, 0, …, u_max}² of (2μ+1)² constant accelerations.
 A primitive applies u_m for τ from (p0, v0): p(t) = u_m t²/2 + v0 t + p0 (eq. (6)), costing
-(||u_m||² + ρ) τ (eq. (8)). `PrimitiveSet.expand` evaluates every primitive of a node at once:
-positions and speeds at I + 1 samples (Sec. III-C / eq. (17): spacing v_max τ / I ≤ R per axis),
-end states, hard-constraint mask and the collision cost of eq. (18), using one costmap gather.
+(||u_m||² + ρ) τ (eq. (8)). `PrimitiveSet.expand` evaluates every primitive of a node at once.
+
+Everything a child needs before the costmap lookup — the sample positions in cell units and the
+sample velocities at I + 1 times (Sec. III-C / eq. (17): spacing v_max τ / I ≤ R per axis), its end
+position and end velocity — is affine in the node state (p0, v0), so it is a single product
+[1, p0x, p0y, v0x, v0y] · E with a matrix E built once per search. One gather from the grid's
+hard-cost array (costmap value, +inf on blocked cells) then yields both the hard constraint and
+the collision cost of eq. (18): Σ_i F(p_i)·||v_i||·dt is finite exactly when no sample is blocked.
 
 Velocity is linear in t within a primitive, so its per-axis extrema are the end points: the start
 (already feasible) and v0 + u_m τ. Acceleration is the constant u_m, within ±u_max by construction.
@@ -13,7 +18,6 @@ Velocity is linear in t within a primitive, so its per-axis extrema are the end 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -32,47 +36,66 @@ def sample_count(v_max: float, duration: float, resolution: float) -> int:
     return max(int(math.ceil(v_max * duration / resolution - 1e-9)), 1) + 1
 
 
-@dataclass(frozen=True)
 class PrimitiveSet:
-    inputs: np.ndarray  # (M, 2)
-    tau: float
-    samples: int
-    rho: float
-    resolution: float  # m, of the grid the samples are checked on
-    base_cost: np.ndarray = field(init=False)  # (M,) (||u||² + ρ) τ, eq. (8)
-    _times: np.ndarray = field(init=False, repr=False)  # (S, 1)
-    _half_ut2: np.ndarray = field(init=False, repr=False)  # (M, S, 2)
-    _ut: np.ndarray = field(init=False, repr=False)  # (M, S, 2)
-    _half_ut2_cells: np.ndarray = field(init=False, repr=False)  # (M, S, 2) in cells
+    """The M primitives of duration τ on one grid, with the per-search constants of `expand`."""
 
-    def __post_init__(self):
-        t = np.linspace(0.0, self.tau, self.samples)[:, None]
-        u = self.inputs[:, None, :]
-        setter = object.__setattr__
-        setter(self, "base_cost", ((self.inputs**2).sum(axis=1) + self.rho) * self.tau)
-        setter(self, "_times", t)
-        setter(self, "_half_ut2", 0.5 * u * t**2)
-        setter(self, "_ut", u * t)
-        setter(self, "_half_ut2_cells", self._half_ut2 / self.resolution)
+    def __init__(self, inputs: np.ndarray, tau: float, v_max: float, rho: float, rho_c: float,
+                 grid: NavGrid):
+        self.inputs = np.asarray(inputs, float)  # (M, 2)
+        self.tau, self.v_max = float(tau), float(v_max)
+        self.samples = sample_count(v_max, tau, grid.resolution)
+        self.base_cost = ((self.inputs**2).sum(axis=1) + rho) * tau  # (M,) eq. (8)
+        self.collision_weight = rho_c * (tau / (self.samples - 1))  # ρ_c·dt of eqs. (18), (19)
+        self.grid = grid
+        ny, nx = grid.shape
+        self._upper = np.array([nx + 1, ny + 1], float)[:, None, None]
+        self._row = nx + 2
+        self._basis = self._affine_map(grid)
 
     @classmethod
-    def build(cls, mu: int, a_max: float, tau: float, v_max: float, resolution: float,
-              rho: float) -> PrimitiveSet:
-        return cls(input_lattice(mu, a_max), tau, sample_count(v_max, tau, resolution), rho,
-                   resolution)
+    def build(cls, params, grid: NavGrid) -> PrimitiveSet:
+        """The lattice of `params.mu`, `params.a_max` with the limits and weights of `params`."""
+        return cls(input_lattice(params.mu, params.a_max), params.tau, params.v_max, params.rho,
+                   params.rho_c, grid)
 
-    def expand(self, grid: NavGrid, p0: np.ndarray, v0: np.ndarray, v_max: float, rho_c: float):
-        """All children of (p0, v0): end positions (M, 2), end velocities (M, 2), edge costs (M,)
-        including ρ_c × collision cost (eqs. (8), (18)), and the feasibility mask (M,)."""
-        cells = grid.to_cells(p0) + (v0 / self.resolution) * self._times + self._half_ut2_cells
-        index = grid.flat_index_cells(cells)
-        velocities = v0 + self._ut
-        end_v = velocities[:, -1]
-        feasible = ~grid.blocked_flat[index].any(axis=1) & (np.abs(end_v).max(axis=1) <= v_max)
-        cost = self.base_cost
-        if rho_c:
-            speed = np.sqrt((velocities * velocities).sum(axis=2))
-            dt = self.tau / (self.samples - 1)
-            cost = cost + (rho_c * dt) * (grid.cost_flat[index] * speed).sum(axis=1)
-        end_p = p0 + v0 * self.tau + self._half_ut2[:, -1]
-        return end_p, end_v, cost, feasible
+    def _affine_map(self, grid: NavGrid) -> np.ndarray:
+        """E (5, 4·M·S + 4·M): [1, p0x, p0y, v0x, v0y] · E = sample cells x, y (`to_cells` of
+        p0 + v0 t + u t²/2), sample velocities x, y (v0 + u t), each (M, S), then the end state
+        rows px, py, vx, vy, each (M,)."""
+        M, S = len(self.inputs), self.samples
+        t = np.linspace(0.0, self.tau, S)
+        inv_r = 1.0 / grid.resolution
+        basis = np.zeros((5, 8, M, S))
+        for axis in range(2):
+            u = self.inputs[:, axis, None]
+            cells, velocity, end_p, end_v = basis[:, axis], basis[:, 2 + axis], \
+                basis[:, 4 + axis], basis[:, 6 + axis]
+            cells[0] = 0.5 * u * t**2 * inv_r + 1.5 - grid.origin[axis] * inv_r
+            cells[1 + axis] = inv_r
+            cells[3 + axis] = t * inv_r
+            velocity[0] = u * t
+            velocity[3 + axis] = 1.0
+            end_p[0] = 0.5 * u * self.tau**2
+            end_p[1 + axis] = 1.0
+            end_p[3 + axis] = self.tau
+            end_v[0] = u * self.tau
+            end_v[3 + axis] = 1.0
+        return np.concatenate([basis[:, :4].reshape(5, -1), basis[:, 4:, :, 0].reshape(5, -1)],
+                              axis=1)
+
+    def expand(self, px: float, py: float, vx: float, vy: float):
+        """All children of the node (px, py, vx, vy): end states (4, M) as rows px, py, vx, vy, edge
+        costs (M,) (eq. (8) plus ρ_c × the collision cost of eq. (18); not finite when a sample
+        is blocked) and the feasibility mask (M,) (no blocked sample, |v_end| ≤ v_max per axis).
+        Call under `np.errstate(invalid="ignore")` (a blocked sample at zero speed gives ∞·0)."""
+        M, S = len(self.inputs), self.samples
+        out = np.array([1.0, px, py, vx, vy]) @ self._basis
+        samples = out[:4 * M * S].reshape(4, M, S)
+        ends = out[4 * M * S:].reshape(4, M)
+        cells = np.fmin(np.fmax(samples[:2], 0.0), self._upper).astype(np.intp)
+        hard = self.grid.hard_cost_flat[cells[1] * self._row + cells[0]]
+        collision = np.vecdot(hard, np.hypot(samples[2], samples[3]))
+        cost = self.base_cost + self.collision_weight * collision
+        speed = np.abs(ends[2:])
+        feasible = (np.maximum(speed[0], speed[1]) <= self.v_max) & (collision < np.inf)
+        return ends, cost, feasible

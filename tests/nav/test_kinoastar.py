@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 
 from legplan.nav import NavParams, plan_kinodynamic
+from legplan.nav.kinoastar import _KeyEncoder
 from legplan.nav.primitives import input_lattice, sample_count
 
 from conftest import grid_from_occupancy
@@ -126,3 +127,23 @@ def test_failure_reasons(pillars_grid):
     coarse = PARAMS.replace(pos_res=0.3, vel_res=0.5, mu=1)
     result = plan_kinodynamic(grid, (0.3, 0.3, 0, 0), (1.2, 1.2, 0, 0), coarse)
     assert result.reason == "goal unreachable (open list exhausted)"
+
+
+def test_state_keys_are_one_per_hash_cell(pillars_grid):
+    """Keys equal exactly when (floor of position / pos_res, rint of velocity / vel_res) do."""
+    params = NavParams(pos_res=0.1, vel_res=0.2)
+    encode = _KeyEncoder(pillars_grid, params)
+    rng = np.random.default_rng(12)
+    xmin, xmax, ymin, ymax = pillars_grid.extent
+    states = np.concatenate([rng.uniform([xmin, ymin], [xmax, ymax], (4000, 2)),
+                             rng.uniform(-params.v_max, params.v_max, (4000, 2))], axis=1)
+    states[::2] = np.round(states[::2], 1)  # many states on cell boundaries and sharing cells
+    keys = encode(states.T)
+    cells = np.concatenate([np.floor((states[:, :2] - [xmin, ymin]) * (1 / params.pos_res)),
+                            np.rint(states[:, 2:] * (1 / params.vel_res))], axis=1)
+    assert np.all(keys == np.round(keys))
+    _, cell_ids = np.unique(cells, axis=0, return_inverse=True)
+    _, key_ids = np.unique(keys, return_inverse=True)
+    # Same partition of the states: a bijection between distinct cells and distinct keys.
+    assert len(set(zip(cell_ids.tolist(), key_ids.tolist()))) == len(set(cell_ids.tolist())) \
+        == len(set(key_ids.tolist()))
