@@ -35,6 +35,7 @@ from legplan.nav.teb.distance import DistanceField
 from legplan.nav.teb.initialize import initial_band
 from legplan.nav.teb.optimizer import Scene, optimize_band
 from legplan.nav.teb.params import TebParams
+from legplan.nav.teb.problems import ProblemCache
 from legplan.nav.teb.reference import GlobalPath
 from legplan.nav.teb.warmstart import shift_band
 from legplan.nav.teb.yaw import YawPolicy
@@ -315,6 +316,7 @@ class LocalPlanner:
         self.band: Band | None = None
         self.band_time = 0.0
         self.cold_starts = 0
+        self.problems = ProblemCache()  # least-squares problems reused across cycles
 
     def reset(self) -> None:
         """Forget the previous band (the next cycle re-initializes)."""
@@ -345,7 +347,7 @@ class LocalPlanner:
             self.cold_starts += 1
         scene = Scene(path=local, distance=world.distance, start_velocity=robot.velocity.copy(),
                       goal_velocity=np.zeros(3) if at_goal_window else None)
-        result = optimize_band(band, self.limits, teb, scene)
+        result = optimize_band(band, self.limits, teb, scene, self.problems)
         self.band = None if hold else result.band
         self.band_time = t
         return result.band.velocities()[0], result.band.n, result.iterations

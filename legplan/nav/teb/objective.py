@@ -41,6 +41,11 @@ class Weighted:
         return self.lower is not None
 
 
+def objective_key(n: int, entries: list[Weighted]) -> tuple:
+    """Identifies the Jacobian pattern of `TebObjective(n, entries)`: equal keys, equal patterns."""
+    return n, tuple(e.term.key for e in entries if e.term.size)
+
+
 def weighted(term: Term, weight, lower=None, upper=None, epsilon: float = 0.0) -> Weighted:
     """`Weighted` with weight and bounds broadcast to the term's rows."""
     size = (term.size,)
@@ -58,6 +63,7 @@ class TebObjective(StructuredBlock):
 
     def __init__(self, n: int, entries: list[Weighted]):
         self.n = n
+        self.key = objective_key(n, entries)
         self.entries = [e for e in entries if e.term.size]
         self.size = sum(e.term.size for e in self.entries)
         self.columns = 4 * n - 1
@@ -68,6 +74,14 @@ class TebObjective(StructuredBlock):
         self.cols = np.concatenate([e.term.cols for e in self.entries]) if self.entries else np.zeros(0, np.int64)
         self._stack_bounds()
         self._pairs()
+
+    def refresh(self, entries: list[Weighted]) -> None:
+        """Replace the entries by ones with the same pattern (equal `objective_key`): new data,
+        weights and bounds, and the precomputed JᵀJ slots stay valid."""
+        if objective_key(self.n, entries) != self.key:
+            raise ValueError("TebObjective.refresh: the entries have a different Jacobian pattern")
+        self.entries = [e for e in entries if e.term.size]
+        self._stack_bounds()
 
     def _stack_bounds(self) -> None:
         """Row weights, penalty thresholds (lower + ε, upper − ε; ∓∞ for unbounded rows) and the

@@ -1,8 +1,8 @@
 """TEB optimization (Sec. IV, eq. (24)): rounds of band resizing and sparse LM on R(B) = Σ γ_k R_k(B).
 
 Each outer round resizes the band (`resize`), builds the least-squares problem over the free poses
-and all ΔT_i (bounded below by dt_min), and runs `inner_iterations` LM iterations of the solver core
-(CHOLMOD). Terms (weights w multiply squared residuals, so rows are scaled by √w):
+and all ΔT_i (bounded below by dt_min) — or refreshes a cached one of the same structure
+(`problems.py`) — and runs `inner_iterations` LM iterations of the solver core (CHOLMOD). Terms (weights w multiply squared residuals, so rows are scaled by √w):
 
 * velocity / angular velocity limits of eq. (23), TEB interval penalty with margin ε; forward and
   lateral rows weighted by γ_forward, γ_lateral;
@@ -24,12 +24,13 @@ from legplan.nav.teb.band import Band, wrap_angle
 from legplan.nav.teb.distance import DistanceField
 from legplan.nav.teb.params import TebParams
 from legplan.nav.teb.reference import GlobalPath
-from legplan.nav.teb.objective import TebObjective, Weighted, weighted
+from legplan.nav.teb.objective import Weighted, weighted
+from legplan.nav.teb.problems import ProblemCache
 from legplan.nav.teb.residuals import (BAND, AccelerationTerm, ClearanceTerm, NonholonomicTerm, PathTerm, TimeTerm,
-                                       VelocityTerm, ViaPointTerm, YawChangeTerm, band_vector, split_vector)
+                                       VelocityTerm, ViaPointTerm, YawChangeTerm, split_vector)
 from legplan.nav.teb.resize import resize
 from legplan.robots.spec import KinodynamicLimits
-from legplan.solve import LMParams, Problem, VariableBlock, solve_lm
+from legplan.solve import LMParams, solve_lm
 
 log = logging.getLogger(__name__)
 
@@ -75,40 +76,32 @@ class TebResult:
 
 
 def optimize_band(band: Band, limits: KinodynamicLimits, params: TebParams = TebParams(),
-                  scene: Scene = Scene()) -> TebResult:
+                  scene: Scene = Scene(), cache: ProblemCache | None = None) -> TebResult:
     """Refine `band` by up to `params.outer_iterations` rounds of resize + LM (see module docstring;
-    the rounds stop early when one no longer lowers ‖h‖ by `round_tolerance`)."""
+    the rounds stop early when one no longer lowers ‖h‖ by `round_tolerance` and leaves a band
+    that resizing would not change). Pass the same `cache` to successive calls (control cycles)
+    to reuse their problems."""
     clock = time.perf_counter()
+    cache = ProblemCache() if cache is None else cache
     rounds = []
     lm = LMParams(max_iterations=params.inner_iterations * params.tries_per_iteration, tolerance=0.0,
                   step_tolerance=params.step_tolerance, lambda_boost=params.lambda_boost, assembly="blocks")
-    for _ in range(params.outer_iterations):
+    band = resize(band, params)
+    for k in range(params.outer_iterations):
         t0 = time.perf_counter()
-        resized = resize(band, params)
-        unchanged = resized.n == band.n and np.array_equal(resized.dt, band.dt)
-        band = resized
-        problem = build_problem(band, limits, params, scene)
+        problem = cache.problem(band, objective_terms(band, limits, params, scene), params.dt_min)
         result = solve_lm(problem, lm)
         poses, dt = split_vector(result.values[BAND], band.n)
         poses[:, 2] = wrap_angle(poses[:, 2])
         band = Band(poses, dt, band.fixed)
+        resized = resize(band, params) if k + 1 < params.outer_iterations else band
         rounds.append(RoundStats(band.n, result.iterations, time.perf_counter() - t0, result.initial_norm, result.norm))
-        if unchanged and \
-                result.initial_norm - result.norm <= params.round_tolerance * result.initial_norm:
+        settled = resized.n == band.n and np.array_equal(resized.dt, band.dt)
+        if settled and result.initial_norm - result.norm <= params.round_tolerance * result.initial_norm:
             break
+        band = resized
     log.debug("TEB: %d rounds, %d poses, %.1f ms", len(rounds), band.n, 1e3 * (time.perf_counter() - clock))
     return TebResult(band, rounds, time.perf_counter() - clock)
-
-
-def build_problem(band: Band, limits: KinodynamicLimits, params: TebParams, scene: Scene) -> Problem:
-    """The least-squares problem of eq. (24) for the current band: one variable `band` (z of
-    `band_vector`; fixed poses held, ΔT_i ≥ dt_min) and one `TebObjective` over it."""
-    n = band.n
-    fixed = np.concatenate([np.repeat(band.fixed, 3), np.zeros(n - 1, bool)])
-    lower = np.concatenate([np.full(3 * n, -np.inf), np.full(n - 1, params.dt_min)])
-    problem = Problem([VariableBlock(BAND, band_vector(band), fixed=fixed, lower=lower)])
-    problem.add_residual(TebObjective(n, objective_terms(band, limits, params, scene)))
-    return problem
 
 
 def objective_terms(band: Band, limits: KinodynamicLimits, params: TebParams, scene: Scene) -> list[Weighted]:

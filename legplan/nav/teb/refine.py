@@ -21,14 +21,15 @@ from legplan.nav.teb.band import Band
 from legplan.nav.teb.distance import DistanceField
 from legplan.nav.teb.initialize import initial_band
 from legplan.nav.teb.optimizer import Scene, TebResult, limit_violations, optimize_band
-
-WEIGHT_ADAPT_FACTOR = 2.0
-LIMIT_WEIGHTS = ("weight_velocity", "weight_omega", "weight_acceleration", "weight_alpha")
 from legplan.nav.teb.params import TebParams
+from legplan.nav.teb.problems import ProblemCache
 from legplan.nav.teb.reference import GlobalPath
 from legplan.nav.teb.yaw import YawPolicy
 from legplan.nav.trajectory import Trajectory
 from legplan.robots.spec import KinodynamicLimits
+
+WEIGHT_ADAPT_FACTOR = 2.0
+LIMIT_WEIGHTS = ("weight_velocity", "weight_omega", "weight_acceleration", "weight_alpha")
 
 
 def query_path(trajectory: Trajectory | None, waypoints: np.ndarray | None, speed: float) -> GlobalPath:
@@ -60,14 +61,15 @@ def refine_path(path: GlobalPath, limits: KinodynamicLimits, params: TebParams =
     band = initial_band(path, params.dt_ref, yaw, start_pose=start_pose, goal_heading=goal_heading)
     scene = Scene(path=path, distance=distance, start_velocity=np.zeros(3), goal_velocity=np.zeros(3))
     clock = time.perf_counter()
-    result = optimize_band(band, limits, params, scene)
+    problems = ProblemCache()
+    result = optimize_band(band, limits, params, scene, problems)
     rounds = list(result.rounds)
     violations = limit_violations(result.band, limits)
     for _ in range(max_calls - 1):
         if max(violations.values()) <= params.epsilon:
             break
         params = params.replace(round_tolerance=0.0, **{w: getattr(params, w) * WEIGHT_ADAPT_FACTOR for w in LIMIT_WEIGHTS})
-        result = optimize_band(result.band, limits, params, scene)
+        result = optimize_band(result.band, limits, params, scene, problems)
         rounds += result.rounds
         violations = limit_violations(result.band, limits)
     result = TebResult(result.band, rounds, time.perf_counter() - clock)

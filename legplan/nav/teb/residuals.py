@@ -2,8 +2,9 @@
 
 Every term reads the band vector z = [x_0, y_0, θ_0, x_1, …, θ_{n−1}, ΔT_0, …, ΔT_{n−2}]
 (`band_vector`, seen through a `BandState`) and returns its values with the *values* of its Jacobian on a COO pattern
-(`rows`, `cols`) that is computed once per band size in the constructor; an iteration refreshes
-only numpy value arrays (no scipy.sparse objects). Terms that express limits return the limited
+(`rows`, `cols`) that depends only on the band size and the term's structure (`Term.key`) and is
+computed once per key (`cached_pattern`); an iteration refreshes only numpy value arrays (no
+scipy.sparse objects). Terms that express limits return the limited
 quantity itself; `TebObjective` (objective.py) turns it into the TEB interval penalty.
 
 * `VelocityTerm`      — (v_x, v_y, ω) per interval, eqs. (21)–(23)
@@ -57,6 +58,24 @@ def pattern(pieces) -> tuple[np.ndarray, np.ndarray]:
     return np.concatenate(rows), np.concatenate(cols)
 
 
+_PATTERNS: dict[tuple, tuple[np.ndarray, np.ndarray]] = {}
+MAX_PATTERNS = 512  # cached patterns before the cache is cleared
+
+
+def cached_pattern(key: tuple, pieces) -> tuple[np.ndarray, np.ndarray]:
+    """`pattern(pieces())`, computed once per `key`; the arrays are shared and read-only."""
+    found = _PATTERNS.get(key)
+    if found is None:
+        if len(_PATTERNS) >= MAX_PATTERNS:
+            _PATTERNS.clear()
+        parts = pieces()
+        found = pattern(parts) if parts else (np.zeros(0, np.int64), np.zeros(0, np.int64))
+        for a in found:
+            a.setflags(write=False)
+        _PATTERNS[key] = found
+    return found
+
+
 def flat(*values) -> np.ndarray:
     """Concatenated ravelled value pieces (same order as the `pattern` pieces)."""
     return np.concatenate([np.asarray(v, float).ravel() for v in values])
@@ -77,15 +96,17 @@ class BandState:
 
 class Term(ResidualBlock):
     """A TEB term over z: `linearize(state)` -> (values (size,), Jacobian values on (`rows`, `cols`)
-    when `state.jacobian`, else None)."""
+    when `state.jacobian`, else None). `key` identifies the pattern: terms with equal keys have
+    equal `rows` and `cols`; `pieces()` gives the `pattern` pieces when the key is new."""
 
     variables = (BAND,)
 
-    def __init__(self, n: int, size: int, rows: np.ndarray, cols: np.ndarray):
+    def __init__(self, n: int, size: int, structure: tuple, pieces):
         self.n = n
         self.size = int(size)
         self.columns = 4 * n - 1
-        self.rows, self.cols = rows, cols
+        self.key = (type(self).__name__, n, *structure)
+        self.rows, self.cols = cached_pattern(self.key, pieces)
 
     @abstractmethod
     def linearize(self, state: BandState) -> tuple[np.ndarray, np.ndarray | None]:
@@ -104,7 +125,7 @@ class VelocityTerm(Term):
     def __init__(self, n: int):
         m = n - 1
         r, i = 3 * np.arange(m), np.arange(m)
-        super().__init__(n, 3 * m, *pattern([(r, 3 * i, (3, 3)), (r, 3 * i + 3, (3, 3)), (r, 3 * n + i, (3, 1))]))
+        super().__init__(n, 3 * m, (), lambda: [(r, 3 * i, (3, 3)), (r, 3 * i + 3, (3, 3)), (r, 3 * n + i, (3, 1))])
 
     def linearize(self, state):
         v, jv = state.velocities
@@ -130,8 +151,7 @@ class AccelerationTerm(Term):
                 self.boundaries.append((boundary, k, sign))
                 pieces += [([row], [3 * k], (3, 3)), ([row], [3 * k + 3], (3, 3)), ([row], [3 * n + k], (3, 1))]
                 row += 3
-        rows, cols = pattern(pieces) if pieces else (np.zeros(0, np.int64), np.zeros(0, np.int64))
-        super().__init__(n, row, rows, cols)
+        super().__init__(n, row, (self.start_velocity is not None, self.goal_velocity is not None), lambda: pieces)
 
     def linearize(self, state):
         poses, dt, jacobian = state.poses, state.dt, state.jacobian
@@ -156,7 +176,7 @@ class TimeTerm(Term):
     """r_i = ΔT_i: the time-optimality term (its square sums to Σ ΔT_i²)."""
 
     def __init__(self, n: int):
-        super().__init__(n, n - 1, np.arange(n - 1), 3 * n + np.arange(n - 1))
+        super().__init__(n, n - 1, (), lambda: [(np.arange(n - 1), 3 * n + np.arange(n - 1), (1, 1))])
         self._ones = np.ones(n - 1)
 
     def linearize(self, state):
@@ -178,7 +198,7 @@ class PathTerm(Term):
         segments = len(self.path) - 1
         self.index = np.clip(np.asarray(first)[:, None] + np.arange(max(int(width), 1))[None, :], 0, segments - 1)
         i = np.arange(n)
-        super().__init__(n, 2 * n, *pattern([(2 * i, 3 * i, (2, 2))]))
+        super().__init__(n, 2 * n, (), lambda: [(2 * i, 3 * i, (2, 2))])
         self._a = self.path[self.index]
         self._ab = self.path[self.index + 1] - self._a
         self._length2 = np.maximum(np.einsum("nkd,nkd->nk", self._ab, self._ab), 1e-18)
@@ -211,7 +231,7 @@ class ClearanceTerm(Term):
     def __init__(self, n: int, field: DistanceField):
         self.field = field
         i = np.arange(n)
-        super().__init__(n, n, *pattern([(i, 3 * i, (1, 2))]))
+        super().__init__(n, n, (), lambda: [(i, 3 * i, (1, 2))])
 
     def linearize(self, state):
         value, gradient = self.field.value_and_gradient(state.poses[:, :2])
@@ -230,8 +250,8 @@ class ViaPointTerm(Term):
         self.heading = heading[self.with_heading]
         k, hi = len(self.index), self.index[self.with_heading]
         self._hi = hi
-        super().__init__(n, 2 * k + len(hi), *pattern([(2 * np.arange(k), 3 * self.index, (2, 2)),
-                                                       (2 * k + np.arange(len(hi)), 3 * hi + 2, (1, 1))]))
+        super().__init__(n, 2 * k + len(hi), (self.index.tobytes(), hi.tobytes()),
+                         lambda: [(2 * np.arange(k), 3 * self.index, (2, 2)), (2 * k + np.arange(len(hi)), 3 * hi + 2, (1, 1))])
         self._values = flat(np.broadcast_to(np.eye(2), (k, 2, 2)), np.ones(len(hi)))
 
     def linearize(self, state):
@@ -245,7 +265,7 @@ class YawChangeTerm(Term):
 
     def __init__(self, n: int):
         i = np.arange(n - 1)
-        super().__init__(n, n - 1, *pattern([(i, 3 * i + 2, (1, 4))]))
+        super().__init__(n, n - 1, (), lambda: [(i, 3 * i + 2, (1, 4))])
         self._values = np.tile([-1.0, 0.0, 0.0, 1.0], n - 1)
 
     def linearize(self, state):
@@ -258,7 +278,7 @@ class NonholonomicTerm(Term):
 
     def __init__(self, n: int):
         i = np.arange(n - 1)
-        super().__init__(n, n - 1, *pattern([(i, 3 * i, (1, 6))]))
+        super().__init__(n, n - 1, (), lambda: [(i, 3 * i, (1, 6))])
 
     def linearize(self, state):
         poses = state.poses
