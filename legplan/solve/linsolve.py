@@ -65,6 +65,12 @@ class LinearSolver(ABC):
     def set_matrix(self, H: sp.spmatrix | np.ndarray) -> None:
         """Take H for the following `refactor` calls (H must not be modified while in use)."""
 
+    def set_jacobian(self, J: sp.spmatrix) -> None:
+        """Take H = JᵀJ given J (m × n) for the following `refactor` calls (same contract as
+        `set_matrix`). This default forms JᵀJ; `CholmodSolver` factorises from J itself."""
+        J = sp.csr_matrix(J)
+        self.set_matrix(sp.csc_matrix(J.T @ J))
+
     @abstractmethod
     def refactor(self, beta: float) -> None:
         """Factorise H + βI for the H of the last `set_matrix`."""
@@ -85,24 +91,43 @@ class CholmodSolver(LinearSolver):
         self.mode = mode
         self.ordering_method = ordering_method
         self._factor = None
-        self._pattern: tuple[np.ndarray, np.ndarray] | None = None
+        self._pattern: tuple | None = None
         self.analyses = 0  # how many symbolic analyses were done (one per pattern)
 
     def set_matrix(self, H):
-        H = sp.csc_matrix(H)
-        if self._pattern is None or not (np.array_equal(self._pattern[0], H.indptr)
-                                         and np.array_equal(self._pattern[1], H.indices)):
+        self._set(sp.csc_matrix(H), transposed_jacobian=False)
+
+    def set_jacobian(self, J):
+        """CHOLMOD's AAᵀ factorisation with A = Jᵀ: JᵀJ + βI is factorised from J (its CSR arrays are
+        those of Jᵀ in CSC), never formed here; the ordering is analysed on the pattern of JᵀJ."""
+        J = sp.csr_matrix(J)
+        self._set(sp.csc_matrix((J.data, J.indices, J.indptr), shape=J.shape[::-1]), transposed_jacobian=True)
+
+    def _set(self, A: sp.csc_matrix, transposed_jacobian: bool) -> None:
+        """Analyse once per pattern of A (H, or Jᵀ when `transposed_jacobian`), then keep A."""
+        if self._pattern is None or not (self._pattern[0] == transposed_jacobian and A.shape == self._pattern[1]
+                                         and np.array_equal(self._pattern[2], A.indptr)
+                                         and np.array_equal(self._pattern[3], A.indices)):
             ordering = self.ordering_method
             if ordering == "auto":
-                ordering = "natural" if natural_order_suffices(H) else "default"
-            self._factor = cholmod.analyze(H, mode=self.mode, ordering_method=ordering)
-            self._pattern = (H.indptr.copy(), H.indices.copy())
+                pattern = A
+                if transposed_jacobian:  # structural JᵀJ (no entry cancelled), once per pattern
+                    ones = sp.csc_matrix((np.ones(A.nnz), A.indices, A.indptr), shape=A.shape)
+                    pattern = sp.csc_matrix(ones @ ones.T)
+                ordering = "natural" if natural_order_suffices(pattern) else "default"
+            analyze = cholmod.analyze_AAt if transposed_jacobian else cholmod.analyze
+            self._factor = analyze(A, mode=self.mode, ordering_method=ordering)
+            self._pattern = (transposed_jacobian, A.shape, A.indptr.copy(), A.indices.copy())
             self.analyses += 1
-        self._matrix = H
+        self._matrix = A
+        self._transposed_jacobian = transposed_jacobian
 
     def refactor(self, beta):
         try:
-            self._factor.cholesky_inplace(self._matrix, beta=beta)
+            if self._transposed_jacobian:
+                self._factor.cholesky_AAt_inplace(self._matrix, beta=beta)
+            else:
+                self._factor.cholesky_inplace(self._matrix, beta=beta)
         except cholmod.CholmodNotPositiveDefiniteError as exc:
             raise NotPositiveDefiniteError(str(exc)) from exc
         if self.mode == "simplicial":

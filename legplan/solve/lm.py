@@ -14,9 +14,11 @@ iterate, is the same as with the full residual, but most rejected points cost a 
 An accepted point is linearised (Jacobians, eq. (13)) only if another iteration follows: not after
 the step that meets ε_num, nor at MaxIt; the norm reported then is that of the accepted trial point.
 
-Options beyond the paper: Marquardt scaling (λ·diag(JᵀJ) instead of λI, applied as a column
-scaling so CHOLMOD's beta = λ refactorisation still applies), projection onto box bounds, and
-Schur elimination of variables declared with `VariableBlock.schur_block`.
+Options beyond the paper: ``assembly="jacobian"`` (eq. (13) factorised from J by CHOLMOD, JᵀJ
+never formed in Python; see `Problem.normal_equations`), Marquardt scaling (λ·diag(JᵀJ) instead
+of λI, applied as a column scaling so CHOLMOD's beta = λ refactorisation still applies),
+projection onto box bounds, and Schur elimination of variables declared with
+`VariableBlock.schur_block`.
 """
 
 from __future__ import annotations
@@ -59,7 +61,7 @@ class LMParams:
     marquardt_scaling: bool = False  # damp with λ·diag(JᵀJ) instead of λI
     linear_solver: str = "cholmod"  # "cholmod" | "scipy" | "dense"
     cholmod_mode: str = "simplicial"  # "simplicial" | "supernodal"
-    assembly: str = "blocks"  # "blocks" (structured) | "stacked" (general)
+    assembly: str = "blocks"  # "blocks" (structured) | "stacked" (general) | "jacobian" (no JᵀJ formed)
     schur: bool = True  # eliminate variables that declare schur_block
     early_reject: bool = True  # stop evaluating a trial point once its partial ‖h‖ ≥ current ‖h‖ (same iterates)
     stall_window: int = 0  # opt-in stall stop (not Algorithm 1; 0 = off), see `solve_lm`
@@ -151,10 +153,12 @@ def solve_lm(problem: Problem, params: LMParams = LMParams(), theta0: np.ndarray
             norm = float(np.linalg.norm(linearization.residual))
             if it == 0:
                 initial = norm
-            if not np.isfinite(norm) or not np.all(np.isfinite(linearization.hessian.data)):
+            from_jacobian = linearization.hessian is None  # assembly="jacobian": the solver forms JᵀJ
+            matrix = linearization.jacobian if from_jacobian else linearization.hessian
+            if not np.isfinite(norm) or not np.all(np.isfinite(matrix.data)):
                 return finish(Status.NUMERICAL_FAILURE, "residual or Jacobian not finite at the current point",
                               it, norm, initial, hist_h, hist_l, accepted, rejected)
-            H, g, scale = _damping_system(linearization.hessian, linearization.gradient, params.marquardt_scaling)
+            matrix, g, scale = _damping_system(matrix, linearization.gradient, params.marquardt_scaling, from_jacobian)
             matrix_set = False
         if norm < params.tolerance:
             return finish(Status.CONVERGED, f"‖h‖ = {norm:.3e} < ε_num = {params.tolerance:.1e}",
@@ -170,7 +174,10 @@ def solve_lm(problem: Problem, params: LMParams = LMParams(), theta0: np.ndarray
         t0 = time.perf_counter()
         try:
             if not matrix_set:  # once per linearisation; a rejected step only refactors at the new λ
-                solver.set_matrix(H)
+                if from_jacobian:
+                    solver.set_jacobian(matrix)
+                else:
+                    solver.set_matrix(matrix)
                 matrix_set = True
             solver.refactor(lam)
             t1 = time.perf_counter()
@@ -228,18 +235,19 @@ def _out_of_reach(norm: float, past: float, params: LMParams, remaining: int) ->
     return needed > remaining
 
 
-def _damping_system(H: sp.csc_matrix, g: np.ndarray, marquardt: bool):
-    """H, g and column scale s such that the step is −s·(s H s + λI)⁻¹ (s g).
+def _damping_system(M: sp.spmatrix, g: np.ndarray, marquardt: bool, jacobian: bool):
+    """M, g and column scale s such that the step is −s·(s H s + λI)⁻¹ (s g), where M is H, or J
+    (CSR, H = JᵀJ) when `jacobian`; the returned M is then s H s, or J·diag(s).
 
     With Marquardt scaling s = diag(H)^(-1/2), which is (H + λ diag(H))⁻¹ in the original
     variables; otherwise s = 1 and this is eq. (13) as written.
     """
     if not marquardt:
-        return H, g, np.ones_like(g)
-    d = H.diagonal()
+        return M, g, np.ones_like(g)
+    d = np.bincount(M.indices, weights=M.data ** 2, minlength=g.size) if jacobian else M.diagonal()
     s = np.ones_like(d)
     positive = d > 0
     s[positive] = 1.0 / np.sqrt(d[positive])
-    Hs = H.copy()
-    Hs.data *= s[Hs.indices] * np.repeat(s, np.diff(Hs.indptr))
-    return Hs, g, s
+    Ms = M.copy()
+    Ms.data *= s[Ms.indices] if jacobian else s[Ms.indices] * np.repeat(s, np.diff(Ms.indptr))
+    return Ms, g, s

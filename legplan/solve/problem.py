@@ -1,14 +1,16 @@
 """A least-squares problem: variable blocks plus weighted residual blocks, stacked into h(θ), J(θ).
 
-Two ways to build the normal equations (JᵀJ) Δθ = Jᵀh of eq. (13):
+Three ways to build the normal equations (JᵀJ) Δθ = Jᵀh of eq. (13):
 
 * ``assembly="stacked"`` (general path): stack the weighted Jacobian blocks into one CSC matrix J
   and form JᵀJ with one sparse product.
+* ``assembly="jacobian"``: stack J only (as CSR); the solver factorises JᵀJ + λI from J
+  (`LinearSolver.set_jacobian`; CHOLMOD does it without a JᵀJ on the Python side).
 * ``assembly="blocks"`` (structured path, default): sum per-block contributions. A
   `StructuredBlock` returns its JᵀJ and Jᵀh blocks directly; any other block contributes
   J_iᵀJ_j products of its own Jacobian blocks (dense blocks go to BLAS).
 
-Both paths scatter COO triplets through a `CooAssembler`, so index arrays are sorted once per
+All paths scatter COO triplets through a `CooAssembler`, so index arrays are sorted once per
 sparsity pattern and later iterations only refresh values. Sparse products JᵢᵀJⱼ keep the
 structural pattern of |Jᵢ|ᵀ|Jⱼ| (scipy drops entries that happen to be zero, e.g. inactive
 inequality rows, which would otherwise change the pattern and force a new CHOLMOD analysis).
@@ -27,19 +29,24 @@ from legplan.solve.assembly import CooAssembler
 from legplan.solve.blocks import BlockDiagonal, Matrix, ResidualBlock, StructuredBlock, default_normal_terms
 from legplan.solve.variables import VariableBlock, VariableLayout
 
-ASSEMBLY_MODES = ("blocks", "stacked")
+ASSEMBLY_MODES = ("blocks", "stacked", "jacobian")
 
 
 @dataclass
 class NormalEquations:
-    """h(θ), H = JᵀJ (full symmetric CSC, diagonal always in the pattern) and g = Jᵀh."""
+    """h(θ), H = JᵀJ (full symmetric CSC, diagonal always in the pattern) and g = Jᵀh.
+
+    With ``assembly="jacobian"`` H is not formed (None) and `jacobian` holds the stacked J
+    (CSR, m × n) instead, for a solver that factorises JᵀJ + λI from J itself.
+    """
 
     residual: np.ndarray
-    hessian: sp.csc_matrix
+    hessian: sp.csc_matrix | None
     gradient: np.ndarray
     pattern_version: int
     evaluate_seconds: float
     assemble_seconds: float
+    jacobian: sp.csr_matrix | None = None
 
 
 class Problem:
@@ -79,6 +86,7 @@ class Problem:
         self._index_cache.clear()
         self._offsets = None
         self._jac_assembler = None
+        self._jact_assembler = None
         self._hess_assembler = None
 
     @property
@@ -88,6 +96,7 @@ class Problem:
             sizes = [b.size for b, _ in self._blocks]
             self._offsets = np.concatenate([[0], np.cumsum(sizes, dtype=np.int64)])
             self._jac_assembler = CooAssembler((int(self._offsets[-1]), self._layout.n))
+            self._jact_assembler = CooAssembler((self._layout.n, int(self._offsets[-1])))
             self._hess_assembler = CooAssembler((self._layout.n, self._layout.n))
             self._diagonal = np.arange(self._layout.n)  # one object: the assembler sees a cached index piece
         return self._layout
@@ -228,6 +237,11 @@ class Problem:
 
     def jacobian(self, theta: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix]:
         """h(θ) and the stacked weighted Jacobian J (CSC, pattern cached across calls)."""
+        h, rows, cols, vals = self._jacobian_triplets(theta)
+        return h, self._jac_assembler.assemble_parts(rows, cols, vals)
+
+    def _jacobian_triplets(self, theta: np.ndarray):
+        """h(θ) and the COO pieces (rows, cols, values) of the stacked weighted J."""
         layout = self.layout
         values = layout.values(theta)
         residuals, rows, cols, vals = [], [], [], []
@@ -238,8 +252,7 @@ class Problem:
             for i, (name, jac) in enumerate(zip(block.variables, jacs)):
                 rr, cc, vv = self._coo(("J", k, i), jac, rowmap, layout.columns[name])
                 rows.append(rr), cols.append(cc), vals.append(vv)
-        J = self._jac_assembler.assemble_parts(rows, cols, vals)
-        return _cat(residuals, float), J
+        return _cat(residuals, float), rows, cols, vals
 
     def normal_equations(self, theta: np.ndarray, assembly: str = "blocks") -> NormalEquations:
         """h, H = JᵀJ and g = Jᵀh at θ for eq. (13), by the chosen assembly path."""
@@ -248,6 +261,14 @@ class Problem:
         layout = self.layout
         n = layout.n
         diag = self._diagonal
+        if assembly == "jacobian":  # Jᵀ assembled as CSC, i.e. J as CSR; no JᵀJ
+            t0 = time.perf_counter()
+            h, rows, cols, vals = self._jacobian_triplets(theta)
+            Jt = self._jact_assembler.assemble_parts(cols, rows, vals)
+            t1 = time.perf_counter()
+            g = Jt @ h
+            return NormalEquations(h, None, g, self._jact_assembler.version, t1 - t0, time.perf_counter() - t1,
+                                   jacobian=Jt.T)
         if assembly == "stacked":
             t0 = time.perf_counter()
             h, J = self.jacobian(theta)

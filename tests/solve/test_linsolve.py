@@ -171,3 +171,31 @@ def test_auto_ordering_solves_like_cholmods_default_ordering(H):
         np.testing.assert_allclose(auto.solve(b), default.solve(b), rtol=1e-12)
         np.testing.assert_allclose(auto.solve(b), np.linalg.solve(H.toarray() + beta * np.eye(H.shape[0]), b),
                                    rtol=1e-10)
+
+
+@pytest.mark.parametrize("name", ["cholmod", "scipy", "dense"])
+def test_set_jacobian_factorises_jtj_plus_beta(name):
+    rng = np.random.default_rng(4)
+    J = sp.csr_matrix(sp.random(90, 30, density=0.1, random_state=rng) + sp.eye(90, 30))
+    b = rng.standard_normal(30)
+    solver = make_solver(name)
+    solver.set_jacobian(J)
+    for beta in (1e-3, 1.0):
+        solver.refactor(beta)
+        np.testing.assert_allclose(solver.solve(b), np.linalg.solve((J.T @ J).toarray() + beta * np.eye(30), b),
+                                   rtol=1e-9)
+
+
+def test_cholmod_analyses_the_jacobian_once_per_pattern_and_apart_from_h():
+    J = sp.csr_matrix(sp.random(90, 30, density=0.1, random_state=np.random.default_rng(5)) + sp.eye(90, 30))
+    solver = CholmodSolver()
+    for scale in (1.0, 2.0):
+        solver.set_jacobian(J * scale)
+        solver.refactor(0.5)
+    assert solver.analyses == 1
+    H = sp.csc_matrix(J.T @ J)
+    solver.set_matrix(H)  # same n, but H instead of Jᵀ: a new analysis
+    solver.refactor(0.5)
+    assert solver.analyses == 2
+    b = np.ones(30)
+    np.testing.assert_allclose(solver.solve(b), np.linalg.solve(H.toarray() + 0.5 * np.eye(30), b), rtol=1e-9)

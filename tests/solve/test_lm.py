@@ -81,7 +81,7 @@ def test_non_positive_definite_raises_lambda_instead_of_crashing(solver):
 
 
 @pytest.mark.parametrize("solver", ["cholmod", "scipy", "dense"])
-@pytest.mark.parametrize("assembly", ["blocks", "stacked"])
+@pytest.mark.parametrize("assembly", ["blocks", "stacked", "jacobian"])
 def test_every_solver_and_assembly_gives_the_same_iterates(solver, assembly):
     reference = solve_lm(tp.brown_almost_linear(), LMParams(linear_solver="dense", assembly="stacked"))
     result = solve_lm(tp.brown_almost_linear(), LMParams(linear_solver=solver, assembly=assembly))
@@ -148,3 +148,18 @@ def test_no_linearisation_once_the_loop_stops(max_iterations):
     assert len(calls) == result.accepted_steps == result.iterations
     np.testing.assert_allclose(result.norm, np.linalg.norm(problem.residual(result.theta)), rtol=1e-12)
     assert result.status is (Status.CONVERGED if max_iterations == 100 else Status.MAX_ITERATIONS)
+
+
+@pytest.mark.parametrize("make", [lambda: tp.broyden_tridiagonal(300), tp.bundle_adjustment_like,
+                                  lambda: tp.step_planner_like(num_samples=12, degree=4, dim=5, slack_dim=3,
+                                                               num_clearance=4, epsilon=0.05)])
+@pytest.mark.parametrize("marquardt", [False, True])
+def test_jacobian_assembly_takes_the_steps_of_the_blocks_assembly(make, marquardt):
+    """assembly="jacobian" (CHOLMOD factorises JᵀJ + λI from J; with Schur elimination the solver
+    forms JᵀJ itself) solves the same eq. (13) as the default path, with or without Marquardt scaling."""
+    reference = solve_lm(make(), LMParams(marquardt_scaling=marquardt, tolerance=1e-9))
+    result = solve_lm(make(), LMParams(marquardt_scaling=marquardt, tolerance=1e-9, assembly="jacobian"))
+    assert (result.status, result.iterations, result.accepted_steps) == \
+        (reference.status, reference.iterations, reference.accepted_steps)
+    np.testing.assert_allclose(result.norm_history, reference.norm_history, rtol=1e-6, atol=1e-11)
+    np.testing.assert_allclose(result.theta, reference.theta, rtol=1e-7, atol=1e-9)

@@ -32,6 +32,14 @@ def test_blocks_and_stacked_assembly_agree_and_match_jacobian():
         np.testing.assert_allclose(ne.residual, h)
         np.testing.assert_allclose(ne.hessian.toarray(), (J.T @ J).toarray(), atol=1e-12)
         np.testing.assert_allclose(ne.gradient, J.T @ h, atol=1e-12)
+    for fixed in (None, [True, False, False, True]):  # with a fixed entry, its column is dropped
+        problem, _, _ = _quadratic_problem(fixed=fixed, weight=np.arange(1.0, 7.0))
+        theta = np.linspace(-1, 1, problem.layout.n)
+        h, J = problem.jacobian(theta)
+        only_j = problem.normal_equations(theta, "jacobian")
+        assert only_j.hessian is None and sp.isspmatrix_csr(only_j.jacobian)
+        np.testing.assert_array_equal(only_j.jacobian.toarray(), J.toarray())
+        np.testing.assert_allclose(only_j.gradient, J.T @ h, atol=1e-12)
 
 
 def test_weights_scale_rows():
