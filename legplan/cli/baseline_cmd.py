@@ -88,22 +88,15 @@ def step_cmd(ctx, map_path, steps_path, step_range, time_budget, space, seed, ou
 
     Step i uses seed SEED + i. Metrics are those of `legplan step plan` (dense re-check by the
     independent validator); exit 1 if any step failed."""
-    from legplan.artefacts import check_output, open_artefact
+    from legplan.artefacts import check_output
     from legplan.baselines.step import StepBaselineParams, plan_sequence_baseline
     from legplan.cli.console import progress_bar, status, stderr_line
-    from legplan.cli.step_cmd import _parse_range
-    from legplan.errors import LegplanError
+    from legplan.cli.step_cmd import read_step_pairs
     from legplan.stepplan.batch import write_motion
-    from legplan.stepseq.sequence import read_steps
 
     check_output(output, overwrite)
     params = StepBaselineParams(time_budget=time_budget, space=space, seed=seed)
-    with open_artefact(map_path, kind="map"):
-        pass
-    seq = read_steps(steps_path)
-    if len(seq) < 2:
-        raise LegplanError(f"{steps_path}: field 'q' needs at least 2 configurations, got {len(seq)}")
-    indices = _parse_range(step_range, len(seq) - 1, steps_path)
+    seq, indices = read_step_pairs(map_path, steps_path, step_range)
     with progress_bar(f"baseline step ({params.planner})") as progress:
         records = plan_sequence_baseline(seq, map_path, params, indices, progress=progress)
     summary = write_motion(output, records, seq.robot, params, inputs=[map_path, steps_path], overwrite=overwrite,

@@ -15,6 +15,20 @@ def command():
     """Plan single-step motions between consecutive configurations of a step sequence."""
 
 
+def read_step_pairs(map_path: str, steps_path: str, step_range: str | None):
+    """The step sequence of STEPS and the indices of its consecutive pairs selected by `--steps`;
+    MAP must open as a map artefact. Shared by `step plan` and `baseline step`."""
+    from legplan.artefacts import open_artefact
+    from legplan.stepseq.sequence import read_steps
+
+    with open_artefact(map_path, kind="map"):
+        pass
+    seq = read_steps(steps_path)
+    if len(seq) < 2:
+        raise LegplanError(f"{steps_path}: field 'q' needs at least 2 configurations, got {len(seq)}")
+    return seq, _parse_range(step_range, len(seq) - 1, steps_path)
+
+
 def _parse_range(text: str | None, pairs: int, steps_path: str) -> range:
     """'a:b' (pairs a..b-1, either end optional) or 'i' over the `pairs` consecutive pairs."""
     if text is None:
@@ -51,20 +65,14 @@ def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, step_range, par
     """
     for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
         os.environ.setdefault(var, "1")  # before numpy loads: BLAS threads only contend with --jobs
-    from legplan.artefacts import check_output, open_artefact
+    from legplan.artefacts import check_output
     from legplan.cli.console import progress_bar, status, stderr_line
     from legplan.stepplan.batch import plan_sequence, write_motion
     from legplan.stepplan.params import StepPlanParams
-    from legplan.stepseq.sequence import read_steps
 
     check_output(output, overwrite)
     settings = StepPlanParams.from_overrides(params)
-    with open_artefact(map_path, kind="map"):
-        pass
-    seq = read_steps(steps_path)
-    if len(seq) < 2:
-        raise LegplanError(f"{steps_path}: field 'q' needs at least 2 configurations, got {len(seq)}")
-    indices = _parse_range(step_range, len(seq) - 1, steps_path)
+    seq, indices = read_step_pairs(map_path, steps_path, step_range)
     with progress_bar("planning steps") as progress:
         records = plan_sequence(seq, map_path, settings, indices, jobs=jobs, progress=progress)
     summary = write_motion(output, records, seq.robot, settings, inputs=[map_path, steps_path], overwrite=overwrite)
