@@ -399,6 +399,25 @@ class StepGenerator:
 
     def _step(self, x, stance, footholds, leg, cell, yaw):
         """Shift, lift and touch-down configurations moving `leg` to `cell`, or (None, reason)."""
+        new = footholds.copy()
+        new[leg] = cell
+        apex = 0.5 * (footholds[leg] + cell)
+        apex[2] = max(footholds[leg, 2], cell[2], self._max_height_between(footholds[leg], cell)) \
+            + self.params.lift_height
+        configs, why = self._lift(x, stance, footholds, leg, new, apex, yaw)
+        if configs is None:
+            return None, why
+        support = configs[-1][1]
+        res = self._solve(self._mode(stance, new, support), configs[-1][0], self._posture(new, stance, yaw),
+                          self._raised(stance, new, yaw))
+        if not res.success:
+            return None, f"touch-down IK failed ({res.reason})"
+        configs.append((res.x, stance.copy(), new))
+        return configs, ""
+
+    def _lift(self, x, stance, footholds, leg, planned, target, yaw):
+        """Shift (if the CoM must move) and lift `leg` with its foot at `target`, the posture aiming
+        at the `planned` footholds: the configurations, or (None, reason)."""
         support = stance.copy()
         support[leg] = False
         configs = []
@@ -407,21 +426,11 @@ class StepGenerator:
             return None, why
         if shift is not None:
             configs.append(shift)
-        new = footholds.copy()
-        new[leg] = cell
-        apex = 0.5 * (footholds[leg] + cell)
-        apex[2] = max(footholds[leg, 2], cell[2], self._max_height_between(footholds[leg], cell)) \
-            + self.params.lift_height
-        res = self._solve(self._mode(support, footholds, support), x, self._posture(new, support, yaw),
-                          self._raised(support, new, yaw), {int(leg): apex})
+        res = self._solve(self._mode(support, footholds, support), x, self._posture(planned, support, yaw),
+                          self._raised(support, planned, yaw), {int(leg): target})
         if not res.success:
             return None, f"lift IK failed ({res.reason})"
-        configs.append((res.x, support.copy(), footholds.copy()))
-        res = self._solve(self._mode(stance, new, support), res.x, self._posture(new, stance, yaw),
-                          self._raised(stance, new, yaw))
-        if not res.success:
-            return None, f"touch-down IK failed ({res.reason})"
-        configs.append((res.x, stance.copy(), new))
+        configs.append((res.x, support, footholds.copy()))
         return configs, ""
 
     def _advance_body(self, x, stance, footholds, yaw):
@@ -449,21 +458,8 @@ class StepGenerator:
 
     def _park(self, x, stance, footholds, leg, yaw):
         """Shift, then lift `leg` above its foothold and keep it up (no foothold within reach)."""
-        support = stance.copy()
-        support[leg] = False
-        configs = []
-        x, shift, why = self._shift(x, stance, footholds, support, self._raised(stance, footholds, yaw), yaw)
-        if x is None:
-            return None, why
-        if shift is not None:
-            configs.append(shift)
         target = footholds[leg] + [0.0, 0.0, self.params.lift_height]
-        res = self._solve(self._mode(support, footholds, support), x, self._posture(footholds, support, yaw),
-                          self._raised(support, footholds, yaw), {int(leg): target})
-        if not res.success:
-            return None, f"lift IK failed ({res.reason})"
-        configs.append((res.x, support.copy(), footholds.copy()))
-        return configs, ""
+        return self._lift(x, stance, footholds, leg, footholds, target, yaw)
 
     def _max_height_between(self, a, b, samples: int = 20) -> float:
         t = np.linspace(0.0, 1.0, samples)[:, None]
