@@ -48,8 +48,8 @@ def cost_at(T, c1, c2, c3, rho):
     return ((-c1 / 3.0 * inv - c2 / 2.0) * inv - c3) * inv + rho * T
 
 
-def depressed_quartic_roots(p: float, q: float, r: float) -> list[float]:
-    """Real roots of x⁴ + p x² + q x + r = 0 by Ferrari's method (floats in, list out).
+def depressed_quartic_roots(p: float, q: float, r: float) -> tuple[float, float, float, float]:
+    """The four roots of x⁴ + p x² + q x + r = 0 by Ferrari's method, NaN where complex (floats).
 
     The resolvent cubic y³ + p y² + (p²/4 - r) y - q²/8 = 0 has a real root y ≥ 0 (its value at 0
     is -q²/8 ≤ 0). With y = z - p/3 it is z³ + 3A z + 2B = 0, A = -(p²/36 + r/3),
@@ -57,7 +57,7 @@ def depressed_quartic_roots(p: float, q: float, r: float) -> list[float]:
     when D = B² + A³ > 0 (one real root), else the trigonometric 2√-A cos(acos(B / (A√-A)) / 3).
     With s = √(2y) and o = ±√(y² + p y + p²/4 - r) (sign of q; either when q = 0) the quartic
     splits into x² ∓ s x + p/2 + y ± o = 0, whose discriminants are s²/4 - p/2 - y ∓ o =
-    -(y + p)/2 ∓ o.
+    -(y + p)/2 ∓ o. Scalar on purpose: the search evaluates one state at a time (module doc).
     """
     pp = p * p
     A = pp * (-1.0 / 36.0) - r * (1.0 / 3.0)
@@ -66,35 +66,35 @@ def depressed_quartic_roots(p: float, q: float, r: float) -> list[float]:
     if disc > 0.0:
         sq = math.sqrt(disc)
         z = math.cbrt(sq - B) - math.cbrt(sq + B)
-    else:  # A ≤ 0 here; A = 0 means the triple root z = 0
+    elif A < 0.0:
         m = math.sqrt(-A)
-        cosine = min(max(B / (A * m), -1.0), 1.0) if m > 0.0 else 0.0
-        z = 2.0 * m * math.cos(math.acos(cosine) * (1.0 / 3.0))
+        z = 2.0 * m * math.cos(math.acos(min(max(B / (A * m), -1.0), 1.0)) * (1.0 / 3.0))
+    else:  # A = B = 0: the triple root z = 0
+        z = 0.0
     y = max(z - p * (1.0 / 3.0), 0.0)
     offset = math.sqrt(max(y * (y + p) + 0.25 * pp - r, 0.0))
     if q < 0.0:
         offset = -offset
     half = math.sqrt(0.5 * y)  # s / 2
     base = -0.5 * (y + p)
-    roots = []
-    if base >= offset:  # x² - s x + (p/2 + y + o) = 0
-        root = math.sqrt(base - offset)
-        roots += [half + root, half - root]
-    if base >= -offset:  # x² + s x + (p/2 + y - o) = 0
-        root = math.sqrt(base + offset)
-        roots += [root - half, -half - root]
-    return roots
+    # x² - s x + (p/2 + y + o) = 0 and x² + s x + (p/2 + y - o) = 0
+    plus = math.sqrt(base - offset) if base >= offset else math.nan
+    minus = math.sqrt(base + offset) if base >= -offset else math.nan
+    return half + plus, half - plus, minus - half, -half - minus
 
 
 def _minimize(p: float, q: float, r: float, t_lb: float) -> tuple[float, float]:
     """(min J*/ρ, T) over T ≥ t_lb > 0 for J*'/ρ · T⁴ = T⁴ + p T² + q T + r (eq. (11)): the
     candidates are t_lb and the real roots above it, J*(T)/ρ = ((-r/3 /T - q/2)/T - p)/T + T."""
-    best, best_T = math.inf, t_lb
-    for T in [t_lb] + [root for root in depressed_quartic_roots(p, q, r) if root > t_lb]:
-        inv = 1.0 / T
-        cost = ((r * (-1.0 / 3.0) * inv - 0.5 * q) * inv - p) * inv + T
-        if cost < best:
-            best, best_T = cost, T
+    inv = 1.0 / t_lb
+    best = ((r * (-1.0 / 3.0) * inv - 0.5 * q) * inv - p) * inv + t_lb
+    best_T = t_lb
+    for T in depressed_quartic_roots(p, q, r):
+        if T > t_lb:  # False for NaN
+            inv = 1.0 / T
+            cost = ((r * (-1.0 / 3.0) * inv - 0.5 * q) * inv - p) * inv + T
+            if cost < best:
+                best, best_T = cost, T
     return best, best_T
 
 
@@ -124,13 +124,12 @@ class GoalHeuristic:
         self.gx, self.gy = (float(x) for x in pg)
         self.gvx, self.gvy = (float(x) for x in vg)
         self.goal_speed2 = self.gvx * self.gvx + self.gvy * self.gvy
-        self.rho = float(rho)
+        self.rho, self.inv_rho = float(rho), 1.0 / rho
         self.inv_v = None if v_max is None else 1.0 / v_max
 
     def __call__(self, px: float, py: float, vx: float, vy: float) -> float:
         dx, dy = self.gx - px, self.gy - py
-        gvx, gvy = self.gvx, self.gvy
-        inv_rho = 1.0 / self.rho
+        gvx, gvy, inv_rho = self.gvx, self.gvy, self.inv_rho
         r = -36.0 * (dx * dx + dy * dy) * inv_rho
         q = 24.0 * ((vx + gvx) * dx + (vy + gvy) * dy) * inv_rho
         p = -4.0 * (vx * vx + vy * vy + vx * gvx + vy * gvy + self.goal_speed2) * inv_rho

@@ -97,13 +97,12 @@ def _search(grid, start, goal, params, progress, finish):
             return finish(False, f"expansion limit ({params.max_expansions}) reached", expansions)
         if progress is not None and expansions % 2000 == 0:
             progress(expansions, params.max_expansions, f"g={g:.1f}")
-        ends, cost, feasible = prims.expand(px, py, vx, vy)
+        children, feasible = prims.expand(px, py, vx, vy)
         rows = feasible.nonzero()[0].tolist()
         if not rows:
             continue
-        keys = encode(ends).tolist()
-        cost = cost.tolist()
-        end_px, end_py, end_vx, end_vy = ends.tolist()
+        keys = encode(children[:4]).tolist()
+        end_px, end_py, end_vx, end_vy, cost = children.tolist()
         for row in rows:
             child, g_child = keys[row], g + cost[row]
             if best_get(child, inf) <= g_child:  # closed, or reached at least as cheaply
@@ -131,10 +130,9 @@ class _KeyEncoder:
         self.radix = np.array([ny * vel_span * vel_span, vel_span * vel_span, vel_span, 1.0])
 
     def __call__(self, ends: np.ndarray) -> np.ndarray:
-        scaled = (ends - self.corner) * self.scale
-        cells = np.empty_like(scaled)
-        np.floor(scaled[:2], out=cells[:2])
-        np.rint(scaled[2:], out=cells[2:])
+        cells = (ends - self.corner) * self.scale
+        np.floor(cells[:2], out=cells[:2])
+        np.rint(cells[2:], out=cells[2:])
         return self.radix @ cells
 
 

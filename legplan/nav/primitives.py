@@ -59,43 +59,44 @@ class PrimitiveSet:
                    params.rho_c, grid)
 
     def _affine_map(self, grid: NavGrid) -> np.ndarray:
-        """E (5, 4·M·S + 4·M): [1, p0x, p0y, v0x, v0y] · E = sample cells x, y (`to_cells` of
-        p0 + v0 t + u t²/2), sample velocities x, y (v0 + u t), each (M, S), then the end state
-        rows px, py, vx, vy, each (M,)."""
+        """E (5, 4·M·S + 5·M): [1, p0x, p0y, v0x, v0y] · E = sample cells x, y (`to_cells` of
+        p0 + v0 t + u t²/2), sample velocities x, y (v0 + u t), each (M, S), then the children
+        rows px, py, vx, vy (end state) and the base cost (||u||² + ρ)τ, each (M,)."""
         M, S = len(self.inputs), self.samples
         t = np.linspace(0.0, self.tau, S)
         inv_r = 1.0 / grid.resolution
-        basis = np.zeros((5, 8, M, S))
+        samples = np.zeros((5, 4, M, S))
+        children = np.zeros((5, 5, M))
         for axis in range(2):
             u = self.inputs[:, axis, None]
-            cells, velocity, end_p, end_v = basis[:, axis], basis[:, 2 + axis], \
-                basis[:, 4 + axis], basis[:, 6 + axis]
+            cells, velocity = samples[:, axis], samples[:, 2 + axis]
+            end_p, end_v = children[:, axis], children[:, 2 + axis]
             cells[0] = 0.5 * u * t**2 * inv_r + 1.5 - grid.origin[axis] * inv_r
             cells[1 + axis] = inv_r
             cells[3 + axis] = t * inv_r
             velocity[0] = u * t
             velocity[3 + axis] = 1.0
-            end_p[0] = 0.5 * u * self.tau**2
+            end_p[0] = 0.5 * u[:, 0] * self.tau**2
             end_p[1 + axis] = 1.0
             end_p[3 + axis] = self.tau
-            end_v[0] = u * self.tau
+            end_v[0] = u[:, 0] * self.tau
             end_v[3 + axis] = 1.0
-        return np.concatenate([basis[:, :4].reshape(5, -1), basis[:, 4:, :, 0].reshape(5, -1)],
-                              axis=1)
+        children[0, 4] = self.base_cost
+        return np.concatenate([samples.reshape(5, -1), children.reshape(5, -1)], axis=1)
 
     def expand(self, px: float, py: float, vx: float, vy: float):
-        """All children of the node (px, py, vx, vy): end states (4, M) as rows px, py, vx, vy, edge
-        costs (M,) (eq. (8) plus ρ_c × the collision cost of eq. (18); not finite when a sample
-        is blocked) and the feasibility mask (M,) (no blocked sample, |v_end| ≤ v_max per axis).
-        Call under `np.errstate(invalid="ignore")` (a blocked sample at zero speed gives ∞·0)."""
+        """All children of the node (px, py, vx, vy): a (5, M) block with rows px, py, vx, vy (end
+        state) and edge cost (eq. (8) plus ρ_c × the collision cost of eq. (18); not finite when a
+        sample is blocked), and the feasibility mask (M,) (no blocked sample, |v_end| ≤ v_max per
+        axis). Call under `np.errstate(invalid="ignore")` (a blocked sample at zero speed: ∞·0)."""
         M, S = len(self.inputs), self.samples
-        out = np.array([1.0, px, py, vx, vy]) @ self._basis
+        out = np.dot(np.array([1.0, px, py, vx, vy]), self._basis)
         samples = out[:4 * M * S].reshape(4, M, S)
-        ends = out[4 * M * S:].reshape(4, M)
+        children = out[4 * M * S:].reshape(5, M)
         cells = np.fmin(np.fmax(samples[:2], 0.0), self._upper).astype(np.intp)
         hard = self.grid.hard_cost_flat[cells[1] * self._row + cells[0]]
         collision = np.vecdot(hard, np.hypot(samples[2], samples[3]))
-        cost = self.base_cost + self.collision_weight * collision
-        speed = np.abs(ends[2:])
+        children[4] += self.collision_weight * collision
+        speed = np.abs(children[2:4])
         feasible = (np.maximum(speed[0], speed[1]) <= self.v_max) & (collision < np.inf)
-        return ends, cost, feasible
+        return children, feasible

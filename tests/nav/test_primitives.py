@@ -37,7 +37,8 @@ def test_expand_matches_per_primitive_evaluation(pillars_grid, rho_c):
         p0 = rng.uniform([xmin + 0.1, ymin + 0.1], [xmax - 0.1, ymax - 0.1])
         v0 = rng.uniform(-params.v_max, params.v_max, 2)
         with np.errstate(invalid="ignore"):
-            ends, cost, feasible = prims.expand(*p0, *v0)
+            children, feasible = prims.expand(*p0, *v0)
+        ends, cost = children[:4], children[4]
         for row, (end_p, end_v, ok, reference_cost) in \
                 enumerate(reference_children(pillars_grid, params, p0, v0)):
             np.testing.assert_allclose(ends[:2, row], end_p, rtol=0, atol=1e-12)
