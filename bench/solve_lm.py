@@ -4,38 +4,40 @@ Problems: the step-planner-shaped synthetic problem (N=100 samples, degree 10, 2
 control point, 18 slacks per sample; eq. (12) shape, known root) and Broyden tridiagonal with
 n = 10,000 and 100,000. Every solver starts at the same point and stops at the same tolerance
 ‖h‖ < TOL (scipy through its callback). Each configuration is rebuilt and run REPEATS times in this
-process; the median wall time is reported with its ratio to the named reference.
+process; the median wall time is reported with its ratio to the named reference. legplan runs in
+its default configuration (structured "blocks" assembly, JᵀJ formed in Python) and, for Broyden,
+with assembly="jacobian" (CHOLMOD factorises JᵀJ + λI from J). A per-iteration profile (cProfile,
+one extra run) shows where legplan's time goes on Broyden n = 100,000.
 
     .venv/bin/python bench/solve_lm.py [--repeats 5] [--skip-exact] [--no-append]
 
 Every solver runs with one BLAS thread (OPENBLAS/OMP/MKL_NUM_THREADS=1 unless set): on the shared
 2-core machine multithreaded BLAS oversubscribes the cores and slows scipy's LSMR far more than
 CHOLMOD, which made earlier ratios look better than they are. Writes bench/results/solve_lm.json
-(with the load average before and after) and appends rows to BENCHMARKS.md.
+(with the load average before and after) and replaces the solve_lm section of BENCHMARKS.md.
 """
 
 from __future__ import annotations
 
 import argparse
+import cProfile
 import datetime
-import json
 import os
-import platform
+import pstats
 import statistics
 import time
-from pathlib import Path
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # before numpy/scipy load BLAS
 
 import numpy as np  # noqa: E402
-from scipy.optimize import least_squares
+from scipy.optimize import least_squares  # noqa: E402
 
-from legplan.solve import CholmodSolver, LMParams, solve_lm
-from legplan.solve import testproblems as tp
+from common import machine, update_benchmarks, write_result  # noqa: E402
+from legplan.solve import CholmodSolver, LMParams, solve_lm  # noqa: E402
+from legplan.solve import testproblems as tp  # noqa: E402
 
 TOL = 1e-8
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def legplan_run(make, params):
@@ -101,22 +103,50 @@ def cholmod_mode_comparison(make):
     return out
 
 
-def cpu_model() -> str:
-    for line in Path("/proc/cpuinfo").read_text().splitlines():
-        if line.startswith("model name"):
-            return line.split(":", 1)[1].strip()
-    return platform.processor() or "unknown"
+# cProfile groups of one legplan solve (cumulative seconds of these functions; Python-level only:
+# CHOLMOD's own calls are inside the CholmodSolver methods)
+PROFILE_GROUPS = {
+    "residual + Jacobian evaluation (blocks)": [("problem.py", "_weighted_linearization")],
+    "J stacking / COO → CSC assembly": [("problem.py", "_coo"), ("assembly.py", "assemble_parts")],
+    "JᵀJ formation (Python side)": [("problem.py", "_structural_product")],
+    "CHOLMOD analysis + ordering choice (once per pattern) and matrix hand-over": [("linsolve.py", "_set")],
+    "CHOLMOD numeric factorisation (refactor with beta = λ)": [("linsolve.py", "refactor")],
+    "CHOLMOD triangular solves": [("linsolve.py", "solve")],
+    "trial-point evaluation (early-reject ‖h‖)": [("problem.py", "trial_norm")],
+}
+
+
+def iteration_profile(make, params):
+    """Seconds per PROFILE_GROUPS group for one solve, the rest (LM's λ bookkeeping, steps, norms,
+    dict/array handling) as 'LM loop and other Python', and the iteration count."""
+    problem = make()
+    profiler = cProfile.Profile()
+    t0 = time.perf_counter()
+    profiler.enable()
+    result = solve_lm(problem, params)
+    profiler.disable()
+    wall = time.perf_counter() - t0
+    stats = pstats.Stats(profiler).stats
+    groups = {}
+    for group, functions in PROFILE_GROUPS.items():
+        groups[group] = sum(v[3] for (path, _, name), v in stats.items()
+                            if any(path.endswith(f) and name == fn for f, fn in functions))
+    total = next(v[3] for (path, _, name), v in stats.items() if path.endswith("lm.py") and name == "solve_lm")
+    groups["LM loop and other Python"] = total - sum(groups.values())
+    return {"iterations": result.iterations, "accepted": result.accepted_steps, "profiled_total_s": total,
+            "wall_s": wall, "groups_s": groups}
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--repeats", type=int, default=5)
     parser.add_argument("--skip-exact", action="store_true", help="skip scipy trf/exact (dense SVD, minutes)")
-    parser.add_argument("--no-append", action="store_true", help="do not append rows to BENCHMARKS.md")
+    parser.add_argument("--no-append", action="store_true", help="do not write the BENCHMARKS.md section")
     args = parser.parse_args()
     load_before = os.getloadavg()
     step = lambda: tp.step_planner_like(epsilon=3e-2)  # noqa: E731
     base = LMParams(tolerance=TOL)
+    jacobian = LMParams(tolerance=TOL, assembly="jacobian")
     cases = {
         "step_planner_like": (step, [
             ("legplan LM + cholmod (structured, Schur)", lambda: legplan_run(step, base)),
@@ -131,10 +161,11 @@ def main():
         make = lambda n=n: tp.broyden_tridiagonal(n)  # noqa: E731
         cases[f"broyden_tridiagonal_{n}"] = (make, [
             ("legplan LM + cholmod", lambda make=make: legplan_run(make, base)),
+            ("legplan LM + cholmod (assembly=jacobian)", lambda make=make: legplan_run(make, jacobian)),
             ("legplan LM + scipy", lambda make=make: legplan_run(make, LMParams(tolerance=TOL, linear_solver="scipy"))),
             ("scipy least_squares trf/lsmr", lambda make=make: scipy_run(make, "lsmr")),
         ])
-    results = {"tolerance": TOL, "repeats": args.repeats, "machine": platform.machine(), "cpu": cpu_model(),
+    results = {"tolerance": TOL, "repeats": args.repeats, "machine": machine(),
                "date": datetime.date.today().isoformat(), "problems": {}}
     for pname, (make, configs) in cases.items():
         print(pname, flush=True)
@@ -146,37 +177,59 @@ def main():
         for row in rows:
             row["ratio_vs_legplan_cholmod"] = row["median_s"] / ours
         entry = {"rows": rows}
-        if pname == "step_planner_like":
+        if pname in ("step_planner_like", "broyden_tridiagonal_100000"):
             entry["factorization"] = cholmod_mode_comparison(make)
             print("  ", entry["factorization"], flush=True)
+        if pname == "broyden_tridiagonal_100000":
+            entry["profile"] = {label: iteration_profile(make, params) for label, params in
+                                (("default (blocks)", base), ("assembly=jacobian", jacobian))}
+            print("  ", entry["profile"], flush=True)
         results["problems"][pname] = entry
     results["load_average_1_5_15"] = {"before": load_before, "after": os.getloadavg()}
-    out = ROOT / "bench" / "results" / "solve_lm.json"
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(json.dumps(results, indent=2) + "\n")
+    write_result("solve_lm", results)
     if not args.no_append:
-        write_markdown(results)
+        update_benchmarks("solve_lm", markdown(results))
 
 
 HEADER = ("| date | machine | benchmark | case | config | median (s) | ratio | reference | notes |\n"
           "| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n")
 
 
-def write_markdown(results):
-    """Append a section: one row per configuration, ratio = its median / legplan LM + cholmod's."""
-    path = ROOT / "BENCHMARKS.md"
+def speedups(rows) -> str:
+    """'scipy trf/lsmr ÷ legplan' for every legplan CHOLMOD row of one problem."""
+    scipy_row = next(r for r in rows if r["config"] == "scipy least_squares trf/lsmr")
+    return "; ".join(f"{r['config']}: {scipy_row['median_s'] / r['median_s']:.2f}×" for r in rows
+                     if r["config"].startswith("legplan LM + cholmod"))
+
+
+def markdown(results) -> str:
+    """The section: one row per configuration (ratio = its median / legplan LM + cholmod's), the
+    speed-ups over scipy and the per-iteration profile of Broyden n = 100,000."""
     load = " → ".join(f"{results['load_average_1_5_15'][k][0]:.1f}" for k in ("before", "after"))
-    lines = [f"\n## solve_lm — legplan LM vs scipy least_squares ({results['date']})\n",
+    lines = [f"## solve_lm — legplan LM vs scipy least_squares ({results['date']})\n\n",
              f"Every solver from the same start to ‖h‖ < {results['tolerance']:.0e}, one BLAS thread, "
-             f"1-min load average {load} (shared 2-core machine).\n\n", HEADER]
-    machine = f"{results['cpu']}, {results['machine']}"
+             f"median of {results['repeats']} runs in one process, 1-min load average {load} "
+             f"(shared 2-core machine). Written by bench/solve_lm.py.\n\n", HEADER]
     for pname, entry in results["problems"].items():
         for row in entry["rows"]:
-            lines.append(f"| {results['date']} | {machine} | solve_lm | {pname} | {row['config']} | "
+            lines.append(f"| {results['date']} | {results['machine']} | solve_lm | {pname} | {row['config']} | "
                          f"{row['median_s']:.3f} | {row['ratio_vs_legplan_cholmod']:.2f}× | legplan LM + cholmod | "
                          f"‖h‖={row['final_norm']:.1e}, median of {len(row['runs'])} |\n")
-    with path.open("a") as f:
-        f.writelines(lines)
+    lines.append("\nSpeed-up over scipy least_squares trf/lsmr (median ÷ median): " + " · ".join(
+        f"{pname}: {speedups(entry['rows'])}" for pname, entry in results["problems"].items()) + ".\n")
+    for pname, entry in results["problems"].items():
+        f = entry.get("factorization")
+        if f:
+            lines.append(f"\n{pname}: JᵀJ {f['H_nnz']} entries; CHOLMOD refactor (beta = λ, median of 5) simplicial "
+                         f"{1e3 * f['cholmod_simplicial_refactor_s']:.2f} ms, supernodal "
+                         f"{1e3 * f['cholmod_supernodal_refactor_s']:.2f} ms.\n")
+    profile = results["problems"].get("broyden_tridiagonal_100000", {}).get("profile", {})
+    for label, p in profile.items():
+        it = p["iterations"]
+        parts = ", ".join(f"{group} {1e3 * s:.1f} ms ({1e3 * s / it:.1f}/it.)" for group, s in p["groups_s"].items())
+        lines.append(f"\nProfile, Broyden n = 100,000, legplan {label} (cProfile, one run, {it} iterations, "
+                     f"{p['accepted']} accepted, {1e3 * p['profiled_total_s']:.0f} ms under the profiler): {parts}.\n")
+    return "".join(lines)
 
 
 if __name__ == "__main__":

@@ -27,16 +27,19 @@ class CooAssembler:
     def _analyze(self, rows: np.ndarray, cols: np.ndarray) -> None:
         nrows, ncols = self.shape
         key = cols.astype(np.int64) * nrows + rows
-        # np.unique with a stable sort: triplets from cached patterns arrive as a few sorted runs,
-        # which a stable (merging) sort handles in about linear time.
-        order = np.argsort(key, kind="stable")
-        ordered = key[order]
-        first = np.empty(ordered.size, bool)
-        first[:1] = True
-        np.not_equal(ordered[1:], ordered[:-1], out=first[1:])
-        unique = ordered[first]
-        self._slot = np.empty(key.size, np.intp)
-        self._slot[order] = np.cumsum(first) - 1
+        if np.all(key[1:] > key[:-1]):  # already in CSC order without duplicates (e.g. one CSR block of Jᵀ)
+            unique, self._slot = key, np.arange(key.size)
+        else:
+            # np.unique with a stable sort: triplets from cached patterns arrive as a few sorted
+            # runs, which a stable (merging) sort handles in about linear time.
+            order = np.argsort(key, kind="stable")
+            ordered = key[order]
+            first = np.empty(ordered.size, bool)
+            first[:1] = True
+            np.not_equal(ordered[1:], ordered[:-1], out=first[1:])
+            unique = ordered[first]
+            self._slot = np.empty(key.size, np.intp)
+            self._slot[order] = np.cumsum(first) - 1
         self._indices = (unique % nrows).astype(np.int32)
         self._indptr = np.zeros(ncols + 1, dtype=np.int32)
         np.cumsum(np.bincount(unique // nrows, minlength=ncols), out=self._indptr[1:])

@@ -149,11 +149,11 @@ def natural_order_suffices(H: sp.csc_matrix) -> bool:
     A one-triangle H (no entry above the diagonal) is not judged: False.
     """
     n = H.shape[0]
-    H = H if H.has_sorted_indices else H.sorted_indices()
     index = np.arange(n)
     first = index.copy()
     nonempty = np.diff(H.indptr) > 0
-    first[nonempty] = np.minimum(H.indices[H.indptr[:-1][nonempty]], index[nonempty])
+    if H.nnz:  # smallest row index per nonempty column; empty columns are empty segments
+        first[nonempty] = np.minimum(np.minimum.reduceat(H.indices, H.indptr[:-1][nonempty]), index[nonempty])
     if H.nnz > n and np.array_equal(first, index):  # off-diagonal entries, none above the diagonal
         return False
     return float(np.sum(index - first)) + n <= NATURAL_FILL_SLACK * (H.nnz + n) / 2

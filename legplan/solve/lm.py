@@ -126,7 +126,7 @@ def solve_lm(problem: Problem, params: LMParams = LMParams(), theta0: np.ndarray
     t_start = time.perf_counter()
     layout = problem.layout
     timings = Timings()
-    theta = layout.initial() if theta0 is None else layout.project(np.asarray(theta0, float))
+    theta = layout.initial() if theta0 is None else layout.project(np.array(theta0, float))
     solver = make_solver(params.linear_solver, params.cholmod_mode)
     schur = layout.schur_columns() if params.schur else None
     if schur is not None:
@@ -182,7 +182,7 @@ def solve_lm(problem: Problem, params: LMParams = LMParams(), theta0: np.ndarray
             solver.refactor(lam)
             t1 = time.perf_counter()
             timings.factorize += t1 - t0
-            step = -scale * solver.solve(scale * g)
+            step = -solver.solve(g) if scale is None else -scale * solver.solve(scale * g)
             timings.solve += time.perf_counter() - t1
         except NotPositiveDefiniteError as exc:
             timings.factorize += time.perf_counter() - t0
@@ -240,10 +240,10 @@ def _damping_system(M: sp.spmatrix, g: np.ndarray, marquardt: bool, jacobian: bo
     (CSR, H = JᵀJ) when `jacobian`; the returned M is then s H s, or J·diag(s).
 
     With Marquardt scaling s = diag(H)^(-1/2), which is (H + λ diag(H))⁻¹ in the original
-    variables; otherwise s = 1 and this is eq. (13) as written.
+    variables; otherwise s = 1 (returned as None) and this is eq. (13) as written.
     """
     if not marquardt:
-        return M, g, np.ones_like(g)
+        return M, g, None
     d = np.bincount(M.indices, weights=M.data ** 2, minlength=g.size) if jacobian else M.diagonal()
     s = np.ones_like(d)
     positive = d > 0

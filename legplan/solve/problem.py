@@ -160,13 +160,17 @@ class Problem:
             rows, cols, keep = cached
             return rows, cols, term.blocks.reshape(-1)[keep]
         if sp.issparse(term):
-            coo = sp.coo_matrix(term)
+            # CSR/CSC: compared by their compressed index arrays, values taken in storage order
+            term = term if term.format in ("csr", "csc") else sp.coo_matrix(term)
+            pattern = (term.indptr, term.indices) if term.format != "coo" else (term.row, term.col)
             cached = self._index_cache.get(key + ("sparse",))
-            if cached is None or not (np.array_equal(cached[0], coo.row) and np.array_equal(cached[1], coo.col)):
-                cached = self._index_cache[key + ("sparse",)] = (coo.row.copy(), coo.col.copy(),
+            if cached is None or not (cached[0] == term.format and all(np.array_equal(a, b) for a, b in
+                                                                       zip(cached[1], pattern))):
+                coo = term.tocoo()
+                cached = self._index_cache[key + ("sparse",)] = (term.format, tuple(p.copy() for p in pattern),
                                                                   self._mapped(coo.row, coo.col, rowmap, colmap))
             rows, cols, keep = cached[2]
-            return rows, cols, coo.data[keep]
+            return rows, cols, term.data[keep]
         term = np.asarray(term, float)
         cached = self._index_cache.get(key + ("dense", term.shape))
         if cached is None:

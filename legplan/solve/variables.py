@@ -68,6 +68,10 @@ class VariableLayout:
         self.n = offset
         self.lower = self._gather(lambda b: b.lower)
         self.upper = self._gather(lambda b: b.upper)
+        self.bounded = bool(np.isfinite(self.lower).any() or np.isfinite(self.upper).any())
+        # blocks without fixed entries own a contiguous range of θ: read as a slice, not a gather
+        self._ranges = {b.name: slice(int(self.columns[b.name][0]), int(self.columns[b.name][-1]) + 1)
+                        for b in blocks if b.size and not b.fixed.any()}
 
     def _gather(self, attr) -> np.ndarray:
         out = np.empty(self.n)
@@ -81,12 +85,16 @@ class VariableLayout:
         return self.project(self._gather(lambda b: b.value))
 
     def project(self, theta: np.ndarray) -> np.ndarray:
-        return np.clip(theta, self.lower, self.upper)
+        """θ clipped to the box bounds (θ itself when no entry has a finite bound)."""
+        return np.clip(theta, self.lower, self.upper) if self.bounded else theta
 
     def values(self, theta: np.ndarray) -> dict[str, np.ndarray]:
         """Full value vector of every block for θ (fixed entries from the block's stored value)."""
         out = {}
         for name, b in self.blocks.items():
+            if name in self._ranges:
+                out[name] = theta[self._ranges[name]].copy()
+                continue
             v = b.value.copy()
             col = self.columns[name]
             free = col >= 0
