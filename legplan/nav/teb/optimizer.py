@@ -145,11 +145,12 @@ def objective_terms(band: Band, limits: KinodynamicLimits, params: TebParams, sc
 
 def _path_term(band: Band, path: GlobalPath, params: TebParams) -> PathTerm:
     """Attraction block; pose i searches the path within ±path_window of arc length around the
-    point at the same fraction of the duration (band and path timings are proportional)."""
-    fraction = band.times / max(band.duration, 1e-12)
+    point at the same fraction of the path's length as pose i is of the band's (chord) length. Band
+    and path are the same curve up to local deviations, but not the same timing: the band is
+    re-timed (time optimality), so a window placed by time fraction would miss the pose's stretch."""
+    chord = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(band.poses[:, :2], axis=0).T))])
     s_path = path.arc_length
-    t_path = path.times[0] + fraction * path.duration
-    s_i = np.interp(t_path, path.times, s_path)
+    s_i = chord / max(chord[-1], 1e-12) * s_path[-1]
     first = np.searchsorted(s_path, s_i - params.path_window, side="right") - 1
     width = int(np.ceil(2 * params.path_window / path.spacing)) + 2
     return PathTerm(band.n, path.points, np.maximum(first, 0), width)

@@ -6,9 +6,10 @@ import pytest
 from legplan.nav.teb.band import Band, wrap_angle
 from legplan.nav.teb.distance import DistanceField
 from legplan.nav.teb.initialize import initial_band
-from legplan.nav.teb.optimizer import Scene, ViaPoint, limit_violations, optimize_band
+from legplan.nav.teb.optimizer import Scene, ViaPoint, limit_violations, objective_terms, optimize_band
 from legplan.nav.teb.params import TebParams
 from legplan.nav.teb.reference import GlobalPath
+from legplan.nav.teb.residuals import PathTerm, band_vector
 from legplan.nav.teb.resize import resize
 from legplan.nav.teb.yaw import YawPolicy
 from legplan.robots.spec import KinodynamicLimits
@@ -119,3 +120,14 @@ def test_yaw_policies():
     assert np.allclose(YawPolicy("velocity").angles(pts, vel), [0, 0, np.pi / 2])
     assert np.allclose(YawPolicy("heading", heading=1.0).angles(pts, vel), 1.0)
     assert np.allclose(YawPolicy("target", target=(1.0, 2.0)).angles(pts, vel)[2], np.pi / 2)
+
+
+def test_path_attraction_window_follows_arc_length_not_timing():
+    # poses on the path, but the band spends 80 % of its time on the first half (the band is
+    # re-timed): each pose must still be attracted to its own point of the path, not pulled along it
+    path = GlobalPath.from_waypoints(np.array([[0, 0], [8, 0]], float), speed=0.5)
+    s = np.linspace(0, 8, 17)
+    band = Band(np.column_stack([s, np.zeros(17), np.zeros(17)]), np.where(s[:-1] < 4, 0.8, 0.2))
+    entries = objective_terms(band, TABLE_I, PARAMS, Scene(path=path))
+    term = next(e.term for e in entries if isinstance(e.term, PathTerm))
+    assert np.abs(term.evaluate([band_vector(band)], False)[0]).max() < 1e-9
