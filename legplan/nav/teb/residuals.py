@@ -199,27 +199,29 @@ class PathTerm(Term):
         self.index = np.clip(np.asarray(first)[:, None] + np.arange(max(int(width), 1))[None, :], 0, segments - 1)
         i = np.arange(n)
         super().__init__(n, 2 * n, (), lambda: [(2 * i, 3 * i, (2, 2))])
-        self._a = self.path[self.index]
-        self._ab = self.path[self.index + 1] - self._a
-        self._length2 = np.maximum(np.einsum("nkd,nkd->nk", self._ab, self._ab), 1e-18)
+        a = self.path[self.index]
+        ab = self.path[self.index + 1] - a
+        length = np.maximum(np.hypot(ab[..., 0], ab[..., 1]), 1e-9)
+        self._ax, self._ay, self._abx, self._aby = a[..., 0], a[..., 1], ab[..., 0], ab[..., 1]
+        self._inv_length2 = 1.0 / (length * length)
+        self._ux, self._uy = (ab[..., 0] / length).ravel(), (ab[..., 1] / length).ravel()
+        self._row_start = np.arange(n) * self.index.shape[1]
 
     def nearest(self, p: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """Nearest path points (n, 2), unit segment directions (n, 2), and whether inside a segment (n,)."""
-        a, ab, length2 = self._a, self._ab, self._length2
-        ap = p[:, None, :] - a
-        t = np.clip(np.einsum("nkd,nkd->nk", ap, ab) / length2, 0.0, 1.0)
-        d = ap - t[..., None] * ab
-        best = np.argmin(np.einsum("nkd,nkd->nk", d, d), axis=1)
-        rows = np.arange(len(p))
-        tb = t[rows, best]
-        c = a[rows, best] + tb[:, None] * ab[rows, best]
-        direction = ab[rows, best] / np.sqrt(length2[rows, best])[:, None]
-        return c, direction, (tb > 0.0) & (tb < 1.0)
+        """p − (nearest path point) (n, 2), unit direction of its segment (n, 2), and whether it lies
+        inside the segment (n,)."""
+        dx, dy = p[:, :1] - self._ax, p[:, 1:2] - self._ay
+        t = (dx * self._abx + dy * self._aby) * self._inv_length2
+        np.clip(t, 0.0, 1.0, out=t)
+        ex, ey = dx - t * self._abx, dy - t * self._aby
+        flat = self._row_start + np.argmin(ex * ex + ey * ey, axis=1)
+        tb = t.ravel()[flat]
+        offset = np.column_stack([ex.ravel()[flat], ey.ravel()[flat]])
+        return offset, np.column_stack([self._ux[flat], self._uy[flat]]), (tb > 0.0) & (tb < 1.0)
 
     def linearize(self, state):
-        p = state.poses[:, :2]
-        c, direction, interior = self.nearest(p)
-        r = (p - c).ravel()
+        offset, direction, interior = self.nearest(state.poses[:, :2])
+        r = offset.ravel()
         if not state.jacobian:
             return r, None
         return r, (np.eye(2)[None] - interior[:, None, None] * direction[:, :, None] * direction[:, None, :]).ravel()
@@ -234,7 +236,7 @@ class ClearanceTerm(Term):
         super().__init__(n, n, (), lambda: [(i, 3 * i, (1, 2))])
 
     def linearize(self, state):
-        value, gradient = self.field.value_and_gradient(state.poses[:, :2])
+        value, gradient = self.field.value_and_gradient(state.poses[:, :2], state.jacobian)
         return value, (gradient.ravel() if state.jacobian else None)
 
 
