@@ -103,22 +103,19 @@ def min_time_cost(pc, vc, pg, vg, rho: float, v_max: float | None = None):
 
     Candidates are the positive real roots of the quartic and, when `v_max` is given, the lower
     time bound T_lb = max_d |Δ_d| / v_max (roots below T_lb are discarded). At the goal itself
-    (Δ = 0, v_c = v_g = 0) h → 0 as T → 0; the search floor is T = 1e-9 s.
+    (Δ = 0, v_c = v_g = 0) h → 0 as T → 0; the search floor is T = 1e-9 s. Evaluates
+    `GoalHeuristic` state by state.
     """
     pc, vc, pg, vg = np.broadcast_arrays(*(np.asarray(a, float) for a in (pc, vc, pg, vg)))
-    c1, c2, c3 = quartic_coefficients(pc, vc, pg, vg)
-    t_lb = np.full(c1.shape, _MIN_T) if v_max is None else \
-        np.maximum(np.abs(pg - pc).max(axis=-1) / v_max, _MIN_T)
-    minima = [_minimize(*args) for args in zip((c3 / rho).ravel().tolist(),
-                                              (c2 / rho).ravel().tolist(),
-                                              (c1 / rho).ravel().tolist(), t_lb.ravel().tolist())]
+    states = np.concatenate([pc, vc, pg, vg], axis=-1).reshape(-1, 8).tolist()
+    minima = [GoalHeuristic(s[4:6], s[6:8], rho, v_max)(*s[:4]) for s in states]
     cost, T = np.array(minima, float).reshape(-1, 2).T
-    return rho * cost.reshape(c1.shape), T.reshape(c1.shape)
+    return cost.reshape(pc.shape[:-1]), T.reshape(pc.shape[:-1])
 
 
 class GoalHeuristic:
-    """h(state) = min_T J*(T) to a fixed goal for one state given as floats (the search's hot
-    path): eqs. (9)–(11) with the coefficients of `quartic_coefficients` written out in scalars."""
+    """(h, T_h) = min_T J*(T) and its minimizer to a fixed goal for one state given as floats (the
+    search's hot path): eqs. (9)–(11), the coefficients of `quartic_coefficients` in scalars."""
 
     def __init__(self, pg, vg, rho: float, v_max: float | None):
         self.gx, self.gy = (float(x) for x in pg)
@@ -127,14 +124,15 @@ class GoalHeuristic:
         self.rho, self.inv_rho = float(rho), 1.0 / rho
         self.inv_v = None if v_max is None else 1.0 / v_max
 
-    def __call__(self, px: float, py: float, vx: float, vy: float) -> float:
+    def __call__(self, px: float, py: float, vx: float, vy: float) -> tuple[float, float]:
         dx, dy = self.gx - px, self.gy - py
         gvx, gvy, inv_rho = self.gvx, self.gvy, self.inv_rho
         r = -36.0 * (dx * dx + dy * dy) * inv_rho
         q = 24.0 * ((vx + gvx) * dx + (vy + gvy) * dy) * inv_rho
         p = -4.0 * (vx * vx + vy * vy + vx * gvx + vy * gvy + self.goal_speed2) * inv_rho
         t_lb = _MIN_T if self.inv_v is None else max(max(abs(dx), abs(dy)) * self.inv_v, _MIN_T)
-        return self.rho * _minimize(p, q, r, t_lb)[0]
+        cost, T = _minimize(p, q, r, t_lb)
+        return self.rho * cost, T
 
 
 def optimal_polynomial(pc, vc, pg, vg, T: float):

@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from legplan.nav.collision import NavGrid
-from legplan.nav.heuristic import GoalHeuristic, min_time_cost, optimal_polynomial
+from legplan.nav.heuristic import GoalHeuristic, optimal_polynomial
 from legplan.nav.params import NavParams
 from legplan.nav.primitives import PrimitiveSet, sample_count
 from legplan.nav.result import SearchResult, endpoint_problem
@@ -73,7 +73,7 @@ def _search(grid, start, goal, params, progress, finish):
     # nodes[key]: (parent key, input index, (px, py, vx, vy)) of that state.
     best = {start_key: 0.0}
     nodes = {start_key: (None, -1, state)}
-    heap = [(weight * heuristic(*state), 0.0, start_key)]
+    heap = [(weight * heuristic(*state)[0], 0.0, start_key)]
     expansions = 0
     heappush, heappop, best_get = heapq.heappush, heapq.heappop, best.get
     while heap:
@@ -88,7 +88,7 @@ def _search(grid, start, goal, params, progress, finish):
             return finish(True, "", expansions, g, _reconstruct(nodes, key, prims, None))
         if (px - gx) ** 2 + (py - gy) ** 2 <= oneshot_r2:
             shot = analytic_expansion(grid, np.array(state[:2]), np.array(state[2:]),
-                                      goal[:2], goal[2:], params)
+                                      goal[:2], goal[2:], heuristic(*state)[1], params)
             if shot is not None:
                 piece, shot_cost = shot
                 return finish(True, "", expansions, g + shot_cost,
@@ -110,7 +110,7 @@ def _search(grid, start, goal, params, progress, finish):
             best[child] = g_child
             child_state = (end_px[row], end_py[row], end_vx[row], end_vy[row])
             nodes[child] = (key, row, child_state)
-            heappush(heap, (g_child + weight * heuristic(*child_state), g_child, child))
+            heappush(heap, (g_child + weight * heuristic(*child_state)[0], g_child, child))
     return finish(False, "goal unreachable (open list exhausted)", expansions)
 
 
@@ -139,16 +139,15 @@ class _KeyEncoder:
 ONESHOT_STRETCH = (1.0, 1.25, 1.5, 2.0, 3.0)
 
 
-def analytic_expansion(grid: NavGrid, p, v, pg, vg, params: NavParams):
+def analytic_expansion(grid: NavGrid, p, v, pg, vg, T_h: float, params: NavParams):
     """The one-shot cubic of eq. (9) from (p, v) to (pg, vg), or None if infeasible.
 
-    Tries T = T_h (the minimizer of J*, eq. (11)) first; when that cubic breaks a velocity or
-    acceleration limit — J*'s optimum balances ||a||² against ρ and ignores the limits — the
-    duration is stretched by the factors `ONESHOT_STRETCH` (J*(T) ≥ J*(T_h), so h stays a lower
-    bound). Returns ((p0, v0, a0, jerk, T), cost) with cost = J*(T) + ρ_c·c_collision.
+    Tries T = T_h (the minimizer of J*, eq. (11), as the search's heuristic computed it) first;
+    when that cubic breaks a velocity or acceleration limit — J*'s optimum balances ||a||² against
+    ρ and ignores the limits — the duration is stretched by the factors `ONESHOT_STRETCH`
+    (J*(T) ≥ J*(T_h), so h stays a lower bound). Returns ((p0, v0, a0, jerk, T), cost) with
+    cost = J*(T) + ρ_c·c_collision.
     """
-    bound = params.v_max if params.time_bound else None
-    T_h = float(min_time_cost(p, v, pg, vg, params.rho, bound)[1])
     if T_h <= 1e-6:
         return None
     for factor in ONESHOT_STRETCH:
@@ -160,15 +159,17 @@ def analytic_expansion(grid: NavGrid, p, v, pg, vg, params: NavParams):
 
 def _oneshot(grid, p, v, pg, vg, T, params):
     """Check the eq. (9) cubic of duration T: acceleration is linear in t (extrema at the ends),
-    velocity quadratic (ends and the vertex t = -β/α); collision on the dense samples."""
+    velocity quadratic (ends and the vertex t = -β/α), both per axis in scalars; collision on the
+    dense samples."""
     alpha, beta = optimal_polynomial(p, v, pg, vg, T)
-    if np.max(np.abs(beta)) > params.a_max + 1e-9 or \
-            np.max(np.abs(beta + alpha * T)) > params.a_max + 1e-9:
+    a_limit, v_limit = params.a_max + 1e-9, params.v_max + 1e-9
+    axes = list(zip(alpha.tolist(), beta.tolist(), v.tolist()))
+    if any(abs(b) > a_limit or abs(b + a * T) > a_limit for a, b, _ in axes):
         return None
-    vertex = np.clip(np.divide(-beta, alpha, out=np.zeros(2), where=alpha != 0.0), 0.0, T)
-    v_vertex = v + vertex * (beta + 0.5 * alpha * vertex)
-    if np.max(np.abs(v_vertex)) > params.v_max + 1e-9:
-        return None
+    for a, b, v0 in axes:
+        vertex = min(max(-b / a, 0.0), T) if a != 0.0 else 0.0
+        if abs(v0 + vertex * (b + 0.5 * a * vertex)) > v_limit:
+            return None
     t = np.linspace(0.0, T, sample_count(params.v_max, T, grid.resolution))[:, None]
     positions = p + t * (v + t * (0.5 * beta + t * alpha / 6.0))
     index = grid.flat_index(positions)
