@@ -145,40 +145,43 @@ def analytic_expansion(grid: NavGrid, p, v, pg, vg, T_h: float, params: NavParam
     Tries T = T_h (the minimizer of J*, eq. (11), as the search's heuristic computed it) first;
     when that cubic breaks a velocity or acceleration limit — J*'s optimum balances ||a||² against
     ρ and ignores the limits — the duration is stretched by the factors `ONESHOT_STRETCH`
-    (J*(T) ≥ J*(T_h), so h stays a lower bound). Returns ((p0, v0, a0, jerk, T), cost) with
-    cost = J*(T) + ρ_c·c_collision.
+    (J*(T) ≥ J*(T_h), so h stays a lower bound); the first duration whose cubic is within the
+    limits and collision-free wins. All durations are checked in one batch: acceleration is linear
+    in t (extrema at the ends), velocity quadratic (ends and the vertex t = -β/α); the durations
+    within the limits are sampled (eq. (17) spacing) and looked up in one gather. Returns
+    ((p0, v0, a0, jerk, T), cost) with cost = J*(T) + ρ_c·c_collision (eqs. (9), (18)).
     """
     if T_h <= 1e-6:
         return None
-    for factor in ONESHOT_STRETCH:
-        shot = _oneshot(grid, p, v, pg, vg, T_h * factor, params)
-        if shot is not None:
-            return shot
-    return None
-
-
-def _oneshot(grid, p, v, pg, vg, T, params):
-    """Check the eq. (9) cubic of duration T: acceleration is linear in t (extrema at the ends),
-    velocity quadratic (ends and the vertex t = -β/α), both per axis in scalars; collision on the
-    dense samples."""
-    alpha, beta = optimal_polynomial(p, v, pg, vg, T)
-    a_limit, v_limit = params.a_max + 1e-9, params.v_max + 1e-9
-    axes = list(zip(alpha.tolist(), beta.tolist(), v.tolist()))
-    if any(abs(b) > a_limit or abs(b + a * T) > a_limit for a, b, _ in axes):
+    durations = T_h * np.array(ONESHOT_STRETCH)[:, None]
+    alpha, beta = optimal_polynomial(p, v, pg, vg, durations)  # (K, 2) each
+    accel = np.maximum(np.abs(beta), np.abs(beta + alpha * durations)).max(axis=1)
+    vertex = np.clip(np.divide(-beta, alpha, out=np.zeros_like(beta), where=alpha != 0.0), 0.0,
+                     durations)
+    speed = np.abs(v + vertex * (beta + 0.5 * alpha * vertex)).max(axis=1)
+    within = np.flatnonzero((accel <= params.a_max + 1e-9) & (speed <= params.v_max + 1e-9))
+    if not len(within):
         return None
-    for a, b, v0 in axes:
-        vertex = min(max(-b / a, 0.0), T) if a != 0.0 else 0.0
-        if abs(v0 + vertex * (b + 0.5 * a * vertex)) > v_limit:
-            return None
-    t = np.linspace(0.0, T, sample_count(params.v_max, T, grid.resolution))[:, None]
-    positions = p + t * (v + t * (0.5 * beta + t * alpha / 6.0))
-    index = grid.flat_index(positions)
-    if grid.blocked_flat[index].any():
+    T = durations[within, 0]
+    counts = np.array([sample_count(params.v_max, duration, grid.resolution)
+                       for duration in T.tolist()])
+    starts = np.cumsum(counts) - counts
+    # Sample i of duration T is at i·T/(I) (as np.linspace), the last exactly at T.
+    step = np.arange(counts.sum()) - np.repeat(starts, counts)
+    t = (step * np.repeat(T / (counts - 1), counts))[:, None]
+    t[starts + counts - 1, 0] = T
+    a, b = np.repeat(alpha[within], counts, axis=0), np.repeat(beta[within], counts, axis=0)
+    index = grid.flat_index(p + t * (v + t * (0.5 * b + t * a / 6.0)))
+    blocked = np.logical_or.reduceat(grid.blocked_flat[index], starts).tolist()
+    if all(blocked):
         return None
-    velocities = v + t * (beta + 0.5 * t * alpha)
+    k = blocked.index(False)
+    samples = slice(starts[k], starts[k] + counts[k])
+    alpha, beta, T = alpha[within[k]], beta[within[k]], float(T[k])
+    velocities = v + t[samples] * (beta + 0.5 * t[samples] * alpha)
     effort = float(np.sum(beta**2 * T + alpha * beta * T**2 + alpha**2 * T**3 / 3.0))
-    collision = float(np.sum(grid.cost_flat[index] * np.linalg.norm(velocities, axis=1))) \
-        * T / (len(t) - 1)
+    collision = float(np.sum(grid.cost_flat[index[samples]] * np.linalg.norm(velocities, axis=1))) \
+        * T / (counts[k] - 1)
     cost = effort + params.rho * T + params.rho_c * collision
     return (p, v, beta, alpha, T), cost
 
