@@ -5,7 +5,9 @@ raises `NotPositiveDefiniteError` (LM then raises λ; Algorithm 1 counts it as a
 `factorize` is `set_matrix(H)` (work that depends on H only: conversion, symbolic analysis, the
 Schur pieces of `SchurSolver`) followed by `refactor(beta)` (the numeric factorisation of H + βI).
 LM calls `set_matrix` once per linearisation and `refactor(λ)` once per iteration, so a rejected
-step (same H, larger λ) repeats only the λ-dependent work.
+step (same H, larger λ) repeats only the λ-dependent work. `set_jacobian(J)` takes J instead of
+H = JᵀJ (``assembly="jacobian"``): CHOLMOD factorises JᵀJ + βI from J in its AAᵀ mode (A = Jᵀ)
+without JᵀJ being formed in Python; the other solvers form JᵀJ.
 
 * ``cholmod`` (default): CHOLMOD via scikit-sparse. The fill-reducing ordering and symbolic
   factorisation are computed once per sparsity pattern (`cholmod.analyze`); every λ change is a
