@@ -83,21 +83,6 @@ def depressed_quartic_roots(p: float, q: float, r: float) -> tuple[float, float,
     return half + plus, half - plus, minus - half, -half - minus
 
 
-def _minimize(p: float, q: float, r: float, t_lb: float) -> tuple[float, float]:
-    """(min J*/ρ, T) over T ≥ t_lb > 0 for J*'/ρ · T⁴ = T⁴ + p T² + q T + r (eq. (11)): the
-    candidates are t_lb and the real roots above it, J*(T)/ρ = ((-r/3 /T - q/2)/T - p)/T + T."""
-    inv = 1.0 / t_lb
-    best = ((r * (-1.0 / 3.0) * inv - 0.5 * q) * inv - p) * inv + t_lb
-    best_T = t_lb
-    for T in depressed_quartic_roots(p, q, r):
-        if T > t_lb:  # False for NaN
-            inv = 1.0 / T
-            cost = ((r * (-1.0 / 3.0) * inv - 0.5 * q) * inv - p) * inv + T
-            if cost < best:
-                best, best_T = cost, T
-    return best, best_T
-
-
 def min_time_cost(pc, vc, pg, vg, rho: float, v_max: float | None = None):
     """h = min_T J*(T) and its T_h for each state (eqs. (9)–(11)); arrays (..., 2) → (...), (...).
 
@@ -131,8 +116,18 @@ class GoalHeuristic:
         q = 24.0 * ((vx + gvx) * dx + (vy + gvy) * dy) * inv_rho
         p = -4.0 * (vx * vx + vy * vy + vx * gvx + vy * gvy + self.goal_speed2) * inv_rho
         t_lb = _MIN_T if self.inv_v is None else max(max(abs(dx), abs(dy)) * self.inv_v, _MIN_T)
-        cost, T = _minimize(p, q, r, t_lb)
-        return self.rho * cost, T
+        # Candidates: t_lb and the real roots of T⁴ + p T² + q T + r above it (eq. (11)), with
+        # J*(T)/ρ = ((-r/3 /T - q/2)/T - p)/T + T.
+        inv = 1.0 / t_lb
+        best = ((r * (-1.0 / 3.0) * inv - 0.5 * q) * inv - p) * inv + t_lb
+        best_T = t_lb
+        for T in depressed_quartic_roots(p, q, r):
+            if T > t_lb:  # False for NaN
+                inv = 1.0 / T
+                cost = ((r * (-1.0 / 3.0) * inv - 0.5 * q) * inv - p) * inv + T
+                if cost < best:
+                    best, best_T = cost, T
+        return self.rho * best, best_T
 
 
 def optimal_polynomial(pc, vc, pg, vg, T: float):

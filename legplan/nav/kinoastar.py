@@ -133,7 +133,7 @@ class _KeyEncoder:
         cells = (ends - self.corner) * self.scale
         np.floor(cells[:2], out=cells[:2])
         np.rint(cells[2:], out=cells[2:])
-        return self.radix @ cells
+        return np.dot(self.radix, cells)
 
 
 ONESHOT_STRETCH = (1.0, 1.25, 1.5, 2.0, 3.0)
