@@ -18,6 +18,9 @@ re-initialized every cycle) and refining whole nav_30m kinodynamic A* trajectori
 each in a fresh process, `--repeats` times, alternating with the same measurement of the reference:
 the TEB modules (legplan/nav/teb, legplan/nav/simulate.py, this script) at commit `--reference`
 over the rest of the current tree. Medians over the repeats.
+Everything runs with one BLAS thread (OPENBLAS/OMP/MKL_NUM_THREADS=1 unless set): with several
+runs on the 2-core machine, BLAS worker threads oversubscribe the cores (TEB cycles measured ~1.7×
+slower with the default threads, same results).
 Writes bench/results/nav_paper.json and updates its section of BENCHMARKS.md.
     .venv/bin/python bench/nav_paper.py [--pairs 4] [--seed 0] [--jobs 2] [--repeats 3] [--reference c878aef] [--no-append]
 """
@@ -27,6 +30,7 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -34,6 +38,9 @@ import tempfile
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
+
+for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_var, "1")  # before numpy/scipy load BLAS; inherited by the worker processes
 
 import numpy as np
 
@@ -250,7 +257,7 @@ def report(result: dict, pairs) -> list[str]:
         paper = PAPER_III[name]
         lines.append(f"| {name} | {legs} | {sum(r['legs']):.1f} | {total} | {paper[0]}, {paper[1]}, {paper[2]} / {paper[3]} |")
     names = list(compute)
-    lines += ["", f"TEB compute, one process at a time, median of {result['repeats']} fresh-process runs per tree, "
+    lines += ["", f"TEB compute (one BLAS thread everywhere), one process at a time, median of {result['repeats']} fresh-process runs per tree, "
               "alternating" + (f"; reference = TEB modules at {result['reference']} over the current tree" if len(names) > 1 else "") + ":", "",
               "| TEB cycle, 5 m window (pair 1, kino A*, first 15 s) | tree | cycles | median (ms) | p95 (ms) | "
               "median LM iterations | median poses |", "|---|---|---|---|---|---|---|"]

@@ -2,7 +2,8 @@
 
 Each outer round resizes the band (`resize`), builds the least-squares problem over the free poses
 and all ΔT_i (bounded below by dt_min) — or refreshes a cached one of the same structure
-(`problems.py`) — and runs `inner_iterations` LM iterations of the solver core (CHOLMOD). Terms (weights w multiply squared residuals, so rows are scaled by √w):
+(`problems.py`) — and runs `inner_iterations` LM iterations of the solver core (CHOLMOD).
+Terms (weights w multiply squared residuals, so rows are scaled by √w):
 
 * velocity / angular velocity limits of eq. (23), TEB interval penalty with margin ε; forward and
   lateral rows weighted by γ_forward, γ_lateral;
