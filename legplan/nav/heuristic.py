@@ -131,9 +131,14 @@ class GoalHeuristic:
 
 
 def optimal_polynomial(pc, vc, pg, vg, T: float):
-    """Coefficients (α, β) per axis of the optimal cubic of eq. (9) for duration T: jerk α, a(0)=β."""
-    delta = pg - pc - vc * T
-    dv = vg - vc
-    alpha = (-12.0 * delta + 6.0 * T * dv) / T**3
-    beta = (6.0 * T * delta - 2.0 * T * T * dv) / T**3
+    """Coefficients (α, β) per axis of the optimal cubic of eq. (9) for duration T: jerk α, a(0)=β.
+
+    With δ = p_g - p_c - v_c T and Δv = v_g - v_c, eq. (9) reads α = 6 Δv/T² - 12 δ/T³,
+    β = 6 δ/T² - 2 Δv/T (evaluated with 1/T, no powers: the one-shot calls it per expansion).
+    """
+    inv = 1.0 / T
+    scaled_delta = (pg - pc - vc * T) * (inv * inv)  # δ/T²
+    scaled_dv = (vg - vc) * inv  # Δv/T
+    alpha = (6.0 * scaled_dv - 12.0 * scaled_delta) * inv
+    beta = 6.0 * scaled_delta - 2.0 * scaled_dv
     return alpha, beta

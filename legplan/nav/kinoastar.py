@@ -137,6 +137,7 @@ class _KeyEncoder:
 
 
 ONESHOT_STRETCH = (1.0, 1.25, 1.5, 2.0, 3.0)
+ONESHOT_COARSE_STRIDE = 8  # first collision pass: every 8th sample
 
 
 def analytic_expansion(grid: NavGrid, p, v, pg, vg, T_h: float, params: NavParams):
@@ -148,42 +149,52 @@ def analytic_expansion(grid: NavGrid, p, v, pg, vg, T_h: float, params: NavParam
     (J*(T) ≥ J*(T_h), so h stays a lower bound); the first duration whose cubic is within the
     limits and collision-free wins. All durations are checked in one batch: acceleration is linear
     in t (extrema at the ends), velocity quadratic (ends and the vertex t = -β/α); the durations
-    within the limits are sampled (eq. (17) spacing) and looked up in one gather. Returns
-    ((p0, v0, a0, jerk, T), cost) with cost = J*(T) + ρ_c·c_collision (eqs. (9), (18)).
+    within the limits are then checked on their samples (eq. (17) spacing), first on every
+    `ONESHOT_COARSE_STRIDE`-th sample — a subset, so a blocked one rejects exactly as the full
+    check would, and most rejected cubics cross an obstacle over many samples — then on all
+    samples for the durations left. Returns ((p0, v0, a0, jerk, T), cost) with
+    cost = J*(T) + ρ_c·c_collision (eqs. (9), (18)).
     """
     if T_h <= 1e-6:
         return None
     durations = T_h * np.array(ONESHOT_STRETCH)[:, None]
     alpha, beta = optimal_polynomial(p, v, pg, vg, durations)  # (K, 2) each
     accel = np.maximum(np.abs(beta), np.abs(beta + alpha * durations)).max(axis=1)
-    vertex = np.clip(np.divide(-beta, alpha, out=np.zeros_like(beta), where=alpha != 0.0), 0.0,
-                     durations)
+    vertex = np.fmin(np.fmax(np.divide(-beta, alpha, out=np.zeros_like(beta),
+                                       where=alpha != 0.0), 0.0), durations)
     speed = np.abs(v + vertex * (beta + 0.5 * alpha * vertex)).max(axis=1)
-    within = np.flatnonzero((accel <= params.a_max + 1e-9) & (speed <= params.v_max + 1e-9))
-    if not len(within):
+    within = (accel <= params.a_max + 1e-9) & (speed <= params.v_max + 1e-9)
+    cubics = np.concatenate([durations, alpha, beta], axis=1)[within]  # rows T, α, β
+    counts = np.array([sample_count(params.v_max, T, grid.resolution)
+                       for T in cubics[:, 0].tolist()], dtype=np.intp)
+    for stride in (ONESHOT_COARSE_STRIDE, 1):
+        if len(cubics):
+            free = ~_any_blocked(grid, p, v, cubics, counts, stride)
+            cubics, counts = cubics[free], counts[free]
+    if not len(cubics):
         return None
-    T = durations[within, 0]
-    counts = np.array([sample_count(params.v_max, duration, grid.resolution)
-                       for duration in T.tolist()])
-    starts = np.cumsum(counts) - counts
-    # Sample i of duration T is at i·T/(I) (as np.linspace), the last exactly at T.
-    step = np.arange(counts.sum()) - np.repeat(starts, counts)
-    t = (step * np.repeat(T / (counts - 1), counts))[:, None]
-    t[starts + counts - 1, 0] = T
-    a, b = np.repeat(alpha[within], counts, axis=0), np.repeat(beta[within], counts, axis=0)
-    index = grid.flat_index(p + t * (v + t * (0.5 * b + t * a / 6.0)))
-    blocked = np.logical_or.reduceat(grid.blocked_flat[index], starts).tolist()
-    if all(blocked):
-        return None
-    k = blocked.index(False)
-    samples = slice(starts[k], starts[k] + counts[k])
-    alpha, beta, T = alpha[within[k]], beta[within[k]], float(T[k])
-    velocities = v + t[samples] * (beta + 0.5 * t[samples] * alpha)
+    T, alpha, beta, count = float(cubics[0, 0]), cubics[0, 1:3], cubics[0, 3:5], int(counts[0])
+    t = np.linspace(0.0, T, count)[:, None]
+    positions = p + t * (v + t * (0.5 * beta + t * alpha / 6.0))
+    velocities = v + t * (beta + 0.5 * t * alpha)
     effort = float(np.sum(beta**2 * T + alpha * beta * T**2 + alpha**2 * T**3 / 3.0))
-    collision = float(np.sum(grid.cost_flat[index[samples]] * np.linalg.norm(velocities, axis=1))) \
-        * T / (counts[k] - 1)
+    collision = float(np.sum(grid.cost_at(positions) * np.linalg.norm(velocities, axis=1))) \
+        * T / (count - 1)
     cost = effort + params.rho * T + params.rho_c * collision
     return (p, v, beta, alpha, T), cost
+
+
+def _any_blocked(grid: NavGrid, p, v, cubics, counts, stride: int) -> np.ndarray:
+    """Per cubic (rows T, α, β) with I + 1 = `counts` samples at i·T/I (as np.linspace: the last
+    exactly at T): is any of the samples i = 0, stride, 2·stride, …, I blocked."""
+    per = (counts - 2) // stride + 2  # the last sample always, once
+    starts = np.cumsum(per) - per
+    rows = np.repeat(np.concatenate([cubics, (counts - 1)[:, None]], axis=1), per, axis=0)
+    T, alpha, beta, last = rows[:, :1], rows[:, 1:3], rows[:, 3:5], rows[:, 5:]
+    i = np.fmin((np.arange(len(rows)) - np.repeat(starts, per))[:, None] * stride, last)
+    t = np.where(i == last, T, i * (T / last))
+    index = grid.flat_index(p + t * (v + t * (0.5 * beta + t * alpha / 6.0)))
+    return np.logical_or.reduceat(grid.blocked_flat[index], starts)
 
 
 def _reconstruct(nodes, key, prims: PrimitiveSet, last_piece) -> Trajectory:
