@@ -9,8 +9,10 @@ Table III: an empty 8 m × 8 m room; three parallel via points 1.5 m apart on th
 the robot must face the objects at x = 6.5 (heading 0) and stay 2 s. Both models use the same
 yaw policy: the band's yaw is free between via points (initialized facing the direction of
 travel) and the target heading is imposed only at each via point (the band's goal pose and the
-arrival check); omnidirectional TEB vs the differential-drive variant. Time of each leg (arrival
-to arrival, minus the dwell) and total.
+arrival check); omnidirectional TEB vs the differential-drive variant. A third, omnidirectional
+run initializes every band at the target heading instead (it then side-steps all the way: the
+setup before the yaw was freed), to show what facing the direction of travel is worth. Time of each leg (arrival to arrival,
+minus the dwell) and total.
 Table II/III runs go `--jobs` at a time in parallel.
 TEB compute, measured afterwards one process at a time (nothing else of this benchmark running):
 time per simulation cycle (Table II pair 1, kinodynamic A*, first 15 s: 5 m window, warm-started or
@@ -60,6 +62,8 @@ from legplan.terrain.layers import NavParams as CostmapParams
 PAPER_II = [(27.362, 31.794, 4.7630, 5.5047), (16.298, 25.395, 5.1730, 6.8421),
             (25.338, 31.000, 5.1201, 5.8651), (25.975, 25.594, 4.1946, 7.4720)]
 PAPER_III = {"omni": [11, 10, 11, 32], "non-omni": [11, 20, 23, 54]}
+TABLE3_RUNS = {"omni": (True, "velocity"), "non-omni": (False, "velocity"),
+               "omni, yaw initialized at the target heading (side-steps)": (True, "heading")}
 NAV = load_robot("jueying_mini").navigation
 WALL_BUDGET = 240.0  # s of wall time per simulation run before it is recorded as failed
 CYCLE_SIM_TIME = 15.0  # s simulated for the warm/cold cycle-time comparison
@@ -108,7 +112,9 @@ def outcome(r) -> dict:
             "cycle_seconds": r.compute_seconds.tolist()}
 
 
-def run_table3(omni):
+def run_table3(name):
+    """One Table III run (`TABLE3_RUNS[name]`: model, yaw policy between via points)."""
+    omni, yaw = TABLE3_RUNS[name]
     grid = Grid2D((0.025, 0.025), 0.05, (160, 160))
     X, Y = grid.centres()
     walls = (X < 0.2) | (X > 7.8) | (Y < 0.2) | (Y > 7.8)
@@ -116,12 +122,12 @@ def run_table3(omni):
     world = World(grid, walls | objects, np.zeros_like(walls), CostmapParams(),
                   NAV.footprint)
     goals = [Goal((4.0, y), 0.0, 2.0) for y in (2.5, 4.0, 5.5)]
-    sim = SimParams(max_time=150.0, yaw="velocity", max_wall_seconds=WALL_BUDGET)
+    sim = SimParams(max_time=150.0, yaw=yaw, heading=0.0, max_wall_seconds=WALL_BUDGET)
     r = simulate(world, kinodynamic_planner(NavParams.for_robot(NAV)), [1.0, 1.0, 0.0], goals, NAV.limits,
                  TebParams(omnidirectional=omni), sim)
     arrivals = r.goal_times
     legs = [arrivals[0]] + [arrivals[k] - arrivals[k - 1] - 2.0 for k in range(1, len(arrivals))]
-    return {"omni": omni, "legs": legs, "total": float(r.times[-1]), **outcome(r)}
+    return {"name": name, "omni": omni, "legs": legs, "total": float(r.times[-1]), **outcome(r)}
 
 
 def run_cycle(warm):
@@ -170,6 +176,14 @@ def reference_tree(commit: str, where: Path) -> Path:
     return where
 
 
+def code_version() -> str:
+    """The commit the benchmarked code is at, and whether legplan/ has uncommitted changes."""
+    git = ["git", "-C", str(ROOT)]
+    sha = subprocess.run([*git, "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+    dirty = subprocess.run([*git, "status", "--porcelain", "--", "legplan"], capture_output=True, text=True).stdout.strip()
+    return f"{sha or 'unknown commit'}{' + uncommitted changes in legplan/' if dirty else ''}"
+
+
 def compute_times(root: Path) -> dict:
     """Cycle and refine times of the tree at `root`, measured in a fresh process."""
     code = COMPUTE.format(root=str(root), queries=REFINE_QUERIES)
@@ -205,7 +219,7 @@ def main():
     loads = {"start": load_average()}
     with ProcessPoolExecutor(args.jobs) as pool:
         table2 = list(pool.map(run_table2, jobs))
-        table3 = list(pool.map(run_table3, [True, False]))
+        table3 = list(pool.map(run_table3, TABLE3_RUNS))
     loads["after_tables"] = load_average()
     with tempfile.TemporaryDirectory() as tmp:
         trees = {"ours": ROOT}
@@ -219,7 +233,7 @@ def main():
     compute = {name: median_times(r) for name, r in runs.items()}
     cycles = np.concatenate([r["cycle_seconds"] for r in table2 + table3])
     result = {"machine": machine(), "load_average": loads, "date": datetime.date.today().isoformat(),
-              "reference": args.reference, "repeats": args.repeats,
+              "code": code_version(), "reference": args.reference, "repeats": args.repeats,
               "pairs": [[list(s), list(g), y] for s, g, y in pairs], "table2": table2, "table3": table3,
               "compute": compute, "parallel_cycle_median_ms": 1e3 * float(np.median(cycles)),
               "parallel_cycle_p95_ms": 1e3 * float(np.percentile(cycles, 95))}
@@ -237,7 +251,7 @@ def report(result: dict, pairs) -> list[str]:
     loads = result["load_average"]
     table2, table3, compute = result["table2"], result["table3"], result["compute"]
     lines = [f"## nav_paper — closed-loop kinodynamic A* + TEB vs paper Tables II/III ({result['date']}, "
-             f"{result['machine']}; load average {loads['start']:.1f} at start, {loads['after_tables']:.1f} after "
+             f"{result['machine']}, code {result['code']}; load average {loads['start']:.1f} at start, {loads['after_tables']:.1f} after "
              f"Tables II/III, {loads['end']:.1f} at end; shared machine)\n",
              "| pair | dist (m) | ours T kino / A* (s) | ours J kino / A* (m²/s³) | collisions | "
              "paper T kino / A* (s) | paper J kino / A* |", "|---|---|---|---|---|---|---|"]
@@ -251,11 +265,11 @@ def report(result: dict, pairs) -> list[str]:
               "leg 3 (s) | Σ legs (s) | run incl. 3×2 s dwell (s) | paper legs 1–3 / total (s) |",
               "|---|---|---|---|---|---|---|"]
     for r in table3:
-        name = "omni" if r["omni"] else "non-omni"
         legs = " | ".join(f"{x:.1f}" for x in r["legs"]) + " | -" * (3 - len(r["legs"]))
         total = f"{r['total']:.1f}" if r["success"] else f"failed at {r['total']:.1f}: {r['reason']}"
-        paper = PAPER_III[name]
-        lines.append(f"| {name} | {legs} | {sum(r['legs']):.1f} | {total} | {paper[0]}, {paper[1]}, {paper[2]} / {paper[3]} |")
+        paper = PAPER_III.get(r["name"])
+        paper = f"{paper[0]}, {paper[1]}, {paper[2]} / {paper[3]}" if paper else "-"
+        lines.append(f"| {r['name']} | {legs} | {sum(r['legs']):.1f} | {total} | {paper} |")
     names = list(compute)
     lines += ["", f"TEB compute (one BLAS thread everywhere), one process at a time, median of {result['repeats']} fresh-process runs per tree, "
               "alternating" + (f"; reference = TEB modules at {result['reference']} over the current tree" if len(names) > 1 else "") + ":", "",
@@ -283,7 +297,7 @@ def verdict(result: dict) -> str:
     table2, table3, ours = result["table2"], result["table3"], result["compute"]["ours"]
     rel = [(k["effort"] - a["effort"]) / a["effort"] for k, a in zip(table2[::2], table2[1::2])]
     dt = [k["running_time"] - a["running_time"] for k, a in zip(table2[::2], table2[1::2])]
-    omni, diff = (sum(r["legs"]) for r in sorted(table3, key=lambda r: not r["omni"]))
+    omni, diff = (sum(next(r for r in table3 if r["name"] == name)["legs"]) for name in ("omni", "non-omni"))
     warm = ours["cycle"][0]
     refine = max(r["seconds"] for r in ours["refine"])
     violation = max(r["max_violation"] for r in ours["refine"])
