@@ -28,7 +28,8 @@ class CooAssembler:
         nrows, ncols = self.shape
         key = cols.astype(np.int64) * nrows + rows
         if np.all(key[1:] > key[:-1]):  # already in CSC order without duplicates (e.g. one CSR block of Jᵀ)
-            unique, self._slot = key, np.arange(key.size)
+            self._slot = np.arange(key.size)
+            unique_rows, unique_cols = rows, cols
         else:
             # np.unique with a stable sort: triplets from cached patterns arrive as a few sorted
             # runs, which a stable (merging) sort handles in about linear time.
@@ -40,9 +41,10 @@ class CooAssembler:
             unique = ordered[first]
             self._slot = np.empty(key.size, np.intp)
             self._slot[order] = np.cumsum(first) - 1
-        self._indices = (unique % nrows).astype(np.int32)
+            unique_rows, unique_cols = unique % nrows, unique // nrows
+        self._indices = unique_rows.astype(np.int32)
         self._indptr = np.zeros(ncols + 1, dtype=np.int32)
-        np.cumsum(np.bincount(unique // nrows, minlength=ncols), out=self._indptr[1:])
+        np.cumsum(np.bincount(unique_cols, minlength=ncols), out=self._indptr[1:])
         self._rows, self._cols = rows.copy(), cols.copy()
         self.version += 1
 

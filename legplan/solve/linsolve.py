@@ -154,8 +154,10 @@ def natural_order_suffices(H: sp.csc_matrix) -> bool:
     index = np.arange(n)
     first = index.copy()
     nonempty = np.diff(H.indptr) > 0
-    if H.nnz:  # smallest row index per nonempty column; empty columns are empty segments
-        first[nonempty] = np.minimum(np.minimum.reduceat(H.indices, H.indptr[:-1][nonempty]), index[nonempty])
+    if H.nnz:  # smallest row index per nonempty column (unsorted: empty columns are empty segments)
+        starts = H.indptr[:-1][nonempty]
+        least = H.indices[starts] if H.has_sorted_indices else np.minimum.reduceat(H.indices, starts)
+        first[nonempty] = np.minimum(least, index[nonempty])
     if H.nnz > n and np.array_equal(first, index):  # off-diagonal entries, none above the diagonal
         return False
     return float(np.sum(index - first)) + n <= NATURAL_FILL_SLACK * (H.nnz + n) / 2

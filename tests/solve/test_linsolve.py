@@ -154,6 +154,12 @@ def test_natural_order_only_where_it_is_provably_near_optimal():
     arrow[0, 0] = 2.0 * n
     shuffle = np.random.default_rng(0).permutation(n)
     assert natural_order_suffices(band)
+    unsorted = band.copy()  # every column's row indices reversed
+    reverse = np.concatenate([np.arange(a, b)[::-1] for a, b in zip(band.indptr[:-1], band.indptr[1:])])
+    unsorted.indices, unsorted.data = band.indices[reverse], band.data[reverse]
+    unsorted.has_sorted_indices = False
+    assert natural_order_suffices(unsorted)
+    assert natural_order_suffices(sp.csc_matrix(arrow)[::-1, ::-1].tocsc())  # dense last row: no fill
     assert natural_order_suffices(sp.csc_matrix(np.ones((30, 30))))  # dense: every order fills it
     assert not natural_order_suffices(sp.csc_matrix(band[shuffle][:, shuffle]))
     assert not natural_order_suffices(sp.csc_matrix(arrow))  # dense first row: natural order fills L
