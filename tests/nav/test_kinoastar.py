@@ -5,8 +5,9 @@ import heapq
 import numpy as np
 import pytest
 
-from legplan.nav import NavParams, plan_kinodynamic
-from legplan.nav.kinoastar import _KeyEncoder
+from legplan.nav import NavParams, Trajectory, plan_kinodynamic
+from legplan.nav.heuristic import GoalHeuristic, optimal_polynomial
+from legplan.nav.kinoastar import ONESHOT_STRETCH, _KeyEncoder, analytic_expansion
 from legplan.nav.primitives import input_lattice, sample_count
 
 from conftest import grid_from_occupancy
@@ -147,3 +148,49 @@ def test_state_keys_are_one_per_hash_cell(pillars_grid):
     # Same partition of the states: a bijection between distinct cells and distinct keys.
     assert len(set(zip(cell_ids.tolist(), key_ids.tolist()))) == len(set(cell_ids.tolist())) \
         == len(set(key_ids.tolist()))
+
+
+def reference_oneshot(grid, p, v, pg, vg, T_h, params):
+    """The first stretched duration whose eq. (9) cubic keeps the limits (ends and velocity vertex)
+    and has no blocked sample, checked one duration at a time on all samples."""
+    for factor in ONESHOT_STRETCH:
+        T = T_h * factor
+        alpha, beta = optimal_polynomial(p, v, pg, vg, T)
+        if max(np.abs(beta).max(), np.abs(beta + alpha * T).max()) > params.a_max + 1e-9:
+            continue
+        vertex = np.clip(np.divide(-beta, alpha, out=np.zeros(2), where=alpha != 0), 0, T)
+        if np.abs(v + vertex * (beta + 0.5 * alpha * vertex)).max() > params.v_max + 1e-9:
+            continue
+        t = np.linspace(0.0, T, sample_count(params.v_max, T, grid.resolution))[:, None]
+        if not grid.blocked_at(p + v * t + beta * t**2 / 2 + alpha * t**3 / 6).any():
+            return T
+    return None
+
+
+def test_one_shot_batch_picks_the_first_feasible_duration(pillars_grid):
+    """Same duration as a sequential check (or None) for one-shots near pillars and walls."""
+    rng = np.random.default_rng(13)
+    outcomes = set()
+    for _ in range(300):
+        p, pg = rng.uniform([0.3, 0.3], [9.7, 5.7], (2, 2))
+        v, vg = rng.uniform(-0.7, 0.7, (2, 2)) * [[1.0], [rng.integers(0, 2)]]
+        if pillars_grid.blocked_at(p) or pillars_grid.blocked_at(pg):
+            continue
+        heuristic = GoalHeuristic(pg, vg, PARAMS.rho, PARAMS.v_max)
+        T_h = heuristic(*p, *v)[1]
+        with np.errstate(invalid="ignore", divide="ignore"):
+            shot = analytic_expansion(pillars_grid, p, v, pg, vg, T_h, PARAMS)
+        expected = reference_oneshot(pillars_grid, p, v, pg, vg, T_h, PARAMS)
+        if expected is None:
+            assert shot is None
+            outcomes.add("none")
+            continue
+        (p0, v0, a0, jerk, T), cost = shot
+        assert T == pytest.approx(expected, rel=1e-12)
+        outcomes.add("stretched" if T > T_h * (1 + 1e-9) else "T_h")
+        trajectory = Trajectory.from_pieces([(p0, v0, a0, jerk, T)])
+        end_p, end_v = trajectory.end_state()
+        np.testing.assert_allclose(end_p, pg, atol=1e-9)
+        np.testing.assert_allclose(end_v, vg, atol=1e-9)
+        assert cost >= trajectory.effort() + PARAMS.rho * T - 1e-9
+    assert outcomes == {"none", "stretched", "T_h"}
