@@ -29,6 +29,7 @@ import subprocess
 import sys
 import tarfile
 import tempfile
+from collections import Counter
 from io import BytesIO
 from pathlib import Path
 
@@ -96,7 +97,7 @@ def run_planner(name, grid, queries, params, repeats):
             "median_expansions": median("expansions", rows),
             "median_time_per_expansion_us": 1e6 * median("time_per_expansion", rows),
             "median_duration_s": median("duration", ok), "median_effort": median("effort", ok),
-            "failures": sorted({row["reason"] for row in rows if not row["success"]}),
+            "failures": dict(Counter(row["reason"] for row in rows if not row["success"])),
             "queries": rows}
 
 
@@ -149,6 +150,7 @@ def table(results: dict) -> list[str]:
     lines = ["| map | planner | success | median time (s) | max time (s) | ratio | median "
              "expansions | µs/expansion (steady) | median T (s) | median effort J |",
              "|---|---|---|---|---|---|---|---|---|---|"]
+    failures = []
     for map_name, entry in results.items():
         reference = entry["astar"]["median_planning_time_s"]
         for label, row in entry.items():
@@ -160,7 +162,10 @@ def table(results: dict) -> list[str]:
                          f"{row['median_planning_time_s'] / reference:.2f}× | "
                          f"{row['median_expansions']:.0f} | {per_expansion} | "
                          f"{row['median_duration_s']:.1f} | {row['median_effort']:.2f} |")
-    return lines
+            failures += [f"{map_name} {label}: {count}× {reason}"
+                         for reason, count in row["failures"].items()]
+    return lines + ["", "Failures: " + ("; ".join(failures) if failures else "none") + ". Rows "
+                    "'kinoastar (KEY=VALUE)' are the same search with those NavParams overrides."]
 
 
 def before_after(before: dict, after: dict, revision: str) -> list[str]:
