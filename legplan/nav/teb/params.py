@@ -6,10 +6,12 @@ weights γ_k of eq. (24): they multiply the weights of the forward (x) and later
 velocity and acceleration penalties ("a greater weight for the forward direction", Sec. V-C 2).
 
 Band resolution follows TEB's defaults: `dt_ref` 0.3 s with hysteresis 0.1 s, 4 outer rounds of
-resizing × 5 inner iterations; the rounds stop early (a warm-started band usually needs one) once
-a round lowers ‖h‖ by less than `round_tolerance` relatively and resizing left the band as it was. g2o's LM retries a rejected step with more damping inside one
-iteration; our LM counts every try, so an inner iteration gets `tries_per_iteration` LM iterations. `epsilon` is the penalty margin ε of the interval penalty (the
-penalty becomes active ε inside each bound, in the bound's own units).
+resizing × 5 inner iterations; the rounds stop early (a warm-started band usually needs one or
+two) once a round lowers ‖h‖ by less than `round_tolerance` relatively and leaves a band that
+resizing would not change. g2o's LM retries a rejected step with more damping inside one
+iteration; our LM counts every try, so an inner iteration gets `tries_per_iteration` LM
+iterations. `epsilon` is the penalty margin ε of the interval penalty (the penalty becomes active
+ε inside each bound, in the bound's own units).
 
 `omnidirectional=False` gives the differential-drive variant of Table III: the non-holonomic
 kinematics residual of Rösmann et al. [19] (weight `weight_nonholonomic`) forces lateral velocity
