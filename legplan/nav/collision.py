@@ -22,6 +22,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.ndimage import binary_dilation
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import dijkstra
 
 from legplan.errors import LegplanError
 
@@ -41,6 +43,7 @@ class NavGrid:
     blocked_flat: np.ndarray = field(init=False, repr=False)
     cost_flat: np.ndarray = field(init=False, repr=False)
     hard_cost_flat: np.ndarray = field(init=False, repr=False)  # cost_flat, +inf where blocked
+    _free_graph: list = field(default_factory=list, init=False, repr=False, compare=False)
     distance_flat: np.ndarray = field(init=False, repr=False)
 
     def __post_init__(self):
@@ -125,6 +128,35 @@ class NavGrid:
     def clearance_at(self, points: np.ndarray) -> np.ndarray:
         """Distance to the nearest obstacle at each point's cell, m; 0 outside the map."""
         return self.distance_flat[self.flat_index(points)]
+
+    def step_distance(self, point) -> np.ndarray:
+        """(ny, nx) number of 8-connected steps from the cell holding `point` to every cell through
+        cells that are not lethal (inf where unreachable, or everywhere if that cell is lethal).
+        Breadth-first search on the grid graph, which is built once per grid."""
+        if not self._free_graph:
+            self._free_graph.append(self._build_free_graph())
+        ny, nx = self.shape
+        (iy,), (ix,) = (np.atleast_1d(i) for i in self.cell_of(np.asarray(point, float)))
+        if not (0 <= iy < ny and 0 <= ix < nx) or self.lethal[iy, ix]:
+            return np.full((ny, nx), np.inf)
+        steps = dijkstra(self._free_graph[0], directed=False, unweighted=True,
+                         indices=int(iy * nx + ix))
+        return steps.reshape(ny, nx)
+
+    def _build_free_graph(self):
+        """Sparse adjacency of the non-lethal cells, each linked to its 8 neighbours."""
+        ny, nx = self.shape
+        ids = np.arange(ny * nx).reshape(ny, nx)
+        free = ~self.lethal
+        rows, cols = [], []
+        for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
+            a = (slice(0, ny - dy), slice(max(-dx, 0), nx - max(dx, 0)))
+            b = (slice(dy, ny), slice(max(dx, 0), nx - max(-dx, 0)))
+            both = free[a] & free[b]
+            rows.append(ids[a][both])
+            cols.append(ids[b][both])
+        rows, cols = np.concatenate(rows), np.concatenate(cols)
+        return coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(ny * nx, ny * nx)).tocsr()
 
     def cell_center(self, iy: np.ndarray, ix: np.ndarray) -> np.ndarray:
         """World coordinates (..., 2) of cell centres."""

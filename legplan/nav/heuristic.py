@@ -22,13 +22,18 @@ With `time_bound=True` (default) the minimum is taken over T ≥ T_lb = max_d |�
 shortest time any trajectory obeying the per-axis speed bound needs; this stays a lower bound
 (every feasible trajectory has T ≥ T_lb) and is far tighter when ρ is large. `weight` > 1 in the
 search (f = g + w·h) trades the optimality bound w for fewer expansions (weighted A*).
+`GeodesicTimeBound` (opt-in, `geodesic_bound=True`) raises T_lb to a time the robot needs around
+the obstacles (see there); it keeps h admissible and consistent.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
+
+from legplan.nav.collision import NavGrid
 
 _MIN_T = 1e-9
 
@@ -104,12 +109,14 @@ class GoalHeuristic:
     """(h, T_h) = min_T J*(T) and its minimizer to a fixed goal for one state given as floats (the
     search's hot path): eqs. (9)–(11), the coefficients of `quartic_coefficients` in scalars."""
 
-    def __init__(self, pg, vg, rho: float, v_max: float | None):
+    def __init__(self, pg, vg, rho: float, v_max: float | None,
+                 time_floor: Callable[[float, float], float] | None = None):
         self.gx, self.gy = (float(x) for x in pg)
         self.gvx, self.gvy = (float(x) for x in vg)
         self.goal_speed2 = self.gvx * self.gvx + self.gvy * self.gvy
         self.rho, self.inv_rho = float(rho), 1.0 / rho
         self.inv_v = None if v_max is None else 1.0 / v_max
+        self.time_floor = time_floor  # another lower bound of the time to the goal, from (px, py)
 
     def __call__(self, px: float, py: float, vx: float, vy: float) -> tuple[float, float]:
         dx, dy = self.gx - px, self.gy - py
@@ -118,6 +125,8 @@ class GoalHeuristic:
         q = 24.0 * ((vx + gvx) * dx + (vy + gvy) * dy) * inv_rho
         p = -4.0 * (vx * vx + vy * vy + vx * gvx + vy * gvy + self.goal_speed2) * inv_rho
         t_lb = _MIN_T if self.inv_v is None else max(max(abs(dx), abs(dy)) * self.inv_v, _MIN_T)
+        if self.time_floor is not None:
+            t_lb = max(t_lb, self.time_floor(px, py))
         # Candidates: t_lb and the real roots of g(T) = T⁴ + p T² + q T + r above it (eq. (11)),
         # with J*(T)/ρ = ((-r/3 /T - q/2)/T - p)/T + T and dJ*/dT ∝ g.
         inv = 1.0 / t_lb
@@ -137,6 +146,36 @@ class GoalHeuristic:
                 if cost < best:
                     best, best_T = cost, T
         return self.rho * best, best_T
+
+
+class GeodesicTimeBound:
+    """T ≥ κ·max(D(p) - R, 0) / v_max: a lower bound of the time from position p to the goal that
+    accounts for obstacles (opt-in `geodesic_bound`).
+
+    D(p) = R × the 8-connected step count from the goal's cell to p's cell through non-lethal cells
+    (`NavGrid.step_distance`, R the cell size). Every trajectory of the search stays out of lethal
+    cells (`collision.py`) with per-axis speed ≤ v_max, so over a duration T its Chebyshev length
+    is L ≤ v_max T; splitting it into pieces shorter than R per axis shows that the cells it visits
+    link p's cell to the goal's in ≤ L/R + 1 steps, so D(p) - R ≤ L ≤ v_max T (admissible). Along
+    one primitive (L ≤ v_max τ) D drops by at most (⌊v_max τ / R⌋ + 1) R, so the factor
+    κ = v_max τ / ((⌊v_max τ / R⌋ + 1) R) ≤ 1 makes the bound drop by at most τ per primitive,
+    which keeps h = min over T ≥ bound of J*(T) consistent (module doc). inf where the goal is
+    unreachable. One breadth-first search per goal.
+    """
+
+    def __init__(self, grid: NavGrid, goal_xy, v_max: float, tau: float):
+        R, reach = grid.resolution, v_max * tau
+        kappa = reach / ((math.floor(reach / R) + 1) * R)
+        steps = grid.step_distance(goal_xy)
+        self.bound = (kappa * R / v_max) * np.maximum(steps - 1.0, 0.0)
+        self.x0, self.y0 = grid.origin
+        self.resolution = R
+
+    def __call__(self, px: float, py: float) -> float:
+        """The bound at the cell holding (px, py) (`NavGrid.cell_of`)."""
+        ix = math.floor((px - self.x0) / self.resolution + 0.5)
+        iy = math.floor((py - self.y0) / self.resolution + 0.5)
+        return float(self.bound[iy, ix])
 
 
 def optimal_polynomial(pc, vc, pg, vg, T: float):

@@ -27,7 +27,7 @@ import time
 import numpy as np
 
 from legplan.nav.collision import NavGrid
-from legplan.nav.heuristic import GoalHeuristic, optimal_polynomial
+from legplan.nav.heuristic import GeodesicTimeBound, GoalHeuristic, optimal_polynomial
 from legplan.nav.params import NavParams
 from legplan.nav.primitives import PrimitiveSet, sample_count
 from legplan.nav.result import SearchResult, endpoint_problem
@@ -58,8 +58,10 @@ def plan_kinodynamic(grid: NavGrid, start, goal, params: NavParams = NavParams()
 
 def _search(grid, start, goal, params, progress, finish):
     prims = PrimitiveSet.build(params, grid)
+    floor = GeodesicTimeBound(grid, goal[:2], params.v_max, params.tau) \
+        if params.geodesic_bound else None
     heuristic = GoalHeuristic(goal[:2], goal[2:], params.rho,
-                              params.v_max if params.time_bound else None)
+                              params.v_max if params.time_bound else None, floor)
     encode = _KeyEncoder(grid, params)
     gx, gy, gvx, gvy = goal.tolist()
     weight, oneshot_r2 = params.weight, params.oneshot_radius ** 2

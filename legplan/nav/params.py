@@ -9,7 +9,9 @@ only side-stepping, which TEB handles). Per-axis bounds let a diagonal motion re
 
 Search. `mu` gives (2μ+1)² inputs of duration `tau` (eq. (6)); `rho` weighs time against effort
 (eq. (5)); `rho_c` weighs the collision cost (eq. (19)); `weight` ≥ 1 multiplies the heuristic
-(weighted A*, cost ≤ weight × optimal on the lattice). States are hashed on a grid of
+(weighted A*, cost ≤ weight × optimal on the lattice); `geodesic_bound` adds an obstacle-aware
+lower bound of the time to the goal to the heuristic (`heuristic.GeodesicTimeBound`: a breadth-first
+search over the map per query, worth it on maps with long detours). States are hashed on a grid of
 `pos_res` (m) × `vel_res` (m/s). Nodes within `oneshot_radius` of the goal try the analytic
 expansion. `goal_tolerance`/`goal_vel_tolerance` > 0 also accept a node that lands that close to
 the goal state (the tests use it for exact lattice goals).
@@ -35,6 +37,7 @@ class NavParams:
     rho_c: float = 0.01  # collision-cost weight ρ_c of eq. (19) (C_max = 100 → ρ_c·F ≤ 1)
     weight: float = 2.0  # heuristic weight (1 = plain A*; cost ≤ weight × lattice optimum)
     time_bound: bool = True  # heuristic minimizes over T ≥ max|Δp_d| / v_max
+    geodesic_bound: bool = False  # ... and over T ≥ the time around obstacles (one BFS per query)
     pos_res: float = 0.1  # m, state hash grid
     vel_res: float = 0.2  # m/s, state hash grid
     oneshot_radius: float = 5.0  # m

@@ -6,9 +6,9 @@ import numpy as np
 import pytest
 
 from legplan.nav import NavParams, Trajectory, plan_kinodynamic
-from legplan.nav.heuristic import GoalHeuristic, optimal_polynomial
+from legplan.nav.heuristic import GeodesicTimeBound, GoalHeuristic, optimal_polynomial
 from legplan.nav.kinoastar import ONESHOT_STRETCH, _KeyEncoder, analytic_expansion
-from legplan.nav.primitives import input_lattice, sample_count
+from legplan.nav.primitives import PrimitiveSet, input_lattice, sample_count
 
 from conftest import grid_from_occupancy
 
@@ -109,6 +109,37 @@ def test_search_finds_the_lattice_optimum_of_an_exhaustive_search():
     # Weighted A* stays within its bound.
     weighted = plan_kinodynamic(grid, start, goal, params.replace(weight=2.0))
     assert optimum - 1e-9 <= weighted.cost <= 2.0 * optimum + 1e-9
+    # The obstacle-aware time bound keeps h admissible and consistent: the same optimum.
+    geodesic = plan_kinodynamic(grid, start, goal, params.replace(geodesic_bound=True))
+    assert geodesic.cost == pytest.approx(optimum, abs=1e-9)
+    assert geodesic.expansions <= result.expansions
+
+
+def test_geodesic_time_bound_is_admissible_and_drops_at_most_tau_per_primitive(pillars_grid):
+    params = PARAMS.replace(geodesic_bound=True)
+    start, goal = np.array([0.5, 5.5, 0.0, 0.0]), np.array([9.5, 0.5, 0.0, 0.0])
+    bound = GeodesicTimeBound(pillars_grid, goal[:2], params.v_max, params.tau)
+    result = plan_kinodynamic(pillars_grid, start, goal, params)
+    assert_feasible(pillars_grid, result, params)
+    # Along the planned trajectory the bound never exceeds the time left to the goal.
+    t, p, _, _ = result.trajectory.sample(0.01)
+    remaining = result.trajectory.duration - t
+    assert all(bound(*point) <= left + 1e-9 for point, left in zip(p.tolist(), remaining))
+    # Along every feasible primitive of random nodes it drops by at most τ (consistency).
+    prims = PrimitiveSet.build(params, pillars_grid)
+    rng = np.random.default_rng(14)
+    checked = 0
+    for _ in range(200):
+        p0 = rng.uniform([0.3, 0.3], [9.7, 5.7])
+        v0 = rng.uniform(-params.v_max, params.v_max, 2)
+        if pillars_grid.blocked_at(p0):
+            continue
+        with np.errstate(invalid="ignore"):
+            children, feasible = prims.expand(*p0, *v0)
+        for px, py in children[:2, feasible].T.tolist():
+            assert bound(*p0) <= params.tau + bound(px, py) + 1e-12
+            checked += 1
+    assert checked > 1000
 
 
 def test_failure_reasons(pillars_grid):
@@ -194,3 +225,4 @@ def test_one_shot_batch_picks_the_first_feasible_duration(pillars_grid):
         np.testing.assert_allclose(end_v, vg, atol=1e-9)
         assert cost >= trajectory.effort() + PARAMS.rho * T - 1e-9
     assert outcomes == {"none", "stretched", "T_h"}
+
