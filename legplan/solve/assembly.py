@@ -24,11 +24,13 @@ class CooAssembler:
         self._cols: np.ndarray | None = None
         self._pieces: tuple[list[np.ndarray], list[np.ndarray]] | None = None
 
-    def _analyze(self, rows: np.ndarray, cols: np.ndarray) -> None:
+    def _analyze(self, rows: np.ndarray, cols: np.ndarray, copy: bool = True) -> None:
+        """Pattern and CSC slot of every triplet; keeps (a copy of, unless `copy` is False) the indices."""
         nrows, ncols = self.shape
         key = cols.astype(np.int64) * nrows + rows
         if np.all(key[1:] > key[:-1]):  # already in CSC order without duplicates (e.g. one CSR block of Jᵀ)
             self._slot = np.arange(key.size)
+            self._in_order = True
             unique_rows, unique_cols = rows, cols
         else:
             # np.unique with a stable sort: triplets from cached patterns arrive as a few sorted
@@ -41,11 +43,12 @@ class CooAssembler:
             unique = ordered[first]
             self._slot = np.empty(key.size, np.intp)
             self._slot[order] = np.cumsum(first) - 1
+            self._in_order = False
             unique_rows, unique_cols = unique % nrows, unique // nrows
         self._indices = unique_rows.astype(np.int32)
         self._indptr = np.zeros(ncols + 1, dtype=np.int32)
         np.cumsum(np.bincount(unique_cols, minlength=ncols), out=self._indptr[1:])
-        self._rows, self._cols = rows.copy(), cols.copy()
+        self._rows, self._cols = (rows.copy(), cols.copy()) if copy else (rows, cols)
         self.version += 1
 
     def assemble(self, rows: np.ndarray, cols: np.ndarray, values: np.ndarray) -> sp.csc_matrix:
@@ -71,11 +74,15 @@ class CooAssembler:
                      for p in (rows, cols)]
             if not (self._rows is not None and self._rows.size == index[0].size
                     and np.array_equal(self._rows, index[0]) and np.array_equal(self._cols, index[1])):
-                self._analyze(*index)
+                self._analyze(*index, copy=False)  # concatenated: already our own arrays
             self._pieces = (list(rows), list(cols))  # holding them keeps the identity test sound
             self._plan = self._piece_plan([r.size for r in rows])
         ranges, scattered, scattered_slots = self._plan
         parts = [values[k] for k in scattered if values[k] is not None]
+        if not parts and len(ranges) == 1 and ranges[0][1:] == (0, self._indices.size) \
+                and values[ranges[0][0]] is not None:  # one piece fills the pattern in order: a copy
+            return sp.csc_matrix((np.array(values[ranges[0][0]], float), self._indices, self._indptr),
+                                 shape=self.shape)
         if parts:
             slots = scattered_slots if len(parts) == len(scattered) else np.concatenate(
                 [self._piece_slots[k] for k in scattered if values[k] is not None])
@@ -93,7 +100,8 @@ class CooAssembler:
         self._piece_slots = [self._slot[bounds[k]:bounds[k + 1]] for k in range(len(sizes))]
         ranges, scattered = [], []
         for k, slots in enumerate(self._piece_slots):
-            if slots.size and slots[-1] - slots[0] == slots.size - 1 and np.all(np.diff(slots) == 1):
+            if slots.size and (self._in_order or (slots[-1] - slots[0] == slots.size - 1
+                                                  and np.all(np.diff(slots) == 1))):
                 ranges.append((k, int(slots[0]), int(slots[-1]) + 1))
             else:
                 scattered.append(k)

@@ -31,3 +31,11 @@ def test_pieces_in_csc_order_scattered_duplicates_and_structural_zeros():
     new_rows = [r.copy() for r in rows]  # equal contents, new objects: compared, not re-analysed
     assembler.assemble_parts(new_rows, cols, values)
     assert assembler.version == 1
+
+
+def test_one_piece_in_csc_order_is_copied_not_aliased():
+    rows, cols = np.array([0, 2, 1, 0]), np.array([0, 0, 1, 2])
+    values = np.array([1.0, 2.0, 3.0, 4.0])
+    H = CooAssembler((3, 3)).assemble_parts([rows], [cols], [values])
+    values[:] = 0.0
+    np.testing.assert_array_equal(H.toarray(), [[1, 0, 4], [0, 3, 0], [2, 0, 0]])
