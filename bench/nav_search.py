@@ -158,7 +158,8 @@ def table(results: dict) -> list[str]:
             per_expansion = f"{row['median_time_per_expansion_us']:.1f}" + \
                 (f" ({steady:.1f})" if steady is not None else "")
             lines.append(f"| {map_name} | {label} | {row['success_rate']:.0%} | "
-                         f"{row['median_planning_time_s']:.3f} | {row['max_planning_time_s']:.3f} | "
+                         f"{row['median_planning_time_s']:.3f} | "
+                         f"{row['max_planning_time_s']:.3f} | "
                          f"{row['median_planning_time_s'] / reference:.2f}× | "
                          f"{row['median_expansions']:.0f} | {per_expansion} | "
                          f"{row['median_duration_s']:.1f} | {row['median_effort']:.2f} |")
@@ -177,7 +178,8 @@ def before_after(before: dict, after: dict, revision: str) -> list[str]:
         old, new = before[map_name]["kinoastar"], entry["kinoastar"]
         steady_old, steady_new = (row["steady_time_per_expansion_us"] for row in (old, new))
         lines.append(
-            f"| {map_name} | {steady_old:.1f} → {steady_new:.1f} ({steady_old / steady_new:.1f}×) | "
+            f"| {map_name} | {steady_old:.1f} → {steady_new:.1f} "
+            f"({steady_old / steady_new:.1f}×) | "
             f"{old['median_time_per_expansion_us']:.1f} → {new['median_time_per_expansion_us']:.1f}"
             f" | {old['success_rate']:.0%} → {new['success_rate']:.0%} | "
             f"{old['median_planning_time_s']:.3f} → {new['median_planning_time_s']:.3f} | "
@@ -192,8 +194,8 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--max-expansions", type=int, default=30000,
-                        help="Expansion limit of kinoastar (keeps failing queries bounded); grid A* "
-                             "may expand every cell.")
+                        help="Expansion limit of kinoastar (keeps failing queries bounded); "
+                             "grid A* may expand every cell.")
     parser.add_argument("--variant", action="append", default=[],
                         help="extra kinoastar row with these NavParams overrides, KEY=VALUE[,...]")
     parser.add_argument("--before", metavar="REV", help="also measure git revision REV first")
@@ -222,8 +224,8 @@ def main() -> None:
              f"{args.queries} seeded start/goal pairs per map (seed {args.seed}), median of "
              f"{args.repeats} runs per query, default NavParams (weight {params.weight}, "
              f"μ={params.mu}, τ={params.tau} s, pos_res {params.pos_res} m, vel_res "
-             f"{params.vel_res} m/s, one-shot radius {params.oneshot_radius} m, kinoastar expansion "
-             f"limit {params.max_expansions}). Ratio: median planning time vs grid A*. "
+             f"{params.vel_res} m/s, one-shot radius {params.oneshot_radius} m, kinoastar "
+             f"expansion limit {params.max_expansions}). Ratio: median planning time vs grid A*. "
              "µs/expansion: median over queries of time/expansions (kinoastar: in brackets the "
              f"steady-state search loop, one-shot off, weight 1, {STEADY_EXPANSIONS} expansions, "
              "median of the first 5 queries).", ""] + table(results)

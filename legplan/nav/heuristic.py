@@ -38,17 +38,6 @@ from legplan.nav.collision import NavGrid
 _MIN_T = 1e-9
 
 
-def quartic_coefficients(pc, vc, pg, vg):
-    """(c1, c2, c3) of dJ*/dT · T⁴ = ρT⁴ + c3 T² + c2 T + c1, per state (arrays (..., 2) in)."""
-    delta = pg - pc
-    vs = vc + vg
-    dx, dy = delta[..., 0], delta[..., 1]
-    c1 = -36.0 * (dx * dx + dy * dy)
-    c2 = 24.0 * (vs[..., 0] * dx + vs[..., 1] * dy)
-    c3 = -4.0 * ((vs * vs).sum(axis=-1) - (vc * vg).sum(axis=-1))
-    return c1, c2, c3
-
-
 def cost_at(T, c1, c2, c3, rho):
     """J*(T) = -c1/(3T³) - c2/(2T²) - c3/T + ρT (eq. (9) expanded)."""
     inv = 1.0 / T
@@ -107,7 +96,7 @@ def min_time_cost(pc, vc, pg, vg, rho: float, v_max: float | None = None):
 
 class GoalHeuristic:
     """(h, T_h) = min_T J*(T) and its minimizer to a fixed goal for one state given as floats (the
-    search's hot path): eqs. (9)–(11), the coefficients of `quartic_coefficients` in scalars."""
+    search's hot path): eqs. (9)–(11) with c1, c2, c3 of the module doc divided by ρ."""
 
     def __init__(self, pg, vg, rho: float, v_max: float | None,
                  time_floor: Callable[[float, float], float] | None = None):

@@ -4,8 +4,19 @@ import numpy as np
 from scipy.optimize import minimize_scalar
 
 from legplan.nav.heuristic import (GoalHeuristic, cost_at, depressed_quartic_roots,
-                                   min_time_cost, optimal_polynomial, quartic_coefficients)
+                                   min_time_cost, optimal_polynomial)
 from legplan.nav.primitives import input_lattice
+
+
+def quartic_coefficients(pc, vc, pg, vg):
+    """Reference (c1, c2, c3) of dJ*/dT · T⁴ = ρT⁴ + c3 T² + c2 T + c1, arrays (..., 2) in."""
+    delta = pg - pc
+    vs = vc + vg
+    dx, dy = delta[..., 0], delta[..., 1]
+    c1 = -36.0 * (dx * dx + dy * dy)
+    c2 = 24.0 * (vs[..., 0] * dx + vs[..., 1] * dy)
+    c3 = -4.0 * ((vs * vs).sum(axis=-1) - (vc * vg).sum(axis=-1))
+    return c1, c2, c3
 
 
 def eq9_cost(pc, vc, pg, vg, T, rho):
