@@ -259,7 +259,8 @@ class Problem:
         return _cat(residuals, float), rows, cols, vals
 
     def normal_equations(self, theta: np.ndarray, assembly: str = "blocks") -> NormalEquations:
-        """h, H = JᵀJ and g = Jᵀh at θ for eq. (13), by the chosen assembly path."""
+        """h, H = JᵀJ and g = Jᵀh at θ for eq. (13), by the chosen assembly path (J instead of H for
+        ``"jacobian"``)."""
         if assembly not in ASSEMBLY_MODES:
             raise ValueError(f"assembly must be one of {ASSEMBLY_MODES}, got {assembly!r}")
         layout = self.layout
