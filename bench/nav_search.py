@@ -193,9 +193,9 @@ def main() -> None:
     parser.add_argument("--queries", type=int, default=20)
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--seed", type=int, default=0)
-    parser.add_argument("--max-expansions", type=int, default=30000,
-                        help="Expansion limit of kinoastar (keeps failing queries bounded); "
-                             "grid A* may expand every cell.")
+    parser.add_argument("--max-expansions", type=int, default=NavParams().max_expansions,
+                        help="Expansion limit of kinoastar (default: NavParams' own); grid A* may "
+                             "expand every cell.")
     parser.add_argument("--variant", action="append", default=[],
                         help="extra kinoastar row with these NavParams overrides, KEY=VALUE[,...]")
     parser.add_argument("--before", metavar="REV", help="also measure git revision REV first")
