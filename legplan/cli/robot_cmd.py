@@ -27,15 +27,16 @@ def list_command(as_json):
         robot = load_robot(name)
         rows.append({"name": name, "dof": robot.nv, "nq": robot.nq, "legs": robot.n_legs,
                      "spheres": len(robot.spheres), "mass": robot.mass,
-                     "navigation": robot.navigation is not None, "description": robot.description})
+                     "navigation": robot.navigation is not None, "centroidal": robot.centroidal is not None,
+                     "description": robot.description})
     if as_json:
         click.echo(json.dumps(rows, indent=2))
         return
     click.echo(f"robots in {robots_dir()}:")
     for row in rows:
-        nav = ", navigation" if row["navigation"] else ""
+        extras = "".join(f", {key}" for key in ("navigation", "centroidal") if row[key])
         click.echo(f"  {row['name']:<14} {row['dof']:>3} DOF  {row['legs']} legs  {row['spheres']:>3} spheres  "
-                   f"{row['mass']:.2f} kg{nav}")
+                   f"{row['mass']:.2f} kg{extras}")
 
 
 def robot_summary(robot) -> dict:
@@ -55,6 +56,7 @@ def robot_summary(robot) -> dict:
                      "leg": robot.legs[spheres.leg_index[k]].name if spheres.leg_index[k] >= 0 else None,
                      "foot": bool(spheres.is_foot[k])} for k in range(len(spheres))],
         "navigation": None,
+        "centroidal": None,
     }
     nav = robot.navigation
     if nav is not None:
@@ -62,6 +64,12 @@ def robot_summary(robot) -> dict:
                                  "inscribed_radius": nav.inscribed_radius,
                                  "circumscribed_radius": nav.circumscribed_radius,
                                  "limits": vars(nav.limits)}
+    c = robot.centroidal
+    if c is not None:
+        summary["centroidal"] = {"mass": c.mass, "inertia": c.inertia.tolist(),
+                                 "nominal_feet": dict(zip(c.legs, c.nominal_feet.tolist())),
+                                 "range_of_motion": c.range_of_motion.tolist(), "base_height": c.base_height,
+                                 "max_normal_force": c.max_normal_force, "friction": c.friction}
     return summary
 
 
@@ -114,5 +122,15 @@ def show_command(robot, png, overwrite, as_json):
                    f"{nav['inscribed_radius']:.4f} m, circumscribed radius {nav['circumscribed_radius']:.4f} m")
         for name, value in nav["limits"].items():
             click.echo(f"    {name:<10} {value:g} {LIMIT_UNITS[name]}")
+    c = info["centroidal"]
+    if c is None:
+        click.echo("  centroidal: none")
+    else:
+        click.echo(f"  centroidal: {c['mass']:g} kg, base height {c['base_height']:g} m, max normal force "
+                   f"{c['max_normal_force']:g} N, friction {c['friction']:g}, range of motion "
+                   f"+-{c['range_of_motion']} m")
+        click.echo(f"    inertia [kg m^2]: {c['inertia']}")
+        for leg, foot in c["nominal_feet"].items():
+            click.echo(f"    nominal foot {leg}: {foot} m")
     if png:
         click.echo(f"  stance picture: {png}")

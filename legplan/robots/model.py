@@ -18,6 +18,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from legplan.robots.centroidal import Centroidal
 from legplan.robots.kinematics import AttachedPoints, Kinematics, KinematicsWorkspace
 from legplan.robots.so3 import quat_to_rotvec, right_jacobian, rotvec_to_matrix, rotvec_to_quat
 from legplan.robots.spec import Leg, Navigation, RobotSpec, SphereSet
@@ -45,6 +46,7 @@ class RobotModel:
         self.spheres: SphereSet = spec.spheres
         self.q_nominal: np.ndarray = spec.q_nominal
         self.navigation: Navigation | None = spec.navigation
+        self.centroidal: Centroidal | None = spec.centroidal
         self.mass: float = float(pin.computeTotalMass(model))
         self._feet = AttachedPoints.of_frames(model, [leg.foot_frame_id for leg in spec.legs])
         self._sphere_points = AttachedPoints.of_frames(model, spec.spheres.frame_ids, spec.spheres.offsets)

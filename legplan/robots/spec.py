@@ -20,6 +20,9 @@ navigation:                        # optional, for 2D navigation planners
   inscribed_radius: 0.2            # optional, checked against the footprint when given
   circumscribed_radius: 0.403
   limits: {v_x_max: .., v_x_min: .., v_y_max: .., omega_max: .., a_x_max: .., a_y_max: .., alpha_max: ..}
+centroidal:                        # optional, for centroidal planners: see legplan.robots.centroidal
+  mass: 29.5
+  ...
 ```
 
 Every error is a one-line `SpecError` naming the file and the field.
@@ -34,6 +37,7 @@ import numpy as np
 import pinocchio as pin
 
 from legplan.errors import SpecError
+from legplan.robots.centroidal import Centroidal, parse_centroidal
 from legplan.specio import read_yaml_mapping
 
 FOOT_HEIGHT_TOLERANCE = 1e-3  # m, |z| of every foot in the nominal stance
@@ -115,6 +119,7 @@ class RobotSpec:
     spheres: SphereSet
     q_nominal: np.ndarray
     navigation: Navigation | None
+    centroidal: Centroidal | None
 
 
 class _Reader:
@@ -376,6 +381,7 @@ def read_spec(yaml_path: str | Path) -> RobotSpec:
     spheres = _parse_spheres(reader, data, model, legs)
     q_nominal = _parse_nominal(reader, data, model, legs, lower, upper)
     navigation = _parse_navigation(reader, data)
+    centroidal = parse_centroidal(reader, data, tuple(leg.name for leg in legs), pin.computeTotalMass(model))
     return RobotSpec(name=name, description=description.strip(), yaml_path=path, urdf_path=urdf,
                      model=model, legs=legs, lower=_frozen(lower), upper=_frozen(upper),
-                     spheres=spheres, q_nominal=q_nominal, navigation=navigation)
+                     spheres=spheres, q_nominal=q_nominal, navigation=navigation, centroidal=centroidal)

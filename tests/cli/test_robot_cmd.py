@@ -22,6 +22,7 @@ def test_robot_list():
     assert "scarab2" in result.output and "24 DOF" in result.output and "jueying_mini" in result.output
     rows = {row["name"]: row for row in json.loads(run("robot", "list", "--json").output)}
     assert rows["scarab2"]["legs"] == 6 and rows["jueying_mini"]["navigation"] is True
+    assert rows["anymal"]["centroidal"] is True and rows["scarab2"]["centroidal"] is False
 
 
 def test_robot_list_uses_env_folder(tmp_path):
@@ -53,3 +54,15 @@ def test_robot_show_by_path_and_errors(tmp_path):
     result = run("robot", "show", folder / "robot.yaml")
     assert result.exit_code == 2 and "field 'legs' is missing" in result.stderr
     assert len(result.stderr.strip().splitlines()) == 1
+
+
+def test_robot_show_centroidal(tmp_path):
+    png = tmp_path / "anymal.png"
+    result = run("robot", "show", "anymal", "--png", png)
+    assert result.exit_code == 0, result.output
+    assert "centroidal: 29.5 kg, base height 0.42 m, max normal force 1000 N, friction 0.5" in result.output
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    info = json.loads(run("robot", "show", "anymal", "--json").output)
+    assert info["centroidal"]["nominal_feet"]["rh"] == [-0.34, -0.19, -0.42]
+    assert info["centroidal"]["inertia"][0][1] == -0.000938112
+    assert json.loads(run("robot", "show", "scarab2", "--json").output)["centroidal"] is None

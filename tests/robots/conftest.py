@@ -17,10 +17,15 @@ def jueying():
 
 
 @pytest.fixture(scope="session")
+def anymal():
+    return load_robot("anymal")
+
+
+@pytest.fixture(scope="session")
 def toy(tmp_path_factory):
     return load_robot(write_toy_robot(tmp_path_factory.mktemp("toy") / "toy"))
 
 
-@pytest.fixture(params=["scarab2", "jueying", "toy"])
+@pytest.fixture(params=["scarab2", "jueying", "anymal", "toy"])
 def any_robot(request):
     return request.getfixturevalue(request.param)

@@ -51,6 +51,15 @@ def toy_spec() -> dict:
     }
 
 
+def toy_centroidal() -> dict:
+    """A valid `centroidal` section for the toy robot (mass = its URDF's 4.6 kg; foot c 1 cm higher)."""
+    return {"mass": 3.0 + 8 * 0.2,
+            "inertia": {"ixx": 0.05, "iyy": 0.12, "izz": 0.13, "ixy": 0.001, "ixz": -0.002, "iyz": 0.003},
+            "nominal_feet": {"d": [-0.2, -0.1, -0.26], "a": [0.2, 0.1, -0.26], "b": [0.2, -0.1, -0.26],
+                             "c": [-0.2, 0.1, -0.25]},
+            "range_of_motion": [0.05, 0.04, 0.03], "max_normal_force": 100, "friction": 0.6}
+
+
 def write_toy_robot(folder: Path, spec: dict | None = None) -> Path:
     """Write robot.urdf + robot.yaml of the toy robot into `folder`; returns the yaml path."""
     folder.mkdir(parents=True, exist_ok=True)

@@ -8,7 +8,7 @@ from legplan.robots import list_robots, load_robot
 
 
 def test_repository_robots_are_listed():
-    assert {"scarab2", "jueying_mini"} <= set(list_robots())
+    assert {"scarab2", "jueying_mini", "anymal"} <= set(list_robots())
 
 
 def test_scarab2_dimensions(scarab2):
@@ -31,7 +31,7 @@ def test_scarab2_dimensions(scarab2):
     assert scarab2.navigation is None
 
 
-@pytest.mark.parametrize("name", ["scarab2", "jueying", "toy"])
+@pytest.mark.parametrize("name", ["scarab2", "jueying", "anymal", "toy"])
 def test_nominal_stance_feet_on_ground_com_inside(name, request):
     robot = request.getfixturevalue(name)
     q = robot.q_nominal

@@ -4,7 +4,7 @@ import copy
 
 import numpy as np
 import pytest
-from robot_helpers import TOY_HIP, TOY_LINK, toy_spec, write_toy_robot
+from robot_helpers import TOY_HIP, TOY_LINK, toy_centroidal, toy_spec, write_toy_robot
 
 from legplan.errors import LegplanError, SpecError
 from legplan.robots import load_robot, resolve_robot
@@ -65,6 +65,41 @@ CASES = [
         "footprint": [[0.3, 0.2], [-0.3, 0.2], [-0.3, -0.2], [0.3, -0.2]], "inscribed_radius": 0.3,
         "limits": {}}), r"navigation\.inscribed_radius.*0\.2000"),
 ]
+
+
+
+def _centroidal(edit):
+    """An edit of a valid toy `centroidal` section (legplan.robots.centroidal)."""
+    def apply(spec):
+        spec["centroidal"] = toy_centroidal()
+        edit(spec["centroidal"])
+    return apply
+
+
+CASES += [(f"centroidal: {name}", _centroidal(edit), pattern) for name, edit, pattern in [
+    ("negative mass", lambda c: c.update(mass=-1.0), r"'centroidal\.mass' must be > 0"),
+    ("mass not the URDF's", lambda c: c.update(mass=5.0),
+     r"'centroidal\.mass' is 5 kg but the URDF's links sum to 4\.6 kg"),
+    ("inertia not positive definite", lambda c: c["inertia"].update(ixx=-0.05),
+     r"'centroidal\.inertia' must be positive definite"),
+    ("inertia no rigid body's", lambda c: c["inertia"].update(izz=0.5), r"'centroidal\.inertia' is no rigid body's"),
+    ("inertia key missing", lambda c: c["inertia"].pop("iyz"), r"'centroidal\.inertia\.iyz' is missing"),
+    ("inertia key unknown", lambda c: c["inertia"].update(iyx=0.0), r"'centroidal\.inertia\.iyx' is unknown"),
+    ("missing leg", lambda c: c["nominal_feet"].pop("c"), r"'centroidal\.nominal_feet\.c' is missing"),
+    ("unknown leg", lambda c: c["nominal_feet"].update(e=[0, 0, -0.2]), r"'centroidal\.nominal_feet\.e' names no leg"),
+    ("foot not 3 numbers", lambda c: c["nominal_feet"].update(a=[0.2, 0.1]),
+     r"'centroidal\.nominal_feet\.a' must be a list of 3"),
+    ("foot above the base", lambda c: c["nominal_feet"].update(b=[0.2, -0.1, 0.1]),
+     r"'centroidal\.nominal_feet\.b' must be below the base"),
+    ("zero range of motion", lambda c: c.update(range_of_motion=[0.05, 0.0, 0.03]),
+     r"'centroidal\.range_of_motion\[1\]' must be > 0"),
+    ("negative max force", lambda c: c.update(max_normal_force=-10), r"'centroidal\.max_normal_force' must be > 0"),
+    ("zero friction", lambda c: c.update(friction=0), r"'centroidal\.friction' must be > 0"),
+    ("friction missing", lambda c: c.pop("friction"), r"'centroidal\.friction' is missing"),
+    ("unknown key", lambda c: c.update(frcition=0.5), r"'centroidal\.frcition' is unknown"),
+]]
+CASES.append(("centroidal: not a mapping", lambda s: s.update(centroidal=[1, 2]),
+              r"field 'centroidal' must be a mapping"))
 
 
 @pytest.mark.parametrize("edit,pattern", [c[1:] for c in CASES], ids=[c[0] for c in CASES])
