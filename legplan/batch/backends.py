@@ -1,0 +1,190 @@
+"""Where the items of a batch run: in this process, a local process pool, or a dask cluster.
+
+Each executor's `run(task, todo)` takes `(position, item)` pairs and yields `(position, record)` as
+items finish (completion order); `close()` releases its workers. `Backend(jobs, scheduler).start()`
+picks one: `scheduler` "local" (a dask LocalCluster of `jobs` one-thread worker processes on
+127.0.0.1) or an address such as "tcp://host:8786" (a running dask scheduler); otherwise `jobs` 1
+runs in this process and `jobs` N in N spawned worker processes.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import logging
+import multiprocessing
+import signal
+import uuid
+from collections import Counter, deque
+from collections.abc import Iterator
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
+from dataclasses import dataclass
+
+from legplan.batch.task import Task, one_thread_environment
+from legplan.errors import LegplanError
+
+log = logging.getLogger(__name__)
+
+LOST_WORKERS = 2  # an item whose worker died this many times is recorded as failed
+PR_SET_PDEATHSIG = 1
+
+
+class InProcess:
+    """`--jobs 1`: every item in the calling process, one after another."""
+
+    def run(self, task: Task, todo) -> Iterator[tuple[int, dict]]:
+        for position, item in todo:
+            yield position, task(item)
+
+    def close(self) -> None:
+        pass
+
+
+def _init_pool_worker() -> None:
+    """In each pool process: one BLAS/OpenMP thread, Ctrl-C left to the parent (which stops the
+    pool), and death with the parent (Linux), so a killed batch leaves no orphaned workers."""
+    one_thread_environment()
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    try:
+        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+    except (OSError, AttributeError):  # not Linux: workers end when the pool's pipes close
+        pass
+
+
+class ProcessPool:
+    """`--jobs N`: N worker processes (spawned, so nothing of the parent's open files or threads is
+    inherited), at most N items in flight. When a worker dies the pool breaks and every item in
+    flight is suspect: each is rerun alone in a fresh pool, where a death is its own; an item that
+    lost `LOST_WORKERS` workers so is recorded as failed. The others go on in a fresh pool."""
+
+    def __init__(self, jobs: int):
+        self.jobs = jobs
+
+    def run(self, task: Task, todo) -> Iterator[tuple[int, dict]]:
+        queue, suspects, lost = deque(todo), deque(), Counter()
+        while queue or suspects:
+            alone = bool(suspects)
+            died = yield from self._round(task, deque([suspects.popleft()]) if alone else queue,
+                                          1 if alone else self.jobs)
+            if len(died) > 1:
+                suspects.extend(died)
+                continue
+            for position, item in died:
+                lost[position] += 1
+                log.warning("item %d: its worker process died (%d of %d)", position, lost[position], LOST_WORKERS)
+                if lost[position] >= LOST_WORKERS:
+                    yield position, task.failed(item, f"worker died ({LOST_WORKERS} worker processes lost)")
+                else:
+                    suspects.append((position, item))
+
+    def _round(self, task, source: deque, limit: int):
+        """Run `source` on a fresh pool with at most `limit` items in flight; yields finished
+        items, returns the items in flight when the pool broke (empty when all finished)."""
+        pool = ProcessPoolExecutor(limit, mp_context=multiprocessing.get_context("spawn"),
+                                   initializer=_init_pool_worker)
+        running: dict = {}
+        try:
+            while source or running:
+                while source and len(running) < limit:
+                    position, item = source.popleft()
+                    running[pool.submit(task, item)] = (position, item)
+                finished, _ = wait(running, return_when=FIRST_COMPLETED)
+                broken = []
+                for future in finished:
+                    entry = running.pop(future)
+                    if isinstance(future.exception(), BrokenProcessPool):
+                        broken.append(entry)
+                    else:
+                        yield entry[0], future.result()
+                if broken:
+                    died, running = broken + list(running.values()), {}
+                    return died
+            return []
+        finally:
+            if running:  # interrupted: stop the workers now instead of waiting for their items
+                for process in list(getattr(pool, "_processes", {}).values()):  # no public API in 3.11
+                    process.terminate()
+            pool.shutdown(wait=True, cancel_futures=True)
+
+    def close(self) -> None:
+        pass
+
+
+class DaskCluster:
+    """dask.distributed: placement, retries of items whose worker died (a LocalCluster allows
+    `LOST_WORKERS` - 1 retries; an external scheduler uses its own `allowed-failures`) and
+    scale-out. Items finish in any order; a lost item arrives as a `KilledWorker` error."""
+
+    def __init__(self, client, cluster=None):
+        self.client = client
+        self.cluster = cluster
+
+    @classmethod
+    def connect(cls, scheduler: str, jobs: int) -> DaskCluster:
+        import dask
+        from distributed import Client, LocalCluster
+
+        if scheduler == "local":
+            with dask.config.set({"distributed.scheduler.allowed-failures": LOST_WORKERS - 1}):
+                cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                       dashboard_address=None)
+            return cls(Client(cluster), cluster)
+        timeout = dask.config.get("distributed.comm.timeouts.connect")
+        try:
+            return cls(Client(scheduler, timeout=timeout))
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise LegplanError(f"--scheduler {scheduler}: cannot reach a dask scheduler ({exc})") from None
+
+    def run(self, task: Task, todo) -> Iterator[tuple[int, dict]]:
+        from distributed import as_completed
+
+        batch = uuid.uuid4().hex[:12]
+        futures = {self.client.submit(task, item, key=f"legplan-{batch}-{position}"): (position, item)
+                   for position, item in todo}
+        try:
+            for future in as_completed(list(futures)):
+                position, item = futures.pop(future)
+                if future.status == "finished":
+                    record = future.result()
+                else:
+                    error = future.exception()
+                    reason = f"{type(error).__name__}: {error}"
+                    record = task.failed(item, f"worker died ({reason})" if type(error).__name__ == "KilledWorker"
+                                         else reason)
+                future.release()
+                yield position, record
+        finally:
+            if futures:
+                self.client.cancel(list(futures))
+
+    def close(self) -> None:
+        self.client.close()
+        if self.cluster is not None:
+            self.cluster.close()
+
+
+@dataclass(frozen=True)
+class Backend:
+    """The CLI's `--jobs` and `--scheduler`: which executor `start()` returns."""
+
+    jobs: int = 1
+    scheduler: str | None = None
+
+    def __post_init__(self):
+        if self.jobs < 1:
+            raise LegplanError(f"--jobs: expected at least 1, got {self.jobs}")
+        if self.scheduler is not None and self.scheduler != "local" and "://" not in self.scheduler:
+            raise LegplanError(f"--scheduler: expected 'local' or an address such as tcp://HOST:PORT, "
+                               f"got {self.scheduler!r}")
+
+    def start(self):
+        if self.scheduler is not None:
+            return DaskCluster.connect(self.scheduler, self.jobs)
+        return InProcess() if self.jobs == 1 else ProcessPool(self.jobs)
+
+    def describe(self) -> str:
+        if self.scheduler == "local":
+            return f"dask LocalCluster, {self.jobs} workers"
+        if self.scheduler is not None:
+            return f"dask scheduler {self.scheduler}"
+        return "in-process" if self.jobs == 1 else f"{self.jobs} worker processes"

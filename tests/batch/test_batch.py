@@ -1,0 +1,130 @@
+"""The batch layer on toy tasks: backends agree, failures are recorded, the work file resumes."""
+
+import sys
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from legplan.batch import Backend, Task, run_batch, work_path
+from legplan.batch.workfile import read_record, write_record
+from legplan.errors import LegplanError
+
+sys.path.insert(0, str(Path(__file__).parent))
+from toytasks import Context, computed, failed, square  # noqa: E402
+
+ITEMS = list(range(8))
+
+
+def task(tmp_path, **context):
+    return Task(run=square, failed=failed, setup=Context, args=(str(tmp_path / "calls.log"),
+                                                                *context.values()))
+
+
+def run(tmp_path, backend=Backend(), items=ITEMS, **kwargs):
+    output = tmp_path / "out.h5"
+    with run_batch(kwargs.pop("task", None) or task(tmp_path), items, output=output,
+                   identity={"stage": "toy"}, backend=backend, **kwargs) as records:
+        return records
+
+
+def assert_same_records(a, b):
+    assert len(a) == len(b)
+    for first, second in zip(a, b):
+        assert list(first) == list(second)
+        for key, value in first.items():
+            if isinstance(value, dict):
+                assert value == second[key]
+            else:
+                assert np.array_equal(value, second[key]), key
+
+
+def test_in_process_records_in_item_order_failures_recorded_work_file_removed(tmp_path):
+    records = run(tmp_path)
+    assert [int(r["index"]) for r in records] == ITEMS
+    assert not records[3]["success"] and records[3]["reason"] == "ValueError: three is not allowed"
+    assert records[5]["value"] == 25.0 and records[5]["nested"] == {"flag": True, "name": "item 5"}
+    assert np.array_equal(records[2]["path"], [0.0, 1.0, 2.0])
+    assert not work_path(tmp_path / "out.h5").exists()
+    assert sorted(computed(tmp_path / "calls.log")) == ITEMS
+
+
+def test_pool_gives_the_in_process_records_and_survives_a_dying_worker(tmp_path):
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    reference = run(tmp_path / "a")
+    crash = Task(run=square, failed=failed, setup=Context, args=(str(tmp_path / "b" / "calls.log"), 6, 0.2))
+    records = run(tmp_path / "b", Backend(jobs=2), task=crash)
+    assert "worker died" in records[6]["reason"] and not records[6]["success"]
+    assert_same_records([r for i, r in enumerate(records) if i != 6],
+                        [r for i, r in enumerate(reference) if i != 6])
+    calls = computed(tmp_path / "b" / "calls.log")
+    assert calls.count(6) == 3  # once with item 5 in flight (0.2 s each), then twice alone
+
+
+def test_interrupted_batch_resumes_without_recomputing(tmp_path):
+    def stop_after_three(done, total, message):
+        if done == 3:
+            raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        run(tmp_path, progress=stop_after_three)
+    work = work_path(tmp_path / "out.h5")
+    with h5py.File(work, "r") as handle:
+        assert len(handle["items"]) == 3
+    with pytest.raises(LegplanError, match="--resume continues it"):
+        run(tmp_path)
+    records = run(tmp_path, Backend(jobs=2), resume=True)
+    assert sorted(computed(tmp_path / "calls.log")) == ITEMS  # every item computed exactly once
+    (tmp_path / "ref").mkdir()
+    assert_same_records(records, run(tmp_path / "ref"))
+    assert not work.exists()
+
+
+@pytest.mark.parametrize("change, message", [
+    (dict(identity={"stage": "toy", "samples": 2}), "other parameters"),
+    (dict(items=ITEMS[:-1]), "other items"),
+    (dict(inputs="other"), "other inputs"),
+])
+def test_resume_refuses_a_work_file_of_another_batch(tmp_path, change, message):
+    source = tmp_path / "input.txt"
+    source.write_text("first")
+    with pytest.raises(KeyboardInterrupt):
+        run(tmp_path, inputs=[source], progress=lambda done, total, m: (_ for _ in ()).throw(KeyboardInterrupt))
+    kwargs = dict(identity={"stage": "toy"}, items=ITEMS, inputs=[source])
+    if change.get("inputs"):
+        source.write_text("second")
+    else:
+        kwargs.update(change)
+    with pytest.raises(LegplanError, match=message):
+        with run_batch(task(tmp_path), kwargs.pop("items"), output=tmp_path / "out.h5", resume=True, **kwargs):
+            pass
+    with run_batch(task(tmp_path), ITEMS, output=tmp_path / "out.h5", identity={"stage": "other"},
+                   overwrite=True) as records:
+        assert len(records) == len(ITEMS)
+
+
+def test_record_round_trip_keeps_types_and_key_order(tmp_path):
+    record = {"z": 1, "a": np.arange(3.0), "s": "ε reason", "b": True,
+              "d": {"y": 2.5, "x": np.zeros((2, 2), np.uint8)}, "e": {}}
+    with h5py.File(tmp_path / "r.h5", "w") as handle:
+        write_record(handle.create_group("r", track_order=True), record)
+        back = read_record(handle["r"])
+        with pytest.raises(TypeError, match="'bad'"):
+            write_record(handle.create_group("bad"), {"bad": [1, 2]})
+    assert list(back) == list(record) and list(back["d"]) == ["y", "x"]
+    assert back["z"] == 1 and back["s"] == "ε reason" and back["b"] and back["d"]["y"] == 2.5
+    assert back["d"]["x"].dtype == np.uint8 and back["e"] == {}
+
+
+def test_bad_scheduler_address_and_jobs():
+    with pytest.raises(LegplanError, match="--scheduler"):
+        Backend(scheduler="somewhere")
+    with pytest.raises(LegplanError, match="--jobs"):
+        Backend(jobs=0)
+
+
+def test_dask_local_cluster_gives_the_in_process_records(tmp_path):
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    records = run(tmp_path / "a", Backend(jobs=2, scheduler="local"))
+    assert_same_records(records, run(tmp_path / "b"))
