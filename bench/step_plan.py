@@ -98,7 +98,7 @@ def profile_breakdown(seq, map_path, params, indices) -> dict[str, float]:
 
     profiler = cProfile.Profile()
     profiler.enable()
-    plan_sequence(seq, map_path, params, indices, jobs=1)
+    plan_sequence(seq, map_path, params, indices)
     profiler.disable()
     stats = pstats.Stats(profiler).stats
     total = sum(tt for (_, _, _), (_, _, tt, _, _) in stats.items())
@@ -124,7 +124,8 @@ def main(argv=None) -> int:
     ap.add_argument("--no-append", action="store_true", help="do not update BENCHMARKS.md")
     args = ap.parse_args(argv)
 
-    from legplan.stepplan.batch import plan_sequence, table2
+    from legplan.batch import Backend, Task, run_batch
+    from legplan.stepplan.batch import StepWorker, failed_item, plan_item, step_items, table2
     from legplan.stepplan.params import StepPlanParams
     from legplan.stepseq.sequence import read_steps
 
@@ -142,8 +143,11 @@ def main(argv=None) -> int:
             stall = dataclasses.replace(params, stall_window=args.stall_window)
             runs.append((f"whole swings, stall_window={args.stall_window}", runs[1][1], stall))
         for name, seq, run_params in runs:
-            records = plan_sequence(seq, map_path, run_params, range(len(seq) - 1), jobs=args.jobs,
-                                    progress=lambda d, n, m: print(f"\r{d}/{n} {m}", end="", file=sys.stderr))
+            task = Task(plan_item, failed_item, StepWorker, (seq.robot, str(map_path), run_params))
+            with run_batch(task, step_items(seq, range(len(seq) - 1)), output=Path(tmp) / "motion.h5",
+                           identity={}, backend=Backend(jobs=args.jobs),
+                           progress=lambda d, n, m: print(f"\r{d}/{n} {m}", end="", file=sys.stderr)) as records:
+                pass
             print(file=sys.stderr)
             variants[name] = (seq, records)
         seq, records = variants["whole swings"]

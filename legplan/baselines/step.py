@@ -188,17 +188,9 @@ class StepBaselineWorker:
 
 def plan_sequence_baseline(seq, map_path, params: StepBaselineParams, indices: Sequence[int],
                            progress: Callable[[int, int, str], None] | None = None) -> list[dict]:
-    """Plan pairs (q_i, q_{i+1}) for i in `indices` of a `StepSequence` one after another (OMPL's
-    seed is process-wide); records in index order, ready for `legplan.stepplan.write_motion`."""
-    from legplan.stepplan.batch import motion_stance
+    """Plan pairs (q_i, q_{i+1}) for i in `indices` of a `StepSequence` in this process (each step
+    reseeds OMPL, so any worker gives the same path); records in index order, for
+    `legplan.stepplan.write_motion`."""
+    from legplan.stepplan.batch import plan_pairs
 
-    worker = StepBaselineWorker(seq.robot, str(map_path), params)
-    records, failed = [], 0
-    for i in indices:
-        stance = motion_stance(seq.stance[i], seq.stance[i + 1], seq.footholds[i], seq.footholds[i + 1])
-        record = worker.plan(int(i), seq.q[i], seq.q[i + 1], stance, seq.footholds[i])
-        records.append(record)
-        failed += not record["success"]
-        if progress is not None:
-            progress(len(records), len(indices), f"step {i} {record['seconds']:.2f}s, {failed} failed")
-    return records
+    return plan_pairs(StepBaselineWorker(seq.robot, str(map_path), params), seq, indices, progress)

@@ -15,7 +15,7 @@ import click
 from legplan.baselines.names import CONSTRAINED_SPACES, NAV_PLANNERS
 from legplan.cli.main import EXIT_ITEMS_FAILED
 from legplan.cli.nav_options import query_opts, resolve_queries, robot_navigation
-from legplan.cli.options import input_artefact, output_opt, overwrite_opt, seed_opt, verbosity_opts
+from legplan.cli.options import batch_opts, input_artefact, output_opt, overwrite_opt, seed_opt, verbosity_opts
 
 
 @click.group("baseline")
@@ -81,26 +81,36 @@ def nav_cmd(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path
 @seed_opt
 @output_opt
 @overwrite_opt
+@batch_opts
 @verbosity_opts
 @click.pass_context
-def step_cmd(ctx, map_path, steps_path, step_range, time_budget, space, seed, output, overwrite):
+def step_cmd(ctx, map_path, steps_path, step_range, time_budget, space, seed, output, overwrite, jobs,
+             scheduler, resume):
     """Constrained RRT-Connect for every consecutive pair of STEPS on MAP; write motion.h5.
 
     Step i uses seed SEED + i. Metrics are those of `legplan step plan` (dense re-check by the
     independent validator); exit 1 if any step failed."""
+    import os
+
     from legplan.artefacts import check_output
-    from legplan.baselines.step import StepBaselineParams, plan_sequence_baseline
-    from legplan.cli.console import progress_bar, status, stderr_line
+    from legplan.baselines.step import StepBaselineParams, StepBaselineWorker
+    from legplan.batch import Task
+    from legplan.cli.batching import run_stage
+    from legplan.cli.console import status, stderr_line
     from legplan.cli.step_cmd import read_step_pairs
-    from legplan.stepplan.batch import write_motion
+    from legplan.stepplan.batch import failed_item, plan_item, step_items, write_motion
 
     check_output(output, overwrite)
     params = StepBaselineParams(time_budget=time_budget, space=space, seed=seed)
     seq, indices = read_step_pairs(map_path, steps_path, step_range)
-    with progress_bar(f"baseline step ({params.planner})") as progress:
-        records = plan_sequence_baseline(seq, map_path, params, indices, progress=progress)
-    summary = write_motion(output, records, seq.robot, params, inputs=[map_path, steps_path], overwrite=overwrite,
-                           attrs={"planner": params.planner})
+    task = Task(plan_item, failed_item, StepBaselineWorker, (seq.robot, os.path.abspath(map_path), params))
+    inputs = [map_path, steps_path]
+    records, summary = run_stage(
+        task, step_items(seq, indices), f"baseline step ({params.planner})", output=output,
+        identity={"stage": "baseline step", "params": params.as_dict()}, inputs=inputs, jobs=jobs,
+        scheduler=scheduler, resume=resume, overwrite=overwrite,
+        publish=lambda records: write_motion(output, records, seq.robot, params, inputs=inputs, overwrite=overwrite,
+                                             attrs={"planner": params.planner}))
     failed = [r for r in records if not r["success"]]
     status(f"{summary['steps_succeeded']}/{summary['steps_planned']} steps planned ({params.planner}); "
            f"worst dense stance-foot slip {summary['worst_violation'][0] * 1e3:.3f} mm; "

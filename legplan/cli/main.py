@@ -1,14 +1,16 @@
 """The `legplan` command: a click group whose subcommands are registered one module per group.
 
 Exit codes: 0 success; 1 the command ran but some items failed (their reasons are in the artefact);
-2 bad input (usage error, unreadable or invalid input). User errors print one line, no traceback
-unless `-v`.
+2 bad input (usage error, unreadable or invalid input); 130 / 143 interrupted by SIGINT / SIGTERM
+(nothing published; a batch keeps its work file). User errors print one line, no traceback unless `-v`.
 """
 
 from __future__ import annotations
 
 import importlib
+import signal
 import sys
+import threading
 import traceback
 
 import click
@@ -20,13 +22,24 @@ from legplan.errors import LegplanError
 
 EXIT_ITEMS_FAILED = 1
 EXIT_BAD_INPUT = 2
+EXIT_INTERRUPTED = 130  # 128 + SIGINT
+EXIT_TERMINATED = 143  # 128 + SIGTERM
 
 # One module per command group under legplan/cli/, each exposing `command`.
 COMMAND_MODULES = ("inspect_cmd", "step_cmd", "pipeline_cmd", "robot_cmd", "steps_cmd", "map_cmd", "report_cmd", "nav_cmd", "compare_cmd", "baseline_cmd")
 
 
+class Terminated(BaseException):
+    """SIGTERM, raised in the main thread so that cleanup (`finally`, context managers) runs."""
+
+
+def _raise_terminated(signum, frame):
+    raise Terminated
+
+
 class LegplanGroup(click.Group):
-    """Turns `LegplanError` (and OS errors on inputs) into a one-line message and exit code 2."""
+    """Turns `LegplanError` (and OS errors on inputs) into a one-line message and exit code 2, and
+    SIGINT / SIGTERM into exit 130 / 143 after cleanup."""
 
     def make_context(self, info_name, args, parent=None, **extra):
         if parent is None:
@@ -34,6 +47,8 @@ class LegplanGroup(click.Group):
         return super().make_context(info_name, args, parent=parent, **extra)
 
     def invoke(self, ctx: click.Context):
+        main = threading.current_thread() is threading.main_thread()
+        previous = signal.signal(signal.SIGTERM, _raise_terminated) if main else None
         try:
             return super().invoke(ctx)
         except (LegplanError, OSError) as exc:
@@ -41,6 +56,12 @@ class LegplanGroup(click.Group):
                 traceback.print_exc(file=sys.stderr)
             stderr_line(str(exc), "Error:")
             ctx.exit(EXIT_BAD_INPUT)
+        except (KeyboardInterrupt, Terminated) as exc:
+            stderr_line("stopped; nothing published", "Interrupted:")
+            ctx.exit(EXIT_TERMINATED if isinstance(exc, Terminated) else EXIT_INTERRUPTED)
+        finally:
+            if main:
+                signal.signal(signal.SIGTERM, previous)
 
 
 @click.group(cls=LegplanGroup, context_settings={"help_option_names": ["-h", "--help"]})

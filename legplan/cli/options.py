@@ -1,7 +1,8 @@
 """The registry of options shared by every command (rasterio `rio` style).
 
 Use them as decorators so every command spells the same option the same way:
-`@output_opt @overwrite_opt @jobs_opt @seed_opt @verbosity_opts`.
+`@output_opt @overwrite_opt @jobs_opt @seed_opt @verbosity_opts`; a many-item stage takes
+`@batch_opts` (`--jobs`, `--scheduler`, `--resume`, see `legplan.cli.batching`).
 """
 
 from __future__ import annotations
@@ -53,6 +54,19 @@ output_opt = click.option("-o", "--output", required=True, type=click.Path(dir_o
 overwrite_opt = click.option("--overwrite", is_flag=True, help="Replace an existing output.")
 jobs_opt = click.option("-j", "--jobs", type=click.IntRange(min=1), default=1, show_default=True,
                         help="Worker processes for independent items.")
+scheduler_opt = click.option(
+    "--scheduler", metavar="local|tcp://HOST:PORT", default=None,
+    help="Run the items on dask: 'local' starts a LocalCluster of --jobs workers on 127.0.0.1, "
+         "an address uses a running dask scheduler (workers with legplan installed, inputs readable).")
+resume_opt = click.option("--resume", is_flag=True,
+                          help="Continue the interrupted run kept in OUTPUT.work (same inputs and parameters).")
+
+
+def batch_opts(func):
+    """`--jobs`, `--scheduler`, `--resume` of a many-item stage (`legplan.batch`)."""
+    return jobs_opt(scheduler_opt(resume_opt(func)))
+
+
 seed_opt = click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
                         help="Seed of every random choice; same inputs and seed, same artefact.")
 json_opt = click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout.")

@@ -6,7 +6,7 @@ import os
 
 import click
 
-from legplan.cli.options import input_artefact, jobs_opt, output_opt, overwrite_opt, param_opt, verbosity_opts
+from legplan.cli.options import batch_opts, input_artefact, output_opt, overwrite_opt, param_opt, verbosity_opts
 from legplan.errors import LegplanError
 
 
@@ -52,30 +52,34 @@ def _parse_range(text: str | None, pairs: int, steps_path: str) -> range:
 @click.argument("steps_path", metavar="STEPS", type=input_artefact)
 @output_opt
 @overwrite_opt
-@jobs_opt
+@batch_opts
 @click.option("--steps", "step_range", default=None, help="Pairs to plan, 'a:b' (python slice) or 'i'.")
 @param_opt("Override a planner parameter (Table I: samples, max_degree, max_iterations, lambda_init, "
            "lambda_drop, lambda_boost, epsilon; also eps_num, clearance, ...).")
 @verbosity_opts
 @click.pass_context
-def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, step_range, params):
+def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, scheduler, resume, step_range, params):
     """Plan every consecutive pair of STEPS on MAP; write motion.h5 (exit 1 if any step failed).
 
-    Each worker process plans on one core (single-threaded BLAS); use --jobs for parallelism.
+    Each worker plans on one core (one BLAS thread); use --jobs or --scheduler for parallelism.
     """
-    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        os.environ.setdefault(var, "1")  # before numpy loads: BLAS threads only contend with --jobs
     from legplan.artefacts import check_output
-    from legplan.cli.console import progress_bar, status, stderr_line
-    from legplan.stepplan.batch import plan_sequence, write_motion
+    from legplan.batch import Task
+    from legplan.cli.batching import run_stage
+    from legplan.cli.console import status, stderr_line
+    from legplan.stepplan.batch import StepWorker, failed_item, plan_item, step_items, write_motion
     from legplan.stepplan.params import StepPlanParams
 
     check_output(output, overwrite)
     settings = StepPlanParams.from_overrides(params)
     seq, indices = read_step_pairs(map_path, steps_path, step_range)
-    with progress_bar("planning steps") as progress:
-        records = plan_sequence(seq, map_path, settings, indices, jobs=jobs, progress=progress)
-    summary = write_motion(output, records, seq.robot, settings, inputs=[map_path, steps_path], overwrite=overwrite)
+    task = Task(plan_item, failed_item, StepWorker, (seq.robot, os.path.abspath(map_path), settings))
+    inputs = [map_path, steps_path]
+    records, summary = run_stage(
+        task, step_items(seq, indices), "planning steps", output=output,
+        identity={"stage": "step plan", "params": settings.as_dict()}, inputs=inputs, jobs=jobs,
+        scheduler=scheduler, resume=resume, overwrite=overwrite,
+        publish=lambda records: write_motion(output, records, seq.robot, settings, inputs=inputs, overwrite=overwrite))
     failed = [r for r in records if not r["success"]]
     status(f"{summary['steps_succeeded']}/{summary['steps_planned']} steps planned; "
            f"worst dense stance-foot slip {summary['worst_violation'][0] * 1e3:.3f} mm; "

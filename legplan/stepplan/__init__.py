@@ -2,7 +2,7 @@
 
     plan = plan_step(robot, terrain.sdf, q_start, q_end, stance, footholds, StepPlanParams())
     plan.success, plan.degree, plan.control_points   # x-space control points, x = [p, ω, joints]
-    records = plan_sequence(read_steps("steps.h5"), "map.h5", params, range(n), jobs=4)
+    records = plan_sequence(read_steps("steps.h5"), "map.h5", params, range(n))   # in-process; the CLI uses legplan.batch
     write_motion("motion.h5", records, robot_name, params)
 """
 

@@ -1,4 +1,4 @@
-"""Plan every consecutive pair of a step sequence (in parallel) and write motion.h5.
+"""Plan consecutive pairs of a step sequence (per-item task functions for `legplan.batch`) and write motion.h5.
 
 motion.h5 (kind "motion"):
   root attrs   robot, parametrization ("x = [p, rotation vector, joints]")
@@ -18,11 +18,9 @@ motion.h5 (kind "motion"):
 from __future__ import annotations
 
 import logging
-import os
 import time
 import traceback
 from collections.abc import Callable, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
 
 import numpy as np
 
@@ -77,45 +75,49 @@ class StepWorker:
         return record
 
 
-_WORKER: StepWorker | None = None
-
-
-def _init_worker(robot_name, map_path, params):
-    global _WORKER
-    _WORKER = StepWorker(robot_name, map_path, params)
-
-
-def _run(args):
-    return _WORKER.plan(*args)
-
-
-def plan_sequence(seq, map_path: str, params: StepPlanParams, indices: Sequence[int], jobs: int = 1,
-                  progress: Callable[[int, int, str], None] | None = None) -> list[dict]:
-    """Plan pairs (q_i, q_{i+1}) for i in `indices` of a `StepSequence`; records sorted by index."""
-    tasks = []
+def step_items(seq, indices: Sequence[int]) -> list[tuple]:
+    """The items of pairs (q_i, q_{i+1}), i in `indices`, of a `StepSequence`:
+    (i, q_i, q_{i+1}, motion stance, footholds_i), the arguments of a step worker's `plan`."""
+    items = []
     for i in indices:
         stance = motion_stance(seq.stance[i], seq.stance[i + 1], seq.footholds[i], seq.footholds[i + 1])
-        tasks.append((int(i), seq.q[i], seq.q[i + 1], stance, seq.footholds[i]))
+        items.append((int(i), seq.q[i], seq.q[i + 1], stance, seq.footholds[i]))
+    return items
+
+
+def plan_item(worker, item: tuple) -> dict:
+    """Plan one item of `step_items` with a step worker (`StepWorker`, or a baseline's): the
+    per-item task function that `legplan.batch.Task` runs."""
+    return worker.plan(*item)
+
+
+def failed_item(item: tuple, reason: str) -> dict:
+    """The record of an item whose planning raised or whose worker died (`legplan.batch.Task`);
+    its planning time is unknown (NaN)."""
+    index, q_start, q_end, stance, footholds = item
+    return {"index": index, "q_start": np.asarray(q_start), "q_end": np.asarray(q_end),
+            "stance": np.asarray(stance, bool), "footholds": np.nan_to_num(np.asarray(footholds, float), nan=0.0),
+            "success": False, "reason": reason, "seconds": float("nan")}
+
+
+def plan_pairs(worker, seq, indices: Sequence[int],
+               progress: Callable[[int, int, str], None] | None = None) -> list[dict]:
+    """Plan the pairs of `indices` one after another in this process with a step worker; records in
+    index order. (The CLI runs the same items through `legplan.batch`, in parallel.)"""
     records: list[dict] = []
     failed = 0
-
-    def done(record):
-        nonlocal failed
-        records.append(record)
-        failed += not record["success"]
+    for item in step_items(seq, indices):
+        records.append(plan_item(worker, item))
+        failed += not records[-1]["success"]
         if progress is not None:
-            progress(len(records), len(tasks), f"step {record['index']} {record['seconds']:.2f}s, {failed} failed")
+            progress(len(records), len(indices), f"step {item[0]} {records[-1]['seconds']:.2f}s, {failed} failed")
+    return records
 
-    if jobs <= 1:
-        _init_worker(seq.robot, str(map_path), params)
-        for task in tasks:
-            done(_run(task))
-    else:
-        with ProcessPoolExecutor(max_workers=jobs, initializer=_init_worker,
-                                 initargs=(seq.robot, os.fspath(map_path), params)) as pool:
-            for future in as_completed([pool.submit(_run, task) for task in tasks]):
-                done(future.result())
-    return sorted(records, key=lambda r: r["index"])
+
+def plan_sequence(seq, map_path, params: StepPlanParams, indices: Sequence[int],
+                  progress: Callable[[int, int, str], None] | None = None) -> list[dict]:
+    """Plan pairs (q_i, q_{i+1}) for i in `indices` of a `StepSequence` in this process; records in index order."""
+    return plan_pairs(StepWorker(seq.robot, str(map_path), params), seq, indices, progress)
 
 
 def table2(records: Sequence[dict]) -> dict:
