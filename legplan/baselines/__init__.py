@@ -11,8 +11,8 @@ inequality rows; judged by `legplan.stepplan.measure.check_path`, written by `wr
 Navigation (`legplan.baselines.nav`): RRT-Connect / RRT* / PRM* in R² and KPIECE1 / RRT on the 2D
 double integrator, returning the nav layer's `SearchResult`; written by the nav writer:
 
-    outcomes = plan_queries(NavGrid.from_map("map.h5", l1), queries, NavBaselineParams("rrtstar"))
-    write_nav_baseline("nav_ompl.h5", outcomes, grid, params, "jueying_mini")
+    outcomes = plan_queries(grid := NavGrid.from_map("map.h5", l1), queries, NavBaselineParams("rrtstar"))
+    write_nav_baseline("nav_ompl.h5", [outcome_record(o, grid) for o in outcomes], params, "jueying_mini")
 
 Importing a module that touches OMPL sets up the process-wide runtime (`runtime.py`: seeding,
 log level, exit-time nanobind leak reports silenced). `names.py` needs no OMPL.

@@ -257,23 +257,46 @@ def plan_queries(grid: NavGrid, queries: np.ndarray, params: NavBaselineParams, 
     return outcomes
 
 
-def write_nav_baseline(path, outcomes: list[BaselineOutcome], grid: NavGrid, params: NavBaselineParams,
-                       robot: str, *, inputs=(), overwrite: bool = False) -> list[dict]:
-    """nav.h5 through the nav search's writer (`legplan.nav.artefact`), plus per query the attrs
-    time_to_first_solution (s), final_cost, goal_error and seed; returns the summary rows."""
-    from legplan.artefacts import write_artefact
-    from legplan.nav.artefact import write_query, write_summary_table
+def outcome_record(outcome: BaselineOutcome, grid: NavGrid | None) -> dict:
+    """The nav record of one query (`legplan.nav.artefact.query_record`) plus the attrs
+    time_to_first_solution (s), final_cost, goal_error and seed."""
+    from legplan.nav.artefact import query_record
 
-    rows = []
-    with write_artefact(path, "nav", params={**params.as_dict(), "planner": params.label, "robot": robot},
-                        seed=params.seed, inputs=inputs, overwrite=overwrite) as handle:
-        handle.attrs["planner"] = params.label
-        handle.attrs["robot"] = robot
-        group = handle.create_group("queries")
-        for index, outcome in enumerate(outcomes):
-            row = write_query(group, index, outcome.result, grid)
-            for key, value in outcome.attrs().items():
-                group[f"{index:04d}"].attrs[key] = value
-            rows.append({**row, **outcome.attrs()})
-        write_summary_table(handle, rows)
-    return rows
+    return {**query_record(outcome.result, grid), **outcome.attrs()}
+
+
+class NavBaselineWorker:
+    """A worker's context of `baseline nav` items ((index, query row), `legplan.nav.items.query_items`):
+    the map's `NavGrid`, loaded once, and the parameters."""
+
+    def __init__(self, map_path: str, lethal_radius: float, params: NavBaselineParams):
+        self.grid = NavGrid.from_map(map_path, lethal_radius=lethal_radius)
+        self.params = params
+
+
+def baseline_item(worker: NavBaselineWorker, item) -> dict:
+    """Plan query item (i, row) with OMPL seed `params.seed + i` (in any process: the seed is set
+    per query); its `outcome_record`."""
+    index, query = item
+    params = worker.params
+    return outcome_record(plan_baseline(worker.grid, query[:4], query[4:], params, params.seed + int(index)),
+                          worker.grid)
+
+
+def failed_baseline(params: NavBaselineParams, item, reason: str) -> dict:
+    """The record of a query whose planning raised or whose worker died (use with
+    `functools.partial(failed_baseline, params)`)."""
+    index, query = item
+    result = SearchResult(False, reason, params.label, query[:4], query[4:], 0, math.nan)
+    return outcome_record(BaselineOutcome(result, math.nan, math.nan, math.nan, params.seed + int(index)), None)
+
+
+def write_nav_baseline(path, records: list[dict], params: NavBaselineParams, robot: str, *, inputs=(),
+                       overwrite: bool = False) -> list[dict]:
+    """nav.h5 of `outcome_record`s through the nav search's writer (`legplan.nav.artefact.write_nav`),
+    root attrs planner and robot; returns the summary rows."""
+    from legplan.nav.artefact import write_nav
+
+    return write_nav(path, records, {**params.as_dict(), "planner": params.label, "robot": robot},
+                     seed=params.seed, inputs=inputs, overwrite=overwrite,
+                     attrs={"planner": params.label, "robot": robot})

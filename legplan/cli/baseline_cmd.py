@@ -35,15 +35,23 @@ def command():
 @seed_opt
 @output_opt
 @overwrite_opt
+@batch_opts
 @verbosity_opts
 @click.pass_context
 def nav_cmd(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path, planner, time_budget,
-            seed, output, overwrite):
+            seed, output, overwrite, jobs, scheduler, resume):
     """Plan MAP's navigation queries with an OMPL planner; write nav.h5 (query i uses seed SEED + i)."""
+    import functools
+    import os
+
     from legplan.artefacts import check_output
-    from legplan.baselines.nav import NavBaselineParams, plan_queries, write_nav_baseline
-    from legplan.cli.console import progress_bar, status, stderr_line
+    from legplan.baselines.nav import (NavBaselineParams, NavBaselineWorker, baseline_item, failed_baseline,
+                                       write_nav_baseline)
+    from legplan.batch import Task
+    from legplan.cli.batching import run_stage
+    from legplan.cli.console import status, stderr_line
     from legplan.nav import NavGrid, NavParams
+    from legplan.nav.items import query_items
 
     check_output(output, overwrite)
     queries, query_files = resolve_queries("baseline nav", start, start_vel, goal, goal_vel, queries_path)
@@ -51,11 +59,15 @@ def nav_cmd(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path
     limits = NavParams.for_robot(navigation)
     params = NavBaselineParams(planner=planner, time_budget=time_budget, seed=seed, v_max=limits.v_max,
                                a_max=limits.a_max)
-    grid = NavGrid.from_map(map_path, lethal_radius=navigation.inscribed_radius)
-    with progress_bar(f"baseline nav ({planner})") as progress:
-        outcomes = plan_queries(grid, queries, params, progress)
-    rows = write_nav_baseline(output, outcomes, grid, params, robot, inputs=[map_path, *query_files],
-                              overwrite=overwrite)
+    NavGrid.from_map(map_path, lethal_radius=navigation.inscribed_radius)  # a bad map: exit 2 before any work
+    task = Task(baseline_item, functools.partial(failed_baseline, params), NavBaselineWorker,
+                (os.path.abspath(map_path), navigation.inscribed_radius, params))
+    inputs = [map_path, *query_files]
+    _, rows = run_stage(task, query_items(queries), f"baseline nav ({planner})", output=output,
+                        identity={"stage": "baseline nav", "params": {**params.as_dict(), "robot": robot}},
+                        inputs=inputs, jobs=jobs, scheduler=scheduler, resume=resume, overwrite=overwrite,
+                        publish=lambda records: write_nav_baseline(output, records, params, robot, inputs=inputs,
+                                                                   overwrite=overwrite))
     failed = [index for index, row in enumerate(rows) if not row["success"]]
     status(f"{len(rows) - len(failed)}/{len(rows)} queries planned (ompl {planner}, {time_budget:g} s "
            f"budget) -> {output}")

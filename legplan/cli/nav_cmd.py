@@ -12,10 +12,10 @@ from __future__ import annotations
 
 import click
 
-from legplan.cli.console import progress_bar, status, stderr_line
+from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
 from legplan.cli.nav_options import query_opts, resolve_queries, robot_navigation
-from legplan.cli.options import input_artefact, output_opt, overwrite_opt, param_opt, verbosity_opts
+from legplan.cli.options import batch_opts, input_artefact, output_opt, overwrite_opt, param_opt, verbosity_opts
 
 
 @click.group("nav")
@@ -34,35 +34,38 @@ def command():
 @param_opt("Override a search parameter (legplan.nav.NavParams), e.g. weight=2, mu=1.")
 @output_opt
 @overwrite_opt
+@batch_opts
 @verbosity_opts
 @click.pass_context
 def search(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path, planner,
-           params, output, overwrite):
+           params, output, overwrite, jobs, scheduler, resume):
     """Plan start → goal on MAP's costmap; every query is written (with its reason if it failed).
 
     Exit 1 when any query failed."""
-    from legplan.artefacts import check_output, write_artefact
-    from legplan.nav import PLANNERS, NavGrid, NavParams
-    from legplan.nav.artefact import write_query, write_summary_table
+    import functools
+    import os
+
+    from legplan.artefacts import check_output
+    from legplan.batch import Task
+    from legplan.cli.batching import run_stage
+    from legplan.nav import NavGrid, NavParams
+    from legplan.nav.artefact import write_nav
+    from legplan.nav.items import SearchWorker, failed_query, query_items, search_item
 
     check_output(output, overwrite)
     queries, query_files = resolve_queries("nav search", start, start_vel, goal, goal_vel, queries_path)
     navigation = robot_navigation(robot)
     settings = NavParams.for_robot(navigation).with_overrides(params)
-    grid = NavGrid.from_map(map_path, lethal_radius=navigation.inscribed_radius)
-    plan = PLANNERS[planner]
-    rows = []
-    with write_artefact(output, "nav", params={**settings.as_dict(), "planner": planner,
-                                               "robot": robot}, inputs=[map_path, *query_files],
-                        overwrite=overwrite) as handle:
-        group = handle.create_group("queries")
-        with progress_bar(f"nav search ({planner})") as progress:
-            for index, query in enumerate(queries):
-                progress(index, len(queries), f"query {index}")
-                result = plan(grid, query[:4], query[4:], settings)
-                rows.append(write_query(group, index, result, grid))
-            progress(len(queries), len(queries))
-        write_summary_table(handle, rows)
+    NavGrid.from_map(map_path, lethal_radius=navigation.inscribed_radius)  # a bad map: exit 2 before any work
+    task = Task(search_item, functools.partial(failed_query, planner), SearchWorker,
+                (os.path.abspath(map_path), navigation.inscribed_radius, planner, settings))
+    stage_params = {**settings.as_dict(), "planner": planner, "robot": robot}
+    inputs = [map_path, *query_files]
+    _, rows = run_stage(task, query_items(queries), f"nav search ({planner})", output=output,
+                        identity={"stage": "nav search", "params": stage_params}, inputs=inputs, jobs=jobs,
+                        scheduler=scheduler, resume=resume, overwrite=overwrite,
+                        publish=lambda records: write_nav(output, records, stage_params, inputs=inputs,
+                                                          overwrite=overwrite))
     failed = [(index, row) for index, row in enumerate(rows) if not row["success"]]
     status(f"wrote {output}: {len(rows) - len(failed)}/{len(rows)} queries planned ({planner})")
     for index, row in enumerate(rows):

@@ -23,7 +23,7 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
-from legplan.artefacts import require, write_dataset, write_summary
+from legplan.artefacts import require, write_artefact, write_dataset, write_summary
 from legplan.nav.collision import NavGrid
 from legplan.nav.result import SearchResult
 from legplan.nav.trajectory import SEGMENT_COLUMNS, SEGMENT_UNITS, Trajectory
@@ -44,30 +44,51 @@ def trajectory_metrics(trajectory: Trajectory | None, grid: NavGrid) -> dict[str
             "max_speed_axis": float(np.abs(v).max()), "max_accel_axis": float(np.abs(a).max())}
 
 
-def write_query(parent: h5py.Group, index: int, result: SearchResult, grid: NavGrid) -> dict:
-    """Write one query group; returns its scalar metrics (for the summary)."""
-    group = parent.create_group(f"{index:04d}")
-    metrics = {"expansions": result.expansions, "planning_time": result.planning_time,
-               "time_per_expansion": result.time_per_expansion, "cost": result.cost,
-               **trajectory_metrics(result.trajectory, grid)}
-    group.attrs["success"] = bool(result.success)
-    group.attrs["reason"] = result.reason
-    group.attrs["planner"] = result.planner
-    group.attrs["start"] = result.start
-    group.attrs["goal"] = result.goal
-    for name, value in metrics.items():
-        group.attrs[name] = value
+DATASET_UNITS = {"t": "s", "p": "m", "v": "m/s", "a": "m/s^2", "waypoints": "m"}  # and "segments"
+KEPT_OUT_OF_ROWS = ("planner", "start", "goal", "segments", *DATASET_UNITS)
+
+
+def query_record(result: SearchResult, grid: NavGrid | None) -> dict:
+    """One query's attributes and arrays (the layout above), in the order they are written: the
+    record a batch item returns and `write_query` stores (`grid` may be None for a failed query)."""
+    record = {"success": bool(result.success), "reason": result.reason, "planner": result.planner,
+              "start": np.asarray(result.start), "goal": np.asarray(result.goal),
+              "expansions": result.expansions, "planning_time": result.planning_time,
+              "time_per_expansion": result.time_per_expansion, "cost": result.cost,
+              **trajectory_metrics(result.trajectory, grid)}
     if result.trajectory is not None:
-        write_dataset(group, "segments", result.trajectory.segments, units=",".join(SEGMENT_UNITS),
-                      columns=",".join(SEGMENT_COLUMNS))
-        t, p, v, a = result.trajectory.sample(DENSE_STEP)
-        write_dataset(group, "t", t, units="s")
-        write_dataset(group, "p", p, units="m")
-        write_dataset(group, "v", v, units="m/s")
-        write_dataset(group, "a", a, units="m/s^2")
+        record["segments"] = result.trajectory.segments
+        record["t"], record["p"], record["v"], record["a"] = result.trajectory.sample(DENSE_STEP)
     if result.waypoints is not None:
-        write_dataset(group, "waypoints", result.waypoints, units="m")
-    return {"success": result.success, "reason": result.reason, **metrics}
+        record["waypoints"] = result.waypoints
+    return record
+
+
+def write_query(parent: h5py.Group, index: int, record: dict) -> dict:
+    """Write one query group from its `query_record` (plus any extra scalar attributes); returns its
+    scalar metrics (a summary row)."""
+    group = parent.create_group(f"{index:04d}")
+    for key, value in record.items():
+        if key == "segments":
+            write_dataset(group, key, value, units=",".join(SEGMENT_UNITS), columns=",".join(SEGMENT_COLUMNS))
+        elif key in DATASET_UNITS:
+            write_dataset(group, key, value, units=DATASET_UNITS[key])
+        else:
+            group.attrs[key] = value
+    return {key: value for key, value in record.items() if key not in KEPT_OUT_OF_ROWS}
+
+
+def write_nav(path, records: list[dict], params: dict, *, inputs=(), overwrite: bool = False, seed=None,
+              attrs: dict | None = None) -> list[dict]:
+    """nav.h5 of one query record per query (`/queries/NNNN` in record order, `/summary`), with
+    extra root `attrs`; returns the summary rows."""
+    with write_artefact(path, "nav", params=params, seed=seed, inputs=inputs, overwrite=overwrite) as handle:
+        for key, value in (attrs or {}).items():
+            handle.attrs[key] = value
+        group = handle.create_group("queries")
+        rows = [write_query(group, index, record) for index, record in enumerate(records)]
+        write_summary_table(handle, rows)
+    return rows
 
 
 def write_summary_table(handle: h5py.File, rows: list[dict]) -> None:

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from legplan.artefacts import read_summary
-from legplan.baselines.nav import NavBaselineParams, plan_baseline, plan_queries, write_nav_baseline
+from legplan.baselines.nav import NavBaselineParams, outcome_record, plan_baseline, plan_queries, write_nav_baseline
 from legplan.nav.artefact import DENSE_STEP, read_queries
 
 START, GOAL = np.array([1.0, 1.0, 0.0, 0.0]), np.array([5.0, 1.0, 0.0, 0.0])
@@ -57,7 +57,7 @@ def test_artefact_reads_back_with_the_nav_reader(wall_grid, tmp_path):
     queries = np.array([np.r_[START, GOAL], np.r_[START, 3.0, 1.0, 0.0, 0.0]])
     outcomes = plan_queries(wall_grid, queries, params)
     out = tmp_path / "nav.h5"
-    write_nav_baseline(out, outcomes, wall_grid, params, "jueying_mini")
+    write_nav_baseline(out, [outcome_record(o, wall_grid) for o in outcomes], params, "jueying_mini")
     with h5py.File(out, "r") as f:
         assert f.attrs["legplan_kind"] == "nav" and f.attrs["planner"] == "ompl-rrtconnect"
         read = read_queries(f)

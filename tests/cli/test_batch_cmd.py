@@ -165,3 +165,21 @@ def test_resume_refuses_the_work_file_of_other_inputs(scene, tmp_path):
     without = CliRunner().invoke(cli, ["step", "plan", str(scene[0]), str(scene[1]), "-o", str(output)])
     assert without.exit_code == 2 and "--resume continues it, --overwrite starts over" in without.stderr
     assert not output.exists()
+
+
+@pytest.mark.parametrize("command", [["nav", "search"], ["baseline", "nav", "--planner", "rrtconnect", "--seed", "4"]])
+def test_nav_queries_file_in_a_pool_gives_the_in_process_artefact(tmp_path, command):
+    from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
+
+    height = np.zeros((50, 80))
+    height[10:30, 35:45] = 0.5
+    map_path = tmp_path / "map.h5"
+    save_map(terrain_from_heightmap(height, Grid2D((0.05, 0.05), 0.1, height.shape), name="block"), map_path)
+    queries = tmp_path / "queries.csv"
+    queries.write_text("start_x,start_y,start_vx,start_vy,goal_x,goal_y,goal_vx,goal_vy\n"
+                       "1,2,0,0,7,2,0,0\n1,1,0,0,4,1.5,0,0\n7,4,0,0,1,0.5,0,0\n")  # the 2nd's goal is in the block
+    for name, extra in (("a", []), ("b", ["--jobs", "2"])):
+        result = CliRunner().invoke(cli, [*command, str(map_path), "--queries", str(queries), "-q",
+                                          "-o", str(tmp_path / f"{name}.h5"), *extra])
+        assert result.exit_code == 1 and "0001: failed: goal in collision" in result.stderr, result.output
+    assert_same(tmp_path / "a.h5", tmp_path / "b.h5")
