@@ -106,3 +106,25 @@ class FunctionBlock(ResidualBlock):
             return np.asarray(self._residual_fn(*values), float), None
         r, jac = self._fn(*values)
         return np.asarray(r, float), (list(jac) if jacobians else None)
+
+
+class LinearBlock(ResidualBlock):
+    """r = Σ_i A_i x_i − b over the named variables, with constant Jacobians A_i.
+
+    Serves the linear pieces of a problem: the closed-form integral costs of a spline (eq. (1) of the
+    TOWR-costs paper, r = L c with LᵀL the Gram matrix), continuity and bound rows on node values.
+    """
+
+    def __init__(self, variables: Sequence[str], matrices: Sequence[Matrix], offset: np.ndarray | float = 0.0):
+        if len(variables) != len(matrices):
+            raise ValueError("one matrix per variable")
+        self.variables = tuple(variables)
+        self.matrices = [sp.csr_matrix(m) for m in matrices]
+        self.size = self.matrices[0].shape[0]
+        if any(m.shape[0] != self.size for m in self.matrices):
+            raise ValueError("all matrices need the same number of rows")
+        self.offset = np.broadcast_to(np.asarray(offset, float), (self.size,))
+
+    def evaluate(self, values, jacobians):
+        r = sum(m @ np.asarray(v, float) for m, v in zip(self.matrices, values)) - self.offset
+        return r, (list(self.matrices) if jacobians else None)

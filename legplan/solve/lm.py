@@ -38,6 +38,8 @@ from legplan.solve.schur import SchurSolver
 
 log = logging.getLogger(__name__)
 
+MARQUARDT_FLOOR = 1e-14  # relative: diagonal entries of JᵀJ below this times the largest are not scaled
+
 
 class Status(enum.Enum):
     CONVERGED = "converged"
@@ -239,14 +241,15 @@ def _damping_system(M: sp.spmatrix, g: np.ndarray, marquardt: bool, jacobian: bo
     """M, g and column scale s such that the step is −s·(s H s + λI)⁻¹ (s g), where M is H, or J
     (CSR, H = JᵀJ) when `jacobian`; the returned M is then s H s, or J·diag(s).
 
-    With Marquardt scaling s = diag(H)^(-1/2), which is (H + λ diag(H))⁻¹ in the original
+    With Marquardt scaling s = diag(H)^(-1/2) (1 on columns whose diagonal is below `MARQUARDT_FLOOR`
+    times the largest: no information there, and a round-off diagonal must not blow the step up), which is (H + λ diag(H))⁻¹ in the original
     variables; otherwise s = 1 (returned as None) and this is eq. (13) as written.
     """
     if not marquardt:
         return M, g, None
     d = np.bincount(M.indices, weights=M.data ** 2, minlength=g.size) if jacobian else M.diagonal()
     s = np.ones_like(d)
-    positive = d > 0
+    positive = d > MARQUARDT_FLOOR * d.max(initial=0.0)  # a round-off diagonal would give a huge scale
     s[positive] = 1.0 / np.sqrt(d[positive])
     Ms = M.copy()
     Ms.data *= s[Ms.indices] if jacobian else s[Ms.indices] * np.repeat(s, np.diff(Ms.indptr))

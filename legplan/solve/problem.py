@@ -105,6 +105,12 @@ class Problem:
     def blocks(self) -> list[ResidualBlock]:
         return [b for b, _ in self._blocks]
 
+    def hinge_mask(self) -> np.ndarray:
+        """Rows of h whose residual is max(0, value) (blocks with a boolean `hinged` attribute, for
+        `solve_hinged_lm`); the other rows are used as they are."""
+        parts = [np.broadcast_to(np.asarray(getattr(b, "hinged", False), bool), (b.size,)) for b, _ in self._blocks]
+        return np.concatenate(parts) if parts else np.zeros(0, bool)
+
     @property
     def num_residuals(self) -> int:
         return sum(b.size for b, _ in self._blocks)

@@ -1,0 +1,237 @@
+"""Constraint blocks of the centroidal problem (Winkler et al. 2018; TOWR-costs paper Sec. III-A).
+
+Each block samples the splines of a `Formulation` at fixed times (sparse sampling matrices built
+once) and returns its values and one sparse Jacobian per variable it reads; bounds are attached by
+`legplan.solve.Constraint`. Nonlinear orientation and terrain terms are differentiated by complex
+step (`euler.complex_step`, exact to round-off), the rest analytically.
+
+* `DynamicsBlock` — single-rigid-body Newton-Euler at every dynamics time (6 rows, N and N·m):
+  m·p̈ + m·g·e_z − Σ f_i = 0 and I_W ω̇ + ω × I_W ω − Σ (p_i − p) × f_i = 0, I_W = R I_B Rᵀ.
+* `RangeOfMotionBlock` — Rᵀ(p_i − p) − p̄_i, bounded by the range-of-motion box.
+* `TerrainHeightBlock` — z − h(x, y) of foot samples: = 0 for stance nodes, ≥ 0 along swings (ours,
+  between nodes too: TOWR constrains the swing apex only).
+* `ForceBlock` — f·n ∈ [0, f_max] and the friction pyramid ±f·t_k − μ f·n ≤ 0 in stance.
+* linear rows (`LinearBlock`): base acceleration continuity at the spline junctions, TOWR's swing
+  constraint (apex x, y halfway, apex velocity = step / swing time), the paper's swing-height and
+  base-above-feet rows.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.sparse as sp
+
+from legplan.dyn.euler import body_rates, complex_step, rotation
+from legplan.dyn.formulation import Formulation
+from legplan.dyn.terrain import TerrainModel
+from legplan.geometry.hermite import hermite_weights, kron_dim, sampled_jacobian
+from legplan.robots.so3 import skew
+from legplan.solve import ResidualBlock
+from legplan.solve.blocks import LinearBlock
+
+GRAVITY = 9.81
+
+
+def _nodes(v: np.ndarray) -> np.ndarray:
+    return np.asarray(v).reshape(-1, 3)
+
+
+class DynamicsBlock(ResidualBlock):
+    """Newton-Euler residual of the single rigid body at `times` (see module docstring)."""
+
+    variables = ("base_lin", "base_ang", "feet", "forces")
+
+    def __init__(self, form: Formulation, mass: float, inertia: np.ndarray, times: np.ndarray):
+        self.mass, self.inertia = float(mass), np.asarray(inertia, float)
+        self.times = np.asarray(times, float)
+        self.n = self.times.size
+        self.size = 6 * self.n
+        self.base = [form.base_matrix(self.times, d) for d in range(3)]
+        self.feet = [form.foot_matrix(leg, self.times) for leg in range(form.legs)]
+        self.forces = [form.force_matrix(leg, self.times) for leg in range(form.legs)]
+        self.columns = [3 * m.shape[1] for m in (self.base[0], self.base[0], self.feet[0], self.forces[0])]
+
+    def inertial_torque(self, e, ed, edd):
+        """I_W ω̇ + ω × I_W ω = R (I_B ω̇_B + ω_B × I_B ω_B), rows (n, 3)."""
+        wb, wdb = body_rates(e, ed, edd)
+        iw = wb @ self.inertia.T
+        u = wdb @ self.inertia.T + np.cross(wb, iw)
+        return np.einsum("nij,nj->ni", rotation(e), u)
+
+    def evaluate(self, values, jacobians):
+        lin, ang, feet, forces = (_nodes(v) for v in values)
+        p0, p1, p2 = (m @ lin for m in self.base)
+        e, ed, edd = (m @ ang for m in self.base)
+        pf = [m @ feet for m in self.feet]
+        f = [m @ forces for m in self.forces]
+        linear = self.mass * p2 - sum(f)
+        linear[:, 2] += self.mass * GRAVITY
+        if jacobians:
+            torque, (j_e, j_ed, j_edd) = complex_step(self.inertial_torque, (e, ed, edd), (0, 1, 2))
+        else:
+            torque = self.inertial_torque(e, ed, edd)
+        angular = torque - sum(np.cross(q - p0, fi) for q, fi in zip(pf, f))
+        r = np.hstack([linear, angular]).reshape(-1)
+        if not jacobians:
+            return r, None
+        n, zero, eye = self.n, np.zeros((self.n, 3, 3)), np.broadcast_to(np.eye(3), (self.n, 3, 3))
+        stack = lambda top, bottom: np.concatenate([top, bottom], axis=1)  # (n, 6, 3)
+        f_skew = [skew(fi) for fi in f]
+        j_lin = sampled_jacobian([(stack(self.mass * eye, zero), self.base[2]),
+                                  (stack(zero, -sum(f_skew)), self.base[0])], 6, n, self.columns[0])
+        j_ang = sampled_jacobian([(stack(zero, j_e), self.base[0]), (stack(zero, j_ed), self.base[1]),
+                                  (stack(zero, j_edd), self.base[2])], 6, n, self.columns[1])
+        j_feet = sampled_jacobian([(stack(zero, fs), m) for fs, m in zip(f_skew, self.feet)], 6, n, self.columns[2])
+        j_forces = sampled_jacobian([(stack(-eye, -skew(q - p0)), m) for q, m in zip(pf, self.forces)],
+                                    6, n, self.columns[3])
+        return r, [j_lin, j_ang, j_feet, j_forces]
+
+
+class RangeOfMotionBlock(ResidualBlock):
+    """Foot `leg` in the base frame minus its nominal position, Rᵀ(p_i − p) − p̄_i, at `times`."""
+
+    variables = ("base_lin", "base_ang", "feet")
+
+    def __init__(self, form: Formulation, leg: int, nominal: np.ndarray, times: np.ndarray):
+        self.times = np.asarray(times, float)
+        self.n = self.times.size
+        self.size = 3 * self.n
+        self.nominal = np.asarray(nominal, float)
+        self.base = form.base_matrix(self.times)
+        self.foot = form.foot_matrix(leg, self.times)
+        self.columns = (3 * self.base.shape[1], 3 * self.base.shape[1], 3 * self.foot.shape[1])
+
+    @staticmethod
+    def _in_base(e, d):
+        return np.einsum("nji,nj->ni", rotation(e), d)
+
+    def evaluate(self, values, jacobians):
+        lin, ang, feet = (_nodes(v) for v in values)
+        p, e, q = self.base @ lin, self.base @ ang, self.foot @ feet
+        if not jacobians:
+            return (self._in_base(e, q - p) - self.nominal).reshape(-1), None
+        x, (j_e,) = complex_step(self._in_base, (e, q - p), (0,))
+        rt = np.transpose(rotation(e), (0, 2, 1))
+        r = (x - self.nominal).reshape(-1)
+        return r, [sampled_jacobian([(-rt, self.base)], 3, self.n, self.columns[0]),
+                   sampled_jacobian([(j_e, self.base)], 3, self.n, self.columns[1]),
+                   sampled_jacobian([(rt, self.foot)], 3, self.n, self.columns[2])]
+
+
+class TerrainHeightBlock(ResidualBlock):
+    """z − h(x, y) of foot positions sampled by `matrix` (rows of the ``feet`` node array)."""
+
+    variables = ("feet",)
+
+    def __init__(self, terrain: TerrainModel, matrix: sp.csr_matrix):
+        self.terrain = terrain
+        self.matrix = sp.csr_matrix(matrix)
+        self.n = self.matrix.shape[0]
+        self.size = self.n
+
+    def _clearance(self, q):
+        return (q[:, 2] - self.terrain.height(q[:, 0], q[:, 1]))[:, None]
+
+    def evaluate(self, values, jacobians):
+        q = self.matrix @ _nodes(values[0])
+        if not jacobians:
+            return self._clearance(q)[:, 0], None
+        r, (j,) = complex_step(self._clearance, (q,), (0,))
+        return r[:, 0], [sampled_jacobian([(j, self.matrix)], 1, self.n, 3 * self.matrix.shape[1])]
+
+
+class ForceBlock(ResidualBlock):
+    """Per force sample of one foot: f·n, then ±f·t1 − μ f·n and ±f·t2 − μ f·n (5 rows), with the
+    terrain basis at the foot's stance position (`foot` samples the stance node of each sample)."""
+
+    variables = ("feet", "forces")
+    ROWS = 5
+
+    def __init__(self, terrain: TerrainModel, friction: float, force: sp.csr_matrix, foot: sp.csr_matrix):
+        self.terrain, self.mu = terrain, float(friction)
+        self.force, self.foot = sp.csr_matrix(force), sp.csr_matrix(foot)
+        self.n = self.force.shape[0]
+        self.size = self.ROWS * self.n
+
+    def _rows(self, f, q):
+        n, t1, t2 = self.terrain.basis(q[:, 0], q[:, 1])
+        fn = np.sum(f * n, axis=1)
+        a, b = np.sum(f * t1, axis=1), np.sum(f * t2, axis=1)
+        return np.stack([fn, a - self.mu * fn, -a - self.mu * fn, b - self.mu * fn, -b - self.mu * fn], axis=1)
+
+    def evaluate(self, values, jacobians):
+        q, f = self.foot @ _nodes(values[0]), self.force @ _nodes(values[1])
+        if not jacobians:
+            return self._rows(f, q).reshape(-1), None
+        r, (j_f, j_q) = complex_step(self._rows, (f, q), (0, 1))
+        return r.reshape(-1), [sampled_jacobian([(j_q, self.foot)], self.ROWS, self.n, 3 * self.foot.shape[1]),
+                               sampled_jacobian([(j_f, self.force)], self.ROWS, self.n, 3 * self.force.shape[1])]
+
+    @staticmethod
+    def bounds(n: int, max_normal_force: float) -> tuple[np.ndarray, np.ndarray]:
+        lower = np.tile([0.0, -np.inf, -np.inf, -np.inf, -np.inf], n)
+        upper = np.tile([max_normal_force, 0.0, 0.0, 0.0, 0.0], n)
+        return lower, upper
+
+
+def acceleration_continuity(form: Formulation, variable: str) -> LinearBlock:
+    """p̈ from the left polynomial minus p̈ from the right one at every interior base knot (3 rows each)."""
+    knots = form.knots
+    rows, cols, vals = [], [], []
+    for j in range(1, knots.size - 1):
+        left = hermite_weights([1.0], knots[j] - knots[j - 1], 2)[0]
+        right = hermite_weights([0.0], knots[j + 1] - knots[j], 2)[0]
+        c_left = [2 * (j - 1), 2 * (j - 1) + 1, 2 * j, 2 * j + 1]
+        c_right = [2 * j, 2 * j + 1, 2 * (j + 1), 2 * (j + 1) + 1]
+        rows += [j - 1] * 8
+        cols += c_left + c_right
+        vals += list(left) + list(-right)
+    m = sp.csr_matrix((vals, (rows, cols)), shape=(knots.size - 2, 2 * form.base.nodes))
+    return LinearBlock((variable,), [kron_dim(m)])
+
+
+def _foot_rows(form: Formulation, entries: list[list[tuple[int, int, int, float]]]) -> sp.csr_matrix:
+    """A matrix over the flattened ``feet`` array from rows of (node, derivative, axis, coefficient)."""
+    rows, cols, vals = [], [], []
+    for i, row in enumerate(entries):
+        for node, deriv, axis, coef in row:
+            rows.append(i), cols.append(6 * node + 3 * deriv + axis), vals.append(coef)
+    return sp.csr_matrix((vals, (rows, cols)), shape=(len(entries), 6 * form.motion_nodes))
+
+
+def _swings(form: Formulation):
+    """(previous stance node, apex node, next stance node, swing duration) of every swing."""
+    for foot in form.feet:
+        swings = [p for p in foot.phases if not p.stance]
+        for k, (apex, phase) in enumerate(zip(foot.swing_nodes, swings)):
+            yield foot.stance_nodes[k], apex, foot.stance_nodes[k + 1], phase.duration
+
+
+def swing_constraint(form: Formulation) -> LinearBlock:
+    """TOWR's swing constraint: apex x, y halfway between the stance nodes, apex x, y velocity equal
+    to the step over the swing duration (4 rows per swing)."""
+    entries = []
+    for prev, apex, nxt, duration in _swings(form):
+        for axis in (0, 1):
+            entries.append([(apex, 0, axis, 1.0), (prev, 0, axis, -0.5), (nxt, 0, axis, -0.5)])
+            entries.append([(apex, 1, axis, 1.0), (prev, 0, axis, 1.0 / duration), (nxt, 0, axis, -1.0 / duration)])
+    return LinearBlock(("feet",), [_foot_rows(form, entries)])
+
+
+def swing_height(form: Formulation) -> LinearBlock:
+    """Apex z minus the z of the previous and of the next stance node (2 rows per swing): the paper's
+    swing-height constraint (≥ clearance) and cost."""
+    entries = []
+    for prev, apex, nxt, _ in _swings(form):
+        entries.append([(apex, 0, 2, 1.0), (prev, 0, 2, -1.0)])
+        entries.append([(apex, 0, 2, 1.0), (nxt, 0, 2, -1.0)])
+    return LinearBlock(("feet",), [_foot_rows(form, entries)])
+
+
+def base_above_feet(form: Formulation, times: np.ndarray) -> LinearBlock:
+    """Base z minus each foot's z at `times` (legs × times rows): the paper's base clearance."""
+    base = form.base_matrix(times)
+    z = lambda m: kron_dim(m)[2::3]
+    rows_base = sp.vstack([z(base)] * form.legs)
+    rows_feet = sp.vstack([-z(form.foot_matrix(leg, times)) for leg in range(form.legs)])
+    return LinearBlock(("base_lin", "feet"), [rows_base, rows_feet])

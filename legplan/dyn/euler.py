@@ -1,0 +1,76 @@
+"""Base orientation as Euler angles e = (roll φ, pitch θ, yaw ψ), R = Rz(ψ) Ry(θ) Rx(φ), as TOWR.
+
+The single-rigid-body dynamics need the body angular velocity and acceleration from the Euler-angle
+spline (Winkler et al. 2018, Sec. III): ω_B = E_B(e) ė with
+
+    E_B = [[1, 0, −sθ], [0, cφ, sφ cθ], [0, −sφ, cφ cθ]],    ω̇_B = E_B ë + Ė_B ė,
+
+and the world angular velocity ω = R ω_B. Every function is batched over rows (n, 3) and written with
+holomorphic operations only, so `complex_step` differentiates it exactly (to round-off): the
+Jacobians of the nonlinear orientation terms come from there, the rest of each block is analytic.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+
+import numpy as np
+
+COMPLEX_STEP = 1e-30
+
+
+def rotation(e: np.ndarray) -> np.ndarray:
+    """R(e) (n, 3, 3), base to world, for Euler angles e (n, 3) = (roll, pitch, yaw)."""
+    cr, sr = np.cos(e[:, 0]), np.sin(e[:, 0])
+    cp, sp = np.cos(e[:, 1]), np.sin(e[:, 1])
+    cy, sy = np.cos(e[:, 2]), np.sin(e[:, 2])
+    r = np.empty(e.shape[:1] + (3, 3), dtype=np.result_type(e, float))
+    r[:, 0, 0], r[:, 0, 1], r[:, 0, 2] = cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr
+    r[:, 1, 0], r[:, 1, 1], r[:, 1, 2] = sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr
+    r[:, 2, 0], r[:, 2, 1], r[:, 2, 2] = -sp, cp * sr, cp * cr
+    return r
+
+
+def body_rates(e: np.ndarray, ed: np.ndarray, edd: np.ndarray | None = None):
+    """ω_B (n, 3) and, given ë, ω̇_B (n, 3) from Euler angles, rates and accelerations."""
+    cr, sr = np.cos(e[:, 0]), np.sin(e[:, 0])
+    cp, sp = np.cos(e[:, 1]), np.sin(e[:, 1])
+    rd, pd, yd = ed[:, 0], ed[:, 1], ed[:, 2]
+    w = np.stack([rd - sp * yd, cr * pd + sr * cp * yd, -sr * pd + cr * cp * yd], axis=1)
+    if edd is None:
+        return w
+    rdd, pdd, ydd = edd[:, 0], edd[:, 1], edd[:, 2]
+    # E_B ë + Ė_B ė
+    wd = np.stack([rdd - sp * ydd - cp * pd * yd,
+                   cr * pdd + sr * cp * ydd - sr * rd * pd + (cr * cp * rd - sr * sp * pd) * yd,
+                   -sr * pdd + cr * cp * ydd - cr * rd * pd + (-sr * cp * rd - cr * sp * pd) * yd], axis=1)
+    return w, wd
+
+
+def world_rates(e: np.ndarray, ed: np.ndarray, edd: np.ndarray | None = None):
+    """World-frame ω (n, 3) and, given ë, ω̇ (n, 3) (ω̇ = R ω̇_B, since ω × ω = 0)."""
+    r = rotation(e)
+    if edd is None:
+        return np.einsum("nij,nj->ni", r, body_rates(e, ed))
+    wb, wdb = body_rates(e, ed, edd)
+    return np.einsum("nij,nj->ni", r, wb), np.einsum("nij,nj->ni", r, wdb)
+
+
+def complex_step(fn: Callable[..., np.ndarray], args: Sequence[np.ndarray], wrt: Sequence[int]
+                 ) -> tuple[np.ndarray, list[np.ndarray]]:
+    """Value fn(*args) (n, r) and its row-wise Jacobians (n, r, 3) w.r.t. the (n, 3) arguments `wrt`.
+
+    All perturbations are evaluated in one batched call: each of the 3·len(wrt) directions gets its
+    own copy of the n rows, imaginary part `COMPLEX_STEP` in one coordinate.
+    """
+    n = args[0].shape[0]
+    k = 3 * len(wrt)
+    stacked = [np.tile(np.asarray(a, complex), (k + 1, 1)) for a in args]
+    for m, arg in enumerate(wrt):
+        for c in range(3):
+            d = 3 * m + c
+            stacked[arg][(d + 1) * n:(d + 2) * n, c] += 1j * COMPLEX_STEP
+    out = fn(*stacked)
+    value = out[:n].real
+    jac = out[n:].imag.reshape(k, n, -1) / COMPLEX_STEP  # (k, n, r)
+    return value, [np.moveaxis(jac[3 * m:3 * m + 3], 0, 2) for m in range(len(wrt))]

@@ -1,0 +1,178 @@
+"""Variables of the centroidal trajectory optimization and the splines they define (Sec. III-A).
+
+Phase-based parametrization of Winkler et al. (2018), as summarized in the TOWR-costs paper:
+
+* base linear position and Euler angles: cubic Hermite node splines with nodes every ``dt`` (the
+  duration split into equal polynomials of at most ``dt``); variables ``base_lin`` and ``base_ang``,
+  each (nodes, value|derivative, xyz) flattened. The first node (start pose, zero velocity) is fixed;
+  of the last node the goal fixes x, y, all three angles and every derivative, the height stays free.
+* per foot, one node per stance phase (the foot is constant in stance: derivative fixed to 0) and one
+  mid-swing node per swing phase (value free, z-derivative fixed to 0: the swing node is the apex),
+  joined by two Hermite polynomials per swing. The first stance node's x, y are fixed to the start.
+  Variable ``feet``: the nodes of all feet, foot after foot.
+* per foot, forces as three Hermite polynomials per stance phase (4 nodes) and zero in swing (one
+  fixed zero node); stance nodes next to a swing are fixed to zero value and derivative (force and
+  its rate vanish at touchdown and lift-off). Variable ``forces``.
+
+Free variables: 12·T/dt + 20·S + c (S footsteps), the count of the paper's N = 12T/dt + 20S + 120 less
+the entries TOWR bounds but we fix (see `Formulation.variable_count`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse as sp
+
+from legplan.dyn.gait import FootPhase, Gait
+from legplan.geometry.hermite import NodeSpline, Segment
+from legplan.solve import VariableBlock
+
+FORCE_POLYNOMIALS = 3  # per stance phase (TOWR default)
+
+
+@dataclass(frozen=True)
+class Pose:
+    """A base pose: position (x, y, z) and Euler angles (roll, pitch, yaw)."""
+
+    position: np.ndarray
+    euler: np.ndarray
+
+
+@dataclass
+class FootNodes:
+    """Node bookkeeping of one foot: where its stance and swing nodes sit in the ``feet`` / ``forces``
+    node arrays, and its phases."""
+
+    phases: list[FootPhase]
+    motion_offset: int           # first node of this foot in the feet node array
+    stance_nodes: list[int]      # global feet-node index of each stance phase (in phase order)
+    swing_nodes: list[int]       # global feet-node index of each swing's apex node
+    force_offset: int
+    force_nodes: list[list[int]]  # per stance phase: its 4 global force-node indices
+    motion: NodeSpline
+    force: NodeSpline
+
+
+class Formulation:
+    """Splines and variable blocks of one problem: a gait over `duration`, `legs` feet."""
+
+    def __init__(self, gait: Gait, dt: float = 0.1):
+        self.gait = gait
+        self.duration = gait.duration
+        self.legs = gait.stance.shape[1]
+        count = max(1, int(np.ceil(self.duration / dt - 1e-9)))
+        self.knots = np.linspace(0.0, self.duration, count + 1)
+        self.base = NodeSpline([Segment(a, b, k, k + 1) for k, (a, b) in
+                                enumerate(zip(self.knots[:-1], self.knots[1:]))], count + 1)
+        self.feet: list[FootNodes] = []
+        motion_total = force_total = 0
+        for leg in range(self.legs):
+            foot = _foot_nodes(gait.foot_phases(leg), motion_total, force_total)
+            motion_total += foot.motion.nodes
+            force_total += foot.force.nodes
+            self.feet.append(foot)
+        self.motion_nodes, self.force_nodes = motion_total, force_total
+
+    # --- sampling matrices (sparse, acting on (2·nodes, 3) node arrays) ---------------------------
+    def base_matrix(self, times, derivative: int = 0) -> sp.csr_matrix:
+        return self.base.matrix(times, derivative)
+
+    def foot_matrix(self, leg: int, times, derivative: int = 0) -> sp.csr_matrix:
+        """Samples of foot `leg` from the whole ``feet`` node array."""
+        foot = self.feet[leg]
+        return _embed(foot.motion.matrix(times, derivative), foot.motion_offset, self.motion_nodes)
+
+    def force_matrix(self, leg: int, times, derivative: int = 0) -> sp.csr_matrix:
+        foot = self.feet[leg]
+        return _embed(foot.force.matrix(times, derivative), foot.force_offset, self.force_nodes)
+
+    @staticmethod
+    def node_selector(nodes: list[int], total: int, derivative: int = 0) -> sp.csr_matrix:
+        """(len(nodes) × 2·total) rows picking node values (derivative 0) or node derivatives."""
+        cols = 2 * np.asarray(nodes, int) + derivative
+        return sp.csr_matrix((np.ones(len(nodes)), (np.arange(len(nodes)), cols)), shape=(len(nodes), 2 * total))
+
+    # --- variables ----------------------------------------------------------------------------------
+    def variables(self, start: Pose, goal: Pose, start_feet: np.ndarray, guess: dict[str, np.ndarray]
+                  ) -> list[VariableBlock]:
+        """Variable blocks with the fixed entries set from start/goal and the rest from `guess`
+        (full value vectors for ``base_lin``, ``base_ang``, ``feet``, ``forces``)."""
+        nb = self.base.nodes
+        lin = np.array(guess["base_lin"], float).reshape(nb, 2, 3)
+        ang = np.array(guess["base_ang"], float).reshape(nb, 2, 3)
+        fix_lin = np.zeros((nb, 2, 3), bool)
+        fix_ang = np.zeros((nb, 2, 3), bool)
+        lin[0, 0], lin[0, 1], ang[0, 0], ang[0, 1] = start.position, 0.0, start.euler, 0.0
+        fix_lin[0] = fix_ang[0] = True
+        lin[-1, 0, :2], lin[-1, 1], ang[-1, 0], ang[-1, 1] = goal.position[:2], 0.0, goal.euler, 0.0
+        fix_lin[-1, 0, :2] = fix_lin[-1, 1] = fix_ang[-1] = True
+        feet = np.array(guess["feet"], float).reshape(self.motion_nodes, 2, 3)
+        fix_feet = np.zeros_like(feet, bool)
+        forces = np.array(guess["forces"], float).reshape(self.force_nodes, 2, 3)
+        fix_forces = np.zeros_like(forces, bool)
+        for leg, foot in enumerate(self.feet):
+            fix_feet[foot.stance_nodes, 1] = True
+            feet[foot.stance_nodes, 1] = 0.0
+            fix_feet[foot.swing_nodes, 1, 2] = True
+            feet[foot.swing_nodes, 1, 2] = 0.0
+            fix_feet[foot.stance_nodes[0], 0, :2] = True
+            feet[foot.stance_nodes[0], 0, :2] = start_feet[leg, :2]
+            zero = [foot.force_offset]  # the swing node
+            for k, phase in enumerate(p for p in foot.phases if p.stance):
+                nodes = foot.force_nodes[k]
+                if phase.t0 > 0:
+                    zero.append(nodes[0])
+                if phase.t1 < self.duration - 1e-9:
+                    zero.append(nodes[-1])
+            fix_forces[zero] = True
+            forces[zero] = 0.0
+        return [VariableBlock("base_lin", lin.reshape(-1), fix_lin.reshape(-1)),
+                VariableBlock("base_ang", ang.reshape(-1), fix_ang.reshape(-1)),
+                VariableBlock("feet", feet.reshape(-1), fix_feet.reshape(-1)),
+                VariableBlock("forces", forces.reshape(-1), fix_forces.reshape(-1))]
+
+    @property
+    def footsteps(self) -> int:
+        return sum(len(f.swing_nodes) for f in self.feet)
+
+    def paper_variable_count(self, dt: float = 0.1) -> int:
+        """N = 12T/dt + 20S + 120 of the TOWR-costs paper (Sec. III-A), for comparison."""
+        return int(round(12 * self.duration / dt + 20 * self.footsteps + 120))
+
+
+def _foot_nodes(phases: list[FootPhase], motion_offset: int, force_offset: int) -> FootNodes:
+    """Nodes and segments of one foot's motion and force splines (see module docstring)."""
+    if not (phases[0].stance and phases[-1].stance):
+        raise ValueError("every foot must start and end in stance")
+    motion_segments, force_segments = [], []
+    stance_nodes, swing_nodes, force_nodes = [], [], []
+    node = 0
+    force_node = 1  # local force node 0 is the fixed zero node of the swing phases
+    for k, phase in enumerate(phases):
+        if phase.stance:
+            stance_nodes.append(node)
+            motion_segments.append(Segment(phase.t0, phase.t1, node))
+            node += 1
+            ids = list(range(force_node, force_node + FORCE_POLYNOMIALS + 1))
+            force_nodes.append(ids)
+            knots = np.linspace(phase.t0, phase.t1, FORCE_POLYNOMIALS + 1)
+            force_segments += [Segment(a, b, i, i + 1) for a, b, i in zip(knots[:-1], knots[1:], ids)]
+            force_node += FORCE_POLYNOMIALS + 1
+        else:
+            mid = 0.5 * (phase.t0 + phase.t1)
+            swing_nodes.append(node)
+            motion_segments += [Segment(phase.t0, mid, node - 1, node), Segment(mid, phase.t1, node, node + 1)]
+            node += 1
+            force_segments.append(Segment(phase.t0, phase.t1, 0))
+    return FootNodes(phases, motion_offset, [motion_offset + n for n in stance_nodes],
+                     [motion_offset + n for n in swing_nodes], force_offset,
+                     [[force_offset + n for n in ids] for ids in force_nodes],
+                     NodeSpline(motion_segments, node), NodeSpline(force_segments, force_node))
+
+
+def _embed(m: sp.csr_matrix, offset: int, total: int) -> sp.csr_matrix:
+    """Shift the columns of a per-foot matrix into the all-feet node array (2 columns per node)."""
+    m = sp.csr_matrix(m)
+    return sp.csr_matrix((m.data, m.indices + 2 * offset, m.indptr), shape=(m.shape[0], 2 * total))

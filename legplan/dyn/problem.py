@@ -1,0 +1,174 @@
+"""One centroidal planning problem: task, parameters, and its costs and constraints on the splines.
+
+`build_problem` turns a `DynTask` (start and goal base pose, gait, strides, duration) on a terrain into
+the variable blocks of a `Formulation` (initialized by an `Initializer`), the weighted cost blocks of
+`costs` and the bounded constraint blocks of `constraints` — the NLP of Sec. III-A of the TOWR-costs
+paper, stated as constrained least squares for `legplan.solve.solve_augmented_lagrangian`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from legplan.dyn.constraints import (GRAVITY, DynamicsBlock, ForceBlock, RangeOfMotionBlock, TerrainHeightBlock,
+                                     acceleration_continuity, base_above_feet, swing_constraint, swing_height)
+from legplan.dyn.costs import CostWeights, StairEdgeBlock, integral_costs
+from legplan.dyn.formulation import FORCE_POLYNOMIALS, Formulation, Pose
+from legplan.dyn.gait import make_gait
+from legplan.dyn.terrain import TerrainModel
+from legplan.solve import VariableBlock
+from legplan.solve.auglag import ALParams, Constraint
+
+
+@dataclass(frozen=True)
+class DynTask:
+    """Start and goal base (x, y, yaw), the gait, its strides and the total duration (s)."""
+
+    start: tuple[float, float, float]
+    goal: tuple[float, float, float]
+    gait: str = "trot"
+    strides: int = 4
+    duration: float = 2.4
+
+
+@dataclass(frozen=True)
+class DynParams:
+    """Discretization (TOWR defaults), our between-node sampling, the paper's additions, the solver.
+
+    `swing_samples` points inside each swing polynomial keep the foot above the terrain between
+    nodes (`swing_clearance` m above it); `force_samples` points per force polynomial carry the
+    force bounds and friction pyramid. `swing_height_min` (m above both adjacent footholds) and
+    `base_clearance` (base z minus foot z, m) are the paper's constraints, None = off.
+    """
+
+    dt: float = 0.1
+    dt_range: float = 0.08
+    swing_samples: int = 6
+    swing_clearance: float = 0.0
+    force_samples: int = 3
+    costs: CostWeights = CostWeights()
+    swing_height_min: float | None = None
+    base_clearance: float | None = None
+    solver: ALParams = ALParams()
+
+
+LENGTH = 0.1  # m: the row scale of geometric constraints (a violation of 10 cm weighs 1)
+LEVER = 0.056  # m: torques are scaled as forces at this lever arm: I/m of ANYmal, i.e. both rows in accelerations
+
+PAPER_COSTS = CostWeights(base_z_velocity=50.0, base_angular_velocity=20.0, force=1e-4, force_rate=1e-4,
+                          normal_force=1e-4, derivative_weight=0.01, stair_edge=1.0, stair_edge_sigma=0.05,
+                          swing_height=20.0)
+"""Weights of the "paper" preset. The paper gives no numbers; these balance the terms on the
+Single Pallet (force terms in N², motion terms in (m/s)², (rad/s)²)."""
+
+
+@dataclass
+class Problem:
+    """Everything the solver needs, plus what the sampling and the checks need to read the solution."""
+
+    task: DynTask
+    form: Formulation
+    terrain: TerrainModel
+    model: object
+    start: Pose
+    goal: Pose
+    start_feet: np.ndarray
+    variables: list[VariableBlock]
+    costs: list = field(default_factory=list)
+    constraints: list[Constraint] = field(default_factory=list)
+
+
+def start_feet(model, pose: Pose, terrain: TerrainModel) -> np.ndarray:
+    """Nominal stance under a base pose, rotated by its yaw, on the terrain (legs, 3)."""
+    yaw = pose.euler[2]
+    rz = np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
+    xy = pose.position[:2] + model.nominal_feet[:, :2] @ rz.T
+    return np.column_stack([xy, terrain.height(xy[:, 0], xy[:, 1])])
+
+
+def task_poses(task: DynTask, model, terrain: TerrainModel) -> tuple[Pose, Pose]:
+    """Start base at nominal height above the terrain under it; goal x, y, yaw (height initial guess)."""
+    poses = []
+    for x, y, yaw in (task.start, task.goal):
+        z = float(terrain.height(np.array([x]), np.array([y]))[0]) + model.base_height
+        poses.append(Pose(np.array([x, y, z]), np.array([0.0, 0.0, yaw])))
+    return poses[0], poses[1]
+
+
+def sample_times(form: Formulation, params: DynParams) -> dict:
+    """Constraint sample times: dynamics at the base knots, range of motion every dt_range."""
+    rom = np.unique(np.append(np.arange(0.0, form.duration, params.dt_range), form.duration))
+    return {"dynamics": form.knots.copy(), "range": rom}
+
+
+def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer) -> Problem:
+    """The constrained least-squares problem of one task (see module docstring)."""
+    form = Formulation(make_gait(task.gait, task.strides, task.duration), params.dt)
+    start, goal = task_poses(task, model, terrain)
+    feet0 = start_feet(model, start, terrain)
+    guess = initializer(form, model, terrain, start, goal, feet0)
+    problem = Problem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess))
+    times = sample_times(form, params)
+    k = problem.constraints
+    weight = model.mass * GRAVITY
+    k.append(Constraint(DynamicsBlock(form, model.mass, model.inertia, times["dynamics"]), name="dynamics",
+                        scale=np.tile(np.repeat([1.0 / weight, 1.0 / (weight * LEVER)], 3), times["dynamics"].size)))
+    for var in ("base_lin", "base_ang"):
+        k.append(Constraint(acceleration_continuity(form, var), name="acceleration_continuity", scale=1.0 / GRAVITY))
+    k.append(Constraint(swing_constraint(form), name="swing", scale=np.tile([1.0 / LENGTH, 1.0], 2 * form.footsteps)))
+    for leg, foot in enumerate(form.feet):
+        k.append(Constraint(RangeOfMotionBlock(form, leg, model.nominal_feet[leg], times["range"]),
+                            -np.tile(model.range_of_motion, times["range"].size),
+                            np.tile(model.range_of_motion, times["range"].size), name="range_of_motion",
+                            scale=1.0 / LENGTH))
+        k.append(Constraint(TerrainHeightBlock(terrain, form.node_selector(foot.stance_nodes, form.motion_nodes)),
+                            name="stance_on_terrain", scale=1.0 / LENGTH))
+        swing_t = _swing_times(foot, params.swing_samples)
+        if swing_t.size:
+            k.append(Constraint(TerrainHeightBlock(terrain, form.foot_matrix(leg, swing_t)),
+                                params.swing_clearance, np.inf, name="swing_above_terrain", scale=1.0 / LENGTH))
+        force_t, stance_node = _force_times(foot, params.force_samples)
+        lower, upper = ForceBlock.bounds(force_t.size, model.max_normal_force)
+        k.append(Constraint(ForceBlock(terrain, model.friction, form.force_matrix(leg, force_t),
+                                       form.node_selector(stance_node, form.motion_nodes)),
+                            lower, upper, name="force", scale=1.0 / weight))
+    if params.swing_height_min is not None and form.footsteps:
+        k.append(Constraint(swing_height(form), params.swing_height_min, np.inf, name="swing_height",
+                            scale=1.0 / LENGTH))
+    if params.base_clearance is not None:
+        k.append(Constraint(base_above_feet(form, times["range"]), params.base_clearance, np.inf,
+                            name="base_clearance", scale=1.0 / LENGTH))
+    w = params.costs
+    problem.costs = integral_costs(form, w, model.mass)
+    if w.stair_edge > 0 and terrain.has_edges:
+        nodes = [n for foot in form.feet for n in foot.stance_nodes]
+        problem.costs.append(("stair_edge", StairEdgeBlock(terrain, form.node_selector(nodes, form.motion_nodes),
+                                                           w.stair_edge_sigma), w.stair_edge))
+    if w.swing_height > 0 and form.footsteps:
+        problem.costs.append(("swing_height", swing_height(form), w.swing_height))
+    return problem
+
+
+def _swing_times(foot, per_polynomial: int) -> np.ndarray:
+    """Times strictly inside each of the two polynomials of every swing."""
+    s = np.arange(1, per_polynomial + 1) / (per_polynomial + 1)
+    out = []
+    for p in foot.phases:
+        if not p.stance:
+            half = 0.5 * p.duration
+            out += list(p.t0 + half * s) + list(p.t0 + half + half * s)
+    return np.array(out)
+
+
+def _force_times(foot, per_polynomial: int) -> tuple[np.ndarray, list[int]]:
+    """Force sample times in every stance (nodes and `per_polynomial` − 1 points between each pair)
+    and the stance node of each sample."""
+    times, nodes = [], []
+    stance_phases = [p for p in foot.phases if p.stance]
+    for phase, node in zip(stance_phases, foot.stance_nodes):
+        t = np.linspace(phase.t0, phase.t1, FORCE_POLYNOMIALS * per_polynomial + 1)
+        times += list(t)
+        nodes += [node] * t.size
+    return np.array(times), nodes

@@ -1,0 +1,89 @@
+"""The terrain as the centroidal optimizer sees it: height, normal basis and distance to edges.
+
+Height h(x, y) is the bilinear interpolation of map.h5's heightmap layer (cell centres), as TOWR's
+height maps give a height and its gradient at any (x, y). The functions accept complex coordinates
+(the cell is chosen from the real part, the interpolation is a polynomial), so the constraint blocks
+differentiate them by complex step exactly, including the terrain normal's change with position.
+
+The stair-edge cost (TOWR-costs paper, Sec. III-A-2) needs each foothold's distance to the nearest
+terrain edge: cells whose height differs from a 4-neighbour by more than `edge_step` are edges; the
+Euclidean distance transform of the non-edge cells, bilinear again, gives that distance.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from legplan.terrain import TerrainMap
+
+EDGE_STEP = 0.02  # m: a height jump between neighbouring cells that makes both an edge
+
+
+class TerrainModel:
+    """Height, gradient, normal basis and edge distance of a heightmap (see module docstring)."""
+
+    def __init__(self, terrain: TerrainMap, edge_step: float = EDGE_STEP):
+        self.name = terrain.name
+        self.height_grid = np.asarray(terrain.height, float)
+        self.origin = np.asarray(terrain.grid.origin, float)
+        self.resolution = float(terrain.grid.resolution)
+        self.shape = self.height_grid.shape
+        h = self.height_grid
+        edge = np.zeros(h.shape, bool)
+        jump_x = np.abs(np.diff(h, axis=1)) > edge_step
+        jump_y = np.abs(np.diff(h, axis=0)) > edge_step
+        edge[:, 1:] |= jump_x
+        edge[:, :-1] |= jump_x
+        edge[1:, :] |= jump_y
+        edge[:-1, :] |= jump_y
+        self.has_edges = bool(edge.any())
+        self.edge_distance_grid = (ndimage.distance_transform_edt(~edge) * self.resolution if self.has_edges
+                                   else np.full(h.shape, np.inf))
+
+    def contains(self, xy) -> np.ndarray:
+        """Whether points (n, 2) lie inside the map's cell-centre rectangle."""
+        xy = np.asarray(xy, float).reshape(-1, 2)
+        lo = self.origin
+        hi = self.origin + self.resolution * (np.array(self.shape[::-1]) - 1)
+        return np.all((xy >= lo) & (xy <= hi), axis=1)
+
+    def _bilinear(self, grid: np.ndarray, x, y):
+        u = (x - self.origin[0]) / self.resolution
+        v = (y - self.origin[1]) / self.resolution
+        ny, nx = grid.shape
+        ix = np.clip(np.floor(np.real(u)).astype(np.int64), 0, nx - 2)
+        iy = np.clip(np.floor(np.real(v)).astype(np.int64), 0, ny - 2)
+        # outside the grid the border values continue (fractions clamped, derivative zero there)
+        tx = np.where((np.real(u) < 0) | (np.real(u) > nx - 1), np.clip(np.real(u), 0, nx - 1) - ix, u - ix)
+        ty = np.where((np.real(v) < 0) | (np.real(v) > ny - 1), np.clip(np.real(v), 0, ny - 1) - iy, v - iy)
+        g00, g01 = grid[iy, ix], grid[iy, ix + 1]
+        g10, g11 = grid[iy + 1, ix], grid[iy + 1, ix + 1]
+        return (g00 * (1 - tx) + g01 * tx) * (1 - ty) + (g10 * (1 - tx) + g11 * tx) * ty, (tx, ty, g00, g01, g10, g11)
+
+    def height(self, x, y):
+        """h(x, y) for arrays x, y (real or complex)."""
+        return self._bilinear(self.height_grid, x, y)[0]
+
+    def height_gradient(self, x, y):
+        """(h, ∂h/∂x, ∂h/∂y) at (x, y), real or complex."""
+        h, (tx, ty, g00, g01, g10, g11) = self._bilinear(self.height_grid, x, y)
+        r = self.resolution
+        hx = ((g01 - g00) * (1 - ty) + (g11 - g10) * ty) / r
+        hy = ((g10 - g00) * (1 - tx) + (g11 - g01) * tx) / r
+        return h, hx, hy
+
+    def basis(self, x, y):
+        """Unit normal n and tangents t1, t2 (each (n, 3)) of the terrain at (x, y), as TOWR's height
+        maps: n ∝ (−h_x, −h_y, 1), t1 ∝ (1, 0, h_x), t2 ∝ (0, 1, h_y)."""
+        _, hx, hy = self.height_gradient(x, y)
+        one, zero = np.ones_like(hx), np.zeros_like(hx)
+        n = np.stack([-hx, -hy, one], axis=-1)
+        t1 = np.stack([one, zero, hx], axis=-1)
+        t2 = np.stack([zero, one, hy], axis=-1)
+        unit = lambda a: a / np.sqrt(np.sum(a * a, axis=-1, keepdims=True))  # holomorphic norm
+        return unit(n), unit(t1), unit(t2)
+
+    def edge_distance(self, x, y):
+        """Distance (m) from (x, y) to the nearest edge cell (inf on a map without edges)."""
+        return self._bilinear(self.edge_distance_grid, x, y)[0]

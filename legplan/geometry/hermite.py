@@ -1,0 +1,144 @@
+"""Cubic Hermite node splines, the trajectory representation of TOWR (TOWR-costs paper, Sec. III-A).
+
+A spline is a list of segments over a node array. Node j holds a value p_j and a time derivative
+v_j (one column each per dimension); a *Hermite* segment on [t0, t1] with h = t1 − t0 and s = (t − t0)/h is
+
+    x(t) = h00(s) p_a + h10(s) h v_a + h01(s) p_b + h11(s) h v_b,
+    h00 = 2s³ − 3s² + 1,  h10 = s³ − 2s² + s,  h01 = −2s³ + 3s²,  h11 = s³ − s²,
+
+and a *constant* segment holds x(t) = p_a (a stance foot, or a zero force in swing). Everything is
+linear in the node array N (2·nodes × dim, rows p_0, v_0, p_1, v_1, ...): sampling at times t is
+`spline.matrix(t, derivative) @ N`, a sparse (len(t) × 2·nodes) matrix, so a sampled constraint
+has the Jacobian `matrix ⊗ (∂r/∂x)` with respect to the nodes.
+
+`hermite_gram(h, d)` gives the 4 × 4 matrix Q with ∫_0^h (x^(d)(t))² dt = cᵀQc for c = (p_a, v_a,
+p_b, v_b): the closed form behind the analytic integral costs of eq. (1).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from fractions import Fraction
+
+import numpy as np
+import scipy.sparse as sp
+
+# x(s) = Σ_k s^k (_MONOMIAL[k] · (p_a, h v_a, p_b, h v_b)): monomial coefficients of the basis
+_MONOMIAL = np.array([[1, 0, 0, 0],
+                      [0, 1, 0, 0],
+                      [-3, -2, 3, -1],
+                      [2, 1, -2, 1]], dtype=float)
+
+
+def hermite_weights(s: np.ndarray, h: np.ndarray, derivative: int = 0) -> np.ndarray:
+    """(n, 4) weights of (p_a, v_a, p_b, v_b) for the `derivative`-th time derivative at s ∈ [0, 1]
+    on segments of duration h (scalar or (n,))."""
+    s = np.asarray(s, float).reshape(-1)
+    h = np.broadcast_to(np.asarray(h, float), s.shape)
+    powers = np.zeros((s.size, 4))
+    for k in range(derivative, 4):  # d^d/ds^d s^k = k!/(k-d)! s^(k-d)
+        factor = np.prod(np.arange(k - derivative + 1, k + 1)) if derivative else 1.0
+        powers[:, k] = factor * s ** (k - derivative)
+    w = powers @ _MONOMIAL / h[:, None] ** derivative
+    w[:, 1] *= h
+    w[:, 3] *= h
+    return w
+
+
+def hermite_gram(h: float, derivative: int = 0) -> np.ndarray:
+    """Q (4 × 4) with ∫_0^h x^(d)(t)² dt = cᵀQc, c = (p_a, v_a, p_b, v_b), exact (rational integrals
+    of the monomial basis, then scaled by h)."""
+    d = derivative
+    coeff = np.zeros((4, 4))
+    for k in range(d, 4):
+        coeff[k - d] = np.prod(np.arange(k - d + 1, k + 1)) * _MONOMIAL[k] if d else _MONOMIAL[k]
+    m = np.array([[float(Fraction(1, i + j + 1)) for j in range(4)] for i in range(4)])  # ∫ s^(i+j) ds
+    q = coeff.T @ m @ coeff * h / h ** (2 * d)  # dt = h ds, d/dt = (1/h) d/ds
+    scale = np.array([1.0, h, 1.0, h])
+    return q * np.outer(scale, scale)
+
+
+@dataclass(frozen=True)
+class Segment:
+    """[t0, t1] of a spline: Hermite from node `a` to node `b`, or constant at node `a` (b = -1)."""
+
+    t0: float
+    t1: float
+    a: int
+    b: int = -1
+
+    @property
+    def constant(self) -> bool:
+        return self.b < 0
+
+
+class NodeSpline:
+    """A piecewise cubic Hermite / constant curve over `nodes` nodes (see module docstring)."""
+
+    def __init__(self, segments: list[Segment], nodes: int):
+        if not segments:
+            raise ValueError("a spline needs at least one segment")
+        starts = np.array([s.t0 for s in segments])
+        ends = np.array([s.t1 for s in segments])
+        if np.any(ends <= starts) or np.any(np.abs(starts[1:] - ends[:-1]) > 1e-9):
+            raise ValueError("segments must have positive durations and follow each other without gaps")
+        self.segments = list(segments)
+        self.nodes = int(nodes)
+        self.starts, self.ends = starts, ends
+        self.duration = float(ends[-1])
+
+    def segment_index(self, times) -> np.ndarray:
+        """Segment of each time; a time on a boundary belongs to the segment that ends there
+        (as TOWR's spline), times before 0 / after the end to the first / last segment."""
+        t = np.asarray(times, float).reshape(-1)
+        return np.clip(np.searchsorted(self.ends, t - 1e-12, side="left"), 0, len(self.segments) - 1)
+
+    def matrix(self, times, derivative: int = 0) -> sp.csr_matrix:
+        """Sparse (len(times) × 2·nodes) M with x^(derivative)(t_i) = Σ_j M[i, j] N[j] (N as in the
+        module docstring: column 2j is p_j, 2j+1 is v_j)."""
+        t = np.asarray(times, float).reshape(-1)
+        seg = self.segment_index(t)
+        rows, cols, vals = [], [], []
+        for k in np.unique(seg):
+            s = self.segments[k]
+            idx = np.flatnonzero(seg == k)
+            if s.constant:
+                if derivative == 0:
+                    rows.append(idx), cols.append(np.full(idx.size, 2 * s.a)), vals.append(np.ones(idx.size))
+                continue
+            h = s.t1 - s.t0
+            w = hermite_weights(np.clip((t[idx] - s.t0) / h, 0.0, 1.0), h, derivative)
+            c = np.array([2 * s.a, 2 * s.a + 1, 2 * s.b, 2 * s.b + 1])
+            rows.append(np.repeat(idx, 4)), cols.append(np.tile(c, idx.size)), vals.append(w.reshape(-1))
+        if not rows:
+            return sp.csr_matrix((t.size, 2 * self.nodes))
+        m = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                          shape=(t.size, 2 * self.nodes))
+        return m.tocsr()
+
+
+def kron_dim(m: sp.spmatrix, dim: int = 3) -> sp.csr_matrix:
+    """M ⊗ I_dim: the sampling matrix acting on the flattened node array (node, p|v, dimension)."""
+    return sp.kron(sp.csr_matrix(m), sp.identity(dim, format="csr"), format="csr")
+
+
+def sampled_jacobian(terms, rows: int, samples: int, columns: int) -> sp.csr_matrix:
+    """Jacobian of `rows` residuals per sample, J[(i, a), (j, b)] = Σ_terms M[i, j] · G_i[a, b].
+
+    Each term is (G, M): per-sample blocks G (samples, rows, 3) = ∂r_i/∂x_i of a sampled 3-vector
+    x_i = (M ⊗ I₃) N, M sparse (samples × columns/3). Terms over the same variable are summed; the
+    pattern depends on the M's only (explicit zeros kept), so it is the same at every evaluation.
+    """
+    all_rows, all_cols, all_vals = [], [], []
+    for g, m in terms:
+        m = sp.csr_matrix(m)
+        entry_row = np.repeat(np.arange(samples), np.diff(m.indptr))
+        vals = m.data[:, None, None] * g[entry_row]  # (nnz, rows, 3)
+        r = (rows * entry_row)[:, None, None] + np.arange(rows)[None, :, None]
+        c = (3 * m.indices)[:, None, None] + np.arange(3)[None, None, :]
+        all_vals.append(vals.reshape(-1))
+        all_rows.append(np.broadcast_to(r, vals.shape).reshape(-1))
+        all_cols.append(np.broadcast_to(c, vals.shape).reshape(-1))
+    coo = sp.coo_matrix((np.concatenate(all_vals), (np.concatenate(all_rows), np.concatenate(all_cols))),
+                        shape=(samples * rows, columns))
+    return coo.tocsr()

@@ -1,0 +1,228 @@
+"""Constrained nonlinear least squares: an augmented Lagrangian whose subproblems are solved by LM.
+
+    min_θ ½‖r(θ)‖²   subject to   l ≤ c(θ) ≤ u   (rows with l = u are equalities)
+
+Why this scheme: the costs are sums of squares, so the augmented Lagrangian of a constraint row,
+(μ/2)(c − l + y/μ)² for an equality or (μ/2)·max(0, c − u + y/μ)² for a bound, is a square too, and
+every subproblem is again a sparse nonlinear least-squares problem, its bound rows hinged, for
+`solve_hinged_lm` (LM whose steps minimize the hinge model exactly; CHOLMOD factorizes the normal
+equations with one symbolic analysis per subproblem, since the pattern never changes).
+Multipliers follow the first-order update y ← y + μ(c − l), y_u ← max(0, y_u + μ(c − u)); μ grows
+by `mu_growth` whenever the violation did not fall below `violation_decrease` times the last one
+(Nocedal & Wright, Alg. 17.4). Without costs the first subproblem is Gauss-Newton on the
+constraints themselves (a root of the residual is a feasible point), as TOWR's feasibility problem.
+
+Stopping rule (explicit): converged when the largest constraint violation is ≤ `violation_tolerance`
+and, if there are costs, the cost changed by less than `cost_tolerance` (relative) over the last
+outer iteration; failed when the iteration budget or `max_outer` is spent first, or LM fails
+numerically.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+import scipy.sparse as sp
+
+from legplan.solve.blocks import ResidualBlock
+from legplan.solve.inequality import _scale_rows
+from legplan.solve.hinged import HingedParams, solve_hinged_lm
+from legplan.solve.lm import Status, Timings
+from legplan.solve.problem import Problem
+from legplan.solve.variables import VariableBlock
+
+
+@dataclass
+class Constraint:
+    """lower ≤ block(θ) ≤ upper, row by row (equal bounds: an equality); `name` labels it in reports.
+
+    `scale` (per row or scalar) multiplies the rows inside the solver only, so that rows in different
+    units (N, m) weigh alike while infeasible; bounds and violations stay in the block's own units.
+    """
+
+    block: ResidualBlock
+    lower: np.ndarray | float = 0.0
+    upper: np.ndarray | float = 0.0
+    name: str = ""
+    scale: np.ndarray | float = 1.0
+
+    def __post_init__(self):
+        n = self.block.size
+        self.lower = np.broadcast_to(np.asarray(self.lower, float), (n,)).copy()
+        self.upper = np.broadcast_to(np.asarray(self.upper, float), (n,)).copy()
+        self.scale = np.broadcast_to(np.asarray(self.scale, float), (n,)).copy()
+        if np.any(self.lower > self.upper) or np.any(np.isnan(self.lower) | np.isnan(self.upper)):
+            raise ValueError(f"constraint {self.name or type(self.block).__name__}: need lower ≤ upper")
+        self.equality = self.lower == self.upper
+        self.has_upper = ~self.equality & np.isfinite(self.upper)
+        self.has_lower = ~self.equality & np.isfinite(self.lower)
+
+    def violation(self, c: np.ndarray) -> np.ndarray:
+        """Per-row violation ≥ 0 of values c."""
+        return np.maximum(np.maximum(c - self.upper, self.lower - c), 0.0)
+
+
+@dataclass(frozen=True)
+class ALParams:
+    """Augmented-Lagrangian parameters; `inner` are those of every subproblem (its max_iterations is
+    the per-subproblem cap; `max_iterations` here caps the LM iterations of the whole solve)."""
+
+    inner: HingedParams = HingedParams(max_iterations=60, tolerance=0.0, function_tolerance=1e-4)
+    violation_tolerance: float = 1e-3
+    cost_tolerance: float = 1e-3
+    mu_init: float = 1.0
+    mu_growth: float = 10.0
+    mu_max: float = 1e8
+    violation_decrease: float = 0.25
+    max_outer: int = 15
+    max_iterations: int = 300
+
+
+@dataclass
+class ALResult:
+    """Outcome of the solve: values, why it stopped, the constraint and cost picture, the effort."""
+
+    values: dict[str, np.ndarray]  # the problem's variables (slacks left out)
+    success: bool
+    reason: str
+    iterations: int
+    outer_iterations: int
+    max_violation: float
+    violations: dict[str, float]
+    cost: float
+    cost_terms: dict[str, float]
+    history: list[dict] = field(default_factory=list)
+    timings: Timings = field(default_factory=Timings)
+    first_iteration_seconds: float = 0.0
+
+
+class _AugmentedRows(ResidualBlock):
+    """√μ·(w(c − l) + y/μ) on equality rows, √μ·(w(c − u) + y_u/μ) and √μ·(w(l − c) + y_l/μ) on the
+    bounded rows, which are hinged (`hinged`: the residual is max(0, ·) there): the augmented
+    Lagrangian of one `Constraint` as least-squares rows, w its row scale."""
+
+    def __init__(self, constraint: Constraint):
+        self.constraint = constraint
+        self.variables = constraint.block.variables
+        k = constraint
+        self.rows = (np.flatnonzero(k.equality), np.flatnonzero(k.has_upper), np.flatnonzero(k.has_lower))
+        self.pick = np.concatenate(self.rows)
+        self.sign = np.concatenate([np.ones(self.rows[0].size + self.rows[1].size), -np.ones(self.rows[2].size)])
+        self.bound = np.concatenate([k.lower[self.rows[0]], k.upper[self.rows[1]], k.lower[self.rows[2]]])
+        self.hinged = np.concatenate([np.zeros(self.rows[0].size, bool), np.ones(self.rows[1].size + self.rows[2].size, bool)])
+        self.size = self.pick.size
+        self.mu = 1.0
+        self.y = np.zeros(self.size)
+
+    def evaluate(self, values, jacobians):
+        c, jacs = self.constraint.block.evaluate(values, jacobians)
+        factor = np.sqrt(self.mu) * self.sign * self.constraint.scale[self.pick]
+        r = factor * (np.asarray(c, float)[self.pick] - self.bound) + self.y / np.sqrt(self.mu)
+        if not jacobians:
+            return r, None
+        return r, [_scale_rows(_rows(j, self.pick), factor) for j in jacs]
+
+    def update(self, c: np.ndarray) -> None:
+        """First-order multiplier update at the subproblem's solution (of the scaled rows); the
+        multipliers of bound rows stay ≥ 0."""
+        v = self.sign * self.constraint.scale[self.pick] * (c[self.pick] - self.bound)
+        self.y = self.y + self.mu * v
+        self.y[self.hinged] = np.maximum(self.y[self.hinged], 0.0)
+
+
+def _rows(jac, pick: np.ndarray):
+    """Rows `pick` of a Jacobian block, sparsity pattern (explicit zeros) kept."""
+    return sp.csr_matrix(jac)[pick] if sp.issparse(jac) else np.asarray(jac, float)[pick]
+
+
+def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequence[tuple[str, ResidualBlock, float]],
+                               constraints: Sequence[Constraint], params: ALParams = ALParams(),
+                               callback: Callable[[int, float, float], None] | None = None) -> ALResult:
+    """Solve min Σ w‖r‖² s.t. the constraints from the variables' current values (see module docstring).
+
+    `costs` are (name, block, weight) with ½·weight·‖block‖² each. `callback(iteration, violation,
+    cost)` is called after every subproblem.
+    """
+    t_start = time.perf_counter()
+    problem = Problem(list(variables))
+    for _, block, w in costs:
+        problem.add_residual(block, np.sqrt(w))
+    rows = [problem.add_residual(_AugmentedRows(k)) for k in constraints]
+    theta = problem.layout.initial()
+    min_scale = min((float(k.scale.min()) for k in constraints if k.block.size), default=1.0)
+    timings = Timings()
+    history: list[dict] = []
+    iterations = 0
+    first_iteration = 0.0
+    mu = params.mu_init
+    last_violation = np.inf
+    last_cost = None
+    status, reason = False, ""
+    for outer in range(1, params.max_outer + 1):
+        for r in rows:
+            r.mu = mu
+        values = problem.layout.values(theta)
+        c_now = [np.asarray(k.block.evaluate([values[v] for v in k.block.variables], False)[0]) for k in constraints]
+        budget = params.max_iterations - iterations
+        # without costs a subproblem is done once every row is within tolerance: ‖h‖ ≤ √μ·tol·min(w) suffices
+        inner = replace(params.inner, max_iterations=min(params.inner.max_iterations, budget),
+                        tolerance=np.sqrt(mu) * params.violation_tolerance * min_scale if not costs
+                        else params.inner.tolerance)
+        t_lm = time.perf_counter()
+        result = solve_hinged_lm(problem, inner, theta0=theta)
+        if outer == 1 and result.iterations:
+            first_iteration = (time.perf_counter() - t_lm) / result.iterations
+        iterations += result.iterations
+        theta = result.theta
+        for name in ("evaluate", "assemble", "factorize", "solve"):
+            setattr(timings, name, getattr(timings, name) + getattr(result.timings, name))
+        values = problem.layout.values(theta)
+        c_now = [np.asarray(k.block.evaluate([values[v] for v in k.block.variables], False)[0]) for k in constraints]
+        violation = max((float(k.violation(c).max()) if c.size else 0.0 for k, c in zip(constraints, c_now)),
+                        default=0.0)
+        cost_terms = _cost_terms(costs, values)
+        cost = sum(cost_terms.values())
+        history.append({"outer": outer, "iterations": result.iterations, "violation": violation, "cost": cost,
+                        "mu": mu, "lm": result.reason})
+        if callback is not None:
+            callback(iterations, violation, cost)
+        if result.status is Status.NUMERICAL_FAILURE:
+            status, reason = False, f"numerical failure: {result.reason}"
+            break
+        cost_settled = (not costs or (last_cost is not None and
+                                      abs(last_cost - cost) <= params.cost_tolerance * max(abs(cost), 1e-12)))
+        if violation <= params.violation_tolerance and cost_settled:
+            status = True
+            reason = (f"max violation {violation:.2e} ≤ {params.violation_tolerance:.0e}"
+                      + (f", cost change ≤ {params.cost_tolerance:.0e} relative" if costs else ""))
+            break
+        if iterations >= params.max_iterations:
+            reason = f"iteration budget {params.max_iterations} spent with max violation {violation:.2e}"
+            break
+        for r, c in zip(rows, c_now):
+            r.update(c)
+        if violation > params.violation_decrease * last_violation:
+            mu = min(mu * params.mu_growth, params.mu_max)
+        last_violation, last_cost = violation, cost
+    else:
+        reason = f"{params.max_outer} outer iterations with max violation {violation:.2e}"
+    timings.total = time.perf_counter() - t_start
+    per_constraint = {}
+    for k, c in zip(constraints, c_now):
+        label = k.name or type(k.block).__name__
+        per_constraint[label] = max(per_constraint.get(label, 0.0), float(k.violation(c).max()) if c.size else 0.0)
+    values = {v.name: values[v.name] for v in variables}
+    return ALResult(values, status, reason, iterations, len(history), violation, per_constraint, cost,
+                    cost_terms, history, timings, first_iteration)
+
+
+def _cost_terms(costs, values) -> dict[str, float]:
+    out: dict[str, float] = {}
+    for name, block, w in costs:
+        r = block.evaluate([values[v] for v in block.variables], False)[0]
+        out[name] = out.get(name, 0.0) + 0.5 * w * float(np.dot(r, r))
+    return out
