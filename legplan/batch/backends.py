@@ -127,7 +127,7 @@ class DaskCluster:
         if scheduler == "local":
             with dask.config.set({"distributed.scheduler.allowed-failures": LOST_WORKERS - 1}):
                 cluster = LocalCluster(n_workers=jobs, threads_per_worker=1, processes=True, host="127.0.0.1",
-                                       dashboard_address=None)
+                                       dashboard_address="127.0.0.1:0")  # loopback only, any free port
             return cls(Client(cluster), cluster)
         timeout = dask.config.get("distributed.comm.timeouts.connect")
         try:
@@ -138,24 +138,26 @@ class DaskCluster:
     def run(self, task: Task, todo) -> Iterator[tuple[int, dict]]:
         from distributed import as_completed
 
+        todo = list(todo)
         batch = uuid.uuid4().hex[:12]
-        futures = {self.client.submit(task, item, key=f"legplan-{batch}-{position}"): (position, item)
-                   for position, item in todo}
-        try:
-            for future in as_completed(list(futures)):
-                position, item = futures.pop(future)
+        futures = self.client.map(task, [item for _, item in todo],
+                                  key=[f"legplan-{batch}-{position}" for position, _ in todo])
+        waiting = {future.key: entry for future, entry in zip(futures, todo)}
+        try:  # results come in batches (fewer round trips than one `result()` per future)
+            for future, result in as_completed(futures, with_results=True, raise_errors=False):
+                position, item = waiting.pop(future.key)
                 if future.status == "finished":
-                    record = future.result()
+                    record = result
                 else:
-                    error = future.exception()
+                    error = result[1]  # (type, exception, traceback)
                     reason = f"{type(error).__name__}: {error}"
                     record = task.failed(item, f"worker died ({reason})" if type(error).__name__ == "KilledWorker"
                                          else reason)
                 future.release()
                 yield position, record
         finally:
-            if futures:
-                self.client.cancel(list(futures))
+            if waiting:
+                self.client.cancel([future for future in futures if future.key in waiting])
 
     def close(self) -> None:
         self.client.close()

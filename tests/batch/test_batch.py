@@ -128,3 +128,13 @@ def test_dask_local_cluster_gives_the_in_process_records(tmp_path):
     (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
     records = run(tmp_path / "a", Backend(jobs=2, scheduler="local"))
     assert_same_records(records, run(tmp_path / "b"))
+
+
+def test_dask_records_an_item_that_killed_two_workers_as_failed(tmp_path):
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    crash = Task(run=square, failed=failed, setup=Context, args=(str(tmp_path / "a" / "calls.log"), 2))
+    records = run(tmp_path / "a", Backend(jobs=2, scheduler="local"), items=ITEMS[:4], task=crash)
+    assert not records[2]["success"] and records[2]["reason"].startswith("worker died (KilledWorker")
+    assert computed(tmp_path / "a" / "calls.log").count(2) == 2
+    assert_same_records([r for i, r in enumerate(records) if i != 2],
+                        [r for i, r in enumerate(run(tmp_path / "b", items=ITEMS[:4])) if i != 2])

@@ -117,7 +117,7 @@ def test_external_scheduler_loses_nothing_when_a_worker_is_killed(scene, tmp_pat
 
     address = f"tcp://127.0.0.1:{free_port()}"
     env = {**os.environ, "DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES": "1"}
-    common = ["--no-dashboard", "--host", "127.0.0.1"]
+    common = ["--no-dashboard", "--dashboard-address", "127.0.0.1:0", "--host", "127.0.0.1"]  # loopback only
     processes = [subprocess.Popen([str(BIN / "dask"), "scheduler", "--port", address.rsplit(":", 1)[1], *common],
                                   env=env, stderr=subprocess.DEVNULL)]
     try:
