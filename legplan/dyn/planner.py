@@ -11,7 +11,7 @@ Levenberg-Marquardt/CHOLMOD; the module docstring there says why and when it sto
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -51,7 +51,27 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
     setup = time.perf_counter() - t0
     result = solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints, params.solver,
                                         callback=callback)
+    if not result.success and params.towr_swing:
+        # TOWR's swing constraint can over-constrain a tight gait (DynParams): continue without it
+        t0 = time.perf_counter()
+        stalled = result
+        problem = build_problem(task, model, terrain, replace(params, towr_swing=False), lambda *_: stalled.values)
+        setup += time.perf_counter() - t0
+        result = _continued(stalled, solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints,
+                                                                params.solver, callback=callback))
     return PlanResult(problem, result, sample_solution(problem.form, result.values), setup)
+
+
+def _continued(first: ALResult, second: ALResult) -> ALResult:
+    """The second solve, with the effort of the first added and the reason saying what happened."""
+    for name in ("evaluate", "assemble", "factorize", "solve", "total"):
+        setattr(second.timings, name, getattr(first.timings, name) + getattr(second.timings, name))
+    second.iterations += first.iterations
+    second.outer_iterations += first.outer_iterations
+    second.history = first.history + second.history
+    second.first_iteration_seconds = first.first_iteration_seconds
+    second.reason = f"{second.reason} (after dropping TOWR's swing constraint: {first.reason})"
+    return second
 
 
 def sample_solution(form: Formulation, values: dict[str, np.ndarray], dt: float = SAMPLE_DT) -> dict[str, np.ndarray]:

@@ -14,8 +14,9 @@ constraints themselves (a root of the residual is a feasible point), as TOWR's f
 
 Stopping rule (explicit): converged when the largest constraint violation is ≤ `violation_tolerance`
 and, if there are costs, the cost changed by less than `cost_tolerance` (relative) over the last
-outer iteration; failed when the iteration budget or `max_outer` is spent first, or LM fails
-numerically.
+outer iteration; failed when the iteration budget or `max_outer` is spent first, when the violation
+stops falling (`stall_outer` outer iterations in a row each keeping more than `stall_decrease` of
+it: an infeasible local minimum), or when LM fails numerically.
 """
 
 from __future__ import annotations
@@ -79,6 +80,8 @@ class ALParams:
     mu_max: float = 1e8
     violation_decrease: float = 0.25
     max_outer: int = 15
+    stall_decrease: float = 0.9  # an outer iteration whose violation exceeds this × the last one made no progress
+    stall_outer: int = 2  # stop as stalled (infeasible local minimum) after this many such in a row
     max_iterations: int = 300
 
 
@@ -160,6 +163,7 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
     first_iteration = 0.0
     mu = params.mu_init
     last_violation = np.inf
+    stalled = 0
     last_cost = None
     status, reason = False, ""
     for outer in range(1, params.max_outer + 1):
@@ -202,6 +206,11 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
             break
         if iterations >= params.max_iterations:
             reason = f"iteration budget {params.max_iterations} spent with max violation {violation:.2e}"
+            break
+        stalled = stalled + 1 if violation > params.stall_decrease * last_violation else 0
+        if stalled >= params.stall_outer:
+            reason = (f"stalled infeasible: max violation {violation:.2e} fell by less than "
+                      f"{1 - params.stall_decrease:.0%} over {params.stall_outer} outer iterations (local minimum)")
             break
         for r, c in zip(rows, c_now):
             r.update(c)
