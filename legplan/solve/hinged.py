@@ -16,7 +16,9 @@ is done once per problem. λ follows the gain ratio ρ = actual / model decrease
 1 − (2ρ − 1)³) on success, λ ← λ·ν, ν ← 2ν on failure).
 
 Stops: ‖h‖ < `tolerance` (converged), an accepted step lowering ‖h‖² by less than
-`function_tolerance` relative (converged: the minimum of a problem with costs), `max_iterations`,
+`function_tolerance` relative or a gradient ‖Jᵀh‖∞ below `gradient_tolerance` times its initial
+value (converged:
+the minimum of a problem with costs), `max_iterations`,
 λ > `lambda_max` (stalled), or a non-finite residual (numerical failure).
 """
 
@@ -45,6 +47,7 @@ class HingedParams:
     max_iterations: int = 100
     tolerance: float = 1e-10
     function_tolerance: float = 0.0
+    gradient_tolerance: float = 1e-10
     active_set_iterations: int = 10
 
     def __post_init__(self):
@@ -85,6 +88,12 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
             return finish(Status.NUMERICAL_FAILURE, "residual or Jacobian not finite at the current point", it, norm)
         if norm < params.tolerance:
             return finish(Status.CONVERGED, f"‖h‖ = {norm:.3e} < tolerance = {params.tolerance:.1e}", it, norm)
+        h = np.where(hinged, np.maximum(v, 0.0), v)
+        gradient = float(np.abs(J.T @ h).max(initial=0.0))  # inactive hinged rows contribute nothing
+        initial_gradient = gradient if it == 0 else initial_gradient
+        if gradient <= params.gradient_tolerance * initial_gradient:
+            return finish(Status.CONVERGED, f"stationary: ‖Jᵀh‖∞ = {gradient:.1e} ≤ gradient_tolerance × its "
+                          f"initial value; ‖h‖ = {norm:.3e}", it, norm)
         if it == params.max_iterations:
             return finish(Status.MAX_ITERATIONS, f"reached {params.max_iterations} iterations with ‖h‖ = {norm:.3e}",
                           it, norm)

@@ -1,0 +1,111 @@
+"""Every constraint and cost block of the centroidal problem against finite differences, and the
+closed-form cost integrals against numerical quadrature of the sampled splines."""
+
+import numpy as np
+import pytest
+
+from legplan.dyn.costs import CostWeights, integral_costs
+from legplan.dyn.euler import body_rates, complex_step, rotation, world_rates
+from legplan.dyn.init import heuristic
+from legplan.dyn.problem import PAPER_COSTS, DynParams, DynTask, build_problem
+from legplan.solve import check_jacobian
+
+
+def _perturbed(problem, seed=0, scale=0.02):
+    rng = np.random.default_rng(seed)
+    return {b.name: b.value + scale * rng.standard_normal(b.size) for b in problem.variables}
+
+
+@pytest.fixture(scope="module")
+def pallet_problem(anymal, step):
+    params = DynParams(costs=PAPER_COSTS, swing_height_min=0.05, base_clearance=0.3)
+    return build_problem(DynTask((-0.3, 0.1, 0.2), (0.9, 0.0, 0.0), "walk", 2, 3.0), anymal, step, params, heuristic)
+
+
+def test_every_constraint_block_matches_finite_differences(pallet_problem):
+    values = _perturbed(pallet_problem)
+    names = set()
+    for k in pallet_problem.constraints:
+        report = check_jacobian(k.block, {v: values[v] for v in k.block.variables})
+        assert report.ok(atol=1e-5, rtol=1e-4), (k.name, report)
+        names.add(k.name)
+    assert {"dynamics", "range_of_motion", "stance_on_terrain", "swing_above_terrain", "force",
+            "acceleration_continuity", "swing", "swing_height", "base_clearance"} <= names
+
+
+def test_every_cost_block_matches_finite_differences(pallet_problem):
+    values = _perturbed(pallet_problem, seed=1)
+    names = {name for name, _, _ in pallet_problem.costs}
+    assert {"base_z_velocity", "base_angular_velocity", "force", "force_rate", "normal_force", "stair_edge",
+            "swing_height"} <= names
+    for name, block, _ in pallet_problem.costs:
+        report = check_jacobian(block, {v: values[v] for v in block.variables})
+        assert report.ok(atol=1e-6, rtol=1e-5), (name, report)
+
+
+def _quadrature(form, values, fn, n=20001):
+    t = np.linspace(0.0, form.duration, n)
+    return np.trapezoid(fn(t), t)
+
+
+@pytest.mark.parametrize("term", ["base_z_velocity", "base_angular_velocity", "force", "force_rate", "normal_force"])
+def test_integral_costs_equal_quadrature_of_eq_1(pallet_problem, anymal, term):
+    form = pallet_problem.form
+    wd = 0.3
+    weights = CostWeights(**{term: 1.0, "derivative_weight": wd})
+    (name, block, _), = integral_costs(form, weights, anymal.mass)
+    values = _perturbed(pallet_problem, seed=2)
+    r = block.evaluate([values[v] for v in block.variables], False)[0]
+    lin, ang = values["base_lin"].reshape(-1, 3), values["base_ang"].reshape(-1, 3)
+    forces = values["forces"].reshape(-1, 3)
+
+    def integrand(t):
+        if term == "base_z_velocity":
+            return sum((form.base_matrix(t, d) @ lin)[:, 2] ** 2 * w for d, w in ((1, 1.0), (2, wd)))
+        if term == "base_angular_velocity":
+            return sum(np.sum((form.base_matrix(t, d) @ ang) ** 2, axis=1) * w for d, w in ((1, 1.0), (2, wd)))
+        total = 0.0
+        for leg in range(form.legs):
+            f = [form.force_matrix(leg, t, d) @ forces for d in range(3)]
+            if term == "force":
+                total = total + np.sum(f[0] ** 2, axis=1) + wd * np.sum(f[1] ** 2, axis=1)
+            elif term == "force_rate":
+                total = total + np.sum(f[1] ** 2, axis=1) + wd * np.sum(f[2] ** 2, axis=1)
+            else:  # reference m·g over the feet in stance at the midpoint of each force polynomial
+                spline = form.feet[leg].force
+                seg = spline.segment_index(t)
+                mids = 0.5 * (spline.starts + spline.ends)[seg]
+                share = anymal.mass * 9.81 / np.maximum(form.gait.contact(mids).sum(axis=1), 1)
+                inside = ~np.array([spline.segments[k].constant for k in seg])
+                total = total + inside * ((f[0][:, 2] - share) ** 2 + wd * f[1][:, 2] ** 2)
+        return total
+
+    expected = _quadrature(form, values, integrand)
+    assert float(r @ r) == pytest.approx(expected, rel=2e-3)
+
+
+def test_euler_rates_match_rotation_derivative():
+    rng = np.random.default_rng(3)
+    e, ed, edd = rng.normal(size=(3, 5, 3)) * 0.5
+    w, wd = world_rates(e, ed, edd)
+    h = 1e-6
+    r_dot = (rotation(e + h * ed) - rotation(e - h * ed)) / (2 * h)
+    omega_hat = r_dot @ np.transpose(rotation(e), (0, 2, 1))
+    assert omega_hat[:, 2, 1] == pytest.approx(w[:, 0], abs=1e-6)
+    assert omega_hat[:, 0, 2] == pytest.approx(w[:, 1], abs=1e-6)
+    assert omega_hat[:, 1, 0] == pytest.approx(w[:, 2], abs=1e-6)
+    w_plus = world_rates(e + h * ed + 0.5 * h * h * edd, ed + h * edd)
+    w_minus = world_rates(e - h * ed + 0.5 * h * h * edd, ed - h * edd)
+    assert (w_plus - w_minus) / (2 * h) == pytest.approx(wd, abs=1e-5)
+    wb = body_rates(e, ed)
+    assert np.einsum("nij,nj->ni", rotation(e), wb) == pytest.approx(w)
+
+
+def test_complex_step_is_exact_for_a_polynomial():
+    x = np.array([[1.0, 2.0, 3.0], [0.5, -1.0, 2.0]])
+    value, (jac,) = complex_step(lambda a: (a ** 3)[:, :2], (x,), (0,))
+    assert value == pytest.approx(x[:, :2] ** 3)
+    expected = np.zeros((2, 2, 3))
+    for i in range(2):
+        expected[i, 0, 0], expected[i, 1, 1] = 3 * x[i, 0] ** 2, 3 * x[i, 1] ** 2
+    assert jac == pytest.approx(expected, abs=1e-14)

@@ -1,0 +1,48 @@
+"""End-to-end solves of the centroidal problem on small terrains (heuristic initialization)."""
+
+import numpy as np
+import pytest
+
+from legplan.dyn.constraints import GRAVITY
+from legplan.dyn.planner import plan
+from legplan.dyn.problem import DynParams, DynTask
+
+
+def _newton_euler_at_knots(result, anymal):
+    """m(p̈ + g) − Σf at the base knots, recomputed from the 10 ms samples (the knots are samples)."""
+    s = result.samples
+    knots = result.problem.form.knots
+    idx = np.searchsorted(s["t"], knots - 1e-9)
+    lin = anymal.mass * (s["base_acc"][idx] + [0.0, 0.0, GRAVITY]) - s["forces"][idx].sum(axis=1)
+    return np.abs(lin).max()
+
+
+def test_flat_trot_reaches_the_goal_feasibly(anymal, flat):
+    r = plan(DynTask((0.0, 0.0, 0.0), (0.6, 0.1, 0.2), "trot", 3, 2.0), anymal, flat, DynParams())
+    assert r.success, r.reason
+    assert r.solve.max_violation <= 1e-3 and r.solve.iterations <= 30
+    s = r.samples
+    assert s["base_pos"][-1, :2] == pytest.approx([0.6, 0.1], abs=1e-9)
+    assert s["base_euler"][-1] == pytest.approx([0.0, 0.0, 0.2], abs=1e-9)
+    assert s["base_vel"][[0, -1]] == pytest.approx(np.zeros((2, 3)), abs=1e-9)
+    assert _newton_euler_at_knots(r, anymal) <= 1e-3
+    stance = s["contact"]
+    assert np.abs(s["forces"][~stance]).max() <= 1e-9  # no force in swing
+    assert np.abs(s["feet_pos"][stance][:, 2]).max() <= 1e-3  # stance feet on the ground
+    assert s["feet_pos"][:, :, 2].min() >= -1e-3
+
+
+def test_step_climb_keeps_swing_feet_above_the_step(anymal, step):
+    r = plan(DynTask((-0.2, 0.0, 0.0), (0.8, 0.0, 0.0), "trot", 4, 3.0), anymal, step, DynParams())
+    assert r.success, r.reason
+    feet = r.samples["feet_pos"].reshape(-1, 3)
+    clearance = feet[:, 2] - step.height(feet[:, 0], feet[:, 1])
+    assert clearance.min() >= -5e-3
+    assert r.samples["base_pos"][-1, 2] > 0.1 + 0.3  # ended on top of the step
+
+
+def test_infeasible_task_fails_with_a_reason(anymal, flat):
+    # 1.5 m in 0.8 s with one stride: far beyond the range of motion
+    r = plan(DynTask((0.0, 0.0, 0.0), (1.5, 0.0, 0.0), "walk", 1, 0.8), anymal, flat, DynParams())
+    assert not r.success
+    assert r.solve.max_violation > 1e-3 and r.reason

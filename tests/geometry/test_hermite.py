@@ -1,0 +1,58 @@
+"""Cubic Hermite node splines: interpolation of nodes, derivatives, Gram matrices, sampling matrices."""
+
+import numpy as np
+import pytest
+from scipy.integrate import quad
+
+from legplan.geometry.hermite import NodeSpline, Segment, hermite_gram, hermite_weights, sampled_jacobian
+
+
+def _poly(c, h, t, d=0):
+    return (hermite_weights(np.atleast_1d(t) / h, h, d) @ c)[0]
+
+
+@pytest.mark.parametrize("h", [0.1, 0.37, 2.0])
+def test_weights_interpolate_values_and_derivatives(h):
+    c = np.array([0.3, -1.2, 0.8, 2.5])  # p_a, v_a, p_b, v_b
+    assert _poly(c, h, 0.0) == pytest.approx(c[0])
+    assert _poly(c, h, h) == pytest.approx(c[2])
+    assert _poly(c, h, 0.0, 1) == pytest.approx(c[1])
+    assert _poly(c, h, h, 1) == pytest.approx(c[3])
+    t, eps = 0.4 * h, 1e-6
+    assert _poly(c, h, t, 1) == pytest.approx((_poly(c, h, t + eps) - _poly(c, h, t - eps)) / (2 * eps), rel=1e-6)
+    assert _poly(c, h, t, 2) == pytest.approx((_poly(c, h, t + eps, 1) - _poly(c, h, t - eps, 1)) / (2 * eps), rel=1e-5)
+
+
+@pytest.mark.parametrize("d", [0, 1, 2])
+@pytest.mark.parametrize("h", [0.15, 1.3])
+def test_gram_matrix_equals_numerical_quadrature(d, h):
+    rng = np.random.default_rng(d)
+    for _ in range(3):
+        c = rng.normal(size=4)
+        exact = c @ hermite_gram(h, d) @ c
+        numeric = quad(lambda t: _poly(c, h, t, d) ** 2, 0, h, epsabs=1e-12)[0]
+        assert exact == pytest.approx(numeric, rel=1e-9, abs=1e-12)
+
+
+def test_spline_with_constant_and_hermite_segments():
+    # stance at node 0, swing through apex node 1, stance at node 2
+    spline = NodeSpline([Segment(0, 1, 0), Segment(1, 1.5, 0, 1), Segment(1.5, 2, 1, 2), Segment(2, 3, 2)], 3)
+    nodes = np.array([[0.0], [0.0], [1.0], [2.0], [2.0], [0.0]])  # p0, v0, p1, v1, p2, v2
+    t = np.array([0.5, 1.0, 1.5, 2.0, 2.7])
+    assert (spline.matrix(t) @ nodes).ravel() == pytest.approx([0.0, 0.0, 1.0, 2.0, 2.0])
+    assert (spline.matrix(t, 1) @ nodes).ravel() == pytest.approx([0.0, 0.0, 2.0, 0.0, 0.0])
+    with pytest.raises(ValueError):
+        NodeSpline([Segment(0, 1, 0), Segment(1.2, 2, 0, 1)], 2)
+
+
+def test_sampled_jacobian_matches_dense_kron():
+    rng = np.random.default_rng(1)
+    spline = NodeSpline([Segment(0, 1, 0, 1), Segment(1, 2, 1, 2)], 3)
+    m = spline.matrix(np.array([0.2, 1.0, 1.7]), 1)
+    g = rng.normal(size=(3, 2, 3))
+    j = sampled_jacobian([(g, m)], 2, 3, 18).toarray()
+    dense = m.toarray()
+    expect = np.zeros((6, 18))
+    for i in range(3):
+        expect[2 * i:2 * i + 2] = g[i] @ np.kron(dense[i][None], np.eye(3))  # ∂r_i/∂x_i · ∂x_i/∂N
+    assert j == pytest.approx(expect)

@@ -1,0 +1,51 @@
+"""LM with hinged rows: the model step, convergence, and the agreement with plain LM on smooth rows."""
+
+import numpy as np
+import pytest
+
+from legplan.solve import FunctionBlock, LMParams, Problem, Status, VariableBlock, solve_lm
+from legplan.solve.blocks import LinearBlock
+from legplan.solve.hinged import HingedParams, hinged_norm, solve_hinged_lm
+
+
+class _Hinged(LinearBlock):
+    hinged = True
+
+
+def test_hinged_norm():
+    v = np.array([1.0, -2.0, 3.0])
+    assert hinged_norm(v, np.array([False, True, True])) == pytest.approx(np.hypot(1.0, 3.0))
+
+
+def test_root_of_equalities_and_hinges_found_in_few_steps():
+    # x0 + x1 = 1 (equality), x0 ≤ 0.2 and x1 ≤ 0.9 (hinged): the root set is x0 ∈ [0.1, 0.2]
+    p = Problem([VariableBlock("x", [2.0, 2.0])])
+    p.add_residual(LinearBlock(("x",), [np.array([[1.0, 1.0]])], 1.0))
+    p.add_residual(_Hinged(("x",), [np.eye(2)], np.array([0.2, 0.9])))
+    assert p.hinge_mask().tolist() == [False, True, True]
+    r = solve_hinged_lm(p, HingedParams(tolerance=1e-12))
+    assert r.status is Status.CONVERGED and r.iterations <= 3
+    x = r.values["x"]
+    assert x.sum() == pytest.approx(1.0) and x[0] <= 0.2 + 1e-9 and x[1] <= 0.9 + 1e-9
+
+
+def test_smooth_problem_matches_plain_lm():
+    def rosen(x):
+        return np.array([10 * (x[1] - x[0] ** 2), 1 - x[0]]), [np.array([[-20 * x[0], 10.0], [-1.0, 0.0]])]
+    runs = []
+    for solver in ("hinged", "lm"):
+        p = Problem([VariableBlock("x", [-1.2, 1.0])])
+        p.add_residual(FunctionBlock(("x",), 2, rosen))
+        r = (solve_hinged_lm(p, HingedParams(tolerance=1e-10, max_iterations=200)) if solver == "hinged"
+             else solve_lm(p, LMParams(tolerance=1e-10, max_iterations=200)))
+        assert r.success, r.reason
+        runs.append(r.values["x"])
+    assert runs[0] == pytest.approx(runs[1], abs=1e-8) and runs[0] == pytest.approx([1.0, 1.0], abs=1e-8)
+
+
+def test_function_tolerance_stops_at_a_nonzero_minimum():
+    p = Problem([VariableBlock("x", [5.0])])
+    p.add_residual(LinearBlock(("x",), [np.array([[1.0], [1.0]])], np.array([0.0, 2.0])))  # min at x = 1, ‖h‖ = √2
+    r = solve_hinged_lm(p, HingedParams(lambda_init=10.0, function_tolerance=1e-8, tolerance=0.0))
+    assert r.status is Status.CONVERGED and "function_tolerance" in r.reason
+    assert r.values["x"] == pytest.approx([1.0], abs=1e-3)
