@@ -16,7 +16,7 @@ Stopping rule (explicit): converged when the largest constraint violation is ≤
 and, if there are costs, the cost changed by less than `cost_tolerance` (relative) over the last
 outer iteration; failed when the iteration budget or `max_outer` is spent first, when the violation
 stops falling (`stall_outer` outer iterations in a row each keeping more than `stall_decrease` of
-it: an infeasible local minimum), or when LM fails numerically.
+it, with costs only once μ reached `mu_max`: an infeasible local minimum), or when LM fails numerically.
 """
 
 from __future__ import annotations
@@ -207,7 +207,8 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
         if iterations >= params.max_iterations:
             reason = f"iteration budget {params.max_iterations} spent with max violation {violation:.2e}"
             break
-        stalled = stalled + 1 if violation > params.stall_decrease * last_violation else 0
+        no_progress = violation > params.stall_decrease * last_violation and (not costs or mu >= params.mu_max)
+        stalled = stalled + 1 if no_progress else 0
         if stalled >= params.stall_outer:
             reason = (f"stalled infeasible: max violation {violation:.2e} fell by less than "
                       f"{1 - params.stall_decrease:.0%} over {params.stall_outer} outer iterations (local minimum)")
