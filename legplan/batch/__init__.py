@@ -11,6 +11,10 @@ record in item order, ready for the stage's writer:
                    inputs=[map_path, steps_path], backend=Backend(jobs=2), progress=progress) as records:
         write_motion("motion.h5", records, ...)   # atomic write; the work file goes when this ends cleanly
 
+A CLI command takes `@batch_opts` (`legplan.cli.options`: --jobs, --scheduler, --resume) and calls
+`legplan.cli.batching.run_stage(task, items, description, ..., publish=writer)`, which wraps
+`run_batch` with the progress bar and the resume hint on Ctrl-C / SIGTERM (exit 130 / 143).
+
 Contract of the task (`Task`):
 * `setup(*args)` builds the per-worker context (robot, terrain, ...) once per worker thread;
   `run(context, item) -> dict` plans one item; `failed(item, reason) -> dict` is the record of an

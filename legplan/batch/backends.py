@@ -53,9 +53,10 @@ def _init_pool_worker() -> None:
 
 class ProcessPool:
     """`--jobs N`: N worker processes (spawned, so nothing of the parent's open files or threads is
-    inherited), at most N items in flight. When a worker dies the pool breaks and every item in
-    flight is suspect: each is rerun alone in a fresh pool, where a death is its own; an item that
-    lost `LOST_WORKERS` workers so is recorded as failed. The others go on in a fresh pool."""
+    inherited), at most 2N items in flight (one queued per worker, so no worker waits for the parent
+    to hand it the next). When a worker dies the pool breaks and every item in flight is suspect:
+    each is rerun alone in a fresh pool, where a death is its own; an item that lost `LOST_WORKERS`
+    workers so is recorded as failed. The others go on in a fresh pool."""
 
     def __init__(self, jobs: int):
         self.jobs = jobs
@@ -65,7 +66,7 @@ class ProcessPool:
         while queue or suspects:
             alone = bool(suspects)
             died = yield from self._round(task, deque([suspects.popleft()]) if alone else queue,
-                                          1 if alone else self.jobs)
+                                          1 if alone else 2 * self.jobs)
             if len(died) > 1:
                 suspects.extend(died)
                 continue
@@ -80,7 +81,7 @@ class ProcessPool:
     def _round(self, task, source: deque, limit: int):
         """Run `source` on a fresh pool with at most `limit` items in flight; yields finished
         items, returns the items in flight when the pool broke (empty when all finished)."""
-        pool = ProcessPoolExecutor(limit, mp_context=multiprocessing.get_context("spawn"),
+        pool = ProcessPoolExecutor(min(limit, self.jobs), mp_context=multiprocessing.get_context("spawn"),
                                    initializer=_init_pool_worker)
         running: dict = {}
         try:
