@@ -8,7 +8,7 @@ bench/step_plan.py builds it, or --map/--steps), both variants of bench/step_pla
 generated' pairs and 'whole swings'). Ours: `legplan.stepplan.plan_sequence` (Bézier + LM); OMPL:
 constrained RRT-Connect (`legplan.baselines.step`, atlas space unless --space) with --step-budget
 seconds per step. Both judged by the same dense check (worst stance-foot slip, CoM margin,
-clearance; eq. (5) length and roughness — exact for the Bézier curve, finite differences of the
+clearance shortfall with the swing-foot ramp; eq. (5) length and roughness — exact for the Bézier curve, finite differences of the
 dense samples for the OMPL polyline, see legplan/baselines/step.py).
 
 Navigation: maps/nav_30m.yaml, --queries seeded start/goal pairs of bench/nav_search.py
@@ -57,7 +57,7 @@ def step_rows(records) -> dict:
             "max_time": float(max(r["seconds"] for r in records)),
             "worst_slip_mm": 1e3 * max((d["foot_slip"] for d in dense), default=float("nan")),
             "worst_com_margin_mm": 1e3 * min((d["com_margin"] for d in dense), default=float("nan")),
-            "worst_clearance_mm": 1e3 * min((d["clearance"] for d in dense), default=float("nan")),
+            "worst_clearance_shortfall_mm": 1e3 * max((d["shortfall_clearance"] for d in dense), default=float("nan")),
             "median_length": _median([r["dense"]["length"] for r in ok]),
             "median_roughness2": _median([r["dense"]["roughness2"] for r in ok]),
             "median_roughness3": _median([r["dense"]["roughness3"] for r in ok]),
@@ -139,18 +139,19 @@ def markdown(result) -> list[str]:
              f"OMPL = constrained RRT-Connect ({steps['ompl_params']['space']} space, "
              f"{steps['ompl_params']['time_budget']:g} s per step, seed {steps['ompl_params']['seed']} + step index), "
              "same inequality constraints (CoM, 2 cm clearance with the swing-foot relaxation, joint limits), "
-             "both judged by the same dense check (1000 samples, pinocchio FK + FCL). Path terms of eq. (5) in "
+             "both judged by the same dense check (1000 samples, pinocchio FK + FCL; every constraint, a step short "
+             "on any fails; clearance shortfall = required − measured, ≤ 0 kept). Path terms of eq. (5) in "
              "x-space units: exact for the Bézier curve, finite differences of the dense samples for the OMPL "
              "polyline (roughness3 of a polyline grows as 1/h: not comparable, listed for completeness).\n",
              "| variant | planner | succeeded | median time [s] | mean time [s] | max time [s] | worst slip [mm] | "
-             "worst CoM margin [mm] | worst clearance [mm] | median length | median ∫‖π''‖ | median ∫‖π'''‖ |",
+             "worst CoM margin [mm] | worst clearance shortfall [mm] | median length | median ∫‖π''‖ | median ∫‖π'''‖ |",
              "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for variant, rows in steps["variants"].items():
         for who, row in rows.items():
             lines.append(f"| {variant} | {'ours (Bézier + LM)' if who == 'ours' else 'OMPL RRT-Connect'} | "
                          f"{row['succeeded']}/{row['planned']} | {row['median_time']:.3g} | {row['mean_time']:.3g} | "
                          f"{row['max_time']:.3g} | {row['worst_slip_mm']:.3g} | {row['worst_com_margin_mm']:.3g} | "
-                         f"{row['worst_clearance_mm']:.3g} | {row['median_length']:.3g} | "
+                         f"{row['worst_clearance_shortfall_mm']:.3g} | {row['median_length']:.3g} | "
                          f"{row['median_roughness2']:.3g} | {row['median_roughness3']:.3g} |")
     lines += ["", f"Navigation: maps/nav_30m.yaml, {len(nav['queries'])} seeded queries of bench/nav_search.py "
               f"(seed {result['seed']}), jueying_mini (l1 = {nav['l1']:g} m, v_max = {nav['v_max']:g} m/s, "

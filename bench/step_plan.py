@@ -1,7 +1,7 @@
 """Benchmark of `legplan step plan` against Table II of the Bézier step-planning paper.
 
     .venv/bin/python bench/step_plan.py [--map map.h5 --steps steps.h5] [--jobs 1] [--profile-steps 5]
-                                        [--stall-window 10]
+                                        [--stall-window 10] [--compare REV]
 
 Without --map/--steps the gap-crossing scenario is built (`legplan map build maps/gap_crossing.yaml`)
 and a step sequence generated (`legplan steps generate`, scarab2). Every consecutive pair is planned
@@ -10,7 +10,12 @@ bench/results/step_plan.json and replaces its section of BENCHMARKS.md (Table II
 plus the time breakdown) with machine, date and load average. With --stall-window W the whole swings are
 planned a second time with the opt-in SolveLM stall stop (`stall_window=W`, a departure from
 Algorithm 1) and reported as a third column. A profiled pass over a few non-trivial steps
-attributes the time to kinematics, SDF, residual terms, JᵀJ assembly, Schur + factorisation.
+attributes the time to kinematics, terrain distance, residual terms, JᵀJ assembly, Schur +
+factorisation. With --compare REV the same benchmark of git revision REV (its own code and bench
+script, exported with `git archive`) runs first in the same session, on its own map and generated
+sequence, and its columns join the table (the machine is shared: timings drift with its load).
+Every step is judged on every constraint on the dense re-sampling (`legplan.stepplan.measure`);
+the worst shortfall per constraint is reported with its tolerance.
 """
 
 from __future__ import annotations
@@ -22,6 +27,7 @@ import datetime
 import json
 import os
 import pstats
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -42,7 +48,7 @@ LABELS = {"steps_planned": "Steps planned", "steps_succeeded": "Steps succeeded"
 # where the time goes: (label, substring of "file:function" in the profile), cumulative seconds
 PROFILE_GROUPS = (("robot kinematics (pinocchio FK + Jacobians)", "robots/kinematics.py:_compute"),
                   ("vector parametrization (tangent map, from_vector)", "robots/model.py:tangent_map"),
-                  ("SDF lookups", "sdf.py:value_and_gradient"),
+                  ("terrain distance lookups", "columns.py:value_and_gradient"),
                   ("constraint rows (contact terms + slacks)", "stepplan/block.py:evaluate"),
                   ("structured JᵀJ (kron) terms", "solve/curve.py:normal_terms"),
                   ("normal-equation assembly", "solve/problem.py:_finish"),
@@ -109,6 +115,19 @@ def profile_breakdown(seq, map_path, params, indices) -> dict[str, float]:
     return out
 
 
+def compare_revision(revision: str, jobs: int) -> dict:
+    """Result JSON of this benchmark at git revision `revision` (exported to a temporary tree, run
+    there with its own code, no BENCHMARKS.md update), with its load averages."""
+    with tempfile.TemporaryDirectory() as tree:
+        archive = subprocess.run(["git", "archive", revision], cwd=ROOT, capture_output=True, check=True).stdout
+        subprocess.run(["tar", "-x", "-C", tree], input=archive, check=True)
+        env = {**os.environ, "PYTHONPATH": tree}
+        subprocess.run([sys.executable, str(Path(tree) / "bench" / "step_plan.py"), "--no-append",
+                        "--jobs", str(jobs), "--profile-steps", "0"], cwd=tree, env=env, check=True,
+                       stdout=subprocess.DEVNULL)
+        return json.loads((Path(tree) / "bench" / "results" / "step_plan.json").read_text())
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--map", type=Path)
@@ -122,12 +141,16 @@ def main(argv=None) -> int:
     ap.add_argument("--stall-window", type=int, default=0,
                     help="also plan the whole swings with the opt-in SolveLM stall stop (stall_window=W)")
     ap.add_argument("--no-append", action="store_true", help="do not update BENCHMARKS.md")
+    ap.add_argument("--compare", metavar="REV", help="also run this bench of git revision REV first, same session")
     args = ap.parse_args(argv)
+    before = compare_revision(args.compare, args.jobs) if args.compare else {}
 
     from legplan.batch import Backend, Task, run_batch
     from legplan.stepplan.batch import StepWorker, failed_item, plan_item, step_items, table2
+    from legplan.stepplan.measure import requirements
     from legplan.stepplan.params import StepPlanParams
     from legplan.stepseq.sequence import read_steps
+    from legplan.validate.judge import CONSTRAINTS
 
     params = StepPlanParams.from_overrides(dict(p.split("=", 1) for p in args.param))
     load_before = os.getloadavg()
@@ -179,15 +202,25 @@ def main(argv=None) -> int:
             "summary": summary, "lm_timings_total_s": timings,
             "degrees": [int(r.get("degree", 0)) for r in records], "times_s": [float(r["seconds"]) for r in records],
             "failures": {int(r["index"]): r["reason"] for r in records if not r["success"]}}
+    if before:
+        result["compare"] = {"revision": args.compare, **before}
+        lines[-2] = lines[-2].replace(" | paper |", "".join(f" | {args.compare}, {name}" for name in before["variants"])
+                                      + " | paper |")
+        lines[-1] += "---|" * len(before["variants"])
     for key, label in LABELS.items():
         scale = 1e3 if key == "worst_violation" else 1.0
         cells = [f"{summaries[name][key] * scale:.4g}" for name in variants]
+        cells += [f"{info['summary'][key] * scale:.4g}" for info in before.get("variants", {}).values()]
         lines.append(f"| {label} | {' | '.join(cells)} | {PAPER[key] * scale:.4g} |")
+    tolerance = requirements(params).tolerances()
     for name, info in result["variants"].items():
         summary, timings = info["summary"], info["lm_timings_total_s"]
         lm_total = sum(timings.values())
-        lines.append(f"\n{name}: dense re-check worst CoM margin {summary['worst_com_margin'] * 1e3:.2f} mm, "
-                     f"clearance {summary['worst_clearance'] * 1e3:.2f} mm, joint excess {summary['worst_joint_excess']:.2e} rad; "
+        worst = ", ".join(f"{key} {summary[f'worst_shortfall_{key}'] * 1e3:.4g} m{unit} (tolerance "
+                          f"{tolerance[key] * 1e3:g})" for key, unit in CONSTRAINTS.items())
+        lines.append(f"\n{name}: {len(info['failures'])} steps failed; dense re-check (every constraint, exact terrain "
+                     f"distance) worst shortfall, ≤ 0 kept: {worst}; "
+                     f"worst CoM margin {summary['worst_com_margin'] * 1e3:.2f} mm; "
                      f"degree reached per step (count for d = 0..): {np.bincount(info['degrees']).tolist()}; "
                      f"max time {max(info['times_s']):.2f} s; LM time split: "
                      + ", ".join(f"{k} {v:.2f} s ({v / max(lm_total, 1e-12):.0%})" for k, v in timings.items()))

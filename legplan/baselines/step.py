@@ -10,8 +10,10 @@ planners solve the same problem (like the Bézier planner, neither end configura
 (`path_vectors`, end rotation vector unwrapped towards the start).
 
 The result is a piecewise-linear x-space path through the manifold states of the interpolated
-OMPL solution. It is judged like a Bézier step (`legplan.stepplan.measure.check_path`): re-sampled
-at `dense_samples` points uniform in x-space arc length and checked by the independent validator.
+OMPL solution. It is judged like a Bézier step, by the same rules (`legplan.stepplan.measure.check_path`
+and `judged`): re-sampled at `dense_samples` points uniform in x-space arc length and checked by the
+independent validator; a path that misses a constraint there is a failure naming it. Validity and
+planning use the exact terrain distance (`legplan.terrain.ColumnDistance`), as the Bézier planner.
 Quality terms of eq. (5) with t ∈ [0, 1] proportional to arc length, by finite differences of
 the dense samples (spacing h = 1/(n − 1)): length = Σ‖Δx‖ (a sample chord cuts each corner, so
 it is the waypoint polyline's length to ~1e-4 relative at 1000 samples), roughness2 = Σ‖Δ²x‖/h (the
@@ -56,6 +58,7 @@ class StepBaselineParams:
     relax_radius: float = 0.05
     com_margin: float = 0.0
     dense_samples: int = 1000
+    judge_tolerance: float = 1e-5
 
     def __post_init__(self):
         if self.space not in CONSTRAINED_SPACES:
@@ -70,6 +73,11 @@ class StepBaselineParams:
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
+
+    @property
+    def sample_clearance(self) -> float:
+        """Clearance of a valid state: `clearance` itself (no sample headroom: OMPL checks its motions)."""
+        return self.clearance
 
     @property
     def planner(self) -> str:
@@ -143,18 +151,22 @@ class StepBaselineWorker:
 
     def __init__(self, robot_name: str, map_path: str, params: StepBaselineParams):
         from legplan.robots import load_robot
+        from legplan.stepplan.measure import requirements
+        from legplan.stepplan.planner import terrain_distance
         from legplan.terrain import load_map
         from legplan.validate.checks import Validator
 
         self.robot = load_robot(robot_name)
         self.terrain = load_map(map_path)
+        self.distance = terrain_distance(self.robot, self.terrain, params)
         self.validator = Validator(self.robot, self.terrain)
         self.params = params
+        self.required = requirements(params)
 
     def plan(self, index: int, q_start, q_end, stance, footholds) -> dict:
         """Plan and judge one step; never raises (a failure is a record with a reason)."""
         from legplan.baselines.constrained import StanceConstraint, plan_constrained
-        from legplan.stepplan.measure import check_path
+        from legplan.stepplan.measure import check_path, judged
         from legplan.stepplan.planner import path_vectors
 
         p, robot = self.params, self.robot
@@ -164,7 +176,7 @@ class StepBaselineWorker:
                   "stance": np.asarray(stance, bool), "footholds": footholds}
         try:
             x0, x1 = path_vectors(robot, np.asarray(q_start, float), np.asarray(q_end, float))
-            valid = step_validity(robot, self.terrain.sdf, x0, x1, stance, footholds, p)
+            valid = step_validity(robot, self.distance, x0, x1, stance, footholds, p)
             constraint = StanceConstraint(robot, stance, footholds, p.tolerance)
             low, high = ambient_bounds(robot, x0, x1, p)
             result = plan_constrained(constraint, valid, x0, x1, low, high, space=p.space,
@@ -181,8 +193,8 @@ class StepBaselineWorker:
             record["waypoints"] = result.waypoints
             dense = polyline_samples(result.waypoints, p.dense_samples)
             check = check_path(robot, self.validator, dense, stance, footholds, polyline_quality(dense),
-                               p.relax_radius)
-            record["dense"] = check.as_dict()
+                               self.required)
+            judged(record, check, self.required)
         return record
 
 

@@ -72,9 +72,13 @@ def import_cmd(path, robot_name, map_path, strict, foot_tolerance, output, overw
 @verbosity_opts
 @click.pass_context
 def generate_cmd(ctx, map_path, robot_name, start, goal, max_moves, output, overwrite, seed):
-    """Plan a gait-free step sequence on the map's foothold mask (whole-body IK per configuration)."""
+    """Plan a gait-free step sequence on the map's foothold mask (whole-body IK per configuration).
+
+    Every configuration is judged independently (stance feet, CoM margin, clearance, joint limits);
+    rows that miss one are named on stderr and recorded in the artefact (exit 1)."""
     from legplan.artefacts import check_output
     from legplan.stepseq import GenerateParams, GenerationError, generate_steps, write_steps
+    from legplan.validate.judge import row_failures
 
     check_output(output, overwrite)
     robot, terrain, validator = _load(robot_name, map_path)
@@ -95,10 +99,15 @@ def generate_cmd(ctx, map_path, robot_name, start, goal, max_moves, output, over
 
     write_steps(output, seq, checks, params={"robot": robot_name, "start": list(start),
                                               "goal": list(goal), **params.__dict__},
-                seed=seed, inputs=[map_path], overwrite=overwrite, extra=extra)
+                seed=seed, inputs=[map_path], overwrite=overwrite, extra=extra,
+                judged=(generated.shortfalls, params.requirements()))
     status(f"wrote {output}: {len(seq)} configurations, {len(generated.moves)} leg moves")
+    missed = row_failures(generated.shortfalls, params.requirements())
+    for line in missed:
+        stderr_line(f"{output}: {line}", "Requirement missed:")
     if not generated.success:
         stderr_line(generated.reason, "Generation stopped:")
+    if missed or not generated.success:
         ctx.exit(1)
 
 

@@ -102,8 +102,46 @@ def sphere_margins(robot, mode: ContactMode) -> np.ndarray:
     return margins
 
 
+def swing_foot_margin(distance, radii, clearance: float, epsilon: float, relax_radius: float):
+    """Required clearance of swing-foot spheres near their lift-off and touch-down positions.
+
+    A sphere of radius r whose centre lies `distance` from the nearer of its two end positions must
+    keep a clearance ramping linearly from −(r + ε) at the end (the tip may touch the foothold,
+    within the foot tolerance ε) to `clearance` at distance ≥ `relax_radius` (paper Sec. IV: "2 cm
+    collision margin locally relaxed around the footholds"). Returns (margin, d margin / d distance).
+    """
+    distance = np.asarray(distance, float)
+    floor = -(np.asarray(radii, float) + epsilon)
+    span = clearance - floor
+    ramp = np.clip(distance / relax_radius, 0.0, 1.0)
+    slope = span / relax_radius * ((distance > 0) & (distance < relax_radius))
+    return floor + span * ramp, slope
+
+
+def nearest_end(centres, ends):
+    """Distance (n, k) of sphere centres (n, k, 3) to the nearer of their end positions (2, k, 3),
+    and the unit vector (n, k, 3) from that end to the centre."""
+    diff = np.asarray(centres)[None] - np.asarray(ends)[:, None]     # (2, n, k, 3)
+    dist = np.linalg.norm(diff, axis=-1)
+    nearest = np.argmin(dist, axis=0)
+    d = np.take_along_axis(dist, nearest[None], 0)[0]
+    unit = np.take_along_axis(diff, nearest[None, ..., None], 0)[0] / np.maximum(d, 1e-12)[..., None]
+    return d, unit
+
+
+def collision_reach(robot, clearance: float) -> float:
+    """A terrain distance beyond every one at which a collision row can be active (clearance +
+    largest sphere radius, + 1 mm so that rounding leaves a row at a saturated distance inactive): a
+    terrain distance exact up to this and saturated above it makes every row of `collision_terms` exact."""
+    return float(clearance + np.max(robot.spheres.radii, initial=0.0) + 1e-3)
+
+
 def collision_terms(robot, X, mode: ContactMode, sdf, Q=None):
-    """Inequality g = margin - (sdf(c) - radius) <= 0 per checked sphere: (n, s), (n, s, nx)."""
+    """Inequality g = margin - (sdf(c) - radius) <= 0 per checked sphere: (n, s), (n, s, nx).
+
+    `sdf` is any terrain distance with `value_and_gradient(points)`: the exact column distance
+    (`legplan.terrain.ColumnDistance`) or the trilinear SDF lookup.
+    """
     X = np.atleast_2d(X)
     Q = robot.from_vector(X) if Q is None else Q
     margins = sphere_margins(robot, mode)

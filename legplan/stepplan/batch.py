@@ -8,15 +8,18 @@ motion.h5 (kind "motion"):
                  stance (n_legs,) legs held on their footholds, footholds (n_legs, 3),
                  lm_iterations (per degree tried, from d = 1), degree_norms ‖F̃‖ per degree,
                  timings/{evaluate,assemble,factorize,solve} s,
-                 dense/{foot_slip, com_margin, clearance, joint_excess, length, roughness2, roughness3}
+                 dense/{foot_slip, com_margin, joint_excess, shortfall_* per constraint,
+                        length, roughness2, roughness3} (`legplan.stepplan.measure`)
                A record of another planner (legplan.baselines) carries `waypoints` (k, nx), a
                piecewise-linear x-space path, instead of control_points / degree / LM data, and
                its own attrs (`record["attrs"]`); `dense` and `timings` are written for both.
-  /summary     Table II rows (see `table2`).
+  root attr    requirements (JSON): what the dense re-check requires, `legplan.validate.judge`
+  /summary     Table II rows (see `table2`) and the tolerance of each judged constraint.
 """
 
 from __future__ import annotations
 
+import json
 import logging
 import time
 import traceback
@@ -25,9 +28,9 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from legplan.artefacts import open_artefact, require, write_artefact, write_dataset, write_summary
-from legplan.stepplan.measure import DENSE_UNITS, dense_check
+from legplan.stepplan.measure import DENSE_UNITS, dense_check, judged, requirements
 from legplan.stepplan.params import StepPlanParams
-from legplan.stepplan.planner import plan_step
+from legplan.stepplan.planner import plan_step, terrain_distance
 
 log = logging.getLogger(__name__)
 
@@ -42,7 +45,7 @@ def motion_stance(stance_a, stance_b, footholds_a, footholds_b, tol: float = 1e-
 
 
 class StepWorker:
-    """Everything one process needs: robot, terrain SDF and independent validator, loaded once."""
+    """Everything one process needs: robot, exact terrain distance and independent validator, loaded once."""
 
     def __init__(self, robot_name: str, map_path: str, params: StepPlanParams):
         from legplan.robots import load_robot
@@ -51,8 +54,10 @@ class StepWorker:
 
         self.robot = load_robot(robot_name)
         self.terrain = load_map(map_path)
+        self.distance = terrain_distance(self.robot, self.terrain, params)
         self.validator = Validator(self.robot, self.terrain)
         self.params = params
+        self.required = requirements(params)
 
     def plan(self, index: int, q_start, q_end, stance, footholds) -> dict:
         """Plan one step and judge it; never raises (a failure is a record with a reason)."""
@@ -60,7 +65,7 @@ class StepWorker:
         record = {"index": index, "q_start": np.asarray(q_start), "q_end": np.asarray(q_end),
                   "stance": np.asarray(stance, bool), "footholds": np.nan_to_num(np.asarray(footholds), nan=0.0)}
         try:
-            plan = plan_step(self.robot, self.terrain.sdf, q_start, q_end, stance, record["footholds"], self.params)
+            plan = plan_step(self.robot, self.distance, q_start, q_end, stance, record["footholds"], self.params)
         except Exception as exc:  # a bad pair must not stop the batch
             log.debug("step %d raised:\n%s", index, traceback.format_exc())
             record.update(success=False, reason=f"{type(exc).__name__}: {exc}", seconds=time.perf_counter() - t0)
@@ -70,9 +75,8 @@ class StepWorker:
                       lm_iterations=np.array([d.iterations for d in plan.degrees]),
                       degree_norms=np.array([d.norm for d in plan.degrees]))
         check = dense_check(self.robot, self.validator, plan.control_points, stance, record["footholds"],
-                            self.params.dense_samples, self.params.relax_radius)
-        record["dense"] = check.as_dict()
-        return record
+                            self.params.dense_samples, self.required)
+        return judged(record, check, self.required)
 
 
 def step_items(seq, indices: Sequence[int]) -> list[tuple]:
@@ -122,7 +126,8 @@ def plan_sequence(seq, map_path, params: StepPlanParams, indices: Sequence[int],
 
 def table2(records: Sequence[dict]) -> dict:
     """Table II quantities: steps planned / succeeded, worst violation (dense stance-foot slip, all
-    steps incl. failed), planning-time mean / median / mean for t < 50 s / mean for 1 s < t < 50 s."""
+    steps incl. failed), planning-time mean / median / mean for t < 50 s / mean for 1 s < t < 50 s;
+    then the worst dense values and the worst shortfall per judged constraint (> 0: failed)."""
     times = np.array([r["seconds"] for r in records], float)
     dense = [r["dense"] for r in records if "dense" in r]
 
@@ -142,8 +147,9 @@ def table2(records: Sequence[dict]) -> dict:
         "mean_time_below_50s": (mean(times < 50), "s"),
         "mean_time_1s_to_50s": (mean((times > 1) & (times < 50)), "s"),
         "worst_com_margin": (worst("com_margin", min), "m"),
-        "worst_clearance": (worst("clearance", min), "m"),
         "worst_joint_excess": (worst("joint_excess", max), "rad"),
+        **{f"worst_{key}": (worst(key, max), unit)
+           for key, unit in DENSE_UNITS.items() if key.startswith("shortfall_")},
     }
 
 
@@ -151,9 +157,13 @@ def write_motion(path, records: Sequence[dict], robot: str, params: StepPlanPara
                  overwrite: bool = False, attrs: dict | None = None) -> dict:
     """Write motion.h5 (layout in the module docstring; `attrs`: extra root attributes, e.g. the
     planner of a baseline); returns the summary rows. `params` is anything with `as_dict()`."""
+    required = requirements(params)
     summary = table2(records)
+    summary.update({f"tolerance_{key}": (value, DENSE_UNITS[f"shortfall_{key}"])
+                    for key, value in required.tolerances().items()})
     with write_artefact(path, "motion", params=params.as_dict(), inputs=inputs, overwrite=overwrite) as f:
         f.attrs["robot"] = robot
+        f.attrs["requirements"] = json.dumps(required.as_dict())
         f.attrs["parametrization"] = PARAMETRIZATION
         for key, value in (attrs or {}).items():
             f.attrs[key] = value

@@ -20,8 +20,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from legplan.contact.terms import (ContactMode, collision_terms, com_terms, joint_limit_terms,
-                                   sphere_margins, stance_foot_terms)
+from legplan.contact.terms import (ContactMode, collision_terms, com_terms, joint_limit_terms, nearest_end,
+                                   sphere_margins, stance_foot_terms, swing_foot_margin)
 from legplan.geometry.bezier import bernstein_matrix
 from legplan.solve.curve import SampledCurveBlock
 from legplan.solve.inequality import hinge
@@ -93,9 +93,8 @@ class SampleConstraints:
         """Collision rows of swing-foot spheres whose margin is relaxed near the swing footholds.
 
         `swing_ends` (2, n_spheres, 3): sphere centres at q_start and q_end. The required clearance
-        of a swing-foot sphere at centre c ramps linearly from −(radius + ε) (the tip may touch the
-        foothold, within the foot tolerance ε) at either end position to `mode.clearance` at distance
-        ≥ `relax_radius` (Sec. IV: "2 cm collision margin locally relaxed around the footholds").
+        of a swing-foot sphere follows `legplan.contact.terms.swing_foot_margin` with ε the sample
+        slack bound: the tip may touch at either end, `mode.clearance` from `relax_radius` on.
         """
         margins = sphere_margins(self.robot, self.mode)
         checked = np.flatnonzero(~np.isnan(margins))
@@ -108,23 +107,17 @@ class SampleConstraints:
         self.relax_radius = float(radius)
         if self.relaxed_spheres.size:
             self.relax_ends = np.asarray(swing_ends, float)[:, self.relaxed_spheres]
-            r = np.asarray(spheres.radii, float)[self.relaxed_spheres]
-            self.relax_floor = -(r + self.epsilon) - self.mode.foot_clearance  # relative to the term's margin
-            self.relax_span = self.mode.clearance + r + self.epsilon
+            self.relax_radii = np.asarray(spheres.radii, float)[self.relaxed_spheres]
 
     def _relaxed_margin(self, X, Q, jacobians: bool):
-        """Margin change (n, k) of the relaxed rows and its Jacobian (n, k, nx) (see `_relaxation`)."""
-        c = self.robot.sphere_centres(Q)[:, self.relaxed_spheres]
-        diff = c[None] - self.relax_ends[:, None]                      # (2, n, k, 3)
-        dist = np.linalg.norm(diff, axis=-1)
-        nearest = np.argmin(dist, axis=0)                                # (n, k)
-        d = np.take_along_axis(dist, nearest[None], 0)[0]
-        ramp = np.clip(d / self.relax_radius, 0.0, 1.0)
-        delta = self.relax_floor + self.relax_span * ramp
+        """Margin change (n, k) of the relaxed rows (relative to the term's margin `foot_clearance`)
+        and its Jacobian (n, k, nx) (see `_relaxation`)."""
+        d, unit = nearest_end(self.robot.sphere_centres(Q)[:, self.relaxed_spheres], self.relax_ends)
+        margin, slope = swing_foot_margin(d, self.relax_radii, self.mode.clearance, self.epsilon,
+                                          self.relax_radius)
+        delta = margin - self.mode.foot_clearance
         if not jacobians:
             return delta, None
-        unit = np.take_along_axis(diff, nearest[None, ..., None], 0)[0] / np.maximum(d, 1e-12)[..., None]
-        slope = self.relax_span / self.relax_radius * ((d > 0) & (d < self.relax_radius))
         jac_c = np.einsum("nkav,nvx->nkax", self.robot.sphere_jacobians(Q)[:, self.relaxed_spheres],
                           self.robot.tangent_map(X))
         return delta, np.einsum("nk,nka,nkax->nkx", slope, unit, jac_c)

@@ -1,9 +1,10 @@
 """Independent judgement of a planned step: dense re-sampling checked with pinocchio FK + FCL.
 
-The planner samples its constraints at N points with its own residual code (SDF, batch kinematics);
-here the finished curve is re-sampled at ≥ 1000 parameters and every configuration is checked by
-`legplan.validate.Validator` (pinocchio frame placements, FCL distance to the triangulated
-heightmap), which shares no code with the residuals. Path quality: the terms of eq. (5),
+The planner samples its constraints at N points with its own residual code (terrain distance,
+batch kinematics); here the finished path is re-sampled at ≥ 1000 parameters and every
+configuration is judged by `legplan.validate.judge` (pinocchio frame placements, FCL distance to
+the triangulated heightmap), which shares no code with the residuals. A step keeps its success only
+when every constraint is kept on the dense samples (`judge`). Path quality: the terms of eq. (5),
 ∫‖π^(k)‖ dt for k = 1, 2, 3, from the control points (x-space: metres and radians mixed).
 """
 
@@ -14,17 +15,22 @@ from dataclasses import asdict, dataclass
 import numpy as np
 
 from legplan.geometry.bezier import derivative_norm_integrals, evaluate
+from legplan.validate.judge import CONSTRAINTS, Requirements, failures, shortfalls
 
 
 @dataclass(frozen=True)
 class DenseCheck:
-    """Worst values over the dense samples (units: m, m, m, rad)."""
+    """Worst values over the dense samples (units: m, m, rad; shortfalls as `legplan.validate.judge`:
+    the clearance shortfall is required clearance − clearance, so 2 cm − the smallest clearance of a
+    body or leg sphere when that is the worst)."""
 
     foot_slip: float  # largest stance-foot distance from its foothold
     com_margin: float  # smallest signed CoM distance to the support-polygon edges (< 0: outside)
-    clearance: float  # smallest sphere-terrain clearance (< 0: collision); see `dense_check`
-    swing_foot_tip: float  # smallest terrain distance of a swing-foot sphere centre, whole path
     joint_excess: float  # largest excursion beyond a joint limit (0 inside)
+    shortfall_foot_slip: float  # worst shortfall per constraint: ≤ 0 kept, > 0 failed
+    shortfall_com_margin: float
+    shortfall_clearance: float
+    shortfall_joint_limits: float
     length: float  # ∫‖π'‖ dt
     roughness2: float  # ∫‖π''‖ dt
     roughness3: float  # ∫‖π'''‖ dt
@@ -32,57 +38,58 @@ class DenseCheck:
     def as_dict(self) -> dict[str, float]:
         return asdict(self)
 
+    def shortfalls(self) -> dict[str, float]:
+        return {name: getattr(self, f"shortfall_{name}") for name in CONSTRAINTS}
 
-DENSE_UNITS = {"foot_slip": "m", "com_margin": "m", "clearance": "m", "swing_foot_tip": "m", "joint_excess": "rad",
+
+DENSE_UNITS = {"foot_slip": "m", "com_margin": "m", "joint_excess": "rad",
+               **{f"shortfall_{name}": unit for name, unit in CONSTRAINTS.items()},
                "length": "", "roughness2": "", "roughness3": ""}
 
 
-def dense_check(robot, validator, control_points, stance, footholds, samples: int = 1000,
-                relax_radius: float = 0.05) -> DenseCheck:
-    """Check the Bézier path of `control_points` (x-space) at `samples` uniform parameters.
+def requirements(params) -> Requirements:
+    """What a step of a planner with these settings (`StepPlanParams` or the baseline's) must keep:
+    stance feet within ε, the CoM margin, `clearance` for every sphere but the stance feet with the
+    swing-foot ramp within `relax_radius` of the swing ends, joint limits; each inequality within
+    the tolerance `judge_tolerance`."""
+    return Requirements(foot_slip=params.epsilon, com_margin=params.com_margin, clearance=params.clearance,
+                        foot_clearance=params.clearance, relax_radius=params.relax_radius,
+                        tolerance=params.judge_tolerance)
+
+
+def dense_check(robot, validator, control_points, stance, footholds, samples: int,
+                required: Requirements) -> DenseCheck:
+    """Judge the Bézier path of `control_points` (x-space) at `samples` uniform parameters.
 
     The constraints are judged by `check_path`; the quality terms are the exact eq. (5) integrals
     ∫‖π^(k)‖ dt, k = 1, 2, 3, of the Bézier curve.
     """
     t = np.linspace(0.0, 1.0, samples)
     quality = derivative_norm_integrals(control_points, orders=(1, 2, 3))
-    return check_path(robot, validator, evaluate(control_points, t), stance, footholds, quality, relax_radius)
+    return check_path(robot, validator, evaluate(control_points, t), stance, footholds, quality, required)
 
 
-def check_path(robot, validator, X, stance, footholds, quality, relax_radius: float = 0.05) -> DenseCheck:
+def check_path(robot, validator, X, stance, footholds, quality, required: Requirements) -> DenseCheck:
     """Judge the dense samples X (n, nx) (x-space, in path order) of any path between two footholds.
 
     `quality` holds the path's (length, roughness2, roughness3) terms of eq. (5), computed by the
-    caller for its kind of path.
-
-    Clearance is the FCL surface distance of each sphere centre minus its radius, over all spheres
-    except stance feet and except swing-foot spheres within `relax_radius` of their lift-off or
-    touch-down position (the first and last sample, where the planner lets the foot reach the
-    terrain); there the swing foot is judged by `swing_foot_tip`, the surface distance of its
-    sphere centre (the foot point for robots whose foot sphere sits on the foot frame) — ≥ −ε
-    means it never sinks into the terrain.
+    caller for its kind of path. The swing-foot ramp is measured from the first and last sample.
     """
     Q = robot.from_vector(np.asarray(X, float))
-    n = len(Q)
-    stance = np.asarray(stance, bool)
-    checks = validator.check(Q, np.broadcast_to(stance, (n, len(stance))),
-                             np.broadcast_to(np.asarray(footholds, float), (n,) + np.shape(footholds)))
-    slip = np.nan_to_num(checks.foot_slip, nan=0.0)
-    _, centres, _ = validator.kinematics(Q)
-    spheres = robot.spheres
-    legs = np.asarray(spheres.leg_index)
-    on_stance_leg = np.where(legs >= 0, stance[np.maximum(legs, 0)], False)
-    is_foot = np.asarray(spheres.is_foot, bool)
-    checked = np.broadcast_to(~(is_foot & on_stance_leg), (n, len(legs))).copy()
-    swing_feet = np.flatnonzero(is_foot & ~on_stance_leg & (legs >= 0))
-    tip = np.inf
-    if swing_feet.size:
-        tip = float(validator.surface.signed_distance(centres[:, swing_feet].reshape(-1, 3)).min())
-        ends = centres[[0, -1]][:, swing_feet]
-        near = np.linalg.norm(centres[:, None, swing_feet] - ends[None], axis=-1).min(axis=1) < relax_radius
-        checked[:, swing_feet] &= ~near
-    gap = validator.surface.signed_distance(centres[checked]) - np.asarray(spheres.radii)[np.nonzero(checked)[1]]
-    return DenseCheck(foot_slip=float(slip.max(initial=0.0)), com_margin=float(checks.com_margin.min()),
-                      clearance=float(gap.min(initial=np.inf)), swing_foot_tip=tip,
+    worst, checks = shortfalls(validator, Q, stance, footholds, required, path=True)
+    return DenseCheck(foot_slip=float(np.nan_to_num(checks.foot_slip, nan=0.0).max(initial=0.0)),
+                      com_margin=float(checks.com_margin.min()),
                       joint_excess=float(checks.joint_excess.max(initial=0.0)),
+                      **{f"shortfall_{k}": float(v.max()) for k, v in worst.items()},
                       length=float(quality[0]), roughness2=float(quality[1]), roughness3=float(quality[2]))
+
+
+def judged(record: dict, check: DenseCheck, required: Requirements) -> dict:
+    """`record` with its dense check; a planner success that misses a constraint on the dense samples
+    becomes a failure naming the constraints."""
+    record["dense"] = check.as_dict()
+    missed = failures(check.shortfalls(), required)
+    if record["success"] and missed:
+        record["success"] = False
+        record["reason"] = "dense re-check: " + "; ".join(missed)
+    return record

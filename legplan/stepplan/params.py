@@ -13,7 +13,15 @@ Extras (not in Table I, chosen here):
   swing-foot spheres it is relaxed within `relax_radius` = 5 cm of the swing leg's lift-off and
   touch-down positions, down to "the tip may touch, within ε" (`SampleConstraints`).
   `com_margin` = 0 (CoM inside the support polygon, Sec. II-B item 2).
-* `dense_samples`: parameters t at which the finished path is re-checked independently (≥ 1000).
+* `clearance_headroom`: the samples require `clearance` + clearance_headroom / N (0.5 mm at
+  N = 100), so that the curve between them keeps `clearance` (as `slack_fraction` does for ε). The
+  swing-foot ramp has kinks (where it reaches `clearance`, and where the nearer end switches), so a
+  swing foot crossing one between two samples comes closer than at both, by up to ~0.4 mm at
+  N = 100 and in proportion to the sample spacing 1/N (measured on the box-swing test scene).
+* `dense_samples`: parameters t at which the finished path is re-checked independently (≥ 1000);
+  a step succeeds only when every constraint is kept there (`legplan.stepplan.measure.judged`):
+  stance feet within ε, CoM margin, clearance with the swing-foot ramp and joint limits, the last
+  three within `judge_tolerance`.
 * `stall_window` (default 0 = off, Algorithm 1 as published): opt-in stall stop of SolveLM, a
   departure from Algorithm 1 — a degree is abandoned (next degree, Algorithm 1 line 4) once the
   decrease of ‖F̃‖ over the last `stall_window` iterations, extrapolated geometrically, cannot reach
@@ -42,9 +50,11 @@ class StepPlanParams:
     eps_num: float = 1e-5  # ε_num of Algorithm 1
     slack_fraction: float = 0.95  # sample-level slack bound = slack_fraction·ε
     clearance: float = 0.02  # m, sphere-terrain margin
+    clearance_headroom: float = 0.05  # m·N: the samples require clearance + clearance_headroom / N
     relax_radius: float = 0.05  # m, swing-foot margin relaxation around its footholds
     com_margin: float = 0.0  # m, CoM distance to every support-polygon edge
     dense_samples: int = 1000  # independent re-check of the finished path
+    judge_tolerance: float = 1e-5  # m | rad, allowed dense miss of CoM margin, clearance, joint limits
     stall_window: int = 0  # opt-in SolveLM stall stop (departure from Algorithm 1); 0 = off
     linear_solver: str = "cholmod"
     assembly: str = "blocks"
@@ -54,6 +64,8 @@ class StepPlanParams:
                   ("max_iterations", self.max_iterations >= 0), ("epsilon", self.epsilon > 0),
                   ("eps_num", self.eps_num > 0), ("relax_radius", self.relax_radius > 0),
                   ("slack_fraction", 0 < self.slack_fraction <= 1), ("dense_samples", self.dense_samples >= 2),
+                  ("judge_tolerance", self.judge_tolerance >= 0),
+                  ("clearance_headroom", self.clearance_headroom >= 0),
                   ("lambda_init", self.lambda_init > 0), ("lambda_drop", 0 < self.lambda_drop < 1),
                   ("lambda_boost", self.lambda_boost > 1), ("stall_window", self.stall_window >= 0)]
         for name, ok in checks:
@@ -75,6 +87,11 @@ class StepPlanParams:
             except ValueError:
                 raise LegplanError(f"{source}: parameter '{key}' expects {kind.__name__}, got {text!r}") from None
         return cls(**values)
+
+    @property
+    def sample_clearance(self) -> float:
+        """Clearance required at the samples (see `clearance_headroom`)."""
+        return self.clearance + self.clearance_headroom / self.samples
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)

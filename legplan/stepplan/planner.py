@@ -22,11 +22,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from legplan.contact.terms import ContactMode
+from legplan.contact.terms import ContactMode, collision_reach
 from legplan.geometry.bezier import elevate, uniform_parameters
 from legplan.solve import LMParams, Problem, VariableBlock, solve_lm
 from legplan.stepplan.block import BezierConstraintBlock, SampleConstraints
 from legplan.stepplan.params import StepPlanParams
+from legplan.terrain.columns import ColumnDistance
 
 log = logging.getLogger(__name__)
 
@@ -79,15 +80,23 @@ class StepPlan:
 
 
 def contact_mode(stance, footholds, params: StepPlanParams) -> ContactMode:
+    """The constraints at the samples (clearance: `params.sample_clearance`)."""
     return ContactMode(stance=stance, footholds=footholds, com_margin=params.com_margin,
-                       clearance=params.clearance, foot_clearance=0.0)
+                       clearance=params.sample_clearance, foot_clearance=0.0)
+
+
+def terrain_distance(robot, terrain, params) -> ColumnDistance:
+    """The exact terrain distance of `terrain` (a `TerrainMap`) for the collision rows of `contact_mode`:
+    exact up to the largest distance at which one can be active (`collision_reach`)."""
+    return ColumnDistance.of(terrain, collision_reach(robot, params.sample_clearance))
 
 
 def plan_step(robot, sdf, q_start, q_end, stance, footholds, params: StepPlanParams = StepPlanParams()) -> StepPlan:
     """PlanStep(q_start, q_end, ε, N, d_max) of Algorithm 1.
 
     `stance` (n_legs,) bool marks the legs whose feet stay on `footholds` (n_legs, 3) for the whole
-    motion; the other legs swing freely (no equality constraint, collision only).
+    motion; the other legs swing freely (no equality constraint, collision only). `sdf` is the
+    terrain distance of the collision rows (`terrain_distance` for the exact one).
     """
     t_start = time.perf_counter()
     x0, x1 = path_vectors(robot, np.asarray(q_start, float), np.asarray(q_end, float))

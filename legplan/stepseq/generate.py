@@ -19,6 +19,10 @@ of the foothold mask inside the leg's workspace at the target pose (sampled from
 ranked by distance to the nominal position. The first leg/foothold whose three IK solves
 succeed is taken. Nothing assumes a leg count or a robot: nominal offsets, hips and workspaces
 come from the robot's model and nominal configuration.
+
+The IK keeps the spheres clear of the exact terrain distance (`legplan.terrain.ColumnDistance`),
+and `generate_steps` judges every configuration independently (`legplan.validate.judge`) against
+what the generator promises (`GenerateParams.requirements`), so the rows that miss it are named.
 """
 
 from __future__ import annotations
@@ -31,8 +35,10 @@ import numpy as np
 import pinocchio as pin
 
 from legplan.contact.ik import Posture, solve_ik
-from legplan.contact.terms import ContactMode, com_terms
+from legplan.contact.terms import ContactMode, collision_reach, com_terms
 from legplan.geometry.polygon import support_polygon
+from legplan.terrain.columns import ColumnDistance
+from legplan.validate.judge import Requirements, shortfalls
 
 log = logging.getLogger(__name__)
 
@@ -44,6 +50,8 @@ class GenerateParams:
     com_margin: float = 0.015  # CoM distance to every support edge during planning
     clearance: float = 0.02  # sphere clearance from the terrain (paper Sec. IV: 2 cm)
     foot_clearance: float = 0.01  # swing-foot sphere clearance
+    foot_tolerance: float = 1e-4  # stance feet within this of their footholds (IK)
+    judge_tolerance: float = 1e-6  # allowed miss of CoM margin, clearance, joint limits when judged
     step_radius: float | None = None  # start footholds' search radius around the nominal positions
     reach_slack: float = 0.015  # candidate footholds lie this far inside the leg workspace radii
     advance: float | None = None  # how far ahead of the body the target pose lies
@@ -57,6 +65,12 @@ class GenerateParams:
     restart_noise: float = 0.05  # std of that perturbation (m, rad)
     posture_weights: tuple[float, float, float, float] = (0.3, 1.0, 1.0, 0.05)  # xy, z, rot, joints
 
+    def requirements(self) -> Requirements:
+        """What every generated configuration keeps (the CoM margin is promised for the support of
+        the adjacent motions, a subset of the configuration's stance, so it holds for the stance)."""
+        return Requirements(foot_slip=self.foot_tolerance, com_margin=self.com_margin, clearance=self.clearance,
+                            foot_clearance=self.foot_clearance, tolerance=self.judge_tolerance)
+
 
 @dataclass
 class GeneratedSequence:
@@ -66,6 +80,7 @@ class GeneratedSequence:
     success: bool
     reason: str
     moves: list[dict] = field(default_factory=list)
+    shortfalls: dict[str, np.ndarray] = field(default_factory=dict)  # per row, `legplan.validate.judge`
 
 
 class GenerationError(RuntimeError):
@@ -147,13 +162,14 @@ def _rot_z(yaw: float) -> np.ndarray:
 
 
 class StepGenerator:
-    """Plans a step sequence for `robot` on `terrain` (needs `height`, `foothold`, `sdf`)."""
+    """Plans a step sequence for `robot` on `terrain` (needs `height`, `grid`, `foothold`)."""
 
     def __init__(self, robot, terrain, params: GenerateParams = GenerateParams(), seed: int = 0):
         self.robot = robot
         self.terrain = terrain
         self.params = params
         self.rng = np.random.default_rng(seed)
+        self.distance = ColumnDistance.of(terrain, collision_reach(robot, max(params.clearance, params.foot_clearance)))
         self.geometry = _RobotGeometry.of(robot, self.rng)
         spread = np.linalg.norm(self.geometry.foot_offsets[:, :2] - self.geometry.hip_offsets[:, :2], axis=1)
         self.step_radius = params.step_radius or 0.6 * float(spread.mean())
@@ -225,8 +241,8 @@ class StepGenerator:
             footholds[i] = cell
         stance = np.ones(len(nominal), bool)
         posture = self._posture(footholds, stance, yaw)
-        result = solve_ik(self.robot, self.terrain.sdf, self._mode(stance, footholds, stance),
-                          posture.reference, posture=posture)
+        result = solve_ik(self.robot, self.distance, self._mode(stance, footholds, stance),
+                          posture.reference, posture=posture, foot_tolerance=self.params.foot_tolerance)
         if not result.success:
             raise GenerationError(f"IK failed for the start configuration: {result.reason}")
         return result.x, stance, footholds
@@ -379,14 +395,14 @@ class StepGenerator:
 
     def _solve(self, mode, x, posture, soft=None, targets=None):
         """IK from x; on failure once more from a seeded random perturbation of x (local minima)."""
-        res = solve_ik(self.robot, self.terrain.sdf, mode, x, posture=posture, targets=targets,
-                       soft_targets=soft)
+        res = solve_ik(self.robot, self.distance, mode, x, posture=posture, targets=targets,
+                       soft_targets=soft, foot_tolerance=self.params.foot_tolerance)
         for _ in range(self.params.restarts):
             if res.success:
                 break
             start = x + self.rng.normal(scale=self.params.restart_noise, size=x.shape)
-            res = solve_ik(self.robot, self.terrain.sdf, mode, start, posture=posture, targets=targets,
-                           soft_targets=soft)
+            res = solve_ik(self.robot, self.distance, mode, start, posture=posture, targets=targets,
+                           soft_targets=soft, foot_tolerance=self.params.foot_tolerance)
         return res
 
     def _raised(self, stance, footholds, yaw) -> dict[int, np.ndarray]:
@@ -477,7 +493,8 @@ def params_dict(params: GenerateParams) -> dict:
 
 def generate_steps(robot, terrain, start, goal, *, params: GenerateParams = GenerateParams(), seed: int = 0,
                    validator, progress=None):
-    """Plan, then check every configuration with the independent `validator`.
+    """Plan, then judge every configuration with the independent `validator` against
+    `params.requirements()` (per-row shortfalls in `GeneratedSequence.shortfalls`).
 
     Returns (StepSequence, GeneratedSequence, ConfigChecks); raises `GenerationError` when not even
     the start configuration exists.
@@ -489,5 +506,5 @@ def generate_steps(robot, terrain, start, goal, *, params: GenerateParams = Gene
     seq = StepSequence(q=generated.q, stance=generated.stance, footholds=generated.footholds,
                        robot=robot.name, robot_sha256=robot_sha256(robot),
                        leg_names=[leg.name for leg in robot.legs], joint_names=robot.joint_names)
-    checks = validator.check(seq.q, seq.stance, seq.footholds)
+    generated.shortfalls, checks = shortfalls(validator, seq.q, seq.stance, seq.footholds, params.requirements())
     return seq, generated, checks

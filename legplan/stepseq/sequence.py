@@ -5,7 +5,10 @@ steps.h5 (kind "steps"):
   /stance     (k, n_legs)    bool
   /footholds  (k, n_legs, 3) m, NaN for swing legs
   root attrs  robot, robot_sha256, leg_names (JSON), joint_names (JSON)
-  /summary    configurations, legs, min CoM margin, min clearance, worst foot gap
+  /checks     com_margin, clearance, foot_gap per configuration (validator); when judged also
+              shortfall_<constraint> (k,) and root attr requirements (JSON, `legplan.validate.judge`)
+  /summary    configurations, legs, min CoM margin, min clearance, worst foot gap; when judged the
+              worst shortfall and the tolerance of each constraint
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ import numpy as np
 
 from legplan.artefacts import open_artefact, require, write_artefact, write_dataset, write_summary
 from legplan.errors import ArtefactError
+from legplan.validate.judge import CONSTRAINTS
 
 
 @dataclass
@@ -59,8 +63,10 @@ def summary_metrics(checks) -> dict:
 
 
 def write_steps(path, seq: StepSequence, checks, *, params=None, seed=None, inputs=(),
-                overwrite: bool = False, extra=None) -> None:
-    """Write steps.h5 atomically; `extra(f)` may add datasets (e.g. per-configuration checks)."""
+                overwrite: bool = False, extra=None, judged=None) -> None:
+    """Write steps.h5 atomically; `extra(f)` may add datasets (e.g. per-configuration checks);
+    `judged` = (shortfalls {constraint: (k,)}, `Requirements`) of `legplan.validate.judge`."""
+    summary = summary_metrics(checks)
     with write_artefact(path, "steps", params=params, seed=seed, inputs=inputs, overwrite=overwrite) as f:
         f.attrs["robot"] = seq.robot
         f.attrs["robot_sha256"] = seq.robot_sha256
@@ -74,9 +80,17 @@ def write_steps(path, seq: StepSequence, checks, *, params=None, seed=None, inpu
         write_dataset(checks_group, "com_margin", checks.com_margin, units="m")
         write_dataset(checks_group, "clearance", checks.clearance, units="m")
         write_dataset(checks_group, "foot_gap", checks.foot_gap, units="m")
+        if judged is not None:
+            shortfalls, required = judged
+            f.attrs["requirements"] = json.dumps(required.as_dict())
+            for name, value in shortfalls.items():
+                write_dataset(checks_group, f"shortfall_{name}", value, units=CONSTRAINTS[name],
+                              tolerance=required.tolerances()[name])
+                summary[f"worst_shortfall_{name}"] = (float(np.max(value)), CONSTRAINTS[name])
+                summary[f"tolerance_{name}"] = (required.tolerances()[name], CONSTRAINTS[name])
         if extra is not None:
             extra(f)
-        write_summary(f, summary_metrics(checks))
+        write_summary(f, summary)
 
 
 def read_steps(path) -> StepSequence:

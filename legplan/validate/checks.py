@@ -29,7 +29,8 @@ class ConfigChecks:
     of the CoM (x, y) to the support polygon edges, positive inside (-inf with fewer than two distinct
     stance feet); clearance (n,) smallest sphere-to-terrain distance (surface distance of the centre
     minus radius) over all spheres except stance-foot spheres, with `clearance_sphere` (n,) its
-    index; joint_excess (n, J) rad by which each joint leaves its limits (0 inside).
+    index; joint_excess (n, J) rad by which each joint leaves its limits (0 inside); sphere_centres
+    (n, S, 3) the collision sphere centres.
     """
 
     foot_positions: np.ndarray
@@ -40,6 +41,7 @@ class ConfigChecks:
     clearance: np.ndarray
     clearance_sphere: np.ndarray
     joint_excess: np.ndarray
+    sphere_centres: np.ndarray
 
     @property
     def worst_foot_gap(self) -> np.ndarray:
@@ -121,7 +123,7 @@ class Validator:
         excess = np.maximum(np.maximum(joints - self._upper, self._lower - joints), 0.0)
         return ConfigChecks(foot_positions=feet, foot_gap=gap, foot_slip=slip, com=com,
                             com_margin=com_margin, clearance=clearance, clearance_sphere=which,
-                            joint_excess=excess.reshape(n, -1))
+                            joint_excess=excess.reshape(n, -1), sphere_centres=centres)
 
     @staticmethod
     def _com_margins(com, anchors, stance) -> np.ndarray:

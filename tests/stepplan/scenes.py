@@ -12,7 +12,9 @@ from pathlib import Path
 import numpy as np
 
 from legplan.contact import ContactMode, Posture, solve_ik
+from legplan.contact.terms import collision_reach
 from legplan.robots import load_robot
+from legplan.terrain import ColumnDistance
 from legplan.terrain.spec import build_map
 from legplan.terrain.terrain_map import save_map
 
@@ -26,13 +28,15 @@ sdf: {clearance: 0.3}
 """
 
 
-def standing_configuration(robot, sdf, base, feet):
-    """IK: all feet on `feet`, base near `base` (posture-regularised, then polished)."""
+def standing_configuration(robot, terrain, base, feet, clearance=0.02):
+    """IK: all feet on `feet`, base near `base`, every other sphere `clearance` (default: the step
+    planner's 2 cm) clear of the exact terrain distance (posture-regularised, then polished)."""
     reference = robot.to_vector(robot.q_nominal)[0]
     reference[:3] = base
     weights = np.r_[np.ones(6), np.full(robot.n_joints, 0.01)]
-    mode = ContactMode(stance=np.ones(len(robot.legs), bool), footholds=feet, com_margin=0.0, clearance=0.0)
-    result = solve_ik(robot, sdf, mode, reference, posture=Posture(reference, weights))
+    mode = ContactMode(stance=np.ones(len(robot.legs), bool), footholds=feet, com_margin=0.0, clearance=clearance)
+    distance = ColumnDistance.of(terrain, collision_reach(robot, mode.clearance))
+    result = solve_ik(robot, distance, mode, reference, posture=Posture(reference, weights))
     assert result.success, result.reason
     return result.q
 
@@ -49,7 +53,7 @@ def box_scene(tmp: Path):
     feet[:, 2] = 0.0
     moved = feet.copy()
     moved[0, 0] = 0.30
-    q = np.stack([standing_configuration(robot, terrain.sdf, [0.0, 0.0, 0.3059], feet),
-                  standing_configuration(robot, terrain.sdf, [-0.03, -0.04, 0.30], feet),
-                  standing_configuration(robot, terrain.sdf, [-0.03, -0.04, 0.30], moved)])
+    q = np.stack([standing_configuration(robot, terrain, [0.0, 0.0, 0.3059], feet),
+                  standing_configuration(robot, terrain, [-0.03, -0.04, 0.30], feet),
+                  standing_configuration(robot, terrain, [-0.03, -0.04, 0.30], moved)])
     return robot, terrain, map_path, q, np.ones((3, 4), bool), np.stack([feet, feet, moved])

@@ -6,9 +6,9 @@ import pytest
 
 from legplan.robots import load_robot
 from legplan.stepplan.batch import motion_stance
-from legplan.stepplan.measure import dense_check
+from legplan.stepplan.measure import dense_check, requirements
 from legplan.stepplan.params import StepPlanParams
-from legplan.stepplan.planner import plan_step
+from legplan.stepplan.planner import plan_step, terrain_distance
 from legplan.validate.checks import Validator
 from scenes import box_scene, standing_configuration
 
@@ -18,11 +18,12 @@ def scene(tmp_path_factory):
     return box_scene(tmp_path_factory.mktemp("box"))
 
 
-def _plan_and_check(robot, terrain, q, stance_pair, footholds_pair, params=StepPlanParams()):
+def _plan_and_check(robot, terrain, q, stance_pair, footholds_pair, params=StepPlanParams(), distance=None):
     stance = motion_stance(*stance_pair, *footholds_pair)
-    plan = plan_step(robot, terrain.sdf, q[0], q[1], stance, footholds_pair[0], params)
+    distance = distance or terrain_distance(robot, terrain, params)
+    plan = plan_step(robot, distance, q[0], q[1], stance, footholds_pair[0], params)
     check = dense_check(robot, Validator(robot, terrain), plan.control_points, stance, footholds_pair[0],
-                        samples=1000, relax_radius=params.relax_radius)
+                        1000, requirements(params))
     return plan, check
 
 
@@ -32,11 +33,39 @@ def test_quadruped_leg_swing_over_box(scene):
     assert plan.success, plan.reason
     assert plan.degree >= 2  # the straight line drags the foot through the box
     assert check.foot_slip <= 1.0e-3 + 1e-5  # ε on 1000 dense samples, FK by pinocchio
-    assert check.clearance >= 0.0 and check.com_margin >= -1e-6 and check.joint_excess <= 1e-9
-    assert check.swing_foot_tip >= -1.0e-3
+    assert check.com_margin >= -1e-6 and check.joint_excess <= 1e-9
+    assert max(check.shortfalls().values()) <= 0.0  # every constraint kept, clearance with the swing-foot ramp
     line = dense_check(robot, Validator(robot, terrain), np.stack(robot.to_vector(q[1:])), [False, True, True, True],
-                       footholds[1], samples=200)
-    assert line.swing_foot_tip < -0.005  # the straight line drives the foot into the box
+                       footholds[1], 200, requirements(StepPlanParams()))
+    assert line.shortfall_clearance > 0.005  # the straight line drives the foot into the box
+
+
+def test_quadruped_swing_over_box_with_the_trilinear_sdf_misses_the_clearance(scene):
+    """The old terrain lookup: the trilinear SDF reads the box edges farther than they are, so the
+    planner succeeds on its own samples while the dense re-check with the exact distance finds the
+    swing closer than the clearance; the exact column distance plans the same swing clear."""
+    robot, terrain, _, q, stance, footholds = scene
+    plan, check = _plan_and_check(robot, terrain, q[1:], stance[1:], footholds[1:], distance=terrain.sdf)
+    assert plan.success and check.shortfall_clearance > 1e-4
+    plan, check = _plan_and_check(robot, terrain, q[1:], stance[1:], footholds[1:])
+    assert plan.success and check.shortfall_clearance <= 0.0
+
+
+def test_step_whose_clearance_is_short_is_reported_failed(scene):
+    """An end configuration with the left front shin 2.1 mm inside the 2 cm clearance (IK with no
+    clearance): the planner never samples its ends and succeeds, the judge fails the step and names
+    the constraint."""
+    from legplan.stepplan.batch import StepWorker
+
+    robot, terrain, map_path, q, stance, footholds = scene
+    short = standing_configuration(robot, terrain, [-0.03, -0.04, 0.30], footholds[2], clearance=0.0)
+    worker = StepWorker(robot.name, str(map_path), StepPlanParams())
+    moving = motion_stance(stance[1], stance[2], footholds[1], footholds[2])
+    record = worker.plan(1, q[1], short, moving, footholds[1])
+    assert not record["success"]
+    assert record["reason"].startswith("dense re-check: clearance short by")
+    assert record["dense"]["shortfall_clearance"] > 1e-3
+    assert record["dense"]["shortfall_foot_slip"] <= 0 and record["dense"]["shortfall_com_margin"] <= 0
 
 
 def test_quadruped_body_shift_is_a_line(scene):
@@ -51,12 +80,12 @@ def test_hexapod_body_shift(scene):
     terrain = scene[1]
     feet = robot.foot_positions(robot.q_nominal)[0]
     base = robot.q_nominal[:3]
-    q = np.stack([standing_configuration(robot, terrain.sdf, base, feet),
-                  standing_configuration(robot, terrain.sdf, base + [0.03, 0.02, -0.01], feet)])
+    q = np.stack([standing_configuration(robot, terrain, base, feet),
+                  standing_configuration(robot, terrain, base + [0.03, 0.02, -0.01], feet)])
     plan, check = _plan_and_check(robot, terrain, q, np.ones((2, 6), bool), np.stack([feet, feet]),
                                   StepPlanParams(samples=50))
     assert plan.success, plan.reason
-    assert check.foot_slip <= 1.0e-3 + 1e-5 and check.com_margin > 0 and check.clearance >= 0
+    assert check.foot_slip <= 1.0e-3 + 1e-5 and check.com_margin > 0 and check.shortfall_clearance <= 0
 
 
 def test_unreachable_end_fails_with_reason(scene):

@@ -1,0 +1,164 @@
+"""Exact signed distance (value + gradient) from points to the column solid of a heightmap.
+
+The solid is the one every terrain layer uses: cell c (centre (x_c, y_c), side r) is the column
+[x_c ± r/2] × [y_c ± r/2] × (−∞, H_c], and outside the grid the terrain continues as its border
+cells (as in the SDF lookup and the validator's vertical gaps). For a point p outside
+the solid the distance to column c is ‖(δx, δy, max(p_z − H_c, 0))‖ with δx = max(|p_x − x_c| − r/2, 0)
+(δy alike); for a point inside, its depth is the distance to the nearest "air column"
+[x_c ± r/2] × [y_c ± r/2] × [H_c, ∞), ‖(δx, δy, max(H_c − p_z, 0))‖. The signed distance is the
+smallest of these over the cells, negative inside.
+
+Which cells matter. The nearest point q of the solid (of the air) to p either lies straight below
+(above) p on p's own column, or on a vertical line where columns of different heights meet; every
+such line touches a cell with a 4-neighbour of a different height (an "edge" cell; proof: if q lies
+on an edge or corner line of cell c with H_c ≥ q_z, some cell around that line is lower than q_z, and
+either it is a 4-neighbour of c or the two cells between them are edge cells containing q); and
+only edge cells higher than the own cell (lower, inside) can beat it. So the minimum over the
+point's own cell and those edge cells within `reach` horizontally is the exact distance whenever it is
+at most `reach`; beyond, the exact distance is at least `reach`, and the value is saturated at
+`reach` (gradient 0). Inside, the depth is exact up to `reach` and never underestimated beyond.
+
+Each cell lists those edge cells whose squares lie within `reach` of its square (CSR, built once),
+so a query costs one distance per candidate: on open ground a point has its own cell only. The grid
+is padded by `reach` with copies of its border cells; beyond the padding the terrain is the same
+along the outward direction, so a point there is moved onto the padding's outer cell centres without
+changing its distance (gradient 0 in that direction).
+
+Unlike the trilinear SDF lookup (`legplan.terrain.sdf`), which reads up to a few millimetres more
+than the exact distance beside edges and corners, this value never exceeds the true distance.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+
+class ColumnDistance:
+    """Signed distance to the column solid of `height` (ny, nx), exact up to `reach` (m)."""
+
+    def __init__(self, height, origin, resolution: float, reach: float):
+        height = np.asarray(height, dtype=float)
+        if height.ndim != 2 or min(height.shape) < 1:
+            raise ValueError(f"heightmap must be a 2D array, got shape {height.shape}")
+        if not reach > 0:
+            raise ValueError(f"reach must be positive, got {reach!r}")
+        self.resolution = r = float(resolution)
+        self.reach = float(reach)
+        pad = int(np.ceil(self.reach / r)) + 1
+        padded = np.pad(height, pad, mode="edge")
+        self._shape = padded.shape
+        self._origin = np.asarray(origin, dtype=float)[:2] - pad * r  # centre of padded cell [0, 0]
+        self._far = self._origin + r * (np.array(padded.shape[::-1]) - 1)
+        self._height = padded.reshape(-1)
+        lower, higher = _neighbour_masks(padded)
+        # outside points: edge cells higher than the point's own cell; inside: lower ones (module docstring)
+        tables = [_candidate_pairs(padded, lower, self.reach / r, np.greater),
+                  _candidate_pairs(padded, higher, self.reach / r, np.less)]
+        self._start, rows = [], []
+        for offset, (cells, candidates) in zip((0, len(tables[0][1])), tables, strict=True):
+            order = np.argsort(cells, kind="stable")
+            counts = np.bincount(cells, minlength=padded.size)
+            self._start.append(offset + np.r_[0, np.cumsum(counts)])
+            rows.append(candidates[order])
+        rows = np.concatenate(rows)
+        iy, ix = np.divmod(rows, padded.shape[1])
+        self._candidates = np.column_stack([self._origin[0] + r * ix, self._origin[1] + r * iy,
+                                            self._height[rows]])
+
+    @classmethod
+    def of(cls, terrain, reach: float) -> ColumnDistance:
+        """The column distance of a `TerrainMap`."""
+        return cls(terrain.height, terrain.grid.origin, terrain.grid.resolution, reach)
+
+    def values(self, points) -> np.ndarray:
+        """Signed distance (m) at points (n, 3): positive in free space, negative inside terrain."""
+        return self.value_and_gradient(points)[0]
+
+    def value_and_gradient(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """(values (n,), gradients (n, 3)) of the signed distance at points (n, 3), saturated at `reach`.
+
+        The gradient is the unit vector from the nearest point (p − q)/‖p − q‖ outside and its
+        negative inside (−∇ of the depth); (0, 0, 1) on the surface itself; 0 where saturated.
+        """
+        p = np.asarray(points, dtype=float).reshape(-1, 3)
+        xy = np.clip(p[:, :2], self._origin, self._far)
+        beyond = xy != p[:, :2]
+        g = np.rint((xy - self._origin) / self.resolution).astype(np.int64)
+        own = g[:, 1] * self._shape[1] + g[:, 0]
+        value = p[:, 2] - self._height[own]  # the own column, straight below (above) the point
+        grad = np.zeros((len(p), 3))
+        grad[:, 2] = 1.0
+        inside = value < 0.0
+        start = np.where(inside, self._start[1][own], self._start[0][own])
+        stop = np.where(inside, self._start[1][own + 1], self._start[0][own + 1])
+        near = np.flatnonzero(stop > start)
+        if near.size:
+            value[near], grad[near] = self._nearest(np.column_stack([xy[near], p[near, 2]]), start[near],
+                                                    stop[near], value[near])
+        grad[:, :2][beyond] = 0.0
+        far = value > self.reach
+        value[far] = self.reach
+        grad[far] = 0.0
+        return value, grad
+
+    def _nearest(self, p, start, stop, own):
+        """Signed distance and gradient of points p (m, 3) over their own column (signed vertical
+        gap `own`) and the candidate rows start..stop of each."""
+        r = self.resolution
+        count = stop - start
+        first = np.r_[0, np.cumsum(count)[:-1]]
+        total = int(count.sum())
+        which = np.repeat(np.arange(len(p)), count)
+        cand = self._candidates[np.arange(total) + np.repeat(start - first, count)]
+        q = p[which]
+        lateral = q[:, :2] - cand[:, :2]
+        gap = np.copysign(np.maximum(np.abs(lateral) - 0.5 * r, 0.0), lateral)
+        vertical = q[:, 2] - cand[:, 2]
+        inside = own < 0.0
+        w = np.column_stack([gap, np.where(inside[which], np.minimum(vertical, 0.0), np.maximum(vertical, 0.0))])
+        d2 = np.einsum("ij,ij->i", w, w)
+        best = np.minimum.reduceat(d2, first)
+        winner = np.minimum.reduceat(np.where(d2 <= best[which], np.arange(total), total), first)
+        better = best < own ** 2
+        dist = np.where(better, np.sqrt(best), np.abs(own))
+        vector = np.where(better[:, None], w[winner], own[:, None] * [0.0, 0.0, 1.0])
+        grad = np.where(dist[:, None] > 0, vector / np.maximum(dist, 1e-300)[:, None], [0.0, 0.0, 1.0])
+        grad[inside] *= -1.0
+        return np.where(inside, -dist, dist), grad
+
+
+def _neighbour_masks(height: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Cells with a strictly lower, and with a strictly higher, 4-neighbour."""
+    lower = np.zeros(height.shape, bool)
+    higher = np.zeros(height.shape, bool)
+    for axis in (0, 1):
+        a = [slice(None)] * 2
+        b = [slice(None)] * 2
+        a[axis], b[axis] = slice(1, None), slice(None, -1)
+        a, b = tuple(a), tuple(b)
+        lower[a] |= height[b] < height[a]
+        lower[b] |= height[a] < height[b]
+        higher[a] |= height[b] > height[a]
+        higher[b] |= height[a] > height[b]
+    return lower, higher
+
+
+def _candidate_pairs(height: np.ndarray, mask: np.ndarray, reach_cells: float, keep):
+    """(cell, candidate) index pairs of the flat grid: candidates are `mask` cells whose square lies
+    within `reach_cells` cell sizes of the cell's square and whose height h_c passes keep(h_c, h_cell)
+    (the own cell is excluded: every query adds it)."""
+    ny, nx = mask.shape
+    k = int(np.ceil(reach_cells)) + 1
+    cells, candidates = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    for dy in range(-k, k + 1):
+        for dx in range(-k, k + 1):
+            gap = np.hypot(max(abs(dx) - 1, 0), max(abs(dy) - 1, 0))
+            if (dx == 0 and dy == 0) or gap > reach_cells:
+                continue
+            # cells (iy, ix) whose neighbour (iy + dy, ix + dx) is a candidate
+            cy, cx = np.nonzero(mask[max(dy, 0):ny + min(dy, 0), max(dx, 0):nx + min(dx, 0)])
+            cy, cx = cy + max(dy, 0), cx + max(dx, 0)
+            ok = keep(height[cy, cx], height[cy - dy, cx - dx])
+            cells.append((cy[ok] - dy) * nx + (cx[ok] - dx))
+            candidates.append(cy[ok] * nx + cx[ok])
+    return np.concatenate(cells), np.concatenate(candidates)

@@ -1,0 +1,86 @@
+"""Exact column distance: equal to the FCL surface distance of the column solid within reach,
+conservative beyond, exact gradient; the box-corner case where the trilinear SDF reads too far."""
+
+import numpy as np
+import pytest
+
+from legplan.terrain import ColumnDistance, Grid2D, terrain_from_heightmap
+from legplan.validate.surface import SurfaceMesh
+
+R = 0.01
+GRID = Grid2D((-0.295, -0.295), R, (60, 60))  # cells cover [-0.3, 0.3]^2
+REACH = 0.08
+
+
+def _terrain():
+    """Ground at 0 with a 1 m deep pit (x < -0.1) and a 10 x 14 cm pillar 3 cm high (x, y > 0)."""
+    X, Y = GRID.centres()
+    height = np.zeros(GRID.shape)
+    height[X < -0.1] = -1.0
+    height[(np.abs(X - 0.1) < 0.05) & (np.abs(Y - 0.1) < 0.07)] = 0.03
+    return terrain_from_heightmap(height, GRID)
+
+
+@pytest.fixture(scope="module")
+def scene():
+    terrain = _terrain()
+    surface = SurfaceMesh(terrain.height, terrain.grid.origin, terrain.grid.resolution)
+    return terrain, surface, ColumnDistance.of(terrain, REACH)
+
+
+def test_values_equal_fcl_within_reach_and_never_exceed_it(scene):
+    terrain, surface, columns = scene
+    rng = np.random.default_rng(0)
+    points = np.column_stack([rng.uniform(-0.25, 0.25, (4000, 2)), rng.uniform(-0.15, 0.12, 4000)])
+    exact = surface.fcl_distance(points)
+    values = columns.values(points)
+    near = np.abs(exact) <= REACH
+    assert near.sum() > 2000 and (~near).sum() > 200
+    np.testing.assert_allclose(values[near], exact[near], atol=1e-8)
+    assert np.all(values[~near] <= exact[~near] + 1e-8)  # saturated at reach outside, never deeper inside
+    assert np.all(values[(~near) & (exact > 0)] == REACH)
+
+
+def test_gradient_matches_finite_differences(scene):
+    _, surface, columns = scene
+    rng = np.random.default_rng(1)
+    points = np.column_stack([rng.uniform(-0.25, 0.25, (600, 2)), rng.uniform(-0.1, 0.1, 600)])
+    values, grad = columns.value_and_gradient(points)
+    h = 1e-6
+    fd = np.stack([(columns.values(points + h * e) - columns.values(points - h * e)) / (2 * h) for e in np.eye(3)], 1)
+    smooth = np.abs(values) < REACH - 1e-3
+    close = np.all(np.abs(fd - grad) < 1e-5, axis=1)
+    assert smooth.sum() > 300
+    assert close[smooth].mean() > 0.98  # all but points within h of a kink (equidistant to two faces)
+    unit = np.linalg.norm(grad[smooth], axis=1)
+    np.testing.assert_allclose(unit, 1.0, atol=1e-9)
+
+
+def test_outside_the_grid_the_border_cells_continue():
+    """As the SDF lookup and the validator's vertical gaps: beyond the grid its border cells go on."""
+    terrain = _terrain()
+    columns = ColumnDistance.of(terrain, REACH)
+    points = np.array([[0.33, 0.0, 0.05], [2.0, 0.0, -0.03], [-2.0, 0.0, -0.95], [-2.0, 0.005, -0.97]])
+    values, grad = columns.value_and_gradient(points)
+    np.testing.assert_allclose(values, [0.05, -0.03, 0.05, 0.03])  # ground; inside ground; over the pit
+    np.testing.assert_allclose(grad[1], [0.0, 0.0, 1.0], atol=1e-12)
+    beside_wall, grad = columns.value_and_gradient([[-0.12, 2.0, -0.5]])  # the pit wall x = -0.1, far out in y
+    assert beside_wall[0] == pytest.approx(0.02)
+    np.testing.assert_allclose(grad[0], [-1.0, 0.0, 0.0], atol=1e-12)
+
+
+def test_sphere_passing_a_box_corner(scene):
+    """A sphere (radius 13 mm) swept around the pillar's top corner with exactly the 2 cm clearance
+    (centre 33 mm from the corner, 15 mm above the top): the trilinear SDF reads it more than 2 mm
+    further away, so a 2 cm constraint on it would pass a sphere up to 2 mm short; the column
+    distance reads the exact 33 mm."""
+    terrain, surface, columns = scene
+    corner, top, centre_distance, above = np.array([0.15, 0.17]), 0.03, 0.033, 0.015
+    angle = np.linspace(0.0, np.pi / 2, 61)
+    rho = np.sqrt(centre_distance ** 2 - above ** 2)
+    path = np.column_stack([corner + rho * np.column_stack([np.cos(angle), np.sin(angle)]),
+                            np.full(len(angle), top + above)])
+    exact = surface.fcl_distance(path)
+    np.testing.assert_allclose(exact, centre_distance, atol=1e-9)
+    assert (terrain.sdf.values(path) - exact).max() > 2e-3  # the old lookup: > 2 mm of clearance that is not there
+    np.testing.assert_allclose(columns.values(path), exact, atol=1e-9)
