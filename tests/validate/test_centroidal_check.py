@@ -1,0 +1,277 @@
+"""The independent check of centroidal trajectories: known answers on hand-built samples, planted
+violations caught, and a real flat-ground solve."""
+
+import dataclasses
+
+import numpy as np
+import pytest
+
+from legplan.robots import load_robot
+from legplan.terrain import Grid2D, terrain_from_heightmap
+from legplan.validate import CentroidalCheck, check_trajectory
+from legplan.validate.centroidal import GRAVITY, UNITS
+
+N = 21  # samples 0, 0.01, ..., 0.2 s: nodes at 0, 0.1, 0.2
+
+
+@pytest.fixture(scope="module")
+def anymal():
+    return load_robot("anymal")
+
+
+@pytest.fixture(scope="module")
+def model(anymal):
+    return anymal.centroidal
+
+
+def _rz(a):
+    return np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+
+
+def _ry(a):
+    return np.array([[np.cos(a), 0, np.sin(a)], [0, 1, 0], [-np.sin(a), 0, np.cos(a)]])
+
+
+def _rx(a):
+    return np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+
+
+def _rot(e):
+    return _rz(e[2]) @ _ry(e[1]) @ _rx(e[0])
+
+
+def _stance(model, height=0.42):
+    """Standing still in the nominal stance on z = 0, each foot carrying m g / 4."""
+    zeros = np.zeros((N, 3))
+    feet = np.tile(model.nominal_feet + [0.0, 0.0, height], (N, 1, 1))
+    forces = np.zeros((N, 4, 3))
+    forces[..., 2] = model.mass * GRAVITY / 4
+    return {"t": np.linspace(0.0, 0.2, N), "base_pos": np.tile([0.0, 0.0, height], (N, 1)), "base_vel": zeros.copy(),
+            "base_acc": zeros.copy(), "base_euler": zeros.copy(), "base_euler_rate": zeros.copy(),
+            "base_ang_vel": zeros.copy(), "base_ang_acc": zeros.copy(), "feet_pos": feet,
+            "feet_vel": np.zeros((N, 4, 3)), "forces": forces, "contact": np.ones((N, 4), bool)}
+
+
+def _check(samples, model, terrain, robot, **kw):
+    return check_trajectory(samples, model, terrain, robot, **kw)
+
+
+def _failed(check: CentroidalCheck) -> set[str]:
+    return {name for name, ok in check.passed.items() if not ok}
+
+
+def test_static_stance_has_no_residual_and_passes(model, flat_terrain, anymal):
+    check = _check(_stance(model), model, flat_terrain, anymal)
+    assert check.worst["newton_euler_force"] < 1e-9 and check.worst["newton_euler_torque"] < 1e-9
+    assert check.ok, check.worst
+    assert check.worst["base_height"] == pytest.approx(0.42)
+    assert check.worst["base_above_feet"] == pytest.approx(0.42)
+    assert check.worst["trunk_penetration"] == pytest.approx(0.13 - 0.42)   # trunk spheres r = 0.13 at z = 0.42
+    assert check.worst["leg_reach"] < 1e-4 and check.worst["joint_limit_margin"] > 0.2
+    assert set(check.worst) == set(UNITS)
+
+
+def test_constant_acceleration_known_residuals(model, flat_terrain, anymal):
+    """Feet forces m (a + g e_z) / 4 balance the linear row; their lever below the CoM leaves the
+    pitch torque (Σ r_i) × f = 0.42 m a_x about y, which a matching ω̇ = I_W⁻¹ τ removes."""
+    s = _stance(model)
+    a = np.array([1.0, 0.0, 0.5])
+    s["base_acc"][:] = a
+    s["forces"][:] = model.mass * (a + [0.0, 0.0, GRAVITY]) / 4
+    check = _check(s, model, flat_terrain, anymal)
+    assert check.worst["newton_euler_force"] < 1e-9
+    assert check.worst["newton_euler_torque"] == pytest.approx(0.42 * model.mass * a[0], rel=1e-12)
+    torque = np.cross(model.nominal_feet, s["forces"][0]).sum(axis=0)
+    s["base_ang_acc"][:] = np.linalg.solve(model.inertia, torque)   # R = I at zero Euler angles
+    assert _check(s, model, flat_terrain, anymal).worst["newton_euler_torque"] < 1e-9
+
+
+def test_rotating_body_torque_free_motion(model, flat_terrain, anymal):
+    """A tumbling body in free fall: ω̇ = −I_W⁻¹ (ω × I_W ω), I_W = R I_B Rᵀ with R = Rz Ry Rx built
+    here by hand, and the Euler rates whose ω is the one given (Ṙ Rᵀ by central differences)."""
+    s = _stance(model, height=0.9)
+    e = np.array([0.3, -0.2, 0.7])
+    omega = np.array([0.4, -1.1, 0.8])
+    R = _rot(e)
+    inertia = R @ model.inertia @ R.T
+    # Euler rates giving omega: solve [ω]x = Ṙ Rᵀ column by column (R linear in ė for small steps)
+    h = 1e-6
+    columns = []
+    for k in range(3):
+        d = np.eye(3)[k] * h
+        w = (_rot(e + d) - _rot(e - d)) @ R.T / (2 * h)
+        columns.append([w[2, 1], w[0, 2], w[1, 0]])
+    rates = np.linalg.solve(np.array(columns).T, omega)
+    s["base_euler"][:], s["base_euler_rate"][:], s["base_ang_vel"][:] = e, rates, omega
+    s["base_ang_acc"][:] = -np.linalg.solve(inertia, np.cross(omega, inertia @ omega))
+    s["base_acc"][:] = [0.0, 0.0, -GRAVITY]
+    s["forces"][:] = 0.0
+    s["contact"][:] = False
+    s["feet_pos"][:] = s["base_pos"][0] + model.nominal_feet @ R.T
+    check = _check(s, model, flat_terrain, anymal)
+    assert check.worst["newton_euler_force"] < 1e-9
+    assert check.worst["newton_euler_torque"] < 1e-9
+    assert check.worst["angular_velocity"] < 1e-8
+    assert check.worst["range_of_motion"] < 1e-12            # feet rigid with the base at nominal
+    s["base_ang_acc"][:] = 0.0
+    gyro = np.abs(np.cross(omega, inertia @ omega)).max()
+    assert _check(s, model, flat_terrain, anymal).worst["newton_euler_torque"] == pytest.approx(gyro, rel=1e-12)
+    s["base_ang_vel"][:] = R.T @ omega                       # body rates mistaken for world rates
+    assert "angular_velocity" in _failed(_check(s, model, flat_terrain, anymal))
+
+
+def test_wrong_base_acceleration_fails_newton_euler_at_the_nodes(model, flat_terrain, anymal):
+    s = _stance(model)
+    s["base_acc"][:, 0] = 0.5
+    check = _check(s, model, flat_terrain, anymal)
+    assert check.worst["newton_euler_force_nodes"] == pytest.approx(0.5 * model.mass)
+    assert _failed(check) == {"newton_euler_force_nodes"}
+
+
+def test_residual_between_nodes_is_recorded_not_judged(model, flat_terrain, anymal):
+    s = _stance(model)
+    s["base_acc"][5, 0] = 0.5                                 # t = 0.05 s, between the nodes 0 and 0.1 s
+    check = _check(s, model, flat_terrain, anymal)
+    assert check.worst["newton_euler_force"] == pytest.approx(0.5 * model.mass)
+    assert check.worst["newton_euler_force_nodes"] < 1e-9 and check.ok
+    assert not _check(s, model, flat_terrain, anymal, node_times=[0.05]).ok
+
+
+def test_foot_pushed_into_the_terrain(model, flat_terrain, anymal):
+    s = _stance(model)
+    s["feet_pos"][8:12, 1, 2] = -0.02                         # stance foot 2 cm deep for 40 ms
+    check = _check(s, model, flat_terrain, anymal)
+    assert check.worst["penetration_height"] == pytest.approx(0.02)
+    assert check.worst["penetration_sdf"] == pytest.approx(0.02, abs=1e-6)
+    assert check.worst["stance_height"] == pytest.approx(0.02)
+    assert {"penetration_height", "penetration_sdf", "stance_height", "stance_slip"} == _failed(check)
+
+
+def test_swing_foot_into_a_block(model, step_terrain, anymal):
+    """A swing foot passing 2 cm inside the 4 cm block of x > 0.3 (the front feet stand at x = 0.34,
+    so the stance is lifted onto the block)."""
+    s = _stance(model, height=0.46)
+    s["feet_pos"][:, :2, 2] = 0.04
+    s["contact"][:, 0] = False
+    s["forces"][:, 0] = 0.0
+    s["forces"][:, 1:, 2] = model.mass * GRAVITY / 3
+    s["feet_pos"][:, 0, 2] = 0.02
+    check = _check(s, model, step_terrain, anymal)
+    assert check.worst["penetration_height"] == pytest.approx(0.02)
+    assert check.worst["penetration_sdf"] == pytest.approx(0.02, abs=2e-3)
+    assert {"penetration_height", "penetration_sdf"} <= _failed(check)
+
+
+def test_force_outside_the_friction_pyramid(model, flat_terrain, anymal):
+    s = _stance(model)
+    fn = model.mass * GRAVITY / 4
+    s["forces"][3, 2] = [0.6 * fn, 0.0, fn]                   # |f·t1| = 0.6 f_n > μ f_n = 0.5 f_n
+    check = _check(s, model, flat_terrain, anymal)
+    assert check.worst["friction_pyramid"] == pytest.approx(0.1)
+    assert check.worst["friction_cone"] == pytest.approx(0.1)
+    assert "friction_pyramid" in _failed(check)
+    s["forces"][3, 2] = [0.45 * fn, 0.45 * fn, fn]            # inside the pyramid, outside the cone
+    check = _check(s, model, flat_terrain, anymal)
+    assert check.worst["friction_pyramid"] == 0.0
+    assert check.worst["friction_cone"] == pytest.approx(0.45 * np.sqrt(2) - 0.5)
+
+
+def test_normal_force_bounds(model, flat_terrain, anymal):
+    s = _stance(model)
+    s["forces"][2, 0] = [0.0, 0.0, -10.0]                     # pulling on the ground
+    s["forces"][4, 1] = [0.0, 0.0, 1100.0]                    # above f_max = 1000 N
+    check = _check(s, model, flat_terrain, anymal)
+    assert check.worst["normal_force"] == pytest.approx(max(10.0 / (model.mass * GRAVITY / 4), 100.0 / 1100.0))
+    assert "normal_force" in _failed(check)
+
+
+def test_friction_uses_the_terrain_normal_on_a_slope():
+    """On h = 0.2 x, a force μ f_n along t1 ∝ (1, 0, 0.2) on top of f_n along n ∝ (−0.2, 0, 1) sits
+    on the pyramid's face; 0.1 f_n more along t1 violates it by 0.1 relative."""
+    robot = load_robot("anymal")
+    model = robot.centroidal
+    grid = Grid2D(origin=(-1.0, -1.0), resolution=0.02, shape=(101, 101))
+    x, _ = grid.centres()
+    slope = terrain_from_heightmap(0.2 * x, grid, name="slope")
+    s = _stance(model)
+    s["feet_pos"][..., 2] = 0.2 * s["feet_pos"][..., 0]
+    n = np.array([-0.2, 0.0, 1.0]) / np.sqrt(1.04)
+    t1 = np.array([1.0, 0.0, 0.2]) / np.sqrt(1.04)
+    fn = 200.0
+    s["forces"][:] = fn * n + 0.5 * fn * t1
+    assert _check(s, model, slope, robot).worst["friction_pyramid"] < 1e-9
+    s["forces"][:] = fn * n + 0.6 * fn * t1
+    assert _check(s, model, slope, robot).worst["friction_pyramid"] == pytest.approx(0.1, rel=1e-6)
+
+
+def test_swing_foot_with_force(model, flat_terrain, anymal):
+    s = _stance(model)
+    s["contact"][10:, 0] = False
+    s["forces"][10:, 0] = 0.0
+    s["forces"][12, 0] = [0.0, 3.0, 4.0]
+    check = _check(s, model, flat_terrain, anymal)
+    assert check.worst["swing_force"] == pytest.approx(5.0 / (model.mass * GRAVITY / 4))
+    assert "swing_force" in _failed(check)
+
+
+def test_stance_foot_slip_per_contact_phase(model, flat_terrain, anymal):
+    s = _stance(model)
+    s["contact"][8:12, 2] = False                             # leg lh: stance, swing, stance again
+    s["forces"][8:12, 2] = 0.0
+    s["feet_pos"][8:, 2, 0] += 0.05                           # it lands 5 cm further: no slip
+    s["feet_pos"][15:, 2, 0] += 0.01                          # then slides 1 cm in its second stance
+    check = _check(s, model, flat_terrain, anymal)
+    assert check.worst["stance_slip"] == pytest.approx(0.01)
+    assert "stance_slip" in _failed(check)
+
+
+def test_foot_outside_the_box_and_out_of_reach(model, flat_terrain, anymal):
+    s = _stance(model)
+    s["contact"][:, 0] = False
+    s["forces"][:, 0] = 0.0
+    s["forces"][:, 1:, 2] = model.mass * GRAVITY / 3
+    s["feet_pos"][6, 0, 0] += 0.5                             # lf 0.5 m ahead: box 0.15 m, legs 0.61 m
+    check = _check(s, model, flat_terrain, anymal)
+    assert check.worst["range_of_motion"] == pytest.approx(0.5 - model.range_of_motion[0])
+    assert check.worst["leg_reach"] > 0.02
+    assert {"range_of_motion", "leg_reach"} <= _failed(check)
+
+
+def test_legs_matched_to_the_robot_by_name(model, flat_terrain, anymal):
+    """A centroidal model listing the legs in another order, with samples in that order, checks the
+    same: the unreachable foot is found on the robot's lf leg whichever column it is in."""
+    s = _stance(model)
+    s["feet_pos"][6, 0, 0] += 0.5
+    order = [3, 0, 2, 1]
+    shuffled = dataclasses.replace(model, legs=tuple(model.legs[k] for k in order),
+                                   nominal_feet=model.nominal_feet[order].copy())
+    t = {k: (v[:, order] if k in ("feet_pos", "feet_vel", "forces", "contact") else v) for k, v in s.items()}
+    a, b = _check(s, model, flat_terrain, anymal), _check(t, shuffled, flat_terrain, anymal)
+    assert a.worst == pytest.approx(b.worst)
+
+
+def test_as_dict_is_flat_scalars(model, flat_terrain, anymal):
+    check = _check(_stance(model), model, flat_terrain, anymal)
+    d = check.as_dict()
+    assert d["passed"] is True and d["friction_pyramid_passed"] is True
+    assert d["friction_pyramid_tolerance"] == 1e-3 and "friction_cone_passed" not in d
+    assert all(isinstance(v, (float, bool)) for v in d.values())
+
+
+def test_real_flat_trot_passes(anymal):
+    """A real solve (legplan.dyn only produces the input): every pass/fail metric holds, except the
+    range-of-motion box, which `legplan dyn` samples every 0.08 s (swing feet leave it by ~1.3 cm
+    between samples); this test fails once that gap is closed, to be updated."""
+    from legplan.dyn.planner import plan
+    from legplan.dyn.problem import DynParams, DynTask
+    from legplan.dyn.terrain import TerrainModel
+
+    grid = Grid2D(origin=(-1.0, -1.0), resolution=0.02, shape=(101, 151))
+    terrain = terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat")
+    result = plan(DynTask((0, 0, 0), (1, 0, 0), "trot", 4, 2.4), anymal.centroidal, TerrainModel(terrain), DynParams())
+    assert result.success, result.reason
+    assert result.samples["t"].size == 241
+    check = check_trajectory(result.samples, anymal.centroidal, terrain, anymal,
+                             node_times=result.problem.form.knots)
+    assert _failed(check) == {"range_of_motion"}, check.worst
+    assert check.worst["range_of_motion"] < 0.02
