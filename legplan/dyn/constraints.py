@@ -8,9 +8,10 @@ step (`euler.complex_step`, exact to round-off), the rest analytically.
 * `DynamicsBlock` — single-rigid-body Newton-Euler at every dynamics time (6 rows, N and N·m):
   m·p̈ + m·g·e_z − Σ f_i = 0 and I_W ω̇ + ω × I_W ω − Σ (p_i − p) × f_i = 0, I_W = R I_B Rᵀ.
 * `RangeOfMotionBlock` — Rᵀ(p_i − p) − p̄_i, bounded by the range-of-motion box.
-* `TerrainHeightBlock` — z − h(x, y) of foot samples: = 0 for stance nodes, ≥ 0 along swings (ours,
-  between nodes too: TOWR constrains the swing apex only).
-* `ForceBlock` — f·n ∈ [0, f_max] and the friction pyramid ±f·t_k − μ f·n ≤ 0 in stance.
+* `TerrainHeightBlock` — z − h(x, y) of foot samples: = 0 for stance nodes, ≥ 0 along swings against
+  the terrain's column envelope (ours, between nodes too: TOWR constrains the swing apex only).
+* `ForceBlock` — f·n ∈ [0, f_max] and the friction pyramid ±f·t_k − μ f·n ≤ 0 in stance, on the
+  Bézier control points of the force polynomials (so along the whole of them).
 * linear rows (`LinearBlock`): base acceleration continuity at the spline junctions, TOWR's swing
   constraint (apex x, y halfway, apex velocity = step / swing time), the paper's swing-height and
   base-above-feet rows.
@@ -119,18 +120,20 @@ class RangeOfMotionBlock(ResidualBlock):
 
 
 class TerrainHeightBlock(ResidualBlock):
-    """z − h(x, y) of foot positions sampled by `matrix` (rows of the ``feet`` node array)."""
+    """z − h(x, y) of foot positions sampled by `matrix` (rows of the ``feet`` node array); h is the
+    terrain surface, or with `envelope` its upper bound over the column terrain (for swing feet)."""
 
     variables = ("feet",)
 
-    def __init__(self, terrain: TerrainModel, matrix: sp.csr_matrix):
+    def __init__(self, terrain: TerrainModel, matrix: sp.csr_matrix, envelope: bool = False):
         self.terrain = terrain
+        self.height = terrain.envelope if envelope else terrain.height
         self.matrix = sp.csr_matrix(matrix)
         self.n = self.matrix.shape[0]
         self.size = self.n
 
     def _clearance(self, q):
-        return (q[:, 2] - self.terrain.height(q[:, 0], q[:, 1]))[:, None]
+        return (q[:, 2] - self.height(q[:, 0], q[:, 1]))[:, None]
 
     def evaluate(self, values, jacobians):
         q = self.matrix @ _nodes(values[0])
@@ -141,8 +144,9 @@ class TerrainHeightBlock(ResidualBlock):
 
 
 class ForceBlock(ResidualBlock):
-    """Per force sample of one foot: f·n, then ±f·t1 − μ f·n and ±f·t2 − μ f·n (5 rows), with the
-    terrain basis at the foot's stance position (`foot` samples the stance node of each sample)."""
+    """Per force point of one foot (rows of `force`, e.g. Bézier control points): f·n, then ±f·t1 − μ f·n
+    and ±f·t2 − μ f·n (5 rows), with the terrain basis at the foot's stance position (`foot` selects
+    the stance node of each point). All rows are linear in f for a fixed foothold."""
 
     variables = ("feet", "forces")
     ROWS = 5

@@ -88,6 +88,31 @@ class Formulation:
         foot = self.feet[leg]
         return _embed(foot.force.matrix(times, derivative), foot.force_offset, self.force_nodes)
 
+    def force_control_points(self, leg: int) -> tuple[sp.csr_matrix, list[int]]:
+        """Bézier control points of every stance force polynomial of foot `leg` (rows over the whole
+        ``forces`` node array) and the stance node of each row.
+
+        A cubic Hermite piece on [t_a, t_b] is the Bézier curve with control points p_a, p_a + h v_a/3,
+        p_b − h v_b/3, p_b (h = t_b − t_a); by the convex-hull property a linear constraint that holds
+        at these four points holds along the whole piece. Shared end points appear once.
+        """
+        foot = self.feet[leg]
+        rows, cols, vals, stance_of_row = [], [], [], []
+        stance_phases = [p for p in foot.phases if p.stance]
+        for phase, ids, node in zip(stance_phases, foot.force_nodes, foot.stance_nodes):
+            knots = np.linspace(phase.t0, phase.t1, FORCE_POLYNOMIALS + 1)
+            entries = [[(2 * ids[0], 1.0)]]
+            for k in range(FORCE_POLYNOMIALS):
+                h = knots[k + 1] - knots[k]
+                a, b = 2 * ids[k], 2 * ids[k + 1]
+                entries += [[(a, 1.0), (a + 1, h / 3)], [(b, 1.0), (b + 1, -h / 3)], [(b, 1.0)]]
+            for row in entries:
+                for col, val in row:
+                    rows.append(len(stance_of_row)), cols.append(col), vals.append(val)
+                stance_of_row.append(node)
+        m = sp.csr_matrix((vals, (rows, cols)), shape=(len(stance_of_row), 2 * self.force_nodes))
+        return m, stance_of_row
+
     @staticmethod
     def node_selector(nodes: list[int], total: int, derivative: int = 0) -> sp.csr_matrix:
         """(len(nodes) × 2·total) rows picking node values (derivative 0) or node derivatives."""

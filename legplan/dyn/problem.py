@@ -15,7 +15,7 @@ import numpy as np
 from legplan.dyn.constraints import (GRAVITY, DynamicsBlock, ForceBlock, RangeOfMotionBlock, TerrainHeightBlock,
                                      acceleration_continuity, base_above_feet, swing_constraint, swing_height)
 from legplan.dyn.costs import CostWeights, StairEdgeBlock, integral_costs
-from legplan.dyn.formulation import FORCE_POLYNOMIALS, Formulation, Pose
+from legplan.dyn.formulation import Formulation, Pose
 from legplan.dyn.gait import make_gait
 from legplan.dyn.terrain import TerrainModel
 from legplan.solve import VariableBlock
@@ -38,9 +38,11 @@ class DynTask:
 class DynParams:
     """Discretization (TOWR defaults), our between-node sampling, the paper's additions, the solver.
 
-    `swing_samples` points inside each swing polynomial keep the foot above the terrain between
-    nodes (`swing_clearance` m above it); `force_samples` points per force polynomial carry the
-    force bounds and friction pyramid. `towr_swing` adds TOWR's swing constraint (apex x, y halfway
+    Points every `swing_dt` (at most) inside each swing polynomial keep the foot above the terrain
+    between nodes (`swing_clearance` m above its column envelope); `planner.plan` first solves with
+    them every `coarse_swing_dt`. The force bounds and the friction pyramid hold at the
+    Bézier control points of every force polynomial, hence along all of it (the terrain normal is
+    that of the stance foothold, constant over the stance). `towr_swing` adds TOWR's swing constraint (apex x, y halfway
     between the footholds, apex velocity = step / swing time); off by default: it is a regularizer,
     not physics, and with the range-of-motion box it makes the 2-stride trot infeasible (measured:
     with it the solve stalls at an 11 N dynamics violation, as TOWR fails that case; without it, it
@@ -50,9 +52,9 @@ class DynParams:
 
     dt: float = 0.1
     dt_range: float = 0.08
-    swing_samples: int = 6
+    swing_dt: float = 0.01
+    coarse_swing_dt: float = 0.05
     swing_clearance: float = 0.0
-    force_samples: int = 3
     towr_swing: bool = True
     cost_solver: ALParams = ALParams(mu_init=100.0, cost_tolerance=1e-2,
                                      inner=HingedParams(max_iterations=20, tolerance=0.0, function_tolerance=1e-3))
@@ -143,13 +145,13 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
                             scale=1.0 / LENGTH))
         k.append(Constraint(TerrainHeightBlock(terrain, form.node_selector(foot.stance_nodes, form.motion_nodes)),
                             name="stance_on_terrain", scale=1.0 / LENGTH))
-        swing_t = _swing_times(foot, params.swing_samples)
+        swing_t = _swing_times(foot, params.swing_dt)
         if swing_t.size:
-            k.append(Constraint(TerrainHeightBlock(terrain, form.foot_matrix(leg, swing_t)),
+            k.append(Constraint(TerrainHeightBlock(terrain, form.foot_matrix(leg, swing_t), envelope=True),
                                 params.swing_clearance, np.inf, name="swing_above_terrain", scale=1.0 / LENGTH))
-        force_t, stance_node = _force_times(foot, params.force_samples)
-        lower, upper = ForceBlock.bounds(force_t.size, model.max_normal_force)
-        k.append(Constraint(ForceBlock(terrain, model.friction, form.force_matrix(leg, force_t),
+        points, stance_node = form.force_control_points(leg)
+        lower, upper = ForceBlock.bounds(points.shape[0], model.max_normal_force)
+        k.append(Constraint(ForceBlock(terrain, model.friction, points,
                                        form.node_selector(stance_node, form.motion_nodes)),
                             lower, upper, name="force", scale=1.0 / weight))
     if params.swing_height_min is not None and form.footsteps:
@@ -169,24 +171,13 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     return problem
 
 
-def _swing_times(foot, per_polynomial: int) -> np.ndarray:
-    """Times strictly inside each of the two polynomials of every swing."""
-    s = np.arange(1, per_polynomial + 1) / (per_polynomial + 1)
+def _swing_times(foot, dt: float) -> np.ndarray:
+    """Times strictly inside each of the two polynomials of every swing, at most `dt` apart."""
     out = []
     for p in foot.phases:
         if not p.stance:
             half = 0.5 * p.duration
+            count = max(1, int(np.ceil(half / dt)) - 1)
+            s = np.arange(1, count + 1) / (count + 1)
             out += list(p.t0 + half * s) + list(p.t0 + half + half * s)
     return np.array(out)
-
-
-def _force_times(foot, per_polynomial: int) -> tuple[np.ndarray, list[int]]:
-    """Force sample times in every stance (nodes and `per_polynomial` − 1 points between each pair)
-    and the stance node of each sample."""
-    times, nodes = [], []
-    stance_phases = [p for p in foot.phases if p.stance]
-    for phase, node in zip(stance_phases, foot.stance_nodes):
-        t = np.linspace(phase.t0, phase.t1, FORCE_POLYNOMIALS * per_polynomial + 1)
-        times += list(t)
-        nodes += [node] * t.size
-    return np.array(times), nodes

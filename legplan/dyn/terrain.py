@@ -1,7 +1,8 @@
 """The terrain as the centroidal optimizer sees it: height, normal basis and distance to edges.
 
 Height h(x, y) is the bilinear interpolation of map.h5's heightmap layer (cell centres), as TOWR's
-height maps give a height and its gradient at any (x, y). The functions accept complex coordinates
+height maps give a height and its gradient at any (x, y); stance feet stand on it. Swing feet keep
+above `envelope`, a bilinear surface that bounds the column terrain of the map's SDF from above. The functions accept complex coordinates
 (the cell is chosen from the real part, the interpolation is a polynomial), so the constraint blocks
 differentiate them by complex step exactly, including the terrain normal's change with position.
 
@@ -37,6 +38,7 @@ class TerrainModel:
         edge[:, :-1] |= jump_x
         edge[1:, :] |= jump_y
         edge[:-1, :] |= jump_y
+        self.envelope_grid = ndimage.maximum_filter(h, size=3, mode="nearest")
         self.has_edges = bool(edge.any())
         self.edge_distance_grid = (ndimage.distance_transform_edt(~edge) * self.resolution if self.has_edges
                                    else np.full(h.shape, np.inf))
@@ -64,6 +66,13 @@ class TerrainModel:
     def height(self, x, y):
         """h(x, y) for arrays x, y (real or complex)."""
         return self._bilinear(self.height_grid, x, y)[0]
+
+    def envelope(self, x, y):
+        """An upper bound of the column terrain (each cell a flat column, the model of the map's SDF):
+        the bilinear interpolation of the 3 × 3 maximum-filtered heightmap. The four cell centres
+        around a point are neighbours of the cell that contains it, so every interpolated value is at
+        least that cell's height. Swing feet are kept above this surface."""
+        return self._bilinear(self.envelope_grid, x, y)[0]
 
     def height_gradient(self, x, y):
         """(h, ∂h/∂x, ∂h/∂y) at (x, y), real or complex."""

@@ -1,0 +1,64 @@
+"""The planner settings of `legplan dyn plan`: `--costs` (a preset or a costs file) and `--init`.
+
+Presets: ``paper`` — `legplan.dyn.problem.PAPER`, the paper's costs with its swing-height and
+base-clearance constraints; ``none`` — TOWR's formulation alone, `DynParams()`. A costs file is a YAML mapping of `CostWeights` fields (each >= 0,
+`stair_edge_sigma` > 0; missing fields are 0 = off) plus optional `swing_height_min` and
+`base_clearance` (m, >= 0; missing or null = off), e.g.
+
+    base_angular_velocity: 20.0
+    force_rate: 1.0e-4
+    swing_height_min: 0.05
+
+Unknown fields and bad values are one-line errors naming the file and the field.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import asdict, fields
+from pathlib import Path
+
+from legplan.dyn.costs import CostWeights
+from legplan.dyn.init import INITIALIZERS
+from legplan.dyn.problem import PAPER, DynParams
+from legplan.errors import LegplanError
+from legplan.specio import FieldReader, read_yaml_mapping
+
+PRESETS = {"paper": PAPER, "none": DynParams()}
+CONSTRAINT_FIELDS = ("swing_height_min", "base_clearance")
+POSITIVE_WEIGHTS = ("stair_edge_sigma",)
+
+
+def costs_file(costs: str) -> Path | None:
+    """The costs file `--costs` names, or None for a preset."""
+    return None if costs in PRESETS else Path(costs)
+
+
+def dyn_params(costs: str) -> DynParams:
+    """The planner parameters of `--costs` (a preset name or a costs file, see module docstring)."""
+    path = costs_file(costs)
+    if path is None:
+        return PRESETS[costs]
+    if not path.is_file():
+        raise LegplanError(f"--costs: '{costs}' is neither a preset ({', '.join(PRESETS)}) nor a file")
+    data = read_yaml_mapping(path, "costs file")
+    reader = FieldReader(path)
+    weights = [f.name for f in fields(CostWeights)]
+    reader.unknown(data, (*weights, *CONSTRAINT_FIELDS))
+    values = {name: (reader.positive if name in POSITIVE_WEIGHTS else reader.nonnegative)(data[name], name)
+              for name in weights if name in data}
+    limits = {name: None if data.get(name) is None else reader.nonnegative(data[name], name)
+              for name in CONSTRAINT_FIELDS}
+    return DynParams(costs=CostWeights(**values), **limits)
+
+
+def initializer(name: str):
+    """The initializer `--init` names (`legplan.dyn.init.INITIALIZERS`)."""
+    if name not in INITIALIZERS:
+        raise LegplanError(f"--init: unknown initializer '{name}' (known: {', '.join(INITIALIZERS)})")
+    return INITIALIZERS[name]
+
+
+def settings_record(costs: str, init: str, params: DynParams) -> dict:
+    """The JSON-able settings of a run: `--costs` as given, `--init`, and every planner parameter."""
+    return {"costs": os.fspath(costs), "init": init, "dyn": asdict(params)}

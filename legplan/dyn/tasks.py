@@ -1,0 +1,175 @@
+"""The tasks of `legplan dyn plan`: from the command line or a tasks file, each checked before any work.
+
+A tasks file holds one task per row (CSV: a header row; YAML: a list `tasks:` of mappings, or a bare
+list), with the fields
+
+    start_x, start_y, start_yaw, goal_x, goal_y, goal_yaw     base x, y (m) and yaw (rad), required
+    gait, strides, duration                                    optional: walk|trot, >= 1, > 0 s
+
+where the optional fields default to the command's `--gait`, `--strides`, `--duration`. The
+command-line task is the same fields from `--start`, `--goal`, ... (checked as the row of a file
+"command line"). Every rule lives here, for both forms; a failure is a one-line `SpecError` naming
+the file, the row (0-based) and the field:
+
+* numbers finite; `strides` a whole number >= 1; `duration` > 0; `gait` one of `GAITS`; no unknown field;
+* start and goal placeable (`placement_problem`): the base and its nominal feet (the centroidal
+  model's `nominal_feet` rotated by the yaw) inside the heightmap, and not in a wall: the terrain
+  under the base and those feet may span at most the nominal base height (`Centroidal.base_height`,
+  0.42 m for ANYmal). A larger span puts the base or a foot inside a wall or pillar (e.g. the base
+  over a pillar between its feet): no stance there has its feet on the terrain and the base above it.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+from dataclasses import replace
+from pathlib import Path
+
+import numpy as np
+
+from legplan.dyn.gait import GAITS
+from legplan.dyn.problem import DynTask
+from legplan.dyn.terrain import TerrainModel
+from legplan.errors import LegplanError, SpecError
+from legplan.specio import FieldReader
+
+POSE_FIELDS = ("start_x", "start_y", "start_yaw", "goal_x", "goal_y", "goal_yaw")
+OPTIONAL_FIELDS = ("gait", "strides", "duration")
+FIELDS = POSE_FIELDS + OPTIONAL_FIELDS
+COMMAND_LINE = "command line"
+
+
+def task_from_fields(reader: FieldReader, fields: dict, defaults: DynTask = DynTask((0, 0, 0), (0, 0, 0))) -> DynTask:
+    """The `DynTask` of one row of fields (missing optional fields from `defaults`), every field checked."""
+    reader.unknown(fields, FIELDS)
+    start, goal = ([reader.number(reader.get(fields, f"{end}_{axis}", f"{end}_{axis}"), f"{end}_{axis}")
+                    for axis in ("x", "y", "yaw")] for end in ("start", "goal"))
+    gait = reader.choice(reader.get(fields, "gait", "gait", default=defaults.gait), "gait", GAITS)
+    strides = reader.count(reader.get(fields, "strides", "strides", default=defaults.strides), "strides")
+    duration = reader.positive(reader.get(fields, "duration", "duration", default=defaults.duration), "duration")
+    return replace(defaults, start=tuple(start), goal=tuple(goal), gait=gait, strides=strides, duration=duration)
+
+
+def command_line_task(start, goal, gait, strides, duration) -> DynTask:
+    """The task of `--start X Y YAW --goal X Y YAW [--gait] [--strides] [--duration]` (None = default)."""
+    fields = dict(zip(POSE_FIELDS, (*start, *goal)))
+    fields.update({k: v for k, v in zip(OPTIONAL_FIELDS, (gait, strides, duration)) if v is not None})
+    return task_from_fields(FieldReader(COMMAND_LINE), fields)
+
+
+def read_tasks(path: str | os.PathLike, gait=None, strides=None, duration=None) -> list[DynTask]:
+    """The tasks of a CSV or YAML tasks file; `gait`, `strides`, `duration` (None: `DynTask`'s) are
+    the defaults of rows without them."""
+    path = Path(path)
+    given = {k: v for k, v in zip(OPTIONAL_FIELDS, (gait, strides, duration)) if v is not None}
+    defaults = task_from_fields(FieldReader(COMMAND_LINE), {**dict.fromkeys(POSE_FIELDS, 0.0), **given})
+    suffix = path.suffix.lower()
+    if suffix == ".csv":
+        rows = _csv_rows(path)
+    elif suffix in (".yaml", ".yml"):
+        rows = _yaml_rows(path)
+    else:
+        raise SpecError(f"{path}: unknown tasks file format '{suffix}' (expected .csv, .yaml or .yml)")
+    if not rows:
+        raise SpecError(f"{path}: no tasks (expected one row per task with fields {', '.join(POSE_FIELDS)})")
+    return [task_from_fields(FieldReader(path, f"row {i}"), row, defaults) for i, row in enumerate(rows)]
+
+
+def _csv_rows(path: Path) -> list[dict]:
+    try:
+        with path.open(newline="") as handle:
+            lines = [line for line in handle if line.strip() and not line.lstrip().startswith("#")]
+    except UnicodeDecodeError:
+        raise SpecError(f"{path}: not a text CSV file") from None
+    except OSError as exc:
+        raise SpecError(f"{path}: cannot read tasks file ({exc.strerror or exc})") from None
+    table = list(csv.reader(lines))
+    if not table:
+        return []
+    header = [name.strip() for name in table[0]]
+    repeated = sorted({name for name in header if header.count(name) > 1})
+    if repeated:
+        raise SpecError(f"{path}: duplicate column '{repeated[0]}'")
+    rows = []
+    for i, cells in enumerate(table[1:]):
+        if len(cells) != len(header):
+            raise SpecError(f"{path}: row {i}: has {len(cells)} fields, the header has {len(header)}")
+        rows.append({name: _cell(text) for name, text in zip(header, cells) if text.strip()})
+    return rows
+
+
+def _cell(text: str):
+    """A CSV cell as int, float or (stripped) string, so that the fields are checked as typed YAML values."""
+    text = text.strip()
+    for kind in (int, float):
+        try:
+            return kind(text)
+        except ValueError:
+            pass
+    return text
+
+
+def _yaml_rows(path: Path) -> list[dict]:
+    import yaml
+
+    try:
+        data = yaml.safe_load(path.read_text())
+    except UnicodeDecodeError:
+        raise SpecError(f"{path}: not a text YAML file") from None
+    except OSError as exc:
+        raise SpecError(f"{path}: cannot read tasks file ({exc.strerror or exc})") from None
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        raise SpecError(f"{path}: invalid YAML" + (f" at line {mark.line + 1}" if mark else "")) from None
+    if isinstance(data, dict):
+        FieldReader(path).unknown(data, ("tasks",))
+        data = data.get("tasks")
+    if not isinstance(data, list):
+        raise SpecError(f"{path}: field 'tasks' must be a list of mappings, one per task")
+    for i, row in enumerate(data):
+        if not isinstance(row, dict):
+            raise SpecError(f"{path}: row {i}: must be a mapping of {', '.join(FIELDS)}")
+    return data
+
+
+def placement_problem(pose, model, terrain: TerrainModel, map_name: str = "the map") -> str | None:
+    """Why the base pose (x, y, yaw) cannot stand on `terrain` (module docstring's rule), or None."""
+    x, y, yaw = pose
+    rz = np.array([[np.cos(yaw), -np.sin(yaw)], [np.sin(yaw), np.cos(yaw)]])
+    points = np.vstack([[x, y], np.array([x, y]) + model.nominal_feet[:, :2] @ rz.T])
+    names = ("base", *(f"foot {leg}" for leg in model.legs))
+    inside = terrain.contains(points)
+    if not inside.all():
+        lo = terrain.origin
+        hi = terrain.origin + terrain.resolution * (np.array(terrain.shape[::-1]) - 1)
+        k = int(np.flatnonzero(~inside)[0])
+        return (f"puts the {names[k]} at ({points[k, 0]:.3f}, {points[k, 1]:.3f}) off {map_name} "
+                f"(x in [{lo[0]:.3f}, {hi[0]:.3f}], y in [{lo[1]:.3f}, {hi[1]:.3f}] m)")
+    heights = terrain.height(points[:, 0], points[:, 1])
+    span = float(heights.max() - heights.min())
+    if span > model.base_height:
+        high = int(np.argmax(heights))
+        return (f"is in a wall of {map_name}: the terrain under the base and feet spans {span:.3f} m (the "
+                f"{names[high]} at {heights[high]:.3f} m), more than the nominal base height {model.base_height:.3f} m")
+    return None
+
+
+def check_placements(tasks: list[DynTask], model, terrain: TerrainModel, source: str | os.PathLike | None,
+                     map_path: str | os.PathLike) -> None:
+    """`SpecError` for the first task whose start or goal fails `placement_problem` on map `map_path`;
+    `source` is the tasks file, or None for the command line."""
+    for i, task in enumerate(tasks):
+        for end, pose in (("start", task.start), ("goal", task.goal)):
+            problem = placement_problem(pose, model, terrain, f"the map {map_path}")
+            if problem is not None:
+                where = f"{source}: row {i}" if source is not None else COMMAND_LINE
+                raise SpecError(f"{where}: field '{end}' ({', '.join(f'{v:g}' for v in pose)}) {problem}")
+
+
+def centroidal_model(robot):
+    """The `centroidal:` model of a loaded robot, or a one-line error naming its robot.yaml."""
+    if robot.centroidal is None:
+        raise LegplanError(f"{robot.yaml_path}: field 'centroidal' is missing (the single-rigid-body model "
+                           "that `legplan dyn` plans with, see legplan.robots.centroidal)")
+    return robot.centroidal
