@@ -1,10 +1,12 @@
-"""Reading YAML input files (map specs, robot specs, pipeline files) with one-line errors."""
+"""Reading input files (map specs, robot specs, pipeline files, task tables) with one-line errors:
+`read_yaml_mapping` for a YAML file, `FieldReader` for typed fields that name the file and field."""
 
 from __future__ import annotations
 
 import os
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 from legplan.errors import SpecError
@@ -26,3 +28,76 @@ def read_yaml_mapping(path: str | os.PathLike, what: str = "spec") -> dict:
     if not isinstance(data, dict):
         raise SpecError(f"{path}: {what} must be a YAML mapping")
     return data
+
+
+class FieldReader:
+    """Typed access to the fields of an input file (a YAML mapping, a table row); every failure is a
+    one-line `SpecError` naming the file, the entry (`where`, e.g. "row 3", optional) and the field.
+
+        reader = FieldReader(path)
+        mass = reader.positive(reader.get(data, "mass", "centroidal.mass"), "centroidal.mass")
+    """
+
+    def __init__(self, path: str | os.PathLike, where: str = ""):
+        self.path = path
+        self.where = where
+
+    def fail(self, field: str, message: str):
+        where = f" {self.where}:" if self.where else ""
+        raise SpecError(f"{self.path}:{where} field '{field}' {message}")
+
+    def get(self, mapping: dict, key: str, field: str, kind=None, default=...):
+        if not isinstance(mapping, dict):
+            self.fail(field.rsplit(".", 1)[0] if "." in field else field, "must be a mapping")
+        if key not in mapping:
+            if default is ...:
+                self.fail(field, "is missing")
+            return default
+        value = mapping[key]
+        if kind is not None and not isinstance(value, kind):
+            self.fail(field, f"must be {_kind_name(kind)}, got {value!r}")
+        return value
+
+    def number(self, value, field: str) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+            self.fail(field, f"must be a finite number, got {value!r}")
+        return float(value)
+
+    def vector(self, value, field: str, length: int | None = None) -> np.ndarray:
+        if not isinstance(value, (list, tuple)) or (length is not None and len(value) != length):
+            self.fail(field, f"must be a list of {length or 'some'} numbers, got {value!r}")
+        return np.array([self.number(v, f"{field}[{i}]") for i, v in enumerate(value)])
+
+    def positive(self, value, field: str) -> float:
+        number = self.number(value, field)
+        if number <= 0:
+            self.fail(field, f"must be > 0, got {value!r}")
+        return number
+
+    def nonnegative(self, value, field: str) -> float:
+        number = self.number(value, field)
+        if number < 0:
+            self.fail(field, f"must be >= 0, got {value!r}")
+        return number
+
+    def count(self, value, field: str) -> int:
+        """A whole number >= 1."""
+        if isinstance(value, bool) or not isinstance(value, int) or value < 1:
+            self.fail(field, f"must be a whole number >= 1, got {value!r}")
+        return int(value)
+
+    def choice(self, value, field: str, choices) -> str:
+        if value not in choices:
+            self.fail(field, f"must be one of {', '.join(choices)}, got {value!r}")
+        return value
+
+    def unknown(self, mapping: dict, known, prefix: str = "") -> None:
+        """Fail on the first key of `mapping` that is not in `known`."""
+        extra = sorted(str(key) for key in set(mapping) - set(known))
+        if extra:
+            self.fail(f"{prefix}{extra[0]}", f"is unknown (expected {', '.join(known)})")
+
+
+def _kind_name(kind) -> str:
+    names = {str: "a string", list: "a list", dict: "a mapping", bool: "true or false"}
+    return names.get(kind, getattr(kind, "__name__", str(kind)))

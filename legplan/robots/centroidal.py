@@ -24,12 +24,10 @@ inequality. Every error is a one-line `SpecError` naming the file and the field.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
-if TYPE_CHECKING:
-    from legplan.robots.spec import _Reader
+from legplan.specio import FieldReader
 
 INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
 SECTION_KEYS = ("mass", "inertia", "nominal_feet", "range_of_motion", "max_normal_force", "friction")
@@ -62,7 +60,7 @@ class Centroidal:
         return float(-self.nominal_feet[:, 2].mean())
 
 
-def parse_centroidal(reader: _Reader, data: dict, legs: tuple[str, ...], urdf_mass: float) -> Centroidal | None:
+def parse_centroidal(reader: FieldReader, data: dict, legs: tuple[str, ...], urdf_mass: float) -> Centroidal | None:
     """The validated `centroidal` section of the robot.yaml mapping `data`; None when absent."""
     section = reader.get(data, "centroidal", "centroidal", dict, None)
     if section is None:
@@ -85,7 +83,7 @@ def parse_centroidal(reader: _Reader, data: dict, legs: tuple[str, ...], urdf_ma
         friction=reader.positive(reader.get(section, "friction", "centroidal.friction"), "centroidal.friction"))
 
 
-def _inertia(reader: _Reader, section: dict) -> np.ndarray:
+def _inertia(reader: FieldReader, section: dict) -> np.ndarray:
     values = reader.get(section, "inertia", "centroidal.inertia", dict)
     unknown = sorted(set(values) - set(INERTIA_KEYS))
     if unknown:
@@ -103,7 +101,7 @@ def _inertia(reader: _Reader, section: dict) -> np.ndarray:
     return inertia
 
 
-def _nominal_feet(reader: _Reader, section: dict, legs: tuple[str, ...]) -> np.ndarray:
+def _nominal_feet(reader: FieldReader, section: dict, legs: tuple[str, ...]) -> np.ndarray:
     feet = reader.get(section, "nominal_feet", "centroidal.nominal_feet", dict)
     unknown = sorted(str(name) for name in set(feet) - set(legs))
     if unknown:

@@ -36,9 +36,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
-from legplan.errors import SpecError
 from legplan.robots.centroidal import Centroidal, parse_centroidal
-from legplan.specio import read_yaml_mapping
+from legplan.specio import FieldReader, read_yaml_mapping
 
 FOOT_HEIGHT_TOLERANCE = 1e-3  # m, |z| of every foot in the nominal stance
 RADIUS_TOLERANCE = 1e-3       # m, stated navigation radii vs the footprint
@@ -122,50 +121,7 @@ class RobotSpec:
     centroidal: Centroidal | None
 
 
-class _Reader:
-    """Typed access to the yaml mapping; every failure names the file and the field."""
-
-    def __init__(self, path: Path):
-        self.path = path
-
-    def fail(self, field: str, message: str):
-        raise SpecError(f"{self.path}: field '{field}' {message}")
-
-    def get(self, mapping: dict, key: str, field: str, kind=None, default=...):
-        if not isinstance(mapping, dict):
-            self.fail(field.rsplit(".", 1)[0] if "." in field else field, "must be a mapping")
-        if key not in mapping:
-            if default is ...:
-                self.fail(field, "is missing")
-            return default
-        value = mapping[key]
-        if kind is not None and not isinstance(value, kind):
-            self.fail(field, f"must be {_kind_name(kind)}, got {value!r}")
-        return value
-
-    def number(self, value, field: str) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
-            self.fail(field, f"must be a finite number, got {value!r}")
-        return float(value)
-
-    def vector(self, value, field: str, length: int | None = None) -> np.ndarray:
-        if not isinstance(value, (list, tuple)) or (length is not None and len(value) != length):
-            self.fail(field, f"must be a list of {length or 'some'} numbers, got {value!r}")
-        return np.array([self.number(v, f"{field}[{i}]") for i, v in enumerate(value)])
-
-    def positive(self, value, field: str) -> float:
-        number = self.number(value, field)
-        if number <= 0:
-            self.fail(field, f"must be > 0, got {value!r}")
-        return number
-
-
-def _kind_name(kind) -> str:
-    names = {str: "a string", list: "a list", dict: "a mapping", bool: "true or false"}
-    return names.get(kind, getattr(kind, "__name__", str(kind)))
-
-
-def _build_model(reader: _Reader, data: dict) -> tuple[Path, pin.Model]:
+def _build_model(reader: FieldReader, data: dict) -> tuple[Path, pin.Model]:
     urdf = reader.path.parent / reader.get(data, "urdf", "urdf", str, "robot.urdf")
     if not urdf.is_file():
         reader.fail("urdf", f"names a missing file {urdf}")
@@ -180,7 +136,7 @@ def _build_model(reader: _Reader, data: dict) -> tuple[Path, pin.Model]:
     return urdf, model
 
 
-def _parse_legs(reader: _Reader, data: dict, model: pin.Model) -> tuple[Leg, ...]:
+def _parse_legs(reader: FieldReader, data: dict, model: pin.Model) -> tuple[Leg, ...]:
     entries = reader.get(data, "legs", "legs", list)
     if not entries:
         reader.fail("legs", "must list at least one leg")
@@ -247,7 +203,7 @@ def _expand(key: str, legs) -> list[str]:
     return [key.replace("{leg}", leg.name) for leg in legs]
 
 
-def _parse_limits(reader: _Reader, data: dict, model: pin.Model, legs):
+def _parse_limits(reader: FieldReader, data: dict, model: pin.Model, legs):
     lower = np.array(model.lowerPositionLimit[7:], float)
     upper = np.array(model.upperPositionLimit[7:], float)
     limits = reader.get(data, "joint_limits", "joint_limits", dict, {})
@@ -268,7 +224,7 @@ def _parse_limits(reader: _Reader, data: dict, model: pin.Model, legs):
     return lower, upper
 
 
-def _parse_spheres(reader: _Reader, data: dict, model: pin.Model, legs) -> SphereSet:
+def _parse_spheres(reader: FieldReader, data: dict, model: pin.Model, legs) -> SphereSet:
     entries = reader.get(data, "collision_spheres", "collision_spheres", list)
     if not entries:
         reader.fail("collision_spheres", "must list at least one sphere")
@@ -309,7 +265,7 @@ def _frozen(array: np.ndarray) -> np.ndarray:
     return array
 
 
-def _parse_nominal(reader: _Reader, data: dict, model: pin.Model, legs, lower, upper) -> np.ndarray:
+def _parse_nominal(reader: FieldReader, data: dict, model: pin.Model, legs, lower, upper) -> np.ndarray:
     nominal = reader.get(data, "nominal", "nominal", dict)
     height = reader.number(reader.get(nominal, "base_height", "nominal.base_height"),
                            "nominal.base_height")
@@ -339,7 +295,7 @@ def _parse_nominal(reader: _Reader, data: dict, model: pin.Model, legs, lower, u
     return _frozen(q)
 
 
-def _parse_navigation(reader: _Reader, data: dict) -> Navigation | None:
+def _parse_navigation(reader: FieldReader, data: dict) -> Navigation | None:
     nav = reader.get(data, "navigation", "navigation", dict, None)
     if nav is None:
         return None
@@ -371,7 +327,7 @@ def _parse_navigation(reader: _Reader, data: dict) -> Navigation | None:
 def read_spec(yaml_path: str | Path) -> RobotSpec:
     """Read and validate `robot.yaml` (and the URDF it names); raises `SpecError` on any problem."""
     path = Path(yaml_path)
-    reader = _Reader(path)
+    reader = FieldReader(path)
     data = read_yaml_mapping(path, "robot spec")
     name = reader.get(data, "name", "name", str, path.parent.name)
     description = reader.get(data, "description", "description", str, "")
