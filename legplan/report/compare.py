@@ -6,8 +6,9 @@ item per metric) and every item array whose shape is the same in both (max |diff
 trajectories and control points; arrays whose shapes differ are listed but not judged).
 
 Tolerances: a value is within tolerance when |b - a| <= abs + rel * |a|. Defaults: times (units
-"s" or a name containing "time" or "seconds") abs 0.05 s + rel 50%; everything else (violations,
-counts, trajectories) abs 1e-6 + rel 1e-6. Overrides `{pattern: "50%" | "0.01"}`: a glob matched
+"s" of a summary row or scalar item dataset, or a name containing "time" or "seconds") abs 0.05 s
++ rel 50%; everything else (violations, counts, trajectories, arrays in seconds such as sample
+times) abs 1e-6 + rel 1e-6. Overrides `{pattern: "50%" | "0.01"}`: a glob matched
 against the metric name (summary row name, or item attr/dataset name); "N%" is relative, a plain
 number absolute; the last matching override wins. NaN equals NaN.
 """
@@ -144,9 +145,9 @@ def _item_rows(items_a: dict, items_b: dict, overrides) -> list[MetricDiff]:
         rows.append(MetricDiff(f"{name} success", str(a["success"]), str(b["success"]), False,
                                note=b["reason"] or a["reason"]))
     keys = sorted({key for name in common for key in items_a[name]
-                   if key not in ("success", "reason", "arrays") and key in items_b[name]})
+                   if key not in ("success", "reason", "arrays", "units") and key in items_b[name]})
     for key in keys:
-        tolerance = tolerance_for(key, "", overrides)
+        tolerance = tolerance_for(key, _units(items_a, common, key), overrides)
         pairs = [(name, items_a[name][key], items_b[name][key]) for name in common]
         bad = [(name, a, b) for name, a, b in pairs if not tolerance.holds(a, b)]
         name, a, b = bad[0] if bad else max(pairs, key=lambda p: _gap(p[1], p[2]))
@@ -167,6 +168,11 @@ def _item_rows(items_a: dict, items_b: dict, overrides) -> list[MetricDiff]:
             note += f"; {len(same) - len(shaped)} with different shapes not compared"
         rows.append(MetricDiff(f"item {key} (array)", 0.0, worst, bool(within), str(tolerance), note=note))
     return rows
+
+
+def _units(items: dict, names: list[str], key: str) -> str:
+    """The `units` of dataset `key` in the first of `names` that has it ("" for attributes)."""
+    return next((items[name]["units"][key] for name in names if key in items[name]["units"]), "")
 
 
 def _gap(a: float, b: float) -> float:

@@ -12,7 +12,8 @@ import numpy as np
 def read_items(handle: h5py.File) -> dict[str, dict]:
     """`{group path: {"success", "reason", numeric attrs..., "dense/foot_slip": scalar datasets...}}`.
 
-    Array datasets of an item go to `item["arrays"]` as `{relative name: ndarray}`.
+    Array datasets of an item go to `item["arrays"]` as `{relative name: ndarray}`; the `units`
+    attribute of every dataset to `item["units"]` as `{relative name: units}`.
     """
     items: dict[str, dict] = {}
 
@@ -26,13 +27,14 @@ def read_items(handle: h5py.File) -> dict[str, dict]:
 
 def _item(group: h5py.Group) -> dict:
     item = {"success": bool(group.attrs["success"]), "reason": _text(group.attrs.get("reason", "")),
-            "arrays": {}}
+            "arrays": {}, "units": {}}
     for key, value in group.attrs.items():
         if key not in ("success", "reason") and _is_number(value):
             item[key] = float(value)
 
     def visit(name, obj):
         if isinstance(obj, h5py.Dataset) and obj.dtype.kind in "fiub":
+            item["units"][name] = _text(obj.attrs.get("units", ""))
             if obj.shape == ():
                 item[name] = float(obj[()])
             else:

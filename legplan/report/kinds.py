@@ -121,3 +121,23 @@ def nav_profiles(path: Path, png: Path) -> str | None:
         axes[1].set_title("Simulated path")
     fig.savefig(png, dpi=100)
     return f"Speed profiles of {len(tracks)} trajectories" + (" and the simulated path." if simulated is not None else ".")
+
+
+@figure("traj", "tasks")
+def traj_tasks(path: Path, png: Path) -> str | None:
+    return items_figure(path, png, "solve_seconds", "max_violation", "constraint units", "task")
+
+
+@figure("traj", "trajectory")
+def traj_trajectory(path: Path, png: Path) -> str | None:
+    """The first task with a solution: base, feet and forces over time, by `legplan dyn show`'s code."""
+    from legplan.dyn.artefact import read_tasks
+    from legplan.dyn.figures import plot_trajectory, shown_task
+
+    _, tasks = read_tasks(path)
+    drawn = next((index for index, task in enumerate(tasks) if "samples" in task), None)
+    if drawn is None:
+        return None
+    plot_trajectory(png, *shown_task(path, drawn))
+    return (f"Task {drawn} of {len(tasks)}: base, foot heights and forces over time with the optimization "
+            "nodes (the TOWR-costs paper's Fig. 3).")

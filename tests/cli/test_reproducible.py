@@ -95,3 +95,13 @@ def test_nav_search_refine_and_baseline_twice(tmp_path):
             "-o", tmp_path / f"ompl_{name}.h5")
     for kind in ("nav", "teb", "ompl"):
         assert_same(tmp_path / f"{kind}_a.h5", tmp_path / f"{kind}_b.h5")
+
+
+def test_dyn_plan_twice(tmp_path):
+    run("map", "build", MAPS / "flat.yaml", "-o", tmp_path / "flat.h5")
+    tasks = tmp_path / "tasks.csv"
+    tasks.write_text("start_x,start_y,start_yaw,goal_x,goal_y,goal_yaw\n0,0,0,1,0,0\n0,0,0.2,0.8,0.2,0\n")
+    for name, jobs in (("a", 1), ("b", 2)):  # in-process, then in a pool of two worker processes
+        run("dyn", "plan", tmp_path / "flat.h5", "--tasks", tasks, "--gait", "trot", "--strides", 4,
+            "--duration", 2.4, "--jobs", jobs, "-o", tmp_path / f"traj_{name}.h5")
+    assert_same(tmp_path / "traj_a.h5", tmp_path / "traj_b.h5")

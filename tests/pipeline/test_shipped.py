@@ -11,8 +11,8 @@ from legplan.pipeline import load_pipeline, plan_run
 PIPELINES = sorted((Path(__file__).resolve().parents[2] / "pipelines").glob("*.yaml"))
 
 
-def test_the_three_pipelines_are_shipped():
-    assert {p.stem for p in PIPELINES} >= {"gap_crossing", "nav_30m", "compare_baselines"}
+def test_the_pipelines_are_shipped():
+    assert {p.stem for p in PIPELINES} >= {"gap_crossing", "nav_30m", "compare_baselines", "pallet_climb"}
 
 
 @pytest.mark.parametrize("path", PIPELINES, ids=[p.stem for p in PIPELINES])

@@ -1,0 +1,128 @@
+"""`legplan dyn plan|show`: centroidal trajectory optimization (TOWR formulation + the paper's costs) → traj.h5.
+
+    legplan dyn plan map.h5 --robot anymal --gait walk --strides 4 --duration 5.5 \\
+        --start -1.0 0.3 0.3 --goal 0.6 0 0 --costs paper -o traj.h5
+    legplan dyn plan map.h5 --tasks tasks.csv --gait trot -o traj.h5 --jobs 2
+    legplan dyn show traj.h5 -o fig3.png                     # base, feet, forces (the paper's Fig. 3)
+    legplan dyn show with_costs.h5 without_costs.h5 -o fig4.png   # forces, ω with vs without costs (Fig. 4)
+"""
+
+from __future__ import annotations
+
+import os
+
+import click
+
+from legplan.cli.console import status, stderr_line
+from legplan.cli.main import EXIT_ITEMS_FAILED
+from legplan.cli.options import batch_opts, input_artefact, output_opt, overwrite_opt, verbosity_opts
+from legplan.errors import LegplanError
+
+POSE = (float, float, float)
+
+
+@click.group("dyn")
+@verbosity_opts
+def command():
+    """Centroidal trajectory optimization of dynamic motions (kind "traj")."""
+
+
+@command.command("plan")
+@click.argument("map_path", metavar="MAP", type=input_artefact)
+@click.option("--robot", default="anymal", show_default=True, help="Robot with a `centroidal:` section.")
+@click.option("--gait", default=None, help="walk or trot [default: trot]; a tasks file's default.")
+@click.option("--strides", type=int, default=None, help="Strides, >= 1 [default: 4]; a tasks file's default.")
+@click.option("--duration", type=float, default=None, help="Total duration (s) [default: 2.4]; a tasks file's default.")
+@click.option("--start", type=POSE, default=None, metavar="X Y YAW", help="Start base pose (m, m, rad).")
+@click.option("--goal", type=POSE, default=None, metavar="X Y YAW", help="Goal base pose (m, m, rad).")
+@click.option("--tasks", "tasks_path", type=click.Path(dir_okay=False), default=None,
+              help="CSV or YAML tasks file, one task per row: start_x,start_y,start_yaw,goal_x,goal_y,goal_yaw "
+                   "[,gait,strides,duration] (instead of --start/--goal).")
+@click.option("--costs", default="none", show_default=True, metavar="paper|none|FILE.yaml",
+              help="The paper's costs and constraints, none (TOWR's formulation), or a costs file.")
+@click.option("--optimize-phases", is_flag=True, help="Optimize the phase durations (not supported yet).")
+@click.option("--init", "init", default="heuristic", show_default=True, help="Initializer of the optimization.")
+@output_opt
+@overwrite_opt
+@batch_opts
+@verbosity_opts
+@click.pass_context
+def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_path, costs, optimize_phases,
+             init, output, overwrite, jobs, scheduler, resume):
+    """Plan every task on MAP; write traj.h5, each task with its solver outcome and independent check.
+
+    Exit 1 when any task failed (its reason is recorded)."""
+    from legplan.artefacts import check_output
+    from legplan.batch import Task
+    from legplan.cli.batching import run_stage
+    from legplan.dyn.artefact import write_traj
+    from legplan.dyn.items import DynWorker, failed_item, plan_item, task_items
+    from legplan.dyn.settings import costs_file, dyn_params, initializer, settings_record
+    from legplan.dyn.tasks import check_placements, command_line_task, centroidal_model, read_tasks
+    from legplan.dyn.terrain import TerrainModel
+    from legplan.robots import load_robot
+    from legplan.terrain import load_map
+
+    check_output(output, overwrite)
+    if optimize_phases:
+        raise LegplanError("--optimize-phases: optimizing the phase durations is not supported yet "
+                           "(the centroidal core plans the gait's fixed timings)")
+    if tasks_path is not None and (start is not None or goal is not None):
+        raise LegplanError("dyn plan: give either --tasks or --start/--goal, not both")
+    if tasks_path is None and (start is None or goal is None):
+        raise LegplanError("dyn plan: --start and --goal are required (or --tasks FILE)")
+    params = dyn_params(costs)
+    initializer(init)
+    loaded = load_robot(robot)
+    model = centroidal_model(loaded)
+    tasks = (read_tasks(tasks_path, gait, strides, duration) if tasks_path is not None
+             else [command_line_task(start, goal, gait, strides, duration)])
+    check_placements(tasks, model, TerrainModel(load_map(map_path)), tasks_path, map_path)
+
+    options = {"robot": robot, "gait": gait, "strides": strides, "duration": duration, "tasks": tasks_path,
+               "start": start, "goal": goal}
+    settings = {**settings_record(costs, init, params), **{k: v for k, v in options.items() if v is not None}}
+    inputs = [path for path in (map_path, tasks_path, costs_file(costs)) if path is not None]
+    task = Task(plan_item, failed_item, DynWorker, (robot, os.path.abspath(map_path), params, init))
+    records, _ = run_stage(task, task_items(tasks), "dyn plan", output=output,
+                           identity={"stage": "dyn plan", "params": settings}, inputs=inputs, jobs=jobs,
+                           scheduler=scheduler, resume=resume, overwrite=overwrite,
+                           publish=lambda records: write_traj(output, records, settings, loaded.name, model.legs,
+                                                              inputs=inputs, overwrite=overwrite))
+    failed = [r for r in records if not r["success"]]
+    status(f"wrote {output}: {len(records) - len(failed)}/{len(records)} tasks planned")
+    for r in records:
+        if r["success"]:
+            check = r["check"]
+            missed = [name for name, ok in check["passed"].items() if not ok]
+            status(f"  task {r['index']}: {r['iterations']} iterations, {r['solve_seconds']:.2f} s, "
+                   f"max violation {r['max_violation']:.1e}, {r['variables']} variables (paper's N "
+                   f"{r['paper_variables']}); check " + (f"missed {', '.join(missed)}" if missed else "passed"))
+    for r in failed:
+        stderr_line(f"  task {r['index']}: failed: {r['reason']}")
+    if failed:
+        ctx.exit(EXIT_ITEMS_FAILED)
+
+
+@command.command("show")
+@click.argument("paths", metavar="TRAJ [TRAJ2]", nargs=-1, required=True, type=input_artefact)
+@click.option("--task", "task_index", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Which task of each artefact to draw.")
+@output_opt
+@overwrite_opt
+@verbosity_opts
+def show_cmd(paths, task_index, output, overwrite):
+    """PNG of TRAJ: base, feet and forces over time (Fig. 3); of two runs, forces and base angular
+    velocity of TRAJ against TRAJ2, e.g. with vs without costs (Fig. 4 (a)-(d))."""
+    from legplan.artefacts import check_output
+    from legplan.dyn.figures import plot_comparison, plot_trajectory, shown_task
+
+    check_output(output, overwrite)
+    if len(paths) > 2:
+        raise LegplanError(f"dyn show: give one or two traj artefacts, got {len(paths)}")
+    runs = [shown_task(path, task_index) for path in paths]
+    if len(runs) == 1:
+        plot_trajectory(output, *runs[0])
+    else:
+        plot_comparison(output, runs[0], runs[1])
+    status(f"wrote {output}")
