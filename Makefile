@@ -16,7 +16,8 @@ run: install
 	$(VENV)/bin/legplan pipeline run pipelines/gap_crossing.yaml --out $(OUT)/gap_crossing
 	$(VENV)/bin/legplan pipeline run pipelines/nav_30m.yaml --out $(OUT)/nav_30m
 	$(VENV)/bin/legplan pipeline run pipelines/compare_baselines.yaml --out $(OUT)/compare_baselines
-	@echo "reports: $(OUT)/{gap_crossing,nav_30m,compare_baselines}/report/index.html"
+	$(VENV)/bin/legplan pipeline run pipelines/pallet_climb.yaml --out $(OUT)/pallet_climb
+	@echo "reports: $(OUT)/{gap_crossing,nav_30m,compare_baselines,pallet_climb}/report/index.html"
 
 test: install test-system-packages
 	$(PY) -m pytest -q
