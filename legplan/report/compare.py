@@ -148,7 +148,8 @@ def _item_rows(items_a: dict, items_b: dict, overrides) -> list[MetricDiff]:
                    if key not in ("success", "reason", "arrays", "units") and key in items_b[name]})
     for key in keys:
         tolerance = tolerance_for(key, _units(items_a, common, key), overrides)
-        pairs = [(name, items_a[name][key], items_b[name][key]) for name in common]
+        pairs = [(name, items_a[name][key], items_b[name][key]) for name in common
+                 if key in items_a[name] and key in items_b[name]]
         bad = [(name, a, b) for name, a, b in pairs if not tolerance.holds(a, b)]
         name, a, b = bad[0] if bad else max(pairs, key=lambda p: _gap(p[1], p[2]))
         note = f"{len(bad)} of {len(pairs)} items differ, first {name}" if bad else f"largest at {name}"

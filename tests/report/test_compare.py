@@ -63,3 +63,22 @@ def test_parse_tolerances():
         with pytest.raises(LegplanError, match="--tol"):
             parse_tolerances([bad])
     assert Tolerance(0, 0).holds(float("nan"), float("nan")) and not Tolerance(1, 1).holds(1.0, float("nan"))
+
+
+def test_item_datasets_in_seconds_are_times_and_metrics_of_some_items_only(tmp_path):
+    from legplan.artefacts import write_artefact, write_dataset
+
+    def write(path, total, extra):
+        with write_artefact(path, "traj") as f:
+            for i in range(2):
+                g = f.create_group(f"tasks/{i:04d}")
+                g.attrs["success"] = True
+                write_dataset(g, "timings/total", total, units="s")
+                if i == 0:
+                    write_dataset(g, "violations/swing", extra)  # a constraint only the first task has
+        return path
+
+    result = compare_artefacts(write(tmp_path / "a.h5", 0.10, 1e-4), write(tmp_path / "b.h5", 0.12, 1e-4))
+    assert result.ok
+    assert rows(result)["item timings/total"].tolerance == "0.05 + 50%"
+    assert rows(result)["item violations/swing"].note == "largest at tasks/0000"
