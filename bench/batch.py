@@ -41,6 +41,14 @@ DATASET_TASKS = 2000 * 3 * 2 * 4  # TOWR-costs paper Sec. IV-B: tasks × environ
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
+def timed_plan(worker, item) -> dict:
+    """`plan_item` plus the item's CPU seconds in its worker (`cpu`), to tell computing from waiting."""
+    clock = time.process_time()
+    record = worker.plan(*item)
+    record["cpu"] = time.process_time() - clock
+    return record
+
+
 def nothing(context, item) -> dict:
     """The empty task of the overhead measurement."""
     return {"success": True}
@@ -79,7 +87,8 @@ def measured(run) -> dict:
     cores = os.cpu_count()
     return {"wall": wall, "cpu": cpu_seconds() - cpu0, "busy_cores": (busy1 - busy0) / max(total1 - total0, 1) * cores,
             "load_before": load0, "load_after": load_average(),
-            "item_seconds": sum(float(r.get("seconds", 0.0)) for r in records), "records": records}
+            "item_seconds": sum(float(r.get("seconds", 0.0)) for r in records),
+            "item_cpu": sum(float(r.get("cpu", 0.0)) for r in records)}
 
 
 def start_dask_cluster(workers: int) -> tuple[str, list[subprocess.Popen]]:
@@ -109,7 +118,7 @@ def _old_init(robot, map_path, params):
 
 
 def _old_plan(item):
-    return _OLD_WORKER["worker"].plan(*item)
+    return timed_plan(_OLD_WORKER["worker"], item)
 
 
 def old_pool(items, robot, map_path, params, jobs: int) -> list[dict]:
@@ -132,7 +141,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
 
     from legplan.batch import Backend, Task, run_batch
-    from legplan.stepplan.batch import StepWorker, failed_item, plan_item, step_items
+    from legplan.stepplan.batch import StepWorker, failed_item, step_items
     from legplan.stepplan.params import StepPlanParams
     from legplan.stepseq.sequence import read_steps
 
@@ -145,7 +154,7 @@ def main(argv=None) -> int:
         seq = merge_swings(read_steps(steps_path))
         items = step_items(seq, range(min(args.swings, len(seq) - 1)))
         params = StepPlanParams()
-        step_task = Task(plan_item, failed_item, StepWorker, (seq.robot, str(map_path), params))
+        step_task = Task(timed_plan, failed_item, StepWorker, (seq.robot, str(map_path), params))
         empty_task = Task(nothing, nothing_failed)
         address, cluster = start_dask_cluster(2)
         backends = {"--jobs 1 (in-process)": Backend(1), "--jobs 2 (process pool)": Backend(2),
@@ -215,9 +224,10 @@ def summarize(runs, overhead, count, args, commit, load_start) -> dict:
                       "speedup_vs_jobs1": base / wall,
                       "median_cpu_s": statistics.median(m["cpu"] for m in measurements),
                       "median_item_seconds_sum": statistics.median(m["item_seconds"] for m in measurements),
+                      "median_item_cpu_sum": statistics.median(m["item_cpu"] for m in measurements),
                       "median_busy_cores": statistics.median(m["busy_cores"] for m in measurements),
                       "load": [[m["load_before"], m["load_after"]] for m in measurements]}
-    per_item = rows["--jobs 1 (in-process)"]["median_item_seconds_sum"] / count
+    per_item = rows["--jobs 1 (in-process)"]["median_item_cpu_sum"] / count  # compute time on a core of its own
     dask_ms = overhead["dask LocalCluster, 2 workers"]["ms_per_task_slot"]
     projection = {workers: DATASET_TASKS * (per_item + dask_ms / 1e3) / workers / 3600 for workers in (1, 16, 128)}
     return {"date": datetime.date.today().isoformat(), "machine": machine(), "commit": commit, "items": count,
@@ -235,12 +245,13 @@ def markdown(result) -> str:
              f"{result['items']} whole swings of the gap-crossing sequence (scarab2, `StepPlanParams()` defaults), "
              f"through `run_batch` (work file included); median of {result['repeats']} runs, backends interleaved. "
              "'busy cores': the whole machine's during the run (/proc/stat), ours and other users'; "
-             "'CPU s': our processes only. 'Σ item s': planning time measured inside the workers.\n",
-             "| backend | median wall [s] | items/s | vs --jobs 1 | CPU s | Σ item s | busy cores | runs [s] |",
-             "|---|---|---|---|---|---|---|---|"]
+             "'CPU s': our processes (start-up included). 'Σ item s' / 'Σ item CPU s': wall / CPU time of "
+             "the items measured inside the workers (wall ≫ CPU: the item waited for a core).\n",
+             "| backend | median wall [s] | items/s | vs --jobs 1 | CPU s | Σ item s | Σ item CPU s | busy cores | runs [s] |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for name, row in rows.items():
         lines.append(f"| {name} | {row['median_wall_s']:.1f} | {row['items_per_s']:.2f} | {row['speedup_vs_jobs1']:.2f}× "
-                     f"| {row['median_cpu_s']:.1f} | {row['median_item_seconds_sum']:.1f} | "
+                     f"| {row['median_cpu_s']:.1f} | {row['median_item_seconds_sum']:.1f} | {row['median_item_cpu_sum']:.1f} | "
                      f"{row['median_busy_cores']:.2f} | {', '.join(f'{w:.1f}' for w in row['walls_s'])} |")
     overhead = "; ".join(f"{name} {o['ms_per_task_slot']:.2f} ms (start {o['start_s']:.2f} s)"
                          for name, o in result["overhead"].items())
@@ -248,9 +259,9 @@ def markdown(result) -> str:
     per_item, projection = result["step_item_seconds"], result["projection_hours"]
     lines += ["", f"Per-task overhead: marginal wall time of a no-op task on a started backend (executor only), "
               f"from {result['empty_tasks'] // 10} and {result['empty_tasks']} tasks, per worker slot, and the "
-              f"intercept (pool: process spawn; dask: already running): {overhead}. A step-plan item takes {per_item:.2f} s here, so dask's "
+              f"intercept (pool: process spawn; dask: already running): {overhead}. A step-plan item computes for {per_item:.2f} s (CPU) here, so dask's "
               f"per-task overhead is {dask_ms / 10 / per_item:.2f} % of it.",
-              "", f"Projection on paper (no `dyn plan` task exists yet, so the measured step-plan item time "
+              "", f"Projection on paper (no `dyn plan` task exists yet, so the measured step-plan item CPU time "
               f"{per_item:.2f} s stands in for a task, plus the LocalCluster overhead): the learned-initializer "
               f"dataset of {result['dataset_tasks']} tasks (2000 × 3 environments × 2 gaits × 4 cycles) takes "
               + ", ".join(f"{hours:.1f} h on {workers} worker{'s' if workers > 1 else ''}"
