@@ -2,7 +2,8 @@
 
     mode = ContactMode(stance, footholds, com_margin=0.02, clearance=0.02)
     values, jac = com_terms(robot, X, mode)          # (n, h), (n, h, nx); g <= 0 feasible
-    result = solve_ik(robot, terrain.sdf, mode, x0, posture=Posture(x_ref, w))
+    distance = ColumnDistance.of(terrain, collision_reach(robot, mode.clearance))   # exact terrain distance
+    result = solve_ik(robot, distance, mode, x0, posture=Posture(x_ref, w))
 """
 
 from legplan.contact.ik import IKResult, Posture, constraint_blocks, solve_ik

@@ -126,3 +126,19 @@ def test_gap_crossing_end_to_end(tmp_path):
     held = seq.stance[1:] & seq.stance[:-1]  # legs in stance on both sides of a transition stay put
     moved = np.linalg.norm(np.nan_to_num(seq.footholds[1:] - seq.footholds[:-1]), axis=2)
     assert np.all(moved[held] == 0.0)
+
+
+def test_generated_rows_missing_a_requirement_are_named(flat_map, tmp_path, monkeypatch):
+    """The generator's configurations are judged against what it promises; a row that misses it is
+    named on stderr and recorded, and the command exits 1 (here: the judge asks 10 cm clearance)."""
+    from legplan.stepseq.generate import GenerateParams
+    from legplan.validate.judge import Requirements
+
+    monkeypatch.setattr(GenerateParams, "requirements", lambda self: Requirements(clearance=0.1))
+    out = tmp_path / "steps.h5"
+    result = CliRunner().invoke(cli, ["steps", "generate", str(flat_map), "--robot", "scarab2",
+                                      "--start", "-0.05", "0", "0", "--goal", "0.05", "0", "0", "-o", str(out), "-q"])
+    assert result.exit_code == 1
+    assert "row 0: clearance short by" in result.stderr
+    with h5py.File(out, "r") as f:
+        assert np.all(f["checks/shortfall_clearance"][()] > 0)
