@@ -10,6 +10,7 @@ SCHEMA_VERSIONS: dict[str, int] = {
     "motion": 1,
     "nav": 1,
     "traj": 1,
+    "sim": 1,
     "init": 1,
     "report": 1,
 }

@@ -126,3 +126,8 @@ def show_cmd(paths, task_index, output, overwrite):
     else:
         plot_comparison(output, runs[0], runs[1])
     status(f"wrote {output}")
+
+
+from legplan.cli.sim_cmd import simulate_cmd  # noqa: E402  (legplan dyn simulate: physics execution, issue 17)
+
+command.add_command(simulate_cmd)

@@ -1,0 +1,177 @@
+"""Whole-body tracking controller: task-space inverse dynamics as one QP per 400 Hz tick.
+
+The paper executes its plans with Bellicoso et al.'s whole-body controller at 400 Hz (Sec. III-B),
+which tracks the base and end-effector trajectories with the planned contact forces through a
+hierarchy of QPs. This is the simple, single-QP form of that idea (weighted instead of strictly
+prioritised tasks; no slip state machine). Unknowns x = [v̇ (nv), f (3 per stance foot)], pinocchio's
+floating-base model (free-flyer v = [v_lin, ω] in the base frame, then the joints):
+
+    minimise   Σ_tasks w ‖J v̇ + J̇v − a*‖²  +  w_f ‖f − f_plan‖²  +  w_reg ‖v̇‖²
+    subject to M_b v̇ + h_b = J_c,bᵀ f                 (floating-base rows of the dynamics)
+               J_c v̇ + J̇_c v = −k_c v_c               (stance feet do not accelerate; slip damped)
+               −τ_max ≤ M_j v̇ + h_j − J_c,jᵀ f ≤ τ_max   (joint torques within the URDF limits)
+               f_min ≤ f·n ≤ f_max, d_k·f ≤ μ cos(π/8) f·n (8-facet pyramid inscribed in the cone)
+
+Tasks (world frame, references from `legplan.sim.reference`): base position a* = a_plan +
+Kp (p_plan − p) + Kd (v_plan − v); base orientation a* = ω̇_plan + Kp log(R_plan Rᵀ) + Kd (ω_plan −
+ω); each swing foot a* = a_plan + Kp (p_plan − p) + Kd (v_plan − v). Stance follows the plan's
+contact schedule. The torques are τ = M_j v̇ + h_j − J_c,jᵀ f at the optimum.
+
+The QP is small (18 + 3 n_c unknowns) and dense, solved by proxsuite's ProxQP (dense backend), cold
+started each tick; BENCHMARKS.md (sim) compares it with OSQP on the same QPs. A tick whose QP is not
+solved keeps the last torques (counted in `qp_failures`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+import proxsuite
+
+LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
+FACETS = [(np.cos(a), np.sin(a)) for a in np.arange(8) * np.pi / 4]
+"""Directions of the friction pyramid's facets in the tangent plane: an octagon inscribed in the cone."""
+
+
+@dataclass(frozen=True)
+class Gains:
+    """Feedback gains (1/s², 1/s) and task weights of the controller (module docstring)."""
+
+    base_kp: float = 200.0
+    base_kd: float = 30.0
+    rot_kp: float = 200.0
+    rot_kd: float = 30.0
+    swing_kp: float = 600.0
+    swing_kd: float = 50.0
+    slip_kd: float = 20.0         # 1/s, damping of a stance foot's velocity
+    w_base: float = 1.0
+    w_rot: float = 1.0
+    w_swing: float = 1.0
+    w_force: float = 1e-4         # per N², against (m/s²)² of the motion tasks
+    w_reg: float = 1e-6
+    f_min: float = 1.0            # N, smallest normal force of a stance foot
+    f_max: float = 1000.0         # N, robot.yaml's max_normal_force
+
+
+@dataclass
+class QP:
+    """One tick's QP in proxsuite's dense form: min ½xᵀHx + gᵀx, A x = b, l <= C x <= u."""
+
+    H: np.ndarray
+    g: np.ndarray
+    A: np.ndarray
+    b: np.ndarray
+    C: np.ndarray
+    l: np.ndarray
+    u: np.ndarray
+
+
+class WholeBodyController:
+    """Task-space inverse dynamics of `robot` (a `RobotModel`) with joint torque limits `effort`
+    (n_joints,) and friction `mu`; `torques(q, v, ref)` gives the joint torques (pinocchio order)."""
+
+    def __init__(self, robot, effort, mu: float, gains: Gains = Gains()):
+        self.model = robot.model
+        self.data = self.model.createData()
+        self.base_frame = next(i for i, f in enumerate(self.model.frames)   # the root link's body frame
+                               if f.parentJoint == 1 and f.type == pin.FrameType.BODY)
+        self.feet = [leg.foot_frame_id for leg in robot.legs]
+        self.effort = np.asarray(effort, float)
+        self.mu = float(mu) * np.cos(np.pi / len(FACETS))
+        self.gains = gains
+        self.qp_failures = 0
+        self._last = np.zeros(self.model.nv - 6)
+
+    def build(self, q, v, ref) -> QP:
+        """The QP of the module docstring at state (q, v) and reference `ref` (a `RefPoint`)."""
+        model, data, k = self.model, self.data, self.gains
+        nv = model.nv
+        pin.computeAllTerms(model, data, q, v)
+        pin.forwardKinematics(model, data, q, v, np.zeros(nv))
+        pin.updateFramePlacements(model, data)
+        M = np.triu(data.M) + np.triu(data.M, 1).T
+        h = data.nle
+        stance = np.flatnonzero(ref.contact)
+        nf = 3 * len(stance)
+        rows, targets, weights = [], [], []
+
+        base = data.oMf[self.base_frame]
+        J = pin.getFrameJacobian(model, data, self.base_frame, LWA)
+        vel = pin.getFrameVelocity(model, data, self.base_frame, LWA)
+        drift = pin.getFrameClassicalAcceleration(model, data, self.base_frame, LWA)
+        a_lin = ref.acc + k.base_kp * (ref.pos - base.translation) + k.base_kd * (ref.vel - vel.linear)
+        a_ang = (ref.omega_dot + k.rot_kp * pin.log3(ref.rot @ base.rotation.T)
+                 + k.rot_kd * (ref.omega - vel.angular))
+        rows += [J[:3], J[3:]]
+        targets += [a_lin - drift.linear, a_ang - drift.angular]
+        weights += [np.full(3, k.w_base), np.full(3, k.w_rot)]
+
+        contact_J, contact_rhs = [], []
+        for leg, frame in enumerate(self.feet):
+            Jf = pin.getFrameJacobian(model, data, frame, LWA)[:3]
+            vf = pin.getFrameVelocity(model, data, frame, LWA).linear
+            df = pin.getFrameClassicalAcceleration(model, data, frame, LWA).linear
+            if ref.contact[leg]:
+                contact_J.append(Jf)
+                contact_rhs.append(-df - k.slip_kd * vf)
+            else:
+                p = data.oMf[frame].translation
+                a = ref.feet_acc[leg] + k.swing_kp * (ref.feet_pos[leg] - p) + k.swing_kd * (ref.feet_vel[leg] - vf)
+                rows.append(Jf)
+                targets.append(a - df)
+                weights.append(np.full(3, k.w_swing))
+
+        n = nv + nf
+        task = np.vstack(rows)
+        w = np.concatenate(weights)
+        H = np.zeros((n, n))
+        g = np.zeros(n)
+        H[:nv, :nv] = task.T @ (w[:, None] * task) + k.w_reg * np.eye(nv)
+        g[:nv] = -task.T @ (w * np.concatenate(targets))
+        if nf:
+            H[nv:, nv:] = k.w_force * np.eye(nf)
+            g[nv:] = -k.w_force * ref.forces[stance].ravel()
+        Jc = np.vstack(contact_J) if nf else np.zeros((0, nv))
+
+        A = np.zeros((6 + nf, n))
+        A[:6, :nv] = M[:6]
+        A[:6, nv:] = -Jc[:, :6].T
+        A[6:, :nv] = Jc
+        b = np.concatenate([-h[:6]] + contact_rhs)
+
+        facets = len(FACETS) + 1
+        C = np.zeros((nv - 6 + facets * len(stance), n))
+        C[:nv - 6, :nv] = M[6:]
+        C[:nv - 6, nv:] = -Jc[:, 6:].T
+        l = np.concatenate([-self.effort - h[6:], np.full(facets * len(stance), -np.inf)])
+        u = np.concatenate([self.effort - h[6:], np.zeros(facets * len(stance))])
+        for i, leg in enumerate(stance):
+            normal = ref.normal[leg]
+            t1 = np.array([normal[2], 0.0, -normal[0]]) / np.hypot(normal[2], normal[0])   # ŷ × n
+            t2 = np.array([normal[1] * t1[2] - normal[2] * t1[1], normal[2] * t1[0] - normal[0] * t1[2],
+                           normal[0] * t1[1] - normal[1] * t1[0]])                    # n × t1
+            r, c = nv - 6 + facets * i, nv + 3 * i
+            C[r, c:c + 3] = normal
+            l[r], u[r] = k.f_min, k.f_max
+            for j, (ct, st) in enumerate(FACETS):
+                C[r + 1 + j, c:c + 3] = ct * t1 + st * t2 - self.mu * normal
+        return QP(H, g, A, b, C, l, u)
+
+    def torques(self, q, v, ref) -> np.ndarray:
+        """Joint torques (n_joints,) for state (q, v) (pinocchio convention) and `ref`."""
+        qp = self.build(q, v, ref)
+        solver = proxsuite.proxqp.dense.QP(len(qp.g), len(qp.b), len(qp.l))
+        solver.settings.eps_abs = 1e-6
+        solver.settings.verbose = False
+        solver.init(qp.H, qp.g, qp.A, qp.b, qp.C, qp.l, qp.u)
+        solver.solve()
+        if solver.results.info.status != proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED:
+            self.qp_failures += 1
+            return self._last
+        nv = self.model.nv
+        x = solver.results.x
+        tau = qp.C[:nv - 6] @ x + (self.data.nle[6:])
+        self._last = np.clip(tau, -self.effort, self.effort)
+        return self._last

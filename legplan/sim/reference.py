@@ -1,0 +1,85 @@
+"""The planned motion as the whole-body controller's reference: `Reference(samples, foot_radius, terrain)`.
+
+`samples` are a centroidal plan's 10 ms samples (`legplan.dyn.planner.sample_solution`, stored in
+traj.h5 under `/tasks/NNNN/samples`): base position/velocity/acceleration, Euler angles (R = Rz Ry
+Rx), world angular velocity/acceleration, feet positions/velocities, contact forces (world) and the
+contact schedule. `at(t)` interpolates them linearly at the controller's 400 Hz instants; after the
+plan's end it holds the last pose at rest (the settling time of `SimParams`).
+
+The plan's feet are contact points on the terrain; the simulated foot is a sphere of radius r
+around the foot frame (robot.yaml), so the foot frame's reference is the planned point lifted by r
+along the terrain normal there. Feet accelerations are the finite differences of the planned
+velocities (the samples do not hold them).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from legplan.dyn.euler import rotation
+
+
+@dataclass(frozen=True)
+class RefPoint:
+    """The reference at one instant (world frame): base `pos`, `vel`, `acc`, `rot` (3, 3), `omega`,
+    `omega_dot`; per leg `feet_pos`, `feet_vel`, `feet_acc` (of the foot frame, i.e. sphere centre),
+    `forces` (planned contact forces, N), `contact` (bool), `normal` (unit terrain normal under
+    each foot)."""
+
+    pos: np.ndarray
+    vel: np.ndarray
+    acc: np.ndarray
+    rot: np.ndarray
+    omega: np.ndarray
+    omega_dot: np.ndarray
+    feet_pos: np.ndarray
+    feet_vel: np.ndarray
+    feet_acc: np.ndarray
+    forces: np.ndarray
+    contact: np.ndarray
+    normal: np.ndarray
+
+
+class Reference:
+    """Linear interpolation of the plan's samples (module docstring)."""
+
+    def __init__(self, samples: dict, foot_radius, terrain):
+        t = np.asarray(samples["t"], float)
+        if t.ndim != 1 or len(t) < 2 or not np.all(np.diff(t) > 0):
+            raise ValueError("samples: t must hold at least two increasing times")
+        self.t = t
+        self.duration = float(t[-1] - t[0])
+        feet = np.asarray(samples["feet_pos"], float)
+        n, legs, _ = feet.shape
+        normal = terrain.basis(feet[..., 0].ravel(), feet[..., 1].ravel())[0].reshape(n, legs, 3)
+        feet_vel = np.asarray(samples["feet_vel"], float)
+        self._arrays = {
+            "pos": np.asarray(samples["base_pos"], float), "vel": np.asarray(samples["base_vel"], float),
+            "acc": np.asarray(samples["base_acc"], float), "euler": np.asarray(samples["base_euler"], float),
+            "omega": np.asarray(samples["base_ang_vel"], float),
+            "omega_dot": np.asarray(samples["base_ang_acc"], float),
+            "feet_pos": feet + np.asarray(foot_radius, float)[None, :, None] * normal,
+            "feet_vel": feet_vel, "feet_acc": np.gradient(feet_vel, t, axis=0),
+            "forces": np.asarray(samples["forces"], float), "normal": normal}
+        self._contact = np.asarray(samples["contact"], bool)
+        for name, value in self._arrays.items():
+            if len(value) != n or not np.all(np.isfinite(value)):
+                raise ValueError(f"samples: {name} must have {n} finite rows")
+        self._rest = ("vel", "acc", "omega", "omega_dot", "feet_vel", "feet_acc")
+
+    def at(self, t: float) -> RefPoint:
+        """The reference at time t (s, the plan's clock)."""
+        u = np.interp(t, self.t, np.arange(len(self.t)))
+        i = min(int(u), len(self.t) - 2)
+        w = u - i
+        value = {name: (1 - w) * a[i] + w * a[i + 1] for name, a in self._arrays.items()}
+        contact = self._contact[min(int(round(u)), len(self.t) - 1)]
+        if t >= self.t[-1]:
+            value.update({name: np.zeros_like(value[name]) for name in self._rest})
+            contact = np.ones_like(contact)
+        normal = value.pop("normal")
+        normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+        rot = rotation(value.pop("euler")[None])[0]
+        return RefPoint(rot=rot, contact=contact, normal=normal, **value)

@@ -1,0 +1,127 @@
+"""legplan.sim and `legplan dyn simulate`: the MuJoCo model from the robot folder, standing under the
+whole-body controller, a planned walk reaching its goal, a planted fall, the artefact, bad input."""
+
+import h5py
+import mujoco
+import numpy as np
+import pinocchio as pin
+import pytest
+from click.testing import CliRunner
+
+from legplan.cli.main import cli
+from legplan.robots import load_robot
+from legplan.sim.model import build_model
+from legplan.sim.run import SimParams, simulate
+from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
+
+WALK = ("--start", "0", "0", "0", "--goal", "0.5", "0", "0", "--gait", "walk", "--duration", "3")
+
+
+def invoke(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot("anymal")
+
+
+@pytest.fixture(scope="module")
+def flat(tmp_path_factory):
+    """A flat 3 x 2 m map at 2 cm with a 10 cm block at x >= 1.2 (to check the height field)."""
+    grid = Grid2D(origin=(-1.0, -1.0), resolution=0.02, shape=(101, 151))
+    x, y = grid.centres()
+    terrain = terrain_from_heightmap(np.where(x >= 1.2, 0.1, 0.0), grid, name="flat_block")
+    path = tmp_path_factory.mktemp("sim") / "map.h5"
+    save_map(terrain, path)
+    return terrain, path
+
+
+def standing(robot, seconds=1.0):
+    """Samples of the nominal stance held still: the weight split over the four feet."""
+    c = robot.centroidal
+    t = np.arange(0.0, seconds + 1e-9, 0.01)
+    n, zero = len(t), np.zeros((len(t), 3))
+    forces = np.zeros((n, 4, 3))
+    forces[..., 2] = c.mass * 9.81 / 4
+    return {"t": t, "base_pos": np.tile([0.0, 0.0, c.base_height], (n, 1)), "base_vel": zero, "base_acc": zero,
+            "base_euler": zero, "base_ang_vel": zero, "base_ang_acc": zero,
+            "feet_pos": np.tile(c.nominal_feet + [0.0, 0.0, c.base_height], (n, 1, 1)),
+            "feet_vel": np.zeros((n, 4, 3)), "forces": forces, "contact": np.ones((n, 4), bool)}
+
+
+def test_model_has_the_urdf_masses_inertias_joints_and_limits(robot, flat):
+    sim = build_model(robot, flat[0], 0.5)
+    m, pm = sim.model, robot.model
+    assert m.nq == pm.nq and m.nv == pm.nv and m.nu == robot.n_joints
+    for jid in range(1, pm.njoints):
+        name, inertia = pm.names[jid], pm.inertias[jid]
+        if jid == 1:   # the free-flyer: MuJoCo's root body
+            body = m.body(1)
+        else:
+            joint = m.joint(name)
+            body = m.body(int(m.jnt_bodyid[joint.id]))
+            q = pm.idx_qs[jid]
+            assert m.jnt_range[joint.id] == pytest.approx([pm.lowerPositionLimit[q], pm.upperPositionLimit[q]])
+        assert float(m.body_mass[body.id]) == pytest.approx(inertia.mass)
+        # principal moments about the body's CoM equal those of the URDF's inertia tensor
+        assert np.sort(m.body_inertia[body.id]) == pytest.approx(np.linalg.eigvalsh(inertia.inertia), rel=1e-6)
+    assert float(m.body_subtreemass[1]) == pytest.approx(robot.mass)
+    assert m.actuator_ctrlrange == pytest.approx(np.column_stack([-sim.effort, sim.effort]))
+    assert sim.effort == pytest.approx(40.0)
+    assert len(sim.foot_geoms) == 4 and len(sim.body_geoms) == len(robot.spheres) - 4
+    data = mujoco.MjData(m)
+    mujoco.mj_forward(m, data)
+    geomgroup = np.array([1, 0, 0, 0, 0, 0], np.uint8)
+    for x, top in ((0.0, 0.0), (1.5, 0.1)):
+        distance = mujoco.mj_ray(m, data, np.array([x, 0.5, 1.0]), np.array([0.0, 0.0, -1.0]), geomgroup, 1, -1,
+                                 np.zeros(1, np.int32))
+        assert 1.0 - distance == pytest.approx(top, abs=1e-6)
+
+
+def test_standing_still_keeps_the_base_within_1_cm(robot, flat):
+    result = simulate(standing(robot), robot, flat[0], SimParams(settle=0.0))
+    assert result.success and not result.fell and result.qp_failures == 0
+    assert result.max_position_error < 0.01 and result.max_orientation_error < 0.01
+    weight = result.series["foot_forces"][-1][:, 2].sum()
+    assert weight == pytest.approx(robot.mass * 9.81, rel=0.02)
+    assert result.unplanned_contacts == []
+
+
+def test_zero_torques_is_a_fall(robot, flat):
+    result = simulate(standing(robot), robot, flat[0], SimParams(zero_torque=True))
+    assert not result.success and result.fell and result.reason.startswith("fell at")
+    assert result.fall_time < 1.0
+
+
+def test_a_planned_walk_reaches_its_goal_from_the_cli(flat, tmp_path):
+    traj, out = tmp_path / "traj.h5", tmp_path / "sim.h5"
+    assert invoke("dyn", "plan", flat[1], *WALK, "-o", traj, "-q").exit_code == 0
+    result = invoke("dyn", "simulate", traj, flat[1], "-o", out)
+    assert result.exit_code == 0, result.output + str(result.exception)
+    with h5py.File(out) as handle:
+        assert handle.attrs["legplan_kind"] == "sim"
+        task = handle["tasks/0000"]
+        assert task.attrs["success"] and task.attrs["goal_error"] < 0.1
+        assert task.attrs["rms_position_error"] < 0.02 and task.attrs["peak_torque"] <= 40.0 + 1e-9
+        assert task["series/position_error"].attrs["units"] == "m"
+        quat = task["series/base_quat"][-1]
+        assert abs(pin.log3(pin.Quaternion(*quat[[3, 0, 1, 2]]).matrix())).max() < 0.2
+
+
+@pytest.mark.parametrize("case", ["not_traj", "missing", "off_map"])
+def test_bad_input_exits_2_and_writes_nothing(flat, tmp_path, case):
+    out = tmp_path / "sim.h5"
+    if case == "not_traj":
+        args = (flat[1], flat[1])
+    elif case == "missing":
+        args = (tmp_path / "nope.h5", flat[1])
+    else:
+        traj = tmp_path / "traj.h5"
+        small = Grid2D(origin=(-0.6, -0.4), resolution=0.02, shape=(41, 61))
+        save_map(terrain_from_heightmap(np.zeros(small.shape), small, name="small"), tmp_path / "small.h5")
+        assert invoke("dyn", "plan", flat[1], *WALK, "-o", traj, "-q").exit_code == 0
+        args = (traj, tmp_path / "small.h5")
+    result = invoke("dyn", "simulate", *args, "-o", out)
+    assert result.exit_code == 2, result.output
+    assert not out.exists()
