@@ -11,6 +11,7 @@ SCHEMA_VERSIONS: dict[str, int] = {
     "nav": 1,
     "traj": 1,
     "sim": 1,
+    "dataset": 1,
     "init": 1,
     "report": 1,
 }

@@ -1,0 +1,169 @@
+"""`legplan learn dataset`: D = {x_i, y_{h,N}(x_i)} of Sec. IV-A of the TOWR-costs paper, through `legplan.batch`.
+
+    space = read_space("tasks/single_pallet_walk.yaml")
+    items = dataset_items(space, n=2000, seed=0)        # (index, DynTask, x)
+    task = Task(solve_item, failed_item, DatasetWorker, (space, "heuristic", 100))
+    ... run_batch / run_stage ... write_dataset("dataset.h5", space, records, settings)
+
+Each task is solved by `legplan.dyn.planner.plan` from the initializer A (`heuristic`, A_h, or a
+learned init.h5, A_θ) with at most N LM iterations per planner stage (`--iterations`; the planner
+solves feasibility, then costs, and its iterations add up: the recorded count is the total). A
+solve that does not converge is data, not an error: it is recorded with success false, its cost
+and violation. An item that raised is recorded with its reason and y of NaN.
+
+dataset.h5 (kind "dataset"): per task (rows in task order) `x` (n, 6, `space.X_NAMES`), `y` (n, |y|,
+`layout`), `cost` g(y) (the sum of the planner's weighted cost terms), `max_violation`,
+`iterations`, `seconds` (solve time), `success`, `reason`, `tasks` (n, 6: start x, y, yaw, goal x,
+y, yaw); `layout/<category>` sizes; the space as the `space` attribute (JSON).
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import replace
+
+import numpy as np
+
+from legplan.learn.layout import CATEGORIES, join, layout_of
+from legplan.learn.space import X_NAMES, TaskSpace, load_terrain_map, sample_tasks, task_vector
+
+KIND = "dataset"
+
+
+def solver_params(costs: str, iterations: int | None):
+    """The planner parameters of the space's costs with every stage capped at `iterations` (None: the
+    planner's own caps)."""
+    from legplan.dyn.settings import dyn_params
+
+    params = dyn_params(costs)
+    if iterations is None:
+        return params
+    return replace(params, solver=replace(params.solver, max_iterations=iterations),
+                   cost_solver=replace(params.cost_solver, max_iterations=iterations))
+
+
+def initializer_of(init: str):
+    """The initializer `--init` names: ``heuristic`` (A_h) or a learned init.h5 (A_θ)."""
+    if init.endswith(".h5"):
+        from legplan.learn.network import LearnedInit
+
+        return LearnedInit(init)
+    from legplan.dyn.settings import initializer
+
+    return initializer(init)
+
+
+def check_init(init: str, space: TaskSpace) -> None:
+    """Before any work: `--init` is known, and an init.h5 was trained for this space's map, gait,
+    strides, duration and variable layout (one-line error otherwise)."""
+    from legplan.dyn.formulation import Formulation
+    from legplan.dyn.gait import make_gait
+    from legplan.learn.layout import check_layout
+    from legplan.learn.network import check_space
+
+    chosen = initializer_of(init)
+    if init.endswith(".h5"):
+        check_space(init, chosen.space, space.record())
+        form = Formulation(make_gait(space.gait, space.strides, space.duration), solver_params(space.costs, None).dt)
+        check_layout(chosen.layout, layout_of(form), init)
+
+
+class DatasetWorker:
+    """What a worker loads once: the centroidal model, the space's terrain, parameters, initializer."""
+
+    def __init__(self, space: TaskSpace, init: str, iterations: int | None):
+        from legplan.dyn.tasks import centroidal_model
+        from legplan.dyn.terrain import TerrainModel
+        from legplan.robots import load_robot
+
+        self.model = centroidal_model(load_robot(space.robot))
+        self.terrain = TerrainModel(load_terrain_map(space))
+        self.params = solver_params(space.costs, iterations)
+        self.initializer = initializer_of(init)
+
+
+def dataset_items(space: TaskSpace, n: int, seed: int) -> list[tuple[int, object, np.ndarray]]:
+    """`n` tasks of the space from `numpy.random.default_rng(seed)`: (index, DynTask, x) items."""
+    from legplan.dyn.tasks import centroidal_model
+    from legplan.dyn.terrain import TerrainModel
+    from legplan.robots import load_robot
+
+    model = centroidal_model(load_robot(space.robot))
+    tasks = sample_tasks(space, n, np.random.default_rng(seed), model, TerrainModel(load_terrain_map(space)))
+    return [(i, task, task_vector(task.start, task.goal)) for i, task in enumerate(tasks)]
+
+
+def solve_item(worker: DatasetWorker, item) -> dict:
+    """Solve one task (`legplan.batch.Task`'s per-item function) and return its record."""
+    from legplan.dyn.planner import plan
+
+    index, task, x = item
+    result = plan(task, worker.model, worker.terrain, worker.params, worker.initializer)
+    values = {b.name: b.value for b in result.problem.variables}
+    return {"index": index, "x": x, "task": np.array([*task.start, *task.goal]), "y": join(values),
+            "layout": np.array([layout_of(result.problem.form)[c] for c in CATEGORIES]),
+            "success": bool(result.success), "reason": result.reason, "cost": float(result.solve.cost),
+            "max_violation": float(result.solve.max_violation), "iterations": int(result.solve.iterations),
+            "seconds": float(result.solve.timings.total)}
+
+
+def failed_item(item, reason: str) -> dict:
+    """The record of a task whose solve raised or whose worker died (`legplan.batch.Task`)."""
+    index, task, x = item
+    return {"index": index, "x": x, "task": np.array([*task.start, *task.goal]), "success": False,
+            "reason": reason, "cost": np.nan, "max_violation": np.nan, "iterations": 0, "seconds": np.nan}
+
+
+def write_dataset(path, space: TaskSpace, records: list[dict], settings: dict, seed: int, inputs, overwrite: bool) -> None:
+    """dataset.h5 of the records in item order (module docstring), atomically."""
+    import h5py
+
+    from legplan.artefacts import write_artefact, write_dataset as put, write_summary
+    from legplan.errors import LegplanError
+
+    solved = [r for r in records if "y" in r]
+    if not solved:
+        raise LegplanError(f"{path}: no task produced a solution vector (every solve raised: "
+                           f"{records[0]['reason'] if records else 'no tasks'})")
+    sizes = np.asarray(solved[0]["layout"], int)
+    y = np.full((len(records), int(sizes.sum())), np.nan)
+    for row, record in enumerate(records):
+        if "y" in record:
+            y[row] = record["y"]
+    column = {name: np.array([r[name] for r in records]) for name in
+              ("cost", "max_violation", "iterations", "seconds", "success")}
+    with write_artefact(path, KIND, params=settings, seed=seed, inputs=inputs, overwrite=overwrite) as f:
+        f.attrs["space"] = json.dumps(space.record())
+        put(f, "x", np.array([r["x"] for r in records]), units="m,m,rad,m,m,rad", columns=",".join(X_NAMES))
+        put(f, "y", y, units="SI (see layout)")
+        put(f, "tasks", np.array([r["task"] for r in records]), units="m,m,rad,m,m,rad")
+        for name, size in zip(CATEGORIES, sizes):
+            put(f, f"layout/{name}", np.int64(size))
+        put(f, "cost", column["cost"], units="1")
+        put(f, "max_violation", column["max_violation"], units="1")
+        put(f, "iterations", column["iterations"].astype(np.int64))
+        put(f, "seconds", column["seconds"], units="s")
+        put(f, "success", column["success"].astype(bool))
+        f.create_dataset("reason", data=[str(r["reason"]) for r in records], dtype=h5py.string_dtype())
+        write_summary(f, summarize(column["success"], column["iterations"], column["cost"], column["seconds"]))
+
+
+def summarize(success, iterations, cost, seconds) -> dict:
+    """Success rate, median iterations and time of the converged tasks, their cost quantiles."""
+    ok = np.asarray(success, bool)
+    pick = (lambda a, q: float(np.quantile(np.asarray(a, float)[ok], q)) if ok.any() else np.nan)
+    return {"tasks": len(ok), "success_rate": float(ok.mean()) if len(ok) else np.nan,
+            "median_iterations": pick(iterations, 0.5), "median_seconds": (pick(seconds, 0.5), "s"),
+            "cost_median": pick(cost, 0.5), "cost_p90": pick(cost, 0.9), "cost_max": pick(cost, 1.0)}
+
+
+def read_dataset(path) -> dict:
+    """The arrays of a dataset.h5 and its space record (a one-line error for another kind)."""
+    from legplan.artefacts import open_artefact, require
+
+    with open_artefact(path, kind=KIND) as f:
+        data = {name: require(f, name)[()] for name in
+                ("x", "y", "cost", "max_violation", "iterations", "seconds", "success")}
+        data["layout"] = {name: int(require(f, f"layout/{name}")[()]) for name in CATEGORIES}
+        data["space"] = json.loads(f.attrs["space"])
+    return data

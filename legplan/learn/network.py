@@ -1,0 +1,215 @@
+"""The learned initializer A_θ of Sec. IV of the TOWR-costs paper: filter (4), weighted fit (3), numpy inference.
+
+* Filter, eq. (4): D_good = {(x_i, y_i) | task i converged and g(y_i) ≤ g_max}. ``auto`` puts g_max
+  at the start of the cost distribution's tail (`auto_g_max`): median + 3 robust standard deviations
+  (1.4826 × the median absolute deviation) of the converged tasks' costs, recomputed on the costs
+  under it until it stays. The median and the MAD ignore up to half the tasks, and the repetition
+  takes out what a heavy tail (30 % of the tasks, tested) still adds to them; on a normal body it
+  keeps about 99.7 %. (≤ rather than the paper's <, so that a dataset of equal costs, e.g. without
+  cost terms, keeps all its tasks.)
+* Fit, eq. (3): θ = argmin Σ ‖A_θ x − y‖²_W with W = diag(w_c(j) / σ_j²): each output j standardized
+  (σ_j its standard deviation in D_good) and weighted by the weight w_c > 0 of its category
+  (`CATEGORIES`: base linear, base angular, feet, forces; phase durations are not variables here).
+  scikit-learn's `MLPRegressor` (squared loss, tanh, L-BFGS) is fitted on standardized x and on
+  √w_c-scaled standardized y, which is exactly that loss. A random `validation` fraction is held out.
+* init.h5 (kind "init"): the layers' weights and biases and the input/output normalization as plain
+  HDF5 arrays (no pickle), the layout and the task space; `Network` evaluates it in numpy, so
+  planning with it needs no training library. `LearnedInit` is an initializer (`legplan.dyn.init`).
+"""
+
+from __future__ import annotations
+
+import json
+import logging
+import os
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from legplan.errors import LegplanError, SpecError
+from legplan.learn.layout import CATEGORIES, category_index, check_layout, layout_of, split
+from legplan.learn.space import task_vector
+
+log = logging.getLogger(__name__)
+
+KIND = "init"
+MAD_SIGMA = 1.4826  # MAD of a normal distribution × this = its standard deviation
+TAIL_SIGMAS = 3.0
+DEFAULT_WEIGHTS = {"base_lin": 2.0, "base_ang": 1.0, "feet": 1.0, "forces": 2.0}
+"""W per category: the paper found base positions and forces the most crucial to initialize well, and
+its best weights "coarsely tuned" with all categories included; these follow that, untuned here."""
+ACTIVATIONS = {"tanh": np.tanh, "relu": lambda a: np.maximum(a, 0.0), "identity": lambda a: a}
+
+
+def auto_g_max(cost: np.ndarray, passes: int = 20) -> float:
+    """Start of the tail of a cost distribution: median + 3 × 1.4826 × MAD of the costs under the
+    previous threshold, repeated until the threshold stays (module docstring)."""
+    cost = np.asarray(cost, float)
+    kept, threshold = cost, np.inf
+    for _ in range(passes):
+        median = float(np.median(kept))
+        new = median + TAIL_SIGMAS * MAD_SIGMA * float(np.median(np.abs(kept - median)))
+        if new == threshold:
+            break
+        threshold, kept = new, cost[cost <= new]
+    return threshold
+
+
+def filter_good(success: np.ndarray, cost: np.ndarray, g_max: float | str, source: str = "dataset"
+                ) -> tuple[np.ndarray, float]:
+    """Mask of D_good (eq. (4), converged tasks only) and the g_max used (`auto` or a number)."""
+    ok = np.asarray(success, bool) & np.isfinite(cost)
+    if not ok.any():
+        raise LegplanError(f"{source}: field 'success': no converged task to train on")
+    threshold = auto_g_max(cost[ok]) if g_max == "auto" else float(g_max)
+    good = ok & (cost <= threshold)
+    if not good.any():
+        raise LegplanError(f"{source}: field 'cost': no converged task has g(y) <= g_max = {threshold:g}")
+    return good, threshold
+
+
+def read_weights(path: str | os.PathLike | None) -> dict[str, float]:
+    """W per category from a YAML file (`base_lin: 2.0` ...; missing categories keep the default)."""
+    if path is None:
+        return dict(DEFAULT_WEIGHTS)
+    from legplan.specio import FieldReader, read_yaml_mapping
+
+    data = read_yaml_mapping(path, "weights file")
+    reader = FieldReader(path)
+    reader.unknown(data, CATEGORIES)
+    return {name: reader.positive(data[name], name) if name in data else DEFAULT_WEIGHTS[name]
+            for name in CATEGORIES}
+
+
+@dataclass
+class Network:
+    """A fully connected network with its normalization: y = out_scale·f(x_n) + out_offset,
+    x_n = (x − in_offset) / in_scale, f hidden layers of `activation` and a linear output layer."""
+
+    weights: list[np.ndarray]
+    biases: list[np.ndarray]
+    activation: str
+    in_offset: np.ndarray
+    in_scale: np.ndarray
+    out_offset: np.ndarray
+    out_scale: np.ndarray
+
+    def predict(self, x: np.ndarray) -> np.ndarray:
+        """y for x (n, |x|) or (|x|,), in numpy."""
+        x = np.asarray(x, float)
+        h = (np.atleast_2d(x) - self.in_offset) / self.in_scale
+        act = ACTIVATIONS[self.activation]
+        for k, (w, b) in enumerate(zip(self.weights, self.biases)):
+            h = h @ w + b
+            if k < len(self.weights) - 1:
+                h = act(h)
+        y = h * self.out_scale + self.out_offset
+        return y[0] if x.ndim == 1 else y
+
+
+def _scale(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Mean and standard deviation per column (1 for a constant column)."""
+    std = a.std(axis=0)
+    return a.mean(axis=0), np.where(std > 1e-9 * np.maximum(1.0, np.abs(a).max(axis=0)), std, 1.0)
+
+
+def fit(x: np.ndarray, y: np.ndarray, layout: dict[str, int], weights: dict[str, float], hidden: tuple[int, ...],
+        seed: int, validation: float = 0.2, max_iter: int = 2000):
+    """Fit eq. (3) on (x, y) (module docstring); returns the `Network` and a report of the fit
+    (weighted mean squared error on the training and validation tasks, RMS error per category)."""
+    from sklearn.exceptions import ConvergenceWarning
+    from sklearn.neural_network import MLPRegressor
+
+    rng = np.random.default_rng(seed)
+    order = rng.permutation(len(x))
+    n_val = int(round(validation * len(x))) if len(x) >= 5 else 0
+    val, train = order[:n_val], order[n_val:]
+    in_offset, in_scale = _scale(x[train])
+    y_mean, y_std = _scale(y[train])
+    root_w = np.sqrt(np.array([weights[c] for c in CATEGORIES]))[category_index(layout)]
+    out_scale = y_std / root_w
+    model = MLPRegressor(hidden_layer_sizes=hidden, activation="tanh", solver="lbfgs", max_iter=max_iter,
+                         alpha=1e-4, random_state=int(seed), tol=1e-7)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", ConvergenceWarning)
+        model.fit((x[train] - in_offset) / in_scale, (y[train] - y_mean) / out_scale)
+    for warning in caught:  # L-BFGS stopping on a flat line search at a tiny loss is no error
+        log.info("fit: %s", str(warning.message).splitlines()[0])
+    net = Network([np.asarray(w, float) for w in model.coefs_], [np.asarray(b, float) for b in model.intercepts_],
+                  "tanh", in_offset, in_scale, y_mean, out_scale)
+
+    def weighted_mse(rows):
+        return float(np.mean(((net.predict(x[rows]) - y[rows]) / out_scale) ** 2)) if len(rows) else np.nan
+
+    pick = val if len(val) else train
+    err = net.predict(x[pick]) - y[pick]
+    cats = category_index(layout)
+    report = {"train_tasks": len(train), "validation_tasks": len(val), "train_loss": weighted_mse(train),
+              "validation_loss": weighted_mse(val), "fit_iterations": int(model.n_iter_),
+              **{f"rms_{c}": float(np.sqrt(np.mean(err[:, cats == k] ** 2))) for k, c in enumerate(CATEGORIES)}}
+    return net, report, model
+
+
+def save_init(path, net: Network, layout: dict[str, int], space: dict, report: dict, settings: dict, seed: int,
+              inputs, overwrite: bool) -> None:
+    """init.h5: plain arrays only (module docstring)."""
+    from legplan.artefacts import write_artefact, write_dataset, write_summary
+
+    with write_artefact(path, KIND, params=settings, seed=seed, inputs=inputs, overwrite=overwrite) as f:
+        f.attrs["space"] = json.dumps(space)
+        f.attrs["activation"] = net.activation
+        f.attrs["layers"] = len(net.weights)
+        for k, (w, b) in enumerate(zip(net.weights, net.biases)):
+            write_dataset(f, f"network/layer_{k}/weights", w)
+            write_dataset(f, f"network/layer_{k}/biases", b)
+        for name in ("in_offset", "in_scale", "out_offset", "out_scale"):
+            write_dataset(f, f"normalization/{name}", getattr(net, name))
+        for name in CATEGORIES:
+            write_dataset(f, f"layout/{name}", np.int64(layout[name]))
+        write_summary(f, report)
+
+
+def load_init(path) -> tuple[Network, dict[str, int], dict]:
+    """The network, layout and space record of an init.h5."""
+    from legplan.artefacts import open_artefact, require
+
+    with open_artefact(path, kind=KIND) as f:
+        activation = str(f.attrs["activation"])
+        if activation not in ACTIVATIONS:
+            raise LegplanError(f"{path}: field 'activation' is unknown: {activation!r}")
+        layers = int(f.attrs["layers"])
+        net = Network([require(f, f"network/layer_{k}/weights")[()] for k in range(layers)],
+                      [require(f, f"network/layer_{k}/biases")[()] for k in range(layers)], activation,
+                      *(require(f, f"normalization/{n}")[()] for n in ("in_offset", "in_scale", "out_offset", "out_scale")))
+        layout = {name: int(require(f, f"layout/{name}")[()]) for name in CATEGORIES}
+        space = json.loads(f.attrs["space"])
+    return net, layout, space
+
+
+def check_space(init_path, trained: dict, space: dict) -> None:
+    """One-line error when init.h5 was trained for another map, gait, strides or duration than `space`."""
+    for key in ("map", "gait", "strides", "duration"):
+        if trained[key] != space[key]:
+            raise SpecError(f"{init_path}: field 'space.{key}' is {trained[key]!r}, the task space "
+                            f"has {space[key]!r} (trained for another task space)")
+
+
+class LearnedInit:
+    """A_θ as an initializer: ``(form, model, terrain, start, goal, start_feet) -> guess`` from init.h5
+    (picklable by path: it loads the file again where it is unpickled)."""
+
+    def __init__(self, path: str | os.PathLike):
+        self.path = os.fspath(path)
+        self.net, self.layout, self.space = load_init(self.path)
+
+    def __getstate__(self):
+        return {"path": self.path}
+
+    def __setstate__(self, state):
+        self.__init__(state["path"])
+
+    def __call__(self, form, model, terrain, start, goal, start_feet) -> dict[str, np.ndarray]:
+        check_layout(self.layout, layout_of(form), self.path)
+        x = task_vector((*start.position[:2], start.euler[2]), (*goal.position[:2], goal.euler[2]))
+        return split(self.net.predict(x), self.layout)

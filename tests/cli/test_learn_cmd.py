@@ -1,0 +1,71 @@
+"""`legplan learn dataset|train` end to end on 6 tiny flat trots; bad input is exit 2 with nothing written."""
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+from legplan.artefacts import read_summary
+from legplan.cli.main import cli
+
+ROOT = Path(__file__).resolve().parents[2]
+TINY = ROOT / "tests" / "data" / "learn_flat_trot.yaml"  # flat 2-stride trots, 2.4 s, no costs
+SPACE = TINY.read_text().replace("../../maps/flat.yaml", f"{ROOT}/maps/flat.yaml")
+
+
+def invoke(*args):
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("learncli")
+    space = tmp / "flat.yaml"
+    space.write_text(SPACE)
+    result = invoke("learn", "dataset", space, "--n", 6, "--seed", 1, "--iterations", 50, "-o", tmp / "d0.h5", "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    result = invoke("learn", "train", tmp / "d0.h5", "--hidden", "8,8", "-o", tmp / "init.h5", "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    return tmp, space
+
+
+def test_dataset_records_tasks_solutions_and_outcomes(trained):
+    tmp, _ = trained
+    with h5py.File(tmp / "d0.h5", "r") as f:
+        assert f.attrs["legplan_kind"] == "dataset" and json.loads(f.attrs["space"])["gait"] == "trot"
+        sizes = [int(f[f"layout/{c}"][()]) for c in ("base_lin", "base_ang", "feet", "forces")]
+        assert f["x"].shape == (6, 6) and f["y"].shape == (6, sum(sizes)) and np.isfinite(f["y"][()]).all()
+        assert f["success"][()].all() and (f["iterations"][()] >= 1).all() and (f["max_violation"][()] <= 1e-3).all()
+        assert (f["cost"][()] == 0).all()  # costs: none
+        assert np.allclose(f["tasks"][:, 3:], 0.0) and np.all(f["x"][:, 0] <= -0.29)
+        assert read_summary(f)["success_rate"][0] == 1.0
+
+
+def test_train_writes_an_init_that_plans_the_next_dataset(trained):
+    tmp, space = trained
+    with h5py.File(tmp / "init.h5", "r") as f:
+        assert f.attrs["legplan_kind"] == "init" and f.attrs["layers"] == 3
+        assert read_summary(f)["good"][0] == 6 and json.loads(f.attrs["params"])["hidden"] == [8, 8]
+    result = invoke("learn", "dataset", space, "--n", 2, "--seed", 2, "--init", tmp / "init.h5", "--iterations", 25,
+                    "-o", tmp / "d1.h5", "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    with h5py.File(tmp / "d1.h5", "r") as f:
+        assert f["success"][()].all() and json.loads(f.attrs["params"])["init"].endswith("init.h5")
+
+
+def test_bad_space_and_foreign_init_are_exit_2_with_no_output(trained):
+    tmp, space = trained
+    bad = tmp / "bad.yaml"
+    bad.write_text(SPACE.replace("strides: 2", "strides: two"))
+    result = invoke("learn", "dataset", bad, "--n", 2, "-o", tmp / "x.h5")
+    assert result.exit_code == 2 and f"{bad}: field 'strides'" in result.output
+    other = tmp / "other.yaml"
+    other.write_text(SPACE.replace("strides: 2", "strides: 3").replace("duration: 2.4", "duration: 3.4"))
+    result = invoke("learn", "dataset", other, "--n", 2, "--init", tmp / "init.h5", "-o", tmp / "x.h5")
+    assert result.exit_code == 2 and "field 'space.strides'" in result.output
+    result = invoke("learn", "train", tmp / "d0.h5", "--g-max", "-1", "-o", tmp / "x.h5")
+    assert result.exit_code == 2
+    assert not (tmp / "x.h5").exists()

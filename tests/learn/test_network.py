@@ -1,0 +1,83 @@
+"""Eq. (4)'s filter and its auto g_max, eq. (3)'s weighted fit with normalization, init.h5 (no pickle)."""
+
+import h5py
+import numpy as np
+import pytest
+
+from legplan.errors import LegplanError
+from legplan.learn.layout import CATEGORIES, check_layout, join, split
+from legplan.learn.network import DEFAULT_WEIGHTS, Network, auto_g_max, filter_good, fit, load_init, save_init
+
+LAYOUT = {"base_lin": 3, "base_ang": 2, "feet": 2, "forces": 1}
+
+
+def test_auto_g_max_starts_the_tail_of_a_long_tailed_distribution():
+    rng = np.random.default_rng(0)
+    body = rng.normal(10.0, 1.0, 700)
+    tail = 14.0 + rng.pareto(1.0, 300) * 10.0  # 30 % poor local minima, all beyond the body
+    g_max = auto_g_max(np.concatenate([body, tail]))
+    assert body.max() < 14.0 and 12.0 < g_max < 14.0
+    assert np.mean(body <= g_max) > 0.97 and np.all(tail > g_max)
+
+
+def test_filter_keeps_converged_tasks_under_g_max_and_refuses_an_empty_result():
+    success = np.array([True, True, True, False, True])
+    cost = np.array([1.0, 1.1, 50.0, 0.5, 0.9])
+    good, threshold = filter_good(success, cost, "auto")
+    assert good.tolist() == [True, True, False, False, True] and 1.1 <= threshold < 50.0
+    assert filter_good(success, np.zeros(5), "auto")[0].tolist() == success.tolist()  # no costs: keep all converged
+    with pytest.raises(LegplanError, match="field 'cost'"):
+        filter_good(success, cost, 0.1, "d.h5")
+
+
+def test_join_split_round_trip():
+    y = np.arange(8.0)
+    parts = split(y, LAYOUT)
+    assert list(parts) == list(CATEGORIES) and parts["forces"].tolist() == [7.0]
+    assert np.array_equal(join(parts), y)
+    with pytest.raises(LegplanError, match="layout/feet"):
+        check_layout(LAYOUT, {**LAYOUT, "feet": 4}, "init.h5")
+
+
+@pytest.fixture(scope="module")
+def linear():
+    """A known affine map with outputs of very different scales (m vs N), and its fitted network."""
+    rng = np.random.default_rng(1)
+    x = rng.uniform([-1.5, -0.7, -0.5, 0.6, 0.0, 0.0], [-0.5, 0.7, 0.5, 0.6, 0.0, 0.0], (200, 6))
+    a = rng.normal(size=(6, 8)) * np.array([1, 1, 1, 0.1, 0.1, 0.5, 0.5, 300.0])
+    y = x @ a + np.array([0, 0, 0.4, 0, 0, 0, 0, 500.0])
+    net, report, model = fit(x, y, LAYOUT, DEFAULT_WEIGHTS, (8, 8), seed=0)
+    return x, y, a, net, report, model
+
+
+def test_weighted_fit_reproduces_a_known_linear_map(linear):
+    x, y, a, net, report, _ = linear
+    assert report["validation_tasks"] == 40 and report["train_tasks"] == 160
+    assert report["validation_loss"] < 1e-3
+    fresh = np.random.default_rng(2).uniform([-1.4, -0.6, -0.4, 0.6, 0, 0], [-0.6, 0.6, 0.4, 0.6, 0, 0], (20, 6))
+    truth = fresh @ a + np.array([0, 0, 0.4, 0, 0, 0, 0, 500.0])
+    scale = y.std(axis=0)
+    assert np.max(np.abs(net.predict(fresh) - truth) / scale) < 0.05
+    assert np.allclose(net.predict(fresh[0]), net.predict(fresh[:1])[0])
+
+
+def test_numpy_inference_equals_the_training_library(linear):
+    x, _, _, net, _, model = linear
+    library = model.predict((x - net.in_offset) / net.in_scale) * net.out_scale + net.out_offset
+    assert np.allclose(net.predict(x), library, rtol=1e-10, atol=1e-9)
+
+
+def test_init_h5_holds_plain_arrays_and_reloads_to_the_same_predictions(linear, tmp_path):
+    x, _, _, net, report, _ = linear
+    path = tmp_path / "init.h5"
+    space = {"map": "m.yaml", "gait": "trot", "strides": 2, "duration": 2.4}
+    save_init(path, net, LAYOUT, space, report, {"hidden": [8, 8]}, 0, [], False)
+    loaded, layout, trained = load_init(path)
+    assert isinstance(loaded, Network) and layout == LAYOUT and trained == space
+    assert np.array_equal(loaded.predict(x), net.predict(x))
+    kinds = []
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda name, obj: kinds.append(obj.dtype.kind) if isinstance(obj, h5py.Dataset) else None)
+    assert set(kinds) <= {"f", "i", "V"}  # floats, ints, the /summary table; no opaque or object data
+    raw = path.read_bytes()
+    assert b"\x80\x04\x95" not in raw and b"\x80\x05\x95" not in raw and b"sklearn" not in raw
