@@ -58,7 +58,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     from legplan.dyn.artefact import write_traj
     from legplan.dyn.items import DynWorker, failed_item, plan_item, task_items
     from legplan.dyn.settings import costs_file, dyn_params, initializer, settings_record
-    from legplan.dyn.tasks import check_placements, command_line_task, centroidal_model, read_tasks
+    from legplan.dyn.tasks import centroidal_model, check_placements, command_line_task, read_tasks
     from legplan.dyn.terrain import TerrainModel
     from legplan.robots import load_robot
     from legplan.terrain import load_map
@@ -72,7 +72,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     if tasks_path is None and (start is None or goal is None):
         raise LegplanError("dyn plan: --start and --goal are required (or --tasks FILE)")
     params = dyn_params(costs)
-    initializer(init)
+    initializer(init)  # an unknown --init: exit 2 before any work
     loaded = load_robot(robot)
     model = centroidal_model(loaded)
     tasks = (read_tasks(tasks_path, gait, strides, duration) if tasks_path is not None
