@@ -48,19 +48,22 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
          callback=None) -> PlanResult:
     """Build, solve and sample one task, in stages (each warm-started from the one before):
 
-    1. feasibility with the swing feet sampled every `DynParams.coarse_swing_dt`: the constraints
-       alone, from the initializer (TOWR's problem);
+    1. coarse feasibility — swing feet sampled every `DynParams.coarse_swing_dt`, the range of motion
+       every `DynParams.coarse_dt_range` (TOWR's 0.08 s) with no margin: the constraints alone, from
+       the initializer (TOWR's problem);
     2. only if 1 stalls with TOWR's swing constraint on: again without it (it can over-constrain a
        tight gait, see `DynParams`);
-    3. feasibility with the swing feet sampled every `DynParams.swing_dt` (coarse to fine: measured,
-       the double pallet walk stalls when started fine, and converges when refined);
+    3. fine feasibility with the sampling and margin of `DynParams` (coarse to fine: measured, the
+       pallet cases stall when started fine, and converge when refined);
     4. only with costs: the costs, by the augmented Lagrangian from the feasible point
        (`DynParams.cost_solver`; measured: 3 of 3 pallet cases instead of 1 from the initializer).
     A stage that fails ends the sequence. Iterations and timings add up over the stages; the reason
     names the stages that ran.
     """
     t0 = time.perf_counter()
-    stage_params = replace(params, costs=CostWeights(), swing_dt=max(params.swing_dt, params.coarse_swing_dt))
+    fine = dict(swing_dt=params.swing_dt, dt_range=params.dt_range, range_margin=params.range_margin)
+    stage_params = replace(params, costs=CostWeights(), swing_dt=max(params.swing_dt, params.coarse_swing_dt),
+                           dt_range=max(params.dt_range, params.coarse_dt_range), range_margin=0.0)
     problem = build_problem(task, model, terrain, stage_params, initializer)
     setup = time.perf_counter() - t0
     result = solve_augmented_lagrangian(problem.variables, [], problem.constraints, params.solver, callback=callback)
@@ -70,8 +73,8 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
         problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback)
         setup += seconds
         stages.append(("without TOWR's swing constraint", result))
-    if result.success and stage_params.swing_dt != params.swing_dt:
-        stage_params = replace(stage_params, swing_dt=params.swing_dt)
+    if result.success and any(getattr(stage_params, k) != value for k, value in fine.items()):
+        stage_params = replace(stage_params, **fine)
         problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback)
         setup += seconds
         stages.append(("fine feasibility", result))

@@ -9,8 +9,9 @@ every subproblem is again a sparse nonlinear least-squares problem, its bound ro
 equations with one symbolic analysis per subproblem, since the pattern never changes).
 Multipliers follow the first-order update y ← y + μ(c − l), y_u ← max(0, y_u + μ(c − u)); μ grows
 by `mu_growth` whenever the violation did not fall below `violation_decrease` times the last one
-(Nocedal & Wright, Alg. 17.4). Without costs the first subproblem is Gauss-Newton on the
-constraints themselves (a root of the residual is a feasible point), as TOWR's feasibility problem.
+(Nocedal & Wright, Alg. 17.4). Without costs every feasible point is a solution with zero
+multipliers: the subproblem is Gauss-Newton on the constraints themselves (a root of the residual is
+a feasible point), as TOWR's feasibility problem, and further outer iterations only continue it.
 
 Stopping rule (explicit): converged when the largest constraint violation is ≤ `violation_tolerance`
 and, if there are costs, the cost changed by less than `cost_tolerance` (relative) over the last
@@ -213,10 +214,11 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
             reason = (f"stalled infeasible: max violation {violation:.2e} fell by less than "
                       f"{1 - params.stall_decrease:.0%} over {params.stall_outer} outer iterations (local minimum)")
             break
-        for r, c in zip(rows, c_now):
-            r.update(c)
-        if violation > params.violation_decrease * last_violation:
-            mu = min(mu * params.mu_growth, params.mu_max)
+        if costs:  # without costs every feasible point is optimal: multipliers 0, nothing to update
+            for r, c in zip(rows, c_now):
+                r.update(c)
+            if violation > params.violation_decrease * last_violation:
+                mu = min(mu * params.mu_growth, params.mu_max)
         last_violation, last_cost = violation, cost
     else:
         reason = f"{params.max_outer} outer iterations with max violation {violation:.2e}"

@@ -83,6 +83,7 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
     v, J = problem.jacobian(theta)
     timings.evaluate += time.perf_counter() - t0
     norm = initial = hinged_norm(v, hinged)
+    model, pattern = None, None
     for it in range(params.max_iterations + 1):
         if not np.isfinite(norm) or not np.all(np.isfinite(J.data)):
             return finish(Status.NUMERICAL_FAILURE, "residual or Jacobian not finite at the current point", it, norm)
@@ -100,19 +101,17 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
         if lam > params.lambda_max:
             return finish(Status.STALLED, f"λ = {lam:.3e} exceeded lambda_max: no decrease of ‖h‖ = {norm:.3e} "
                           "found (local minimum?)", it, norm)
-        t0 = time.perf_counter()
-        Js = sp.csr_matrix(J)
-        d2 = np.bincount(Js.indices, weights=Js.data ** 2, minlength=layout.n)
-        scale = np.where(d2 > MARQUARDT_FLOOR * d2.max(initial=0.0), 1.0 / np.sqrt(np.where(d2 > 0, d2, 1.0)), 1.0)
-        Js.data *= scale[Js.indices]
-        row_of = np.repeat(np.arange(Js.shape[0]), np.diff(Js.indptr))
-        timings.assemble += time.perf_counter() - t0
-        step = _model_step(solver, Js, row_of, v, hinged, lam, params.active_set_iterations, timings)
+        if model is None:
+            t0 = time.perf_counter()
+            model = _HingeModel(J, v, hinged, layout.n, pattern)
+            pattern = model.pattern
+            timings.assemble += time.perf_counter() - t0
+        step = model.step(solver, lam, params.active_set_iterations, timings)
         if step is None:
             lam, nu = lam * nu, 2 * nu
             rejected += 1
             continue
-        step *= scale
+        step = model.scale * step
         predicted = norm ** 2 - hinged_norm(v + J @ step, hinged) ** 2
         trial = layout.project(theta + step)
         t0 = time.perf_counter()
@@ -130,6 +129,7 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
                               f"{params.function_tolerance:.1e}; ‖h‖ = {norm:.3e}", it + 1, norm)
             t0 = time.perf_counter()
             v, J = problem.jacobian(theta)
+            model = None
             timings.evaluate += time.perf_counter() - t0
         else:
             lam, nu = lam * nu, 2 * nu
@@ -138,29 +138,80 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
     raise AssertionError("unreachable: the loop returns at it == max_iterations")
 
 
-def _model_step(solver, Js: sp.csr_matrix, row_of: np.ndarray, v: np.ndarray, hinged: np.ndarray, lam: float,
-                iterations: int, timings: Timings) -> np.ndarray | None:
-    """Minimizer (in scaled variables) of the damped hinge model by the active-set loop; None if a
-    factorization fails."""
-    active = ~hinged | (v > 0)
-    data = Js.data.copy()
-    step = None
-    for _ in range(iterations):
-        weight = active.astype(float)
-        masked = sp.csr_matrix((data * weight[row_of], Js.indices, Js.indptr), shape=Js.shape)
-        t0 = time.perf_counter()
-        try:
-            solver.set_jacobian(masked)
-            solver.refactor(lam)
-        except NotPositiveDefiniteError:
-            timings.factorize += time.perf_counter() - t0
-            return None
-        t1 = time.perf_counter()
-        timings.factorize += t1 - t0
-        step = -solver.solve(masked.T @ (weight * v))
-        timings.solve += time.perf_counter() - t1
-        now = ~hinged | (v + Js @ step > 0)
-        if np.array_equal(now, active):
-            break
-        active = now
-    return step
+class _NormalPattern:
+    """The structural pattern of JᵀJ (plus the diagonal) for one pattern of J, and the scatter of any
+    product of row subsets of J into it: every such product fits, so CHOLMOD analyses it once."""
+
+    def __init__(self, J: sp.csr_matrix):
+        ones = sp.csr_matrix((np.ones(J.nnz), J.indices, J.indptr), shape=J.shape)
+        n = J.shape[1]
+        full = sp.csc_matrix(ones.T @ ones + sp.identity(n, format="csc"))
+        full.sort_indices()
+        self.n, self.indptr, self.indices = n, full.indptr, full.indices
+        self.keys = np.repeat(np.arange(n, dtype=np.int64), np.diff(full.indptr)) * n + full.indices
+        self.J_indptr, self.J_indices = J.indptr.copy(), J.indices.copy()
+
+    def fits(self, J: sp.csr_matrix) -> bool:
+        return np.array_equal(self.J_indptr, J.indptr) and np.array_equal(self.J_indices, J.indices)
+
+    def scatter(self, m) -> np.ndarray:
+        """Values of the sparse n × n matrix m laid out in this pattern."""
+        m = sp.csc_matrix(m)
+        keys = np.repeat(np.arange(self.n, dtype=np.int64), np.diff(m.indptr)) * self.n + m.indices
+        data = np.zeros(self.keys.size)
+        np.add.at(data, np.searchsorted(self.keys, keys), m.data)
+        return data
+
+    def matrix(self, data: np.ndarray) -> sp.csc_matrix:
+        return sp.csc_matrix((data, self.indices, self.indptr), shape=(self.n, self.n))
+
+
+class _HingeModel:
+    """The hinge model at one linearization (module docstring), in Marquardt-scaled variables.
+
+    JᵀJ of the plain rows and its gradient are formed once; an active-set iteration adds the products
+    of the active hinged rows only (usually few), so a step costs small products and numeric
+    refactorizations of one fixed pattern instead of a full JᵀJ per factorization."""
+
+    def __init__(self, J, v: np.ndarray, hinged: np.ndarray, n: int, pattern: _NormalPattern | None):
+        Js = sp.csr_matrix(J, copy=True)
+        d2 = np.bincount(Js.indices, weights=Js.data ** 2, minlength=n)
+        self.scale = np.where(d2 > MARQUARDT_FLOOR * d2.max(initial=0.0), 1.0 / np.sqrt(np.where(d2 > 0, d2, 1.0)), 1.0)
+        Js.data *= self.scale[Js.indices]
+        self.pattern = pattern if pattern is not None and pattern.fits(Js) else _NormalPattern(Js)
+        self.J, self.v, self.hinged = Js, v, hinged
+        plain = np.flatnonzero(~hinged)
+        Jp = Js[plain]
+        self.plain_data = self.pattern.scatter(Jp.T @ Jp)
+        self.plain_gradient = Jp.T @ v[plain]
+
+    def step(self, solver, lam: float, iterations: int, timings: Timings) -> np.ndarray | None:
+        """Minimizer of the damped model by the active-set loop; None if a factorization fails."""
+        hinged, v = self.hinged, self.v
+        active = hinged & (v > 0)
+        step = None
+        for _ in range(iterations):
+            t0 = time.perf_counter()
+            rows = np.flatnonzero(active)
+            data, gradient = self.plain_data, self.plain_gradient
+            if rows.size:
+                Ja = self.J[rows]
+                data = data + self.pattern.scatter(Ja.T @ Ja)
+                gradient = gradient + Ja.T @ v[rows]
+            t1 = time.perf_counter()
+            timings.assemble += t1 - t0
+            try:
+                solver.set_matrix(self.pattern.matrix(data))
+                solver.refactor(lam)
+            except NotPositiveDefiniteError:
+                timings.factorize += time.perf_counter() - t1
+                return None
+            t2 = time.perf_counter()
+            timings.factorize += t2 - t1
+            step = -solver.solve(gradient)
+            timings.solve += time.perf_counter() - t2
+            now = hinged & (v + self.J @ step > 0)
+            if np.array_equal(now, active):
+                break
+            active = now
+        return step
