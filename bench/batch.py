@@ -1,20 +1,21 @@
-"""Benchmark of `legplan.batch`: the same step-plan items on every backend, side by side in one run.
+"""Benchmark of `legplan.batch`: the same items on every backend, side by side in one run.
 
-    .venv/bin/python bench/batch.py [--swings 40] [--repeats 3] [--empty 1000] [--no-append]
+    .venv/bin/python bench/batch.py [--swings 40] [--dyn-tasks 40] [--repeats 3] [--empty 1000] [--no-append]
 
-Workload: the first --swings whole swings of the gap-crossing sequence (bench/step_plan.py's
-scenario and merge_swings: scarab2, maps/gap_crossing.yaml), planned through `run_batch` (work
-file included) with --jobs 1 (in-process), --jobs 2 (process pool), a dask LocalCluster of 2
-workers and an external `dask scheduler` + 2 `dask worker --nthreads 1` on 127.0.0.1; then the
-pre-batch-layer pool (`ProcessPoolExecutor`, 2 workers) with BLAS/OpenMP threads left at their
-default, the configuration that made --jobs 2 slower than --jobs 1. Median wall time of --repeats
-runs, items/s, speed-up over --jobs 1, CPU seconds of our processes, and the machine's busy cores
-during the run (from /proc/stat: ours plus everyone else's, the machine is shared). Per-task
-overhead: the marginal wall time of a no-op task on each started backend, from --empty and --empty / 10
-tasks (ms per task and worker slot = slope × slots), the intercept, and the work file's cost per item.
-Projection: the learned-initializer dataset (2000 tasks × 3 environments × 2 gaits × 4 cycles) on
-1, 16 and 128 workers from the measured per-item time and dask overhead. Writes
-bench/results/batch.json and its section of BENCHMARKS.md.
+Workloads: the first --swings whole swings of the gap-crossing sequence (bench/step_plan.py's
+scenario and merge_swings: scarab2, maps/gap_crossing.yaml) and --dyn-tasks short `dyn plan`
+tasks (anymal trot on maps/flat.yaml), each through `run_batch` (work file included) with --jobs 1
+(in-process), --jobs 2 (process pool), a dask LocalCluster of 2 workers and an external `dask
+scheduler` + 2 `dask worker --nthreads 1` on 127.0.0.1; for the swings also the pre-batch-layer
+pool (`ProcessPoolExecutor`, 2 workers) with BLAS/OpenMP threads left at their default. Median wall
+time of --repeats runs, items/s, speed-up over --jobs 1, CPU seconds of our processes, the items'
+own wall and CPU time inside the workers, and the machine's busy cores during the run (from
+/proc/stat: ours plus everyone else's, the machine is shared). Per-task overhead: the marginal wall
+time of a no-op task on each started backend, from --empty and --empty / 10 tasks (ms per task and
+worker slot = slope × slots), the intercept, and the work file's cost per item. Projection: the
+learned-initializer dataset (2000 tasks × 3 environments × 2 gaits × 4 cycles) on 1, 16 and 128
+workers from the measured dyn-plan task CPU time and dask overhead. Writes bench/results/batch.json
+and its section of BENCHMARKS.md.
 """
 
 from __future__ import annotations
@@ -42,10 +43,11 @@ THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"
 
 
 def timed_plan(worker, item) -> dict:
-    """`plan_item` plus the item's CPU seconds in its worker (`cpu`), to tell computing from waiting."""
-    clock = time.process_time()
+    """`plan_item` plus the item's wall and CPU seconds in its worker (`bench_wall`, `bench_cpu`), to
+    tell computing from waiting for a core."""
+    wall, cpu = time.perf_counter(), time.process_time()
     record = worker.plan(*item)
-    record["cpu"] = time.process_time() - clock
+    record["bench_wall"], record["bench_cpu"] = time.perf_counter() - wall, time.process_time() - cpu
     return record
 
 
@@ -87,8 +89,8 @@ def measured(run) -> dict:
     cores = os.cpu_count()
     return {"wall": wall, "cpu": cpu_seconds() - cpu0, "busy_cores": (busy1 - busy0) / max(total1 - total0, 1) * cores,
             "load_before": load0, "load_after": load_average(),
-            "item_seconds": sum(float(r.get("seconds", 0.0)) for r in records),
-            "item_cpu": sum(float(r.get("cpu", 0.0)) for r in records)}
+            "item_seconds": sum(float(r["bench_wall"]) for r in records),
+            "item_cpu": sum(float(r["bench_cpu"]) for r in records)}
 
 
 def start_dask_cluster(workers: int) -> tuple[str, list[subprocess.Popen]]:
@@ -132,47 +134,80 @@ def old_pool(items, robot, map_path, params, jobs: int) -> list[dict]:
         os.environ.update(saved)
 
 
+def dyn_workload(tmp: Path, count: int):
+    """`count` short `dyn plan` tasks (anymal trot, 2 strides in 1.2 s, goals 0.30 .. m ahead) on
+    maps/flat.yaml: the task and its items."""
+    from legplan.batch import Task
+    from legplan.dyn.items import DynWorker, failed_item, task_items
+    from legplan.dyn.settings import dyn_params
+    from legplan.dyn.tasks import command_line_task
+    from legplan.terrain.spec import build_map
+    from legplan.terrain.terrain_map import save_map
+
+    map_path = tmp / "flat.h5"
+    save_map(build_map(ROOT / "maps" / "flat.yaml"), map_path)
+    tasks = [command_line_task((0.0, 0.0, 0.0), (0.30 + 0.01 * i, 0.0, 0.0), "trot", 2, 1.2) for i in range(count)]
+    return Task(timed_plan, failed_item, DynWorker, ("anymal", str(map_path), dyn_params("none"), "heuristic")), \
+        task_items(tasks)
+
+
+def step_workload(tmp: Path, count: int):
+    """The first `count` whole swings of the gap-crossing sequence: the task, its items and the
+    arguments of the old pool."""
+    from legplan.batch import Task
+    from legplan.stepplan.batch import StepWorker, failed_item, step_items
+    from legplan.stepplan.params import StepPlanParams
+    from legplan.stepseq.sequence import read_steps
+
+    map_path, steps_path = scenario(tmp, "scarab2", (-0.6, 0.0, 0.0), (0.6, 0.0, 0.0))
+    seq = merge_swings(read_steps(steps_path))
+    items = step_items(seq, range(min(count, len(seq) - 1)))
+    arguments = (seq.robot, str(map_path), StepPlanParams())
+    return Task(timed_plan, failed_item, StepWorker, arguments), items, arguments
+
+
+OLD = "old pool, 2 workers, default BLAS threads"
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--swings", type=int, default=40, help="whole swings planned per run")
+    ap.add_argument("--dyn-tasks", type=int, default=40, help="short dyn plan tasks per run")
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--empty", type=int, default=1000, help="no-op tasks of the overhead measurement")
     ap.add_argument("--no-append", action="store_true", help="do not update BENCHMARKS.md")
     args = ap.parse_args(argv)
 
     from legplan.batch import Backend, Task, run_batch
-    from legplan.stepplan.batch import StepWorker, failed_item, step_items
-    from legplan.stepplan.params import StepPlanParams
-    from legplan.stepseq.sequence import read_steps
 
     commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
                             text=True).stdout.strip()
     load_start = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        map_path, steps_path = scenario(tmp, "scarab2", (-0.6, 0.0, 0.0), (0.6, 0.0, 0.0))
-        seq = merge_swings(read_steps(steps_path))
-        items = step_items(seq, range(min(args.swings, len(seq) - 1)))
-        params = StepPlanParams()
-        step_task = Task(timed_plan, failed_item, StepWorker, (seq.robot, str(map_path), params))
+        step_task, step_items, old_arguments = step_workload(tmp, args.swings)
+        workloads = {"gap-crossing whole swings": (step_task, step_items),
+                     "dyn plan tasks": dyn_workload(tmp, args.dyn_tasks)}
         empty_task = Task(nothing, nothing_failed)
         address, cluster = start_dask_cluster(2)
         backends = {"--jobs 1 (in-process)": Backend(1), "--jobs 2 (process pool)": Backend(2),
                     "dask LocalCluster, 2 workers": Backend(2, "local"),
                     "external dask scheduler + 2 workers": Backend(2, address)}
-        runs, overhead = {name: [] for name in [*backends, "old pool, 2 workers, default BLAS threads"]}, {}
+        runs = {(workload, name): [] for workload in workloads for name in [*backends, OLD]
+                if workload == "gap-crossing whole swings" or name != OLD}
+        overhead = {}
         try:
             for repeat in range(args.repeats):  # backends interleaved, so load changes hit all of them
-                for name, backend in backends.items():
-                    def batch(task=step_task, given=items, backend=backend):
-                        with run_batch(task, given, output=tmp / "motion.h5", identity={}, backend=backend) as records:
-                            return records
-                    runs[name].append(measured(batch))
-                    print(f"{repeat} {name}: {runs[name][-1]['wall']:.1f} s", file=sys.stderr)
-                runs["old pool, 2 workers, default BLAS threads"].append(
-                    measured(lambda: old_pool(items, seq.robot, str(map_path), params, 2)))
-                print(f"{repeat} old pool: {runs['old pool, 2 workers, default BLAS threads'][-1]['wall']:.1f} s",
-                      file=sys.stderr)
+                for (workload, name), measurements in runs.items():
+                    task, items = workloads[workload]
+                    if name == OLD:
+                        measurements.append(measured(lambda: old_pool(step_items, *old_arguments, 2)))
+                    else:
+                        def batch(task=task, items=items, backend=backends[name]):
+                            with run_batch(task, items, output=tmp / "out.h5", identity={}, backend=backend) as records:
+                                return records
+                        measurements.append(measured(batch))
+                    print(f"{repeat} {workload}, {name}: {measurements[-1]['wall']:.1f} s", file=sys.stderr)
             for name, backend in backends.items():  # marginal cost of a task on a started backend
                 executor, walls = backend.start(), {}
                 try:
@@ -193,7 +228,8 @@ def main(argv=None) -> int:
                 process.terminate()
             for process in cluster:
                 process.wait(timeout=30)
-    result = summarize(runs, overhead, len(items), args, commit, load_start)
+    counts = {workload: len(items) for workload, (_, items) in workloads.items()}
+    result = summarize(runs, overhead, counts, args, commit, load_start)
     write_result("batch", result)
     text = markdown(result)
     print(text)
@@ -215,58 +251,66 @@ def work_file_seconds(tmp: Path, count: int) -> float:
     return seconds
 
 
-def summarize(runs, overhead, count, args, commit, load_start) -> dict:
-    base = statistics.median(r["wall"] for r in runs["--jobs 1 (in-process)"])
+def summarize(runs, overhead, counts, args, commit, load_start) -> dict:
     rows = {}
-    for name, measurements in runs.items():
+    for (workload, name), measurements in runs.items():
         wall = statistics.median(m["wall"] for m in measurements)
-        rows[name] = {"median_wall_s": wall, "walls_s": [m["wall"] for m in measurements], "items_per_s": count / wall,
-                      "speedup_vs_jobs1": base / wall,
-                      "median_cpu_s": statistics.median(m["cpu"] for m in measurements),
-                      "median_item_seconds_sum": statistics.median(m["item_seconds"] for m in measurements),
-                      "median_item_cpu_sum": statistics.median(m["item_cpu"] for m in measurements),
-                      "median_busy_cores": statistics.median(m["busy_cores"] for m in measurements),
-                      "load": [[m["load_before"], m["load_after"]] for m in measurements]}
-    per_item = rows["--jobs 1 (in-process)"]["median_item_cpu_sum"] / count  # compute time on a core of its own
+        base = statistics.median(m["wall"] for m in runs[(workload, "--jobs 1 (in-process)")])
+        rows[f"{workload} | {name}"] = {
+            "median_wall_s": wall, "walls_s": [m["wall"] for m in measurements],
+            "items_per_s": counts[workload] / wall, "speedup_vs_jobs1": base / wall,
+            "median_cpu_s": statistics.median(m["cpu"] for m in measurements),
+            "median_item_seconds_sum": statistics.median(m["item_seconds"] for m in measurements),
+            "median_item_cpu_sum": statistics.median(m["item_cpu"] for m in measurements),
+            "median_busy_cores": statistics.median(m["busy_cores"] for m in measurements),
+            "load": [[m["load_before"], m["load_after"]] for m in measurements]}
+    per_task = {workload: rows[f"{workload} | --jobs 1 (in-process)"]["median_item_cpu_sum"] / count
+                for workload, count in counts.items()}  # compute time on a core of its own
     dask_ms = overhead["dask LocalCluster, 2 workers"]["ms_per_task_slot"]
-    projection = {workers: DATASET_TASKS * (per_item + dask_ms / 1e3) / workers / 3600 for workers in (1, 16, 128)}
-    return {"date": datetime.date.today().isoformat(), "machine": machine(), "commit": commit, "items": count,
+    projection = {workers: DATASET_TASKS * (per_task["dyn plan tasks"] + dask_ms / 1e3) / workers / 3600
+                  for workers in (1, 16, 128)}
+    return {"date": datetime.date.today().isoformat(), "machine": machine(), "commit": commit, "items": counts,
             "repeats": args.repeats, "empty_tasks": args.empty, "load_average_start": list(load_start),
             "load_average_end": list(os.getloadavg()), "rows": rows, "overhead": overhead,
-            "step_item_seconds": per_item, "dataset_tasks": DATASET_TASKS, "projection_hours": projection}
+            "task_cpu_seconds": per_task, "dataset_tasks": DATASET_TASKS, "projection_hours": projection}
 
 
 def markdown(result) -> str:
-    rows = result["rows"]
+    counts = result["items"]
     lines = [f"## batch — one batch layer, every backend on the same items ({result['date']}, {result['commit']})\n",
              f"Machine: {result['machine']}, shared: load average (1/5/15 min) "
              f"{' / '.join(f'{x:.1f}' for x in result['load_average_start'])} at the start, "
              f"{' / '.join(f'{x:.1f}' for x in result['load_average_end'])} at the end. Items: the first "
-             f"{result['items']} whole swings of the gap-crossing sequence (scarab2, `StepPlanParams()` defaults), "
-             f"through `run_batch` (work file included); median of {result['repeats']} runs, backends interleaved. "
-             "'busy cores': the whole machine's during the run (/proc/stat), ours and other users'; "
-             "'CPU s': our processes (start-up included). 'Σ item s' / 'Σ item CPU s': wall / CPU time of "
-             "the items measured inside the workers (wall ≫ CPU: the item waited for a core).\n",
-             "| backend | median wall [s] | items/s | vs --jobs 1 | CPU s | Σ item s | Σ item CPU s | busy cores | runs [s] |",
-             "|---|---|---|---|---|---|---|---|---|"]
-    for name, row in rows.items():
-        lines.append(f"| {name} | {row['median_wall_s']:.1f} | {row['items_per_s']:.2f} | {row['speedup_vs_jobs1']:.2f}× "
-                     f"| {row['median_cpu_s']:.1f} | {row['median_item_seconds_sum']:.1f} | {row['median_item_cpu_sum']:.1f} | "
-                     f"{row['median_busy_cores']:.2f} | {', '.join(f'{w:.1f}' for w in row['walls_s'])} |")
+             f"{counts['gap-crossing whole swings']} whole swings of the gap-crossing sequence (scarab2, "
+             f"`StepPlanParams()` defaults) and {counts['dyn plan tasks']} short `dyn plan` tasks (anymal, "
+             "trot, 2 strides in 1.2 s, maps/flat.yaml), through `run_batch` (work file included); median of "
+             f"{result['repeats']} runs, backends interleaved. 'busy cores': the whole machine's during the run "
+             "(/proc/stat), ours and other users'; 'CPU s': our processes (start-up included); 'Σ item s' / "
+             "'Σ item CPU s': wall / CPU time of the items measured inside the workers (wall ≫ CPU: the item "
+             "waited for a core).\n",
+             "| workload | backend | median wall [s] | items/s | vs --jobs 1 | CPU s | Σ item s | Σ item CPU s "
+             "| busy cores | runs [s] |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for key, row in result["rows"].items():
+        lines.append(f"| {key} | {row['median_wall_s']:.1f} | {row['items_per_s']:.2f} | "
+                     f"{row['speedup_vs_jobs1']:.2f}× | {row['median_cpu_s']:.1f} | {row['median_item_seconds_sum']:.1f} "
+                     f"| {row['median_item_cpu_sum']:.1f} | {row['median_busy_cores']:.2f} | "
+                     f"{', '.join(f'{w:.1f}' for w in row['walls_s'])} |")
     overhead = "; ".join(f"{name} {o['ms_per_task_slot']:.2f} ms (start {o['start_s']:.2f} s)"
                          for name, o in result["overhead"].items())
     dask_ms = result["overhead"]["dask LocalCluster, 2 workers"]["ms_per_task_slot"]
-    per_item, projection = result["step_item_seconds"], result["projection_hours"]
+    per_task, projection = result["task_cpu_seconds"], result["projection_hours"]
     lines += ["", f"Per-task overhead: marginal wall time of a no-op task on a started backend (executor only), "
               f"from {result['empty_tasks'] // 10} and {result['empty_tasks']} tasks, per worker slot, and the "
-              f"intercept (pool: process spawn; dask: already running): {overhead}. A step-plan item computes for {per_item:.2f} s (CPU) here, so dask's "
-              f"per-task overhead is {dask_ms / 10 / per_item:.2f} % of it.",
-              "", f"Projection on paper (no `dyn plan` task exists yet, so the measured step-plan item CPU time "
-              f"{per_item:.2f} s stands in for a task, plus the LocalCluster overhead): the learned-initializer "
-              f"dataset of {result['dataset_tasks']} tasks (2000 × 3 environments × 2 gaits × 4 cycles) takes "
-              + ", ".join(f"{hours:.1f} h on {workers} worker{'s' if workers > 1 else ''}"
-                          for workers, hours in projection.items())
-              + " (ideal scaling; the scheduler's own per-task cost is inside the measured overhead)."]
+              f"intercept (pool: process spawn; dask: already running): {overhead}. A task computes for "
+              + ", ".join(f"{seconds:.2f} s ({workload})" for workload, seconds in per_task.items())
+              + f" of CPU here, so dask's per-task overhead is {dask_ms / 10 / per_task['dyn plan tasks']:.2f} % "
+              "of a dyn plan task.",
+              "", f"Projection on paper from the measured dyn-plan task CPU time ({per_task['dyn plan tasks']:.2f} s, "
+              "a short task; the paper's are longer) plus the LocalCluster overhead, ideal scaling: the "
+              f"learned-initializer dataset of {result['dataset_tasks']} tasks (2000 × 3 environments × 2 gaits × "
+              "4 cycles) takes " + ", ".join(f"{hours:.2f} h on {workers} worker{'s' if workers > 1 else ''}"
+                                            for workers, hours in projection.items()) + "."]
     return "\n".join(lines) + "\n"
 
 
