@@ -41,31 +41,41 @@ def dataset_cmd(ctx, space_path, count, seed, init, iterations, output, overwrit
 
     A solve that does not converge is recorded (success false); exit 1 only when a task raised."""
     from legplan.artefacts import check_output
-    from legplan.batch import Task
-    from legplan.cli.batching import run_stage
-    from legplan.learn.dataset import DatasetWorker, check_init, dataset_items, failed_item, solve_item, write_dataset
+    from legplan.learn.dataset import check_init
     from legplan.learn.space import read_space
 
     check_output(output, overwrite)
     space = read_space(space_path)
     check_init(init, space)
+    records = _dataset(space, space_path, count, seed, init, iterations, output, overwrite=overwrite, jobs=jobs,
+                       scheduler=scheduler, resume=resume)
+    if any("y" not in r for r in records):
+        ctx.exit(EXIT_ITEMS_FAILED)
+
+
+def _dataset(space, space_path, count, seed, init, iterations, output, *, overwrite, jobs, scheduler, resume):
+    """Sample, solve through `legplan.batch` and write one dataset.h5; returns the records."""
+    from legplan.batch import Task
+    from legplan.cli.batching import run_stage
+    from legplan.learn.dataset import DatasetWorker, dataset_items, failed_item, solve_item, write_dataset
+
     items = dataset_items(space, count, seed)
-    init_arg = os.path.abspath(init) if init.endswith(".h5") else init
+    learned = str(init).endswith(".h5")
+    init = os.fspath(init)
     settings = {"space": space.record(), "n": count, "init": init, "iterations": iterations}
-    inputs = [space_path, space.map] + ([init] if init.endswith(".h5") else [])
-    task = Task(solve_item, failed_item, DatasetWorker, (space, init_arg, iterations))
-    records, _ = run_stage(task, items, "learn dataset", output=output,
+    inputs = [space_path, space.map] + ([init] if learned else [])
+    task = Task(solve_item, failed_item, DatasetWorker, (space, os.path.abspath(init) if learned else init, iterations))
+    records, _ = run_stage(task, items, f"learn dataset {os.path.basename(output)}", output=output,
                            identity={"stage": "learn dataset", "seed": seed, **settings}, inputs=inputs, jobs=jobs,
                            scheduler=scheduler, resume=resume, overwrite=overwrite,
                            publish=lambda records: write_dataset(output, space, records, settings, seed, inputs,
                                                                  overwrite))
     converged = sum(bool(r["success"]) for r in records)
-    raised = [r for r in records if "y" not in r]
     status(f"wrote {output}: {converged}/{len(records)} tasks converged")
-    for r in raised:
-        stderr_line(f"  task {r['index']}: failed: {r['reason']}")
-    if raised:
-        ctx.exit(EXIT_ITEMS_FAILED)
+    for r in records:
+        if "y" not in r:
+            stderr_line(f"  task {r['index']}: failed: {r['reason']}")
+    return records
 
 
 def _g_max(ctx, param, value):
@@ -117,3 +127,71 @@ def train_cmd(dataset_path, g_max, hidden, weights_path, validation, seed, outpu
     status(f"wrote {output}: {report['good']}/{report['tasks']} tasks with g <= {report['g_max']:.4g} "
            f"({report['converged']} converged); validation loss {report['validation_loss']:.3g} "
            f"(train {report['train_loss']:.3g}) on {report['validation_tasks']} held-out tasks")
+
+
+@command.command("cycle")
+@click.argument("space_path", metavar="SPACE", type=click.Path(dir_okay=False))
+@click.option("--cycles", type=click.IntRange(min=1), default=3, show_default=True, help="Train-and-solve cycles K.")
+@click.option("--n", "count", type=click.IntRange(min=1), required=True, help="Tasks X (the same in every cycle).")
+@seed_opt
+@click.option("--heuristic-iterations", type=click.IntRange(min=1), default=100, show_default=True,
+              help="N_h: iterations per planner stage from the Heuristic.")
+@click.option("--learned-iterations", type=click.IntRange(min=1), default=25, show_default=True,
+              help="N_θ: iterations per planner stage from the learned initializer.")
+@click.option("--g-max", "g_max", default="auto", show_default=True, callback=_g_max, metavar="auto|VALUE",
+              help="Cost threshold of the filter, eq. (4), in every cycle.")
+@click.option("--hidden", default="256,256", show_default=True, callback=_hidden,
+              help="Hidden layers of the first network (trained on the Heuristic's outcomes).")
+@click.option("--hidden-later", default="256,256,256", show_default=True, callback=_hidden,
+              help="Hidden layers of the later networks (more tasks pass the filter).")
+@click.option("--weights", "weights_path", type=click.Path(dir_okay=False), default=None,
+              help="YAML of W per category, eq. (3).")
+@click.option("-o", "--output", required=True, type=click.Path(file_okay=False),
+              help="Directory of the cycle's artefacts: dataset_0.h5, init_1.h5, dataset_1.h5, ..., cycles.json.")
+@overwrite_opt
+@batch_opts
+@verbosity_opts
+def cycle_cmd(space_path, cycles, count, seed, heuristic_iterations, learned_iterations, g_max, hidden, hidden_later,
+              weights_path, output, overwrite, jobs, scheduler, resume):
+    """Algorithm 1 (TRAININITIALIZER): Y ← solve(A_h(X); N_h), then K times filter, train, Y ← solve(A_θ(X); N_θ).
+
+    Keeps every dataset and initializer in OUTPUT; cycles.json holds per cycle the success rate,
+    median iterations and time of converged tasks and their cost quantiles. --resume reuses the
+    artefacts already written and continues an interrupted dataset."""
+    from pathlib import Path
+
+    from legplan.artefacts import check_output
+    from legplan.learn.cycle import cycle_paths, cycle_row, write_cycles
+    from legplan.learn.space import read_space
+    from legplan.learn.train import train_initializer
+
+    space = read_space(space_path)
+    paths = cycle_paths(Path(output), cycles)
+    Path(output).mkdir(parents=True, exist_ok=True)
+    if not resume:
+        for path in paths:
+            check_output(path, overwrite)
+    if weights_path is not None and not os.path.isfile(weights_path):
+        raise LegplanError(f"--weights: '{weights_path}' is not a file")
+    def done(path) -> bool:  # reused with --resume
+        return resume and Path(path).exists()
+
+    rows = []
+    for k in range(cycles + 1):
+        dataset = paths[2 * k]
+        if k > 0:
+            init = paths[2 * k - 1]
+            if not done(init):
+                report = train_initializer(paths[2 * k - 2], init, g_max=g_max, hidden=hidden if k == 1 else hidden_later,
+                                           weights_path=weights_path, seed=seed, overwrite=overwrite)
+                status(f"wrote {init}: {report['good']}/{report['tasks']} tasks with g <= {report['g_max']:.4g}, "
+                       f"validation loss {report['validation_loss']:.3g}")
+        if not done(dataset):
+            _dataset(space, space_path, count, seed, paths[2 * k - 1] if k else "heuristic",
+                     learned_iterations if k else heuristic_iterations, dataset, overwrite=overwrite, jobs=jobs,
+                     scheduler=scheduler, resume=resume)
+        rows.append(cycle_row(k, dataset))
+        status("cycle {cycle}: {init}, success {success_rate:.0%}, median iterations {median_iterations:g}, "
+               "cost median {cost_median:.4g} / p90 {cost_p90:.4g} / max {cost_max:.4g}".format(**rows[-1]))
+    write_cycles(Path(output) / "cycles.json", rows)
+    status(f"wrote {Path(output) / 'cycles.json'}")

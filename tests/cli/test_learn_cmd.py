@@ -69,3 +69,19 @@ def test_bad_space_and_foreign_init_are_exit_2_with_no_output(trained):
     result = invoke("learn", "train", tmp / "d0.h5", "--g-max", "-1", "-o", tmp / "x.h5")
     assert result.exit_code == 2
     assert not (tmp / "x.h5").exists()
+
+
+def test_cycle_keeps_every_dataset_and_initializer_and_summarizes_each_cycle(trained):
+    tmp, space = trained
+    out = tmp / "cycle"
+    result = invoke("learn", "cycle", space, "--cycles", 1, "--n", 3, "--hidden", "8,8", "--hidden-later", "8,8,8",
+                    "--heuristic-iterations", 50, "-o", out, "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    assert {p.name for p in out.iterdir()} == {"dataset_0.h5", "init_1.h5", "dataset_1.h5", "cycles.json"}
+    rows = json.loads((out / "cycles.json").read_text())["cycles"]
+    assert [r["init"] for r in rows] == ["heuristic", "init_1.h5"] and all(r["tasks"] == 3 for r in rows)
+    with h5py.File(out / "dataset_0.h5", "r") as a, h5py.File(out / "dataset_1.h5", "r") as b:
+        assert np.array_equal(a["x"][()], b["x"][()])  # Algorithm 1: the same tasks X in every cycle
+        assert json.loads(b.attrs["params"])["iterations"] == 25
+    result = invoke("learn", "cycle", space, "--cycles", 1, "--n", 3, "-o", out)
+    assert result.exit_code == 2 and "exists" in result.output

@@ -1,0 +1,38 @@
+"""`legplan learn cycle`: the artefacts and summary of Algorithm 1 (TRAININITIALIZER) of the TOWR-costs paper.
+
+A cycle directory holds dataset_0.h5 (Y ← TOWR(A_h(X); N_h)), then for k = 1..K init_k.h5 (θ trained
+on the filtered dataset_{k-1}) and dataset_k.h5 (Y ← TOWR(A_θ(X); N_θ)), all on the same tasks X, and
+cycles.json: per cycle the initializer, success rate, median iterations and time of the converged
+tasks, and their cost distribution (median, p90, max).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from legplan.learn.dataset import read_dataset, summarize
+
+
+def cycle_paths(directory: Path, cycles: int) -> list[Path]:
+    """dataset_0.h5, init_1.h5, dataset_1.h5, ..., init_K.h5, dataset_K.h5."""
+    paths = [directory / "dataset_0.h5"]
+    for k in range(1, cycles + 1):
+        paths += [directory / f"init_{k}.h5", directory / f"dataset_{k}.h5"]
+    return paths
+
+
+def cycle_row(k: int, dataset: Path) -> dict:
+    """The summary of cycle k from its dataset."""
+    data = read_dataset(dataset)
+    summary = summarize(data["success"], data["iterations"], data["cost"], data["seconds"])
+    return {"cycle": k, "init": "heuristic" if k == 0 else f"init_{k}.h5", "dataset": dataset.name,
+            **{key: value[0] if isinstance(value, tuple) else value for key, value in summary.items()}}
+
+
+def write_cycles(path: Path, rows: list[dict]) -> None:
+    """cycles.json, written atomically."""
+    tmp = path.with_name(f".{path.name}.tmp")
+    tmp.write_text(json.dumps({"cycles": rows}, indent=1) + "\n")
+    os.replace(tmp, path)
