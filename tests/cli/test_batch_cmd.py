@@ -183,3 +183,16 @@ def test_nav_queries_file_in_a_pool_gives_the_in_process_artefact(tmp_path, comm
                                           "-o", str(tmp_path / f"{name}.h5"), *extra])
         assert result.exit_code == 1 and "0001: failed: goal in collision" in result.stderr, result.output
     assert_same(tmp_path / "a.h5", tmp_path / "b.h5")
+
+
+def test_dyn_plan_on_a_local_cluster_gives_the_in_process_artefact(tmp_path):
+    maps = Path(__file__).resolve().parents[2] / "maps"
+    assert CliRunner().invoke(cli, ["map", "build", str(maps / "flat.yaml"), "-o", str(tmp_path / "flat.h5"),
+                                    "-q"]).exit_code == 0
+    tasks = tmp_path / "tasks.csv"
+    tasks.write_text("start_x,start_y,start_yaw,goal_x,goal_y,goal_yaw\n0,0,0,0.4,0,0\n0,0,0.1,0.3,0.1,0\n0,0,0,0.35,0,0\n")
+    for name, extra in (("a", []), ("b", ["--scheduler", "local", "--jobs", "2"])):
+        result = CliRunner().invoke(cli, ["dyn", "plan", str(tmp_path / "flat.h5"), "--tasks", str(tasks), "--strides",
+                                          "2", "--duration", "1.2", "-q", "-o", str(tmp_path / f"{name}.h5"), *extra])
+        assert result.exit_code == 0, result.output
+    assert_same(tmp_path / "a.h5", tmp_path / "b.h5")
