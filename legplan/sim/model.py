@@ -10,7 +10,8 @@ What the spec adds, all from the robot folder and the map — nothing per robot:
 
 - a free joint on the root link (the URDF's floating base);
 - one torque motor per actuated joint (gear 1), its control range the URDF `effort` limit, read
-  from pinocchio's `effortLimit` (the URDF `<limit effort>`);
+  from pinocchio's `effortLimit` (the URDF `<limit effort>`); MuJoCo's URDF parser also puts that
+  limit on the joint (`actfrcrange`), which is kept equal to the motor's;
 - `robot.yaml`'s collision spheres as contact geoms (`contype` 1, `conaffinity` 0: they touch the
   terrain, not each other). Foot spheres are the planned contacts; any other sphere touching the
   terrain is an unplanned contact (shin, thigh or trunk);
@@ -36,6 +37,7 @@ from legplan.errors import LegplanError
 
 PHYSICS_DT = 0.0005            # s
 CONTACT_SOLREF = (0.005, 1.0)  # time constant (s), damping ratio
+CONTACT_SOLIMP = (0.99, 0.999, 0.001, 0.5, 2.0)   # impedance: 99 to 99.9 % of the constraint is enforced
 IMPRATIO = 10.0                # friction constraints 10x harder than normal ones (little creep)
 HFIELD_BASE = 0.5              # m, thickness of the hfield box below the map's lowest point
 HFIELD_MIN_SPAN = 1e-3         # m, elevation range of a flat map's hfield (MuJoCo needs > 0)
@@ -64,8 +66,9 @@ class SimModel:
     dof_index: np.ndarray
 
 
-def build_model(robot, terrain_map, friction: float) -> SimModel:
-    """The MuJoCo model of `robot` (a `legplan.robots.RobotModel`) on `terrain_map` with friction μ."""
+def build_model(robot, terrain_map, friction: float, effort_scale: float = 1.0) -> SimModel:
+    """The MuJoCo model of `robot` (a `legplan.robots.RobotModel`) on `terrain_map` with friction μ;
+    `effort_scale` multiplies the URDF effort limits (1: as the URDF says)."""
     xml = robot.urdf_path.read_text()
     head = xml.find(">", xml.find("<robot")) + 1
     if head <= 0:
@@ -77,12 +80,13 @@ def build_model(robot, terrain_map, friction: float) -> SimModel:
     root = spec.worldbody.first_body()
     root.add_freejoint()
 
-    effort = np.asarray(robot.model.effortLimit[6:], float)
+    effort = effort_scale * np.asarray(robot.model.effortLimit[6:], float)
     for name, limit in zip(robot.joint_names, effort):
         if not limit > 0:
             raise LegplanError(f"{robot.urdf_path}: joint {name} has no positive effort limit")
         spec.add_actuator(name=name, target=name, trntype=mujoco.mjtTrn.mjTRN_JOINT,
                           ctrllimited=True, ctrlrange=[-limit, limit])
+        spec.joint(name).actfrcrange = [-limit, limit]   # the parser set it to the URDF effort; keep one limit
 
     bodies = {body.name: body for body in spec.bodies}
     spheres = robot.spheres
@@ -94,7 +98,7 @@ def build_model(robot, terrain_map, friction: float) -> SimModel:
         name = f"sphere{k}_{frame}"
         bodies[frame].add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[spheres.radii[k], 0, 0],
                                pos=spheres.offsets[k], contype=1, conaffinity=0, condim=3,
-                               friction=[friction, 0.005, 0.0001], solref=CONTACT_SOLREF,
+                               friction=[friction, 0.005, 0.0001], solref=CONTACT_SOLREF, solimp=CONTACT_SOLIMP,
                                mass=0, density=0, group=1)
         names.append(name)
     _add_terrain(spec, terrain_map, friction)
@@ -132,4 +136,4 @@ def _add_terrain(spec, terrain_map, friction: float) -> None:
     spec.worldbody.add_geom(name="terrain", type=mujoco.mjtGeom.mjGEOM_HFIELD, hfieldname="terrain",
                             pos=[grid.origin[0] + half_x, grid.origin[1] + half_y, low],
                             contype=0, conaffinity=1, condim=3, friction=[friction, 0.005, 0.0001],
-                            solref=CONTACT_SOLREF)
+                            solref=CONTACT_SOLREF, solimp=CONTACT_SOLIMP)

@@ -53,6 +53,7 @@ class SimParams:
     record_every: int = 4             # control ticks per recorded row (100 Hz)
     friction: float | None = None
     zero_torque: bool = False         # apply no torques (a planted fall, for tests)
+    effort_scale: float = 1.0         # × the URDF effort limits (a what-if: which limits would a plan need)
     gains: Gains = field(default_factory=Gains)
 
 
@@ -95,7 +96,7 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
     `centroidal` section) on `terrain_map`; `goal` (x, y, yaw) or None for the plan's last pose."""
     started = time.perf_counter()
     mu = robot.centroidal.friction if params.friction is None else params.friction
-    sim = build_model(robot, terrain_map, mu)
+    sim = build_model(robot, terrain_map, mu, params.effort_scale)
     terrain = TerrainModel(terrain_map)
     reference = Reference(samples, sim.foot_radius, terrain)
     controller = WholeBodyController(robot, sim.effort, mu, params.gains)
@@ -119,7 +120,7 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
         q, v = _pinocchio_state(data, sim)
         ref = reference.at(t)
         if not params.zero_torque:
-            tau = controller.torques(q, v, ref)
+            tau = controller.torques(q, v, ref, touching(data, sim))
         data.ctrl[:] = tau
         peak = max(peak, float(np.abs(tau).max()))
         saturated += bool(np.any(np.abs(tau) >= sim.effort * (1 - 1e-6)))
@@ -201,6 +202,11 @@ def _record(rows, t, data, sim, q, v, rot, tau, pos_err, rot_err) -> None:
     rows["foot_forces"].append(foot_forces(data, sim))
     rows["position_error"].append(pos_err)
     rows["orientation_error"].append(rot_err)
+
+
+def touching(data, sim) -> np.ndarray:
+    """Which foot spheres (n_legs,) are in contact with the terrain now."""
+    return np.isin(sim.foot_geoms, data.contact.geom[:data.ncon])
 
 
 def foot_forces(data, sim) -> np.ndarray:

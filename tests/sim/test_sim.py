@@ -14,7 +14,7 @@ from legplan.sim.model import build_model
 from legplan.sim.run import SimParams, simulate
 from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
 
-WALK = ("--start", "0", "0", "0", "--goal", "0.5", "0", "0", "--gait", "walk", "--duration", "3")
+TROT = ("--start", "0", "0", "0", "--goal", "1", "0", "0", "--gait", "trot", "--strides", "4", "--duration", "2.4")
 
 
 def invoke(*args):
@@ -35,6 +35,14 @@ def flat(tmp_path_factory):
     path = tmp_path_factory.mktemp("sim") / "map.h5"
     save_map(terrain, path)
     return terrain, path
+
+
+@pytest.fixture(scope="module")
+def trot(flat, tmp_path_factory):
+    """A 1 m flat trot planned by `legplan dyn plan` (4 strides, 2.4 s)."""
+    traj = tmp_path_factory.mktemp("trot") / "traj.h5"
+    assert invoke("dyn", "plan", flat[1], *TROT, "-o", traj, "-q").exit_code == 0
+    return traj
 
 
 def standing(robot, seconds=1.0):
@@ -94,34 +102,32 @@ def test_zero_torques_is_a_fall(robot, flat):
     assert result.fall_time < 1.0
 
 
-def test_a_planned_walk_reaches_its_goal_from_the_cli(flat, tmp_path):
-    traj, out = tmp_path / "traj.h5", tmp_path / "sim.h5"
-    assert invoke("dyn", "plan", flat[1], *WALK, "-o", traj, "-q").exit_code == 0
-    result = invoke("dyn", "simulate", traj, flat[1], "-o", out)
+def test_a_planned_flat_trot_reaches_its_goal_from_the_cli(flat, trot, tmp_path):
+    out = tmp_path / "sim.h5"
+    result = invoke("dyn", "simulate", trot, flat[1], "-o", out)
     assert result.exit_code == 0, result.output + str(result.exception)
     with h5py.File(out) as handle:
         assert handle.attrs["legplan_kind"] == "sim"
         task = handle["tasks/0000"]
         assert task.attrs["success"] and task.attrs["goal_error"] < 0.1
         assert task.attrs["rms_position_error"] < 0.02 and task.attrs["peak_torque"] <= 40.0 + 1e-9
+        assert not task.attrs["fell"] and task.attrs["unplanned_contacts"] == ""
         assert task["series/position_error"].attrs["units"] == "m"
         quat = task["series/base_quat"][-1]
         assert abs(pin.log3(pin.Quaternion(*quat[[3, 0, 1, 2]]).matrix())).max() < 0.2
 
 
 @pytest.mark.parametrize("case", ["not_traj", "missing", "off_map"])
-def test_bad_input_exits_2_and_writes_nothing(flat, tmp_path, case):
+def test_bad_input_exits_2_and_writes_nothing(flat, trot, tmp_path, case):
     out = tmp_path / "sim.h5"
     if case == "not_traj":
         args = (flat[1], flat[1])
     elif case == "missing":
         args = (tmp_path / "nope.h5", flat[1])
     else:
-        traj = tmp_path / "traj.h5"
         small = Grid2D(origin=(-0.6, -0.4), resolution=0.02, shape=(41, 61))
         save_map(terrain_from_heightmap(np.zeros(small.shape), small, name="small"), tmp_path / "small.h5")
-        assert invoke("dyn", "plan", flat[1], *WALK, "-o", traj, "-q").exit_code == 0
-        args = (traj, tmp_path / "small.h5")
+        args = (trot, tmp_path / "small.h5")
     result = invoke("dyn", "simulate", *args, "-o", out)
     assert result.exit_code == 2, result.output
     assert not out.exists()
