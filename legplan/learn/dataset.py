@@ -56,16 +56,14 @@ def initializer_of(init: str):
 def check_init(init: str, space: TaskSpace) -> None:
     """Before any work: `--init` is known, and an init.h5 was trained for this space's map, gait,
     strides, duration and variable layout (one-line error otherwise)."""
-    from legplan.dyn.formulation import Formulation
-    from legplan.dyn.gait import make_gait
-    from legplan.learn.layout import check_layout
+    from legplan.dyn.problem import DynTask
     from legplan.learn.network import check_space
 
     chosen = initializer_of(init)
     if init.endswith(".h5"):
         check_space(init, chosen.space, space.record())
-        form = Formulation(make_gait(space.gait, space.strides, space.duration), solver_params(space.costs, None).dt)
-        check_layout(chosen.layout, layout_of(form), init)
+        chosen.check_task(DynTask((0, 0, 0), (0, 0, 0), space.gait, space.strides, space.duration),
+                          solver_params(space.costs, None).dt)
 
 
 class DatasetWorker:

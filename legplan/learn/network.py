@@ -209,6 +209,15 @@ class LearnedInit:
     def __setstate__(self, state):
         self.__init__(state["path"])
 
+    def check_task(self, task, dt: float = 0.1) -> None:
+        """Before planning: one-line error when a `DynTask`'s variable layout (gait, strides, duration,
+        node spacing `dt`) is not the one this network was trained for."""
+        from legplan.dyn.formulation import Formulation
+        from legplan.dyn.gait import make_gait
+
+        check_layout(self.layout, layout_of(Formulation(make_gait(task.gait, task.strides, task.duration), dt)),
+                     self.path)
+
     def __call__(self, form, model, terrain, start, goal, start_feet) -> dict[str, np.ndarray]:
         check_layout(self.layout, layout_of(form), self.path)
         x = task_vector((*start.position[:2], start.euler[2]), (*goal.position[:2], goal.euler[2]))

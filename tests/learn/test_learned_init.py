@@ -44,6 +44,10 @@ def test_learned_initializer_plans_a_flat_trot(anymal, flat, init_h5):
 
 
 def test_learned_initializer_refuses_another_layout(anymal, flat, init_h5):
+    other = DynTask((-0.45, 0.0, 0.0), (0.0, 0.0, 0.0), "trot", 3, 3.4)
+    learned = LearnedInit(init_h5)
+    learned.check_task(DynTask((-0.45, 0.0, 0.0), (0.0, 0.0, 0.0), "trot", 2, 2.4))
     with pytest.raises(LegplanError, match="layout/base_lin"):
-        build_problem(DynTask((-0.45, 0.0, 0.0), (0.0, 0.0, 0.0), "trot", 3, 3.4), anymal, flat, DynParams(),
-                      LearnedInit(init_h5))
+        learned.check_task(other)  # before planning: dyn plan --init init.h5 can refuse it with exit 2
+    with pytest.raises(LegplanError, match="layout/base_lin"):
+        build_problem(other, anymal, flat, DynParams(), learned)
