@@ -23,7 +23,8 @@ What the spec adds, all from the robot folder and the map — nothing per robot:
 
 Physics step `PHYSICS_DT` (0.5 ms, 5 steps per 400 Hz control period, as the paper's controller
 rate, Sec. III-B); contacts with a 5 ms time constant (stiffer than MuJoCo's 20 ms default, so a
-stance foot sinks about 1 mm under ANYmal's weight).
+stance foot sinks about 1 mm under ANYmal's weight) and an impedance of 0.99 to 0.999 (MuJoCo's
+default 0.9 to 0.95 lets 5 to 10 % of a constraint go unenforced).
 """
 
 from __future__ import annotations
