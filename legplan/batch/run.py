@@ -6,7 +6,7 @@ import logging
 import os
 import time
 from collections.abc import Callable, Mapping, Sequence
-from contextlib import contextmanager
+from contextlib import closing, contextmanager
 
 from legplan.batch.backends import Backend
 from legplan.batch.task import Task
@@ -43,14 +43,15 @@ def run_batch(task: Task, items: Sequence, *, output: str | os.PathLike, identit
         count, clock = len(done), time.perf_counter()
         if progress is not None:
             progress(count, len(items), f"{len(done)} resumed" if done else "")
-        for position, record in executor.run(task, todo):
-            work.add(position, record)
-            count += 1
-            failed += not record.get("success", True)
-            log.debug("item %d done (%d/%d, %.2f s since start)", position, count, len(items),
-                      time.perf_counter() - clock)
-            if progress is not None:
-                progress(count, len(items), f"{failed} failed")
+        with closing(executor.run(task, todo)) as finished:  # closed at once on an exception: workers stop
+            for position, record in finished:
+                work.add(position, record)
+                count += 1
+                failed += not record.get("success", True)
+                log.debug("item %d done (%d/%d, %.2f s since start)", position, count, len(items),
+                          time.perf_counter() - clock)
+                if progress is not None:
+                    progress(count, len(items), f"{failed} failed")
         records = work.records()
     finally:
         executor.close()
