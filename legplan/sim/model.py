@@ -50,7 +50,8 @@ class SimModel:
     """A compiled MuJoCo model and how it maps onto the pinocchio robot.
 
     `model` (mujoco.MjModel); `foot_geoms` (n_legs,) geom ids of the foot spheres in leg order;
-    `foot_radius` (n_legs,) m; `body_geoms` geom ids of the other robot spheres; `terrain_geom`;
+    `foot_radius` (n_legs,) m; `body_geoms` geom ids of the other robot spheres, `trunk_geoms` those
+    of them on the root link (the trunk); `terrain_geom`;
     `effort` (n_joints,) N m, the motors' limits in `robot.joint_names` order; `friction` μ.
     Pinocchio and MuJoCo order the URDF's joints differently: `qpos_index`, `dof_index` (n_joints,)
     are MuJoCo's qpos / qvel addresses of `robot.joint_names`; the motors are in pinocchio's order
@@ -60,6 +61,7 @@ class SimModel:
     foot_geoms: np.ndarray
     foot_radius: np.ndarray
     body_geoms: np.ndarray
+    trunk_geoms: np.ndarray
     terrain_geom: int
     effort: np.ndarray
     friction: float
@@ -115,7 +117,9 @@ def build_model(robot, terrain_map, friction: float, effort_scale: float = 1.0) 
             raise LegplanError(f"{robot.yaml_path}: foot frame {frame} needs exactly one foot collision sphere")
         feet.append(k[0])
     return SimModel(model=model, foot_geoms=geom_ids[feet], foot_radius=np.asarray(spheres.radii)[feet],
-                    body_geoms=np.delete(geom_ids, feet), terrain_geom=model.geom("terrain").id,
+                    body_geoms=np.delete(geom_ids, feet),
+                    trunk_geoms=geom_ids[[k for k in range(len(spheres)) if spheres.frame_names[k] == root.name]],
+                    terrain_geom=model.geom("terrain").id,
                     effort=effort, friction=float(friction),
                     qpos_index=np.array([int(j.qposadr[0]) for j in joints]),
                     dof_index=np.array([int(j.dofadr[0]) for j in joints]))

@@ -12,7 +12,8 @@ goal without falling. Here:
    them held (torque motors clipped to the URDF effort limits).
 3. After the plan's duration the controller holds the final pose for `settle` seconds.
 4. A fall ends the run: the base lower than `fall_height` × the nominal base height above the
-   terrain under it, or its z axis tilted more than `fall_tilt` from the vertical.
+   terrain under it, its z axis tilted more than `fall_tilt` from the vertical, or the trunk (a
+   collision sphere of the root link) touching the terrain.
 5. Success: no fall, and at the end the base within `goal_distance` (horizontal) and `goal_yaw`
    (yaw) of the goal (default: the plan's last pose; the task's goal when given).
 
@@ -137,10 +138,12 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
             _record(rows, t + CONTROL_DT, data, sim, q, v, rot, tau, pos_err, rot_err)
         height = q[2] - float(terrain.height(q[0:1], q[1:2])[0])
         tilt = float(np.arccos(np.clip(rot[2, 2], -1.0, 1.0)))
-        if height < min_height or tilt > params.fall_tilt:
+        trunk = bool(np.isin(sim.trunk_geoms, pairs).any())
+        if height < min_height or tilt > params.fall_tilt or trunk:
             fell, fall_time = True, t + CONTROL_DT
             reason = (f"fell at {fall_time:.2f} s: base {height:.2f} m above the terrain (fall below "
-                      f"{min_height:.2f} m), tilt {tilt:.2f} rad (fall above {params.fall_tilt:.2f} rad)")
+                      f"{min_height:.2f} m), tilt {tilt:.2f} rad (fall above {params.fall_tilt:.2f} rad)"
+                      + (", trunk on the terrain" if trunk else ""))
             if tick % params.record_every:
                 _record(rows, fall_time, data, sim, q, v, rot, tau, pos_err, rot_err)
             break

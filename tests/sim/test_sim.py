@@ -100,6 +100,20 @@ def test_zero_torques_is_a_fall(robot, flat):
     result = simulate(standing(robot), robot, flat[0], SimParams(zero_torque=True))
     assert not result.success and result.fell and result.reason.startswith("fell at")
     assert result.fall_time < 1.0
+    # without the height threshold the collapse is still a fall: the trunk lands on the terrain
+    result = simulate(standing(robot), robot, flat[0], SimParams(zero_torque=True, fall_height=0.0))
+    assert not result.success and result.reason.endswith("trunk on the terrain")
+    assert any("base_link" in name for name in result.unplanned_contacts)
+
+
+def test_a_failed_execution_is_recorded_and_exits_1(flat, trot, tmp_path):
+    out = tmp_path / "sim.h5"
+    result = invoke("dyn", "simulate", trot, flat[1], "--friction", "0.1", "-o", out)   # the feet slip
+    assert result.exit_code == 1, result.output
+    with h5py.File(out) as handle:
+        task = handle["tasks/0000"]
+        assert not task.attrs["success"] and task.attrs["reason"].startswith("fell at")
+        assert task["series/t"][-1] == pytest.approx(task.attrs["fall_time"])
 
 
 def test_a_planned_flat_trot_reaches_its_goal_from_the_cli(flat, trot, tmp_path):
