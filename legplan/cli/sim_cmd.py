@@ -35,8 +35,8 @@ from legplan.errors import LegplanError
 def simulate_cmd(ctx, traj_path, map_path, settle, friction, output, overwrite, jobs, scheduler, resume):
     """Execute every trajectory of TRAJ on MAP in MuJoCo under the whole-body controller; write sim.h5.
 
-    Success: no fall (base below half its nominal height above the terrain, or tilted > 0.8 rad) and
-    the base within 10 cm and 0.2 rad (yaw) of the task's goal after the plan and --settle."""
+    Success: no fall (base below half its nominal height above the terrain, tilted > 0.8 rad, or the
+    trunk on the terrain) and the base within 10 cm and 0.2 rad (yaw) of the task's goal after the plan and --settle."""
     from legplan.artefacts import check_output
     from legplan.batch import Task
     from legplan.cli.batching import run_stage
