@@ -56,7 +56,9 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
     3. fine feasibility with the sampling and margin of `DynParams` (coarse to fine: measured, the
        pallet cases stall when started fine, and converge when refined);
     4. only with costs: the costs, by the augmented Lagrangian from the feasible point
-       (`DynParams.cost_solver`; measured: 3 of 3 pallet cases instead of 1 from the initializer).
+       (`DynParams.cost_solver`; measured: 3 of 3 pallet cases instead of 1 from the initializer);
+    5. only if 4 ends short of the tolerance (its penalty can stall a few cm or N away): feasibility
+       again from there, which keeps most of the costs' effect and meets the constraints.
     A stage that fails ends the sequence. Iterations and timings add up over the stages; the reason
     names the stages that ran.
     """
@@ -83,6 +85,11 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
         problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.cost_solver, callback)
         setup += seconds
         stages.append(("costs", result))
+        if not result.success:  # near-feasible with lower costs: project it back onto the constraints
+            stage_params = replace(stage_params, costs=CostWeights())
+            problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback)
+            setup += seconds
+            stages.append(("feasibility after costs", result))
     return PlanResult(problem, _combined(stages), sample_solution(problem.form, result.values), setup)
 
 

@@ -62,11 +62,12 @@ class DynParams:
     coarse_dt_range: float = 0.08
     swing_clearance: float = 0.0
     towr_swing: bool = True
-    cost_solver: ALParams = ALParams(mu_init=100.0, cost_tolerance=1e-2,
+    cost_solver: ALParams = ALParams(mu_init=10.0, cost_tolerance=1e-2,
                                      inner=HingedParams(max_iterations=20, tolerance=0.0, function_tolerance=1e-3))
-    """The cost stage (`planner.plan`) starts feasible: a high initial penalty keeps it there, and short
-    subproblems let the multipliers follow (measured on the pallet cases: 31-90 iterations in all
-    instead of 120-130 with the feasibility stage's settings)."""
+    """The cost stage (`planner.plan`) starts feasible; short subproblems let the multipliers follow
+    (31-90 iterations in all on the pallet cases instead of 120-130 with the feasibility stage's
+    settings). μ₀ = 10: with 100 or 1000 the single-pallet walk stalled 0.02 N short of feasible,
+    a local minimum that a feasibility stage from there could not leave either (measured)."""
     costs: CostWeights = CostWeights()
     swing_height_min: float | None = None
     base_clearance: float | None = None
