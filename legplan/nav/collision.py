@@ -131,23 +131,33 @@ class NavGrid:
 
     def step_distance(self, point) -> np.ndarray:
         """(ny, nx) number of 8-connected steps from the cell holding `point` to every cell through
-        cells that are not lethal (inf where unreachable, or everywhere if that cell is lethal).
-        Breadth-first search on the grid graph, which is built once per grid."""
+        *passable* cells (inf where unreachable, or everywhere if that cell is not passable).
+
+        A cell is passable when a cell of its 3×3 block is not blocked. Every point of a
+        trajectory that keeps its samples out of blocked cells lies within half a cell per axis of
+        a sample (module doc), so in a passable cell: the trajectories of both planners never
+        leave the passable cells. Passable is stricter than not lethal: gaps of 1–2 non-lethal
+        cells between lethal ones (narrow alleys, diagonal cracks) are blocked for the planners and
+        closed here, so routes do not count on them. Breadth-first search on the grid graph, which
+        is built once per grid."""
         if not self._free_graph:
-            self._free_graph.append(self._build_free_graph())
+            self._free_graph.extend(self._build_free_graph())
+        graph, passable = self._free_graph
         ny, nx = self.shape
         (iy,), (ix,) = (np.atleast_1d(i) for i in self.cell_of(np.asarray(point, float)))
-        if not (0 <= iy < ny and 0 <= ix < nx) or self.lethal[iy, ix]:
+        if not (0 <= iy < ny and 0 <= ix < nx) or not passable[iy, ix]:
             return np.full((ny, nx), np.inf)
-        steps = dijkstra(self._free_graph[0], directed=False, unweighted=True,
+        steps = dijkstra(graph, directed=False, unweighted=True,
                          indices=int(iy * nx + ix))
         return steps.reshape(ny, nx)
 
     def _build_free_graph(self):
-        """Sparse adjacency of the non-lethal cells, each linked to its 8 neighbours."""
+        """Sparse adjacency of the passable cells (`step_distance`), each linked to its 8
+        neighbours, and the (ny, nx) passable mask."""
         ny, nx = self.shape
         ids = np.arange(ny * nx).reshape(ny, nx)
-        free = ~self.lethal
+        clear = ~self.blocked_flat.reshape(ny + 2, nx + 2)
+        free = binary_dilation(clear, structure=np.ones((3, 3), bool))[1:-1, 1:-1]
         rows, cols = [], []
         for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
             a = (slice(0, ny - dy), slice(max(-dx, 0), nx - max(dx, 0)))
@@ -156,7 +166,8 @@ class NavGrid:
             rows.append(ids[a][both])
             cols.append(ids[b][both])
         rows, cols = np.concatenate(rows), np.concatenate(cols)
-        return coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(ny * nx, ny * nx)).tocsr()
+        graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(ny * nx, ny * nx)).tocsr()
+        return graph, free
 
     def cell_center(self, iy: np.ndarray, ix: np.ndarray) -> np.ndarray:
         """World coordinates (..., 2) of cell centres."""

@@ -73,6 +73,7 @@ def plan_grid(grid: NavGrid, start, goal, params: NavParams = NavParams(),
     heap = [(octile(source), 0.0, source)]
     closed = set()
     expansions = 0
+    budget = params.expansion_budget(ny * nx)
     while heap:
         _, g, cell = heapq.heappop(heap)
         if cell in closed or g > g_best[cell]:
@@ -86,10 +87,10 @@ def plan_grid(grid: NavGrid, start, goal, params: NavParams = NavParams(),
                                          if len(cells) > 1 else np.vstack([start[:2], goal[:2]]))
             trajectory = trapezoidal_polyline(waypoints, params.v_max, params.a_max)
             return finish(True, "", expansions, g, trajectory, waypoints)
-        if expansions >= params.max_expansions:
-            return finish(False, f"expansion limit ({params.max_expansions}) reached", expansions)
+        if expansions >= budget:
+            return finish(False, f"expansion limit ({budget}) reached", expansions)
         if progress is not None and expansions % 20000 == 0:
-            progress(expansions, params.max_expansions, "")
+            progress(expansions, budget, "")
         row, col = divmod(cell, nx)
         for offset, dy, dx, length in moves:
             r, c = row + dy, col + dx

@@ -22,8 +22,8 @@ With `time_bound=True` (default) the minimum is taken over T ≥ T_lb = max_d |�
 shortest time any trajectory obeying the per-axis speed bound needs; this stays a lower bound
 (every feasible trajectory has T ≥ T_lb) and is far tighter when ρ is large. `weight` > 1 in the
 search (f = g + w·h) trades the optimality bound w for fewer expansions (weighted A*).
-`GeodesicTimeBound` (opt-in, `geodesic_bound=True`) raises T_lb to a time the robot needs around
-the obstacles (see there); it keeps h admissible and consistent.
+`GeodesicTimeBound` (`geodesic_bound=True`, default) raises T_lb towards the time the robot needs
+along the shortest route around the obstacles (see there); it keeps h admissible and consistent.
 """
 
 from __future__ import annotations
@@ -99,13 +99,13 @@ class GoalHeuristic:
     search's hot path): eqs. (9)–(11) with c1, c2, c3 of the module doc divided by ρ."""
 
     def __init__(self, pg, vg, rho: float, v_max: float | None,
-                 time_floor: Callable[[float, float], float] | None = None):
+                 time_floor: Callable[[float, float, float], float] | None = None):
         self.gx, self.gy = (float(x) for x in pg)
         self.gvx, self.gvy = (float(x) for x in vg)
         self.goal_speed2 = self.gvx * self.gvx + self.gvy * self.gvy
         self.rho, self.inv_rho = float(rho), 1.0 / rho
         self.inv_v = None if v_max is None else 1.0 / v_max
-        self.time_floor = time_floor  # another lower bound of the time to the goal, from (px, py)
+        self.time_floor = time_floor  # (px, py, straight-line bound) → a tighter time bound
 
     def __call__(self, px: float, py: float, vx: float, vy: float) -> tuple[float, float]:
         dx, dy = self.gx - px, self.gy - py
@@ -115,7 +115,7 @@ class GoalHeuristic:
         p = -4.0 * (vx * vx + vy * vy + vx * gvx + vy * gvy + self.goal_speed2) * inv_rho
         t_lb = _MIN_T if self.inv_v is None else max(max(abs(dx), abs(dy)) * self.inv_v, _MIN_T)
         if self.time_floor is not None:
-            t_lb = max(t_lb, self.time_floor(px, py))
+            t_lb = max(self.time_floor(px, py, t_lb), _MIN_T)
         # Candidates: t_lb and the real roots of g(T) = T⁴ + p T² + q T + r above it (eq. (11)),
         # with J*(T)/ρ = ((-r/3 /T - q/2)/T - p)/T + T and dJ*/dT ∝ g.
         inv = 1.0 / t_lb
@@ -138,33 +138,45 @@ class GoalHeuristic:
 
 
 class GeodesicTimeBound:
-    """T ≥ κ·max(D(p) - R, 0) / v_max: a lower bound of the time from position p to the goal that
-    accounts for obstacles (opt-in `geodesic_bound`).
+    """A lower bound of the time from position p to the goal that accounts for obstacles
+    (`geodesic_bound`, default on): T_lb(p) = T_s + κ·max(T_g(p) - T_s, 0), where T_s = max_d |Δ_d|
+    / v_max is the straight-line bound of the module doc and T_g(p) = max(D(p) - R, 0) / v_max
+    the time along the shortest route.
 
-    D(p) = R × the 8-connected step count from the goal's cell to p's cell through non-lethal cells
-    (`NavGrid.step_distance`, R the cell size). Every trajectory of the search stays out of lethal
-    cells (`collision.py`) with per-axis speed ≤ v_max, so over a duration T its Chebyshev length
-    is L ≤ v_max T; splitting it into pieces shorter than R per axis shows that the cells it visits
-    link p's cell to the goal's in ≤ L/R + 1 steps, so D(p) - R ≤ L ≤ v_max T (admissible). Along
-    one primitive (L ≤ v_max τ) D drops by at most (⌊v_max τ / R⌋ + 1) R, so the factor
-    κ = v_max τ / ((⌊v_max τ / R⌋ + 1) R) ≤ 1 makes the bound drop by at most τ per primitive,
-    which keeps h = min over T ≥ bound of J*(T) consistent (module doc). inf where the goal is
-    unreachable. One breadth-first search per goal.
+    D(p) = R × the 8-connected step count from the goal's cell to p's cell through passable cells
+    (`NavGrid.step_distance`, R the cell size): one breadth-first search per goal. Unit steps,
+    diagonals included, measure length in the Chebyshev metric, the one the per-axis speed bound
+    |v_d| ≤ v_max of eq. (2) limits (a diagonal runs at √2·v_max, so a Euclidean or octile
+    distance / v_max would overestimate the time and break admissibility).
+
+    Admissible: trajectories stay in passable cells, so over a duration T with Chebyshev length
+    L ≤ v_max T the cells they visit link p's cell to the goal's in ≤ L/R + 1 steps (split the path
+    into pieces shorter than R per axis): D(p) - R ≤ L, T ≥ T_g(p); also T ≥ T_s, and a convex
+    combination of the two is ≤ T. Consistent: along one primitive T_s drops by ≤ τ, D by at most
+    (⌊v_max τ / R⌋ + 1) R, so with κ = v_max τ / ((⌊v_max τ / R⌋ + 1) R) ≤ 1 the bound
+    (1 - κ) T_s + κ T_g drops by ≤ τ; so does the max with T_s, which keeps h = min over T ≥ T_lb of
+    J*(T) consistent (eqs. (9)–(11), module doc).
+
+    Why not κ·T_g alone (the earlier form): at R = 0.2 m, v_max τ = 0.3 m, κ = 0.75, and
+    max(T_s, κ T_g) is T_s along whole streets that lead across the goal's dominant axis, where
+    T_s is flat (moving along the other axis does not shorten max_d |Δ_d|): h had plateaus there
+    and weighted A* flooded them (`BENCHMARKS.md`, nav_scale). The combination above falls with
+    slope ≥ κ along every route. inf where the goal is unreachable.
     """
 
     def __init__(self, grid: NavGrid, goal_xy, v_max: float, tau: float):
         R, reach = grid.resolution, v_max * tau
-        kappa = reach / ((math.floor(reach / R) + 1) * R)
-        steps = grid.step_distance(goal_xy)
-        self.bound = (kappa * R / v_max) * np.maximum(steps - 1.0, 0.0)
+        self.kappa = reach / ((math.floor(reach / R) + 1) * R)
+        self.route_time = (R / v_max) * np.maximum(grid.step_distance(goal_xy) - 1.0, 0.0)
         self.x0, self.y0 = grid.origin
         self.resolution = R
 
-    def __call__(self, px: float, py: float) -> float:
-        """The bound at the cell holding (px, py) (`NavGrid.cell_of`)."""
+    def __call__(self, px: float, py: float, straight: float) -> float:
+        """T_lb at the cell holding (px, py) (`NavGrid.cell_of`) given T_s = `straight`."""
         ix = math.floor((px - self.x0) / self.resolution + 0.5)
         iy = math.floor((py - self.y0) / self.resolution + 0.5)
-        return float(self.bound[iy, ix])
+        excess = float(self.route_time[iy, ix]) - straight
+        return straight + self.kappa * excess if excess > 0.0 else straight
 
 
 def optimal_polynomial(pc, vc, pg, vg, T: float):

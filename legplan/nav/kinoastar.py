@@ -60,6 +60,9 @@ def _search(grid, start, goal, params, progress, finish):
     prims = PrimitiveSet.build(params, grid)
     floor = GeodesicTimeBound(grid, goal[:2], params.v_max, params.tau) \
         if params.geodesic_bound else None
+    if floor is not None and not math.isfinite(floor(start[0], start[1], 0.0)):
+        return finish(False, "goal unreachable (no route through passable cells)", 0)
+    budget = params.expansion_budget(grid.shape[0] * grid.shape[1])
     heuristic = GoalHeuristic(goal[:2], goal[2:], params.rho,
                               params.v_max if params.time_bound else None, floor)
     encode = _KeyEncoder(grid, params)
@@ -95,10 +98,10 @@ def _search(grid, start, goal, params, progress, finish):
                 piece, shot_cost = shot
                 return finish(True, "", expansions, g + shot_cost,
                               _reconstruct(nodes, key, prims, piece))
-        if expansions >= params.max_expansions:
-            return finish(False, f"expansion limit ({params.max_expansions}) reached", expansions)
+        if expansions >= budget:
+            return finish(False, f"expansion limit ({budget}) reached", expansions)
         if progress is not None and expansions % 2000 == 0:
-            progress(expansions, params.max_expansions, f"g={g:.1f}")
+            progress(expansions, budget, f"g={g:.1f}")
         children, feasible = prims.expand(px, py, vx, vy)
         rows = feasible.nonzero()[0].tolist()
         if not rows:

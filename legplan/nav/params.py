@@ -9,12 +9,18 @@ only side-stepping, which TEB handles). Per-axis bounds let a diagonal motion re
 
 Search. `mu` gives (2μ+1)² inputs of duration `tau` (eq. (6)); `rho` weighs time against effort
 (eq. (5)); `rho_c` weighs the collision cost (eq. (19)); `weight` ≥ 1 multiplies the heuristic
-(weighted A*, cost ≤ weight × optimal on the lattice); `geodesic_bound` adds an obstacle-aware
-lower bound of the time to the goal to the heuristic (`heuristic.GeodesicTimeBound`: a breadth-first
-search over the map per query, worth it on maps with long detours). States are hashed on a grid of
+(weighted A*, cost ≤ weight × optimal on the lattice); `geodesic_bound` (default on) adds an
+obstacle-aware lower bound of the time to the goal to the heuristic (`heuristic.GeodesicTimeBound`:
+one breadth-first search over the map per query; it keeps h admissible and consistent, so the
+weight's bound holds, and makes streets and aisles cheap to search). States are hashed on a grid of
 `pos_res` (m) × `vel_res` (m/s). Nodes within `oneshot_radius` of the goal try the analytic
 expansion. `goal_tolerance`/`goal_vel_tolerance` > 0 also accept a node that lands that close to
 the goal state (the tests use it for exact lattice goals).
+
+Budget. `max_expansions` > 0 caps the expansions of either planner; 0 (default) scales the cap with
+the map: one expansion per map cell, at least `MIN_EXPANSIONS` (`expansion_budget`). Grid A* expands
+each cell at most once, so the scaled cap never stops it early; the kinodynamic search with the
+geodesic bound needs a few expansions per cell of its route (nav_scale in `BENCHMARKS.md`).
 """
 
 from __future__ import annotations
@@ -24,6 +30,7 @@ from dataclasses import dataclass
 
 from legplan.errors import LegplanError
 
+MIN_EXPANSIONS = 200_000  # the auto budget's floor (the former fixed limit)
 _TRUE, _FALSE = ("1", "true", "yes", "on"), ("0", "false", "no", "off")
 
 
@@ -37,13 +44,13 @@ class NavParams:
     rho_c: float = 0.01  # collision-cost weight ρ_c of eq. (19) (C_max = 100 → ρ_c·F ≤ 1)
     weight: float = 2.0  # heuristic weight (1 = plain A*; cost ≤ weight × lattice optimum)
     time_bound: bool = True  # heuristic minimizes over T ≥ max|Δp_d| / v_max
-    geodesic_bound: bool = False  # ... and over T ≥ the time around obstacles (one BFS per query)
+    geodesic_bound: bool = True  # ... and over T ≥ the time around obstacles (one BFS per query)
     pos_res: float = 0.1  # m, state hash grid
     vel_res: float = 0.2  # m/s, state hash grid
     oneshot_radius: float = 5.0  # m
     goal_tolerance: float = 0.0  # m
     goal_vel_tolerance: float = 0.0  # m/s
-    max_expansions: int = 200_000
+    max_expansions: int = 0  # 0: scale with the map (`expansion_budget`)
 
     def __post_init__(self):
         checks = [("v_max", self.v_max > 0), ("a_max", self.a_max > 0), ("mu", self.mu >= 1),
@@ -52,7 +59,7 @@ class NavParams:
                   ("vel_res", self.vel_res > 0), ("oneshot_radius", self.oneshot_radius >= 0),
                   ("goal_tolerance", self.goal_tolerance >= 0),
                   ("goal_vel_tolerance", self.goal_vel_tolerance >= 0),
-                  ("max_expansions", self.max_expansions >= 1)]
+                  ("max_expansions", self.max_expansions >= 0)]
         for name, ok in checks:
             if not ok:
                 raise LegplanError(f"nav parameter '{name}' out of range: {getattr(self, name)!r}")
@@ -62,6 +69,11 @@ class NavParams:
         """Defaults with v_max, a_max from a robot's `navigation.limits` (forward values)."""
         limits = navigation.limits
         return cls(v_max=float(limits.v_x_max), a_max=float(limits.a_x_max))
+
+    def expansion_budget(self, cells: int) -> int:
+        """The expansion cap on a map of `cells` cells: `max_expansions`, or when 0 the larger of
+        `cells` and `MIN_EXPANSIONS` (module doc)."""
+        return self.max_expansions or max(cells, MIN_EXPANSIONS)
 
     def replace(self, **changes) -> NavParams:
         return dataclasses.replace(self, **changes)

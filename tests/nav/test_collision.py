@@ -1,8 +1,9 @@
-"""NavGrid lookups: the breadth-first step distance through non-lethal cells."""
+"""NavGrid lookups: the breadth-first step distance through passable cells."""
 
 import collections
 
 import numpy as np
+from scipy.ndimage import binary_dilation
 
 from conftest import grid_from_occupancy
 
@@ -29,11 +30,17 @@ def test_step_distance_is_an_8_connected_breadth_first_search():
     occupancy[20:25, 30:35] = True
     occupancy[26:, 36:] = True
     occupancy[27:, 37] = False  # a pocket closed off by lethal cells: unreachable
+    occupancy[10:, 5] = True
+    occupancy[15, 5] = False  # a crack one cell wide: not lethal, but blocked for the planners
     grid = grid_from_occupancy(occupancy, 0.1, l1=0.05)
     point = np.array([0.35, 1.55])
     (iy,), (ix,) = (np.atleast_1d(i) for i in grid.cell_of(point))
     steps = grid.step_distance(point)
-    np.testing.assert_array_equal(steps, reference_steps(~grid.lethal, (iy, ix)))
+    blocked = grid.blocked_at(grid.cell_center(*np.mgrid[0:30, 0:40]))
+    passable = binary_dilation(~blocked, structure=np.ones((3, 3), bool))
+    np.testing.assert_array_equal(steps, reference_steps(passable, (iy, ix)))
     assert np.isinf(steps[28, 37]) and not grid.lethal[28, 37]
+    assert not grid.lethal[15, 5] and np.isinf(steps[15, 5])
+    assert steps[15, 6] > reference_steps(~grid.lethal, (iy, ix))[15, 6] + 5  # no short cut
     # From a lethal cell nothing is reachable.
     assert np.isinf(grid.step_distance(grid.cell_center(np.array(10), np.array(20)))).all()

@@ -1,18 +1,22 @@
 """Kinodynamic A*: hard constraints on resampling, start velocity, lattice optimality, failures."""
 
 import heapq
+from pathlib import Path
 
 import numpy as np
 import pytest
 
-from legplan.nav import NavParams, Trajectory, plan_kinodynamic
+from legplan.nav import NavGrid, NavParams, Trajectory, plan_kinodynamic
 from legplan.nav.heuristic import GeodesicTimeBound, GoalHeuristic, optimal_polynomial
 from legplan.nav.kinoastar import ONESHOT_STRETCH, _KeyEncoder, analytic_expansion
 from legplan.nav.primitives import PrimitiveSet, input_lattice, sample_count
+from legplan.robots import load_robot
+from legplan.terrain import build_map
 
 from conftest import grid_from_occupancy
 
 PARAMS = NavParams(weight=2.0)
+MAPS = Path(__file__).resolve().parents[2] / "maps"
 
 
 def assert_feasible(grid, result, params):
@@ -115,17 +119,27 @@ def test_search_finds_the_lattice_optimum_of_an_exhaustive_search():
     assert geodesic.expansions <= result.expansions
 
 
+def straight_time(point, goal, v_max):
+    return max(abs(point[0] - goal[0]), abs(point[1] - goal[1])) / v_max
+
+
 def test_geodesic_time_bound_is_admissible_and_drops_at_most_tau_per_primitive(pillars_grid):
     params = PARAMS.replace(geodesic_bound=True)
     start, goal = np.array([0.5, 5.5, 0.0, 0.0]), np.array([9.5, 0.5, 0.0, 0.0])
     bound = GeodesicTimeBound(pillars_grid, goal[:2], params.v_max, params.tau)
+    heuristic = GoalHeuristic(goal[:2], goal[2:], params.rho, params.v_max, bound)
+
+    def floor(px, py):
+        return bound(px, py, straight_time((px, py), goal, params.v_max))
+
     result = plan_kinodynamic(pillars_grid, start, goal, params)
     assert_feasible(pillars_grid, result, params)
     # Along the planned trajectory the bound never exceeds the time left to the goal.
     t, p, _, _ = result.trajectory.sample(0.01)
     remaining = result.trajectory.duration - t
-    assert all(bound(*point) <= left + 1e-9 for point, left in zip(p.tolist(), remaining))
-    # Along every feasible primitive of random nodes it drops by at most τ (consistency).
+    assert all(floor(*point) <= left + 1e-9 for point, left in zip(p.tolist(), remaining))
+    # Along every feasible primitive of random nodes it drops by at most τ, and h = J*(T ≥ bound)
+    # by at most the primitive's cost (consistency, eqs. (8), (19)).
     prims = PrimitiveSet.build(params, pillars_grid)
     rng = np.random.default_rng(14)
     checked = 0
@@ -136,10 +150,61 @@ def test_geodesic_time_bound_is_admissible_and_drops_at_most_tau_per_primitive(p
             continue
         with np.errstate(invalid="ignore"):
             children, feasible = prims.expand(*p0, *v0)
-        for px, py in children[:2, feasible].T.tolist():
-            assert bound(*p0) <= params.tau + bound(px, py) + 1e-12
+        h0 = heuristic(*p0, *v0)[0]
+        for px, py, vx, vy, cost in children[:, feasible].T.tolist():
+            assert floor(*p0) <= params.tau + floor(px, py) + 1e-12
+            assert h0 <= cost + heuristic(px, py, vx, vy)[0] + 1e-9
             checked += 1
     assert checked > 1000
+
+
+def street_maze():
+    """12 m × 12 m at 0.2 m: streets 1 m wide (free for the robot: x or y in [0.6, 1.2), [3.8, 4.4),
+    [7.8, 8.4), [10.8, 11.4)) between blocks, two segments closed (detours), and alleys one cell
+    wide that the robot cannot pass (open to a bound through non-lethal cells)."""
+    cells = np.ones((60, 60), bool)
+    for a in (2, 18, 38, 53):
+        cells[2:58, a:a + 5] = cells[a:a + 5, 2:58] = False
+    cells[25:38, 18:23] = True  # closed street segments
+    cells[38:43, 43:53] = True
+    cells[10, 7:18] = cells[25:38, 45] = False  # alleys
+    return grid_from_occupancy(cells, 0.2, l1=0.2, l2=0.6)
+
+
+def test_geodesic_bound_is_admissible_against_the_lattice_optimum():
+    """h never exceeds the exact optimal cost-to-go of an exhaustive search over the lattice
+    (τ = 1, v_max = a_max = 1: rest-to-rest moves are whole metres, so the street crossings at
+    whole metres are lattice states)."""
+    grid = street_maze()
+    params = NavParams(v_max=1.0, a_max=1.0, mu=1, tau=1.0, rho=1.0, rho_c=0.0, weight=1.0)
+    goal = np.array([11.0, 11.0, 0.0, 0.0])
+    bound = GeodesicTimeBound(grid, goal[:2], params.v_max, params.tau)
+    heuristic = GoalHeuristic(goal[:2], goal[2:], params.rho, params.v_max, bound)
+    straight = GoalHeuristic(goal[:2], goal[2:], params.rho, params.v_max)
+    tighter = 0
+    for start in ((1.0, 11.0), (11.0, 1.0), (4.0, 8.0), (8.0, 4.0), (1.0, 1.0)):
+        state = np.array([*start, 0.0, 0.0])
+        optimum = lattice_dijkstra(grid, params, state, goal)
+        h = heuristic(*state)[0]
+        assert np.isfinite(optimum) and h <= optimum + 1e-9
+        tighter += h > straight(*state)[0] + 0.1
+    assert tighter >= 3
+
+
+def test_street_query_the_straight_line_heuristic_floods_now_succeeds():
+    grid = street_maze()
+    start, goal = np.array([4.0, 4.0, 0.0, 0.0]), np.array([4.0, 9.0, 0.0, 0.0])  # street closed
+    budget = PARAMS.replace(max_expansions=3000, weight=3.0)
+    old = plan_kinodynamic(grid, start, goal, budget.replace(geodesic_bound=False))
+    assert not old.success and old.reason == "expansion limit (3000) reached"
+    new = plan_kinodynamic(grid, start, goal, budget)
+    assert_feasible(grid, new, PARAMS)
+
+
+def test_expansion_budget_scales_with_the_map():
+    assert NavParams().expansion_budget(10) == 200_000
+    assert NavParams().expansion_budget(1024 * 1024) == 1024 * 1024
+    assert NavParams(max_expansions=7).expansion_budget(1024 * 1024) == 7
 
 
 def test_failure_reasons(pillars_grid):
@@ -156,9 +221,11 @@ def test_failure_reasons(pillars_grid):
     walled = np.zeros((24, 24), bool)
     walled[6:18, 6] = walled[6:18, 17] = walled[6, 6:18] = walled[17, 6:18] = True
     grid = grid_from_occupancy(walled, 0.1)
-    coarse = PARAMS.replace(pos_res=0.3, vel_res=0.5, mu=1)
+    coarse = PARAMS.replace(pos_res=0.3, vel_res=0.5, mu=1, geodesic_bound=False)
     result = plan_kinodynamic(grid, (0.3, 0.3, 0, 0), (1.2, 1.2, 0, 0), coarse)
     assert result.reason == "goal unreachable (open list exhausted)"
+    result = plan_kinodynamic(grid, (0.3, 0.3, 0, 0), (1.2, 1.2, 0, 0), PARAMS)
+    assert result.reason == "goal unreachable (no route through passable cells)"
 
 
 def test_state_keys_are_one_per_hash_cell(pillars_grid):
@@ -226,3 +293,22 @@ def test_one_shot_batch_picks_the_first_feasible_duration(pillars_grid):
         assert cost >= trajectory.effort() + PARAMS.rho * T - 1e-9
     assert outcomes == {"none", "stretched", "T_h"}
 
+
+
+# nav_30m_queries.csv searched with the straight-line heuristic alone (commit 1b01c35): cost g, effort.
+NAV_30M_BEFORE = ((60.6574, 1.278), (57.5223, 1.348), (54.5013, 1.142), (62.9897, 1.451))
+
+
+def test_nav_30m_results_keep_their_cost_and_effort():
+    """The shipped nav_30m queries (paper's open map): the geodesic bound changes the search order
+    only near obstacles; cost within 1 % above or 5 % below, effort ∫‖a‖² not higher."""
+    navigation = load_robot("jueying_mini").navigation
+    grid = NavGrid.from_terrain(build_map(MAPS / "nav_30m.yaml"),
+                                lethal_radius=navigation.inscribed_radius)
+    params = NavParams.for_robot(navigation)
+    queries = np.loadtxt(MAPS / "nav_30m_queries.csv", delimiter=",", skiprows=1)
+    for query, (cost, effort) in zip(queries, NAV_30M_BEFORE, strict=True):
+        result = plan_kinodynamic(grid, query[:4], query[4:], params)
+        assert result.success
+        assert 0.95 * cost <= result.cost <= 1.01 * cost
+        assert result.trajectory.effort() <= effort + 1e-3
