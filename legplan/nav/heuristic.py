@@ -169,14 +169,22 @@ class GeodesicTimeBound:
         self.kappa = reach / ((math.floor(reach / R) + 1) * R)
         self.route_time = (R / v_max) * np.maximum(grid.step_distance(goal_xy) - 1.0, 0.0)
         self.x0, self.y0 = grid.origin
-        self.resolution = R
+        self.resolution, self.v_max = R, v_max
 
     def __call__(self, px: float, py: float, straight: float) -> float:
         """T_lb at the cell holding (px, py) (`NavGrid.cell_of`) given T_s = `straight`."""
+        excess = self.route_time_at(px, py) - straight
+        return straight + self.kappa * excess if excess > 0.0 else straight
+
+    def route_time_at(self, px: float, py: float) -> float:
+        """T_g at the cell holding (px, py) (`NavGrid.cell_of`); inf off the goal's routes."""
         ix = math.floor((px - self.x0) / self.resolution + 0.5)
         iy = math.floor((py - self.y0) / self.resolution + 0.5)
-        excess = float(self.route_time[iy, ix]) - straight
-        return straight + self.kappa * excess if excess > 0.0 else straight
+        return float(self.route_time[iy, ix])
+
+    def route_steps(self, px: float, py: float) -> float:
+        """D(p)/R - 1 ≥ the 8-connected steps of the route from (px, py) to the goal, minus one."""
+        return self.route_time_at(px, py) * self.v_max / self.resolution
 
 
 def optimal_polynomial(pc, vc, pg, vg, T: float):

@@ -57,17 +57,48 @@ def plan_kinodynamic(grid: NavGrid, start, goal, params: NavParams = NavParams()
 
 
 def _search(grid, start, goal, params, progress, finish):
+    """Weighted A* with `params.weight`, restarted with the next weight of `RESTART_WEIGHTS` when a
+    stage spends `STAGE_EXPANSIONS_PER_STEP` expansions per route step (geodesic bound only); the
+    last stage has the rest of the budget."""
     prims = PrimitiveSet.build(params, grid)
     floor = GeodesicTimeBound(grid, goal[:2], params.v_max, params.tau) \
         if params.geodesic_bound else None
-    if floor is not None and not math.isfinite(floor(start[0], start[1], 0.0)):
-        return finish(False, "goal unreachable (no route through passable cells)", 0)
     budget = params.expansion_budget(grid.shape[0] * grid.shape[1])
+    weights, stage = [params.weight], budget
+    if floor is not None:
+        steps = floor.route_steps(start[0], start[1])
+        if not math.isfinite(steps):
+            return finish(False, "goal unreachable (no route through passable cells)", 0)
+        if params.restarts:
+            weights = [params.weight * factor for factor in RESTART_WEIGHTS]
+            stage = max(int(STAGE_EXPANSIONS_PER_STEP * steps), MIN_STAGE_EXPANSIONS)
     heuristic = GoalHeuristic(goal[:2], goal[2:], params.rho,
                               params.v_max if params.time_bound else None, floor)
+    used = 0
+    for index, weight in enumerate(weights):
+        limit = budget - used if index == len(weights) - 1 else min(stage, budget - used)
+        outcome = _weighted_search(grid, start, goal, params, prims, heuristic, weight, limit,
+                                   progress)
+        used += outcome[2]
+        if outcome[0] or "expansion limit" not in outcome[1] or used >= budget:
+            break
+        log.info("kinoastar: %d expansions with weight %g, restarting with weight %g", used,
+                 weight, weights[index + 1])
+    success, reason, _, cost, trajectory = outcome
+    if "expansion limit" in reason:
+        reason = f"expansion limit ({budget}) reached"
+    return finish(success, reason, used, cost, trajectory)
+
+
+def _weighted_search(grid, start, goal, params, prims, heuristic, weight, budget, progress):
+    """One weighted A* search: (success, reason, expansions, cost, trajectory)."""
+
+    def finish(success, reason, expansions, cost=float("nan"), trajectory=None):
+        return success, reason, expansions, cost, trajectory
+
     encode = _KeyEncoder(grid, params)
     gx, gy, gvx, gvy = goal.tolist()
-    weight, oneshot_r2 = params.weight, params.oneshot_radius ** 2
+    oneshot_r2 = params.oneshot_radius ** 2
     tol, vtol = params.goal_tolerance, params.goal_vel_tolerance
     check_tolerance = tol > 0 or vtol > 0
     inf = math.inf
@@ -141,6 +172,9 @@ class _KeyEncoder:
         return np.dot(self.radix, cells)
 
 
+RESTART_WEIGHTS = (1.0, 1.5, 2.5)  # × params.weight, one search stage each (`_search`)
+STAGE_EXPANSIONS_PER_STEP = 20  # stage budget per 8-connected step of the start's route
+MIN_STAGE_EXPANSIONS = 2000
 ONESHOT_STRETCH = (1.0, 1.25, 1.5, 2.0, 3.0)
 ONESHOT_COARSE_STRIDE = 8  # first collision pass: every 8th sample
 

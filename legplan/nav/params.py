@@ -12,7 +12,9 @@ Search. `mu` gives (2μ+1)² inputs of duration `tau` (eq. (6)); `rho` weighs ti
 (weighted A*, cost ≤ weight × optimal on the lattice); `geodesic_bound` (default on) adds an
 obstacle-aware lower bound of the time to the goal to the heuristic (`heuristic.GeodesicTimeBound`:
 one breadth-first search over the map per query; it keeps h admissible and consistent, so the
-weight's bound holds, and makes streets and aisles cheap to search). States are hashed on a grid of
+weight's bound holds, and makes streets and aisles cheap to search); `restarts` lets a search that
+stalls restart with weight 1.5× then 2.5× (`kinoastar`, bound: the weight that found the path).
+States are hashed on a grid of
 `pos_res` (m) × `vel_res` (m/s). Nodes within `oneshot_radius` of the goal try the analytic
 expansion. `goal_tolerance`/`goal_vel_tolerance` > 0 also accept a node that lands that close to
 the goal state (the tests use it for exact lattice goals).
@@ -45,6 +47,7 @@ class NavParams:
     weight: float = 2.0  # heuristic weight (1 = plain A*; cost ≤ weight × lattice optimum)
     time_bound: bool = True  # heuristic minimizes over T ≥ max|Δp_d| / v_max
     geodesic_bound: bool = True  # ... and over T ≥ the time around obstacles (one BFS per query)
+    restarts: bool = True  # with geodesic_bound: restart a stalled search with a larger weight
     pos_res: float = 0.1  # m, state hash grid
     vel_res: float = 0.2  # m/s, state hash grid
     oneshot_radius: float = 5.0  # m
