@@ -12,7 +12,7 @@ solve that does not converge is data, not an error: it is recorded with success 
 and violation. An item that raised is recorded with its reason and y of NaN.
 
 dataset.h5 (kind "dataset"): per task (rows in task order) `x` (n, 6, `space.X_NAMES`), `y` (n, |y|,
-`layout`), `cost` g(y) (the sum of the planner's weighted cost terms), `max_violation`,
+`layout`), `cost` g(y) (the space's weighted cost terms at y, `cost_of`), `max_violation`,
 `iterations`, `seconds` (solve time), `success`, `reason`, `tasks` (n, 6: start x, y, yaw, goal x,
 y, yaw); `layout/<category>` sizes; the space as the `space` attribute (JSON).
 """
@@ -97,12 +97,23 @@ def solve_item(worker: DatasetWorker, item) -> dict:
 
     index, task, x = item
     result = plan(task, worker.model, worker.terrain, worker.params, worker.initializer)
-    values = {b.name: b.value for b in result.problem.variables}
+    values = result.solve.values  # the solution (the problem's blocks hold the last stage's start)
     return {"index": index, "x": x, "task": np.array([*task.start, *task.goal]), "y": join(values),
             "layout": np.array([layout_of(result.problem.form)[c] for c in CATEGORIES]),
-            "success": bool(result.success), "reason": result.reason, "cost": float(result.solve.cost),
+            "success": bool(result.success), "reason": result.reason, "cost": cost_of(worker, task, values),
             "max_violation": float(result.solve.max_violation), "iterations": int(result.solve.iterations),
             "seconds": float(result.solve.timings.total)}
+
+
+def cost_of(worker: DatasetWorker, task, values: dict[str, np.ndarray]) -> float:
+    """g(y): the space's weighted cost terms at the solution, whichever planner stage ended the solve
+    (the planner's own `cost` is that of its last stage, which is a feasibility stage without costs
+    when the cost stage ends short)."""
+    from legplan.dyn.problem import build_problem
+    from legplan.solve.auglag import _cost_terms
+
+    problem = build_problem(task, worker.model, worker.terrain, worker.params, lambda *_: values)
+    return float(sum(_cost_terms(problem.costs, values).values()))
 
 
 def failed_item(item, reason: str) -> dict:
