@@ -14,8 +14,21 @@ dominate short searches; the steady-state cost of one expansion is measured sepa
 (exported with `git archive`, first on PYTHONPATH of a child process; same robot files and maps)
 and adds a before/after table.
 Writes bench/results/nav_search.json and replaces the nav_search section of BENCHMARKS.md.
+
+`--scale N` adds the nav_scale part (issue 19): synthetic street maps of 256², 512² and 1024² cells
+at 0.2 m (51 m to 205 m across) from a seeded generator (`street_map`: a jittered grid of streets
+5–13 cells wide, 30 % of the street segments closed, half of those leaving a 1-cell crack, 1–2-cell
+alleys, a few plazas) — stand-ins for the MovingAI street maps, which this machine cannot download.
+Each map is written as a MovingAI `.map` with a `.scen` of its N queries (`--scale-dir`, default a
+new temporary folder; regenerated from the seed, so not kept in the repository)
+and read back through `legplan.terrain.importers.import_movingai`, so public benchmark files run
+the same way. Queries as above (seeded, at least a third of the diagonal apart). Planners: grid A*,
+the kinodynamic A* with the defaults, and "kinoastar (old)" = the previous defaults (straight-line
+LQMT heuristic only, fixed 200,000-expansion limit), all in the same run, one run per query; peak
+traced memory (tracemalloc) of each planner on the map's longest query (not for the old defaults,
+whose failures each run 200,000 expansions; issue 19 measured about 350 MB for them).
     flock /tmp/legplan-bench.lock .venv/bin/python bench/nav_search.py [--queries 20] [--repeats 3]
-        [--seed 0] [--before REV] [--variant vel_res=0.4] [--no-append]
+        [--seed 0] [--before REV] [--variant vel_res=0.4] [--scale 5] [--no-append]
 """
 
 from __future__ import annotations
@@ -29,6 +42,7 @@ import subprocess
 import sys
 import tarfile
 import tempfile
+import tracemalloc
 from collections import Counter
 from io import BytesIO
 from pathlib import Path
@@ -40,11 +54,25 @@ from common import ROOT, load_average, machine, update_benchmarks, write_result
 from legplan.nav import PLANNERS, NavGrid, NavParams
 from legplan.robots import load_robot
 from legplan.terrain import build_map
-from legplan.terrain.importers import import_ros
+from legplan.terrain.importers import import_movingai, import_ros
 
 MAPS = {"nav_30m": lambda: build_map(ROOT / "maps" / "nav_30m.yaml"),
         "warehouse (ROS)": lambda: import_ros(ROOT / "maps" / "ros" / "warehouse.yaml")}
 STEADY_EXPANSIONS = 3000
+SCALE_SIZES = (256, 512, 1024)  # cells per side at SCALE_RESOLUTION
+SCALE_RESOLUTION = 0.2  # m
+OLD_DEFAULTS = {"geodesic_bound": "0", "max_expansions": "200000"}  # before issue 19
+SCALE_NOTES = (
+    "Why the former opt-in `geodesic_bound` (T ≥ κ·T_route, combined with the straight-line bound "
+    "T_s = max_d |Δ_d| / v_max by max) barely helped: κ = v_max τ / ((⌊v_max τ / R⌋ + 1) R) keeps "
+    "it consistent but is 0.75 at R = 0.2 m, so along every street that runs across the goal's "
+    "dominant axis the max picks T_s, which is flat there — h had plateaus and weighted A* flooded "
+    "them in position and velocity; its BFS also went through 1–2-cell cracks the robot cannot "
+    "pass. The default bound T_s + κ·(T_route − T_s) (heuristic.GeodesicTimeBound) is as "
+    "consistent and falls along every route. Development run (earlier generator version, 6 queries "
+    "on a 256² map, 20,000-expansion cap, load 14): κ·T_route by max solved 1/6 even at weight 5, "
+    "the default form 6/6 at weight 2 (1.4k–5k expansions), an inconsistent κ = 1 form 6/6 with "
+    "0.5k–1.2k expansions but without the weight's suboptimality bound, so not used.")
 
 
 def sample_queries(grid: NavGrid, count: int, rng: np.random.Generator) -> np.ndarray:
@@ -72,8 +100,6 @@ def steady_expansion_cost(grid, queries, params, repeats) -> float:
 
 
 def run_planner(name, grid, queries, params, repeats):
-    if name == "astar":  # grid A* is complete within the map's cell count
-        params = params.replace(max_expansions=grid.shape[0] * grid.shape[1])
     rows = []
     for query in queries:
         results = [PLANNERS[name](grid, query[:4], query[4:], params) for _ in range(repeats)]
@@ -84,6 +110,7 @@ def run_planner(name, grid, queries, params, repeats):
                      "expansions": result.expansions, "planning_time": time_s,
                      "time_per_expansion": time_s / max(result.expansions, 1),
                      "duration": trajectory.duration if trajectory else None,
+                     "length": trajectory.path_length() if trajectory else None,
                      "effort": trajectory.effort() if trajectory else None})
     ok = [row for row in rows if row["success"]]
 
@@ -99,6 +126,136 @@ def run_planner(name, grid, queries, params, repeats):
             "median_duration_s": median("duration", ok), "median_effort": median("effort", ok),
             "failures": dict(Counter(row["reason"] for row in rows if not row["success"])),
             "queries": rows}
+
+
+def street_map(n: int, rng: np.random.Generator) -> np.ndarray:
+    """(n, n) occupancy (True = obstacle) of a synthetic street map, row 0 = smallest y."""
+    occupancy = np.ones((n, n), bool)
+
+    def streets():
+        position, out = 0, []
+        while (position := position + int(rng.integers(40, 110))) <= n - 20:
+            out.append((position, int(rng.integers(5, 14))))
+        return out
+
+    columns, rows = [(3, 10)] + streets() + [(n - 13, 10)], [(3, 10)] + streets() + [(n - 13, 10)]
+    for x, width in columns:
+        occupancy[3:-3, x:x + width] = False
+    for y, width in rows:
+        occupancy[y:y + width, 3:-3] = False
+    for along, across, flip in ((rows, columns, False), (columns, rows, True)):
+        for (a, a_width), (b, _) in zip(along, along[1:]):
+            for c, width in across[1:-1]:
+                if rng.random() < 0.3 and b - (a + a_width) > 4:  # close this segment
+                    d = int(rng.integers(a + a_width, b - 3))
+                    block = (slice(d, d + 3), slice(c, c + width))
+                    occupancy[block[::-1] if flip else block] = True
+                    if rng.random() < 0.5:  # a crack one cell wide
+                        crack = (slice(d, d + 3), c + width // 2)
+                        occupancy[crack[::-1] if flip else crack] = False
+    for _ in range(n // 12):  # alleys 1-2 cells wide
+        at, width = int(rng.integers(5, n - 5)), int(rng.integers(1, 3))
+        lo, hi = np.sort(rng.integers(5, n - 5, 2))
+        alley = (slice(lo, hi), slice(at, at + width))
+        occupancy[alley[::-1] if rng.random() < 0.5 else alley] = False
+    for _ in range(max(1, n // 256)):  # plazas
+        cx, cy = rng.integers(30, n - 30, 2)
+        r = int(rng.integers(10, 25))
+        occupancy[cy - r:cy + r, cx - r:cx + r] = False
+    occupancy[:3] = occupancy[-3:] = occupancy[:, :3] = occupancy[:, -3:] = True
+    return occupancy
+
+
+def write_movingai(folder: Path, name: str, occupancy: np.ndarray, queries: np.ndarray) -> Path:
+    """`name.map` (first row = largest y) and `name.map.scen` (start/goal columns and rows counted
+    from the top row, bucket = straight distance // 4 cells, optimal length left 0: unknown)."""
+    ny, nx = occupancy.shape
+    path = folder / f"{name}.map"
+    body = ["".join("@" if cell else "." for cell in row) for row in occupancy[::-1]]
+    path.write_text("\n".join(["type octile", f"height {ny}", f"width {nx}", "map"] + body) + "\n")
+    cells = np.floor(queries[:, [0, 1, 4, 5]] / SCALE_RESOLUTION).astype(int)
+    lines = ["version 1"] + [
+        f"{int(np.hypot(gx - sx, gy - sy)) // 4}\t{path.name}\t{nx}\t{ny}\t{sx}\t{ny - 1 - sy}\t"
+        f"{gx}\t{ny - 1 - gy}\t0" for sx, sy, gx, gy in cells.tolist()]
+    (folder / f"{name}.map.scen").write_text("\n".join(lines) + "\n")
+    return path
+
+
+def read_scen(path: Path) -> np.ndarray:
+    """Queries (x, y, 0, 0, x, y, 0, 0) at the cell centres of a MovingAI `.scen` (rows from top)."""
+    rows = [line.split("\t") for line in path.read_text().splitlines()[1:] if line.strip()]
+    queries = []
+    for row in rows:
+        ny = int(row[3])
+        sx, sy, gx, gy = (int(v) for v in row[4:8])
+        centre = [(c + 0.5) * SCALE_RESOLUTION for c in (sx, ny - 1 - sy, gx, ny - 1 - gy)]
+        queries.append([centre[0], centre[1], 0.0, 0.0, centre[2], centre[3], 0.0, 0.0])
+    return np.array(queries)
+
+
+def peak_memory_mb(planner, grid, query, params) -> float:
+    """Peak traced MB of one query on a fresh copy of `grid` (its BFS graph cache included)."""
+    fresh = NavGrid(grid.costmap, grid.distance, grid.l1, grid.origin, grid.resolution)
+    tracemalloc.start()
+    PLANNERS[planner](fresh, query[:4], query[4:], params)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    return peak / 2**20
+
+
+def measure_scale(args) -> dict:
+    """{map: {planner: summary + peak memory}} on the synthetic street maps (module doc)."""
+    navigation = load_robot("jueying_mini").navigation
+    params = NavParams.for_robot(navigation)
+    planners = [("astar", "astar", params), ("kinoastar", "kinoastar", params),
+                ("kinoastar (old)", "kinoastar", params.with_overrides(OLD_DEFAULTS))]
+    folder = args.scale_dir or Path(tempfile.mkdtemp(prefix="nav_scale_"))
+    folder.mkdir(parents=True, exist_ok=True)
+    print(f"nav_scale maps and scenarios in {folder}", file=sys.stderr)
+    results = {}
+    for n in SCALE_SIZES:
+        rng = np.random.default_rng(args.seed + n)
+        occupancy = street_map(n, rng)
+        name = f"streets_{n}"
+        path = write_movingai(folder, name, occupancy, np.zeros((0, 8)))
+        grid = NavGrid.from_terrain(import_movingai(path, SCALE_RESOLUTION),
+                                    lethal_radius=navigation.inscribed_radius)
+        write_movingai(folder, name, occupancy, sample_queries(grid, args.scale, rng))
+        queries = read_scen(folder / f"{name}.map.scen")
+        label = f"streets {n}² ({n * SCALE_RESOLUTION:.0f} m)"
+        longest = queries[np.argmax(np.hypot(*(queries[:, 4:6] - queries[:, :2]).T))]
+        results[label] = {}
+        for planner_label, planner, chosen in planners:
+            entry = run_planner(planner, grid, queries, chosen, 1)
+            entry["peak_memory_mb"] = float("nan") if planner_label.endswith("(old)") else \
+                peak_memory_mb(planner, grid, longest, chosen)
+            results[label][planner_label] = entry
+            print(f"{label:24s} {planner_label:16s} success {entry['success_rate']:.0%} time median "
+                  f"{entry['median_planning_time_s']:.3f} s max {entry['max_planning_time_s']:.3f} "
+                  f"s expansions {entry['median_expansions']:.0f} peak "
+                  f"{entry['peak_memory_mb']:.0f} MB", file=sys.stderr, flush=True)
+    return results
+
+
+def scale_table(results: dict) -> list[str]:
+    lines = ["| map | planner | solved | median time (s) | max time (s) | median expansions | "
+             "peak memory (MB) | median T (s) | median effort J | median length ratio |",
+             "|---|---|---|---|---|---|---|---|---|---|"]
+    for map_name, entry in results.items():
+        reference = {i: row["length"] for i, row in enumerate(entry["astar"]["queries"])
+                     if row["success"]}
+        for label, summary in entry.items():
+            rows = summary["queries"]
+            ratios = [row["length"] / reference[i] for i, row in enumerate(rows)
+                      if row["success"] and i in reference]
+            solved = sum(row["success"] for row in rows)
+            lines.append(
+                f"| {map_name} | {label} | {solved}/{len(rows)} | "
+                f"{summary['median_planning_time_s']:.2f} | {summary['max_planning_time_s']:.2f} | "
+                f"{summary['median_expansions']:.0f} | {summary['peak_memory_mb']:.0f} | "
+                f"{summary['median_duration_s']:.1f} | {summary['median_effort']:.2f} | "
+                f"{statistics.median(ratios) if ratios else float('nan'):.3f} |")
+    return lines
 
 
 def parse_variant(text: str) -> dict[str, str]:
@@ -138,8 +295,8 @@ def measure_revision(revision: str, args) -> dict:
             tar.extractall(folder, filter="data")
         out = Path(folder) / "result.json"
         command = [sys.executable, __file__, "--queries", str(args.queries), "--repeats",
-                   str(args.repeats), "--seed", str(args.seed), "--max-expansions",
-                   str(args.max_expansions), "--result-only", str(out)]
+                   str(args.repeats), "--seed", str(args.seed), "--result-only", str(out)] + \
+            (["--max-expansions", str(args.max_expansions)] if args.max_expansions else [])
         env = dict(os.environ, LEGPLAN_ROBOTS=str(ROOT / "robots"), PYTHONPATH=os.pathsep.join(
             [folder] + [p for p in [os.environ.get("PYTHONPATH")] if p]))
         subprocess.run(command, check=True, env=env)
@@ -194,8 +351,10 @@ def main() -> None:
     parser.add_argument("--repeats", type=int, default=3)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--max-expansions", type=int, default=NavParams().max_expansions,
-                        help="Expansion limit of kinoastar (default: NavParams' own); grid A* may "
-                             "expand every cell.")
+                        help="Expansion limit (default: NavParams' own, scaled with the map)")
+    parser.add_argument("--scale", type=int, default=0, metavar="N",
+                        help="also N queries per synthetic street map (nav_scale, module doc)")
+    parser.add_argument("--scale-dir", type=Path, help="where nav_scale writes its .map/.scen files")
     parser.add_argument("--variant", action="append", default=[],
                         help="extra kinoastar row with these NavParams overrides, KEY=VALUE[,...]")
     parser.add_argument("--before", metavar="REV", help="also measure git revision REV first")
@@ -208,6 +367,7 @@ def main() -> None:
     load_start = load_average()
     before = measure_revision(args.before, args) if args.before else None
     results = measure(args)
+    scale = measure_scale(args) if args.scale else None
     params = NavParams.for_robot(load_robot("jueying_mini").navigation).replace(
         max_expansions=args.max_expansions)
     out = {"date": datetime.date.today().isoformat(), "machine": machine(),
@@ -216,6 +376,8 @@ def main() -> None:
            "variants": args.variant, "maps": results}
     if before is not None:
         out["before"] = {"revision": args.before, "maps": before}
+    if scale is not None:
+        out["scale"] = scale
     write_result("nav_search", out)
     if args.no_append:
         return
@@ -224,13 +386,21 @@ def main() -> None:
              f"{args.queries} seeded start/goal pairs per map (seed {args.seed}), median of "
              f"{args.repeats} runs per query, default NavParams (weight {params.weight}, "
              f"μ={params.mu}, τ={params.tau} s, pos_res {params.pos_res} m, vel_res "
-             f"{params.vel_res} m/s, one-shot radius {params.oneshot_radius} m, kinoastar "
-             f"expansion limit {params.max_expansions}). Ratio: median planning time vs grid A*. "
+             f"{params.vel_res} m/s, one-shot radius {params.oneshot_radius} m, expansion limit "
+             f"{params.max_expansions or 'scaled: max(map cells, 200000)'}). Ratio: median planning time vs grid A*. "
              "µs/expansion: median over queries of time/expansions (kinoastar: in brackets the "
              f"steady-state search loop, one-shot off, weight 1, {STEADY_EXPANSIONS} expansions, "
              "median of the first 5 queries).", ""] + table(results)
     if before is not None:
         lines += [""] + before_after(before, results, args.before)
+    if scale is not None:
+        lines += ["", "### nav_scale: synthetic street maps (issue 19)", "",
+                  f"{args.scale} seeded queries per map (seed {args.seed} + size), one run each, "
+                  "same run as above; maps, `.scen` files and generator described in "
+                  "bench/nav_search.py (synthetic stand-ins for MovingAI street maps). Length "
+                  "ratio: path length / grid A*'s on the same query. 'kinoastar (old)': "
+                  "geodesic_bound=0, max_expansions=200000 (the previous defaults).", ""] + \
+            scale_table(scale) + ["", SCALE_NOTES]
     update_benchmarks("nav_search", "\n".join(lines))
 
 
