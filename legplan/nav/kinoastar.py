@@ -173,7 +173,7 @@ class _KeyEncoder:
 
 
 RESTART_WEIGHTS = (1.0, 1.5, 2.5)  # × params.weight, one search stage each (`_search`)
-STAGE_EXPANSIONS_PER_STEP = 20  # stage budget per 8-connected step of the start's route
+STAGE_EXPANSIONS_PER_STEP = 10  # stage budget per 8-connected step of the start's route
 MIN_STAGE_EXPANSIONS = 2000
 ONESHOT_STRETCH = (1.0, 1.25, 1.5, 2.0, 3.0)
 ONESHOT_COARSE_STRIDE = 8  # first collision pass: every 8th sample
