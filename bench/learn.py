@@ -92,7 +92,8 @@ def main() -> None:
     for label, r in rows.items():
         lines.append(f"| {label} | {r['converged']:.0%} | {r['median_iterations']:g} | {r['median_seconds']:.2f} "
                      f"| {r['cost_median']:.3g} / {r['cost_p90']:.3g} / {r['cost_max']:.3g} "
-                     f"| {r['within_5_iterations']:.0%} | {r['tasks_per_second']:.2f} |")
+                     f"| {r['within_5_iterations']:.0%} | "
+                     + (f"{r['tasks_per_second']:.2f} |" if np.isfinite(r["tasks_per_second"]) else "— (dataset reused) |"))
     lines += ["", "Training cycles (the training tasks, `cycles.json`):", "",
               "| cycle | initializer | converged | median iterations | cost median / p90 / max |", "|---|---|---|---|---|"]
     for c in cycles:
