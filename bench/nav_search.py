@@ -182,7 +182,7 @@ def write_movingai(folder: Path, name: str, occupancy: np.ndarray, queries: np.n
 
 
 def read_scen(path: Path) -> np.ndarray:
-    """Queries (x, y, 0, 0, x, y, 0, 0) at the cell centres of a MovingAI `.scen` (rows from top)."""
+    """Queries (x, y, 0, 0, x, y, 0, 0) at the cell centres of a `.scen` (rows from the top)."""
     rows = [line.split("\t") for line in path.read_text().splitlines()[1:] if line.strip()]
     queries = []
     for row in rows:
@@ -230,7 +230,8 @@ def measure_scale(args) -> dict:
             entry["peak_memory_mb"] = float("nan") if planner_label.endswith("(old)") else \
                 peak_memory_mb(planner, grid, longest, chosen)
             results[label][planner_label] = entry
-            print(f"{label:24s} {planner_label:16s} success {entry['success_rate']:.0%} time median "
+            print(f"{label:24s} {planner_label:16s} success {entry['success_rate']:.0%} "
+                  f"time median "
                   f"{entry['median_planning_time_s']:.3f} s max {entry['max_planning_time_s']:.3f} "
                   f"s expansions {entry['median_expansions']:.0f} peak "
                   f"{entry['peak_memory_mb']:.0f} MB", file=sys.stderr, flush=True)
@@ -354,7 +355,8 @@ def main() -> None:
                         help="Expansion limit (default: NavParams' own, scaled with the map)")
     parser.add_argument("--scale", type=int, default=0, metavar="N",
                         help="also N queries per synthetic street map (nav_scale, module doc)")
-    parser.add_argument("--scale-dir", type=Path, help="where nav_scale writes its .map/.scen files")
+    parser.add_argument("--scale-dir", type=Path,
+                        help="where nav_scale writes its .map/.scen files")
     parser.add_argument("--variant", action="append", default=[],
                         help="extra kinoastar row with these NavParams overrides, KEY=VALUE[,...]")
     parser.add_argument("--before", metavar="REV", help="also measure git revision REV first")
@@ -387,7 +389,8 @@ def main() -> None:
              f"{args.repeats} runs per query, default NavParams (weight {params.weight}, "
              f"μ={params.mu}, τ={params.tau} s, pos_res {params.pos_res} m, vel_res "
              f"{params.vel_res} m/s, one-shot radius {params.oneshot_radius} m, expansion limit "
-             f"{params.max_expansions or 'scaled: max(map cells, 200000)'}). Ratio: median planning time vs grid A*. "
+             f"{params.max_expansions or 'scaled: max(map cells, 200000)'}). "
+             "Ratio: median planning time vs grid A*. "
              "µs/expansion: median over queries of time/expansions (kinoastar: in brackets the "
              f"steady-state search loop, one-shot off, weight 1, {STEADY_EXPANSIONS} expansions, "
              "median of the first 5 queries).", ""] + table(results)

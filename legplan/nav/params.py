@@ -44,7 +44,7 @@ class NavParams:
     tau: float = 0.4  # s, primitive duration
     rho: float = 1.0  # time weight ρ of eq. (5)
     rho_c: float = 0.01  # collision-cost weight ρ_c of eq. (19) (C_max = 100 → ρ_c·F ≤ 1)
-    weight: float = 2.0  # heuristic weight (1 = A*); cost ≤ weight (2.5·weight after restarts) × optimum
+    weight: float = 2.0  # heuristic weight (1 = A*); cost ≤ weight (restarts: 2.5·weight) × opt.
     time_bound: bool = True  # heuristic minimizes over T ≥ max|Δp_d| / v_max
     geodesic_bound: bool = True  # ... and over T ≥ the time around obstacles (one BFS per query)
     restarts: bool = True  # with geodesic_bound: restart a stalled search with a larger weight

@@ -297,7 +297,7 @@ def test_one_shot_batch_picks_the_first_feasible_duration(pillars_grid):
 
 
 
-# nav_30m_queries.csv searched with the straight-line heuristic alone (commit 1b01c35): cost g, effort.
+# nav_30m_queries.csv searched with the straight-line heuristic alone (commit 1b01c35): g, effort.
 NAV_30M_BEFORE = ((60.6574, 1.278), (57.5223, 1.348), (54.5013, 1.142), (62.9897, 1.451))
 
 
