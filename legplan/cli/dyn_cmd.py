@@ -72,12 +72,16 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     if tasks_path is None and (start is None or goal is None):
         raise LegplanError("dyn plan: --start and --goal are required (or --tasks FILE)")
     params = dyn_params(costs)
-    initializer(init)  # an unknown --init: exit 2 before any work
+    init_fn = initializer(init)  # an unknown --init: exit 2 before any work
     loaded = load_robot(robot)
     model = centroidal_model(loaded)
     tasks = (read_tasks(tasks_path, gait, strides, duration) if tasks_path is not None
              else [command_line_task(start, goal, gait, strides, duration)])
     check_placements(tasks, model, TerrainModel(load_map(map_path)), tasks_path, map_path)
+    if hasattr(init_fn, "check_task"):  # a learned initializer fits one variable layout: refuse others now
+        for t in tasks:
+            init_fn.check_task(t, params.dt)
+        init = init_fn.path
 
     options = {"robot": robot, "gait": gait, "strides": strides, "duration": duration, "tasks": tasks_path,
                "start": start, "goal": goal}

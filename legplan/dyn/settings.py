@@ -53,7 +53,13 @@ def dyn_params(costs: str) -> DynParams:
 
 
 def initializer(name: str):
-    """The initializer `--init` names (`legplan.dyn.init.INITIALIZERS`)."""
+    """The initializer `--init` names: one of `legplan.dyn.init.INITIALIZERS`, or an init.h5 trained by
+    `legplan learn train` (the learned initializer, eq. (2) with A_θ)."""
+    if name.endswith(".h5"):
+        from legplan.learn.network import LearnedInit  # learn builds on dyn: imported where it is used
+        if not os.path.isfile(name):
+            raise LegplanError(f"--init: {name}: no such file")
+        return LearnedInit(os.path.abspath(name))
     if name not in INITIALIZERS:
         raise LegplanError(f"--init: unknown initializer '{name}' (known: {', '.join(INITIALIZERS)})")
     return INITIALIZERS[name]

@@ -110,10 +110,10 @@ def cost_of(worker: DatasetWorker, task, values: dict[str, np.ndarray]) -> float
     (the planner's own `cost` is that of its last stage, which is a feasibility stage without costs
     when the cost stage ends short)."""
     from legplan.dyn.problem import build_problem
-    from legplan.solve.auglag import _cost_terms
+    from legplan.solve.auglag import evaluate_costs
 
     problem = build_problem(task, worker.model, worker.terrain, worker.params, lambda *_: values)
-    return float(sum(_cost_terms(problem.costs, values).values()))
+    return float(sum(evaluate_costs(problem.costs, values).values()))
 
 
 def failed_item(item, reason: str) -> dict:

@@ -189,7 +189,7 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
         c_now = [np.asarray(k.block.evaluate([values[v] for v in k.block.variables], False)[0]) for k in constraints]
         violation = max((float(k.violation(c).max()) if c.size else 0.0 for k, c in zip(constraints, c_now)),
                         default=0.0)
-        cost_terms = _cost_terms(costs, values)
+        cost_terms = evaluate_costs(costs, values)
         cost = sum(cost_terms.values())
         history.append({"outer": outer, "iterations": result.iterations, "violation": violation, "cost": cost,
                         "mu": mu, "lm": result.reason})
@@ -232,7 +232,8 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
                     cost_terms, history, timings, first_iteration)
 
 
-def _cost_terms(costs, values) -> dict[str, float]:
+def evaluate_costs(costs, values) -> dict[str, float]:
+    """½·w·‖r‖² of every (name, block, weight) cost at the variable values (terms of one name summed)."""
     out: dict[str, float] = {}
     for name, block, w in costs:
         r = block.evaluate([values[v] for v in block.variables], False)[0]

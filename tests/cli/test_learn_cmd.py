@@ -85,3 +85,18 @@ def test_cycle_keeps_every_dataset_and_initializer_and_summarizes_each_cycle(tra
         assert json.loads(b.attrs["params"])["iterations"] == 25
     result = invoke("learn", "cycle", space, "--cycles", 1, "--n", 3, "-o", out)
     assert result.exit_code == 2 and "exists" in result.output
+
+
+def test_dyn_plan_takes_the_learned_initializer_and_refuses_another_layout(trained, tmp_path):
+    tmp, _ = trained
+    flat = tmp_path / "flat.h5"
+    assert invoke("map", "build", ROOT / "maps" / "flat.yaml", "-o", flat, "-q").exit_code == 0
+    common = ["dyn", "plan", flat, "--gait", "trot", "--strides", 2, "--duration", 2.4, "--init", tmp / "init.h5"]
+    result = invoke(*common, "--start", -0.5, 0.1, 0.0, "--goal", 0.0, 0.0, 0.0, "-o", tmp_path / "t.h5", "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    with h5py.File(tmp_path / "t.h5", "r") as f:
+        assert json.loads(f.attrs["params"])["init"].endswith("init.h5")
+        assert f["tasks/0000"].attrs["success"]
+    bad = invoke("dyn", "plan", flat, "--gait", "walk", "--strides", 2, "--duration", 2.4, "--init", tmp / "init.h5",
+                 "--start", -0.5, 0.1, 0.0, "--goal", 0.0, 0.0, 0.0, "-o", tmp_path / "u.h5", "-q")
+    assert bad.exit_code == 2 and "init.h5" in bad.output and not (tmp_path / "u.h5").exists()
