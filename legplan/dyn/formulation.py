@@ -88,7 +88,7 @@ class Formulation:
         foot = self.feet[leg]
         return _embed(foot.force.matrix(times, derivative), foot.force_offset, self.force_nodes)
 
-    def force_control_points(self, leg: int, nodes_only: bool = False) -> tuple[sp.csr_matrix, list[int]]:
+    def force_control_points(self, leg: int) -> tuple[sp.csr_matrix, list[int]]:
         """Bézier control points of every stance force polynomial of foot `leg` (rows over the whole
         ``forces`` node array) and the stance node of each row.
 
@@ -105,8 +105,7 @@ class Formulation:
             for k in range(FORCE_POLYNOMIALS):
                 h = knots[k + 1] - knots[k]
                 a, b = 2 * ids[k], 2 * ids[k + 1]
-                inner = [] if nodes_only else [[(a, 1.0), (a + 1, h / 3)], [(b, 1.0), (b + 1, -h / 3)]]
-                entries += inner + [[(b, 1.0)]]
+                entries += [[(a, 1.0), (a + 1, h / 3)], [(b, 1.0), (b + 1, -h / 3)], [(b, 1.0)]]
             for row in entries:
                 for col, val in row:
                     rows.append(len(stance_of_row)), cols.append(col), vals.append(val)

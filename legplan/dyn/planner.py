@@ -44,24 +44,17 @@ class PlanResult:
         return self.solve.reason
 
 
-REFINEMENTS = (("forces between nodes", ("force_between_nodes",)),
-               ("fine sampling", ("swing_dt", "dt_range", "range_margin")))
-"""The refinement steps of `plan` after the coarse stage: (stage name, `DynParams` fields)."""
-
-
 def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynParams(), initializer=heuristic,
          callback=None) -> PlanResult:
     """Build, solve and sample one task, in stages (each warm-started from the one before):
 
     1. coarse feasibility — swing feet sampled every `DynParams.coarse_swing_dt`, the range of motion
-       every `DynParams.coarse_dt_range` (TOWR's 0.08 s) with no margin, forces at their nodes only
-       (as TOWR): the constraints alone, from the initializer (TOWR's problem);
+       every `DynParams.coarse_dt_range` (TOWR's 0.08 s) with no margin: the constraints alone, from
+       the initializer (TOWR's problem);
     2. only if 1 stalls with TOWR's swing constraint on: again without it (it can over-constrain a
        tight gait, see `DynParams`);
-    3. refinement to the sampling and margin of `DynParams`, one `REFINEMENTS` step at a time: the
-       force bounds between nodes, then the swing and range-of-motion sampling (measured: started
-       fine, the pallet cases stall; the coarse stage converges on all of them in 5-13 iterations, as
-       TOWR's problem; a step that stalls names the constraints TOWR's solution would break);
+    3. fine feasibility with the sampling and margin of `DynParams` (coarse to fine: measured, the
+       pallet cases stall when started fine, and converge when refined);
     4. only with costs: the costs, by the augmented Lagrangian from the feasible point
        (`DynParams.cost_solver`; measured: 3 of 3 pallet cases instead of 1 from the initializer);
     5. only if 4 ends short of the tolerance (its penalty can stall a few cm or N away): feasibility
@@ -70,11 +63,9 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
     names the stages that ran.
     """
     t0 = time.perf_counter()
-    fine = dict(swing_dt=params.swing_dt, dt_range=params.dt_range, range_margin=params.range_margin,
-                force_between_nodes=params.force_between_nodes)
+    fine = dict(swing_dt=params.swing_dt, dt_range=params.dt_range, range_margin=params.range_margin)
     stage_params = replace(params, costs=CostWeights(), swing_dt=max(params.swing_dt, params.coarse_swing_dt),
-                           dt_range=max(params.dt_range, params.coarse_dt_range), range_margin=0.0,
-                           force_between_nodes=False)
+                           dt_range=max(params.dt_range, params.coarse_dt_range), range_margin=0.0)
     problem = build_problem(task, model, terrain, stage_params, initializer)
     setup = time.perf_counter() - t0
     result = solve_augmented_lagrangian(problem.variables, [], problem.constraints, params.solver, callback=callback)
@@ -84,13 +75,11 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
         problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback)
         setup += seconds
         stages.append(("without TOWR's swing constraint", result))
-    for name, keys in REFINEMENTS:
-        target = {k: fine[k] for k in keys}
-        if result.success and any(getattr(stage_params, k) != value for k, value in target.items()):
-            stage_params = replace(stage_params, **target)
-            problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback)
-            setup += seconds
-            stages.append((name, result))
+    if result.success and any(getattr(stage_params, k) != value for k, value in fine.items()):
+        stage_params = replace(stage_params, **fine)
+        problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback)
+        setup += seconds
+        stages.append(("fine feasibility", result))
     if result.success and params.costs.active:
         stage_params = replace(stage_params, costs=params.costs)
         problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.cost_solver, callback)

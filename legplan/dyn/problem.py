@@ -60,7 +60,6 @@ class DynParams:
     swing_dt: float = 0.01
     coarse_swing_dt: float = 0.05
     coarse_dt_range: float = 0.08
-    force_between_nodes: bool = True
     swing_clearance: float = 0.0
     towr_swing: bool = True
     cost_solver: ALParams = ALParams(mu_init=10.0, cost_tolerance=1e-2,
@@ -157,7 +156,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         if swing_t.size:
             k.append(Constraint(TerrainHeightBlock(terrain, form.foot_matrix(leg, swing_t), envelope=True),
                                 params.swing_clearance, np.inf, name="swing_above_terrain", scale=1.0 / LENGTH))
-        points, stance_node = form.force_control_points(leg, nodes_only=not params.force_between_nodes)
+        points, stance_node = form.force_control_points(leg)
         lower, upper = ForceBlock.bounds(points.shape[0], model.max_normal_force)
         k.append(Constraint(ForceBlock(terrain, model.friction, points,
                                        form.node_selector(stance_node, form.motion_nodes)),
