@@ -46,13 +46,29 @@ class PlanResult:
 
 def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynParams(), initializer=heuristic,
          callback=None) -> PlanResult:
-    """Build, solve and sample one task, in stages (each warm-started from the one before):
+    """Build, solve and sample one task by `attempt`; if that fails, attempt once more with TOWR's
+    swing constraint switched (`DynParams.towr_swing`): of the bench cases and the tests, some stall
+    only with it and some only without (measured). Effort adds up; the reason names both attempts."""
+    problem, stages, setup = attempt(task, model, terrain, params, initializer, callback)
+    if not stages[-1][1].success:
+        other = replace(params, towr_swing=not params.towr_swing)
+        problem, more, seconds = attempt(task, model, terrain, other, initializer, callback)
+        label = "with" if other.towr_swing else "without"
+        stages += [(f"{name} ({label} TOWR's swing constraint)", r) for name, r in more]
+        setup += seconds
+    result = stages[-1][1]
+    return PlanResult(problem, _combined(stages), sample_solution(problem.form, result.values), setup)
+
+
+def attempt(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer=heuristic, callback=None):
+    """Build and solve one task in stages (each warm-started from the one before); returns the last
+    stage's problem, the (name, `ALResult`) of every stage and the setup seconds:
 
     1. coarse feasibility — swing feet sampled every `DynParams.coarse_swing_dt`, the range of motion
        every `DynParams.coarse_dt_range` (TOWR's 0.08 s) with no margin: the constraints alone, from
        the initializer (TOWR's problem);
     2. only if 1 stalls with TOWR's swing constraint on: again without it (it can over-constrain a
-       tight gait, see `DynParams`);
+       tight gait, see `DynParams`), from where 1 stopped;
     3. fine feasibility with the sampling and margin of `DynParams` (coarse to fine: measured, the
        pallet cases stall when started fine, and converge when refined);
     4. only with costs: the costs, by the augmented Lagrangian from the feasible point
@@ -90,7 +106,7 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
             problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback)
             setup += seconds
             stages.append(("feasibility after costs", result))
-    return PlanResult(problem, _combined(stages), sample_solution(problem.form, result.values), setup)
+    return problem, stages, setup
 
 
 def _stage(task, model, terrain, params: DynParams, previous: ALResult, solver, callback):

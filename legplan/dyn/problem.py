@@ -48,9 +48,9 @@ class DynParams:
     Bézier control points of every force polynomial, hence along all of it (the terrain normal is
     that of the stance foothold, constant over the stance). `towr_swing` adds TOWR's swing constraint (apex x, y halfway
     between the footholds, apex velocity = step / swing time); off by default: it is a regularizer,
-    not physics, and with the range-of-motion box it makes the 2-stride trot infeasible (measured:
-    with it the solve stalls at an 11 N dynamics violation, as TOWR fails that case; without it, it
-    converges in 8 iterations). `swing_height_min` (m above both adjacent footholds) and
+    not in the issue's constraint list, and it over-constrains tight gaits (measured on the bench
+    cases: with it the 2-stride trot and the stairs walk stall, without it they converge, and no
+    case needs it; `planner.plan` drops it when a solve with it stalls). `swing_height_min` (m above both adjacent footholds) and
     `base_clearance` (base z minus foot z, m) are the paper's constraints, None = off.
     """
 
@@ -61,7 +61,7 @@ class DynParams:
     coarse_swing_dt: float = 0.05
     coarse_dt_range: float = 0.08
     swing_clearance: float = 0.0
-    towr_swing: bool = True
+    towr_swing: bool = False
     cost_solver: ALParams = ALParams(mu_init=10.0, cost_tolerance=1e-2,
                                      inner=HingedParams(max_iterations=20, tolerance=0.0, function_tolerance=1e-3))
     """The cost stage (`planner.plan`) starts feasible; short subproblems let the multipliers follow

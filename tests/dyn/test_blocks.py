@@ -18,7 +18,7 @@ def _perturbed(problem, seed=0, scale=0.02):
 
 @pytest.fixture(scope="module")
 def pallet_problem(anymal, step):
-    params = DynParams(costs=PAPER_COSTS, swing_height_min=0.05, base_clearance=0.3)
+    params = DynParams(costs=PAPER_COSTS, swing_height_min=0.05, base_clearance=0.3, towr_swing=True)
     return build_problem(DynTask((-0.3, 0.1, 0.2), (0.9, 0.0, 0.0), "walk", 2, 3.0), anymal, step, params, heuristic)
 
 
