@@ -11,9 +11,10 @@ plus the time breakdown) with machine, date and load average. With --stall-windo
 planned a second time with the opt-in SolveLM stall stop (`stall_window=W`, a departure from
 Algorithm 1) and reported as a third column. A profiled pass over a few non-trivial steps
 attributes the time to kinematics, terrain distance, residual terms, JᵀJ assembly, Schur +
-factorisation. With --compare REV the same benchmark of git revision REV (its own code and bench
-script, exported with `git archive`) runs first in the same session, on its own map and generated
-sequence, and its columns join the table (the machine is shared: timings drift with its load).
+factorisation. With --compare REV, git revision REV (exported with `git archive`) and this tree
+then plan their own generated sequences in two processes, step by step in alternation, so that
+both see the same load of the shared machine (`compare_interleaved`); a second table compares
+their planning times (wall and CPU).
 Every step is judged on every constraint on the dense re-sampling (`legplan.stepplan.measure`);
 the worst shortfall per constraint is reported with its tolerance.
 """
@@ -115,17 +116,61 @@ def profile_breakdown(seq, map_path, params, indices) -> dict[str, float]:
     return out
 
 
-def compare_revision(revision: str, jobs: int) -> dict:
-    """Result JSON of this benchmark at git revision `revision` (exported to a temporary tree, run
-    there with its own code, no BENCHMARKS.md update), with its load averages."""
+PAIR_WORKER = r"""
+import json, sys, tempfile, time
+from pathlib import Path
+sys.path.insert(0, "bench")
+import numpy as np
+from step_plan import merge_swings, scenario
+from legplan.stepplan.batch import StepWorker, motion_stance
+from legplan.stepplan.params import StepPlanParams
+from legplan.stepplan.planner import plan_step
+from legplan.stepseq.sequence import read_steps
+with tempfile.TemporaryDirectory() as work:
+    map_path, steps_path = scenario(Path(work), *json.loads(sys.argv[1]))
+    generated = read_steps(steps_path)
+    variants = {"as generated": generated, "whole swings": merge_swings(generated)}
+    worker = StepWorker(generated.robot, str(map_path), StepPlanParams())
+    distance = getattr(worker, "distance", worker.terrain.sdf)  # what this revision's worker plans with
+    print(json.dumps({name: len(seq) - 1 for name, seq in variants.items()}), flush=True)
+    for line in sys.stdin:
+        name, i = json.loads(line)
+        seq = variants[name]
+        stance = motion_stance(seq.stance[i], seq.stance[i + 1], seq.footholds[i], seq.footholds[i + 1])
+        cpu = time.process_time()
+        footholds = np.nan_to_num(seq.footholds[i])
+        plan = plan_step(worker.robot, distance, seq.q[i], seq.q[i + 1], stance, footholds, worker.params)
+        print(json.dumps({"seconds": plan.seconds, "cpu": time.process_time() - cpu, "success": plan.success}),
+              flush=True)
+"""
+
+
+def compare_interleaved(revision: str, robot: str, start, goal) -> dict:
+    """Planning times of this tree and of git revision `revision` (exported with `git archive`), each
+    in its own process on its own generated sequence, requested step by step in alternation (the
+    order swapped every step) so both see the same load of the shared machine: {side: {variant:
+    [{"seconds", "cpu", "success"}, ...]}} (planning only, the planner's own success)."""
     with tempfile.TemporaryDirectory() as tree:
         archive = subprocess.run(["git", "archive", revision], cwd=ROOT, capture_output=True, check=True).stdout
         subprocess.run(["tar", "-x", "-C", tree], input=archive, check=True)
-        env = {**os.environ, "PYTHONPATH": tree}
-        subprocess.run([sys.executable, str(Path(tree) / "bench" / "step_plan.py"), "--no-append",
-                        "--jobs", str(jobs), "--profile-steps", "0"], cwd=tree, env=env, check=True,
-                       stdout=subprocess.DEVNULL)
-        return json.loads((Path(tree) / "bench" / "results" / "step_plan.json").read_text())
+        sides = {}
+        for side, root in ((revision, tree), ("this tree", str(ROOT))):
+            sides[side] = subprocess.Popen([sys.executable, "-c", PAIR_WORKER, json.dumps([robot, start, goal])],
+                                           cwd=root, env={**os.environ, "PYTHONPATH": root}, text=True,
+                                           stdin=subprocess.PIPE, stdout=subprocess.PIPE)
+        counts = {side: json.loads(worker.stdout.readline()) for side, worker in sides.items()}
+        out = {side: {variant: [] for variant in counts[side]} for side in sides}
+        for variant in counts[revision]:
+            for i in range(max(counts[side][variant] for side in sides)):
+                for side in (list(sides) if i % 2 == 0 else list(sides)[::-1]):
+                    if i < counts[side][variant]:
+                        sides[side].stdin.write(json.dumps([variant, i]) + "\n")
+                        sides[side].stdin.flush()
+                        out[side][variant].append(json.loads(sides[side].stdout.readline()))
+        for worker in sides.values():
+            worker.stdin.close()
+            worker.wait()
+    return out
 
 
 def main(argv=None) -> int:
@@ -141,9 +186,9 @@ def main(argv=None) -> int:
     ap.add_argument("--stall-window", type=int, default=0,
                     help="also plan the whole swings with the opt-in SolveLM stall stop (stall_window=W)")
     ap.add_argument("--no-append", action="store_true", help="do not update BENCHMARKS.md")
-    ap.add_argument("--compare", metavar="REV", help="also run this bench of git revision REV first, same session")
+    ap.add_argument("--compare", metavar="REV",
+                    help="also time git revision REV against this tree, step by step in alternation")
     args = ap.parse_args(argv)
-    before = compare_revision(args.compare, args.jobs) if args.compare else {}
 
     from legplan.batch import Backend, Task, run_batch
     from legplan.stepplan.batch import StepWorker, failed_item, plan_item, step_items, table2
@@ -202,15 +247,9 @@ def main(argv=None) -> int:
             "summary": summary, "lm_timings_total_s": timings,
             "degrees": [int(r.get("degree", 0)) for r in records], "times_s": [float(r["seconds"]) for r in records],
             "failures": {int(r["index"]): r["reason"] for r in records if not r["success"]}}
-    if before:
-        result["compare"] = {"revision": args.compare, **before}
-        lines[-2] = lines[-2].replace(" | paper |", "".join(f" | {args.compare}, {name}" for name in before["variants"])
-                                      + " | paper |")
-        lines[-1] += "---|" * len(before["variants"])
     for key, label in LABELS.items():
         scale = 1e3 if key == "worst_violation" else 1.0
         cells = [f"{summaries[name][key] * scale:.4g}" for name in variants]
-        cells += [f"{info['summary'][key] * scale:.4g}" for info in before.get("variants", {}).values()]
         lines.append(f"| {label} | {' | '.join(cells)} | {PAPER[key] * scale:.4g} |")
     tolerance = requirements(params).tolerances()
     for name, info in result["variants"].items():
@@ -224,6 +263,21 @@ def main(argv=None) -> int:
                      f"degree reached per step (count for d = 0..): {np.bincount(info['degrees']).tolist()}; "
                      f"max time {max(info['times_s']):.2f} s; LM time split: "
                      + ", ".join(f"{k} {v:.2f} s ({v / max(lm_total, 1e-12):.0%})" for k, v in timings.items()))
+    if args.compare:
+        load = os.getloadavg()
+        result["compare"] = compare_interleaved(args.compare, args.robot, args.start, args.goal)
+        lines += [f"\nSame session, {args.compare} (before) vs this tree, each planning its own generated sequence in "
+                  "its own process, steps requested in alternation (order swapped every step); planning time only "
+                  f"(wall and process CPU), successes by the planner's own test; load average "
+                  f"{' / '.join(f'{x:.1f}' for x in load)} before, {' / '.join(f'{x:.1f}' for x in os.getloadavg())} "
+                  "after.\n", "| variant | code | steps | planner successes | median wall [s] | mean wall [s] | "
+                  "median CPU [s] | mean CPU [s] |", "|---|---|---|---|---|---|---|---|"]
+        for variant in result["compare"][args.compare]:
+            for side, runs in result["compare"].items():
+                wall = [r["seconds"] for r in runs[variant]]
+                cpu = [r["cpu"] for r in runs[variant]]
+                lines.append(f"| {variant} | {side} | {len(wall)} | {sum(r['success'] for r in runs[variant])} | "
+                             f"{np.median(wall):.3f} | {np.mean(wall):.3f} | {np.median(cpu):.3f} | {np.mean(cpu):.3f} |")
     write_result("step_plan", result)
     if breakdown:
         lines.append(f"\nProfile of the {len(profiled)} slowest whole-swing steps {profiled} (cumulative s, groups "

@@ -118,11 +118,13 @@ def swing_foot_margin(distance, radii, clearance: float, epsilon: float, relax_r
     return floor + span * ramp, slope
 
 
-def nearest_end(centres, ends):
-    """Distance (n, k) of sphere centres (n, k, 3) to the nearer of their end positions (2, k, 3),
-    and the unit vector (n, k, 3) from that end to the centre."""
+def nearest_end(centres, ends, direction: bool = False):
+    """Distance (n, k) of sphere centres (n, k, 3) to the nearer of their end positions (2, k, 3);
+    with `direction`, (distance, unit vector (n, k, 3) from that end to the centre)."""
     diff = np.asarray(centres)[None] - np.asarray(ends)[:, None]     # (2, n, k, 3)
     dist = np.linalg.norm(diff, axis=-1)
+    if not direction:
+        return dist.min(axis=0)
     nearest = np.argmin(dist, axis=0)
     d = np.take_along_axis(dist, nearest[None], 0)[0]
     unit = np.take_along_axis(diff, nearest[None, ..., None], 0)[0] / np.maximum(d, 1e-12)[..., None]

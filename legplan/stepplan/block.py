@@ -71,12 +71,14 @@ class SampleConstraints:
     slack bound max(‖ξ_l‖ − ε, 0) per stance leg (eq. (11b)); CoM inside the support polygon, one
     hinge per edge; sphere clearance vs the SDF, one hinge per checked sphere; joint limits, two
     hinges per joint. Inequalities come from `legplan.contact.terms` (g ≤ 0) through eq. (8b); the
-    collision rows of swing-foot spheres get a margin relaxed near the swing footholds.
+    collision rows of swing-foot spheres get a margin relaxed near the swing footholds, which ramps
+    up to `mode.clearance` + `headroom`.
     """
 
     def __init__(self, robot, sdf, mode: ContactMode, epsilon: float, *, swing_ends=None,
-                 relax_radius: float = 0.05):
+                 relax_radius: float = 0.05, headroom: float = 0.0):
         self.robot = robot
+        self.headroom = float(headroom)
         self._values_only = _ValuesOnly(robot)
         self.sdf = sdf
         self.mode = mode
@@ -94,7 +96,8 @@ class SampleConstraints:
 
         `swing_ends` (2, n_spheres, 3): sphere centres at q_start and q_end. The required clearance
         of a swing-foot sphere follows `legplan.contact.terms.swing_foot_margin` with ε the sample
-        slack bound: the tip may touch at either end, `mode.clearance` from `relax_radius` on.
+        slack bound: the tip may touch at either end, `mode.clearance` + `headroom` from
+        `relax_radius` on.
         """
         margins = sphere_margins(self.robot, self.mode)
         checked = np.flatnonzero(~np.isnan(margins))
@@ -112,8 +115,9 @@ class SampleConstraints:
     def _relaxed_margin(self, X, Q, jacobians: bool):
         """Margin change (n, k) of the relaxed rows (relative to the term's margin `foot_clearance`)
         and its Jacobian (n, k, nx) (see `_relaxation`)."""
-        d, unit = nearest_end(self.robot.sphere_centres(Q)[:, self.relaxed_spheres], self.relax_ends)
-        margin, slope = swing_foot_margin(d, self.relax_radii, self.mode.clearance, self.epsilon,
+        found = nearest_end(self.robot.sphere_centres(Q)[:, self.relaxed_spheres], self.relax_ends, jacobians)
+        d, unit = found if jacobians else (found, None)
+        margin, slope = swing_foot_margin(d, self.relax_radii, self.mode.clearance + self.headroom, self.epsilon,
                                           self.relax_radius)
         delta = margin - self.mode.foot_clearance
         if not jacobians:

@@ -13,11 +13,14 @@ Extras (not in Table I, chosen here):
   swing-foot spheres it is relaxed within `relax_radius` = 5 cm of the swing leg's lift-off and
   touch-down positions, down to "the tip may touch, within ε" (`SampleConstraints`).
   `com_margin` = 0 (CoM inside the support polygon, Sec. II-B item 2).
-* `clearance_headroom`: the samples require `clearance` + clearance_headroom / N (0.5 mm at
-  N = 100), so that the curve between them keeps `clearance` (as `slack_fraction` does for ε). The
-  swing-foot ramp has kinks (where it reaches `clearance`, and where the nearer end switches), so a
-  swing foot crossing one between two samples comes closer than at both, by up to ~0.4 mm at
-  N = 100 and in proportion to the sample spacing 1/N (measured on the box-swing test scene).
+* `clearance_headroom`: at the samples the swing-foot ramp rises to `clearance` +
+  clearance_headroom / N (0.5 mm at N = 100), so that the curve between them keeps the ramp (as
+  `slack_fraction` does for ε). The ramp has kinks (where it reaches `clearance`, and where the
+  nearer end switches), so a swing foot crossing one between two samples comes closer than at
+  both, by up to ~0.4 mm at N = 100 and in proportion to the sample spacing 1/N (measured on the
+  box-swing test scene). The other spheres need none: their distance is smooth along the path
+  but for edges and corners, where it dips below the chord only by ~(path step)²/(8·distance),
+  a few µm.
 * `dense_samples`: parameters t at which the finished path is re-checked independently (≥ 1000);
   a step succeeds only when every constraint is kept there (`legplan.stepplan.measure.judged`):
   stance feet within ε, CoM margin, clearance with the swing-foot ramp and joint limits, the last
@@ -50,7 +53,7 @@ class StepPlanParams:
     eps_num: float = 1e-5  # ε_num of Algorithm 1
     slack_fraction: float = 0.95  # sample-level slack bound = slack_fraction·ε
     clearance: float = 0.02  # m, sphere-terrain margin
-    clearance_headroom: float = 0.05  # m·N: the samples require clearance + clearance_headroom / N
+    clearance_headroom: float = 0.05  # m·N: swing feet keep clearance + clearance_headroom / N at the samples
     relax_radius: float = 0.05  # m, swing-foot margin relaxation around its footholds
     com_margin: float = 0.0  # m, CoM distance to every support-polygon edge
     dense_samples: int = 1000  # independent re-check of the finished path
@@ -90,7 +93,7 @@ class StepPlanParams:
 
     @property
     def sample_clearance(self) -> float:
-        """Clearance required at the samples (see `clearance_headroom`)."""
+        """The largest clearance required at a sample (see `clearance_headroom`)."""
         return self.clearance + self.clearance_headroom / self.samples
 
     def as_dict(self) -> dict:

@@ -80,9 +80,8 @@ class StepPlan:
 
 
 def contact_mode(stance, footholds, params: StepPlanParams) -> ContactMode:
-    """The constraints at the samples (clearance: `params.sample_clearance`)."""
     return ContactMode(stance=stance, footholds=footholds, com_margin=params.com_margin,
-                       clearance=params.sample_clearance, foot_clearance=0.0)
+                       clearance=params.clearance, foot_clearance=0.0)
 
 
 def terrain_distance(robot, terrain, params) -> ColumnDistance:
@@ -102,8 +101,9 @@ def plan_step(robot, sdf, q_start, q_end, stance, footholds, params: StepPlanPar
     x0, x1 = path_vectors(robot, np.asarray(q_start, float), np.asarray(q_end, float))
     ends = robot.sphere_centres(robot.from_vector(np.stack([x0, x1])))
     constraints = SampleConstraints(robot, sdf, contact_mode(stance, footholds, params),
-                                    params.slack_fraction * params.epsilon,
-                                    swing_ends=ends, relax_radius=params.relax_radius)
+                                    params.slack_fraction * params.epsilon, swing_ends=ends,
+                                    relax_radius=params.relax_radius,
+                                    headroom=params.sample_clearance - params.clearance)
     t = uniform_parameters(params.samples + 1)[1:-1]  # interior t_i = i/N; the ends are fixed
     lm = LMParams(lambda_init=params.lambda_init, lambda_drop=params.lambda_drop,
                   lambda_boost=params.lambda_boost, max_iterations=params.max_iterations,

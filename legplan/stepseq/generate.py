@@ -17,8 +17,9 @@ polygon of the remaining stance legs cannot hold the CoM with the margin. Footho
 of the foothold mask inside the leg's workspace at the target pose (sampled from the joint limits,
 `_RobotGeometry`), that make progress along the path and keep a distance to the other feet,
 ranked by distance to the nominal position. The first leg/foothold whose three IK solves
-succeed is taken. Nothing assumes a leg count or a robot: nominal offsets, hips and workspaces
-come from the robot's model and nominal configuration.
+succeed is taken. When no option of a move succeeds (a dead end), the previous move is taken back
+and its next option tried (depth-first, at most `backtracks` times). Nothing assumes a leg count or
+a robot: nominal offsets, hips and workspaces come from the robot's model and nominal configuration.
 
 The IK keeps the spheres clear of the exact terrain distance (`legplan.terrain.ColumnDistance`),
 and `generate_steps` judges every configuration independently (`legplan.validate.judge`) against
@@ -61,6 +62,7 @@ class GenerateParams:
     candidates: int = 6  # footholds tried per leg
     goal_tolerance: float = 0.05  # body distance to the goal that ends the sequence
     max_moves: int = 200
+    backtracks: int = 20  # moves taken back at dead ends (depth-first over each move's options)
     restarts: int = 1  # IK retries from a seeded random perturbation
     restart_noise: float = 0.05  # std of that perturbation (m, rad)
     posture_weights: tuple[float, float, float, float] = (0.3, 1.0, 1.0, 0.05)  # xy, z, rot, joints
@@ -254,16 +256,32 @@ class StepGenerator:
         x, stance, footholds = self.start_configuration()
         configs = [(x, stance.copy(), footholds.copy())]
         moves: list[dict] = []
+        undo: list[tuple] = []  # per move made: (configurations before it, its option, options banned before it)
+        banned: set = set()  # options that led to a dead end from the current configuration
+        backtracks = 0
         reason = f"reached max_moves = {self.params.max_moves} before the goal"
-        for move in range(self.params.max_moves):
+        while len(moves) < self.params.max_moves:
             if self._at_goal(x, stance, footholds):
                 reason = ""
                 break
-            outcome = self._move(x, stance, footholds, move)
+            outcome = self._move(x, stance, footholds, len(moves), banned)
             if isinstance(outcome, str):
-                reason = outcome
-                break
+                if not undo or backtracks >= self.params.backtracks:
+                    reason = outcome
+                    break
+                # dead end: take back the last move and try the next option where it was made
+                count, option, banned = undo.pop()
+                banned.add(option)
+                del configs[count:]
+                moves.pop()
+                backtracks += 1
+                x, stance, footholds = (np.array(v, copy=True) for v in configs[-1])
+                log.info("dead end (%s); move %d taken back", outcome, len(moves))
+                continue
             new_configs, action, leg, cell = outcome
+            undo.append((len(configs), _option(action, leg, cell), banned))
+            banned = set()
+            move = len(moves)
             configs.extend(new_configs)
             x, stance, footholds = (np.array(v, copy=True) for v in new_configs[-1])
             moves.append({"move": move, "action": action, "leg": self.robot.legs[leg].name,
@@ -300,10 +318,11 @@ class StepGenerator:
     def _length(self) -> float:
         return float(np.linalg.norm(self.goal[:2] - self.start[:2]))
 
-    def _move(self, x, stance, footholds, move: int):
+    def _move(self, x, stance, footholds, move: int, banned=frozenset()):
         """One action: land a lifted leg, step a stance leg, or lift a trailing leg and keep it up
-        (when all legs stand and it has no reachable foothold yet, or when nothing else works).
-        Returns (configurations, action, leg, foothold) or a reason."""
+        (when all legs stand and it has no reachable foothold yet, or when nothing else works),
+        skipping the `banned` options (`_option` keys). Returns (configurations, action, leg,
+        foothold) or a reason."""
         p, names = self.params, [leg.name for leg in self.robot.legs]
         s_target = min(1.0, self._progress(x[:2]) + self.advance / max(self._length, 1e-9))
         xy, yaw = self._pose(s_target)
@@ -315,7 +334,7 @@ class StepGenerator:
             candidates = self._candidates(leg, stance, footholds, nominal[leg], xy, yaw)
             if not len(candidates):
                 failures.append(f"no reachable foothold for lifted leg {names[leg]}")
-            for cell in candidates:
+            for cell in (c for c in candidates if _option("land", leg, c) not in banned):
                 configs, why = self._land(x, stance, footholds, leg, cell, yaw)
                 if configs is not None:
                     return configs, "land", leg, cell
@@ -331,26 +350,28 @@ class StepGenerator:
                 failures.append(f"{names[leg]}: the other stance legs cannot hold the CoM")
                 continue
             candidates = self._candidates(leg, stance, footholds, nominal[leg], xy, yaw)
-            if not len(candidates) and stance.all():  # holds the body back, cannot step yet: lift it
-                configs, why = self._park(x, stance, footholds, leg, yaw)
+            if not len(candidates) and stance.all() and _option("lift", leg) not in banned:
+                configs, why = self._park(x, stance, footholds, leg, yaw)  # holds the body back: lift it
                 if configs is not None:
                     return configs, "lift", leg, None
                 failures.append(f"lift {names[leg]} (no reachable foothold): {why}")
             elif not len(candidates):
                 failures.append(f"no reachable foothold for leg {names[leg]} at move {move}")
-            for cell in candidates:
+            for cell in (c for c in candidates if _option("step", leg, c) not in banned):
                 configs, why = self._step(x, stance, footholds, leg, cell, yaw)
                 if configs is not None:
                     return configs, "step", leg, cell
                 failures.append(f"step {names[leg]} to {np.round(cell, 3).tolist()}: {why}")
-        configs, why = self._advance_body(x, stance, footholds, yaw)
-        if configs is not None:
-            return configs, "shift", int(np.flatnonzero(stance)[0]), None
-        failures.append(f"body shift: {why}")
+        if _option("shift", int(np.flatnonzero(stance)[0])) not in banned:
+            configs, why = self._advance_body(x, stance, footholds, yaw)
+            if configs is not None:
+                return configs, "shift", int(np.flatnonzero(stance)[0]), None
+            failures.append(f"body shift: {why}")
         for leg in order:  # nothing moved: lift the most trailing leg that can be spared
             support = stance.copy()
             support[leg] = False
-            if lags[leg] < p.min_progress or not self._support_ok(footholds[support]):
+            if (lags[leg] < p.min_progress or not self._support_ok(footholds[support])
+                    or _option("lift", leg) in banned):
                 continue
             configs, why = self._park(x, stance, footholds, leg, yaw)
             if configs is not None:
@@ -481,6 +502,11 @@ class StepGenerator:
         t = np.linspace(0.0, 1.0, samples)[:, None]
         pts = a[None, :2] * (1 - t) + b[None, :2] * t
         return float(np.max(self.terrain.height_at(pts, method="nearest")))
+
+
+def _option(action: str, leg, cell=None) -> tuple:
+    """Key of one option of `StepGenerator._move`: action, leg and foothold (rounded to µm)."""
+    return action, int(leg), None if cell is None else tuple(np.round(cell, 6).tolist())
 
 
 def _angle_diff(a: float, b: float) -> float:

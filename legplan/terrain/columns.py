@@ -18,8 +18,8 @@ point's own cell and those edge cells within `reach` horizontally is the exact d
 at most `reach`; beyond, the exact distance is at least `reach`, and the value is saturated at
 `reach` (gradient 0). Inside, the depth is exact up to `reach` and never underestimated beyond.
 
-Each cell lists those edge cells whose squares lie within `reach` of its square (CSR, built once),
-so a query costs one distance per candidate: on open ground a point has its own cell only. The grid
+Each cell lists those edge cells whose squares lie within `reach` of its square (built once), so
+a query costs one distance per candidate: on open ground a point has its own cell only. The grid
 is padded by `reach` with copies of its border cells; beyond the padding the terrain is the same
 along the outward direction, so a point there is moved onto the padding's outer cell centres without
 changing its distance (gradient 0 in that direction).
@@ -48,22 +48,17 @@ class ColumnDistance:
         padded = np.pad(height, pad, mode="edge")
         self._shape = padded.shape
         self._origin = np.asarray(origin, dtype=float)[:2] - pad * r  # centre of padded cell [0, 0]
-        self._far = self._origin + r * (np.array(padded.shape[::-1]) - 1)
+        self._last = np.array(padded.shape[::-1]) - 1  # largest (ix, iy)
+        self._far = self._origin + r * self._last
         self._height = padded.reshape(-1)
         lower, higher = _neighbour_masks(padded)
         # outside points: edge cells higher than the point's own cell; inside: lower ones (module docstring)
-        tables = [_candidate_pairs(padded, lower, self.reach / r, np.greater),
-                  _candidate_pairs(padded, higher, self.reach / r, np.less)]
-        self._start, rows = [], []
-        for offset, (cells, candidates) in zip((0, len(tables[0][1])), tables, strict=True):
-            order = np.argsort(cells, kind="stable")
-            counts = np.bincount(cells, minlength=padded.size)
-            self._start.append(offset + np.r_[0, np.cumsum(counts)])
-            rows.append(candidates[order])
-        rows = np.concatenate(rows)
-        iy, ix = np.divmod(rows, padded.shape[1])
-        self._candidates = np.column_stack([self._origin[0] + r * ix, self._origin[1] + r * iy,
-                                            self._height[rows]])
+        self._rows, self._tables, self._clear = [], [], []
+        for mask, keep in ((lower, np.greater), (higher, np.less)):
+            rows, table, clear = _candidate_table(padded, mask, self.reach / r, keep, self._origin, r)
+            self._rows.append(rows)
+            self._tables.append(table)
+            self._clear.append(clear)
 
     @classmethod
     def of(cls, terrain, reach: float) -> ColumnDistance:
@@ -81,50 +76,74 @@ class ColumnDistance:
         negative inside (−∇ of the depth); (0, 0, 1) on the surface itself; 0 where saturated.
         """
         p = np.asarray(points, dtype=float).reshape(-1, 3)
-        xy = np.clip(p[:, :2], self._origin, self._far)
-        beyond = xy != p[:, :2]
-        g = np.rint((xy - self._origin) / self.resolution).astype(np.int64)
+        raw = np.rint((p[:, :2] - self._origin) / self.resolution).astype(np.intp)
+        g = np.clip(raw, 0, self._last)
         own = g[:, 1] * self._shape[1] + g[:, 0]
         value = p[:, 2] - self._height[own]  # the own column, straight below (above) the point
         grad = np.zeros((len(p), 3))
         grad[:, 2] = 1.0
         inside = value < 0.0
-        start = np.where(inside, self._start[1][own], self._start[0][own])
-        stop = np.where(inside, self._start[1][own + 1], self._start[0][own + 1])
-        near = np.flatnonzero(stop > start)
-        if near.size:
-            value[near], grad[near] = self._nearest(np.column_stack([xy[near], p[near, 2]]), start[near],
-                                                    stop[near], value[near])
-        grad[:, :2][beyond] = 0.0
+        for side, (rows, table, clear) in enumerate(zip(self._rows, self._tables, self._clear, strict=True)):
+            row = rows[own]
+            # a candidate can beat the own column only if the vertical gap exceeds its horizontal one
+            near = np.flatnonzero((row >= 0) & (inside == side) & (np.abs(value) > clear[own]))
+            if near.size:
+                xy = np.minimum(np.maximum(p[near, :2], self._origin), self._far)
+                value[near], grad[near] = _nearest(xy, p[near, 2], table, row[near], value[near], self.resolution)
+                grad[near, :2] *= raw[near] == g[near]  # 0 along a direction in which the point was moved
         far = value > self.reach
-        value[far] = self.reach
-        grad[far] = 0.0
+        if far.any():
+            value[far] = self.reach
+            grad[far] = 0.0
         return value, grad
 
-    def _nearest(self, p, start, stop, own):
-        """Signed distance and gradient of points p (m, 3) over their own column (signed vertical
-        gap `own`) and the candidate rows start..stop of each."""
-        r = self.resolution
-        count = stop - start
-        first = np.r_[0, np.cumsum(count)[:-1]]
-        total = int(count.sum())
-        which = np.repeat(np.arange(len(p)), count)
-        cand = self._candidates[np.arange(total) + np.repeat(start - first, count)]
-        q = p[which]
-        lateral = q[:, :2] - cand[:, :2]
-        gap = np.copysign(np.maximum(np.abs(lateral) - 0.5 * r, 0.0), lateral)
-        vertical = q[:, 2] - cand[:, 2]
-        inside = own < 0.0
-        w = np.column_stack([gap, np.where(inside[which], np.minimum(vertical, 0.0), np.maximum(vertical, 0.0))])
-        d2 = np.einsum("ij,ij->i", w, w)
-        best = np.minimum.reduceat(d2, first)
-        winner = np.minimum.reduceat(np.where(d2 <= best[which], np.arange(total), total), first)
-        better = best < own ** 2
-        dist = np.where(better, np.sqrt(best), np.abs(own))
-        vector = np.where(better[:, None], w[winner], own[:, None] * [0.0, 0.0, 1.0])
-        grad = np.where(dist[:, None] > 0, vector / np.maximum(dist, 1e-300)[:, None], [0.0, 0.0, 1.0])
-        grad[inside] *= -1.0
-        return np.where(inside, -dist, dist), grad
+def _nearest(xy, z, table, rows, own, r: float):
+    """Signed distance and gradient of points (xy (m, 2), z (m,)) over their own column (signed
+    vertical gap `own`) and the candidate columns of their `rows` of `table` (centres, tops)."""
+    centres, tops = table
+    lateral = xy[:, None, :] - centres[rows]
+    gap = np.abs(lateral)
+    gap -= 0.5 * r
+    np.maximum(gap, 0.0, out=gap)
+    side = np.where(own < 0.0, -1.0, 1.0)  # inside: distance to the air above the candidates
+    vertical = z[:, None] - tops[rows]
+    vertical *= side[:, None]
+    np.maximum(vertical, 0.0, out=vertical)
+    d2 = gap[..., 0] ** 2 + gap[..., 1] ** 2 + vertical ** 2
+    k = np.argmin(d2, axis=1)
+    m = np.arange(len(k))
+    best = d2[m, k]
+    better = best < own ** 2
+    dist = np.where(better, np.sqrt(best), np.abs(own))
+    vector = np.zeros((len(k), 3))  # p − q of the nearest point q (own column: straight up/down)
+    vector[:, :2] = np.copysign(gap[m, k], lateral[m, k]) * better[:, None]
+    vector[:, 2] = np.where(better, side * vertical[m, k], own)
+    grad = np.where(dist[:, None] > 0, vector / np.maximum(dist, 1e-300)[:, None], [0.0, 0.0, 1.0])
+    grad *= side[:, None]
+    return side * dist, grad
+
+
+def _candidate_table(height, mask, reach_cells: float, keep, origin, r: float):
+    """Per cell of the flat grid, the row (-1: none) of its candidates in a table (centres (rows, K,
+    2), tops (rows, K)) padded with columns 1e9 m away, and the smallest horizontal distance (m)
+    between the cell's square and a candidate's (inf: none); see `_candidate_pairs`."""
+    cells, candidates, gaps = _candidate_pairs(height, mask, reach_cells, keep)
+    clear = np.full(height.size, np.inf)
+    np.minimum.at(clear, cells, r * gaps)
+    order = np.argsort(cells, kind="stable")
+    cells, candidates = cells[order], candidates[order]
+    owners, first, counts = np.unique(cells, return_index=True, return_counts=True)
+    rows = np.full(height.size, -1, np.intp)
+    rows[owners] = np.arange(len(owners))
+    row = np.repeat(np.arange(len(owners)), counts)
+    slot = np.arange(len(cells)) - np.repeat(first, counts)
+    width = int(counts.max(initial=0))
+    centres = np.full((len(owners), width, 2), 1e9)
+    tops = np.zeros((len(owners), width))
+    iy, ix = np.divmod(candidates, height.shape[1])
+    centres[row, slot] = origin + r * np.column_stack([ix, iy])
+    tops[row, slot] = height.reshape(-1)[candidates]
+    return rows, (centres, tops), clear
 
 
 def _neighbour_masks(height: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -144,12 +163,13 @@ def _neighbour_masks(height: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _candidate_pairs(height: np.ndarray, mask: np.ndarray, reach_cells: float, keep):
-    """(cell, candidate) index pairs of the flat grid: candidates are `mask` cells whose square lies
-    within `reach_cells` cell sizes of the cell's square and whose height h_c passes keep(h_c, h_cell)
-    (the own cell is excluded: every query adds it)."""
+    """(cell, candidate) index pairs of the flat grid and the distance of their squares (in cells):
+    candidates are `mask` cells whose square lies within `reach_cells` cell sizes of the cell's
+    square and whose height h_c passes keep(h_c, h_cell) (the own cell is excluded: every query
+    adds it)."""
     ny, nx = mask.shape
     k = int(np.ceil(reach_cells)) + 1
-    cells, candidates = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)]
+    cells, candidates, gaps = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
     for dy in range(-k, k + 1):
         for dx in range(-k, k + 1):
             gap = np.hypot(max(abs(dx) - 1, 0), max(abs(dy) - 1, 0))
@@ -161,4 +181,5 @@ def _candidate_pairs(height: np.ndarray, mask: np.ndarray, reach_cells: float, k
             ok = keep(height[cy, cx], height[cy - dy, cx - dx])
             cells.append((cy[ok] - dy) * nx + (cx[ok] - dx))
             candidates.append(cy[ok] * nx + cx[ok])
-    return np.concatenate(cells), np.concatenate(candidates)
+            gaps.append(np.full(int(ok.sum()), gap))
+    return np.concatenate(cells), np.concatenate(candidates), np.concatenate(gaps)

@@ -79,7 +79,7 @@ def _clearance(validator, centres, stance, req: Requirements, path: bool) -> np.
     swing_foot = is_foot & ~on_stance
     required = np.where(swing_foot, req.foot_clearance, req.clearance)
     if path and req.relax_radius > 0:
-        ramp, _ = swing_foot_margin(nearest_end(centres, centres[[0, -1]])[0], radii, req.foot_clearance,
+        ramp, _ = swing_foot_margin(nearest_end(centres, centres[[0, -1]]), radii, req.foot_clearance,
                                     req.foot_slip, req.relax_radius)
         required = np.where(swing_foot, ramp, required)
     exempt = is_foot & on_stance
