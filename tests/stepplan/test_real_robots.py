@@ -18,10 +18,9 @@ def scene(tmp_path_factory):
     return box_scene(tmp_path_factory.mktemp("box"))
 
 
-def _plan_and_check(robot, terrain, q, stance_pair, footholds_pair, params=StepPlanParams(), distance=None):
+def _plan_and_check(robot, terrain, q, stance_pair, footholds_pair, params=StepPlanParams()):
     stance = motion_stance(*stance_pair, *footholds_pair)
-    distance = distance or terrain_distance(robot, terrain, params)
-    plan = plan_step(robot, distance, q[0], q[1], stance, footholds_pair[0], params)
+    plan = plan_step(robot, terrain_distance(robot, terrain, params), q[0], q[1], stance, footholds_pair[0], params)
     check = dense_check(robot, Validator(robot, terrain), plan.control_points, stance, footholds_pair[0],
                         1000, requirements(params))
     return plan, check
@@ -38,17 +37,6 @@ def test_quadruped_leg_swing_over_box(scene):
     line = dense_check(robot, Validator(robot, terrain), np.stack(robot.to_vector(q[1:])), [False, True, True, True],
                        footholds[1], 200, requirements(StepPlanParams()))
     assert line.shortfall_clearance > 0.005  # the straight line drives the foot into the box
-
-
-def test_quadruped_swing_over_box_with_the_trilinear_sdf_misses_the_clearance(scene):
-    """The old terrain lookup: the trilinear SDF reads the box edges farther than they are, so the
-    planner succeeds on its own samples while the dense re-check with the exact distance finds the
-    swing closer than the clearance; the exact column distance plans the same swing clear."""
-    robot, terrain, _, q, stance, footholds = scene
-    plan, check = _plan_and_check(robot, terrain, q[1:], stance[1:], footholds[1:], distance=terrain.sdf)
-    assert plan.success and check.shortfall_clearance > 1e-4
-    plan, check = _plan_and_check(robot, terrain, q[1:], stance[1:], footholds[1:])
-    assert plan.success and check.shortfall_clearance <= 0.0
 
 
 def test_step_whose_clearance_is_short_is_reported_failed(scene):

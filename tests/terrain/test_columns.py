@@ -70,17 +70,20 @@ def test_outside_the_grid_the_border_cells_continue():
 
 
 def test_sphere_passing_a_box_corner(scene):
-    """A sphere (radius 13 mm) swept around the pillar's top corner with exactly the 2 cm clearance
-    (centre 33 mm from the corner, 15 mm above the top): the trilinear SDF reads it more than 2 mm
-    further away, so a 2 cm constraint on it would pass a sphere up to 2 mm short; the column
-    distance reads the exact 33 mm."""
+    """A sphere (radius 13 mm) swept around the pillar's top corner 1 mm inside its 2 cm clearance
+    (centre 32 mm from the corner, 15 mm above the top). The clearance row of the old lookup, the
+    trilinear SDF, reads it clear along part of the sweep (> 1 mm too far there); the column
+    distance reads the exact 32 mm, so the row is short by 1 mm everywhere."""
     terrain, surface, columns = scene
-    corner, top, centre_distance, above = np.array([0.15, 0.17]), 0.03, 0.033, 0.015
+    corner, top, centre_distance, above = np.array([0.15, 0.17]), 0.03, 0.032, 0.015
+    radius, clearance = 0.013, 0.02
     angle = np.linspace(0.0, np.pi / 2, 61)
     rho = np.sqrt(centre_distance ** 2 - above ** 2)
     path = np.column_stack([corner + rho * np.column_stack([np.cos(angle), np.sin(angle)]),
                             np.full(len(angle), top + above)])
     exact = surface.fcl_distance(path)
     np.testing.assert_allclose(exact, centre_distance, atol=1e-9)
-    assert (terrain.sdf.values(path) - exact).max() > 2e-3  # the old lookup: > 2 mm of clearance that is not there
-    np.testing.assert_allclose(columns.values(path), exact, atol=1e-9)
+    old_row = clearance - (terrain.sdf.values(path) - radius)  # g <= 0: the constraint reads as kept
+    assert (old_row <= 0).any()  # the old lookup passes a sphere that is 1 mm short
+    new_row = clearance - (columns.values(path) - radius)
+    np.testing.assert_allclose(new_row, 1e-3, atol=1e-9)
