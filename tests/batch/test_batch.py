@@ -136,5 +136,9 @@ def test_dask_records_an_item_that_killed_two_workers_as_failed(tmp_path):
     records = run(tmp_path / "a", Backend(jobs=2, scheduler="local"), items=ITEMS[:4], task=crash)
     assert not records[2]["success"] and records[2]["reason"].startswith("worker died (KilledWorker")
     assert computed(tmp_path / "a" / "calls.log").count(2) == 2
-    assert_same_records([r for i, r in enumerate(records) if i != 2],
-                        [r for i, r in enumerate(run(tmp_path / "b", items=ITEMS[:4])) if i != 2])
+    # an innocent item queued on a worker that dies with it counts that death too (dask's
+    # allowed-failures rule), so it may also end "worker died"; every other item equals in-process
+    reference = run(tmp_path / "b", items=ITEMS[:4])
+    kept = [i for i, r in enumerate(records) if i != 2 and not r["reason"].startswith("worker died")]
+    assert kept  # at least one innocent item ran on the surviving worker
+    assert_same_records([records[i] for i in kept], [reference[i] for i in kept])
