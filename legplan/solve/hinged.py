@@ -84,6 +84,7 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
     timings.evaluate += time.perf_counter() - t0
     norm = initial = hinged_norm(v, hinged)
     model, pattern = None, None
+    initial_gradient = None
     for it in range(params.max_iterations + 1):
         if not np.isfinite(norm) or not np.all(np.isfinite(J.data)):
             return finish(Status.NUMERICAL_FAILURE, "residual or Jacobian not finite at the current point", it, norm)
@@ -91,7 +92,8 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
             return finish(Status.CONVERGED, f"‖h‖ = {norm:.3e} < tolerance = {params.tolerance:.1e}", it, norm)
         h = np.where(hinged, np.maximum(v, 0.0), v)
         gradient = float(np.abs(J.T @ h).max(initial=0.0))  # inactive hinged rows contribute nothing
-        initial_gradient = gradient if it == 0 else initial_gradient
+        if initial_gradient is None:
+            initial_gradient = gradient
         if gradient <= params.gradient_tolerance * initial_gradient:
             return finish(Status.CONVERGED, f"stationary: ‖Jᵀh‖∞ = {gradient:.1e} ≤ gradient_tolerance × its "
                           f"initial value; ‖h‖ = {norm:.3e}", it, norm)
