@@ -13,19 +13,18 @@ def render_nav(grid: NavGrid, queries: list[dict], path: str | os.PathLike, dpi:
                arrows: int = 25) -> None:
     """Draw `queries` (from `legplan.nav.artefact.read_queries`) over `grid`'s costmap (PNG)."""
     import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     ny, nx = grid.shape
     width = 7.0
-    figure, axes = plt.subplots(figsize=(width, width * ny / nx + 0.6))
+    figure = Figure(figsize=(width, width * ny / nx + 0.6))
+    axes = figure.subplots()
     cost = np.ma.masked_where(grid.costmap <= 0, grid.costmap)
     axes.imshow(cost, origin="lower", extent=grid.extent, cmap="Oranges", alpha=0.8,
                 interpolation="nearest")
     axes.imshow(np.ma.masked_where(~grid.lethal, grid.lethal), origin="lower", extent=grid.extent,
                 cmap="Greys", vmin=0, vmax=1, interpolation="nearest")
-    colours = plt.rcParams["axes.prop_cycle"].by_key()["color"]
+    colours = matplotlib.rcParams["axes.prop_cycle"].by_key()["color"]
     for number, query in enumerate(queries):
         colour = colours[number % len(colours)]
         start, goal = np.asarray(query["start"]), np.asarray(query["goal"])
@@ -53,4 +52,3 @@ def render_nav(grid: NavGrid, queries: list[dict], path: str | os.PathLike, dpi:
         axes.legend(loc="upper left", fontsize=7, framealpha=0.8)
     figure.tight_layout()
     figure.savefig(path, dpi=dpi)
-    plt.close(figure)

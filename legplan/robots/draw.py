@@ -1,7 +1,7 @@
 """A picture of a robot in one configuration: 3D view, side view (x-z) and top view (x-y).
 
 Legs are drawn as polylines through their joint origins to the foot; collision spheres as circles
-(body grey, legs coloured per leg, foot spheres black). matplotlib with the Agg backend.
+(body grey, legs coloured per leg, foot spheres black). matplotlib `Figure` (no pyplot state).
 """
 
 from __future__ import annotations
@@ -27,10 +27,8 @@ def leg_polylines(robot, q) -> list[np.ndarray]:
 def draw_robot(robot, q, path: str | Path, title: str | None = None) -> Path:
     """Write a PNG of `robot` in configuration q (nq,) to `path`."""
     import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
     from matplotlib.colors import to_rgba
+    from matplotlib.figure import Figure
     from matplotlib.patches import Circle
 
     q = np.asarray(q, float)
@@ -41,14 +39,14 @@ def draw_robot(robot, q, path: str | Path, title: str | None = None) -> Path:
     body = hips[np.append(order, order[0])]                  # outline through the first joints
     centres = robot.sphere_centres(q)[0]
     spheres = robot.spheres
-    colours = plt.get_cmap("tab10")(np.arange(len(robot.legs)) % 10)
+    colours = matplotlib.colormaps["tab10"](np.arange(len(robot.legs)) % 10)
 
     def colour(k):
         if spheres.is_foot[k]:
             return to_rgba("black")
         return to_rgba("grey") if spheres.leg_index[k] < 0 else colours[spheres.leg_index[k]]
 
-    fig = plt.figure(figsize=(13, 4.5))
+    fig = Figure(figsize=(13, 4.5))
     ax3 = fig.add_subplot(1, 3, 1, projection="3d")
     for k, line in enumerate(lines):
         ax3.plot(*line.T, "-o", color=colours[k], ms=3, label=robot.legs[k].name)
@@ -77,5 +75,4 @@ def draw_robot(robot, q, path: str | Path, title: str | None = None) -> Path:
     fig.tight_layout()
     path = Path(path)
     fig.savefig(path, dpi=110)
-    plt.close(fig)
     return path

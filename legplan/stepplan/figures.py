@@ -25,13 +25,10 @@ def motion_tracks(robot, records, samples: int = 60):
 
 def plot_motion(path, robot, terrain, records) -> None:
     """Write a PNG: side view (x–z) of the terrain profile under the tracks, and Fig. 4 histograms."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    from matplotlib.figure import Figure
 
     feet, com = motion_tracks(robot, records)
-    fig = plt.figure(figsize=(11, 7.5))
+    fig = Figure(figsize=(11, 7.5))
     grid = fig.add_gridspec(2, 2, height_ratios=(1.3, 1.0))
     side = fig.add_subplot(grid[0, :])
     height = np.asarray(terrain.height)
@@ -76,4 +73,3 @@ def plot_motion(path, robot, terrain, records) -> None:
         ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=120)
-    plt.close(fig)

@@ -1,23 +1,22 @@
 """Top view of a step sequence over its map: heightmap, foothold mask, footholds per leg, support
-polygons and the CoM track (matplotlib, Agg backend, written to a PNG)."""
+polygons and the CoM track (matplotlib `Figure`, no pyplot state, written to a PNG)."""
 
 from __future__ import annotations
 
 import matplotlib
+import numpy as np
+from matplotlib.figure import Figure
+from matplotlib.patches import Polygon
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Polygon  # noqa: E402
-
-from legplan.geometry.polygon import support_polygon  # noqa: E402
+from legplan.geometry.polygon import support_polygon
 
 
 def plot_steps(seq, com: np.ndarray, terrain, path, *, title: str | None = None) -> None:
     """Write the top view of `seq` (StepSequence) with CoM positions `com` (k, 3) to `path`."""
     height = np.asarray(terrain.height)
     extent = terrain.grid.extent
-    fig, ax = plt.subplots(figsize=(10, 10 * (extent[3] - extent[2]) / max(extent[1] - extent[0], 1e-9) + 1))
+    fig = Figure(figsize=(10, 10 * (extent[3] - extent[2]) / max(extent[1] - extent[0], 1e-9) + 1))
+    ax = fig.subplots()
     image = ax.imshow(height, origin="lower", extent=extent, cmap="gray", interpolation="nearest")
     fig.colorbar(image, ax=ax, label="terrain height [m]", shrink=0.7)
     mask = np.ma.masked_where(~np.asarray(terrain.foothold, bool), np.ones_like(height))
@@ -32,7 +31,7 @@ def plot_steps(seq, com: np.ndarray, terrain, path, *, title: str | None = None)
                 continue
             ax.add_patch(Polygon(poly.vertices, closed=True, fill=False, lw=0.6, alpha=0.35,
                                  color="tab:blue"))
-    colors = plt.get_cmap("tab10")
+    colors = matplotlib.colormaps["tab10"]
     for j, leg in enumerate(seq.leg_names):
         pts = seq.footholds[seq.stance[:, j], j]
         pts = np.unique(np.round(pts, 6), axis=0)
@@ -52,4 +51,3 @@ def plot_steps(seq, com: np.ndarray, terrain, path, *, title: str | None = None)
     ax.legend(loc="upper right", fontsize=8, ncol=2)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-    plt.close(fig)

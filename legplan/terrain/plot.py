@@ -30,25 +30,24 @@ def _add_scale_bar(axes, width: float) -> None:
 def render_map(terrain: TerrainMap, path: str | os.PathLike, dpi: int = 120) -> None:
     """Write a PNG with three panels: heightmap (hill-shaded), foothold mask, costmap."""
     import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    from matplotlib.colors import LightSource
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import LightSource, Normalize
+    from matplotlib.figure import Figure
 
     extent = terrain.grid.extent
     width, depth = extent[1] - extent[0], extent[3] - extent[2]
     aspect = depth / width
-    figure, axes = plt.subplots(1, 3, figsize=(15, max(3.0, 4.6 * aspect + 0.8)),
-                                constrained_layout=True)
+    figure = Figure(figsize=(15, max(3.0, 4.6 * aspect + 0.8)), layout="constrained")
+    axes = figure.subplots(1, 3)
     height = terrain.height
     low, high = float(height.min()), float(height.max())
     shade = LightSource(azdeg=315, altdeg=45)
-    cmap = plt.get_cmap("viridis")
-    norm = matplotlib.colors.Normalize(low, high if high > low else low + 1e-3)
+    cmap = matplotlib.colormaps["viridis"]
+    norm = Normalize(low, high if high > low else low + 1e-3)
     rgb = shade.shade(height, cmap=cmap, norm=norm, blend_mode="soft",
                       vert_exag=1.0 / terrain.grid.resolution * 0.2)
     axes[0].imshow(rgb, origin="lower", extent=extent)
-    figure.colorbar(matplotlib.cm.ScalarMappable(norm=norm, cmap=cmap), ax=axes[0], label="height [m]",
+    figure.colorbar(ScalarMappable(norm=norm, cmap=cmap), ax=axes[0], label="height [m]",
                     shrink=0.8)
     axes[0].set_title(f"{terrain.name or 'terrain'}: height")
     axes[1].imshow(height, origin="lower", extent=extent, cmap="Greys_r", norm=norm, alpha=0.6)
@@ -65,4 +64,3 @@ def render_map(terrain: TerrainMap, path: str | os.PathLike, dpi: int = 120) -> 
         ax.set_ylabel("y [m]")
         _add_scale_bar(ax, width)
     figure.savefig(path, dpi=dpi)
-    plt.close(figure)
