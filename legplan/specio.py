@@ -1,8 +1,11 @@
 """Reading input files (map specs, robot specs, pipeline files, task tables) with one-line errors:
-`read_yaml_mapping` for a YAML file, `FieldReader` for typed fields that name the file and field."""
+`read_text` (bytes -> UTF-8 text, the one decoding reader of every text input), `read_yaml` /
+`read_yaml_mapping` for a YAML file, `read_csv_table` for a CSV table, `parse_number` for a number
+given as text, `FieldReader` for typed fields that name the file and field."""
 
 from __future__ import annotations
 
+import csv
 import os
 from pathlib import Path
 
@@ -12,22 +15,77 @@ import yaml
 from legplan.errors import SpecError
 
 
-def read_yaml_mapping(path: str | os.PathLike, what: str = "spec") -> dict:
-    """The YAML mapping in `path`, or a `SpecError` naming the file (and line, for syntax errors)."""
+def read_text(path: str | os.PathLike, what: str = "file") -> str:
+    """The UTF-8 text of `path` (universal newlines), or a one-line `SpecError` naming the file:
+    missing or unreadable, not UTF-8 (binary garbage), or holding NUL bytes. Every reader of a
+    YAML, CSV, JSON or text-map input goes through here."""
     path = Path(path)
     try:
-        text = path.read_text()
+        data = path.read_bytes()
     except OSError as exc:
         raise SpecError(f"{path}: cannot read {what} ({exc.strerror or exc})") from exc
     try:
-        data = yaml.safe_load(text)
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise SpecError(f"{path}: not UTF-8 text (byte {exc.start}); expected a {what}") from None
+    if "\0" in text:
+        raise SpecError(f"{path}: not a text file (NUL byte at {text.index(chr(0))}); expected a {what}")
+    return text.replace("\r\n", "\n").replace("\r", "\n")
+
+
+def parse_number(text: str, where: str) -> float:
+    """A finite float from command-line or file text, or a `SpecError` "WHERE: expected a finite
+    number, got 'TEXT'" (NaN and inf are refused like malformed text)."""
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        value = float("nan")
+    if not np.isfinite(value):
+        raise SpecError(f"{where}: expected a finite number, got {text!r}")
+    return value
+
+
+def read_yaml(path: str | os.PathLike, what: str = "spec"):
+    """The YAML document in `path` (any type), or a `SpecError` naming the file (and line)."""
+    text = read_text(path, what)
+    try:
+        return yaml.safe_load(text)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}" if mark is not None else ""
-        raise SpecError(f"{path}: invalid YAML{where}") from exc
+        raise SpecError(f"{path}: invalid YAML{where}") from None
+    except (ValueError, RecursionError) as exc:  # e.g. an out-of-range timestamp, absurd nesting
+        raise SpecError(f"{path}: invalid YAML ({type(exc).__name__})") from None
+
+
+def read_yaml_mapping(path: str | os.PathLike, what: str = "spec") -> dict:
+    """The YAML mapping in `path`, or a `SpecError` naming the file (and line, for syntax errors)."""
+    data = read_yaml(path, what)
     if not isinstance(data, dict):
         raise SpecError(f"{path}: {what} must be a YAML mapping")
     return data
+
+
+def read_csv_table(path: str | os.PathLike, what: str = "CSV file") -> tuple[list[str], list[list[str]]]:
+    """The header (stripped names) and data rows of a CSV file; blank lines and lines starting with
+    '#' are skipped. One-line `SpecError`s: not text, no header, a duplicate column, a row whose
+    field count differs from the header's (rows are 0-based, after the header)."""
+    lines = [line for line in read_text(path, what).split("\n")
+             if line.strip() and not line.lstrip().startswith("#")]
+    try:
+        table = list(csv.reader(lines))
+    except csv.Error as exc:
+        raise SpecError(f"{path}: not a valid {what} ({exc})") from None
+    if not table:
+        raise SpecError(f"{path}: empty {what} (a header row is required)")
+    header = [name.strip() for name in table[0]]
+    repeated = [name for i, name in enumerate(header) if name in header[:i]]
+    if repeated:
+        raise SpecError(f"{path}: duplicate column '{repeated[0]}'")
+    for i, row in enumerate(table[1:]):
+        if len(row) != len(header):
+            raise SpecError(f"{path}: row {i}: has {len(row)} fields, the header has {len(header)}")
+    return header, table[1:]
 
 
 class FieldReader:

@@ -15,7 +15,7 @@ import click
 from legplan.baselines.names import CONSTRAINED_SPACES, NAV_PLANNERS
 from legplan.cli.main import EXIT_ITEMS_FAILED
 from legplan.cli.nav_options import query_opts, resolve_queries, robot_navigation
-from legplan.cli.options import batch_opts, input_artefact, output_opt, overwrite_opt, seed_opt, verbosity_opts
+from legplan.cli.options import batch_opts, input_artefact, number, output_opt, overwrite_opt, seed_opt, verbosity_opts
 
 
 @click.group("baseline")
@@ -30,7 +30,7 @@ def command():
               help="Robot whose navigation limits and inscribed radius are used.")
 @query_opts("; used by the control planners")
 @click.option("--planner", type=click.Choice(NAV_PLANNERS), default="rrtconnect", show_default=True)
-@click.option("--time-budget", type=click.FloatRange(min=0, min_open=True), default=1.0, show_default=True,
+@click.option("--time-budget", type=number(min=0, min_open=True), default=1.0, show_default=True,
               help="Seconds of OMPL solve() per query.")
 @seed_opt
 @output_opt
@@ -54,12 +54,13 @@ def nav_cmd(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path
     from legplan.nav.items import query_items
 
     check_output(output, overwrite)
-    queries, query_files = resolve_queries("baseline nav", start, start_vel, goal, goal_vel, queries_path)
     navigation = robot_navigation(robot)
+    grid = NavGrid.from_map(map_path, lethal_radius=navigation.inscribed_radius)  # bad map: exit 2
+    queries, query_files = resolve_queries("baseline nav", start, start_vel, goal, goal_vel, queries_path,
+                                           grid)
     limits = NavParams.for_robot(navigation)
     params = NavBaselineParams(planner=planner, time_budget=time_budget, seed=seed, v_max=limits.v_max,
                                a_max=limits.a_max)
-    NavGrid.from_map(map_path, lethal_radius=navigation.inscribed_radius)  # a bad map: exit 2 before any work
     task = Task(baseline_item, functools.partial(failed_baseline, params), NavBaselineWorker,
                 (os.path.abspath(map_path), navigation.inscribed_radius, params))
     inputs = [map_path, *query_files]
@@ -86,7 +87,7 @@ def nav_cmd(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path
 @click.argument("map_path", metavar="MAP", type=input_artefact)
 @click.argument("steps_path", metavar="STEPS", type=input_artefact)
 @click.option("--steps", "step_range", default=None, help="Pairs to plan, 'a:b' (python slice) or 'i'.")
-@click.option("--time-budget", type=click.FloatRange(min=0, min_open=True), default=10.0, show_default=True,
+@click.option("--time-budget", type=number(min=0, min_open=True), default=10.0, show_default=True,
               help="Seconds of OMPL solve() per step.")
 @click.option("--space", type=click.Choice(CONSTRAINED_SPACES), default="atlas", show_default=True,
               help="OMPL constrained state space.")

@@ -15,10 +15,10 @@ import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import batch_opts, input_artefact, output_opt, overwrite_opt, verbosity_opts
+from legplan.cli.options import batch_opts, input_artefact, number, output_opt, overwrite_opt, verbosity_opts
 from legplan.errors import LegplanError
 
-POSE = (float, float, float)
+POSE = (number(), number(), number())
 
 
 @click.group("dyn")
@@ -31,8 +31,8 @@ def command():
 @click.argument("map_path", metavar="MAP", type=input_artefact)
 @click.option("--robot", default="anymal", show_default=True, help="Robot with a `centroidal:` section.")
 @click.option("--gait", default=None, help="walk or trot [default: trot]; a tasks file's default.")
-@click.option("--strides", type=int, default=None, help="Strides, >= 1 [default: 4]; a tasks file's default.")
-@click.option("--duration", type=float, default=None, help="Total duration (s) [default: 2.4]; a tasks file's default.")
+@click.option("--strides", type=click.IntRange(min=1), default=None, help="Strides, >= 1 [default: 4]; a tasks file's default.")
+@click.option("--duration", type=number(min=0, min_open=True), default=None, help="Total duration (s) [default: 2.4]; a tasks file's default.")
 @click.option("--start", type=POSE, default=None, metavar="X Y YAW", help="Start base pose (m, m, rad).")
 @click.option("--goal", type=POSE, default=None, metavar="X Y YAW", help="Goal base pose (m, m, rad).")
 @click.option("--tasks", "tasks_path", type=click.Path(dir_okay=False), default=None,

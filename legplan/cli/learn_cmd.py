@@ -13,7 +13,7 @@ import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import batch_opts, input_artefact, output_opt, overwrite_opt, seed_opt, verbosity_opts
+from legplan.cli.options import batch_opts, input_artefact, number, output_opt, overwrite_opt, seed_opt, verbosity_opts
 from legplan.errors import LegplanError
 
 
@@ -108,7 +108,7 @@ def _hidden(ctx, param, value):
               help="Hidden layer sizes (2 or 3 layers).")
 @click.option("--weights", "weights_path", type=click.Path(dir_okay=False), default=None,
               help="YAML of W per category (base_lin, base_ang, feet, forces; > 0), eq. (3).")
-@click.option("--validation", type=click.FloatRange(0.0, 0.5), default=0.2, show_default=True,
+@click.option("--validation", type=number(0.0, 0.5), default=0.2, show_default=True,
               help="Fraction of the filtered tasks held out for validation.")
 @seed_opt
 @output_opt

@@ -37,6 +37,22 @@ def _raise_terminated(signum, frame):
     raise Terminated
 
 
+class OneLineUsageError(click.ClickException):
+    """A click usage error (bad option value, unknown option or command) shown as one line naming
+    the command and the option, instead of click's usage, hint and message on four lines."""
+
+    exit_code = EXIT_BAD_INPUT
+
+    @classmethod
+    def of(cls, error: click.UsageError, ctx: click.Context | None) -> OneLineUsageError:
+        context = error.ctx or ctx
+        where = f"{context.command_path}: " if context is not None else ""
+        return cls(f"{where}{error.format_message()}")
+
+    def show(self, file=None) -> None:
+        stderr_line(self.format_message(), "Error:")
+
+
 class LegplanGroup(click.Group):
     """Turns `LegplanError` (and OS errors on inputs) into a one-line message and exit code 2, and
     SIGINT / SIGTERM into exit 130 / 143 after cleanup."""
@@ -44,17 +60,26 @@ class LegplanGroup(click.Group):
     def make_context(self, info_name, args, parent=None, **extra):
         if parent is None:
             set_verbosity(0)  # each invocation starts at the default; -v/-q callbacks adjust it
-        return super().make_context(info_name, args, parent=parent, **extra)
+        try:
+            return super().make_context(info_name, args, parent=parent, **extra)
+        except click.exceptions.NoArgsIsHelpError:
+            raise
+        except click.UsageError as exc:
+            raise OneLineUsageError.of(exc, None) from exc
 
     def invoke(self, ctx: click.Context):
         main = threading.current_thread() is threading.main_thread()
         previous = signal.signal(signal.SIGTERM, _raise_terminated) if main else None
         try:
             return super().invoke(ctx)
+        except click.exceptions.NoArgsIsHelpError:
+            raise
+        except click.UsageError as exc:
+            raise OneLineUsageError.of(exc, ctx) from exc
         except (LegplanError, OSError) as exc:
             if verbosity() > 0:
                 traceback.print_exc(file=sys.stderr)
-            stderr_line(str(exc), "Error:")
+            stderr_line(" ".join(str(exc).split()), "Error:")
             ctx.exit(EXIT_BAD_INPUT)
         except (KeyboardInterrupt, Terminated) as exc:
             stderr_line("stopped; nothing published", "Interrupted:")

@@ -4,7 +4,9 @@ from __future__ import annotations
 
 import click
 
-PAIR = (float, float)
+from legplan.cli.options import number
+
+PAIR = (number(), number())
 
 
 def query_opts(velocity_help: str):
@@ -17,8 +19,9 @@ def query_opts(velocity_help: str):
         click.option("--goal-vel", type=PAIR, default=(0.0, 0.0), show_default=True,
                      metavar="VX VY", help=f"Goal velocity (m/s, world frame){velocity_help}."),
         click.option("--queries", "queries_path", type=click.Path(dir_okay=False),
-                     help="CSV of queries: start_x,start_y,start_vx,start_vy,goal_x,goal_y,goal_vx,"
-                          "goal_vy (instead of --start/--goal)."),
+                     help="Queries instead of --start/--goal: a CSV (start_x,start_y,start_vx,start_vy,"
+                          "goal_x,goal_y,goal_vx,goal_vy) or a MovingAI .scen of the map (row y "
+                          "counted from the top: legplan.nav.queries)."),
     )
 
     def decorate(func):
@@ -29,19 +32,20 @@ def query_opts(velocity_help: str):
     return decorate
 
 
-def resolve_queries(command: str, start, start_vel, goal, goal_vel, queries_path):
-    """The (n, 8) query array of the options above, and the input files it came from."""
+def resolve_queries(command: str, start, start_vel, goal, goal_vel, queries_path, grid=None):
+    """The (n, 8) query array of the options above, and the input files it came from; a `.scen`
+    file is read on `grid` (the map's `NavGrid`)."""
     import numpy as np
 
     from legplan.errors import LegplanError
-    from legplan.nav.queries import read_queries_csv
+    from legplan.nav.queries import read_queries
 
     if queries_path is not None and (start is not None or goal is not None):
         raise LegplanError(f"{command}: give either --queries or --start/--goal, not both")
     if queries_path is None and (start is None or goal is None):
         raise LegplanError(f"{command}: --start and --goal are required (or --queries FILE)")
     if queries_path is not None:
-        return read_queries_csv(queries_path), [queries_path]
+        return read_queries(queries_path, grid), [queries_path]
     return np.array([[*start, *start_vel, *goal, *goal_vel]]), []
 
 

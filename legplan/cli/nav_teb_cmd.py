@@ -9,7 +9,7 @@ import click
 
 from legplan.cli.console import progress_bar, status
 from legplan.cli.nav_options import robot_navigation
-from legplan.cli.options import input_artefact, output_opt, overwrite_opt, verbosity_opts
+from legplan.cli.options import input_artefact, number, output_opt, overwrite_opt, verbosity_opts
 
 robot_opt = click.option("--robot", default="jueying_mini", show_default=True,
                          help="Robot name or robot.yaml path (its navigation limits, Table I).")
@@ -108,8 +108,8 @@ def _summary(write_summary, handle, count, rows):
               help="YAML with `obstacles: [map primitives]` missing from the initial map; sensed in range.")
 @click.option("--planner", type=click.Choice(["kinoastar", "astar"]), default="kinoastar", show_default=True,
               help="Global planner (astar: grid A* waypoints, the Table II baseline).")
-@click.option("--sensing-radius", type=float, default=4.0, show_default=True, help="m.")
-@click.option("--max-time", type=float, default=300.0, show_default=True, help="Simulated seconds.")
+@click.option("--sensing-radius", type=number(min=0, min_open=True), default=4.0, show_default=True, help="m.")
+@click.option("--max-time", type=number(min=0, min_open=True), default=300.0, show_default=True, help="Simulated seconds.")
 @click.option("--warm-start/--cold-start", default=True, show_default=True,
               help="Warm-start each cycle's band from the previous one, or re-initialize it every cycle.")
 @rounds_opt

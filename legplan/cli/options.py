@@ -3,13 +3,38 @@
 Use them as decorators so every command spells the same option the same way:
 `@output_opt @overwrite_opt @jobs_opt @seed_opt @verbosity_opts`; a many-item stage takes
 `@batch_opts` (`--jobs`, `--scheduler`, `--resume`, see `legplan.cli.batching`).
+
+Every numeric option takes `number(...)` (a finite float, optionally in a range) or a
+`click.IntRange`, never a bare `float`: NaN and inf are refused on the command line (exit 2, one line
+naming the option) before any work starts. `tests/cli/test_bad_input_options.py` checks every
+command's options for it.
 """
 
 from __future__ import annotations
 
+import math
+
 import click
 
 from legplan.cli.console import set_verbosity, verbosity
+
+
+class FiniteFloat(click.FloatRange):
+    """A float option value that must be finite (no nan, inf) and within the optional bounds."""
+
+    name = "finite float"
+
+    def convert(self, value, param, ctx):
+        number = super().convert(value, param, ctx)
+        if not math.isfinite(number):
+            self.fail(f"{value!r} is not a finite number", param, ctx)
+        return number
+
+
+def number(min: float | None = None, max: float | None = None, *, min_open: bool = False,
+           max_open: bool = False) -> FiniteFloat:
+    """The type of a numeric option: finite, and within [min, max] (open ends with `*_open`)."""
+    return FiniteFloat(min=min, max=max, min_open=min_open, max_open=max_open)
 
 
 def _set_verbose(ctx, param, value):

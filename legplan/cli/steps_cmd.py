@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from legplan.cli.console import progress_bar, status, stderr_line
-from legplan.cli.options import input_artefact, output_opt, overwrite_opt, seed_opt, verbosity_opts
+from legplan.cli.options import input_artefact, number, output_opt, overwrite_opt, seed_opt, verbosity_opts
 
 
 @click.group("steps")
@@ -29,7 +29,7 @@ def _load(robot_name, map_path):
 @click.option("--robot", "robot_name", required=True, help="Robot name (e.g. scarab2) or robot.yaml path.")
 @click.option("--map", "map_path", required=True, type=input_artefact, help="map.h5 of the terrain.")
 @click.option("--strict", is_flag=True, help="Treat warnings as errors.")
-@click.option("--foot-tolerance", type=float, default=1e-3, show_default=True,
+@click.option("--foot-tolerance", type=number(min=0, min_open=True), default=1e-3, show_default=True,
               help="Largest stance-foot distance to the terrain / its foothold [m].")
 @output_opt
 @overwrite_opt
@@ -63,8 +63,8 @@ def import_cmd(path, robot_name, map_path, strict, foot_tolerance, output, overw
 @command.command("generate")
 @click.argument("map_path", type=input_artefact)
 @click.option("--robot", "robot_name", required=True, help="Robot name (e.g. scarab2) or robot.yaml path.")
-@click.option("--start", nargs=3, type=float, required=True, metavar="X Y YAW", help="Start body pose.")
-@click.option("--goal", nargs=3, type=float, required=True, metavar="X Y YAW", help="Goal body pose.")
+@click.option("--start", nargs=3, type=number(), required=True, metavar="X Y YAW", help="Start body pose.")
+@click.option("--goal", nargs=3, type=number(), required=True, metavar="X Y YAW", help="Goal body pose.")
 @click.option("--max-moves", type=click.IntRange(min=1), default=200, show_default=True)
 @output_opt
 @overwrite_opt

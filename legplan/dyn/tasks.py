@@ -21,7 +21,6 @@ the file, the row (0-based) and the field:
 
 from __future__ import annotations
 
-import csv
 import os
 from dataclasses import replace
 from pathlib import Path
@@ -32,7 +31,7 @@ from legplan.dyn.gait import GAITS
 from legplan.dyn.problem import DynTask
 from legplan.dyn.terrain import TerrainModel
 from legplan.errors import LegplanError, SpecError
-from legplan.specio import FieldReader
+from legplan.specio import FieldReader, read_csv_table, read_yaml
 
 POSE_FIELDS = ("start_x", "start_y", "start_yaw", "goal_x", "goal_y", "goal_yaw")
 OPTIONAL_FIELDS = ("gait", "strides", "duration")
@@ -77,26 +76,8 @@ def read_tasks(path: str | os.PathLike, gait=None, strides=None, duration=None) 
 
 
 def _csv_rows(path: Path) -> list[dict]:
-    try:
-        with path.open(newline="") as handle:
-            lines = [line for line in handle if line.strip() and not line.lstrip().startswith("#")]
-    except UnicodeDecodeError:
-        raise SpecError(f"{path}: not a text CSV file") from None
-    except OSError as exc:
-        raise SpecError(f"{path}: cannot read tasks file ({exc.strerror or exc})") from None
-    table = list(csv.reader(lines))
-    if not table:
-        return []
-    header = [name.strip() for name in table[0]]
-    repeated = sorted({name for name in header if header.count(name) > 1})
-    if repeated:
-        raise SpecError(f"{path}: duplicate column '{repeated[0]}'")
-    rows = []
-    for i, cells in enumerate(table[1:]):
-        if len(cells) != len(header):
-            raise SpecError(f"{path}: row {i}: has {len(cells)} fields, the header has {len(header)}")
-        rows.append({name: _cell(text) for name, text in zip(header, cells) if text.strip()})
-    return rows
+    header, table = read_csv_table(path, "tasks file")
+    return [{name: _cell(text) for name, text in zip(header, cells) if text.strip()} for cells in table]
 
 
 def _cell(text: str):
@@ -111,17 +92,7 @@ def _cell(text: str):
 
 
 def _yaml_rows(path: Path) -> list[dict]:
-    import yaml
-
-    try:
-        data = yaml.safe_load(path.read_text())
-    except UnicodeDecodeError:
-        raise SpecError(f"{path}: not a text YAML file") from None
-    except OSError as exc:
-        raise SpecError(f"{path}: cannot read tasks file ({exc.strerror or exc})") from None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        raise SpecError(f"{path}: invalid YAML" + (f" at line {mark.line + 1}" if mark else "")) from None
+    data = read_yaml(path, "tasks file")
     if isinstance(data, dict):
         FieldReader(path).unknown(data, ("tasks",))
         data = data.get("tasks")

@@ -30,9 +30,8 @@ import re
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import yaml
-
 from legplan.errors import SpecError
+from legplan.specio import read_yaml
 
 _PLACEHOLDER = re.compile(r"\{([^{}]+)\}")
 _STAGE_REF = re.compile(r"stages\.([^.{}]+)\.output")
@@ -93,12 +92,7 @@ class Pipeline:
 def load_pipeline(path: str | os.PathLike) -> Pipeline:
     """Read and validate a pipeline file; `SpecError` naming the file and field on any problem."""
     path = Path(path)
-    try:
-        data = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise SpecError(f"{path}: cannot read pipeline file ({exc.strerror or exc})") from exc
-    except yaml.YAMLError as exc:
-        raise SpecError(f"{path}: invalid YAML ({' '.join(str(exc).split())})") from exc
+    data = read_yaml(path, "pipeline file")
     if not isinstance(data, dict):
         raise SpecError(f"{path}: expected a mapping with field 'stages'")
     unknown = sorted(set(data) - _TOP_KEYS)

@@ -24,6 +24,7 @@ import numpy as np
 import yaml
 
 from legplan.errors import SpecError
+from legplan.specio import read_csv_table, read_text
 
 FORMATS = {".csv": "csv", ".json": "json", ".yaml": "yaml", ".yml": "yaml", ".h5": "hdf5",
            ".hdf5": "hdf5"}
@@ -48,10 +49,10 @@ def read_records(path) -> list[dict]:
         return _read_csv(path)
     if fmt == "hdf5":
         return _read_hdf5(path)
-    text = path.read_text()
+    text = read_text(path, f"{fmt.upper()} step-sequence file")
     try:
         data = json.loads(text) if fmt == "json" else yaml.safe_load(text)
-    except (json.JSONDecodeError, yaml.YAMLError) as exc:
+    except (json.JSONDecodeError, yaml.YAMLError, ValueError, RecursionError) as exc:
         raise SpecError(f"{path}: not valid {fmt.upper()} ({exc})".replace("\n", " ")) from None
     if isinstance(data, dict):
         if "configurations" not in data:
@@ -79,17 +80,8 @@ def _flatten_footholds(path, row: int, record: dict) -> dict:
 
 
 def _read_csv(path: Path) -> list[dict]:
-    with path.open(newline="") as handle:
-        rows = [row for row in csv.reader(handle) if row and not row[0].lstrip().startswith("#")]
-    if not rows:
-        raise SpecError(f"{path}: empty file (a header row is required)")
-    header = [h.strip() for h in rows[0]]
-    records = []
-    for i, row in enumerate(rows[1:]):
-        if len(row) != len(header):
-            raise SpecError(f"{path}: row {i}: has {len(row)} fields, the header has {len(header)}")
-        records.append({h: v.strip() for h, v in zip(header, row, strict=True) if v.strip() != ""})
-    return records
+    header, rows = read_csv_table(path, "CSV step-sequence file")
+    return [{h: v.strip() for h, v in zip(header, row, strict=True) if v.strip() != ""} for row in rows]
 
 
 def _read_hdf5(path: Path) -> list[dict]:

@@ -25,7 +25,7 @@ import numpy as np
 from legplan.errors import SpecError
 from legplan.terrain.grid import Grid2D
 from legplan.terrain.primitives import Fields
-from legplan.specio import read_yaml_mapping
+from legplan.specio import read_text, read_yaml_mapping
 from legplan.terrain.terrain_map import TerrainMap, check_memory, terrain_from_heightmap
 
 PASSABLE = frozenset(".GS")
@@ -124,7 +124,7 @@ def import_movingai(map_path: str | os.PathLike, resolution: float, origin=(0.0,
     path = Path(map_path)
     if not path.is_file():
         raise SpecError(f"{path}: no such map file")
-    lines = path.read_text().splitlines()
+    lines = read_text(path, "MovingAI map").splitlines()
     header = {}
     index = 0
     while index < len(lines) and lines[index].strip() != "map":

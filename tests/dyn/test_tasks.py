@@ -74,7 +74,7 @@ def test_bad_csv_rows_name_the_row_and_field(tmp_path, text, message):
     ("tasks.yaml", "jobs: []\n", "field 'jobs' is unknown"),
     ("tasks.yaml", "tasks: [{start_x: 0}\n", "invalid YAML"),
     ("tasks.txt", "", "unknown tasks file format '.txt'"),
-    ("tasks.csv", b"\xff\xfe\x00garbage", "not a text CSV file"),
+    ("tasks.csv", b"\xff\xfe\x00garbage", "not UTF-8 text"),
 ])
 def test_bad_tasks_files(tmp_path, name, content, message):
     path = tmp_path / name
