@@ -52,6 +52,7 @@ import numpy as np
 from common import ROOT, load_average, machine, update_benchmarks, write_result
 
 from legplan.nav import PLANNERS, NavGrid, NavParams
+from legplan.nav.queries import read_scen
 from legplan.robots import load_robot
 from legplan.terrain import build_map
 from legplan.terrain.importers import import_movingai, import_ros
@@ -181,18 +182,6 @@ def write_movingai(folder: Path, name: str, occupancy: np.ndarray, queries: np.n
     return path
 
 
-def read_scen(path: Path) -> np.ndarray:
-    """Queries (x, y, 0, 0, x, y, 0, 0) at the cell centres of a `.scen` (rows from the top)."""
-    rows = [line.split("\t") for line in path.read_text().splitlines()[1:] if line.strip()]
-    queries = []
-    for row in rows:
-        ny = int(row[3])
-        sx, sy, gx, gy = (int(v) for v in row[4:8])
-        centre = [(c + 0.5) * SCALE_RESOLUTION for c in (sx, ny - 1 - sy, gx, ny - 1 - gy)]
-        queries.append([centre[0], centre[1], 0.0, 0.0, centre[2], centre[3], 0.0, 0.0])
-    return np.array(queries)
-
-
 def peak_memory_mb(planner, grid, query, params) -> float:
     """Peak traced MB of one query on a fresh copy of `grid` (its BFS graph cache included)."""
     fresh = NavGrid(grid.costmap, grid.distance, grid.l1, grid.origin, grid.resolution)
@@ -221,7 +210,7 @@ def measure_scale(args) -> dict:
         grid = NavGrid.from_terrain(import_movingai(path, SCALE_RESOLUTION),
                                     lethal_radius=navigation.inscribed_radius)
         write_movingai(folder, name, occupancy, sample_queries(grid, args.scale, rng))
-        queries = read_scen(folder / f"{name}.map.scen")
+        queries = read_scen(folder / f"{name}.map.scen", grid)
         label = f"streets {n}² ({n * SCALE_RESOLUTION:.0f} m)"
         longest = queries[np.argmax(np.hypot(*(queries[:, 4:6] - queries[:, :2]).T))]
         results[label] = {}

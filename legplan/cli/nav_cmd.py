@@ -53,10 +53,11 @@ def search(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path,
     from legplan.nav.items import SearchWorker, failed_query, query_items, search_item
 
     check_output(output, overwrite)
-    queries, query_files = resolve_queries("nav search", start, start_vel, goal, goal_vel, queries_path)
     navigation = robot_navigation(robot)
+    grid = NavGrid.from_map(map_path, lethal_radius=navigation.inscribed_radius)  # bad map: exit 2
+    queries, query_files = resolve_queries("nav search", start, start_vel, goal, goal_vel, queries_path,
+                                           grid)
     settings = NavParams.for_robot(navigation).with_overrides(params)
-    NavGrid.from_map(map_path, lethal_radius=navigation.inscribed_radius)  # a bad map: exit 2 before any work
     task = Task(search_item, functools.partial(failed_query, planner), SearchWorker,
                 (os.path.abspath(map_path), navigation.inscribed_radius, planner, settings))
     stage_params = {**settings.as_dict(), "planner": planner, "robot": robot}

@@ -82,3 +82,20 @@ def test_bad_inputs_exit_2_without_output(tmp_path):
     result = run("nav", "search", map_path, "--queries", bad, "-o", out)
     assert result.exit_code == 2 and "missing column 'start_vx'" in result.output
     assert not out.exists()
+
+
+def test_queries_from_a_movingai_scen_file(tmp_path):
+    map_path = small_map(tmp_path)
+    scen = tmp_path / "block.map.scen"
+    scen.write_text("version 1\n3\tblock.map\t80\t50\t10\t30\t70\t45\t6.0\n")
+    out = tmp_path / "nav.h5"
+    result = run("nav", "search", map_path, "--queries", scen, "-o", out, "-q")
+    assert result.exit_code == 0, result.output
+    with open_artefact(out, kind="nav") as handle:
+        query = handle["queries/0000"]
+        # row 30 from the top of 50 rows is grid row 19; row 45 is grid row 4 (cell centres)
+        np.testing.assert_allclose(query.attrs["start"], [1.05, 1.95, 0, 0])
+        np.testing.assert_allclose(query.attrs["goal"], [7.05, 0.45, 0, 0])
+    result = run("nav", "search", map_path, "--queries", scen, "--robot", "jueying_mini",
+                 "-o", tmp_path / "x.h5", "--start", 1, 1)
+    assert result.exit_code == 2 and not (tmp_path / "x.h5").exists()
