@@ -89,15 +89,36 @@ def test_quaternion_norm_error_and_normalisation_warning(tmp_path, scarab, valid
     np.testing.assert_allclose(np.linalg.norm(result.sequence.q[0, 3:7]), 1.0, atol=1e-15)
 
 
-def test_rpy_orientation_matches_the_quaternion(tmp_path, scarab, validator):
+def _rz_ry_rx(roll, pitch, yaw):
+    """R = Rz(yaw) Ry(pitch) Rx(roll), written out from the elementary rotations."""
+    c, s = np.cos, np.sin
+    rx = np.array([[1, 0, 0], [0, c(roll), -s(roll)], [0, s(roll), c(roll)]])
+    ry = np.array([[c(pitch), 0, s(pitch)], [0, 1, 0], [-s(pitch), 0, c(pitch)]])
+    rz = np.array([[c(yaw), -s(yaw), 0], [s(yaw), c(yaw), 0], [0, 0, 1]])
+    return rz @ ry @ rx
+
+
+def _quaternion_matrix(q):
+    """Rotation matrix of a unit quaternion (x, y, z, w)."""
+    x, y, z, w = q
+    return np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                     [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                     [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def test_rpy_orientation_is_rz_ry_rx(tmp_path, scarab, validator):
+    angles = [(0.0, 0.0, 0.0), (0.3, -0.2, 1.1), (-0.25, 0.15, -2.4)]  # distinct roll, pitch, yaw
     records = _base_records(scarab)
-    for r in records:
+    for r, (roll, pitch, yaw) in zip(records, angles):
         for k in ("qx", "qy", "qz", "qw"):
             r.pop(k)
-        r.update(roll=0.0, pitch=0.0, yaw=0.0)
+        r.update(roll=roll, pitch=pitch, yaw=yaw)
     result = _import(tmp_path, scarab, validator, records)
-    assert result.issues == []
-    np.testing.assert_allclose(result.sequence.q[:, 3:7], [[0, 0, 0, 1]] * 3, atol=1e-15)
+    assert result.sequence is not None  # tilted rows may have physical issues, the orientation parsed
+    for q, (roll, pitch, yaw) in zip(result.sequence.q, angles):
+        np.testing.assert_allclose(_quaternion_matrix(q[3:7]), _rz_ry_rx(roll, pitch, yaw), atol=1e-12)
+    swapped = _rz_ry_rx(1.1, -0.2, 0.3)  # roll and yaw exchanged must not match
+    assert np.abs(_quaternion_matrix(result.sequence.q[1, 3:7]) - swapped).max() > 0.1
 
 
 def test_joint_outside_limits(tmp_path, scarab, validator):
@@ -113,12 +134,15 @@ def test_stance_foot_off_the_terrain(tmp_path, scarab, validator):
     assert (1, "stance_lf") in issues and (1, "stance_lm") not in issues  # lm is swing
 
 
-def test_fewer_than_three_stance_legs_and_com_outside(tmp_path, scarab, validator):
+def test_fewer_than_three_stance_legs(tmp_path, scarab, validator):
     records = _base_records(scarab)
-    for leg in ("lf", "lr", "rm", "rr"):
-        records[1][f"stance_{leg}"] = 0
-    issues = _issues(_import(tmp_path, scarab, validator, records))
-    assert (1, "stance") in issues  # 2 stance legs, and 4 legs changed from row 0
+    for r in records:  # the same two stance legs in every row: no stance-set change to report
+        for leg in ("lf", "lm", "lr", "rm"):
+            r[f"stance_{leg}"] = 0
+    result = _import(tmp_path, scarab, validator, records)
+    count_errors = [i for i in result.issues if i.field == "stance" and i.severity == "error"]
+    assert [i.row for i in count_errors] == [0, 1, 2]
+    assert all("2 stance legs, at least 3" in i.message for i in count_errors)
 
 
 def test_com_outside_support_polygon(tmp_path, scarab, validator):
