@@ -3,11 +3,15 @@
 Compared: every `/summary` row; per-item results (groups with a `success` attr): success of each
 item present in both, items present in only one, every numeric item attr / scalar dataset (worst
 item per metric) and every item array whose shape is the same in both (max |difference|, e.g.
-trajectories and control points; arrays whose shapes differ are listed but not judged).
+trajectories and control points; arrays whose shapes differ are listed but not judged). A dataset or
+attr that an item has in one artefact and not in the other (e.g. a step without `control_points`) is
+a difference.
 
-Tolerances: a value is within tolerance when |b - a| <= abs + rel * |a|. Defaults: times (units
-"s" of a summary row or scalar item dataset, or a name containing "time" or "seconds") abs 0.05 s
-+ rel 50%; everything else (violations, counts, trajectories, arrays in seconds such as sample
+Tolerances: a value is within tolerance when |b - a| <= abs + rel * |a|. Defaults: times of the
+summary (units "s", or a name containing "time" or "seconds") abs 0.05 s + rel 50%; per-item wall-clock
+values (scalar item datasets in "s" such as `timings/ompl_solve`, item attrs named like a time) abs
+0.5 s + rel 100%, since one item's clock reading varies with the machine's load far more than a
+mean over items does; everything else (violations, counts, trajectories, arrays in seconds such as sample
 times) abs 1e-6 + rel 1e-6. Overrides `{pattern: "50%" | "0.01"}`: a glob matched
 against the metric name (summary row name, or item attr/dataset name); "N%" is relative, a plain
 number absolute; the last matching override wins. NaN equals NaN.
@@ -27,6 +31,7 @@ from legplan.errors import ArtefactError, LegplanError
 from legplan.report.items import read_items
 
 TIME_TOLERANCE = (0.05, 0.5)
+ITEM_CLOCK_TOLERANCE = (0.5, 1.0)
 TIGHT_TOLERANCE = (1e-6, 1e-6)
 
 
@@ -90,7 +95,9 @@ def parse_tolerances(items) -> dict[str, Tolerance]:
     return out
 
 
-def tolerance_for(name: str, units: str, overrides: dict[str, Tolerance]) -> Tolerance:
+def tolerance_for(name: str, units: str, overrides: dict[str, Tolerance], *, item: bool = False) -> Tolerance:
+    """The last override whose glob matches `name`, else the default for a time (summary or
+    per-`item` clock value) or any other metric."""
     chosen = None
     for pattern, tolerance in overrides.items():
         if fnmatch.fnmatchcase(name, pattern):
@@ -99,7 +106,7 @@ def tolerance_for(name: str, units: str, overrides: dict[str, Tolerance]) -> Tol
         return chosen
     leaf = name.rsplit("/", 1)[-1]
     if units == "s" or "time" in leaf or "seconds" in leaf:
-        return Tolerance(*TIME_TOLERANCE)
+        return Tolerance(*(ITEM_CLOCK_TOLERANCE if item else TIME_TOLERANCE))
     return Tolerance(*TIGHT_TOLERANCE)
 
 
@@ -144,10 +151,11 @@ def _item_rows(items_a: dict, items_b: dict, overrides) -> list[MetricDiff]:
         a, b = items_a[name], items_b[name]
         rows.append(MetricDiff(f"{name} success", str(a["success"]), str(b["success"]), False,
                                note=b["reason"] or a["reason"]))
+    rows.extend(_missing_rows(items_a, items_b, common))
     keys = sorted({key for name in common for key in items_a[name]
                    if key not in ("success", "reason", "arrays", "units") and key in items_b[name]})
     for key in keys:
-        tolerance = tolerance_for(key, _units(items_a, common, key), overrides)
+        tolerance = tolerance_for(key, _units(items_a, common, key), overrides, item=True)
         pairs = [(name, items_a[name][key], items_b[name][key]) for name in common
                  if key in items_a[name] and key in items_b[name]]
         bad = [(name, a, b) for name, a, b in pairs if not tolerance.holds(a, b)]
@@ -169,6 +177,26 @@ def _item_rows(items_a: dict, items_b: dict, overrides) -> list[MetricDiff]:
             note += f"; {len(same) - len(shaped)} with different shapes not compared"
         rows.append(MetricDiff(f"item {key} (array)", 0.0, worst, bool(within), str(tolerance), note=note))
     return rows
+
+
+def _missing_rows(items_a: dict, items_b: dict, common: list[str]) -> list[MetricDiff]:
+    """One failing row per item attr / dataset that some item has in only one of the artefacts:
+    columns A and B count the items missing it there."""
+    missing: dict[str, tuple[list[str], list[str]]] = {}
+    for name in common:
+        a, b = _fields(items_a[name]), _fields(items_b[name])
+        for key in b - a:
+            missing.setdefault(key, ([], []))[0].append(name)
+        for key in a - b:
+            missing.setdefault(key, ([], []))[1].append(name)
+    return [MetricDiff(f"item {key} missing", len(in_a), len(in_b), False,
+                       note=f"missing in {'A' if in_a else 'B'} at {(in_a or in_b)[0]}")
+            for key, (in_a, in_b) in sorted(missing.items())]
+
+
+def _fields(item: dict) -> set[str]:
+    """Names of an item's numeric attrs, scalar datasets and arrays."""
+    return {key for key in item if key not in ("success", "reason", "arrays", "units")} | set(item["arrays"])
 
 
 def _units(items: dict, names: list[str], key: str) -> str:
