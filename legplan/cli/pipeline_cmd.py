@@ -50,9 +50,7 @@ def run_cmd(ctx, pipeline_file, out_dir, force, dry_run, jobs):
         return
 
     def show(result):
-        stderr_line(f"{result.name}: {result.reason}"
-                + (f" ({result.seconds:.1f} s)" if result.returncode is not None else ""),
-                f"{result.status:>12}", _STYLE[result.status])
+        stderr_line(result.line(), f"{result.status:>12}", _STYLE[result.status])
 
     with progress_bar(f"pipeline {pipeline.name}") as progress:
         result = run_pipeline(pipeline, out, force=force, jobs=jobs, progress=progress, on_result=show)

@@ -35,7 +35,7 @@ class ResolvedStage:
 
 @dataclass(frozen=True)
 class StageDecision:
-    """Whether a stage would run now, and why: missing output, input changed, params changed, ..."""
+    """Whether a stage would run now, and why: no output yet, input changed, params changed, ..."""
 
     name: str
     run: bool
@@ -93,7 +93,7 @@ def check_declared_inputs(pipeline: Pipeline, out_dir: str | os.PathLike) -> Non
 def up_to_date_reason(stage: ResolvedStage) -> str | None:
     """None when the stage's recorded provenance matches what would run now, else why not."""
     if not stage.provenance.exists():
-        return "missing output"
+        return "no output yet"
     try:
         with open_artefact(stage.provenance) as handle:
             recorded = read_provenance(handle)

@@ -40,6 +40,14 @@ class StageResult:
     seconds: float = 0.0
     log: Path | None = None
 
+    def line(self) -> str:
+        """One log line after the status word: a stage that ran says why in parentheses, so the
+        reason does not read as an error ("map (no output yet) 2.6 s"); others "name: reason"."""
+        if self.status in ("ran", "items_failed"):
+            return f"{self.name} ({self.reason}) {self.seconds:.1f} s"
+        timing = f" ({self.seconds:.1f} s)" if self.returncode is not None else ""
+        return f"{self.name}: {self.reason}{timing}"
+
 
 @dataclass
 class PipelineResult:

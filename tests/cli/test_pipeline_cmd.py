@@ -24,7 +24,7 @@ def test_dry_run_lists_what_would_run_and_why(tmp_path):
                                       "--dry-run"])
     assert result.exit_code == 0, result.output
     lines = result.stdout.splitlines()
-    assert lines[0] == "run  a: missing output"
+    assert lines[0] == "run  a: no output yet"
     assert lines[2] == "run  b: upstream stage 'a' will run"
     assert lines[3].startswith("     legplan inspect ") and lines[3].endswith("b.h5 --overwrite")
     assert not (tmp_path / "o").exists()

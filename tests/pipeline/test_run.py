@@ -23,6 +23,8 @@ def test_first_run_runs_everything_then_nothing(tmp_path, chain):
     first = run(chain, out, jobs=2)
     assert statuses(first) == {"a": "ran", "b": "ran", "c": "ran", "d": "ran"}
     assert first.ok
+    ran_a = next(r for r in first.results if r.name == "a")
+    assert ran_a.line() == f"a (no output yet) {ran_a.seconds:.1f} s"   # why it ran, not "a: missing ..."
     with open_artefact(out / "c.h5") as f:
         assert read_summary(f)["inputs"] == (2.0, "")
     assert [d.run for d in plan_run(load_pipeline(chain), out)] == [False] * 4
@@ -64,7 +66,7 @@ def test_deleted_output_reruns_only_what_needs_it(tmp_path, chain, monkeypatch):
     run(chain, out)
     (out / "sub" / "b.h5").unlink()
     decisions = {d.name: (d.run, d.reason) for d in plan_run(load_pipeline(chain), out)}
-    assert decisions["b"] == (True, "missing output")
+    assert decisions["b"] == (True, "no output yet")
     assert decisions["a"] == (False, "up to date")
     result = statuses(run(chain, out))
     assert result == {"a": "up_to_date", "b": "ran", "c": "up_to_date", "d": "up_to_date"}
