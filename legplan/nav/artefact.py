@@ -113,8 +113,9 @@ def write_summary_table(handle: h5py.File, rows: list[dict]) -> None:
 
 
 def read_queries(handle: h5py.File) -> list[dict]:
-    """Every query of an open nav artefact: attrs as a dict plus `trajectory` (or None) and
-    `waypoints` (or None)."""
+    """Every query of an open nav artefact: attrs as a dict plus `trajectory` (or None),
+    `waypoints` (or None) and, in a `nav refine` artefact, `band`: the refined TEB band's poses
+    (n, 3) [x, y, θ], times (n,) and its `total_time`, `effort` (or None when not refined)."""
     queries = []
     group = require(handle, "queries")
     for name in sorted(group):
@@ -124,5 +125,8 @@ def read_queries(handle: h5py.File) -> list[dict]:
         entry["name"] = name
         entry["trajectory"] = Trajectory(item["segments"][()]) if "segments" in item else None
         entry["waypoints"] = item["waypoints"][()] if "waypoints" in item else None
+        entry["band"] = {"poses": item["teb/poses"][()], "t": item["teb/t"][()],
+                         "total_time": float(item["teb"].attrs["total_time"]),
+                         "effort": float(item["teb"].attrs["effort"])} if "teb" in item else None
         queries.append(entry)
     return queries

@@ -1,4 +1,5 @@
-"""Figure of nav.h5 results: the costmap with lethal cells, each query's path and velocity arrows."""
+"""Figure of nav.h5 results: the costmap with lethal cells, each query's path and velocity arrows
+(a refined query: its TEB band with heading arrows, over the searched path dotted)."""
 
 from __future__ import annotations
 
@@ -36,9 +37,21 @@ def render_nav(grid: NavGrid, queries: list[dict], path: str | os.PathLike, dpi:
                       label=f"{query['name']} failed: {query['reason']}")
             continue
         _, p, v, _ = trajectory.sample(0.05)
-        axes.plot(p[:, 0], p[:, 1], "-", color=colour, linewidth=1.5,
-                  label=f"{query['name']} {query['planner']}: T={query['duration']:.1f} s, "
-                        f"J={query['effort']:.2f}")
+        searched = f"{query['name']} {query['planner']}: T={query['duration']:.1f} s, " \
+                   f"J={query['effort']:.2f}"
+        band = query.get("band")
+        if band is not None:  # a refined artefact: the TEB band is the result, the search its seed
+            axes.plot(p[:, 0], p[:, 1], ":", color=colour, linewidth=1.0, label=searched)
+            poses = band["poses"]
+            axes.plot(poses[:, 0], poses[:, 1], "-", color=colour, linewidth=1.5,
+                      label=f"{query['name']} TEB band: T={band['total_time']:.1f} s, "
+                            f"J={band['effort']:.2f}")
+            pick = np.linspace(0, len(poses) - 1, min(arrows, len(poses))).astype(int)
+            axes.quiver(poses[pick, 0], poses[pick, 1], np.cos(poses[pick, 2]),
+                        np.sin(poses[pick, 2]), color=colour, angles="xy", scale_units="xy",
+                        scale=2.0, width=0.003)
+            continue
+        axes.plot(p[:, 0], p[:, 1], "-", color=colour, linewidth=1.5, label=searched)
         pick = np.linspace(0, len(p) - 1, min(arrows, len(p))).astype(int)
         axes.quiver(p[pick, 0], p[pick, 1], v[pick, 0], v[pick, 1], color=colour, angles="xy",
                     scale_units="xy", scale=0.5, width=0.003)
@@ -47,7 +60,9 @@ def render_nav(grid: NavGrid, queries: list[dict], path: str | os.PathLike, dpi:
     axes.set_aspect("equal")
     axes.set_xlabel("x (m)")
     axes.set_ylabel("y (m)")
-    axes.set_title("nav paths (arrows: velocity, 1 m/s = 2 m)")
+    refined = any(query.get("band") is not None for query in queries)
+    axes.set_title("nav paths (arrows: velocity, 1 m/s = 2 m"
+                   + ("; TEB bands: heading, 0.5 m)" if refined else ")"))
     if queries:
         axes.legend(loc="upper left", fontsize=7, framealpha=0.8)
     figure.tight_layout()

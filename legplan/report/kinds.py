@@ -91,6 +91,8 @@ def nav_profiles(path: Path, png: Path) -> str | None:
     with open_artefact(path, kind="nav") as handle:
         tracks = [(name, g["t"][()], g["v"][()]) for name, g in handle["queries"].items() if "v" in g] \
             if "queries" in handle else []
+        tracks += [(f"{name} TEB", g["teb/t"][:-1], g["teb/velocity"][:, :2])  # a refined artefact
+                   for name, g in handle["queries"].items() if "teb" in g] if "queries" in handle else []
         simulated = None
         if "simulation" in handle and "state" in handle["simulation"]:
             state = handle["simulation/state"][()]

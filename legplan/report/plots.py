@@ -63,6 +63,7 @@ def items_figure(path: Path, png: Path, time_key: str, violation_key: str | None
     rows = [item for item in items.values() if time_key in item]
     if not rows:
         return None
+    nouns = noun[:-1] + "ies" if noun.endswith("y") else noun + "s"
     times = np.array([item[time_key] for item in rows])
     ok = np.array([item["success"] for item in rows])
     violations = np.array([item.get(violation_key, np.nan) for item in rows]) if violation_key else None
@@ -73,7 +74,7 @@ def items_figure(path: Path, png: Path, time_key: str, violation_key: str | None
     axes[0].hist([times[ok], times[~ok]], bins=np.linspace(0.0, top * 1.0001, 21), stacked=True,
                  color=["tab:blue", "tab:red"], label=["succeeded", "failed"])
     axes[0].set_xlabel("planning time [s]")
-    axes[0].set_ylabel(f"{noun}s")
+    axes[0].set_ylabel(nouns)
     axes[0].set_title(f"Planning time per {noun}")
     axes[0].legend(fontsize=8)
     if panels == 2:
@@ -83,7 +84,8 @@ def items_figure(path: Path, png: Path, time_key: str, violation_key: str | None
         axes[1].set_ylabel(f"{violation_key} [{unit}]")
         axes[1].set_title(f"{violation_key} per {noun} (red: failed)")
     fig.savefig(png, dpi=100)
-    return (f"{len(rows)} {noun}s, {int(ok.sum())} succeeded; planning time ('{time_key}') histogram"
+    return (f"{len(rows)} {noun if len(rows) == 1 else nouns}, {int(ok.sum())} succeeded; "
+            f"planning time ('{time_key}') histogram"
             + (f" and '{violation_key}' per {noun}." if panels == 2 else "."))
 
 

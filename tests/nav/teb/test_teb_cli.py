@@ -50,3 +50,32 @@ def test_refine_adds_teb_group(flat_map, tmp_path):
         assert teb["poses"].shape[1] == 3 and len(teb["dt"]) == len(teb["poses"]) - 1
         assert teb.attrs["max_violation"] <= 0.05 and teb.attrs["total_time"] > 0
         assert "segments" in f["queries/0000"]  # the search group is kept
+    from legplan.nav.artefact import read_queries
+
+    with h5py.File(out) as f:
+        band = read_queries(f)[0]["band"]
+        assert (band["poses"] == f["queries/0000/teb/poses"][()]).all()
+        assert band["total_time"] == f["queries/0000/teb"].attrs["total_time"]
+    with h5py.File(nav) as f:
+        assert read_queries(f)[0]["band"] is None
+
+
+def test_report_of_a_refined_artefact_draws_the_band(flat_map, tmp_path):
+    import matplotlib.image
+
+    from legplan.report import kinds
+
+    nav, out = tmp_path / "nav.h5", tmp_path / "teb.h5"
+    for args in (["nav", "search", str(flat_map), "--start", "-1", "-1", "--goal", "1", "0.8", "-o", str(nav)],
+                 ["nav", "refine", str(flat_map), str(nav), "-o", str(out), "--outer", "2"]):
+        result = CliRunner().invoke(cli, [*args, "-q"])
+        assert result.exit_code == 0, result.output
+    searched, refined = tmp_path / "searched.png", tmp_path / "refined.png"
+    kinds.nav_paths(nav, searched)
+    kinds.nav_paths(out, refined)
+    # the band adds its own line over the (dotted) searched path: the images differ in many pixels
+    a, b = matplotlib.image.imread(searched), matplotlib.image.imread(refined)
+    assert a.shape == b.shape and (abs(a - b).sum(axis=2) > 0.1).sum() > 200
+    caption = kinds.nav_profiles(out, tmp_path / "profiles.png")
+    assert caption == "Speed profiles of 2 trajectories."
+    assert kinds.nav_queries(out, tmp_path / "q.png").startswith("1 query, 1 succeeded")
