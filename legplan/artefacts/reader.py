@@ -8,6 +8,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import h5py
+import numpy as np
 
 from legplan.artefacts.schema import ROOT_ATTRS, SCHEMA_VERSIONS
 from legplan.errors import ArtefactError
@@ -65,6 +66,37 @@ def require(handle: h5py.File | h5py.Group, name: str):
         raise ArtefactError(f"{where}: missing dataset '{handle.name.rstrip('/')}/{name}'") from None
     except OSError as exc:
         raise ArtefactError(f"{handle.file.filename}: cannot read '{name}' ({exc})") from exc
+
+
+def read_array(handle: h5py.File | h5py.Group, name: str, *, ndim: int | None = None,
+               finite: bool = True) -> np.ndarray:
+    """The array of dataset `name`, checked at the boundary: readable (a truncated file fails here,
+    naming it), `ndim` dimensions when given, and every value finite when `finite` (floats only).
+    Any failure is an `ArtefactError` naming the file and the dataset."""
+    dataset = require(handle, name)
+    where = f"{handle.file.filename}: dataset '{dataset.name}'"
+    if not isinstance(dataset, h5py.Dataset):
+        raise ArtefactError(f"{where} is a group, expected a dataset")
+    try:
+        array = np.asarray(dataset[()])
+    except (OSError, ValueError, TypeError) as exc:
+        raise ArtefactError(f"{where} cannot be read ({' '.join(str(exc).split())})") from None
+    if ndim is not None and array.ndim != ndim:
+        raise ArtefactError(f"{where} must have {ndim} dimension(s), got shape {array.shape}")
+    if finite:
+        check_finite(where, array)
+    return array
+
+
+def check_finite(where: str, array: np.ndarray) -> None:
+    """An `ArtefactError` "WHERE holds NaN or inf (first at index ...)" unless every value of a
+    numeric `array` is finite (non-float arrays pass)."""
+    if array.dtype.kind not in "fc":
+        return
+    bad = ~np.isfinite(array)
+    if bad.any():
+        index = tuple(int(i) for i in np.argwhere(bad)[0])
+        raise ArtefactError(f"{where} holds NaN or inf (first at index {index if len(index) != 1 else index[0]})")
 
 
 def read_provenance(handle: h5py.File) -> dict:

@@ -17,12 +17,11 @@ def command():
 
 def read_step_pairs(map_path: str, steps_path: str, step_range: str | None):
     """The step sequence of STEPS and the indices of its consecutive pairs selected by `--steps`;
-    MAP must open as a map artefact. Shared by `step plan` and `baseline step`."""
-    from legplan.artefacts import open_artefact
+    MAP must read as a valid map artefact. Shared by `step plan` and `baseline step`."""
     from legplan.stepseq.sequence import read_steps
+    from legplan.terrain import load_map
 
-    with open_artefact(map_path, kind="map"):
-        pass
+    load_map(map_path)  # every layer checked (finite, shapes) before any work
     seq = read_steps(steps_path)
     if len(seq) < 2:
         raise LegplanError(f"{steps_path}: field 'q' needs at least 2 configurations, got {len(seq)}")

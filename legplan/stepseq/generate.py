@@ -37,6 +37,7 @@ import pinocchio as pin
 
 from legplan.contact.ik import Posture, solve_ik
 from legplan.contact.terms import ContactMode, collision_reach, com_terms
+from legplan.errors import LegplanError
 from legplan.geometry.polygon import support_polygon
 from legplan.terrain.columns import ColumnDistance
 from legplan.validate.judge import Requirements, shortfalls
@@ -249,8 +250,30 @@ class StepGenerator:
             raise GenerationError(f"IK failed for the start configuration: {result.reason}")
         return result.x, stance, footholds
 
+    def placement_problem(self, name: str, pose) -> str | None:
+        """Why pose (x, y, yaw) `name` cannot be planned from or to: its base or a nominal foot off
+        the map, or a non-finite value; None when it lies on the map."""
+        pose = np.asarray(pose, float)
+        if pose.shape != (3,) or not np.isfinite(pose).all():
+            return f"{name} pose must be 3 finite numbers (x, y, yaw), got {pose.tolist()}"
+        points = np.vstack([pose[:2], self._nominal_feet(pose[:2], pose[2])[:, :2]])
+        inside = self.terrain.grid.cell_of(points)[2]
+        if inside.all():
+            return None
+        i = int(np.argmin(inside))
+        what = "base" if i == 0 else f"nominal foot {self.robot.legs[i - 1].name}"
+        x0, x1, y0, y1 = self.terrain.grid.extent
+        return (f"{name} pose ({', '.join(f'{v:g}' for v in pose)}) puts the {what} at "
+                f"({points[i, 0]:.3f}, {points[i, 1]:.3f}), outside the map "
+                f"(x {x0:.3f}..{x1:.3f}, y {y0:.3f}..{y1:.3f})")
+
     def plan(self, start, goal, progress=None) -> GeneratedSequence:
-        """Plan from start (x, y, yaw) to goal (x, y, yaw)."""
+        """Plan from start (x, y, yaw) to goal (x, y, yaw); a pose off the map is a `LegplanError`
+        (bad input, before any work)."""
+        for name, pose in (("start", start), ("goal", goal)):
+            problem = self.placement_problem(name, pose)
+            if problem is not None:
+                raise LegplanError(problem)
         self.start = np.asarray(start, float)
         self.goal = np.asarray(goal, float)
         x, stance, footholds = self.start_configuration()

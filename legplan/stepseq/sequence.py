@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from legplan.artefacts import open_artefact, require, write_artefact, write_dataset, write_summary
+from legplan.artefacts import check_finite, open_artefact, read_array, write_artefact, write_dataset, write_summary
 from legplan.errors import ArtefactError
 from legplan.validate.judge import CONSTRAINTS
 
@@ -93,8 +93,14 @@ def write_steps(path, seq: StepSequence, checks, *, params=None, seed=None, inpu
         write_summary(f, summary)
 
 
+QUATERNION_TOLERANCE = 1e-6
+"""How far from 1 the norm of a stored base quaternion may be (steps.h5 holds normalised ones)."""
+
+
 def read_steps(path) -> StepSequence:
-    """Read steps.h5 (validating kind and schema)."""
+    """Read steps.h5 (validating kind and schema) and check its arrays at the boundary: `/q` finite
+    with unit base quaternions, the shapes agreeing with the leg and joint names, stance footholds
+    finite. Any problem is an `ArtefactError` naming the file and the dataset (and row)."""
     with open_artefact(path, kind="steps") as f:
         try:
             leg_names = json.loads(f.attrs["leg_names"])
@@ -102,6 +108,21 @@ def read_steps(path) -> StepSequence:
             robot, sha = str(f.attrs["robot"]), str(f.attrs["robot_sha256"])
         except KeyError as exc:
             raise ArtefactError(f"{path}: missing root attribute {exc.args[0]!r}") from None
-        return StepSequence(q=require(f, "q")[()], stance=require(f, "stance")[()].astype(bool),
-                            footholds=require(f, "footholds")[()], robot=robot, robot_sha256=sha,
-                            leg_names=leg_names, joint_names=joint_names)
+        except (TypeError, ValueError):
+            raise ArtefactError(f"{path}: root attributes 'leg_names'/'joint_names' must be JSON lists") from None
+        q = read_array(f, "q", ndim=2)
+        stance = read_array(f, "stance", ndim=2).astype(bool)
+        footholds = read_array(f, "footholds", ndim=3, finite=False)
+    k, legs = len(q), len(leg_names)
+    expected = {"q": (k, 7 + len(joint_names)), "stance": (k, legs), "footholds": (k, legs, 3)}
+    for name, array in (("q", q), ("stance", stance), ("footholds", footholds)):
+        if array.shape != expected[name]:
+            raise ArtefactError(f"{path}: dataset '/{name}' has shape {array.shape}, expected "
+                                f"{expected[name]} ({k} configurations, {legs} legs, {len(joint_names)} joints)")
+    check_finite(f"{path}: dataset '/footholds' (stance legs)", footholds[stance])
+    norms = np.linalg.norm(q[:, 3:7], axis=1)
+    bad = np.flatnonzero(np.abs(norms - 1.0) > QUATERNION_TOLERANCE)
+    if bad.size:
+        raise ArtefactError(f"{path}: dataset '/q' row {bad[0]}: base quaternion norm {norms[bad[0]]:.6g}, expected 1")
+    return StepSequence(q=q, stance=stance, footholds=footholds, robot=robot, robot_sha256=sha,
+                        leg_names=leg_names, joint_names=joint_names)

@@ -32,55 +32,33 @@ PASSABLE = frozenset(".GS")
 BLOCKED = frozenset("@OTW")
 
 
-def read_pgm(path: str | os.PathLike) -> np.ndarray:
-    """Grey levels in [0, 1] of a binary (P5) or ASCII (P2) PGM image, first row at the top."""
-    data = Path(path).read_bytes()
-    tokens, position = [], 0
-    while len(tokens) < 4:
-        while position < len(data) and data[position:position + 1].isspace():
-            position += 1
-        if data[position:position + 1] == b"#":
-            position = data.index(b"\n", position) + 1
-            continue
-        end = position
-        while end < len(data) and not data[end:end + 1].isspace():
-            end += 1
-        if end == position:
-            raise SpecError(f"{path}: truncated PGM header")
-        tokens.append(data[position:end])
-        position = end
-    magic, width, height, maxval = tokens[0], *(int(t) for t in tokens[1:])
-    if magic == b"P5":
-        dtype = np.dtype(">u2") if maxval > 255 else np.dtype("u1")
-        count = width * height
-        pixels = np.frombuffer(data, dtype=dtype, count=count, offset=position + 1)
-    elif magic == b"P2":
-        pixels = np.array(data[position:].split(), dtype=float)[:width * height]
-    else:
-        raise SpecError(f"{path}: not a PGM image (magic {magic!r}, expected P5 or P2)")
-    if pixels.size != width * height:
-        raise SpecError(f"{path}: truncated PGM data ({pixels.size} of {width * height} pixels)")
-    return pixels.reshape(height, width).astype(float) / maxval
+GREY_SCALE = {"L": 255.0, "I;16": 65535.0, "I;16B": 65535.0, "I": 65535.0}
+"""Full-scale value per Pillow mode of a grey image (Pillow scales PGM maxval to 255 or 65535)."""
 
 
 def read_grey_image(path: str | os.PathLike) -> np.ndarray:
-    """Grey levels in [0, 1] of a PGM or PNG image (colour channels averaged, alpha ignored)."""
+    """Grey levels in [0, 1] of a PGM (P5/P2, 8 or 16 bit) or PNG image read with Pillow, first
+    row at the top (colour channels averaged, alpha ignored). A missing, truncated or non-image
+    file is a one-line `SpecError` naming it."""
+    from PIL import Image, UnidentifiedImageError
+
     path = Path(path)
     if not path.is_file():
         raise SpecError(f"{path}: no such image file")
-    if path.suffix.lower() == ".pgm":
-        return read_pgm(path)
-    import matplotlib.image
-
     try:
-        image = np.asarray(matplotlib.image.imread(path), dtype=float)
-    except (OSError, ValueError, SyntaxError) as exc:
-        raise SpecError(f"{path}: cannot read image ({exc})") from exc
-    if image.ndim == 3:
-        image = image[..., :3].mean(axis=2)
-    if image.max() > 1.0:
-        image = image / 255.0
-    return image
+        with Image.open(path) as image:
+            image.load()
+            if image.mode not in GREY_SCALE:
+                image = image.convert("RGB")
+            scale = GREY_SCALE.get(image.mode, 255.0)
+            pixels = np.asarray(image, dtype=float)
+    except (UnidentifiedImageError, Image.DecompressionBombError) as exc:
+        raise SpecError(f"{path}: not a readable PGM/PNG image ({exc})") from None
+    except (OSError, ValueError, SyntaxError) as exc:  # truncated data, a broken header
+        raise SpecError(f"{path}: truncated or corrupt image ({' '.join(str(exc).split())})") from None
+    if pixels.ndim == 3:
+        pixels = pixels.mean(axis=2)
+    return pixels / scale
 
 
 def _obstacle_terrain(blocked: np.ndarray, grid: Grid2D, name: str, obstacle_height: float,

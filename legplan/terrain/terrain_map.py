@@ -18,8 +18,9 @@ from dataclasses import asdict, dataclass
 
 import numpy as np
 
-from legplan.artefacts import open_artefact, require, write_artefact, write_dataset, write_summary
-from legplan.errors import SpecError
+from legplan.artefacts import (check_finite, open_artefact, read_array, require, write_artefact, write_dataset,
+                               write_summary)
+from legplan.errors import ArtefactError, SpecError
 from legplan.terrain.grid import Grid2D
 from legplan.terrain.layers import (FootholdParams, NavParams, costmap_from_distance, foothold_mask,
                                     obstacle_distance, occupancy_grid)
@@ -165,25 +166,65 @@ def save_map(terrain: TerrainMap, path: str | os.PathLike, *, params: dict | Non
 
 
 def load_map(path: str | os.PathLike) -> TerrainMap:
-    """Read a "map" artefact back into a `TerrainMap` (the stored SDF is used, not rebuilt)."""
+    """Read a "map" artefact back into a `TerrainMap` (the stored SDF is used, not rebuilt).
+
+    Every layer is checked at the boundary (`read_array`: finite, 2-D or 3-D, the 2-D layers of the
+    heightmap's shape) and the grids' origin and resolution finite: a map with a NaN cell or a bad
+    layer is an `ArtefactError` naming the file and the dataset before any planner sees it."""
     with open_artefact(path, kind="map") as f:
-        height_ds = require(f, "terrain/height")
-        height = height_ds[()]
-        grid = Grid2D(tuple(float(v) for v in height_ds.attrs["origin"]),
-                      float(height_ds.attrs["resolution"]), height.shape)
-        sdf_ds = require(f, "terrain/sdf")
-        field = SignedDistanceField(sdf_ds[()], sdf_ds.attrs["origin"], sdf_ds.attrs["resolution"])
+        height = read_array(f, "terrain/height", ndim=2)
+        origin, resolution = _grid_attrs(require(f, "terrain/height"), 2)
+        grid = Grid2D(tuple(float(v) for v in origin), resolution, height.shape)
+        sdf_origin, sdf_resolution = _grid_attrs(require(f, "terrain/sdf"), 3)
+        field = SignedDistanceField(read_array(f, "terrain/sdf", ndim=3), sdf_origin, sdf_resolution)
         foothold_ds = require(f, "terrain/foothold")
-        foothold = FootholdParams(**{key: float(foothold_ds.attrs[key])
+        foothold = FootholdParams(**{key: _number_attr(foothold_ds, key)
                                      for key in ("flat_radius", "flat_tolerance", "edge_margin")})
         occupancy_ds, costmap_ds = require(f, "nav/occupancy"), require(f, "nav/costmap")
-        nav = NavParams(obstacle_height=float(occupancy_ds.attrs["obstacle_height"]),
-                        **{key: float(costmap_ds.attrs[key])
-                           for key in ("l1", "l2", "c_max", "lambda_c")})
+        nav = NavParams(obstacle_height=_number_attr(occupancy_ds, "obstacle_height"),
+                        **{key: _number_attr(costmap_ds, key) for key in ("l1", "l2", "c_max", "lambda_c")})
+        layers = {name: read_array(f, name, ndim=2) for name in
+                  ("terrain/foothold", "nav/occupancy", "nav/distance", "nav/costmap")}
+        for name, layer in layers.items():
+            if layer.shape != height.shape:
+                raise ArtefactError(f"{path}: dataset '/{name}' has shape {layer.shape}, "
+                                    f"'/terrain/height' {height.shape}")
         group = require(f, "terrain")
         return TerrainMap(name=str(group.attrs.get("name", "")),
                           grid=grid, ground=float(group.attrs.get("ground", 0.0)), height=height,
-                          sdf=field, foothold=foothold_ds[()].astype(bool),
-                          occupancy=occupancy_ds[()].astype(bool),
-                          distance=require(f, "nav/distance")[()], costmap=costmap_ds[()],
+                          sdf=field, foothold=layers["terrain/foothold"].astype(bool),
+                          occupancy=layers["nav/occupancy"].astype(bool),
+                          distance=layers["nav/distance"], costmap=layers["nav/costmap"],
                           foothold_params=foothold, nav_params=nav)
+
+
+def _number_attr(dataset, key: str) -> float:
+    """A finite number attribute of a map dataset, or an `ArtefactError` naming file and attribute."""
+    where = f"{dataset.file.filename}: attribute '{dataset.name}.{key}'"
+    try:
+        value = float(dataset.attrs[key])
+    except KeyError:
+        raise ArtefactError(f"{where} is missing") from None
+    except (TypeError, ValueError):
+        raise ArtefactError(f"{where} must be a number") from None
+    if not np.isfinite(value):
+        raise ArtefactError(f"{where} must be finite, got {value}")
+    return value
+
+
+def _grid_attrs(dataset, dims: int) -> tuple[np.ndarray, float]:
+    """The `origin` (`dims` finite numbers) and `resolution` (> 0) attributes of a gridded layer."""
+    where = f"{dataset.file.filename}: attribute '{dataset.name}.origin'"
+    try:
+        origin = np.asarray(dataset.attrs["origin"], dtype=float).reshape(-1)
+    except KeyError:
+        raise ArtefactError(f"{where} is missing") from None
+    except (TypeError, ValueError):
+        raise ArtefactError(f"{where} must be {dims} numbers") from None
+    if origin.shape != (dims,):
+        raise ArtefactError(f"{where} must be {dims} numbers, got {origin.size}")
+    check_finite(where, origin)
+    resolution = _number_attr(dataset, "resolution")
+    if resolution <= 0:
+        raise ArtefactError(f"{dataset.file.filename}: attribute '{dataset.name}.resolution' must be > 0")
+    return origin, resolution

@@ -8,7 +8,7 @@ from scipy.ndimage import label
 
 from legplan.errors import SpecError
 from legplan.terrain import build_map
-from legplan.terrain.importers import import_heightmap, import_movingai, import_ros, read_pgm
+from legplan.terrain.importers import import_heightmap, import_movingai, import_ros, read_grey_image
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"
 
@@ -35,15 +35,25 @@ def test_ros_warehouse():
     assert _connected(terrain, (3.0, 2.0), (9.3, 5.0))
 
 
-def test_pgm_p2_and_p5_agree(tmp_path):
+def test_pgm_p2_p5_and_16_bit_agree(tmp_path):
     pixels = np.array([[0, 128, 255], [10, 20, 30]], dtype=np.uint8)
     (tmp_path / "a.pgm").write_bytes(b"P5\n# c\n3 2\n255\n" + pixels.tobytes())
     (tmp_path / "b.pgm").write_text("P2\n3 2\n255\n" + " ".join(map(str, pixels.ravel())) + "\n")
-    assert np.allclose(read_pgm(tmp_path / "a.pgm"), pixels / 255)
-    assert np.allclose(read_pgm(tmp_path / "b.pgm"), pixels / 255)
-    (tmp_path / "c.pgm").write_bytes(b"P6\n3 2\n255\n" + bytes(18))
-    with pytest.raises(SpecError, match="not a PGM"):
-        read_pgm(tmp_path / "c.pgm")
+    (tmp_path / "c.pgm").write_bytes(b"P5\n3 2\n65535\n" + (pixels.astype(">u2") * 257).tobytes())
+    for name in "abc":
+        assert np.allclose(read_grey_image(tmp_path / f"{name}.pgm"), pixels / 255)
+
+
+@pytest.mark.parametrize("content, message", [
+    (b"P5\n3 2\n255\n" + bytes(4), "truncated or corrupt image"),       # 4 of 6 pixels
+    (b"P5\n3", "truncated or corrupt image"),                             # header cut
+    (b"\x00garbage" * 10, "not a readable PGM/PNG image"),
+])
+def test_bad_pgm_is_one_line_naming_the_file(tmp_path, content, message):
+    (tmp_path / "a.pgm").write_bytes(content)
+    with pytest.raises(SpecError, match=message) as error:
+        read_grey_image(tmp_path / "a.pgm")
+    assert str(error.value).startswith(f"{tmp_path / 'a.pgm'}: ") and "\n" not in str(error.value)
 
 
 def test_movingai_rooms():
