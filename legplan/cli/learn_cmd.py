@@ -81,13 +81,7 @@ def _dataset(space, space_path, count, seed, init, iterations, output, *, overwr
 def _g_max(ctx, param, value):
     if value == "auto":
         return value
-    try:
-        number = float(value)
-    except ValueError:
-        raise click.BadParameter(f"expected 'auto' or a number, got {value!r}", ctx=ctx, param=param) from None
-    if not number > 0:
-        raise click.BadParameter(f"must be > 0, got {value!r}", ctx=ctx, param=param)
-    return number
+    return number(min=0, min_open=True).convert(value, param, ctx)  # finite and > 0, or exit 2
 
 
 def _hidden(ctx, param, value):

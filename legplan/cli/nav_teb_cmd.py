@@ -9,7 +9,7 @@ import click
 
 from legplan.cli.console import progress_bar, status
 from legplan.cli.nav_options import robot_navigation
-from legplan.cli.options import input_artefact, number, output_opt, overwrite_opt, verbosity_opts
+from legplan.cli.options import FiniteList, input_artefact, number, output_opt, overwrite_opt, verbosity_opts
 
 robot_opt = click.option("--robot", default="jueying_mini", show_default=True,
                          help="Robot name or robot.yaml path (its navigation limits, Table I).")
@@ -19,18 +19,6 @@ inner_opt = click.option("--inner", type=click.IntRange(min=1), default=5, show_
                          help="TEB inner iterations per round.")
 omni_opt = click.option("--omni/--non-omni", default=True, show_default=True,
                         help="Omnidirectional model, or differential drive (lateral velocity zero).")
-
-
-def _floats(text: str, option: str, counts: tuple[int, ...]) -> list[float]:
-    from legplan.errors import LegplanError
-    try:
-        values = [float(v) for v in text.split(",")]
-    except ValueError:
-        values = []
-    if len(values) not in counts:
-        raise LegplanError(f"option '{option}': expected {' or '.join(map(str, counts))} comma-separated "
-                           f"numbers, got {text!r}")
-    return values
 
 
 @click.command("refine")
@@ -48,9 +36,8 @@ def refine(ctx, map_path, nav_path, output, robot, outer, inner, omni, overwrite
     """Refine every successful query of NAV (from `nav search`) with the TEB on MAP."""
     import h5py
 
-    from legplan.artefacts import check_output, open_artefact, write_artefact, write_summary
-    from legplan.nav.artefact import read_queries
-    from legplan.nav.teb.artefact import write_refinement
+    from legplan.artefacts import check_output, write_artefact, write_summary
+    from legplan.nav.teb.artefact import refinable_queries, write_refinement
     from legplan.nav.teb.distance import DistanceField
     from legplan.nav.teb.params import TebParams
     from legplan.nav.teb.refine import query_path, refine_path
@@ -61,8 +48,7 @@ def refine(ctx, map_path, nav_path, output, robot, outer, inner, omni, overwrite
     terrain = load_map(map_path)
     field = DistanceField.from_terrain(terrain)
     params = TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni)
-    with open_artefact(nav_path, kind="nav") as source:
-        queries = read_queries(source)
+    queries = refinable_queries(nav_path)
     rows = []
     with write_artefact(output, "nav", params={"teb": params.as_dict(), "robot": robot}, inputs=[map_path, nav_path],
                         overwrite=overwrite) as f, h5py.File(nav_path, "r") as source, \
@@ -99,10 +85,10 @@ def _summary(write_summary, handle, count, rows):
 @click.command("simulate")
 @click.argument("map_path", metavar="MAP", type=input_artefact)
 @robot_opt
-@click.option("--start", required=True, help="Start pose x,y[,yaw] (m, rad).")
-@click.option("--goal", required=True, help="Goal x,y[,yaw] (m, rad).")
-@click.option("--via", multiple=True, help="Via point x,y[,yaw[,dwell]] (m, rad, s); repeatable, in order.")
-@click.option("--face-target", default=None, help="x,y: hold the heading towards this point on the way "
+@click.option("--start", type=FiniteList((2, 3)), required=True, help="Start pose x,y[,yaw] (m, rad).")
+@click.option("--goal", type=FiniteList((2, 3)), required=True, help="Goal x,y[,yaw] (m, rad).")
+@click.option("--via", type=FiniteList((2, 3, 4)), multiple=True, help="Via point x,y[,yaw[,dwell]] (m, rad, s); repeatable, in order.")
+@click.option("--face-target", type=FiniteList((2,)), default=None, help="x,y: hold the heading towards this point on the way "
                                                     "(omnidirectional side-stepping, Table III).")
 @click.option("--hidden-obstacles", type=click.Path(dir_okay=False), default=None,
               help="YAML with `obstacles: [map primitives]` missing from the initial map; sensed in range.")
@@ -125,6 +111,7 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
     import numpy as np
 
     from legplan.artefacts import check_output, write_artefact, write_summary
+    from legplan.errors import LegplanError
     from legplan.nav.params import NavParams
     from legplan.nav.simulate import (Goal, SimParams, World, grid_planner, hidden_obstacles as load_hidden,
                                       kinodynamic_planner, simulate as run)
@@ -133,26 +120,27 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
     from legplan.terrain import load_map
 
     check_output(output, overwrite)
-    start_v = _floats(start, "--start", (2, 3))
-    goal_v = _floats(goal, "--goal", (2, 3))
     goals = []
-    for text in via:
-        v = _floats(text, "--via", (2, 3, 4))
+    for v in via:
         goals.append(Goal((v[0], v[1]), v[2] if len(v) > 2 else float("nan"), v[3] if len(v) > 3 else 0.0))
-    goals.append(Goal((goal_v[0], goal_v[1]), goal_v[2] if len(goal_v) > 2 else float("nan")))
-    target = tuple(_floats(face_target, "--face-target", (2,))) if face_target else None
+    goals.append(Goal((goal[0], goal[1]), goal[2] if len(goal) > 2 else float("nan")))
+    target = tuple(face_target) if face_target else None
     navigation = robot_navigation(robot)
     terrain = load_map(map_path)
+    off_map = terrain.grid.outside_problem([start[:2], *(g.xy for g in goals)],
+                                           ["--start", *(["--via"] * len(via)), "--goal"])
+    if off_map is not None:
+        raise LegplanError(f"command line: {off_map}")
     hidden = (load_hidden(hidden_obstacles, terrain.grid) if hidden_obstacles
               else np.zeros(terrain.grid.shape, bool))
-    world = World(terrain.grid, terrain.occupancy, hidden, terrain.nav_params, navigation.footprint)
+    world = World(terrain.grid, terrain.occupancy, hidden, terrain.nav_params, navigation.circumscribed_radius)
     search = NavParams.for_robot(navigation)
     plan = (kinodynamic_planner(search) if planner == "kinoastar"
             else grid_planner(search, navigation.limits.v_x_max))
     teb = TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni)
     sim = SimParams(sensing_radius=sensing_radius, max_time=max_time, warm_start=warm_start,
                     yaw="target" if target else "velocity", target=target)
-    pose = np.array([start_v[0], start_v[1], start_v[2] if len(start_v) > 2 else 0.0])
+    pose = np.array([start[0], start[1], start[2] if len(start) > 2 else 0.0])
     with progress_bar("simulating") as progress:
         result = run(world, plan, pose, goals, navigation.limits, teb, sim, progress)
     params = {"teb": teb.as_dict(), "planner": planner, "robot": robot, "start": list(pose),

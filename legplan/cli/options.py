@@ -4,8 +4,8 @@ Use them as decorators so every command spells the same option the same way:
 `@output_opt @overwrite_opt @jobs_opt @seed_opt @verbosity_opts`; a many-item stage takes
 `@batch_opts` (`--jobs`, `--scheduler`, `--resume`, see `legplan.cli.batching`).
 
-Every numeric option takes `number(...)` (a finite float, optionally in a range) or a
-`click.IntRange`, never a bare `float`: NaN and inf are refused on the command line (exit 2, one line
+Every numeric option takes `number(...)` (a finite float, optionally in a range), `FiniteList`
+(comma-separated finite numbers) or a `click.IntRange`, never a bare `float`: NaN and inf are refused on the command line (exit 2, one line
 naming the option) before any work starts. `tests/cli/test_bad_input_options.py` checks every
 command's options for it.
 """
@@ -35,6 +35,27 @@ def number(min: float | None = None, max: float | None = None, *, min_open: bool
            max_open: bool = False) -> FiniteFloat:
     """The type of a numeric option: finite, and within [min, max] (open ends with `*_open`)."""
     return FiniteFloat(min=min, max=max, min_open=min_open, max_open=max_open)
+
+
+class FiniteList(click.ParamType):
+    """Comma-separated finite numbers ("x,y[,yaw]"), as many as one of `counts`; a list of floats."""
+
+    name = "finite list"
+
+    def __init__(self, counts: tuple[int, ...]):
+        self.counts = counts
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, list):
+            return value
+        try:
+            numbers = [float(text) for text in str(value).split(",")]
+        except ValueError:
+            numbers = []
+        if len(numbers) not in self.counts or not all(math.isfinite(v) for v in numbers):
+            self.fail(f"expected {' or '.join(map(str, self.counts))} comma-separated finite numbers, "
+                      f"got {value!r}", param, ctx)
+        return numbers
 
 
 def _set_verbose(ctx, param, value):

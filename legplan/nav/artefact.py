@@ -23,7 +23,8 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
-from legplan.artefacts import require, write_artefact, write_dataset, write_summary
+from legplan.artefacts import read_array, require, write_artefact, write_dataset, write_summary
+from legplan.errors import ArtefactError
 from legplan.nav.collision import NavGrid
 from legplan.nav.result import SearchResult
 from legplan.nav.trajectory import SEGMENT_COLUMNS, SEGMENT_UNITS, Trajectory
@@ -123,10 +124,21 @@ def read_queries(handle: h5py.File) -> list[dict]:
         entry = {key: (value.item() if isinstance(value, np.generic) else value)
                  for key, value in item.attrs.items()}
         entry["name"] = name
-        entry["trajectory"] = Trajectory(item["segments"][()]) if "segments" in item else None
-        entry["waypoints"] = item["waypoints"][()] if "waypoints" in item else None
-        entry["band"] = {"poses": item["teb/poses"][()], "t": item["teb/t"][()],
+        entry["trajectory"] = _read_trajectory(item) if "segments" in item else None
+        entry["waypoints"] = read_array(item, "waypoints", ndim=2) if "waypoints" in item else None
+        entry["band"] = {"poses": read_array(item, "teb/poses", ndim=2), "t": read_array(item, "teb/t", ndim=1),
                          "total_time": float(item["teb"].attrs["total_time"]),
                          "effort": float(item["teb"].attrs["effort"])} if "teb" in item else None
         queries.append(entry)
     return queries
+
+
+def _read_trajectory(item: h5py.Group) -> Trajectory:
+    """The `segments` of a query group as a `Trajectory`, checked: (N, 9), finite, durations >= 0."""
+    segments = read_array(item, "segments", ndim=2)
+    where = f"{item.file.filename}: dataset '{item.name}/segments'"
+    if segments.shape[1] != len(SEGMENT_COLUMNS):
+        raise ArtefactError(f"{where} must have {len(SEGMENT_COLUMNS)} columns, got shape {segments.shape}")
+    if np.any(segments[:, 8] < 0):
+        raise ArtefactError(f"{where} has a negative segment duration")
+    return Trajectory(segments)

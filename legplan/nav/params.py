@@ -31,6 +31,7 @@ import dataclasses
 from dataclasses import dataclass
 
 from legplan.errors import LegplanError
+from legplan.specio import parse_number
 
 MIN_EXPANSIONS = 200_000  # the auto budget's floor (the former fixed limit)
 _TRUE, _FALSE = ("1", "true", "yes", "on"), ("0", "false", "no", "off")
@@ -97,16 +98,14 @@ class NavParams:
 
 
 def _convert(kind: type, key: str, text: str, source: str):
+    where = f"{source}: parameter '{key}'"
     if kind is bool:
         if text.lower() in _TRUE + _FALSE:
             return text.lower() in _TRUE
-    else:
-        try:
-            number = float(text)
-            if kind is float:
-                return number
-            if number.is_integer():
-                return int(number)
-        except ValueError:
-            pass
-    raise LegplanError(f"{source}: parameter '{key}' expects {kind.__name__}, got {text!r}")
+        raise LegplanError(f"{where} expects bool, got {text!r}")
+    number = parse_number(text, where)  # finite, or a one-line error
+    if kind is float:
+        return number
+    if number.is_integer():
+        return int(number)
+    raise LegplanError(f"{where} expects int, got {text!r}")

@@ -40,6 +40,7 @@ import dataclasses
 from dataclasses import dataclass
 
 from legplan.errors import LegplanError
+from legplan.specio import parse_number
 
 
 @dataclass(frozen=True)
@@ -86,10 +87,13 @@ class StepPlanParams:
                 raise LegplanError(f"{source}: unknown step planner parameter '{key}' "
                                    f"(known: {', '.join(sorted(fields))})")
             kind = type(getattr(cls(), key))
-            try:
-                values[key] = kind(float(text)) if kind is int and "e" in str(text).lower() else kind(text)
-            except ValueError:
-                raise LegplanError(f"{source}: parameter '{key}' expects {kind.__name__}, got {text!r}") from None
+            if kind is str:
+                values[key] = text
+                continue
+            number = parse_number(text, f"{source}: parameter '{key}'")  # finite, or a one-line error
+            if kind is int and not number.is_integer():
+                raise LegplanError(f"{source}: parameter '{key}' expects int, got {text!r}")
+            values[key] = kind(number)
         return cls(**values)
 
     @property

@@ -257,15 +257,9 @@ class StepGenerator:
         if pose.shape != (3,) or not np.isfinite(pose).all():
             return f"{name} pose must be 3 finite numbers (x, y, yaw), got {pose.tolist()}"
         points = np.vstack([pose[:2], self._nominal_feet(pose[:2], pose[2])[:, :2]])
-        inside = self.terrain.grid.cell_of(points)[2]
-        if inside.all():
-            return None
-        i = int(np.argmin(inside))
-        what = "base" if i == 0 else f"nominal foot {self.robot.legs[i - 1].name}"
-        x0, x1, y0, y1 = self.terrain.grid.extent
-        return (f"{name} pose ({', '.join(f'{v:g}' for v in pose)}) puts the {what} at "
-                f"({points[i, 0]:.3f}, {points[i, 1]:.3f}), outside the map "
-                f"(x {x0:.3f}..{x1:.3f}, y {y0:.3f}..{y1:.3f})")
+        label = f"{name} pose ({', '.join(f'{v:g}' for v in pose)}):"
+        names = [f"{label} base", *(f"{label} nominal foot {leg.name}" for leg in self.robot.legs)]
+        return self.terrain.grid.outside_problem(points, names)
 
     def plan(self, start, goal, progress=None) -> GeneratedSequence:
         """Plan from start (x, y, yaw) to goal (x, y, yaw); a pose off the map is a `LegplanError`

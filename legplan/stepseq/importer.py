@@ -65,10 +65,13 @@ class ImportResult:
 
 
 def _number(value, row: int, name: str, issues: list[Issue]) -> float:
+    """A finite number, or NaN with an issue naming the row and field (NaN, inf, text, bool)."""
     try:
-        out = float(value)
+        out = float(value) if not isinstance(value, bool) else math.nan
     except (TypeError, ValueError):
-        issues.append(Issue(row, name, f"not a number: {value!r}"))
+        out = math.nan
+    if not math.isfinite(out):
+        issues.append(Issue(row, name, f"must be a finite number, got {value!r}"))
         return math.nan
     return out
 

@@ -85,13 +85,21 @@ def _read_csv(path: Path) -> list[dict]:
 
 
 def _read_hdf5(path: Path) -> list[dict]:
-    with h5py.File(path, "r") as f:
-        if "legplan_kind" in f.attrs:
-            return _records_from_steps(path)
-        if "configurations" not in f:
-            raise SpecError(f"{path}: group '/configurations' is missing")
-        group = f["configurations"]
-        columns = {name: np.asarray(ds[()]).reshape(-1) for name, ds in group.items()}
+    if not h5py.is_hdf5(path):
+        raise SpecError(f"{path}: not an HDF5 file")
+    try:
+        with h5py.File(path, "r") as f:
+            if "legplan_kind" in f.attrs:
+                return _records_from_steps(path)
+            if not isinstance(f.get("configurations"), h5py.Group):
+                raise SpecError(f"{path}: group '/configurations' is missing")
+            group = f["configurations"]
+            odd = [name for name, item in group.items() if not isinstance(item, h5py.Dataset)]
+            if odd:
+                raise SpecError(f"{path}: '/configurations/{odd[0]}' must be a 1-D dataset, not a group")
+            columns = {name: np.asarray(ds[()]).reshape(-1) for name, ds in group.items()}
+    except OSError as exc:
+        raise SpecError(f"{path}: truncated or corrupt HDF5 file ({' '.join(str(exc).split())})") from None
     lengths = {len(v) for v in columns.values()}
     if len(lengths) > 1:
         raise SpecError(f"{path}: datasets under '/configurations' differ in length {sorted(lengths)}")

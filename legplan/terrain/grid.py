@@ -53,6 +53,18 @@ class Grid2D:
         inside = (ix >= 0) & (ix < self.shape[1]) & (iy >= 0) & (iy < self.shape[0])
         return np.clip(iy, 0, self.shape[0] - 1), np.clip(ix, 0, self.shape[1] - 1), inside
 
+    def outside_problem(self, xy, names) -> str | None:
+        """"NAME at (x, y) is outside the map (x .., y ..)" for the first of the points `xy` (n, 2)
+        that lies in no cell (`names[i]` names point i), or None when all lie on the grid."""
+        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        inside = self.cell_of(xy)[2]
+        if inside.all():
+            return None
+        i = int(np.argmin(inside))
+        x0, x1, y0, y1 = self.extent
+        return (f"{names[i]} at ({xy[i, 0]:.3f}, {xy[i, 1]:.3f}) is outside the map "
+                f"(x {x0:.3f}..{x1:.3f}, y {y0:.3f}..{y1:.3f})")
+
     def nearest(self, array: np.ndarray, xy) -> np.ndarray:
         """Value of the cell containing each point (border cells repeat outside the grid)."""
         iy, ix, _ = self.cell_of(xy)

@@ -64,7 +64,7 @@ def test_params_overrides():
     assert StepPlanParams().as_dict()["max_degree"] == 10
     with pytest.raises(LegplanError, match="unknown step planner parameter 'nope'"):
         StepPlanParams.from_overrides({"nope": "1"})
-    with pytest.raises(LegplanError, match="'samples' expects int"):
+    with pytest.raises(LegplanError, match="'samples': expected a finite number, got 'many'"):
         StepPlanParams.from_overrides({"samples": "many"})
     with pytest.raises(LegplanError, match="'epsilon' out of range"):
         StepPlanParams.from_overrides({"epsilon": "-1"})

@@ -25,7 +25,26 @@ import h5py
 import numpy as np
 
 from legplan.artefacts import write_dataset
+from legplan.errors import ArtefactError
 from legplan.nav.teb.refine import Refinement
+
+
+def refinable_queries(nav_path) -> list[dict]:
+    """The queries of a `nav search` / `baseline nav` artefact to refine (`read_queries`, arrays
+    checked), or an `ArtefactError` naming the file: already refined (a query has `teb/`), or a
+    successful query without its `segments`."""
+    from legplan.artefacts import open_artefact
+    from legplan.nav.artefact import read_queries
+
+    with open_artefact(nav_path, kind="nav") as handle:
+        queries = read_queries(handle)
+    for query in queries:
+        where = f"{nav_path}: query '{query['name']}'"
+        if query["band"] is not None:
+            raise ArtefactError(f"{where} is already refined (has 'teb/'); refine the nav search output")
+        if query.get("success") and query["trajectory"] is None:
+            raise ArtefactError(f"{where} succeeded but has no dataset 'segments'")
+    return queries
 
 
 def write_refinement(group: h5py.Group, refinement: Refinement) -> dict[str, float]:
