@@ -64,7 +64,7 @@ from legplan.nav.teb.refine import refine_path
 from legplan.robots import load_robot
 from legplan.terrain import build_map
 from legplan.terrain.grid import Grid2D
-from legplan.terrain.layers import NavParams as CostmapParams
+from legplan.terrain.layers import CostmapParams
 
 PAPER_II = [(27.362, 31.794, 4.7630, 5.5047), (16.298, 25.395, 5.1730, 6.8421),
             (25.338, 31.000, 5.1201, 5.8651), (25.975, 25.594, 4.1946, 7.4720)]
@@ -119,7 +119,7 @@ def run_table2(job):
     planner_name, start, goal, yaw, hidden = job
     terrain = build_map(ROOT / "maps" / "nav_30m.yaml")
     unknown = hidden_boxes(terrain, start, goal) if hidden else np.zeros(terrain.grid.shape, bool)
-    world = World(terrain.grid, terrain.occupancy, unknown, terrain.nav_params, NAV.footprint)
+    world = World(terrain.grid, terrain.occupancy, unknown, terrain.nav_params, NAV.circumscribed_radius)
     search = NavParams.for_robot(NAV)
     planner = kinodynamic_planner(search) if planner_name == "kinoastar" else grid_planner(search, NAV.limits.v_x_max)
     sim = SimParams(max_time=30.0 + 3.0 * float(np.hypot(*(goal - start))) / NAV.limits.v_x_max,
@@ -144,7 +144,7 @@ def run_table3(name):
     walls = (X < 0.2) | (X > 7.8) | (Y < 0.2) | (Y > 7.8)
     objects = (np.abs(X - 6.5) < 0.2) & ((np.abs(Y - 2.5) < 0.2) | (np.abs(Y - 4.0) < 0.2) | (np.abs(Y - 5.5) < 0.2))
     world = World(grid, walls | objects, np.zeros_like(walls), CostmapParams(),
-                  NAV.footprint)
+                  NAV.circumscribed_radius)
     goals = [Goal((4.0, y), 0.0, 2.0) for y in (2.5, 4.0, 5.5)]
     sim = SimParams(max_time=150.0, yaw=yaw, heading=0.0, max_wall_seconds=WALL_BUDGET)
     r = simulate(world, kinodynamic_planner(NavParams.for_robot(NAV)), [1.0, 1.0, 0.0], goals, NAV.limits,
@@ -159,7 +159,7 @@ def run_cycle(warm):
     terrain = build_map(ROOT / "maps" / "nav_30m.yaml")
     start, goal, yaw = sample_pairs(terrain, 1, np.random.default_rng(0))[0]
     world = World(terrain.grid, terrain.occupancy, np.zeros(terrain.grid.shape, bool), terrain.nav_params,
-                  NAV.footprint)
+                  NAV.circumscribed_radius)
     r = simulate(world, kinodynamic_planner(NavParams.for_robot(NAV)), [*start, yaw], [Goal(tuple(goal))],
                  NAV.limits, TebParams(), SimParams(max_time=CYCLE_SIM_TIME, warm_start=warm))
     return {"warm_start": warm, "cycles": len(r.commands), "median_ms": 1e3 * float(np.median(r.compute_seconds)),

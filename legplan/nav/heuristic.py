@@ -38,12 +38,6 @@ from legplan.nav.collision import NavGrid
 _MIN_T = 1e-9
 
 
-def cost_at(T, c1, c2, c3, rho):
-    """J*(T) = -c1/(3T³) - c2/(2T²) - c3/T + ρT (eq. (9) expanded)."""
-    inv = 1.0 / T
-    return ((-c1 / 3.0 * inv - c2 / 2.0) * inv - c3) * inv + rho * T
-
-
 def depressed_quartic_roots(p: float, q: float, r: float) -> tuple[float, float, float, float]:
     """The four roots of x⁴ + p x² + q x + r = 0 by Ferrari's method, NaN where complex (floats).
 

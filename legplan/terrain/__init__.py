@@ -8,13 +8,13 @@
 
 from legplan.terrain.columns import ColumnDistance
 from legplan.terrain.grid import Grid2D
-from legplan.terrain.layers import (FootholdParams, NavParams, costmap_from_distance, foothold_mask,
+from legplan.terrain.layers import (CostmapParams, FootholdParams, costmap_from_distance, foothold_mask,
                                     obstacle_distance, occupancy_grid)
 from legplan.terrain.sdf import SignedDistanceField, heightmap_sdf
 from legplan.terrain.spec import build_map
 from legplan.terrain.terrain_map import (SdfParams, TerrainMap, load_map, save_map,
                                          terrain_from_heightmap)
 
-__all__ = ["ColumnDistance", "FootholdParams", "Grid2D", "NavParams", "SdfParams", "SignedDistanceField",
+__all__ = ["ColumnDistance", "CostmapParams", "FootholdParams", "Grid2D", "SdfParams", "SignedDistanceField",
            "TerrainMap", "build_map", "costmap_from_distance", "foothold_mask", "heightmap_sdf", "load_map",
            "obstacle_distance", "occupancy_grid", "save_map", "terrain_from_heightmap"]

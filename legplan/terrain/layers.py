@@ -19,7 +19,7 @@ class FootholdParams:
 
 
 @dataclass(frozen=True)
-class NavParams:
+class CostmapParams:
     """2D navigation: cells more than `obstacle_height` above or below the ground are obstacles;
     costmap inflation of eqs. (15)-(16) with inscribed radius `l1`, inflation radius `l2` (m), maximum
     (lethal) cost `c_max` and decay rate `lambda_c` (1/m). Defaults: Jueying Mini quadruped."""

@@ -23,7 +23,7 @@ import numpy as np
 from legplan.errors import SpecError
 from legplan.specio import read_yaml_mapping
 from legplan.terrain.grid import Grid2D
-from legplan.terrain.layers import FootholdParams, NavParams
+from legplan.terrain.layers import CostmapParams, FootholdParams
 from legplan.terrain.primitives import Fields, rasterize
 from legplan.terrain.sdf import Progress
 from legplan.terrain.terrain_map import SdfParams, TerrainMap, check_memory, terrain_from_heightmap
@@ -78,7 +78,7 @@ def build_map(spec_path: str | os.PathLike, progress: Progress | None = None) ->
     grid = parse_grid(data, source)
     ground = Fields(data, "spec", source).number("ground", 0.0)
     foothold = section(data, "foothold", FootholdParams, source)
-    nav = section(data, "nav", NavParams, source)
+    nav = section(data, "nav", CostmapParams, source)
     sdf = section(data, "sdf", SdfParams, source, none_ok=("z_min", "z_max"))
     if nav.l2 < nav.l1:
         raise SpecError(f"{source}: field 'nav.l2' must be >= 'nav.l1' ({nav.l2} < {nav.l1})")

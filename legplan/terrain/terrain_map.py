@@ -22,7 +22,7 @@ from legplan.artefacts import (check_finite, open_artefact, read_array, require,
                                write_summary)
 from legplan.errors import ArtefactError, SpecError
 from legplan.terrain.grid import Grid2D
-from legplan.terrain.layers import (FootholdParams, NavParams, costmap_from_distance, foothold_mask,
+from legplan.terrain.layers import (CostmapParams, FootholdParams, costmap_from_distance, foothold_mask,
                                     obstacle_distance, occupancy_grid)
 from legplan.terrain.sdf import Progress, SignedDistanceField, heightmap_sdf, sdf_layers
 
@@ -62,7 +62,7 @@ class TerrainMap:
     distance: np.ndarray
     costmap: np.ndarray
     foothold_params: FootholdParams
-    nav_params: NavParams
+    nav_params: CostmapParams
 
     def height_at(self, xy, method: str = "bilinear") -> np.ndarray:
         """Terrain height (m) at points (n, 2): bilinear between cell centres, or the containing
@@ -83,10 +83,6 @@ class TerrainMap:
         """Whether the cell containing each point (n, 2) is a foothold (False outside the grid)."""
         iy, ix, inside = self.grid.cell_of(xy)
         return self.foothold[iy, ix] & inside
-
-    def cost_at(self, xy) -> np.ndarray:
-        """Costmap value of the cell containing each point (border cells repeat outside)."""
-        return self.grid.nearest(self.costmap, xy)
 
     def summary(self) -> dict:
         ny, nx = self.grid.shape
@@ -115,7 +111,7 @@ def check_memory(shape, layers: int, source: str, field: str) -> None:
 
 def terrain_from_heightmap(height, grid: Grid2D, *, name: str = "", ground: float = 0.0,
                            holes=None, obstacles=None, foothold: FootholdParams = FootholdParams(),
-                           nav: NavParams = NavParams(), sdf: SdfParams = SdfParams(),
+                           nav: CostmapParams = CostmapParams(), sdf: SdfParams = SdfParams(),
                            source: str = "<heightmap>", progress: Progress | None = None) -> TerrainMap:
     """Build every layer from a heightmap (ny, nx) on `grid`.
 
@@ -181,7 +177,7 @@ def load_map(path: str | os.PathLike) -> TerrainMap:
         foothold = FootholdParams(**{key: _number_attr(foothold_ds, key)
                                      for key in ("flat_radius", "flat_tolerance", "edge_margin")})
         occupancy_ds, costmap_ds = require(f, "nav/occupancy"), require(f, "nav/costmap")
-        nav = NavParams(obstacle_height=_number_attr(occupancy_ds, "obstacle_height"),
+        nav = CostmapParams(obstacle_height=_number_attr(occupancy_ds, "obstacle_height"),
                         **{key: _number_attr(costmap_ds, key) for key in ("l1", "l2", "c_max", "lambda_c")})
         layers = {name: read_array(f, name, ndim=2) for name in
                   ("terrain/foothold", "nav/occupancy", "nav/distance", "nav/costmap")}

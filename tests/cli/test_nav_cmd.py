@@ -7,7 +7,7 @@ from click.testing import CliRunner
 from legplan.artefacts import open_artefact, read_summary
 from legplan.cli.main import cli
 from legplan.nav import Trajectory
-from legplan.terrain import Grid2D, NavParams, save_map, terrain_from_heightmap
+from legplan.terrain import CostmapParams, Grid2D, save_map, terrain_from_heightmap
 
 
 def run(*args):
@@ -19,7 +19,7 @@ def small_map(tmp_path):
     height = np.zeros((50, 80))
     height[10:30, 35:45] = 0.5
     grid = Grid2D((0.05, 0.05), 0.1, height.shape)
-    terrain = terrain_from_heightmap(height, grid, name="block", nav=NavParams())
+    terrain = terrain_from_heightmap(height, grid, name="block", nav=CostmapParams())
     path = tmp_path / "map.h5"
     save_map(terrain, path)
     return path

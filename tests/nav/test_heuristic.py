@@ -3,8 +3,8 @@
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from legplan.nav.heuristic import (GoalHeuristic, cost_at, depressed_quartic_roots,
-                                   min_time_cost, optimal_polynomial)
+from legplan.nav.heuristic import (GoalHeuristic, depressed_quartic_roots, min_time_cost,
+                                   optimal_polynomial)
 from legplan.nav.primitives import input_lattice
 
 
@@ -17,6 +17,12 @@ def quartic_coefficients(pc, vc, pg, vg):
     c2 = 24.0 * (vs[..., 0] * dx + vs[..., 1] * dy)
     c3 = -4.0 * ((vs * vs).sum(axis=-1) - (vc * vg).sum(axis=-1))
     return c1, c2, c3
+
+
+def expanded_cost(T, c1, c2, c3, rho):
+    """J*(T) = -c1/(3T³) - c2/(2T²) - c3/T + ρT: eq. (9) expanded with the coefficients above."""
+    inv = 1.0 / T
+    return ((-c1 / 3.0 * inv - c2 / 2.0) * inv - c3) * inv + rho * T
 
 
 def eq9_cost(pc, vc, pg, vg, T, rho):
@@ -46,7 +52,7 @@ def test_closed_form_cost_equals_eq9():
         pc, vc, pg, vg = rng.normal(size=(4, 2))
         c1, c2, c3 = quartic_coefficients(pc, vc, pg, vg)
         T = rng.uniform(0.2, 10.0)
-        assert np.isclose(cost_at(T, c1, c2, c3, 2.0), eq9_cost(pc, vc, pg, vg, T, 2.0))
+        assert np.isclose(expanded_cost(T, c1, c2, c3, 2.0), eq9_cost(pc, vc, pg, vg, T, 2.0))
 
 
 def test_T_h_is_the_global_minimizer_of_J():

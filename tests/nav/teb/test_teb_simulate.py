@@ -7,10 +7,10 @@ from legplan.nav.simulate import Goal, Robot, SimParams, World, kinodynamic_plan
 from legplan.nav.teb.params import TebParams
 from legplan.robots.spec import KinodynamicLimits
 from legplan.terrain.grid import Grid2D
-from legplan.terrain.layers import NavParams as CostmapParams
+from legplan.terrain.layers import CostmapParams
 
 TABLE_I = KinodynamicLimits(0.75, 0.10, 0.20, 0.70, 1.00, 0.17, 0.52)
-FOOTPRINT = np.array([[0.35, 0.2], [-0.35, 0.2], [-0.35, -0.2], [0.35, -0.2]])
+RADIUS = 0.4031  # circumscribed radius of the 0.70 m × 0.40 m footprint
 
 
 def small_world(hidden_box=True):
@@ -18,7 +18,7 @@ def small_world(hidden_box=True):
     X, Y = grid.centres()
     walls = (X < 0.2) | (X > 5.8) | (Y < 0.2) | (Y > 4.8)
     hidden = (np.abs(X - 3.0) < 0.15) & (np.abs(Y - 2.3) < 0.15) if hidden_box else np.zeros_like(walls)
-    return World(grid, walls, hidden, CostmapParams(), FOOTPRINT)
+    return World(grid, walls, hidden, CostmapParams(), RADIUS)
 
 
 def test_simulation_reaches_goal_around_hidden_obstacle_without_collision():
@@ -50,9 +50,31 @@ def test_robot_obeys_acceleration_limits_and_nonholonomic_model():
     assert omni.pose[0] < 0 and abs(omni.pose[1]) < 1e-12  # body +y is world −x at θ = π/2
 
 
-def test_footprint_collision_uses_true_map():
+def test_collision_disc_uses_true_map_and_the_planners_radius():
     world = small_world()
     assert world.in_collision(np.array([3.0, 2.3, 0.0]))  # the hidden box is real
     assert not world.in_collision(np.array([1.0, 1.0, 0.0]))
-    assert world.in_collision(np.array([0.4, 1.0, 0.0]))  # footprint reaches the wall
-    assert not world.in_collision(np.array([0.45, 1.0, np.pi / 2]))  # turned: half-width 0.2 m fits
+    # the wall's last cell centre is at x = 0.175: clear beyond 0.175 + 0.4031 m, whatever the yaw
+    assert world.in_collision(np.array([0.575, 1.0, np.pi / 2]))
+    assert not world.in_collision(np.array([0.58, 1.0, 0.0]))
+    assert world.in_collision(np.array([5.9, 4.9, 0.0]))  # the disc leaves the map
+    # planning uses the same radius: the known map's lethal cells are those within it
+    assert world.nav_grid.l1 == RADIUS
+    assert world.nav_grid.lethal_at(np.array([[0.57, 1.0]]))[0]
+    assert not world.nav_grid.lethal_at(np.array([[0.6, 1.0]]))[0]
+
+
+def test_a_run_with_a_collision_is_not_a_success():
+    class Clumsy(World):
+        def in_collision(self, pose):
+            return pose[0] > 2.0  # a phantom obstacle the planners do not know
+
+    grid = Grid2D((0.025, 0.025), 0.05, (100, 120))
+    X, Y = grid.centres()
+    walls = (X < 0.2) | (X > 5.8) | (Y < 0.2) | (Y > 4.8)
+    world = Clumsy(grid, walls, np.zeros_like(walls), CostmapParams(), RADIUS)
+    result = simulate(world, kinodynamic_planner(NavParams()), [1.0, 2.5, 0.0], [Goal((3.0, 2.5))],
+                      TABLE_I, TebParams(outer_iterations=2), SimParams(max_time=30.0))
+    assert np.hypot(*(result.states[-1, :2] - [3.0, 2.5])) <= 0.1  # it got there ...
+    assert result.collisions > 0 and not result.success  # ... but touched the obstacle
+    assert result.reason.startswith(f"reached the goal with {result.collisions} substeps in collision")

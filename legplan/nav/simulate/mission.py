@@ -1,0 +1,33 @@
+"""What a receding-horizon run is asked to do: its goals and its settings."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True)
+class Goal:
+    """Where to go: position, heading (NaN = any), seconds to stay there once reached."""
+
+    xy: tuple[float, float]
+    heading: float = float("nan")
+    dwell: float = 0.0
+
+
+@dataclass(frozen=True)
+class SimParams:
+    rate: float = 10.0  # Hz, TEB cycles
+    substeps: int = 10  # robot integration steps per cycle
+    window: float = 5.0  # m of global path in the local band
+    sensing_radius: float = 4.0  # m
+    goal_tolerance: float = 0.1  # m
+    heading_tolerance: float = 0.1  # rad
+    stop_speed: float = 0.05  # m/s, "at rest" for arrival at a via point
+    max_time: float = 300.0  # s of simulated time before the run fails
+    stall_time: float = 20.0  # s: the run fails when the robot moved less than `stall_distance` in this time
+    stall_distance: float = 0.3  # m
+    max_wall_seconds: float = float("inf")  # wall-clock budget of the run
+    warm_start: bool = True  # warm-start the local band from the previous cycle
+    yaw: str = "velocity"  # yaw policy on the way: "velocity", "target" (face `target`) or "heading"
+    target: tuple[float, float] | None = None  # world point faced with yaw "target"
+    heading: float = 0.0  # rad, held with yaw "heading"
