@@ -1,4 +1,5 @@
-"""`legplan robot list|show`: the robots in the robots folder and what their model holds."""
+"""`legplan robot list|show|init|check`: the robots on the search path, what their model holds, drafting
+and checking a robot.yaml."""
 
 from __future__ import annotations
 
@@ -12,28 +13,35 @@ from legplan.cli.options import json_opt, overwrite_opt, verbosity_opts
 @click.group("robot")
 @verbosity_opts
 def command():
-    """Robot models: robots/<name>/robot.urdf + robot.yaml (folder overridable by LEGPLAN_ROBOTS)."""
+    """Robot models: <folder>/<name>/robot.urdf + robot.yaml, found on LEGPLAN_ROBOTS (colon-separated
+    folders) and then in the shipped robots; `init` drafts a robot.yaml, `check` validates one."""
 
 
 @command.command("list")
 @json_opt
 @verbosity_opts
 def list_command(as_json):
-    """List the robots of the robots folder with their DOF and legs."""
-    from legplan.robots import list_robots, load_robot, robots_dir
+    """List the robots on the search path with their DOF and legs; a folder that does not load is
+    listed as broken with its reason (exit 0)."""
+    from legplan.robots import robot_search_path, survey_robots
 
     rows = []
-    for name in list_robots():
-        robot = load_robot(name)
-        rows.append({"name": name, "dof": robot.nv, "nq": robot.nq, "legs": robot.n_legs,
-                     "spheres": len(robot.spheres), "mass": robot.mass,
-                     "navigation": robot.navigation is not None, "centroidal": robot.centroidal is not None,
-                     "description": robot.description})
+    for entry in survey_robots():
+        robot = entry.robot
+        row = {"name": entry.name, "folder": str(entry.folder), "broken": entry.problem}
+        if robot is not None:
+            row.update({"dof": robot.nv, "nq": robot.nq, "legs": robot.n_legs, "spheres": len(robot.spheres),
+                        "mass": robot.mass, "navigation": robot.navigation is not None,
+                        "centroidal": robot.centroidal is not None, "description": robot.description})
+        rows.append(row)
     if as_json:
         click.echo(json.dumps(rows, indent=2))
         return
-    click.echo(f"robots in {robots_dir()}:")
+    click.echo("robots in " + ", then ".join(str(root) for root in robot_search_path()) + ":")
     for row in rows:
+        if row["broken"]:
+            click.echo(f"  {row['name']:<14} broken: {row['broken']}")
+            continue
         extras = "".join(f", {key}" for key in ("navigation", "centroidal") if row[key])
         click.echo(f"  {row['name']:<14} {row['dof']:>3} DOF  {row['legs']} legs  {row['spheres']:>3} spheres  "
                    f"{row['mass']:.2f} kg{extras}")

@@ -11,9 +11,11 @@ from legplan.robots.centroidal import Centroidal
 from legplan.robots.kinematics import Kinematics, KinematicsWorkspace
 from legplan.robots.legik import ReachResult, leg_reach
 from legplan.robots.model import RobotModel
-from legplan.robots.registry import list_robots, load_robot, resolve_robot, robots_dir
+from legplan.robots.registry import (RobotEntry, list_robots, load_robot, resolve_robot, robot_search_path,
+                                     shipped_robots_dir, survey_robots)
 from legplan.robots.spec import KinodynamicLimits, Leg, Navigation, RobotSpec, SphereSet, read_spec
 
 __all__ = ["Centroidal", "Kinematics", "KinematicsWorkspace", "KinodynamicLimits", "Leg", "Navigation",
-           "ReachResult", "RobotModel", "RobotSpec", "SphereSet", "leg_reach", "list_robots", "load_robot",
-           "read_spec", "resolve_robot", "robots_dir"]
+           "ReachResult", "RobotEntry", "RobotModel", "RobotSpec", "SphereSet", "leg_reach", "list_robots",
+           "load_robot", "read_spec", "resolve_robot", "robot_search_path", "shipped_robots_dir",
+           "survey_robots"]

@@ -25,11 +25,29 @@ def test_robot_list():
     assert rows["anymal"]["centroidal"] is True and rows["scarab2"]["centroidal"] is False
 
 
-def test_robot_list_uses_env_folder(tmp_path):
-    write_toy_robot(tmp_path / "toy")
-    result = run("robot", "list", "--json", env={"LEGPLAN_ROBOTS": str(tmp_path)})
+def test_robot_list_searches_env_folders_first_and_lists_broken_folders(tmp_path):
+    first, second = tmp_path / "first", tmp_path / "second"
+    write_toy_robot(first / "toy")
+    write_toy_robot(second / "toy", spec={"name": "shadowed"})       # same name later: not used
+    write_toy_robot(second / "scarab2")                                # shadows the shipped scarab2
+    (second / "nolegs").mkdir()
+    write_toy_robot(second / "nolegs", spec={"name": "nolegs"})        # robot.yaml without legs
+    (second / "draft").mkdir()
+    (second / "draft" / "robot.urdf").write_text("<robot name='draft'/>")  # no robot.yaml yet
+    env = {"LEGPLAN_ROBOTS": f"{first}:{second}"}
+    result = run("robot", "list", "--json", env=env)
     assert result.exit_code == 0, result.output
-    assert [row["name"] for row in json.loads(result.output)] == ["toy"]
+    rows = {row["name"]: row for row in json.loads(result.output)}
+    assert rows["toy"]["folder"] == str(first / "toy") and rows["toy"]["broken"] is None
+    assert rows["scarab2"]["dof"] == 14                                # the toy, found before the shipped one
+    assert rows["anymal"]["broken"] is None                            # shipped robots stay listed
+    assert "field 'legs' is missing" in rows["nolegs"]["broken"]
+    assert "robot.yaml: missing" in rows["draft"]["broken"]
+    text = run("robot", "list", env=env)
+    assert text.exit_code == 0
+    assert f"robots in {first}, then {second}, then " in text.output
+    assert [line.split()[1] for line in text.output.splitlines() if line.split()[0] == "draft"] == ["broken:"]
+    assert run("robot", "show", "draft", env=env).exit_code == 2
 
 
 def test_robot_show_text_json_and_png(tmp_path):
