@@ -7,6 +7,8 @@ name: scarab2
 urdf: robot.urdf                   # optional, relative to the yaml file
 legs:                              # every actuated joint belongs to exactly one leg chain
   - {name: lf, joints: [coxa_lf, femur_lf, tibia_lf], foot_frame: foot_lf}
+  - {name: rf, joints: [coxa_rf, femur_rf, tibia_rf],  # or a foot point on a link: frame "rf_foot"
+     foot: {link: tibia_rf, offset: [0.12, 0, 0]}}   #   added to the model (URDF untouched)
 joint_limits:                      # optional planning limits [lower, upper] inside the URDF limits;
   coxa_lf: [-0.4, 0.4]             # "{leg}" in a key is expanded for every leg
 collision_spheres:                 # centre = frame placement * offset; "{leg}" expanded per leg
@@ -25,7 +27,8 @@ centroidal:                        # optional, for centroidal planners: see legp
   ...
 ```
 
-Every error is a one-line `SpecError` naming the file and the field.
+Every error is a one-line `SpecError` naming the file and the field. docs/robots.md documents
+every field with a worked example.
 """
 
 from __future__ import annotations
@@ -172,13 +175,18 @@ def _parse_legs(reader: FieldReader, data: dict, model: pin.Model) -> tuple[Leg,
                 reader.fail(f"{field}.joints[{k}]", f"joint '{joint}' is not a child of "
                             f"'{model.names[parent]}' (a leg is a chain from the base)")
             ids.append(jid)
-        foot = reader.get(entry, "foot_frame", f"{field}.foot_frame", str)
-        foot_id = _frame_id(model, foot)
-        if foot_id is None:
-            reader.fail(f"{field}.foot_frame", f"names unknown frame '{foot}'")
+        if ("foot" in entry) == ("foot_frame" in entry):
+            reader.fail(f"{field}.foot", "give either foot_frame (a frame of the URDF) or foot "
+                        "({link, offset}), exactly one")
+        if "foot" in entry:
+            foot, foot_id, foot_field = _add_foot_frame(reader, entry["foot"], f"{field}.foot", name, model)
+        else:
+            foot = reader.get(entry, "foot_frame", f"{field}.foot_frame", str)
+            foot_id, foot_field = _frame_id(model, foot), f"{field}.foot_frame"
+            if foot_id is None:
+                reader.fail(foot_field, f"names unknown frame '{foot}'")
         if model.frames[foot_id].parentJoint != ids[-1]:
-            reader.fail(f"{field}.foot_frame", f"frame '{foot}' is not attached to the last leg joint "
-                        f"'{joints[-1]}'")
+            reader.fail(foot_field, f"frame '{foot}' is not attached to the last leg joint '{joints[-1]}'")
         legs.append(Leg(name=name, joint_names=tuple(joints),
                         joint_idx_q=tuple(int(model.idx_qs[j]) for j in ids),
                         joint_idx_v=tuple(int(model.idx_vs[j]) for j in ids),
@@ -190,6 +198,26 @@ def _parse_legs(reader: FieldReader, data: dict, model: pin.Model) -> tuple[Leg,
         reader.fail("legs", f"cover {len(seen_joints)} joints but the URDF has {n_actuated} actuated "
                     f"joints (not in any leg: {', '.join(missing)})")
     return tuple(legs)
+
+
+def _add_foot_frame(reader: FieldReader, foot, field: str, leg: str, model: pin.Model) -> tuple[str, int, str]:
+    """Add the foot frame `{link, offset[, frame]}` to the model: an OP_FRAME on the link's parent
+    joint at the link frame placement * offset, named `frame` (default "<leg>_foot"); the URDF stays
+    untouched. Returns (frame name, frame id, field of the link)."""
+    if not isinstance(foot, dict):
+        reader.fail(field, "must be a mapping {link: LINK, offset: [x, y, z]}")
+    link = reader.get(foot, "link", f"{field}.link", str)
+    if not model.existFrame(link, pin.FrameType.BODY):
+        reader.fail(f"{field}.link", f"names unknown link '{link}' (not in the URDF)")
+    offset = reader.vector(reader.get(foot, "offset", f"{field}.offset", default=[0, 0, 0]), f"{field}.offset", 3)
+    name = reader.get(foot, "frame", f"{field}.frame", str, f"{leg}_foot")
+    if model.existFrame(name):
+        reader.fail(f"{field}.frame", f"frame '{name}' exists already (choose another name)")
+    link_id = model.getFrameId(link, pin.FrameType.BODY)
+    parent = model.frames[link_id]
+    placement = parent.placement * pin.SE3(np.eye(3), np.asarray(offset, float))
+    frame_id = model.addFrame(pin.Frame(name, parent.parentJoint, link_id, placement, pin.FrameType.OP_FRAME))
+    return name, int(frame_id), f"{field}.link"
 
 
 def _frame_id(model: pin.Model, name: str) -> int | None:

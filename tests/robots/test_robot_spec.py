@@ -3,6 +3,7 @@
 import copy
 
 import numpy as np
+import pinocchio as pin
 import pytest
 from robot_helpers import TOY_HIP, TOY_LINK, toy_centroidal, toy_spec, write_toy_robot
 
@@ -27,6 +28,30 @@ def test_toy_robot_loads_and_works(toy):
     assert toy.mass == pytest.approx(3.0 + 8 * 0.2)
 
 
+def _link_feet(spec):
+    """Feet given as a link + offset (the knee's child link, 0.15 m along its -z) instead of the toe frames."""
+    for leg in spec["legs"]:
+        n = leg["name"]
+        del leg["foot_frame"]
+        leg["foot"] = {"link": f"shank_{n}", "offset": [0.0, 0.0, -TOY_LINK]}
+    spec["collision_spheres"][-1]["link"] = "{leg}_foot"
+    return spec
+
+
+def test_foot_as_link_plus_offset_equals_the_urdf_foot_frame(tmp_path, toy):
+    robot = load_robot(write_toy_robot(tmp_path / "linkfeet", _link_feet(copy.deepcopy(toy_spec()))))
+    assert [leg.foot_frame for leg in robot.legs] == ["a_foot", "b_foot", "c_foot", "d_foot"]
+    frame = robot.model.frames[robot.legs[0].foot_frame_id]
+    assert frame.type == pin.FrameType.OP_FRAME and robot.model.names[frame.parentJoint] == "knee_a"
+    rng = np.random.default_rng(3)
+    Q = np.repeat(toy.q_nominal[None], 5, axis=0)
+    Q[:, 7:] += rng.uniform(-0.3, 0.3, (5, 8))
+    np.testing.assert_allclose(robot.foot_positions(Q), toy.foot_positions(Q), atol=1e-12)
+    np.testing.assert_allclose(robot.foot_jacobians(Q), toy.foot_jacobians(Q), atol=1e-12)
+    np.testing.assert_allclose(robot.sphere_centres(Q), toy.sphere_centres(Q), atol=1e-12)
+    assert robot.spheres.is_foot.tolist() == toy.spheres.is_foot.tolist()
+
+
 def _broken(tmp_path, edit):
     spec = copy.deepcopy(toy_spec())
     edit(spec)
@@ -36,6 +61,15 @@ def _broken(tmp_path, edit):
 CASES = [
     ("unknown foot frame", lambda s: s["legs"][1].update(foot_frame="toe_x"), r"legs\[1\]\.foot_frame.*toe_x"),
     ("foot frame on another leg", lambda s: s["legs"][0].update(foot_frame="toe_b"), r"legs\[0\]\.foot_frame"),
+    ("foot and foot_frame", lambda s: s["legs"][1].update(foot={"link": "shank_b"}), r"legs\[1\]\.foot'.*exactly one"),
+    ("foot on unknown link", lambda s: _link_feet(s)["legs"][2]["foot"].update(link="paw_c"),
+     r"legs\[2\]\.foot\.link.*paw_c"),
+    ("foot on another leg's link", lambda s: _link_feet(s)["legs"][0]["foot"].update(link="shank_b"),
+     r"legs\[0\]\.foot\.link.*knee_a"),
+    ("foot offset not 3 numbers", lambda s: _link_feet(s)["legs"][3]["foot"].update(offset=[0, 0]),
+     r"legs\[3\]\.foot\.offset"),
+    ("foot frame name taken", lambda s: _link_feet(s)["legs"][0]["foot"].update(frame="toe_b"),
+     r"legs\[0\]\.foot\.frame.*toe_b"),
     ("sphere on missing link", lambda s: s["collision_spheres"][0].update(link="chassis"),
      r"collision_spheres\[0\]\.link.*chassis"),
     ("negative radius", lambda s: s["collision_spheres"][1].update(radius=-0.1),
