@@ -9,7 +9,8 @@ import click
 
 from legplan.cli.console import progress_bar, status
 from legplan.cli.nav_options import robot_navigation
-from legplan.cli.options import FiniteList, input_artefact, number, output_opt, overwrite_opt, verbosity_opts
+from legplan.cli.options import (NumbersOption, input_artefact, number, output_opt, overwrite_opt, param_opt,
+                                 verbosity_opts)
 
 robot_opt = click.option("--robot", default="jueying_mini", show_default=True,
                          help="Robot name or robot.yaml path (its navigation limits, Table I).")
@@ -85,11 +86,15 @@ def _summary(write_summary, handle, count, rows):
 @click.command("simulate")
 @click.argument("map_path", metavar="MAP", type=input_artefact)
 @robot_opt
-@click.option("--start", type=FiniteList((2, 3)), required=True, help="Start pose x,y[,yaw] (m, rad).")
-@click.option("--goal", type=FiniteList((2, 3)), required=True, help="Goal x,y[,yaw] (m, rad).")
-@click.option("--via", type=FiniteList((2, 3, 4)), multiple=True, help="Via point x,y[,yaw[,dwell]] (m, rad, s); repeatable, in order.")
-@click.option("--face-target", type=FiniteList((2,)), default=None, help="x,y: hold the heading towards this point on the way "
-                                                    "(omnidirectional side-stepping, Table III).")
+@click.option("--start", cls=NumbersOption, counts=(2, 3), required=True, metavar="X Y [YAW]",
+              help="Start pose (m, m, rad; yaw 0 when left out).")
+@click.option("--goal", cls=NumbersOption, counts=(2, 3), required=True, metavar="X Y [YAW]",
+              help="Goal position and optional heading (m, m, rad).")
+@click.option("--via", cls=NumbersOption, counts=(2, 3, 4), multiple=True, metavar="X Y [YAW [DWELL]]",
+              help="Via point (m, m, rad, s); repeatable, in order.")
+@click.option("--face-target", cls=NumbersOption, counts=(2,), default=None, metavar="X Y",
+              help="Hold the heading towards this point on the way (omnidirectional side-stepping, "
+                   "Table III).")
 @click.option("--hidden-obstacles", type=click.Path(dir_okay=False), default=None,
               help="YAML with `obstacles: [map primitives]` missing from the initial map; sensed in range.")
 @click.option("--planner", type=click.Choice(["kinoastar", "astar"]), default="kinoastar", show_default=True,
@@ -101,18 +106,20 @@ def _summary(write_summary, handle, count, rows):
 @rounds_opt
 @inner_opt
 @omni_opt
+@param_opt("Override a parameter: search.KEY (legplan.nav.NavParams, e.g. search.weight=3), teb.KEY "
+           "(TebParams, e.g. teb.weight_obstacle=80) or sim.KEY (SimParams, e.g. sim.window=4).")
 @output_opt
 @overwrite_opt
 @verbosity_opts
 @click.pass_context
 def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacles, planner, sensing_radius,
-             max_time, warm_start, outer, inner, omni, output, overwrite):
+             max_time, warm_start, outer, inner, omni, params, output, overwrite):
     """Receding-horizon run on MAP: global plan, TEB at 10 Hz on a 5 m window, hidden obstacles."""
     import numpy as np
 
     from legplan.artefacts import check_output, write_artefact, write_summary
     from legplan.errors import LegplanError
-    from legplan.nav.params import NavParams
+    from legplan.nav.params import NavParams, with_field_overrides
     from legplan.nav.simulate import (Goal, SimParams, World, grid_planner, hidden_obstacles as load_hidden,
                                       kinodynamic_planner, simulate as run)
     from legplan.nav.teb.artefact import write_simulation
@@ -134,20 +141,25 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
     hidden = (load_hidden(hidden_obstacles, terrain.grid) if hidden_obstacles
               else np.zeros(terrain.grid.shape, bool))
     world = World(terrain.grid, terrain.occupancy, hidden, terrain.nav_params, navigation.circumscribed_radius)
-    search = NavParams.for_robot(navigation)
+    overrides = simulation_overrides(params)
+    search = with_field_overrides(NavParams.for_robot(navigation), overrides["search"], "--param",
+                                  "search parameter")
     plan = (kinodynamic_planner(search) if planner == "kinoastar"
             else grid_planner(search, navigation.limits.v_x_max))
-    teb = TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni)
-    sim = SimParams(sensing_radius=sensing_radius, max_time=max_time, warm_start=warm_start,
-                    yaw="target" if target else "velocity", target=target)
+    teb = with_field_overrides(TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni),
+                               overrides["teb"], "--param", "teb parameter")
+    sim = with_field_overrides(SimParams(sensing_radius=sensing_radius, max_time=max_time, warm_start=warm_start,
+                                         yaw="target" if target else "velocity", target=target),
+                               overrides["sim"], "--param", "sim parameter")
     pose = np.array([start[0], start[1], start[2] if len(start) > 2 else 0.0])
     with progress_bar("simulating") as progress:
         result = run(world, plan, pose, goals, navigation.limits, teb, sim, progress)
-    params = {"teb": teb.as_dict(), "planner": planner, "robot": robot, "start": list(pose),
-              "goals": [[*g.xy, g.heading, g.dwell] for g in goals], "sensing_radius": sensing_radius,
-              "warm_start": warm_start}
+    record = {"teb": teb.as_dict(), "search": search.as_dict(), "sim": sim.as_dict(), "planner": planner,
+              "robot": robot, "start": list(pose), "goals": [[*g.xy, g.heading, g.dwell] for g in goals],
+              "sensing_radius": sim.sensing_radius, "warm_start": sim.warm_start,
+              "collision_radius": navigation.circumscribed_radius}
     inputs = [map_path] + ([hidden_obstacles] if hidden_obstacles else [])
-    with write_artefact(output, "nav", params=params, inputs=inputs, overwrite=overwrite) as f:
+    with write_artefact(output, "nav", params=record, inputs=inputs, overwrite=overwrite) as f:
         metrics = write_simulation(f, result)
         write_summary(f, {"success": float(result.success), "running_time": (metrics["running_time"], "s"),
                           "effort": (metrics["effort"], "m^2/s^3"), "collisions": metrics["collisions"],
@@ -156,5 +168,19 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
     outcome = "reached the goal" if result.success else f"failed: {result.reason}"
     status(f"wrote {output}: {outcome} in {result.times[-1]:.1f} s, effort {metrics['effort']:.3f}, "
            f"{result.collisions} collisions, median TEB cycle {1e3 * metrics['median_cycle_seconds']:.0f} ms")
-    if not result.success or result.collisions:
+    if not result.success:  # a run with a collision is not a success (legplan.nav.simulate.run)
         ctx.exit(1)
+
+
+def simulation_overrides(params: dict[str, str]) -> dict[str, dict[str, str]]:
+    """`--param` KEY=VALUE of `nav simulate` split by prefix: {"search": ..., "teb": ..., "sim": ...}."""
+    from legplan.errors import LegplanError
+
+    groups = {"search": {}, "teb": {}, "sim": {}}
+    for key, value in params.items():
+        prefix, _, name = key.partition(".")
+        if prefix not in groups or not name or (prefix == "sim" and name in ("yaw", "target")):
+            raise LegplanError(f"--param: '{key}' must be search.KEY, teb.KEY or sim.KEY (sim.yaw and "
+                               "sim.target come from --face-target)")
+        groups[prefix][name] = value
+    return groups

@@ -4,8 +4,9 @@ Use them as decorators so every command spells the same option the same way:
 `@output_opt @overwrite_opt @jobs_opt @seed_opt @verbosity_opts`; a many-item stage takes
 `@batch_opts` (`--jobs`, `--scheduler`, `--resume`, see `legplan.cli.batching`).
 
-Every numeric option takes `number(...)` (a finite float, optionally in a range), `FiniteList`
-(comma-separated finite numbers) or a `click.IntRange`, never a bare `float`: NaN and inf are refused on the command line (exit 2, one line
+Every numeric option takes `number(...)` (a finite float, optionally in a range), `Numbers` through
+`NumbersOption` (space-separated finite numbers: `--start X Y [YAW]`) or a `click.IntRange`, never a
+bare `float`: NaN and inf are refused on the command line (exit 2, one line
 naming the option) before any work starts. `tests/cli/test_bad_input_options.py` checks every
 command's options for it.
 """
@@ -37,25 +38,59 @@ def number(min: float | None = None, max: float | None = None, *, min_open: bool
     return FiniteFloat(min=min, max=max, min_open=min_open, max_open=max_open)
 
 
-class FiniteList(click.ParamType):
-    """Comma-separated finite numbers ("x,y[,yaw]"), as many as one of `counts`; a list of floats."""
+class Numbers(click.ParamType):
+    """Space-separated finite numbers after an option, as many as one of `counts` (`NumbersOption`);
+    a list of floats."""
 
-    name = "finite list"
+    name = "numbers"
 
     def __init__(self, counts: tuple[int, ...]):
         self.counts = counts
 
     def convert(self, value, param, ctx):
-        if isinstance(value, list):
-            return value
+        tokens = list(value) if isinstance(value, (list, tuple)) else str(value).split()
         try:
-            numbers = [float(text) for text in str(value).split(",")]
-        except ValueError:
+            numbers = [float(text) for text in tokens]
+        except (TypeError, ValueError):
             numbers = []
         if len(numbers) not in self.counts or not all(math.isfinite(v) for v in numbers):
-            self.fail(f"expected {' or '.join(map(str, self.counts))} comma-separated finite numbers, "
-                      f"got {value!r}", param, ctx)
+            self.fail(f"expected {' or '.join(map(str, self.counts))} finite numbers, got "
+                      f"{' '.join(map(str, tokens))!r}", param, ctx)
         return numbers
+
+
+class NumbersOption(click.Option):
+    """An option followed by a variable count of numbers, e.g. `--start X Y [YAW]` (`counts` (2, 3)):
+    the numbers after the option are taken while they parse as numbers, up to the largest count,
+    so `--start 1 -2 --goal 3 4` and `--start 1 -2 0.5 --goal 3 4` both work; with `multiple`,
+    once per occurrence. The one syntax of every pose option (`counts=(3,)` for a fixed pose)."""
+
+    def __init__(self, *args, counts: tuple[int, ...], **kwargs):
+        self.counts = counts
+        super().__init__(*args, type=Numbers(counts), **kwargs)
+
+    def add_to_parser(self, parser, ctx) -> None:
+        super().add_to_parser(parser, ctx)
+        most = max(self.counts)
+        for name in self.opts:
+            option = parser._long_opt.get(name) or parser._short_opt.get(name)
+            store = option.process
+
+            def process(value, state, store=store):
+                tokens = [value]
+                while len(tokens) < most and state.rargs and _is_number(state.rargs[0]):
+                    tokens.append(state.rargs.pop(0))
+                store(tuple(tokens), state)
+
+            option.process = process
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
 
 
 def _set_verbose(ctx, param, value):

@@ -84,17 +84,23 @@ class NavParams:
 
     def with_overrides(self, overrides: dict[str, str], source: str = "--param") -> NavParams:
         """A copy with `key=value` text overrides converted to each field's type."""
-        names = {f.name for f in dataclasses.fields(self)}
-        changes = {}
-        for key, text in overrides.items():
-            if key not in names:
-                raise LegplanError(f"{source}: unknown nav parameter '{key}' "
-                                   f"(known: {', '.join(sorted(names))})")
-            changes[key] = _convert(type(getattr(self, key)), key, str(text), source)
-        return self.replace(**changes)
+        return with_field_overrides(self, overrides, source, "nav parameter")
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
+
+
+def with_field_overrides(params, overrides: dict[str, str], source: str, what: str):
+    """A copy of the frozen dataclass `params` with `key=value` text overrides, each converted to
+    the type of the field's current value (bool: 1/0, true/false, yes/no, on/off; int: a whole
+    number); an unknown key or a bad value is a one-line `LegplanError` naming `source` and the key."""
+    names = {f.name for f in dataclasses.fields(params)}
+    changes = {}
+    for key, text in overrides.items():
+        if key not in names:
+            raise LegplanError(f"{source}: unknown {what} '{key}' (known: {', '.join(sorted(names))})")
+        changes[key] = _convert(type(getattr(params, key)), key, str(text), source)
+    return dataclasses.replace(params, **changes)
 
 
 def _convert(kind: type, key: str, text: str, source: str):

@@ -2,7 +2,12 @@
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
+
+from legplan.errors import LegplanError
+
+YAW_POLICIES = ("velocity", "target", "heading")
 
 
 @dataclass(frozen=True)
@@ -16,6 +21,8 @@ class Goal:
 
 @dataclass(frozen=True)
 class SimParams:
+    """Settings of a run (`nav simulate --param sim.KEY=VALUE` for the numbers and flags)."""
+
     rate: float = 10.0  # Hz, TEB cycles
     substeps: int = 10  # robot integration steps per cycle
     window: float = 5.0  # m of global path in the local band
@@ -31,3 +38,17 @@ class SimParams:
     yaw: str = "velocity"  # yaw policy on the way: "velocity", "target" (face `target`) or "heading"
     target: tuple[float, float] | None = None  # world point faced with yaw "target"
     heading: float = 0.0  # rad, held with yaw "heading"
+
+    def __post_init__(self):
+        checks = [("rate", self.rate > 0), ("substeps", self.substeps >= 1), ("window", self.window > 0),
+                  ("sensing_radius", self.sensing_radius >= 0), ("goal_tolerance", self.goal_tolerance > 0),
+                  ("heading_tolerance", self.heading_tolerance > 0), ("stop_speed", self.stop_speed > 0),
+                  ("max_time", self.max_time > 0), ("stall_time", self.stall_time > 0),
+                  ("stall_distance", self.stall_distance >= 0), ("max_wall_seconds", self.max_wall_seconds > 0),
+                  ("yaw", self.yaw in YAW_POLICIES)]
+        for name, ok in checks:
+            if not ok:
+                raise LegplanError(f"simulation parameter '{name}' out of range: {getattr(self, name)!r}")
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)

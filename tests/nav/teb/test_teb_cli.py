@@ -6,6 +6,7 @@ import h5py
 import pytest
 from click.testing import CliRunner
 
+from legplan.artefacts import read_provenance
 from legplan.cli.main import cli
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -21,19 +22,30 @@ def flat_map(tmp_path_factory):
 
 def test_simulate_writes_run(flat_map, tmp_path):
     out = tmp_path / "run.h5"
-    result = CliRunner().invoke(cli, ["nav", "simulate", str(flat_map), "--start", "-1,0,0", "--goal", "0.5,0.3",
-                                      "--outer", "2", "-o", str(out), "-q"])
+    result = CliRunner().invoke(cli, ["nav", "simulate", str(flat_map), "--start", "-1", "0", "0.3", "--goal",
+                                      "0.5", "-0.3", "--outer", "2", "--param", "sim.window=4",
+                                      "--param", "search.weight=3", "-o", str(out), "-q"])
     assert result.exit_code == 0, result.output + str(result.exception)
     with h5py.File(out) as f:
         sim = f["simulation"]
         assert sim.attrs["success"] and sim.attrs["collisions"] == 0
         assert sim["state"].shape[1] == 6 and len(sim["command"]) == len(sim["compute_seconds"])
+        assert sim["state"][0, 2] == 0.3  # the start yaw
+        params = read_provenance(f)["params"]
+        assert params["sim"]["window"] == 4.0 and params["search"]["weight"] == 3.0
+        assert params["start"] == [-1.0, 0.0, 0.3] and params["goals"][0][:2] == [0.5, -0.3]
 
 
-def test_simulate_bad_pose_is_exit_2(flat_map, tmp_path):
-    result = CliRunner().invoke(cli, ["nav", "simulate", str(flat_map), "--start", "a,b", "--goal", "1,1",
-                                      "-o", str(tmp_path / "x.h5")])
-    assert result.exit_code == 2 and "--start" in result.stderr
+@pytest.mark.parametrize("args, message", [
+    (["--start", "a", "b", "--goal", "1", "1"], "--start"),
+    (["--start", "1", "--goal", "1", "1"], "--start"),
+    (["--start", "0", "0", "--goal", "1", "1", "--param", "weight=2"], "search.KEY, teb.KEY or sim.KEY"),
+    (["--start", "0", "0", "--goal", "1", "1", "--param", "sim.rate=0"], "'rate' out of range"),
+    (["--start", "0", "0", "--goal", "1", "1", "--param", "teb.nope=1"], "unknown teb parameter 'nope'"),
+])
+def test_simulate_bad_pose_or_param_is_exit_2(flat_map, tmp_path, args, message):
+    result = CliRunner().invoke(cli, ["nav", "simulate", str(flat_map), *args, "-o", str(tmp_path / "x.h5")])
+    assert result.exit_code == 2 and message in result.stderr, result.stderr
     assert not (tmp_path / "x.h5").exists()
 
 
