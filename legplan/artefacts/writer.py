@@ -1,15 +1,16 @@
 """Atomic artefact writer.
 
-An artefact is written to a temporary file beside its target and renamed over it only when the
-writing code finished without an exception, so a killed or failing command leaves no partial file
-and never damages an existing good one. Existing outputs are kept unless `overwrite` is set.
+An artefact is written to a temporary file beside its target and published (`legplan.artefacts.publish`)
+only when the writing code finished without an exception and no SIGINT / SIGTERM arrived, so a
+killed, interrupted or failing command leaves no partial file and never damages an existing good
+one. Existing outputs are kept unless `overwrite` is set (checked early by `check_output`, and
+again by the publishing rename itself).
 """
 
 from __future__ import annotations
 
 import os
 import sys
-import tempfile
 from collections.abc import Iterable, Mapping
 from contextlib import contextmanager
 from pathlib import Path
@@ -19,6 +20,7 @@ import numpy as np
 
 from legplan import __version__
 from legplan.artefacts.provenance import canonical_json, created_timestamp, input_record
+from legplan.artefacts.publish import staged_output
 from legplan.artefacts.schema import SCHEMA_VERSIONS
 from legplan.errors import ArtefactError
 
@@ -49,34 +51,18 @@ def write_artefact(path: str | os.PathLike, kind: str, *, params: Mapping | None
     if kind not in SCHEMA_VERSIONS:
         raise ValueError(f"unknown artefact kind {kind!r}")
     path = check_output(path, overwrite)
-    path.parent.mkdir(parents=True, exist_ok=True)
     records = [input_record(p) for p in inputs]
-    handle_fd, tmp_name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
-    os.close(handle_fd)
-    tmp = Path(tmp_name)
-    try:
-        with h5py.File(tmp, "w", track_order=True) as handle:
-            attrs = handle.attrs
-            attrs["legplan_kind"] = kind
-            attrs["schema_version"] = SCHEMA_VERSIONS[kind]
-            attrs["legplan_version"] = __version__
-            attrs["created"] = created_timestamp()
-            attrs["command"] = canonical_json(["legplan", *sys.argv[1:]] if command is None else list(command))
-            attrs["params"] = canonical_json(dict(params or {}))
-            attrs["seed"] = -1 if seed is None else int(seed)
-            attrs["inputs"] = canonical_json(records)
-            yield handle
-        os.chmod(tmp, 0o666 & ~_current_umask())
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
-def _current_umask() -> int:
-    """The process umask (mkstemp creates files 0600; artefacts get the usual permissions)."""
-    mask = os.umask(0)
-    os.umask(mask)
-    return mask
+    with staged_output(path, overwrite=overwrite) as tmp, h5py.File(tmp, "w", track_order=True) as handle:
+        attrs = handle.attrs
+        attrs["legplan_kind"] = kind
+        attrs["schema_version"] = SCHEMA_VERSIONS[kind]
+        attrs["legplan_version"] = __version__
+        attrs["created"] = created_timestamp()
+        attrs["command"] = canonical_json(["legplan", *sys.argv[1:]] if command is None else list(command))
+        attrs["params"] = canonical_json(dict(params or {}))
+        attrs["seed"] = -1 if seed is None else int(seed)
+        attrs["inputs"] = canonical_json(records)
+        yield handle
 
 
 def write_dataset(group: h5py.Group, name: str, data, *, units: str | None = None,

@@ -9,9 +9,9 @@ runs in this process and `jobs` N in N spawned worker processes.
 
 from __future__ import annotations
 
-import ctypes
 import logging
 import multiprocessing
+import os
 import signal
 import uuid
 from collections import Counter, deque
@@ -22,11 +22,11 @@ from dataclasses import dataclass
 
 from legplan.batch.task import Task, one_thread_environment
 from legplan.errors import LegplanError
+from legplan.interrupts import die_with_parent
 
 log = logging.getLogger(__name__)
 
 LOST_WORKERS = 2  # an item whose worker died this many times is recorded as failed
-PR_SET_PDEATHSIG = 1
 
 
 class InProcess:
@@ -40,15 +40,12 @@ class InProcess:
         pass
 
 
-def _init_pool_worker() -> None:
+def _init_pool_worker(parent: int) -> None:
     """In each pool process: one BLAS/OpenMP thread, Ctrl-C left to the parent (which stops the
     pool), and death with the parent (Linux), so a killed batch leaves no orphaned workers."""
     one_thread_environment()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    try:
-        ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
-    except (OSError, AttributeError):  # not Linux: workers end when the pool's pipes close
-        pass
+    die_with_parent(parent)
 
 
 class ProcessPool:
@@ -82,7 +79,7 @@ class ProcessPool:
         """Run `source` on a fresh pool with at most `limit` items in flight; yields finished
         items, returns the items in flight when the pool broke (empty when all finished)."""
         pool = ProcessPoolExecutor(min(limit, self.jobs), mp_context=multiprocessing.get_context("spawn"),
-                                   initializer=_init_pool_worker)
+                                   initializer=_init_pool_worker, initargs=(os.getpid(),))
         running: dict = {}
         try:
             while source or running:

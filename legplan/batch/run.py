@@ -11,6 +11,7 @@ from contextlib import closing, contextmanager
 from legplan.batch.backends import Backend
 from legplan.batch.task import Task
 from legplan.batch.workfile import WorkFile
+from legplan.interrupts import raise_if_interrupted
 
 log = logging.getLogger(__name__)
 
@@ -46,6 +47,7 @@ def run_batch(task: Task, items: Sequence, *, output: str | os.PathLike, identit
         with closing(executor.run(task, todo)) as finished:  # closed at once on an exception: workers stop
             for position, record in finished:
                 work.add(position, record)
+                raise_if_interrupted()  # h5py may have swallowed the signal's exception
                 count += 1
                 failed += not record.get("success", True)
                 log.debug("item %d done (%d/%d, %.2f s since start)", position, count, len(items),

@@ -20,7 +20,7 @@ def run_stage(task, items: Sequence, description: str, *, output, identity: Mapp
     """Run `task` over `items` on the backend of `--jobs`/`--scheduler`, then `publish(records)`
     (the stage's atomic writer); returns (records in item order, what `publish` returned)."""
     from legplan.batch import Backend, run_batch, work_path
-    from legplan.cli.main import Terminated
+    from legplan.interrupts import Terminated
 
     backend = Backend(jobs, scheduler)
     try:

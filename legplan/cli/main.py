@@ -8,33 +8,21 @@ Exit codes: 0 success; 1 the command ran but some items failed (their reasons ar
 from __future__ import annotations
 
 import importlib
-import signal
 import sys
-import threading
 import traceback
 
 import click
 
-from legplan import __version__
+from legplan import __version__, interrupts
 from legplan.cli.console import set_verbosity, stderr_line, verbosity
 from legplan.cli.options import verbosity_opts
 from legplan.errors import LegplanError
 
 EXIT_ITEMS_FAILED = 1
 EXIT_BAD_INPUT = 2
-EXIT_INTERRUPTED = 130  # 128 + SIGINT
-EXIT_TERMINATED = 143  # 128 + SIGTERM
 
 # One module per command group under legplan/cli/, each exposing `command`.
 COMMAND_MODULES = ("inspect_cmd", "step_cmd", "pipeline_cmd", "robot_cmd", "steps_cmd", "map_cmd", "report_cmd", "nav_cmd", "compare_cmd", "baseline_cmd", "dyn_cmd", "learn_cmd")
-
-
-class Terminated(BaseException):
-    """SIGTERM, raised in the main thread so that cleanup (`finally`, context managers) runs."""
-
-
-def _raise_terminated(signum, frame):
-    raise Terminated
 
 
 class OneLineUsageError(click.ClickException):
@@ -68,10 +56,11 @@ class LegplanGroup(click.Group):
             raise OneLineUsageError.of(exc, None) from exc
 
     def invoke(self, ctx: click.Context):
-        main = threading.current_thread() is threading.main_thread()
-        previous = signal.signal(signal.SIGTERM, _raise_terminated) if main else None
         try:
-            return super().invoke(ctx)
+            with interrupts.handle_interrupts():
+                result = super().invoke(ctx)
+                interrupts.raise_if_interrupted()  # a signal whose exception was swallowed on the way
+                return result
         except click.exceptions.NoArgsIsHelpError:
             raise
         except click.UsageError as exc:
@@ -81,12 +70,9 @@ class LegplanGroup(click.Group):
                 traceback.print_exc(file=sys.stderr)
             stderr_line(" ".join(str(exc).split()), "Error:")
             ctx.exit(EXIT_BAD_INPUT)
-        except (KeyboardInterrupt, Terminated) as exc:
-            stderr_line("stopped; nothing published", "Interrupted:")
-            ctx.exit(EXIT_TERMINATED if isinstance(exc, Terminated) else EXIT_INTERRUPTED)
-        finally:
-            if main:
-                signal.signal(signal.SIGTERM, previous)
+        except (KeyboardInterrupt, interrupts.Terminated) as exc:
+            stderr_line(interrupts.interrupted_message(), "Interrupted:")
+            ctx.exit(interrupts.exit_code(exc))
 
 
 @click.group(cls=LegplanGroup, context_settings={"help_option_names": ["-h", "--help"]})

@@ -9,9 +9,9 @@ tasks, and their cost distribution (median, p90, max).
 from __future__ import annotations
 
 import json
-import os
 from pathlib import Path
 
+from legplan.artefacts.publish import staged_output
 from legplan.learn.dataset import read_dataset, summarize
 
 
@@ -32,7 +32,6 @@ def cycle_row(k: int, dataset: Path) -> dict:
 
 
 def write_cycles(path: Path, rows: list[dict]) -> None:
-    """cycles.json, written atomically."""
-    tmp = path.with_name(f".{path.name}.tmp")
-    tmp.write_text(json.dumps({"cycles": rows}, indent=1) + "\n")
-    os.replace(tmp, path)
+    """cycles.json, written atomically (replaced each cycle)."""
+    with staged_output(path, overwrite=True) as tmp:
+        tmp.write_text(json.dumps({"cycles": rows}, indent=1) + "\n")

@@ -5,20 +5,20 @@ and every artefact's sha256 as `inputs`, so `legplan pipeline` treats the direct
 artefact (its stage declares `provenance: <dir>/report.h5`). Its `/summary` counts artefacts,
 figures and figure failures.
 
-The directory is built in a temporary sibling and renamed into place, so a failing report leaves
-any previous one untouched. An existing directory is replaced only with `overwrite`, and only if it
-holds a `report.h5` (so a mistyped `-o` never deletes an unrelated directory).
+The directory is built in a temporary sibling and renamed into place (`legplan.artefacts.publish`),
+so a failing or interrupted report leaves any previous one untouched. An existing directory is
+replaced only with `overwrite`, and only if it holds a `report.h5` (so a mistyped `-o` never deletes
+an unrelated directory), checked before any work and again just before publishing.
 """
 
 from __future__ import annotations
 
 import os
-import shutil
-import tempfile
 from dataclasses import dataclass
 from pathlib import Path
 
 from legplan.artefacts import open_artefact, read_provenance, read_summary, write_artefact, write_summary
+from legplan.artefacts.publish import discard, make_temp, publish
 from legplan.errors import ArtefactError
 from legplan.report.html import ArtefactSection, render_page
 from legplan.report.registry import render_figures
@@ -58,7 +58,7 @@ def write_report(artefacts: list[str | os.PathLike], directory: str | os.PathLik
     if not paths:
         raise ArtefactError(f"{directory}: no artefacts to report on")
     directory.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=f".{directory.name}.", dir=directory.parent))
+    staging = make_temp(directory, directory=True)
     try:
         sections = []
         for index, path in enumerate(paths):
@@ -75,19 +75,8 @@ def write_report(artefacts: list[str | os.PathLike], directory: str | os.PathLik
             write_summary(handle, {"artefacts": len(sections),
                                    "figures": sum(len(s.figures) for s in sections),
                                    "figure_failures": sum(len(s.failures) for s in sections)})
-        _replace_dir(staging, directory)
+        check_report_dir(directory, overwrite)  # again: another writer may have been faster
+        publish(staging, directory, overwrite)
     finally:
-        shutil.rmtree(staging, ignore_errors=True)
+        discard(staging)
     return ReportResult(directory, sections)
-
-
-def _replace_dir(new: Path, target: Path) -> None:
-    """Move `new` to `target`, replacing an existing directory (old one moved aside, then deleted)."""
-    os.chmod(new, 0o755)
-    if not target.exists():
-        os.replace(new, target)
-        return
-    old = Path(tempfile.mkdtemp(prefix=f".{target.name}.old.", dir=target.parent))
-    os.replace(target, old / target.name)
-    os.replace(new, target)
-    shutil.rmtree(old, ignore_errors=True)
