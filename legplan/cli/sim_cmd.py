@@ -12,7 +12,6 @@ from __future__ import annotations
 import os
 
 import click
-import numpy as np
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
@@ -37,10 +36,12 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, output, overwrite, 
 
     Success: no fall (base below half its nominal height above the terrain, tilted > 0.8 rad, or the
     trunk on the terrain) and the base within 10 cm and 0.2 rad (yaw) of the task's goal after the plan and --settle."""
+    import numpy as np
+
     from legplan.artefacts import check_output
     from legplan.batch import Task
     from legplan.cli.batching import run_stage
-    from legplan.dyn.artefact import read_tasks
+    from legplan.dyn.artefact import check_executable, read_tasks
     from legplan.robots import load_robot
     from legplan.sim.artefact import write_sim
     from legplan.sim.items import SimWorker, failed_item, sim_items, simulate_item
@@ -58,6 +59,7 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, output, overwrite, 
     lo = np.array(terrain_map.grid.origin)
     hi = lo + terrain_map.grid.resolution * (np.array(terrain_map.grid.shape[::-1]) - 1)
     for task in tasks:
+        check_executable(traj_path, task)
         if "samples" in task:
             xy = np.concatenate([task["samples"]["base_pos"][:, :2], task["samples"]["feet_pos"][..., :2].reshape(-1, 2)])
             if np.any(xy < lo) or np.any(xy > hi):

@@ -38,7 +38,7 @@ from dataclasses import asdict
 import h5py
 import numpy as np
 
-from legplan.artefacts import open_artefact, require, write_artefact, write_dataset, write_summary
+from legplan.artefacts import check_finite, open_artefact, require, write_artefact, write_dataset, write_summary
 
 NAN = float("nan")
 SAMPLE_UNITS = {"t": "s", "base_pos": "m", "base_vel": "m/s", "base_acc": "m/s^2", "base_euler": "rad",
@@ -219,6 +219,15 @@ def read_tasks(path) -> tuple[dict, list[dict]]:
         attrs = dict(handle.attrs)
         tasks = require(handle, "tasks")
         return attrs, [_read_group(tasks[name]) for name in sorted(tasks)]
+
+
+def check_executable(path, task: dict) -> None:
+    """An `ArtefactError` naming the file, task and dataset unless the task's goal and every sample
+    array (`samples/*`, what `dyn simulate` executes) are finite; tasks without samples pass."""
+    where = f"{path}: task {int(task['index'])}:"
+    check_finite(f"{where} dataset 'goal'", np.asarray(task["goal"], float))
+    for name, values in task.get("samples", {}).items():
+        check_finite(f"{where} dataset 'samples/{name}'", np.asarray(values))
 
 
 def _read_group(group: h5py.Group) -> dict:

@@ -168,11 +168,12 @@ def summarize(success, iterations, cost, seconds) -> dict:
 
 def read_dataset(path) -> dict:
     """The arrays of a dataset.h5 and its space record (a one-line error for another kind)."""
-    from legplan.artefacts import open_artefact, require
+    from legplan.artefacts import open_artefact, read_array
 
     with open_artefact(path, kind=KIND) as f:
-        data = {name: require(f, name)[()] for name in
-                ("x", "y", "cost", "max_violation", "iterations", "seconds", "success")}
-        data["layout"] = {name: int(require(f, f"layout/{name}")[()]) for name in CATEGORIES}
+        data = {"x": read_array(f, "x", ndim=2)}  # task vectors are always finite; outcomes may be NaN
+        data.update({name: read_array(f, name, finite=False) for name in
+                     ("y", "cost", "max_violation", "iterations", "seconds", "success")})
+        data["layout"] = {name: int(read_array(f, f"layout/{name}", ndim=0)) for name in CATEGORIES}
         data["space"] = json.loads(f.attrs["space"])
     return data

@@ -177,17 +177,17 @@ def save_init(path, net: Network, layout: dict[str, int], space: dict, report: d
 
 def load_init(path) -> tuple[Network, dict[str, int], dict]:
     """The network, layout and space record of an init.h5."""
-    from legplan.artefacts import open_artefact, require
+    from legplan.artefacts import open_artefact, read_array
 
     with open_artefact(path, kind=KIND) as f:
         activation = str(f.attrs["activation"])
         if activation not in ACTIVATIONS:
             raise LegplanError(f"{path}: field 'activation' is unknown: {activation!r}")
         layers = int(f.attrs["layers"])
-        net = Network([require(f, f"network/layer_{k}/weights")[()] for k in range(layers)],
-                      [require(f, f"network/layer_{k}/biases")[()] for k in range(layers)], activation,
-                      *(require(f, f"normalization/{n}")[()] for n in ("in_offset", "in_scale", "out_offset", "out_scale")))
-        layout = {name: int(require(f, f"layout/{name}")[()]) for name in CATEGORIES}
+        net = Network([read_array(f, f"network/layer_{k}/weights", ndim=2) for k in range(layers)],
+                      [read_array(f, f"network/layer_{k}/biases", ndim=1) for k in range(layers)], activation,
+                      *(read_array(f, f"normalization/{n}", ndim=1) for n in ("in_offset", "in_scale", "out_offset", "out_scale")))
+        layout = {name: int(read_array(f, f"layout/{name}", ndim=0)) for name in CATEGORIES}
         space = json.loads(f.attrs["space"])
     return net, layout, space
 

@@ -1,0 +1,115 @@
+"""Shared pieces of the bad-input suite (`test_bad_input_*.py`, issue 18 classes 1-4).
+
+The contract (README, "Exit codes"): bad input exits 2 with exactly one line on stderr that names
+the file (or the option) and the field; nothing on stdout; no output file is created, an existing
+one is left byte-identical, and no temporary file is left beside it.
+
+`valid_inputs(dir)` writes one small valid artefact of each kind the commands read, so that a case
+can break exactly one input and leave the others valid.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import click
+import h5py
+import numpy as np
+from click.testing import CliRunner
+
+from legplan.artefacts import write_artefact, write_dataset
+from legplan.cli.main import cli
+from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
+
+EXAMPLE_STEPS = Path(__file__).parents[1] / "data" / "steps_example.csv"
+SENTINEL = b"an older output that a refused command must leave alone\n"
+
+
+def invoke(args) -> click.testing.Result:
+    return CliRunner().invoke(cli, [str(a) for a in args])
+
+
+def assert_refused(result, *names: str, output: Path | None = None, before: bytes | None = None) -> str:
+    """Exit 2, one `Error:` line on stderr holding every one of `names`, empty stdout; `output`
+    absent (or still `before`), no temporary file beside it. Returns the line."""
+    lines = [line for line in result.stderr.splitlines() if line.strip()]
+    assert result.exit_code == 2, f"exit {result.exit_code}: {result.stderr[-2000:]}"
+    assert len(lines) == 1, f"{len(lines)} lines on stderr: {result.stderr[-2000:]}"
+    assert lines[0].startswith("Error: "), lines[0]
+    for name in names:
+        assert name in lines[0], f"{name!r} not named in: {lines[0]}"
+    assert result.stdout == "", result.stdout
+    if output is not None:
+        if before is None:
+            assert not output.exists(), f"{output} was created"
+        else:
+            assert output.read_bytes() == before, f"{output} changed"
+        stray = [p.name for p in output.parent.iterdir()
+                 if p.name.startswith(f".{output.name}") or p.name.endswith((".tmp", ".work"))]
+        assert not stray, f"left behind: {stray}"
+    return lines[0]
+
+
+def leaf_commands(group: click.Group = cli, path: tuple[str, ...] = ()):
+    """(path, command) of every runnable command of the click tree."""
+    for name, command in sorted(group.commands.items()):
+        if isinstance(command, click.Group):
+            yield from leaf_commands(command, (*path, name))
+        else:
+            yield (*path, name), command
+
+
+def valid_inputs(directory: Path) -> dict[str, Path]:
+    """One small valid input of each kind: map.h5 (2 x 2 m flat at 2 cm), steps.h5 (the example
+    CSV imported), motion.h5 (its first step planned), nav.h5 (one query searched), traj.h5 (a
+    hand-written two-sample task of anymal), and a copy of the example steps CSV."""
+    paths = {name: directory / f"{name}.h5" for name in ("map", "steps", "motion", "nav", "traj")}
+    grid = Grid2D(origin=(-0.99, -0.99), resolution=0.02, shape=(100, 100))
+    save_map(terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat"), paths["map"])
+    commands = [
+        ["steps", "import", EXAMPLE_STEPS, "--robot", "scarab2", "--map", paths["map"], "-o", paths["steps"]],
+        ["step", "plan", paths["map"], paths["steps"], "--steps", "0", "-o", paths["motion"]],
+        ["nav", "search", paths["map"], "--start", "-0.5", "-0.5", "--goal", "0.5", "0.5", "-o", paths["nav"]],
+    ]
+    for args in commands:
+        result = invoke([*args, "-q"])
+        assert result.exit_code == 0, result.stderr
+    _write_traj(paths["traj"])
+    paths["csv"] = directory / "steps.csv"
+    paths["csv"].write_bytes(EXAMPLE_STEPS.read_bytes())
+    return paths
+
+
+def _write_traj(path: Path) -> None:
+    with write_artefact(path, "traj", params={}) as f:
+        f.attrs["robot"] = "anymal"
+        task = f.create_group("tasks/0000")
+        task.attrs["index"], task.attrs["success"] = 0, True
+        write_dataset(task, "goal", np.array([0.1, 0.0, 0.0]), units="m,m,rad")
+        samples = task.create_group("samples")
+        write_dataset(samples, "t", np.array([0.0, 0.01]), units="s")
+        write_dataset(samples, "base_pos", np.array([[0.0, 0.0, 0.45], [0.001, 0.0, 0.45]]), units="m")
+        write_dataset(samples, "feet_pos", np.zeros((2, 4, 3)), units="m")
+
+
+def mutated(source: Path, target: Path, dataset: str, change) -> Path:
+    """A copy of artefact `source` at `target` with `change(array) -> array | None` applied to
+    `dataset` (None deletes it)."""
+    target.write_bytes(source.read_bytes())
+    with h5py.File(target, "r+") as f:
+        values = change(f[dataset][()])
+        attrs = dict(f[dataset].attrs)
+        del f[dataset]
+        if values is not None:
+            f.create_dataset(dataset, data=values)
+            f[dataset].attrs.update(attrs)
+    return target
+
+
+def with_value(index, value):
+    """A `mutated` change that sets one element (flat `index`, wrapped into range) to `value`."""
+    def change(array):
+        array = np.array(array, dtype=float)
+        array.flat[index % array.size] = value
+        return array
+    return change

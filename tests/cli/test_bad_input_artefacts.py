@@ -1,0 +1,151 @@
+"""Bad artefacts given to every command that reads them (issue 18 classes 1-4): every command with a
+MAP argument gets the map cases, step plan / baseline step / steps show / export the steps.h5
+cases, nav refine the nav.h5 cases, dyn simulate the traj.h5 cases. Each must be refused before
+any work with exit 2 and one line naming the file and the dataset (`bad_input_support`)."""
+
+from __future__ import annotations
+
+import pytest
+from bad_input_support import (SENTINEL, assert_refused, invoke, leaf_commands, mutated, valid_inputs,
+                               with_value)
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+# Every command that reads a map.h5, as a valid invocation; {map} is replaced by the bad map.
+MAP_COMMANDS = {
+    ("map", "show"): ["{map}", "-o", "{out}.png"],
+    ("steps", "generate"): ["{map}", "--robot", "scarab2", "--start", "-0.05", "0", "0",
+                            "--goal", "0.05", "0", "0", "-o", "{out}.h5"],
+    ("steps", "import"): ["{csv}", "--robot", "scarab2", "--map", "{map}", "-o", "{out}.h5"],
+    ("steps", "show"): ["{steps}", "--map", "{map}", "-o", "{out}.png"],
+    ("step", "plan"): ["{map}", "{steps}", "--steps", "0", "-o", "{out}.h5"],
+    ("step", "show"): ["{motion}", "--map", "{map}", "-o", "{out}.png"],
+    ("baseline", "step"): ["{map}", "{steps}", "--steps", "0", "-o", "{out}.h5"],
+    ("nav", "search"): ["{map}", "--start", "-0.5", "-0.5", "--goal", "0.5", "0.5", "-o", "{out}.h5"],
+    ("nav", "refine"): ["{map}", "{nav}", "-o", "{out}.h5"],
+    ("nav", "simulate"): ["{map}", "--start", "-0.5", "-0.5", "--goal", "0.5", "0.5", "-o", "{out}.h5"],
+    ("nav", "show"): ["{nav}", "--map", "{map}", "-o", "{out}.png"],
+    ("baseline", "nav"): ["{map}", "--start", "-0.5", "-0.5", "--goal", "0.5", "0.5", "-o", "{out}.h5"],
+    ("dyn", "plan"): ["{map}", "--robot", "anymal", "--start", "-0.2", "0", "0", "--goal", "0.2", "0", "0",
+                      "-o", "{out}.h5"],
+    ("dyn", "simulate"): ["{traj}", "{map}", "-o", "{out}.h5"],
+}
+
+# (case, how the map file is broken, what the error line must name besides the file)
+MAP_CASES = {
+    "garbage bytes": (lambda ok, bad: bad.write_bytes(bytes(range(256)) * 4), "not an HDF5 file"),
+    "HDF5 signature, then garbage": (lambda ok, bad: bad.write_bytes(b"\x89HDF\r\n\x1a\n" + bytes(range(256)) * 4),
+                                     "corrupt"),
+    "empty": (lambda ok, bad: bad.write_bytes(b""), "not an HDF5 file"),
+    "truncated": (lambda ok, bad: bad.write_bytes(ok.read_bytes()[:len(ok.read_bytes()) // 2]), "corrupt"),
+    "wrong kind": (lambda ok, bad: bad.write_bytes(ok.with_name("steps.h5").read_bytes()), "'steps' artefact"),
+    "missing sdf": (lambda ok, bad: mutated(ok, bad, "terrain/sdf", lambda a: None), "'/terrain/sdf'"),
+    "NaN height cell": (lambda ok, bad: mutated(ok, bad, "terrain/height", with_value(4321, float("nan"))),
+                        "'/terrain/height' holds NaN"),
+    "inf costmap cell": (lambda ok, bad: mutated(ok, bad, "nav/costmap", with_value(77, float("inf"))),
+                         "'/nav/costmap' holds NaN or inf"),
+    "NaN SDF voxel": (lambda ok, bad: mutated(ok, bad, "terrain/sdf", with_value(999, float("nan"))),
+                      "'/terrain/sdf' holds NaN"),
+}
+
+
+@pytest.fixture(scope="module")
+def inputs(tmp_path_factory):
+    return valid_inputs(tmp_path_factory.mktemp("valid"))
+
+
+def _refuses(inputs, tmp_path, kind, cases, case, path, template):
+    """Break the valid `kind` input as `cases[case]` says, run `path` + `template` on it with an
+    existing output and --overwrite, and assert the contract (the older output stays)."""
+    breaks, field = cases[case]
+    bad = tmp_path / f"bad_{kind}.h5"
+    breaks(inputs[kind], bad)
+    values = {**{key: str(value) for key, value in inputs.items()}, kind: str(bad), "out": str(tmp_path / "out")}
+    out = tmp_path / f"out{template[-1].removeprefix('{out}')}"
+    out.write_bytes(SENTINEL)  # an older output: left byte-identical even with --overwrite
+    result = invoke([*path, *(part.format(**values) for part in template), "--overwrite"])
+    assert_refused(result, bad.name, field, output=out, before=SENTINEL)
+
+
+def test_every_command_with_a_map_argument_has_map_cases():
+    with_map = {path for path, command in leaf_commands()
+                if any(p.name == "map_path" for p in command.params) or path == ("map", "show")}
+    assert with_map == set(MAP_COMMANDS)
+
+
+@pytest.mark.parametrize("case", sorted(MAP_CASES))
+@pytest.mark.parametrize("path", sorted(MAP_COMMANDS), ids=" ".join)
+def test_bad_map_is_refused_by_every_map_command(inputs, tmp_path, path, case):
+    _refuses(inputs, tmp_path, "map", MAP_CASES, case, path, MAP_COMMANDS[path])
+
+
+@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(layer=st.sampled_from(["terrain/height", "terrain/sdf", "nav/distance", "nav/costmap"]),
+       index=st.integers(min_value=0), value=st.sampled_from([float("nan"), float("inf"), float("-inf")]))
+def test_any_non_finite_map_value_is_refused(inputs, tmp_path, layer, index, value):
+    bad = mutated(inputs["map"], tmp_path / "map_x.h5", layer, with_value(index, value))
+    out = tmp_path / "steps_x.h5"
+    result = invoke(["steps", "generate", bad, "--robot", "scarab2", "--start", "-0.05", "0", "0",
+                     "--goal", "0.05", "0", "0", "-o", out])
+    assert_refused(result, "map_x.h5", f"'/{layer}' holds NaN or inf", output=out)
+
+
+STEPS_COMMANDS = {
+    ("step", "plan"): ["{map}", "{steps}", "-o", "{out}.h5"],
+    ("baseline", "step"): ["{map}", "{steps}", "-o", "{out}.h5"],
+    ("steps", "show"): ["{steps}", "--map", "{map}", "-o", "{out}.png"],
+    ("steps", "export"): ["{steps}", "-o", "{out}.csv"],
+    ("steps", "import"): ["{steps}", "--robot", "scarab2", "--map", "{map}", "-o", "{out}.h5"],
+}
+
+STEPS_CASES = {
+    "NaN quaternion": (lambda ok, bad: mutated(ok, bad, "q", with_value(25 + 6, float("nan"))), "'/q' holds NaN"),
+    "non-unit quaternion": (lambda ok, bad: mutated(ok, bad, "q", with_value(25 + 6, 0.5)), "'/q' row 1"),
+    "inf joint": (lambda ok, bad: mutated(ok, bad, "q", with_value(25 + 10, float("inf"))), "'/q' holds NaN or inf"),
+    "missing stance": (lambda ok, bad: mutated(ok, bad, "stance", lambda a: None), "'/stance'"),
+    "stance of the wrong shape": (lambda ok, bad: mutated(ok, bad, "stance", lambda a: a[:, :4]), "'/stance' has shape"),
+    "NaN stance foothold": (lambda ok, bad: mutated(ok, bad, "footholds", with_value(0, float("nan"))),
+                            "'/footholds' (stance legs) holds NaN"),
+    "wrong kind": (lambda ok, bad: bad.write_bytes(ok.with_name("map.h5").read_bytes()), "'map' artefact"),
+    "truncated": (lambda ok, bad: bad.write_bytes(ok.read_bytes()[:len(ok.read_bytes()) // 2]), "corrupt"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(STEPS_CASES))
+@pytest.mark.parametrize("path", sorted(STEPS_COMMANDS), ids=" ".join)
+def test_bad_steps_file_is_refused_before_any_step_is_planned(inputs, tmp_path, path, case):
+    _refuses(inputs, tmp_path, "steps", STEPS_CASES, case, path, STEPS_COMMANDS[path])
+
+
+def _refined(ok, bad):
+    result = invoke(["nav", "refine", ok.with_name("map.h5"), ok, "-o", bad, "-q"])
+    assert result.exit_code == 0, result.stderr
+
+
+NAV_CASES = {
+    "already refined": (_refined, "already refined"),
+    "NaN segment": (lambda ok, bad: mutated(ok, bad, "queries/0000/segments", with_value(3, float("nan"))),
+                    "'/queries/0000/segments' holds NaN"),
+    "segments of the wrong width": (lambda ok, bad: mutated(ok, bad, "queries/0000/segments", lambda a: a[:, :5]),
+                                    "must have 9 columns"),
+    "no segments": (lambda ok, bad: mutated(ok, bad, "queries/0000/segments", lambda a: None),
+                    "has no dataset 'segments'"),
+    "wrong kind": (lambda ok, bad: bad.write_bytes(ok.with_name("steps.h5").read_bytes()), "'steps' artefact"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(NAV_CASES))
+def test_bad_nav_file_is_refused_by_nav_refine(inputs, tmp_path, case):
+    breaks, field = NAV_CASES[case]
+    bad = tmp_path / "bad_nav.h5"
+    breaks(inputs["nav"], bad)
+    out = tmp_path / "refined.h5"
+    assert_refused(invoke(["nav", "refine", inputs["map"], bad, "-o", out]), "bad_nav.h5", field, output=out)
+
+
+@pytest.mark.parametrize("dataset", ["samples/base_pos", "samples/feet_pos", "goal"])
+def test_non_finite_trajectory_is_refused_by_dyn_simulate(inputs, tmp_path, dataset):
+    bad = mutated(inputs["traj"], tmp_path / "bad_traj.h5", f"tasks/0000/{dataset}", with_value(1, float("nan")))
+    out = tmp_path / "sim.h5"
+    result = invoke(["dyn", "simulate", bad, inputs["map"], "-o", out])
+    assert_refused(result, "bad_traj.h5", f"task 0: dataset '{dataset}' holds NaN", output=out)
