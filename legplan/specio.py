@@ -1,12 +1,16 @@
 """Reading input files (map specs, robot specs, pipeline files, task tables) with one-line errors:
 `read_text` (bytes -> UTF-8 text, the one decoding reader of every text input), `read_yaml` /
 `read_yaml_mapping` for a YAML file, `read_csv_table` for a CSV table, `parse_number` for a number
-given as text, `FieldReader` for typed fields that name the file and field."""
+given as text, `apply_overrides` for `--param key=value` strings on a parameter dataclass,
+`FieldReader` for typed fields that name the file and field."""
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import os
+import types
+import typing
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +47,32 @@ def parse_number(text: str, where: str) -> float:
     if not np.isfinite(value):
         raise SpecError(f"{where}: expected a finite number, got {text!r}")
     return value
+
+
+def apply_overrides(cls, overrides: dict[str, str] | None, source: str, what: str):
+    """An instance of the parameter dataclass `cls`: its defaults with `key=value` strings applied,
+    each converted to the field's declared type (str as given; int and float finite numbers, an int
+    whole; a field declared `float | None` takes a float). Unknown keys and fields of other types
+    (tuples) are a one-line `SpecError` naming `source` and the `what` parameter."""
+    hints = typing.get_type_hints(cls)
+    names = [f.name for f in dataclasses.fields(cls)]
+    values = {}
+    for key, text in (overrides or {}).items():
+        if key not in names:
+            raise SpecError(f"{source}: unknown {what} parameter '{key}' (known: {', '.join(sorted(names))})")
+        kind = hints[key]
+        if isinstance(kind, types.UnionType):                     # float | None
+            kind = next(arg for arg in typing.get_args(kind) if arg is not type(None))
+        if kind is str:
+            values[key] = text
+            continue
+        if kind not in (int, float):
+            raise SpecError(f"{source}: {what} parameter '{key}' cannot be set with key=value")
+        number = parse_number(text, f"{source}: parameter '{key}'")  # finite, or a one-line error
+        if kind is int and not number.is_integer():
+            raise SpecError(f"{source}: parameter '{key}' expects int, got {text!r}")
+        values[key] = kind(number)
+    return cls(**values)
 
 
 def read_yaml(path: str | os.PathLike, what: str = "spec"):

@@ -5,7 +5,8 @@ from __future__ import annotations
 import click
 
 from legplan.cli.console import progress_bar, status, stderr_line
-from legplan.cli.options import input_artefact, number, output_opt, overwrite_opt, seed_opt, verbosity_opts
+from legplan.cli.options import (input_artefact, number, output_opt, overwrite_opt, param_opt, seed_opt,
+                                 verbosity_opts)
 
 
 @click.group("steps")
@@ -66,23 +67,30 @@ def import_cmd(path, robot_name, map_path, strict, foot_tolerance, output, overw
 @click.option("--start", nargs=3, type=number(), required=True, metavar="X Y YAW", help="Start body pose.")
 @click.option("--goal", nargs=3, type=number(), required=True, metavar="X Y YAW", help="Goal body pose.")
 @click.option("--max-moves", type=click.IntRange(min=1), default=200, show_default=True)
+@param_opt("Override a generator parameter (legplan.stepseq.GenerateParams: lift_height, clearance, "
+           "com_margin, reach_slack, candidates, backtracks, ...; e.g. --param lift_height=0.08).")
 @output_opt
 @overwrite_opt
 @seed_opt
 @verbosity_opts
 @click.pass_context
-def generate_cmd(ctx, map_path, robot_name, start, goal, max_moves, output, overwrite, seed):
+def generate_cmd(ctx, map_path, robot_name, start, goal, max_moves, params, output, overwrite, seed):
     """Plan a gait-free step sequence on the map's foothold mask (whole-body IK per configuration).
 
-    Every configuration is judged independently (stance feet, CoM margin, clearance, joint limits);
-    rows that miss one are named on stderr and recorded in the artefact (exit 1)."""
+    Lift height, clearance, CoM margin and reach slack default from the robot's size: SCARAB II's
+    5 cm, 2 cm, 1.5 cm, 1.5 cm times the robot's mean leg length / 0.241 m (rounded to 0.1 mm);
+    --param sets them. Every configuration is judged independently (stance feet, CoM margin,
+    clearance, joint limits); rows that miss one are named on stderr and recorded in the artefact
+    (exit 1)."""
     from legplan.artefacts import check_output
+    from legplan.specio import apply_overrides
     from legplan.stepseq import GenerateParams, GenerationError, generate_steps, write_steps
     from legplan.validate.judge import row_failures
 
     check_output(output, overwrite)
+    settings = apply_overrides(GenerateParams, {"max_moves": str(max_moves), **params}, "--param", "generator")
     robot, terrain, validator = _load(robot_name, map_path)
-    params = GenerateParams(max_moves=max_moves)
+    params = settings.sized_for(robot)
     try:
         with progress_bar("generating steps") as progress:
             seq, generated, checks = generate_steps(robot, terrain, start, goal, params=params, seed=seed,

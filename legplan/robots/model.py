@@ -66,6 +66,18 @@ class RobotModel:
         return len(self.legs)
 
     @property
+    def leg_length(self) -> float:
+        """Mean over the legs of the chain length: the distances between consecutive joint origins
+        of the leg, plus the last joint to the foot (m; the robot's size for size-scaled defaults)."""
+        lengths = []
+        for leg in self.legs:
+            joints = [self.model.getJointId(name) for name in leg.joint_names]
+            segments = [self.model.jointPlacements[j].translation for j in joints[1:]]
+            segments.append(self.model.frames[leg.foot_frame_id].placement.translation)
+            lengths.append(sum(float(np.linalg.norm(v)) for v in segments))
+        return float(np.mean(lengths))
+
+    @property
     def workspace(self) -> KinematicsWorkspace:
         """The workspace the batch calls use (created on first use)."""
         if self._workspace is None:

@@ -40,7 +40,7 @@ import dataclasses
 from dataclasses import dataclass
 
 from legplan.errors import LegplanError
-from legplan.specio import parse_number
+from legplan.specio import apply_overrides
 
 
 @dataclass(frozen=True)
@@ -79,22 +79,8 @@ class StepPlanParams:
 
     @classmethod
     def from_overrides(cls, overrides: dict[str, str] | None = None, source: str = "--param") -> StepPlanParams:
-        """Defaults with `key=value` strings applied (values converted to the field's type)."""
-        fields = {f.name: f for f in dataclasses.fields(cls)}
-        values = {}
-        for key, text in (overrides or {}).items():
-            if key not in fields:
-                raise LegplanError(f"{source}: unknown step planner parameter '{key}' "
-                                   f"(known: {', '.join(sorted(fields))})")
-            kind = type(getattr(cls(), key))
-            if kind is str:
-                values[key] = text
-                continue
-            number = parse_number(text, f"{source}: parameter '{key}'")  # finite, or a one-line error
-            if kind is int and not number.is_integer():
-                raise LegplanError(f"{source}: parameter '{key}' expects int, got {text!r}")
-            values[key] = kind(number)
-        return cls(**values)
+        """Defaults with `key=value` strings applied (`legplan.specio.apply_overrides`)."""
+        return apply_overrides(cls, overrides, source, "step planner")
 
     @property
     def sample_clearance(self) -> float:

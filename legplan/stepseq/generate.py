@@ -30,12 +30,13 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 import pinocchio as pin
 
 from legplan.contact.ik import Posture, solve_ik
+from legplan.errors import LegplanError
 from legplan.contact.terms import ContactMode, collision_reach, com_terms
 from legplan.errors import LegplanError
 from legplan.geometry.polygon import support_polygon
@@ -45,19 +46,30 @@ from legplan.validate.judge import Requirements, shortfalls
 log = logging.getLogger(__name__)
 
 
+# Size-scaled defaults: tuned on SCARAB II (mean leg length REFERENCE_LEG_LENGTH), and for another
+# robot scaled by its mean leg length (`RobotModel.leg_length`) over that one, rounded to 0.1 mm.
+REFERENCE_LEG_LENGTH = 0.241  # m, SCARAB II: coxa 26 + femur 93 + tibia 122 mm
+SIZE_SCALED_DEFAULTS = {"lift_height": 0.05, "clearance": 0.02, "com_margin": 0.015, "reach_slack": 0.015}
+
+
 @dataclass
 class GenerateParams:
-    """Parameters of the step-sequence generator (lengths in m, angles in rad)."""
+    """Parameters of the step-sequence generator (lengths in m, angles in rad).
 
-    com_margin: float = 0.015  # CoM distance to every support edge during planning
-    clearance: float = 0.02  # sphere clearance from the terrain (paper Sec. IV: 2 cm)
+    `lift_height`, `clearance`, `com_margin` and `reach_slack` left at None default from the
+    robot's size (`sized_for`): SCARAB II's values (`SIZE_SCALED_DEFAULTS`: 5 cm, 2 cm, 1.5 cm,
+    1.5 cm at a mean leg length of 0.241 m) times the robot's mean leg length / 0.241 m, rounded to
+    0.1 mm; `--param key=value` sets any of them."""
+
+    com_margin: float | None = None  # CoM distance to every support edge during planning (size-scaled)
+    clearance: float | None = None  # sphere clearance from the terrain (size-scaled; paper Sec. IV: 2 cm)
     foot_clearance: float = 0.01  # swing-foot sphere clearance
     foot_tolerance: float = 1e-4  # stance feet within this of their footholds (IK)
     judge_tolerance: float = 1e-6  # allowed miss of CoM margin, clearance, joint limits when judged
     step_radius: float | None = None  # start footholds' search radius around the nominal positions
-    reach_slack: float = 0.015  # candidate footholds lie this far inside the leg workspace radii
+    reach_slack: float | None = None  # candidate footholds lie this far inside the leg workspace radii (size-scaled)
     advance: float | None = None  # how far ahead of the body the target pose lies
-    lift_height: float = 0.05  # swing apex above the higher of the two footholds / terrain
+    lift_height: float | None = None  # swing apex above the higher of the two footholds / terrain (size-scaled)
     min_progress: float = 0.02  # a move must bring the foot this much closer along the path
     foot_separation: float | None = None  # minimum distance between two footholds (4 foot radii)
     candidates: int = 6  # footholds tried per leg
@@ -67,6 +79,25 @@ class GenerateParams:
     restarts: int = 1  # IK retries from a seeded random perturbation
     restart_noise: float = 0.05  # std of that perturbation (m, rad)
     posture_weights: tuple[float, float, float, float] = (0.3, 1.0, 1.0, 0.05)  # xy, z, rot, joints
+
+    def __post_init__(self):
+        lengths = ("com_margin", "clearance", "foot_clearance", "reach_slack", "lift_height", "min_progress")
+        checks = [(name, getattr(self, name) is None or getattr(self, name) >= 0) for name in lengths]
+        checks += [(name, getattr(self, name) is None or getattr(self, name) > 0)
+                   for name in ("foot_tolerance", "step_radius", "advance", "foot_separation", "goal_tolerance")]
+        checks += [("candidates", self.candidates >= 1), ("max_moves", self.max_moves >= 1),
+                   ("backtracks", self.backtracks >= 0), ("restarts", self.restarts >= 0),
+                   ("judge_tolerance", self.judge_tolerance >= 0), ("restart_noise", self.restart_noise >= 0)]
+        for name, ok in checks:
+            if not ok:
+                raise LegplanError(f"generator parameter '{name}' out of range: {getattr(self, name)!r}")
+
+    def sized_for(self, robot) -> GenerateParams:
+        """These parameters with every size-scaled one left at None set from `robot`'s leg length."""
+        scale = robot.leg_length / REFERENCE_LEG_LENGTH
+        sized = {key: round(value * scale, 4) for key, value in SIZE_SCALED_DEFAULTS.items()
+                 if getattr(self, key) is None}
+        return replace(self, **sized)
 
     def requirements(self) -> Requirements:
         """What every generated configuration keeps (the CoM margin is promised for the support of
@@ -170,7 +201,7 @@ class StepGenerator:
     def __init__(self, robot, terrain, params: GenerateParams = GenerateParams(), seed: int = 0):
         self.robot = robot
         self.terrain = terrain
-        self.params = params
+        self.params = params = params.sized_for(robot)
         self.rng = np.random.default_rng(seed)
         self.distance = ColumnDistance.of(terrain, collision_reach(robot, max(params.clearance, params.foot_clearance)))
         self.geometry = _RobotGeometry.of(robot, self.rng)
@@ -537,7 +568,7 @@ def params_dict(params: GenerateParams) -> dict:
 def generate_steps(robot, terrain, start, goal, *, params: GenerateParams = GenerateParams(), seed: int = 0,
                    validator, progress=None):
     """Plan, then judge every configuration with the independent `validator` against
-    `params.requirements()` (per-row shortfalls in `GeneratedSequence.shortfalls`).
+    `params.sized_for(robot).requirements()` (per-row shortfalls in `GeneratedSequence.shortfalls`).
 
     Returns (StepSequence, GeneratedSequence, ConfigChecks); raises `GenerationError` when not even
     the start configuration exists.
@@ -545,6 +576,7 @@ def generate_steps(robot, terrain, start, goal, *, params: GenerateParams = Gene
     from legplan.stepseq.robotinfo import robot_sha256
     from legplan.stepseq.sequence import StepSequence
 
+    params = params.sized_for(robot)
     generated = StepGenerator(robot, terrain, params, seed).plan(start, goal, progress)
     seq = StepSequence(q=generated.q, stance=generated.stance, footholds=generated.footholds,
                        robot=robot.name, robot_sha256=robot_sha256(robot),

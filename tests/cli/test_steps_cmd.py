@@ -142,3 +142,48 @@ def test_generated_rows_missing_a_requirement_are_named(flat_map, tmp_path, monk
     assert "row 0: clearance short by" in result.stderr
     with h5py.File(out, "r") as f:
         assert np.all(f["checks/shortfall_clearance"][()] > 0)
+
+
+def test_generate_param_overrides_and_size_scaled_defaults(flat_map, generated, tmp_path):
+    from legplan.artefacts import open_artefact, read_provenance
+
+    def params_of(path):
+        with open_artefact(path) as handle:
+            return read_provenance(handle)["params"]
+
+    defaults = params_of(generated)          # SCARAB II is the reference size: its tuned values
+    assert (defaults["lift_height"], defaults["clearance"], defaults["com_margin"], defaults["reach_slack"]) \
+        == (0.05, 0.02, 0.015, 0.015)
+    out = tmp_path / "lifted.h5"
+    args = ["steps", "generate", str(flat_map), "--robot", "scarab2", "--start", "-0.05", "0", "0",
+            "--goal", "0.05", "0", "0", "-q"]
+    result = CliRunner().invoke(cli, [*args, "-o", str(out), "--param", "lift_height=0.07",
+                                      "--param", "candidates=4"])
+    assert result.exit_code == 0, result.stderr
+    recorded = params_of(out)
+    assert (recorded["lift_height"], recorded["candidates"], recorded["clearance"]) == (0.07, 4, 0.02)
+    with h5py.File(out, "r") as f:                 # the apexes of the swing feet rise to the new height
+        q, stance = f["q"][()], f["stance"][()].astype(bool)
+    from legplan.robots import load_robot
+
+    feet = load_robot("scarab2").foot_positions(q)
+    assert feet[~stance][:, 2].max() > 0.06
+    for bad, message in [("lift_height=-0.01", "'lift_height' out of range"),
+                         ("nope=1", "unknown generator parameter 'nope'"),
+                         ("candidates=2.5", "'candidates' expects int"),
+                         ("posture_weights=1", "'posture_weights' cannot be set")]:
+        bad_out = tmp_path / "bad.h5"
+        result = CliRunner().invoke(cli, [*args, "-o", str(bad_out), "--param", bad])
+        assert result.exit_code == 2 and message in result.stderr, result.stderr
+        assert len(result.stderr.strip().splitlines()) == 1 and not bad_out.exists()
+
+
+def test_size_scaled_defaults_follow_the_leg_length():
+    from legplan.stepseq.generate import REFERENCE_LEG_LENGTH, GenerateParams
+
+    class Robot:
+        leg_length = 2 * REFERENCE_LEG_LENGTH
+
+    sized = GenerateParams(clearance=0.03).sized_for(Robot())
+    assert (sized.lift_height, sized.com_margin, sized.reach_slack) == (0.1, 0.03, 0.03)
+    assert sized.clearance == 0.03                  # a value given is kept
