@@ -1,13 +1,18 @@
-"""The report page: one self-contained HTML file (inline CSS) referencing PNGs beside it."""
+"""The report page: one self-contained HTML file (inline CSS and script, no network) referencing PNGs
+beside it. It opens with the verdict table (one row per artefact) and the animated 3D views of planned
+motions, then one section per artefact. Paths are shown relative to the report directory."""
 
 from __future__ import annotations
 
 import json
+import os
 import shlex
 from dataclasses import dataclass, field
 from html import escape
 
 from legplan.report.registry import Figure, FigureFailure
+from legplan.report.verdict import Verdict
+from legplan.report.viewer import viewer_html
 
 _STYLE = """
 body { font-family: system-ui, sans-serif; margin: 2em auto; max-width: 72em; color: #222; }
@@ -17,6 +22,8 @@ th, td { border: 1px solid #ddd; padding: .25em .6em; text-align: left; vertical
 th { background: #f3f3f3; } td.num { text-align: right; font-variant-numeric: tabular-nums; }
 figure { margin: 1em 0; } figure img { max-width: 100%; border: 1px solid #eee; }
 figcaption { font-size: .85em; color: #555; } .failure { color: #b00; } code { font-size: .85em; }
+table.verdict td.ok { color: #080; } table.verdict td.bad { color: #b00; font-weight: bold; }
+.viewer canvas { border: 1px solid #ccc; cursor: grab; max-width: 100%; } .controls input { width: 60%; }
 """
 
 
@@ -24,30 +31,55 @@ figcaption { font-size: .85em; color: #555; } .failure { color: #b00; } code { f
 class ArtefactSection:
     """Everything the page shows for one artefact."""
 
-    path: str
+    path: str                  # as shown: relative to the report directory
     provenance: dict
     summary: dict[str, tuple[float, str]]
     figures: list[Figure] = field(default_factory=list)
     failures: list[FigureFailure] = field(default_factory=list)
     anchor: str = ""
+    verdict: Verdict | None = None
+    scene: dict | None = None  # the 3D view's data (`legplan.report.scene`)
 
 
-def render_page(title: str, sections: list[ArtefactSection]) -> str:
-    """index.html text."""
-    toc = "".join(f'<li><a href="#{s.anchor}">{escape(s.path)}</a> ({escape(s.provenance["kind"])})</li>'
-                  for s in sections)
-    body = "".join(_section(s) for s in sections)
+def render_page(title: str, sections: list[ArtefactSection], directory: str | os.PathLike) -> str:
+    """index.html text; absolute paths in provenance are shown relative to `directory`."""
+    scenes = [(s.anchor, s.scene) for s in sections if s.scene is not None]
+    views = f"<h2>Planned motions</h2>{viewer_html(scenes)}" if scenes else ""
+    body = "".join(_section(s, os.path.abspath(directory)) for s in sections)
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{escape(title)}</title>'
-            f"<style>{_STYLE}</style></head><body><h1>{escape(title)}</h1><ul>{toc}</ul>{body}"
-            "</body></html>\n")
+            f"<style>{_STYLE}</style></head><body><h1>{escape(title)}</h1>{_verdict_table(sections)}"
+            f"{views}{body}</body></html>\n")
 
 
-def _section(section: ArtefactSection) -> str:
+def relative(text: str, directory: str) -> str:
+    """An absolute path (or the value of `--option=/path`) relative to `directory`; other text unchanged."""
+    prefix, sep, value = text.partition("=")
+    if not (sep and text.startswith("-")):
+        prefix, sep, value = "", "", text
+    return prefix + sep + os.path.relpath(value, directory) if os.path.isabs(value) else text
+
+
+def _verdict_table(sections: list[ArtefactSection]) -> str:
+    rows = []
+    for s in sections:
+        v = s.verdict or Verdict("", None, [], [])
+        state = "" if v.ok is None else ' class="ok"' if v.ok else ' class="bad"'
+        problems = [*v.failures, *(f"figure {f.name} failed: {f.message}" for f in s.failures)]
+        rows.append(f'<tr><td><a href="#{s.anchor}">{escape(s.path)}</a></td><td>{escape(s.provenance["kind"])}</td>'
+                    f"<td{state}>{escape(v.outcome) or '–'}</td><td>{escape('; '.join(v.numbers)) or '–'}</td>"
+                    f'<td class="failure">{"<br>".join(escape(p) for p in problems)}</td></tr>')
+    return ('<table class="verdict"><tr><th>artefact</th><th>kind</th><th>outcome</th><th>headline numbers</th>'
+            f'<th>failures</th></tr>{"".join(rows)}</table>')
+
+
+def _section(section: ArtefactSection, directory: str) -> str:
     p = section.provenance
+    command = shlex.join(relative(token, directory) for token in p["command"])
     rows = [("kind", p["kind"]), ("schema", p["schema_version"]), ("legplan", p["legplan_version"]),
-            ("created", p["created"]), ("command", shlex.join(p["command"])), ("seed", p["seed"]),
+            ("created", p["created"]), ("command", command), ("seed", p["seed"]),
             ("params", json.dumps(p["params"], sort_keys=True))]
-    rows += [("input", f'{r["path"]} ({r["kind"]}, sha256 {r["sha256"][:12]})') for r in p["inputs"]]
+    rows += [("input", f'{relative(r["path"], directory)} ({r["kind"]}, sha256 {r["sha256"][:12]})')
+             for r in p["inputs"]]
     provenance = "".join(f"<tr><th>{escape(k)}</th><td><code>{escape(str(v))}</code></td></tr>"
                          for k, v in rows)
     summary = "".join(f'<tr><td>{escape(name)}</td><td class="num">{value:.6g}</td><td>{escape(units)}</td></tr>'

@@ -8,7 +8,8 @@ from pathlib import Path
 import numpy as np
 
 from legplan.artefacts import open_artefact, require
-from legplan.report.plots import grid_extent, grid_figure, datasets_figure, items_figure, map_input, new_figure
+from legplan.report.inputs import recorded_input
+from legplan.report.plots import datasets_figure, grid_extent, grid_figure, items_figure, new_figure
 from legplan.report.registry import figure
 
 MAP_LAYERS = [("terrain/height", "height", "terrain"), ("terrain/foothold", "foothold mask", "Greens"),
@@ -38,7 +39,7 @@ def motion_tracks(path: Path, png: Path) -> str | None:
     from legplan.stepplan.figures import plot_motion
     from legplan.terrain import load_map
 
-    terrain = map_input(path)
+    terrain = recorded_input(path, "map")
     with open_artefact(path, kind="motion") as handle:
         robot = str(handle.attrs.get("robot", ""))
     if terrain is None or not robot:
@@ -55,7 +56,7 @@ def steps_top(path: Path, png: Path) -> str | None:
     from legplan.stepseq.plot import plot_steps
     from legplan.terrain import load_map
 
-    terrain = map_input(path)
+    terrain = recorded_input(path, "map")
     if terrain is None:
         return None
     seq = read_steps(path)
@@ -75,7 +76,7 @@ def nav_paths(path: Path, png: Path) -> str | None:
     from legplan.nav.artefact import read_queries
     from legplan.nav.plot import render_nav
 
-    terrain = map_input(path)
+    terrain = recorded_input(path, "map")
     with open_artefact(path, kind="nav") as handle:
         queries = read_queries(handle) if "queries" in handle else []
     if terrain is None or not queries:
@@ -110,7 +111,7 @@ def nav_profiles(path: Path, png: Path) -> str | None:
     if len(tracks) <= 10:
         axes[0].legend(fontsize=7)
     if simulated is not None:
-        terrain = map_input(path)
+        terrain = recorded_input(path, "map")
         if terrain is not None:
             with open_artefact(terrain, kind="map") as handle:
                 costmap = require(handle, "nav/costmap")

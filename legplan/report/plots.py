@@ -1,4 +1,4 @@
-"""Generic report figures (matplotlib Agg, no pyplot state): gridded layers, per-item times and
+"""Generic report figures (matplotlib `Figure`, no pyplot state): gridded layers, per-item times and
 violations, and the fallback listing of an artefact's datasets."""
 
 from __future__ import annotations
@@ -9,7 +9,7 @@ import h5py
 import numpy as np
 from matplotlib.figure import Figure
 
-from legplan.artefacts import open_artefact, read_provenance
+from legplan.artefacts import open_artefact
 from legplan.report.items import read_items
 
 
@@ -23,14 +23,6 @@ def grid_extent(dataset: h5py.Dataset) -> list[float]:
     r = float(dataset.attrs["resolution"])
     ny, nx = dataset.shape[:2]
     return [x0 - r / 2, x0 + r * (nx - 0.5), y0 - r / 2, y0 + r * (ny - 0.5)]
-
-
-def map_input(path: Path) -> Path | None:
-    """The first input of kind "map" recorded in the artefact's provenance, if it still exists."""
-    with open_artefact(path) as handle:
-        inputs = read_provenance(handle)["inputs"]
-    found = next((Path(r["path"]) for r in inputs if r["kind"] == "map"), None)
-    return found if found is not None and found.exists() else None
 
 
 def grid_figure(path: Path, png: Path, layers: list[tuple[str, str, str]]) -> str | None:

@@ -1,4 +1,9 @@
-"""Write a report directory: index.html, one PNG per figure, and `report.h5`.
+"""Write a report directory: index.html (verdict table, animated 3D views, per-artefact sections),
+one PNG per figure, and `report.h5`.
+
+Every artefact is first read with its kind's reader (`wellformed.check_artefact`): a malformed one
+fails the whole report before anything is written. A figure or 3D view that cannot be drawn (e.g. its
+recorded map input is not found) is a figure failure: shown on the page and counted.
 
 `report.h5` (kind "report") is the directory's provenance: root attrs record the command, params
 and every artefact's sha256 as `inputs`, so `legplan pipeline` treats the directory like any other
@@ -13,6 +18,7 @@ an unrelated directory), checked before any work and again just before publishin
 
 from __future__ import annotations
 
+import logging
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,9 +27,15 @@ from legplan.artefacts import open_artefact, read_provenance, read_summary, writ
 from legplan.artefacts.publish import discard, make_temp, publish
 from legplan.errors import ArtefactError
 from legplan.report.html import ArtefactSection, render_page
-from legplan.report.registry import render_figures
+from legplan.report.registry import FigureFailure, render_figures
+from legplan.report.scene import motion_scene, traj_scene
+from legplan.report.verdict import verdict
+from legplan.report.wellformed import check_artefact
+
+log = logging.getLogger(__name__)
 
 PROVENANCE_FILE = "report.h5"
+SCENES = {"motion": motion_scene, "traj": traj_scene}
 
 
 @dataclass(frozen=True)
@@ -58,18 +70,26 @@ def write_report(artefacts: list[str | os.PathLike], directory: str | os.PathLik
     if not paths:
         raise ArtefactError(f"{directory}: no artefacts to report on")
     directory.parent.mkdir(parents=True, exist_ok=True)
+    kinds = []
+    for path in paths:
+        with open_artefact(path) as handle:
+            kinds.append(read_provenance(handle)["kind"])
+        check_artefact(path, kinds[-1])
     staging = make_temp(directory, directory=True)
     try:
         sections = []
-        for index, path in enumerate(paths):
+        for index, (path, kind) in enumerate(zip(paths, kinds)):
             with open_artefact(path) as handle:
                 provenance, summary = read_provenance(handle), read_summary(handle)
-            stem = f"{index:02d}-{provenance['kind']}"
-            figures, failures = render_figures(path, provenance["kind"], staging, stem)
-            sections.append(ArtefactSection(str(path), provenance, summary, figures, failures, stem))
+                outcome = verdict(handle, kind, summary)
+            stem = f"{index:02d}-{kind}"
+            figures, failures = render_figures(path, kind, staging, stem)
+            scene = _scene(path, kind, failures)
+            shown = os.path.relpath(path.absolute(), directory.absolute())
+            sections.append(ArtefactSection(shown, provenance, summary, figures, failures, stem, outcome, scene))
             if progress:
                 progress(index + 1, len(paths), str(path))
-        (staging / "index.html").write_text(render_page(title, sections))
+        (staging / "index.html").write_text(render_page(title, sections, directory))
         with write_artefact(staging / PROVENANCE_FILE, "report", params={"title": title},
                             inputs=paths) as handle:
             write_summary(handle, {"artefacts": len(sections),
@@ -80,3 +100,16 @@ def write_report(artefacts: list[str | os.PathLike], directory: str | os.PathLik
     finally:
         discard(staging)
     return ReportResult(directory, sections)
+
+
+def _scene(path: Path, kind: str, failures: list[FigureFailure]) -> dict | None:
+    """The 3D view's data for `kind` (None: none registered or nothing to show); a failure is
+    appended to `failures` like a figure's."""
+    if kind not in SCENES:
+        return None
+    try:
+        return SCENES[kind](path)
+    except Exception as exc:  # a broken view must not lose the rest of the report
+        log.warning("%s: 3D view failed: %s", path, exc, exc_info=True)
+        failures.append(FigureFailure("3d-view", f"{type(exc).__name__}: {exc}"))
+        return None

@@ -29,3 +29,48 @@ def write_motion(path, times=(0.5, 1.5, 12.0), slips=(1e-7, 2e-7, 3e-3), success
         write_summary(f, {"steps_planned": len(times), "steps_succeeded": sum(success),
                           "worst_violation": (max(slips), "m"), "mean_time": (float(np.mean(times)), "s")})
     return path
+
+
+def write_robot_motion(path, map_path, steps=3):
+    """A motion of scarab2 on `map_path` (a real map): the nominal stance shifted 4 cm forward per
+    step along cubic Bézier control points, the last step failed."""
+    from legplan.robots import load_robot
+
+    robot = load_robot("scarab2")
+    x0 = robot.to_vector(robot.q_nominal)[0]
+    feet = robot.foot_positions(robot.q_nominal)[0]
+    with write_artefact(path, "motion", inputs=[map_path]) as f:
+        f.attrs["robot"] = robot.name
+        for i in range(steps):
+            g = f.create_group(f"steps/{i:04d}")
+            g.attrs.update(index=i, success=i < steps - 1, reason="" if i < steps - 1 else "clearance", seconds=0.1)
+            points = np.repeat(x0[None], 4, axis=0)
+            points[:, 0] += 0.04 * (i + np.linspace(0.0, 1.0, 4))
+            write_dataset(g, "control_points", points)
+            write_dataset(g, "stance", np.ones(len(feet), bool))
+            write_dataset(g, "footholds", feet)
+        write_summary(f, {"steps_planned": steps, "steps_succeeded": steps - 1, "worst_violation": (4e-4, "m"),
+                          "median_time": (0.1, "s")})
+    return path
+
+
+def write_traj(path, map_path, samples=120):
+    """A traj of anymal on `map_path`: the base moving 0.3 m forward over 1.2 s, all four feet in
+    contact carrying its weight."""
+    legs = 4
+    t = np.linspace(0.0, 1.2, samples)
+    base = np.stack([0.25 * t, np.zeros_like(t), np.full_like(t, 0.45)], axis=1)
+    corners = np.array([[0.34, 0.19], [0.34, -0.19], [-0.34, 0.19], [-0.34, -0.19]])
+    feet = np.zeros((samples, legs, 3))
+    feet[:, :, :2] = corners[None] + base[:, None, :2]
+    forces = np.zeros((samples, legs, 3))
+    forces[:, :, 2] = 29.5 * 9.81 / legs
+    with write_artefact(path, "traj", inputs=[map_path]) as f:
+        f.attrs.update(robot="anymal", legs="lf,rf,lh,rh")
+        g = f.create_group("tasks/0000")
+        g.attrs.update(success=True, reason="converged", duration=1.2, max_violation=2e-4)
+        for name, value in {"t": t, "base_pos": base, "base_euler": np.zeros_like(base), "feet_pos": feet,
+                            "forces": forces, "contact": np.ones((samples, legs), bool)}.items():
+            write_dataset(g, f"samples/{name}", value)
+        write_summary(f, {"tasks": 1, "succeeded": 1, "max_violation": 2e-4})
+    return path
