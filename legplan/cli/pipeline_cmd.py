@@ -42,6 +42,7 @@ def run_cmd(ctx, pipeline_file, out_dir, force, dry_run, jobs):
 
     pipeline = load_pipeline(pipeline_file)
     out = Path(out_dir) if out_dir else _default_out(pipeline_file)
+    _check_commands(pipeline, out)
     if dry_run:
         for decision in plan_run(pipeline, out, force=force):
             verb = "run " if decision.run else "skip"
@@ -58,6 +59,20 @@ def run_cmd(ctx, pipeline_file, out_dir, force, dry_run, jobs):
         stderr_line(f"{failed.reason} (log: {failed.log})", f"stage '{failed.name}' failed:")
     if not result.ok:
         ctx.exit(1)
+
+
+def _check_commands(pipeline, out: Path) -> None:
+    """Every stage's command and parameters parsed by its click command (exit 2 on the first bad
+    one) before anything runs; a stage's `-v` / `-q` must not change the pipeline's verbosity."""
+    from legplan.cli.console import set_verbosity, verbosity
+    from legplan.cli.main import cli
+    from legplan.pipeline.commands import check_stage_commands
+
+    level = verbosity()
+    try:
+        check_stage_commands(pipeline, out, cli)
+    finally:
+        set_verbosity(level)
 
 
 @command.command("show")

@@ -1,7 +1,8 @@
 """Run a pipeline: stages in dependency order, independent ones in parallel, up-to-date ones skipped.
 
 Each stage runs as a subprocess `python -c "<legplan cli>" ARGV...` (so a crashing stage cannot take
-the pipeline down) with stdout and stderr captured to `OUT/logs/<stage>.log`. Whether a stage is up
+the pipeline down) with stdout and stderr captured to `OUT/logs/<stage>.log`, in its own process
+group and dying with the pipeline (`legplan.pipeline.processes`). Whether a stage is up
 to date is decided when its dependencies have finished, from their actual new outputs, so a
 byte-identical upstream rewrite does not force downstream work.
 
@@ -14,14 +15,15 @@ from __future__ import annotations
 
 import logging
 import os
-import subprocess
 import sys
 import time
 from concurrent.futures import FIRST_COMPLETED, Future, ThreadPoolExecutor, wait
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from legplan.pipeline.plan import ResolvedStage, check_declared_inputs, resolve_stage, up_to_date_reason
+from legplan.pipeline.processes import DIE_WITH_PARENT, StageProcesses
 from legplan.pipeline.spec import Pipeline
 
 log = logging.getLogger(__name__)
@@ -65,8 +67,9 @@ class PipelineResult:
 
 
 def stage_command(stage: ResolvedStage, entry: str = CLI_ENTRY) -> list[str]:
-    """The subprocess argv that runs `legplan ARGV...` with the current interpreter."""
-    return [sys.executable, "-c", entry, *stage.argv]
+    """The subprocess argv that runs `legplan ARGV...` with the current interpreter (dying with
+    the pipeline, `processes.DIE_WITH_PARENT`)."""
+    return [sys.executable, "-c", f"{DIE_WITH_PARENT}; {entry}", *stage.argv]
 
 
 def run_pipeline(pipeline: Pipeline, out_dir: str | os.PathLike, *, force: bool = False, jobs: int = 1,
@@ -75,7 +78,9 @@ def run_pipeline(pipeline: Pipeline, out_dir: str | os.PathLike, *, force: bool 
 
     `progress(done, total, message)` reports settled stages. `entry` is the Python snippet that runs
     the click group on `sys.argv` (tests substitute a fake one). Raises `SpecError` before running
-    anything when a declared input that no stage produces is missing.
+    anything when a declared input that no stage produces is missing. On SIGINT / SIGTERM (the
+    exception reaching this thread) the running stages are stopped (`StageProcesses.stop`) before
+    the exception goes on, so no stage publishes after it.
     """
     out_dir = Path(out_dir)
     check_declared_inputs(pipeline, out_dir)
@@ -84,6 +89,7 @@ def run_pipeline(pipeline: Pipeline, out_dir: str | os.PathLike, *, force: bool 
     settled: dict[str, StageResult] = {}
     pending = [spec.name for spec in pipeline.stages]
     running: dict[Future, str] = {}
+    processes = StageProcesses()
 
     def settle(stage_result: StageResult) -> None:
         settled[stage_result.name] = stage_result
@@ -93,7 +99,7 @@ def run_pipeline(pipeline: Pipeline, out_dir: str | os.PathLike, *, force: bool 
         if progress:
             progress(len(settled), len(stages), f"{stage_result.name}: {stage_result.status}")
 
-    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool:
+    with ThreadPoolExecutor(max_workers=max(1, jobs)) as pool, _stopping_on_exit(processes):
         while pending or running:
             for name in list(pending):
                 stage = stages[name]
@@ -112,7 +118,7 @@ def run_pipeline(pipeline: Pipeline, out_dir: str | os.PathLike, *, force: bool 
                     settle(StageResult(name, "up_to_date", "up to date", stage.argv))
                     continue
                 log.info("running stage %s (%s)", name, reason)
-                running[pool.submit(_execute, stage, out_dir, reason, entry)] = name
+                running[pool.submit(_execute, stage, out_dir, reason, entry, processes)] = name
             if not running:
                 continue
             finished, _ = wait(list(running), return_when=FIRST_COMPLETED)
@@ -122,7 +128,18 @@ def run_pipeline(pipeline: Pipeline, out_dir: str | os.PathLike, *, force: bool 
     return result
 
 
-def _execute(stage: ResolvedStage, out_dir: Path, why: str, entry: str) -> StageResult:
+@contextmanager
+def _stopping_on_exit(processes: StageProcesses):
+    """Stop the running stages when the block ends with an exception (an interrupt)."""
+    try:
+        yield
+    except BaseException:
+        processes.stop()
+        raise
+
+
+def _execute(stage: ResolvedStage, out_dir: Path, why: str, entry: str,
+             processes: StageProcesses) -> StageResult:
     log_path = out_dir / "logs" / f"{stage.name}.log"
     log_path.parent.mkdir(parents=True, exist_ok=True)
     stage.output.parent.mkdir(parents=True, exist_ok=True)
@@ -131,8 +148,9 @@ def _execute(stage: ResolvedStage, out_dir: Path, why: str, entry: str) -> Stage
     with open(log_path, "w") as stream:
         stream.write("$ legplan " + " ".join(stage.argv) + "\n")
         stream.flush()
-        code = subprocess.run(stage_command(stage, entry), stdout=stream, stderr=subprocess.STDOUT,
-                              stdin=subprocess.DEVNULL, env=env).returncode
+        code = processes.run(stage_command(stage, entry), stdout=stream, env=env)
+    if code is None:
+        return StageResult(stage.name, "skipped", "pipeline interrupted", stage.argv)
     seconds = time.perf_counter() - start
     stale = up_to_date_reason(stage)
     if code in (0, 1) and stale is None:

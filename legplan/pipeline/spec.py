@@ -25,6 +25,7 @@ Every path is made absolute, so recorded provenance and argv do not depend on th
 
 from __future__ import annotations
 
+import graphlib
 import os
 import re
 from dataclasses import dataclass, field
@@ -200,25 +201,19 @@ def _check_placeholders(path: Path, stage: StageSpec, variables: set[str], stage
 
 
 def _topological(path: Path, stages: list[StageSpec]) -> list[StageSpec]:
-    """Stages ordered so each comes after its dependencies (file order among independent ones)."""
-    remaining = {stage.name: stage for stage in stages}
+    """Stages ordered so each comes after its dependencies (file order among the stages that
+    become ready together), by `graphlib`; a cycle is a `SpecError` naming it."""
+    by_name = {stage.name: stage for stage in stages}
+    sorter = graphlib.TopologicalSorter({stage.name: stage.depends_on for stage in stages})
+    try:
+        sorter.prepare()
+    except graphlib.CycleError as exc:
+        cycle = list(reversed(exc.args[1]))  # graphlib lists it against the dependency direction
+        raise SpecError(f"{path}: field 'stages' has a dependency cycle: {' -> '.join(cycle)}") from None
+    order = list(by_name)
     ordered: list[StageSpec] = []
-    while remaining:
-        ready = [s for s in remaining.values() if not set(s.depends_on) & set(remaining)]
-        if not ready:
-            cycle = _find_cycle(remaining)
-            raise SpecError(f"{path}: field 'stages' has a dependency cycle: {' -> '.join(cycle)}")
-        for stage in ready:
-            ordered.append(stage)
-            del remaining[stage.name]
+    while sorter.is_active():
+        ready = sorted(sorter.get_ready(), key=order.index)
+        ordered += [by_name[name] for name in ready]
+        sorter.done(*ready)
     return ordered
-
-
-def _find_cycle(stages: dict[str, StageSpec]) -> list[str]:
-    start = next(iter(stages))
-    trail = [start]
-    while True:
-        nxt = next(dep for dep in stages[trail[-1]].depends_on if dep in stages)
-        if nxt in trail:
-            return trail[trail.index(nxt):] + [nxt]
-        trail.append(nxt)

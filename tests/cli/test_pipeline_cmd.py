@@ -1,10 +1,12 @@
-"""`legplan pipeline run|show` end to end (the stages themselves are `legplan inspect`, which is
-always there: a stage that fails because inspect writes no output, and dry-run/spec-error paths)."""
+"""`legplan pipeline run|show` end to end (the stages themselves are `legplan map show`: a stage
+that fails on a missing input, dry-run/spec-error paths, and stages the click commands refuse)."""
 
+import pytest
 import yaml
 from click.testing import CliRunner
 
 from legplan.artefacts import write_artefact, write_summary
+from legplan.cli.console import verbosity
 from legplan.cli.main import cli
 
 
@@ -18,15 +20,15 @@ def test_dry_run_lists_what_would_run_and_why(tmp_path):
     spec = tmp_path / "in.txt"
     spec.write_text("x")
     path = write(tmp_path, [
-        {"name": "a", "command": ["inspect", str(spec)], "inputs": [str(spec)], "output": "a.h5"},
-        {"name": "b", "command": ["inspect", "{stages.a.output}"], "output": "b.h5"}])
+        {"name": "a", "command": ["map", "show", str(spec)], "inputs": [str(spec)], "output": "a.h5"},
+        {"name": "b", "command": ["map", "show", "{stages.a.output}"], "output": "b.h5"}])
     result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "--out", str(tmp_path / "o"),
                                       "--dry-run"])
     assert result.exit_code == 0, result.output
     lines = result.stdout.splitlines()
     assert lines[0] == "run  a: no output yet"
     assert lines[2] == "run  b: upstream stage 'a' will run"
-    assert lines[3].startswith("     legplan inspect ") and lines[3].endswith("b.h5 --overwrite")
+    assert lines[3].startswith("     legplan map show ") and lines[3].endswith("b.h5 --overwrite")
     assert not (tmp_path / "o").exists()
 
 
@@ -34,10 +36,10 @@ def test_dry_run_reports_up_to_date_and_changed_input(tmp_path):
     src = tmp_path / "in.txt"
     src.write_text("x")
     out = tmp_path / "o"
-    argv = ["inspect", str(src), "-o", str(out / "a.h5"), "--overwrite"]
+    argv = ["map", "show", str(src), "-o", str(out / "a.h5"), "--overwrite"]
     with write_artefact(out / "a.h5", "map", inputs=[src], command=["legplan", *argv]) as f:
         write_summary(f, {"n": 1})
-    path = write(tmp_path, [{"name": "a", "command": ["inspect", str(src)], "inputs": [str(src)],
+    path = write(tmp_path, [{"name": "a", "command": ["map", "show", str(src)], "inputs": [str(src)],
                              "output": "a.h5"}])
     dry = ["pipeline", "run", str(path), "--out", str(out), "--dry-run"]
     assert CliRunner().invoke(cli, dry).stdout.splitlines()[0] == "skip a: up to date"
@@ -47,14 +49,37 @@ def test_dry_run_reports_up_to_date_and_changed_input(tmp_path):
 
 def test_failed_stage_exit_1_names_stage_and_reason(tmp_path):
     path = write(tmp_path, [
-        {"name": "a", "command": ["inspect", str(tmp_path / "nothing.h5")], "output": "a.h5"},
-        {"name": "b", "command": ["inspect", "{stages.a.output}"], "output": "b.h5"}])
+        {"name": "a", "command": ["map", "show", str(tmp_path / "nothing.h5")], "output": "a.png"},
+        {"name": "b", "command": ["map", "show", "{stages.a.output}"], "output": "b.png"}])
     result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "--out", str(tmp_path / "o"), "-q"])
     assert result.exit_code == 1
     assert "stage 'a' failed" in result.stderr
     assert "exit 2" in result.stderr
     assert "skipped b: upstream stage 'a' failed" in " ".join(result.stderr.split())
     assert (tmp_path / "o" / "logs" / "a.log").exists()
+
+
+@pytest.mark.parametrize("stage, problem", [
+    ({"command": ["map", "shw", "{stages.a.output}"]}, "unknown command 'legplan map shw'"),
+    ({"command": ["map"]}, "'legplan map' needs a subcommand (build, import, show)"),
+    ({"command": ["map", "show", "{stages.a.output}"], "params": {"dpi": 90}}, "No such option '--dpi'"),
+    ({"command": ["map", "import", "lidar", "x.pgm"]}, "'lidar' is not one of 'ros'"),
+    ({"command": ["map", "import", "heightmap", "x.npy"], "params": {"resolution": "nan"}},
+     "Invalid value for '--resolution'"),
+    ({"command": ["map", "show", "{stages.a.output}"], "params": {"quiet": True, "help": True}},
+     "would only print its help"),
+])
+def test_stage_the_command_refuses_is_exit_2_before_any_stage_runs(tmp_path, stage, problem):
+    spec = tmp_path / "flat.yaml"
+    spec.write_text("resolution: 0.1\nextent: {x: [0, 1], y: [0, 1]}\n")
+    path = write(tmp_path, [{"name": "a", "command": ["map", "build", str(spec)], "output": "a.h5"},
+                            {"name": "b", "output": "b.png", **stage}])
+    result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "--out", str(tmp_path / "o")])
+    assert result.exit_code == 2, result.output
+    line, = result.stderr.strip().splitlines()
+    assert f"{path}: stage 'b': " in line and problem in line, line
+    assert not (tmp_path / "o").exists()
+    assert verbosity() == 0  # a stage's -q parsed for the check leaves the pipeline's verbosity alone
 
 
 def test_bad_pipeline_file_exit_2_one_line(tmp_path):
@@ -66,8 +91,8 @@ def test_bad_pipeline_file_exit_2_one_line(tmp_path):
 
 
 def test_missing_declared_input_exit_2(tmp_path):
-    path = write(tmp_path, [{"name": "a", "command": ["inspect"], "inputs": [str(tmp_path / "no.yaml")],
-                             "output": "a.h5"}])
+    path = write(tmp_path, [{"name": "a", "command": ["map", "build", str(tmp_path / "no.yaml")],
+                             "inputs": [str(tmp_path / "no.yaml")], "output": "a.h5"}])
     result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "--out", str(tmp_path / "o")])
     assert result.exit_code == 2
     assert "field 'stages.a.inputs'" in result.stderr and "no.yaml does not exist" in result.stderr
