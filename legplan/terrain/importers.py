@@ -46,7 +46,8 @@ def read_grey_image(path: str | os.PathLike) -> np.ndarray:
     if not path.is_file():
         raise SpecError(f"{path}: no such image file")
     try:
-        with Image.open(path) as image:
+        with Image.open(path) as image:  # lazy: the header only, so the size is checked first
+            check_memory((image.height, image.width), 0, str(path), "resolution")
             image.load()
             if image.mode not in GREY_SCALE:
                 image = image.convert("RGB")
@@ -59,6 +60,22 @@ def read_grey_image(path: str | os.PathLike) -> np.ndarray:
     if pixels.ndim == 3:
         pixels = pixels.mean(axis=2)
     return pixels / scale
+
+
+def npy_shape(path: Path) -> tuple[int, ...]:
+    """The array shape in a .npy file's header (the data is not read), or a one-line `SpecError`."""
+    readers = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+    try:
+        with open(path, "rb") as handle:
+            version = np.lib.format.read_magic(handle)
+            if version not in readers:
+                raise SpecError(f"{path}: unsupported .npy format version {version[0]}.{version[1]}")
+            shape = readers[version](handle)[0]
+    except ValueError as exc:
+        raise SpecError(f"{path}: not a readable .npy array ({' '.join(str(exc).split())})") from None
+    if len(shape) != 2:
+        raise SpecError(f"{path}: heightmap must be a 2D numeric array, got shape {shape}")
+    return shape
 
 
 def _obstacle_terrain(blocked: np.ndarray, grid: Grid2D, name: str, obstacle_height: float,
@@ -88,7 +105,6 @@ def import_ros(yaml_path: str | os.PathLike, *, obstacle_height: float = 1.0, **
     if negate not in (0, 1, True, False):
         raise SpecError(f"{source}: field 'negate' must be 0 or 1, got {negate!r}")
     grey = read_grey_image(Path(yaml_path).parent / data["image"])
-    check_memory(grey.shape, 0, source, "resolution")
     probability = grey if negate else 1.0 - grey
     blocked = np.flipud(~(probability < free_thresh))
     grid = Grid2D((origin[0] + 0.5 * resolution, origin[1] + 0.5 * resolution), resolution,
@@ -141,6 +157,7 @@ def import_heightmap(path: str | os.PathLike, resolution: float, origin=(0.0, 0.
     if path.suffix.lower() == ".npy":
         if not path.is_file():
             raise SpecError(f"{path}: no such heightmap file")
+        check_memory(npy_shape(path), 0, str(path), "resolution")
         try:
             array = np.load(path, allow_pickle=False)
         except ValueError as exc:
@@ -150,6 +167,5 @@ def import_heightmap(path: str | os.PathLike, resolution: float, origin=(0.0, 0.
         height = array.astype(float)
     else:
         height = np.flipud(read_grey_image(path))
-    check_memory(height.shape, 0, str(path), "resolution")
     grid = Grid2D((float(origin[0]), float(origin[1])), float(resolution), height.shape)
     return terrain_from_heightmap(height * scale, grid, name=path.stem, source=str(path), **options)

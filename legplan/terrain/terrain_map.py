@@ -28,6 +28,9 @@ from legplan.terrain.sdf import Progress, SignedDistanceField, heightmap_sdf, sd
 
 MAX_MAP_BYTES = 2 * 1024 ** 3
 """Refuse maps whose estimated working memory exceeds this (bytes)."""
+MAX_SDF_WORK = 5e9
+"""Refuse SDFs whose vertical combination (voxels x layers / 2 element steps, quadratic in the
+layer count) exceeds this: about a minute here; 14x the largest shipped map (stairs, 3.5e8)."""
 
 _BYTES_PER_CELL = 120   # heightmap, 2D layers and temporaries, float64
 _BYTES_PER_VOXEL = 32   # SDF values, four per-layer stacks (distance, top) and temporaries, float32
@@ -101,12 +104,18 @@ def estimate_bytes(shape: tuple[int, int], layers: int = 0) -> int:
 
 
 def check_memory(shape, layers: int, source: str, field: str) -> None:
-    """Refuse, before allocating, a map whose estimated memory exceeds `MAX_MAP_BYTES`."""
+    """The one size check of a map, for all three axes, before allocating: refuse (naming `field`)
+    a map of `shape` cells and `layers` SDF layers (0: the 2D layers alone) whose estimated memory
+    exceeds `MAX_MAP_BYTES` or whose SDF work exceeds `MAX_SDF_WORK`."""
     needed = estimate_bytes(shape, layers)
+    size = f"{shape[1]}x{shape[0]} cells x {max(layers, 1)} layers"
     if needed > MAX_MAP_BYTES:
-        raise SpecError(f"{source}: field '{field}' gives a map too large for memory: "
-                        f"{shape[1]}x{shape[0]} cells x {max(layers, 1)} layers needs ~"
+        raise SpecError(f"{source}: field '{field}' gives a map too large for memory: {size} needs ~"
                         f"{needed / 1024 ** 3:.1f} GiB > {MAX_MAP_BYTES / 1024 ** 3:.0f} GiB")
+    work = int(shape[0]) * int(shape[1]) * int(layers) ** 2 / 2
+    if work > MAX_SDF_WORK:
+        raise SpecError(f"{source}: field '{field}' gives an SDF too large to build: {size} is "
+                        f"{work:.2g} voxel-layer steps > {MAX_SDF_WORK:.0e}")
 
 
 def terrain_from_heightmap(height, grid: Grid2D, *, name: str = "", ground: float = 0.0,
@@ -127,7 +136,9 @@ def terrain_from_heightmap(height, grid: Grid2D, *, name: str = "", ground: floa
     z_min, z_max = sdf.bounds(height, r)
     if not z_max > z_min:
         raise SpecError(f"{source}: field 'sdf.z_max' must be above 'sdf.z_min' ({z_max} <= {z_min})")
-    check_memory(grid.shape, sdf_layers(z_min, z_max, r).size, source, "resolution")
+    explicit = sdf.z_min is not None or sdf.z_max is not None
+    check_memory(grid.shape, sdf_layers(z_min, z_max, r).size, source,
+                 "sdf.z_min/z_max" if explicit else "height")  # the grid alone was checked before
     field = heightmap_sdf(height, grid.origin, r, z_min, z_max, progress=progress)
     occupancy = occupancy_grid(height, ground, nav.obstacle_height, obstacles)
     distance = obstacle_distance(occupancy, r)
