@@ -176,7 +176,7 @@ def main():
     parser.add_argument("--no-append", action="store_true", help="do not write the BENCHMARKS.md section")
     args = parser.parse_args()
     load_before = os.getloadavg()
-    step = lambda: tp.step_planner_like(epsilon=3e-2)  # noqa: E731
+    step = lambda: tp.step_planner_like(epsilon=STEP_EPSILON)  # noqa: E731
     base = LMParams(tolerance=TOL)
     jacobian = LMParams(tolerance=TOL, assembly="jacobian")
     cases = {
@@ -223,6 +223,8 @@ def main():
         update_benchmarks("solve_lm", markdown(results))
 
 
+STEP_EPSILON = 3e-2  # slack bound ε of the synthetic step problem (the step planner uses 1e-3)
+
 HEADER = ("| date | machine | benchmark | case | config | median (s) | ratio | reference | notes |\n"
           "| --- | --- | --- | --- | --- | --- | --- | --- | --- |\n")
 
@@ -233,6 +235,18 @@ def speedups(rows) -> str:
     return "; ".join(f"{r['config']}: {scipy_row['median_s'] / r['median_s']:.2f}× "
                      f"(min ÷ min {min(scipy_row['runs']) / min(r['runs']):.2f}×)" for r in rows
                      if r["config"].startswith("legplan LM + cholmod"))
+
+
+def step_differences(median: dict[str, float]) -> str:
+    """Where the two sides of the step_planner_like rows differ, with this run's numbers."""
+    ours, scipy_lsmr = median["legplan LM + cholmod (structured, Schur)"], median["scipy least_squares trf/lsmr"]
+    stacked, dense = median["legplan LM + cholmod (stacked, no Schur)"], median["legplan LM + dense (structured, Schur)"]
+    return (f"Where the sides differ (step_planner_like): the headline {scipy_lsmr / ours:.2f}× is legplan's structured "
+            "path (JᵀJ formed from the curve's per-sample blocks, Schur elimination of the slacks) against scipy on the stacked "
+            f"sparse Jacobian; with the same stacked assembly legplan is {scipy_lsmr / stacked:.2f}× faster. The problem "
+            f"is synthetic with slack bound ε = {STEP_EPSILON:g} (the step planner uses 1e-3), and on it the dense "
+            f"linear solver beats CHOLMOD ({dense:.3f} s vs {ours:.3f} s): after the Schur step the reduced "
+            "system is small and dense.")
 
 
 def markdown(results) -> str:
@@ -250,6 +264,9 @@ def markdown(results) -> str:
                          f"‖h‖={row['final_norm']:.1e}, median of {len(row['runs'])}, min {min(row['runs']):.3f} s |\n")
     lines.append("\nSpeed-up over scipy least_squares trf/lsmr (median ÷ median): " + " · ".join(
         f"{pname}: {speedups(entry['rows'])}" for pname, entry in results["problems"].items()) + ".\n")
+    step = results["problems"].get("step_planner_like")
+    if step:
+        lines.append("\n" + step_differences({row["config"]: row["median_s"] for row in step["rows"]}) + "\n")
     for pname, entry in results["problems"].items():
         f = entry.get("factorization")
         if f:
