@@ -14,7 +14,7 @@ import click
 
 from legplan.baselines.names import CONSTRAINED_SPACES, NAV_PLANNERS
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.nav_options import query_opts, resolve_queries, robot_navigation
+from legplan.cli.nav_options import query_opts, resolve_queries
 from legplan.cli.options import batch_opts, input_artefact, number, output_opt, overwrite_opt, seed_opt, verbosity_opts
 
 
@@ -51,10 +51,11 @@ def nav_cmd(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path
     from legplan.cli.batching import run_stage
     from legplan.cli.console import status, stderr_line
     from legplan.nav import NavGrid, NavParams
+    from legplan.robots.navigation import read_navigation
     from legplan.nav.items import query_items
 
     check_output(output, overwrite)
-    navigation = robot_navigation(robot)
+    navigation = read_navigation(robot)
     grid = NavGrid.from_map(map_path, lethal_radius=navigation.inscribed_radius)  # bad map: exit 2
     queries, query_files = resolve_queries("baseline nav", start, start_vel, goal, goal_vel, queries_path,
                                            grid)

@@ -14,7 +14,7 @@ import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.nav_options import query_opts, resolve_queries, robot_navigation
+from legplan.cli.nav_options import query_opts, resolve_queries
 from legplan.cli.options import batch_opts, input_artefact, output_opt, overwrite_opt, param_opt, verbosity_opts
 
 
@@ -49,11 +49,12 @@ def search(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path,
     from legplan.batch import Task
     from legplan.cli.batching import run_stage
     from legplan.nav import NavGrid, NavParams
+    from legplan.robots.navigation import read_navigation
     from legplan.nav.artefact import write_nav
     from legplan.nav.items import SearchWorker, failed_query, query_items, search_item
 
     check_output(output, overwrite)
-    navigation = robot_navigation(robot)
+    navigation = read_navigation(robot)
     grid = NavGrid.from_map(map_path, lethal_radius=navigation.inscribed_radius)  # bad map: exit 2
     queries, query_files = resolve_queries("nav search", start, start_vel, goal, goal_vel, queries_path,
                                            grid)

@@ -48,13 +48,3 @@ def resolve_queries(command: str, start, start_vel, goal, goal_vel, queries_path
         return read_queries(queries_path, grid), [queries_path]
     return np.array([[*start, *start_vel, *goal, *goal_vel]]), []
 
-
-def robot_navigation(robot: str):
-    """The `navigation` section (footprint, radii, Table I limits) of a robot, or a one-line error."""
-    from legplan.errors import LegplanError
-    from legplan.robots import load_robot
-
-    navigation = load_robot(robot).navigation
-    if navigation is None:
-        raise LegplanError(f"robot '{robot}': robot.yaml has no 'navigation' section (limits of Table I)")
-    return navigation

@@ -8,7 +8,6 @@ from __future__ import annotations
 import click
 
 from legplan.cli.console import progress_bar, status
-from legplan.cli.nav_options import robot_navigation
 from legplan.cli.options import (NumbersOption, input_artefact, number, output_opt, overwrite_opt, param_opt,
                                  verbosity_opts)
 
@@ -38,6 +37,7 @@ def refine(ctx, map_path, nav_path, output, robot, outer, inner, omni, overwrite
     import h5py
 
     from legplan.artefacts import check_output, write_artefact, write_summary
+    from legplan.robots.navigation import read_navigation
     from legplan.nav.teb.artefact import refinable_queries, write_refinement
     from legplan.nav.teb.distance import DistanceField
     from legplan.nav.teb.params import TebParams
@@ -45,7 +45,7 @@ def refine(ctx, map_path, nav_path, output, robot, outer, inner, omni, overwrite
     from legplan.terrain import load_map
 
     check_output(output, overwrite)
-    navigation = robot_navigation(robot)
+    navigation = read_navigation(robot)
     terrain = load_map(map_path)
     field = DistanceField.from_terrain(terrain)
     params = TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni)
@@ -118,6 +118,7 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
     import numpy as np
 
     from legplan.artefacts import check_output, write_artefact, write_summary
+    from legplan.robots.navigation import read_navigation
     from legplan.errors import LegplanError
     from legplan.nav.params import NavParams, with_field_overrides
     from legplan.nav.simulate import (Goal, SimParams, World, grid_planner, hidden_obstacles as load_hidden,
@@ -132,7 +133,7 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
         goals.append(Goal((v[0], v[1]), v[2] if len(v) > 2 else float("nan"), v[3] if len(v) > 3 else 0.0))
     goals.append(Goal((goal[0], goal[1]), goal[2] if len(goal) > 2 else float("nan")))
     target = tuple(face_target) if face_target else None
-    navigation = robot_navigation(robot)
+    navigation = read_navigation(robot)
     terrain = load_map(map_path)
     off_map = terrain.grid.outside_problem([start[:2], *(g.xy for g in goals)],
                                            ["--start", *(["--via"] * len(via)), "--goal"])

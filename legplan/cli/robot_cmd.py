@@ -91,7 +91,7 @@ def show_command(robot, png, overwrite, as_json):
     """Show ROBOT (a name or a path to a robot folder / robot.yaml): DOF, legs, limits, spheres."""
     from legplan.artefacts import check_output
     from legplan.robots import load_robot
-    from legplan.robots.spec import LIMIT_UNITS
+    from legplan.robots.navigation import LIMIT_UNITS
 
     if png:
         check_output(png, overwrite)

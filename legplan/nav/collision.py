@@ -21,10 +21,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.ndimage import binary_dilation
-from scipy.sparse import coo_matrix
-from scipy.sparse.csgraph import dijkstra
-
 from legplan.errors import LegplanError
 
 
@@ -55,8 +51,7 @@ class NavGrid:
         if not self.resolution > 0:
             raise LegplanError(f"nav grid: field 'resolution' must be > 0, got {self.resolution}")
         lethal = distance < self.l1
-        blocked = binary_dilation(np.pad(lethal, 1, constant_values=True),
-                                  structure=np.ones((3, 3), bool))
+        blocked = dilate_3x3(np.pad(lethal, 1, constant_values=True))
         blocked[[0, -1], :] = True
         blocked[:, [0, -1]] = True
         setter = object.__setattr__
@@ -140,6 +135,8 @@ class NavGrid:
         cells between lethal ones (narrow alleys, diagonal cracks) are blocked for the planners and
         closed here, so routes do not count on them. Breadth-first search on the grid graph, which
         is built once per grid."""
+        from scipy.sparse.csgraph import dijkstra  # the search's BFS only (start-up time)
+
         if not self._free_graph:
             self._free_graph.extend(self._build_free_graph())
         graph, passable = self._free_graph
@@ -154,10 +151,12 @@ class NavGrid:
     def _build_free_graph(self):
         """Sparse adjacency of the passable cells (`step_distance`), each linked to its 8
         neighbours, and the (ny, nx) passable mask."""
+        from scipy.sparse import coo_matrix
+
         ny, nx = self.shape
         ids = np.arange(ny * nx).reshape(ny, nx)
         clear = ~self.blocked_flat.reshape(ny + 2, nx + 2)
-        free = binary_dilation(clear, structure=np.ones((3, 3), bool))[1:-1, 1:-1]
+        free = dilate_3x3(clear)[1:-1, 1:-1]
         rows, cols = [], []
         for dy, dx in ((0, 1), (1, 0), (1, 1), (1, -1)):
             a = (slice(0, ny - dy), slice(max(-dx, 0), nx - max(dx, 0)))
@@ -178,3 +177,15 @@ class NavGrid:
         """(iy, ix) of the cells holding the points (may fall outside the map)."""
         scaled = np.floor((np.asarray(points, float) - self.origin) / self.resolution + 0.5)
         return scaled[..., 1].astype(np.intp), scaled[..., 0].astype(np.intp)
+
+
+def dilate_3x3(mask: np.ndarray) -> np.ndarray:
+    """Binary dilation of a 2-D mask by the 3×3 block (cells beyond the border count as False): a
+    cell is set when any cell of its 3×3 block is — the 3×3 box done as two 1-D passes."""
+    rows = mask.copy()
+    rows[1:] |= mask[:-1]
+    rows[:-1] |= mask[1:]
+    out = rows.copy()
+    out[:, 1:] |= rows[:, :-1]
+    out[:, :-1] |= rows[:, 1:]
+    return out

@@ -5,17 +5,31 @@
     J_x = robot.foot_jacobians(Q) @ robot.tangent_map(X)[:, None]   # w.r.t. x = [p, ω, joints]
     c = load_robot("anymal").centroidal             # single-rigid-body model, or None
     reach = leg_reach(robot, base_pos, base_rot, feet_world)      # per-foot IK inside the limits
+
+Names are imported on first use (PEP 562 `__getattr__`): `legplan.robots.navigation` and the
+registry load without pinocchio, so navigation commands start fast (issue 19).
 """
 
-from legplan.robots.centroidal import Centroidal
-from legplan.robots.kinematics import Kinematics, KinematicsWorkspace
-from legplan.robots.legik import ReachResult, leg_reach
-from legplan.robots.model import RobotModel
-from legplan.robots.registry import (RobotEntry, list_robots, load_robot, resolve_robot, robot_search_path,
-                                     shipped_robots_dir, survey_robots)
-from legplan.robots.spec import KinodynamicLimits, Leg, Navigation, RobotSpec, SphereSet, read_spec
+import importlib
 
-__all__ = ["Centroidal", "Kinematics", "KinematicsWorkspace", "KinodynamicLimits", "Leg", "Navigation",
-           "ReachResult", "RobotEntry", "RobotModel", "RobotSpec", "SphereSet", "leg_reach", "list_robots",
-           "load_robot", "read_spec", "resolve_robot", "robot_search_path", "shipped_robots_dir",
-           "survey_robots"]
+_HOMES = {
+    "Centroidal": "centroidal", "Kinematics": "kinematics", "KinematicsWorkspace": "kinematics",
+    "KinodynamicLimits": "navigation", "Leg": "spec", "Navigation": "navigation",
+    "ReachResult": "legik", "RobotEntry": "registry", "RobotModel": "model", "RobotSpec": "spec",
+    "SphereSet": "spec", "leg_reach": "legik", "list_robots": "registry", "load_robot": "registry",
+    "read_navigation": "navigation", "read_spec": "spec", "resolve_robot": "registry",
+    "robot_search_path": "registry", "shipped_robots_dir": "registry", "survey_robots": "registry",
+}
+__all__ = sorted(_HOMES)
+
+
+def __getattr__(name: str):
+    if name not in _HOMES:
+        raise AttributeError(f"module 'legplan.robots' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"legplan.robots.{_HOMES[name]}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return __all__

@@ -17,9 +17,12 @@ from dataclasses import dataclass
 from importlib.resources import files
 from pathlib import Path
 
+from typing import TYPE_CHECKING
+
 from legplan.errors import LegplanError
-from legplan.robots.model import RobotModel
-from legplan.robots.spec import read_spec
+
+if TYPE_CHECKING:
+    from legplan.robots.model import RobotModel
 
 SPEC_NAME = "robot.yaml"
 ENV_ROBOTS = "LEGPLAN_ROBOTS"
@@ -63,6 +66,9 @@ def _candidate_folders() -> dict[str, Path]:
 def survey_robots() -> list[RobotEntry]:
     """Every robot on the search path, loaded; a folder that does not load (no robot.yaml, a bad
     field, a URDF pinocchio rejects) is listed with its reason instead of raising."""
+    from legplan.robots.model import RobotModel
+    from legplan.robots.spec import read_spec
+
     entries = []
     for name, folder in sorted(_candidate_folders().items()):
         spec = folder / SPEC_NAME
@@ -107,4 +113,7 @@ def resolve_robot(robot: str | os.PathLike) -> Path:
 
 def load_robot(robot: str | os.PathLike) -> RobotModel:
     """Load and validate a robot by name ("scarab2"), folder or robot.yaml path."""
+    from legplan.robots.model import RobotModel  # pinocchio: imported when a robot is loaded
+    from legplan.robots.spec import read_spec
+
     return RobotModel(read_spec(resolve_robot(robot)))

@@ -42,14 +42,12 @@ import pinocchio as pin
 
 from legplan.native_stderr import captured_stderr
 from legplan.robots.centroidal import Centroidal, parse_centroidal
+from legplan.robots.navigation import Navigation, parse_navigation
 from legplan.specio import FieldReader, read_yaml_mapping
 
 log = logging.getLogger("legplan.robots")
 
 FOOT_HEIGHT_TOLERANCE = 1e-3  # m, |z| of every foot in the nominal stance
-RADIUS_TOLERANCE = 1e-3       # m, stated navigation radii vs the footprint
-LIMIT_UNITS = {"v_x_max": "m/s", "v_x_min": "m/s", "v_y_max": "m/s", "omega_max": "rad/s",
-               "a_x_max": "m/s^2", "a_y_max": "m/s^2", "alpha_max": "rad/s^2"}  # Table I
 
 
 @dataclass(frozen=True)
@@ -83,31 +81,6 @@ class SphereSet:
 
     def __len__(self) -> int:
         return len(self.radii)
-
-
-@dataclass(frozen=True)
-class KinodynamicLimits:
-    """Velocity/acceleration limits of the omnidirectional base (quadruped paper, Table I).
-
-    v_x_min is the largest backwards speed (a positive number)."""
-
-    v_x_max: float
-    v_x_min: float
-    v_y_max: float
-    omega_max: float
-    a_x_max: float
-    a_y_max: float
-    alpha_max: float
-
-
-@dataclass(frozen=True)
-class Navigation:
-    """2D navigation model: footprint polygon (k, 2) in the base frame, radii (m) and limits."""
-
-    footprint: np.ndarray
-    inscribed_radius: float
-    circumscribed_radius: float
-    limits: KinodynamicLimits
 
 
 @dataclass(frozen=True)
@@ -213,11 +186,16 @@ def _add_foot_frame(reader: FieldReader, foot, field: str, leg: str, model: pin.
     name = reader.get(foot, "frame", f"{field}.frame", str, f"{leg}_foot")
     if model.existFrame(name):
         reader.fail(f"{field}.frame", f"frame '{name}' exists already (choose another name)")
+    return name, add_foot_frame(model, link, offset, name), f"{field}.link"
+
+
+def add_foot_frame(model: pin.Model, link: str, offset, name: str) -> int:
+    """Add an OP_FRAME `name` at `offset` (m) in the URDF link `link`'s frame: on the link's parent
+    joint, placement = link frame placement * offset. Returns its frame id."""
     link_id = model.getFrameId(link, pin.FrameType.BODY)
     parent = model.frames[link_id]
     placement = parent.placement * pin.SE3(np.eye(3), np.asarray(offset, float))
-    frame_id = model.addFrame(pin.Frame(name, parent.parentJoint, link_id, placement, pin.FrameType.OP_FRAME))
-    return name, int(frame_id), f"{field}.link"
+    return int(model.addFrame(pin.Frame(name, parent.parentJoint, link_id, placement, pin.FrameType.OP_FRAME)))
 
 
 def _frame_id(model: pin.Model, name: str) -> int | None:
@@ -331,35 +309,6 @@ def _parse_nominal(reader: FieldReader, data: dict, model: pin.Model, legs, lowe
     return _frozen(q)
 
 
-def _parse_navigation(reader: FieldReader, data: dict) -> Navigation | None:
-    nav = reader.get(data, "navigation", "navigation", dict, None)
-    if nav is None:
-        return None
-    points = reader.get(nav, "footprint", "navigation.footprint", list)
-    if len(points) < 3:
-        reader.fail("navigation.footprint", "must have at least 3 vertices")
-    footprint = np.array([reader.vector(p, f"navigation.footprint[{i}]", 2) for i, p in enumerate(points)])
-    edges = np.roll(footprint, -1, axis=0) - footprint
-    cross = edges[:, 0] * footprint[:, 1] - edges[:, 1] * footprint[:, 0]  # edge x (0 - vertex)
-    if not (np.all(cross < 0) or np.all(cross > 0)):
-        reader.fail("navigation.footprint", "must be a convex polygon around the base origin")
-    inscribed = float(np.min(np.abs(cross) / np.linalg.norm(edges, axis=1)))
-    circumscribed = float(np.max(np.linalg.norm(footprint, axis=1)))
-    for key, computed in (("inscribed_radius", inscribed), ("circumscribed_radius", circumscribed)):
-        if key in nav:
-            stated = reader.positive(nav[key], f"navigation.{key}")
-            if abs(stated - computed) > RADIUS_TOLERANCE:
-                reader.fail(f"navigation.{key}", f"is {stated} but the footprint gives {computed:.4f}")
-    limits = reader.get(nav, "limits", "navigation.limits", dict)
-    unknown = sorted(set(limits) - set(LIMIT_UNITS))
-    if unknown:
-        reader.fail(f"navigation.limits.{unknown[0]}", f"is unknown (expected {', '.join(LIMIT_UNITS)})")
-    values = {name: reader.positive(reader.get(limits, name, f"navigation.limits.{name}"),
-                                    f"navigation.limits.{name}") for name in LIMIT_UNITS}
-    return Navigation(footprint=_frozen(footprint), inscribed_radius=inscribed,
-                      circumscribed_radius=circumscribed, limits=KinodynamicLimits(**values))
-
-
 def read_spec(yaml_path: str | Path) -> RobotSpec:
     """Read and validate `robot.yaml` (and the URDF it names); raises `SpecError` on any problem."""
     path = Path(yaml_path)
@@ -372,7 +321,7 @@ def read_spec(yaml_path: str | Path) -> RobotSpec:
     lower, upper = _parse_limits(reader, data, model, legs)
     spheres = _parse_spheres(reader, data, model, legs)
     q_nominal = _parse_nominal(reader, data, model, legs, lower, upper)
-    navigation = _parse_navigation(reader, data)
+    navigation = parse_navigation(reader, data)
     centroidal = parse_centroidal(reader, data, tuple(leg.name for leg in legs), pin.computeTotalMass(model))
     return RobotSpec(name=name, description=description.strip(), yaml_path=path, urdf_path=urdf,
                      model=model, legs=legs, lower=_frozen(lower), upper=_frozen(upper),

@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import binary_erosion, distance_transform_edt, maximum_filter, minimum_filter
 
 
 @dataclass(frozen=True)
@@ -46,6 +45,8 @@ def foothold_mask(height: np.ndarray, resolution: float, params: FootholdParams,
     the 4-neighbours always count) <= `flat_tolerance`; the terrain is taken to continue as its
     border cells beyond the grid.
     """
+    from scipy.ndimage import binary_erosion, maximum_filter, minimum_filter  # map building only
+
     footprint = disk(max(params.flat_radius / resolution, 1.0))
     spread = (maximum_filter(height, footprint=footprint, mode="nearest")
               - minimum_filter(height, footprint=footprint, mode="nearest"))
@@ -72,6 +73,8 @@ def obstacle_distance(occupancy: np.ndarray, resolution: float) -> np.ndarray:
 
     With no obstacle at all every cell gets the grid's diagonal length (a finite "far").
     """
+    from scipy.ndimage import distance_transform_edt  # map building only
+
     if not occupancy.any():
         return np.full(occupancy.shape, resolution * float(np.hypot(*occupancy.shape)))
     return distance_transform_edt(~occupancy) * resolution

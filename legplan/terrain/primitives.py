@@ -26,7 +26,6 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from matplotlib.path import Path as _MplPath
 
 from legplan.errors import SpecError
 
@@ -185,7 +184,9 @@ def _polygon(f: Fields, X, Y, ground):
         f.fail("vertices", "must be a list of at least 3 [x, y] pairs")
     if not np.all(np.isfinite(vertices)):
         f.fail("vertices", "must be finite")
-    inside = _MplPath(vertices).contains_points(np.column_stack([X.ravel(), Y.ravel()]))
+    from matplotlib.path import Path  # map building only (keeps matplotlib out of start-up)
+
+    inside = Path(vertices).contains_points(np.column_stack([X.ravel(), Y.ravel()]))
     return Raster(inside.reshape(X.shape), f.top(ground))
 
 

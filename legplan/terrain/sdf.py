@@ -35,7 +35,6 @@ from __future__ import annotations
 from collections.abc import Callable
 
 import numpy as np
-from scipy.ndimage import distance_transform_edt
 
 Progress = Callable[..., None]
 
@@ -151,6 +150,8 @@ def _nearest_column(mask: np.ndarray, height: np.ndarray, r: float):
     Cells outside `mask` are their own nearest (distance 0). Without any such cell the distance is
     +inf everywhere (and the top irrelevant).
     """
+    from scipy.ndimage import distance_transform_edt  # map building only
+
     if mask.all():
         return np.inf, 0.0
     centre, (iy, ix) = distance_transform_edt(mask, return_indices=True)

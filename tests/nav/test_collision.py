@@ -44,3 +44,13 @@ def test_step_distance_is_an_8_connected_breadth_first_search():
     assert steps[15, 6] > reference_steps(~grid.lethal, (iy, ix))[15, 6] + 5  # no short cut
     # From a lethal cell nothing is reachable.
     assert np.isinf(grid.step_distance(grid.cell_center(np.array(10), np.array(20)))).all()
+
+
+def test_dilate_3x3_matches_scipy_binary_dilation():
+    from legplan.nav.collision import dilate_3x3
+
+    rng = np.random.default_rng(5)
+    for shape, density in (((17, 23), 0.05), ((1, 9), 0.3), ((30, 30), 0.5)):
+        mask = rng.random(shape) < density
+        expected = binary_dilation(mask, structure=np.ones((3, 3), bool))
+        assert (dilate_3x3(mask) == expected).all()

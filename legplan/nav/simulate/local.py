@@ -15,7 +15,7 @@ from legplan.nav.teb.problems import ProblemCache
 from legplan.nav.teb.reference import GlobalPath
 from legplan.nav.teb.warmstart import shift_band
 from legplan.nav.teb.yaw import YawPolicy
-from legplan.robots.spec import KinodynamicLimits
+from legplan.robots.navigation import KinodynamicLimits
 
 
 def _local_path(path: GlobalPath, index: int, end: int, xy: np.ndarray, speed: float) -> GlobalPath:

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from legplan.nav.teb.band import wrap_angle
-from legplan.robots.spec import KinodynamicLimits
+from legplan.robots.navigation import KinodynamicLimits
 
 
 class Robot:

@@ -33,7 +33,7 @@ from legplan.nav.simulate.world import World
 from legplan.nav.teb.band import wrap_angle
 from legplan.nav.teb.params import TebParams
 from legplan.nav.teb.reference import GlobalPath
-from legplan.robots.spec import KinodynamicLimits
+from legplan.robots.navigation import KinodynamicLimits
 
 
 

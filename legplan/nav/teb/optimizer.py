@@ -30,7 +30,7 @@ from legplan.nav.teb.problems import ProblemCache
 from legplan.nav.teb.residuals import (BAND, AccelerationTerm, ClearanceTerm, NonholonomicTerm, PathTerm, TimeTerm,
                                        VelocityTerm, ViaPointTerm, YawChangeTerm, split_vector)
 from legplan.nav.teb.resize import resize
-from legplan.robots.spec import KinodynamicLimits
+from legplan.robots.navigation import KinodynamicLimits
 from legplan.solve import LMParams, solve_lm
 
 log = logging.getLogger(__name__)

@@ -26,7 +26,7 @@ from legplan.nav.teb.problems import ProblemCache
 from legplan.nav.teb.reference import GlobalPath
 from legplan.nav.teb.yaw import YawPolicy
 from legplan.nav.trajectory import Trajectory
-from legplan.robots.spec import KinodynamicLimits
+from legplan.robots.navigation import KinodynamicLimits
 
 WEIGHT_ADAPT_FACTOR = 2.0
 LIMIT_WEIGHTS = ("weight_velocity", "weight_omega", "weight_acceleration", "weight_alpha")

@@ -12,7 +12,7 @@ from legplan.nav.teb.reference import GlobalPath
 from legplan.nav.teb.residuals import PathTerm, band_vector
 from legplan.nav.teb.resize import resize
 from legplan.nav.teb.yaw import YawPolicy
-from legplan.robots.spec import KinodynamicLimits
+from legplan.robots.navigation import KinodynamicLimits
 from legplan.terrain.grid import Grid2D
 from legplan.terrain.layers import obstacle_distance
 

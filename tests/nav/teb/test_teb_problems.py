@@ -10,7 +10,7 @@ from legplan.nav.teb.params import TebParams
 from legplan.nav.teb.problems import ProblemCache, new_problem
 from legplan.nav.teb.reference import GlobalPath
 from legplan.nav.teb.residuals import band_vector
-from legplan.robots.spec import KinodynamicLimits
+from legplan.robots.navigation import KinodynamicLimits
 
 TABLE_I = KinodynamicLimits(0.75, 0.10, 0.20, 0.70, 1.00, 0.17, 0.52)
 PARAMS = TebParams()

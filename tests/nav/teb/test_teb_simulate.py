@@ -5,7 +5,7 @@ import numpy as np
 from legplan.nav.params import NavParams
 from legplan.nav.simulate import Goal, Robot, SimParams, World, kinodynamic_planner, simulate
 from legplan.nav.teb.params import TebParams
-from legplan.robots.spec import KinodynamicLimits
+from legplan.robots.navigation import KinodynamicLimits
 from legplan.terrain.grid import Grid2D
 from legplan.terrain.layers import CostmapParams
 

@@ -9,7 +9,7 @@ from legplan.nav.teb.optimizer import Scene, optimize_band
 from legplan.nav.teb.params import TebParams
 from legplan.nav.teb.reference import GlobalPath
 from legplan.nav.teb.warmstart import shift_band
-from legplan.robots.spec import KinodynamicLimits
+from legplan.robots.navigation import KinodynamicLimits
 
 TABLE_I = KinodynamicLimits(0.75, 0.10, 0.20, 0.70, 1.00, 0.17, 0.52)
 PARAMS = TebParams()
