@@ -16,8 +16,8 @@ from legplan.learn.network import filter_good, fit, read_weights, save_init
 def train_initializer(dataset_path, output, *, g_max: float | str = "auto", hidden: tuple[int, ...] = (256, 256),
                       weights_path=None, seed: int = 0, validation: float = 0.2, overwrite: bool = False) -> dict:
     """Train A_θ on the filtered dataset and write init.h5; returns the fit report (also its /summary)."""
+    weights = read_weights(weights_path)  # the small input first: a bad file fails before the dataset is read
     data = read_dataset(dataset_path)
-    weights = read_weights(weights_path)
     good, threshold = filter_good(data["success"], data["cost"], g_max, os.fspath(dataset_path))
     net, report, _ = fit(data["x"][good], data["y"][good], data["layout"], weights, tuple(hidden), seed, validation)
     report = {"tasks": len(good), "converged": int(np.sum(data["success"])), "good": int(good.sum()),

@@ -16,6 +16,7 @@ import click
 import h5py
 import numpy as np
 from click.testing import CliRunner
+from hypothesis import HealthCheck, settings
 
 from legplan.artefacts import write_artefact, write_dataset
 from legplan.cli.main import cli
@@ -23,6 +24,13 @@ from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
 
 EXAMPLE_STEPS = Path(__file__).parents[1] / "data" / "steps_example.csv"
 SENTINEL = b"an older output that a refused command must leave alone\n"
+
+
+def few(examples: int):
+    """Hypothesis settings of this suite: a few examples, no deadline (no timing asserts), the same
+    examples every run (derandomized, no example database written into the checkout)."""
+    return settings(max_examples=examples, deadline=None, derandomize=True, database=None,
+                    suppress_health_check=[HealthCheck.function_scoped_fixture])
 
 
 def invoke(args) -> click.testing.Result:

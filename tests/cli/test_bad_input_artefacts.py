@@ -6,9 +6,9 @@ any work with exit 2 and one line naming the file and the dataset (`bad_input_su
 from __future__ import annotations
 
 import pytest
-from bad_input_support import (SENTINEL, assert_refused, invoke, leaf_commands, mutated, valid_inputs,
+from bad_input_support import (SENTINEL, assert_refused, few, invoke, leaf_commands, mutated, valid_inputs,
                                with_value)
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 # Every command that reads a map.h5, as a valid invocation; {map} is replaced by the bad map.
@@ -79,7 +79,7 @@ def test_bad_map_is_refused_by_every_map_command(inputs, tmp_path, path, case):
     _refuses(inputs, tmp_path, "map", MAP_CASES, case, path, MAP_COMMANDS[path])
 
 
-@settings(max_examples=20, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@few(20)
 @given(layer=st.sampled_from(["terrain/height", "terrain/sdf", "nav/distance", "nav/costmap"]),
        index=st.integers(min_value=0), value=st.sampled_from([float("nan"), float("inf"), float("-inf")]))
 def test_any_non_finite_map_value_is_refused(inputs, tmp_path, layer, index, value):
