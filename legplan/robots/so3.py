@@ -1,6 +1,7 @@
 """Batched rotation-vector maps between unit quaternions, rotation matrices and R^3.
 
-The conversions are scipy's `Rotation` (batched, any leading shape); this module adds the
+The conversions are scipy's `Rotation` (batched, any leading shape; inputs are copied, since its Cython
+code refuses read-only buffers such as the state views OMPL hands to callbacks); this module adds the
 cross-product matrix and the right Jacobian of exp, which scipy does not provide. Together they
 implement the vector parametrization of the base orientation used by the Bézier planner (paper
 eq. (1b), SE(3) ≡ R^6): the orientation is the rotation vector ω = θ·axis with θ in [0, π]. All
@@ -27,17 +28,17 @@ def skew(w: np.ndarray) -> np.ndarray:
 
 def quat_to_rotvec(quat: np.ndarray) -> np.ndarray:
     """Unit quaternions (n, 4) (x, y, z, w) -> rotation vectors (n, 3) with angle in [0, π]."""
-    return Rotation.from_quat(np.asarray(quat, float)).as_rotvec()
+    return Rotation.from_quat(np.array(quat, float)).as_rotvec()
 
 
 def rotvec_to_quat(omega: np.ndarray) -> np.ndarray:
     """Rotation vectors (n, 3) -> unit quaternions (n, 4) (x, y, z, w)."""
-    return Rotation.from_rotvec(np.asarray(omega, float)).as_quat()
+    return Rotation.from_rotvec(np.array(omega, float)).as_quat()
 
 
 def rotvec_to_matrix(omega: np.ndarray) -> np.ndarray:
     """Rotation vectors (n, 3) -> rotation matrices (n, 3, 3) (= pin.exp3)."""
-    return Rotation.from_rotvec(np.asarray(omega, float)).as_matrix()
+    return Rotation.from_rotvec(np.array(omega, float)).as_matrix()
 
 
 def _coefficients(theta: np.ndarray):

@@ -72,3 +72,12 @@ def test_shape_errors(scarab2):
         scarab2.foot_positions(np.zeros((2, 24)))
     with pytest.raises(ValueError, match=r"\(n, 24\)"):
         scarab2.from_vector(np.zeros(25))
+
+
+def test_read_only_inputs_are_accepted():
+    """OMPL's callbacks hand read-only state views; scipy's Rotation refuses those buffers."""
+    omega = np.array([[0.1, -0.2, 0.3]])
+    omega.flags.writeable = False
+    quat = rotvec_to_quat(omega)
+    quat.flags.writeable = False
+    assert np.allclose(quat_to_rotvec(quat), omega) and np.allclose(rotvec_to_matrix(omega)[0], pin.exp3(omega[0]))
