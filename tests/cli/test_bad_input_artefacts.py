@@ -149,3 +149,47 @@ def test_non_finite_trajectory_is_refused_by_dyn_simulate(inputs, tmp_path, data
     out = tmp_path / "sim.h5"
     result = invoke(["dyn", "simulate", bad, inputs["map"], "-o", out])
     assert_refused(result, "bad_traj.h5", f"task 0: dataset '{dataset}' holds NaN", output=out)
+
+
+# Every other artefact argument (the map and steps ones are above): garbage, empty, truncated.
+OTHER_ARTEFACT_ARGUMENTS = {  # (command, parameter): (valid kind to truncate, command line around {bad})
+    (("compare",), "path_a"): ("steps", ["{bad}", "{steps}"]),
+    (("compare",), "path_b"): ("steps", ["{steps}", "{bad}"]),
+    (("dyn", "show"), "paths"): ("traj", ["{bad}", "-o", "{out}.png"]),
+    (("dyn", "simulate"), "traj_path"): ("traj", ["{bad}", "{map}", "-o", "{out}.h5"]),
+    (("inspect",), "path"): ("nav", ["{bad}"]),
+    (("learn", "train"), "dataset_path"): ("map", ["{bad}", "-o", "{out}.h5"]),
+    (("nav", "refine"), "nav_path"): ("nav", ["{map}", "{bad}", "-o", "{out}.h5"]),
+    (("nav", "show"), "nav_path"): ("nav", ["{bad}", "--map", "{map}", "-o", "{out}.png"]),
+    (("report",), "artefacts"): ("motion", ["{bad}", "-o", "{out}"]),
+    (("step", "show"), "motion_path"): ("motion", ["{bad}", "--map", "{map}", "-o", "{out}.png"]),
+}
+ANY_ARTEFACT_CASES = {
+    "garbage bytes": (lambda ok, bad: bad.write_bytes(bytes(range(256)) * 4), "not an HDF5 file"),
+    "empty": (lambda ok, bad: bad.write_bytes(b""), "not an HDF5 file"),
+    "truncated": (lambda ok, bad: bad.write_bytes(ok.read_bytes()[:len(ok.read_bytes()) // 2]), "corrupt"),
+    "a directory": (lambda ok, bad: bad.mkdir(), "is a directory"),
+}
+
+
+def test_every_artefact_argument_has_cases():
+    from legplan.cli.options import input_artefact
+
+    covered = ({(path, "map_path") for path in MAP_COMMANDS} | {(("map", "show"), "path")}
+               | {(path, "steps_path") for path in STEPS_COMMANDS} | set(OTHER_ARTEFACT_ARGUMENTS))
+    arguments = {(path, param.name) for path, command in leaf_commands() for param in command.params
+                 if param.type is input_artefact}
+    assert arguments <= covered, arguments - covered
+
+
+@pytest.mark.parametrize("case", sorted(ANY_ARTEFACT_CASES))
+@pytest.mark.parametrize("key", sorted(OTHER_ARTEFACT_ARGUMENTS), ids=lambda k: f"{' '.join(k[0])} {k[1]}")
+def test_unreadable_artefact_is_one_line_naming_it(inputs, tmp_path, key, case):
+    kind, template = OTHER_ARTEFACT_ARGUMENTS[key]
+    breaks, field = ANY_ARTEFACT_CASES[case]
+    bad = tmp_path / "bad.h5"
+    breaks(inputs[kind], bad)
+    values = {**{name: str(path) for name, path in inputs.items()}, "bad": str(bad), "out": str(tmp_path / "out")}
+    out = tmp_path / f"out{template[-1].removeprefix('{out}')}" if template[-1].startswith("{out}") else None
+    result = invoke([*key[0], *(part.format(**values) for part in template)])
+    assert_refused(result, "bad.h5", field, output=out)

@@ -217,3 +217,14 @@ def test_non_finite_param_value_names_the_parameter(inputs, tmp_path, bad):
                       (["step", "plan", inputs["map"], inputs["steps"]], "epsilon")]:
         result = invoke([*args, "--param", f"{key}={bad}", "-o", out])
         assert_refused(result, "--param", f"'{key}'", output=out)
+
+
+def test_broken_urdf_is_one_line_without_the_parser_s_own_lines(tmp_path, capfd):
+    robot = ROOT / "robots" / "scarab2"
+    (tmp_path / "robot.yaml").write_bytes((robot / "robot.yaml").read_bytes())
+    (tmp_path / "robot.urdf").write_bytes((robot / "robot.urdf").read_bytes()[:300])  # cut inside the XML
+    result = invoke(["robot", "show", tmp_path / "robot.yaml", "--json"])
+    native = capfd.readouterr().err  # what urdfdom writes to file descriptor 2 directly
+    assert "urdf_parser" not in native and "XML_ERROR" not in native, native
+    line = assert_refused(result, "robot.yaml", "field 'urdf' cannot be parsed")
+    assert "XML_ERROR" in line  # urdfdom's reason, folded into our line
