@@ -47,6 +47,48 @@ def list_command(as_json):
                    f"{row['mass']:.2f} kg{extras}")
 
 
+@command.command("init")
+@click.argument("urdf", type=click.Path(dir_okay=False))
+@click.option("-o", "--output", "folder", required=True, type=click.Path(file_okay=False),
+              help="Robot folder to write robot.yaml into (created; e.g. robots/NAME/).")
+@click.option("--name", default=None, help="Robot name (default: the folder's name).")
+@overwrite_opt
+@verbosity_opts
+def init_command(urdf, folder, name, overwrite):
+    """Draft robot.yaml for URDF: leg chains, feet at the far end of each last link, collision
+    spheres, joint limits and a nominal stance on the ground (legplan.robots.draft; the URDF is
+    not edited). Review it, then run `legplan robot check`."""
+    from legplan.robots.draft import write_draft
+
+    path = write_draft(urdf, folder, name, overwrite)
+    click.echo(f"{path}: drafted; next: legplan robot check {path.parent}")
+
+
+@command.command("check")
+@click.argument("robot")
+@json_opt
+@verbosity_opts
+@click.pass_context
+def check_command(ctx, robot, as_json):
+    """Check ROBOT (a name or a path to a robot folder / robot.yaml): feet at the distal end of each
+    chain, base height, nominal stance on the ground with no sphere in it (errors: exit 1), link
+    inertias (warnings). legplan.robots.check lists the rules."""
+    from legplan.robots import load_robot
+    from legplan.robots.check import check_robot
+
+    model = load_robot(robot)
+    findings = check_robot(model)
+    errors = [f for f in findings if f.severity == "error"]
+    if as_json:
+        click.echo(json.dumps([vars(f) for f in findings], indent=2))
+    else:
+        for finding in findings:
+            click.echo(f"{finding.severity}: {finding}")
+        click.echo(f"{model.name}: {len(errors)} errors, {len(findings) - len(errors)} warnings")
+    if errors:
+        ctx.exit(1)
+
+
 def robot_summary(robot) -> dict:
     """Everything `robot show` prints, as JSON-ready data."""
     spheres = robot.spheres

@@ -1,7 +1,9 @@
 """A picture of a robot in one configuration: 3D view, side view (x-z) and top view (x-y).
 
 Legs are drawn as polylines through their joint origins to the foot; collision spheres as circles
-(body grey, legs coloured per leg, foot spheres black). matplotlib `Figure` (no pyplot state).
+(body grey, legs coloured per leg, foot spheres black); joint directions as magenta arrows along
+each joint's axis at its origin (3D and top views): a positive angle turns about the arrow by the
+right-hand rule. matplotlib `Figure` (no pyplot state).
 """
 
 from __future__ import annotations
@@ -22,6 +24,25 @@ def leg_polylines(robot, q) -> list[np.ndarray]:
         points.append(data.oMf[leg.foot_frame_id].translation)
         lines.append(np.array(points))
     return lines
+
+
+AXIS_COLOUR = "magenta"
+
+
+def joint_axes(robot, q) -> tuple[np.ndarray, np.ndarray]:
+    """(origins, axes), each (n_joints, 3) in the world: every actuated joint's origin and the unit
+    direction a positive joint velocity turns (revolute) or moves (prismatic) about / along."""
+    model, data = robot.model, robot.model.createData()
+    q = np.asarray(q, float)
+    pin.computeJointJacobians(model, data, q)
+    origins, axes = [], []
+    for joint in range(2, model.njoints):
+        column = pin.getJointJacobian(model, data, joint, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:, model.idx_vs[joint]]
+        angular, linear = column[3:], column[:3]
+        axis = angular if np.linalg.norm(angular) > 1e-9 else linear
+        origins.append(data.oMi[joint].translation.copy())
+        axes.append(axis / np.linalg.norm(axis))
+    return np.array(origins), np.array(axes)
 
 
 def draw_robot(robot, q, path: str | Path, title: str | None = None) -> Path:
@@ -52,6 +73,10 @@ def draw_robot(robot, q, path: str | Path, title: str | None = None) -> Path:
         ax3.plot(*line.T, "-o", color=colours[k], ms=3, label=robot.legs[k].name)
     ax3.plot(*body.T, color="grey")
     ax3.scatter(*centres.T, s=4, c=[colour(k) for k in range(len(centres))])
+    origins, axes = joint_axes(robot, q)
+    arrow = 0.3 * robot.leg_length
+    ax3.quiver(*origins.T, *(arrow * axes).T, color=AXIS_COLOUR, lw=1.2, arrow_length_ratio=0.3,
+               label="joint axes (+: right-hand rule)")
     everything = np.vstack([centres, *lines])
     span = np.ptp(everything, axis=0).max() / 2 + 0.02
     mid = (everything.max(axis=0) + everything.min(axis=0)) / 2
@@ -66,6 +91,9 @@ def draw_robot(robot, q, path: str | Path, title: str | None = None) -> Path:
         for k, line in enumerate(lines):
             ax.plot(line[:, a], line[:, b], "-o", color=colours[k], ms=3)
         ax.plot(body[:, a], body[:, b], color="grey", lw=1)
+        if b == 1:
+            ax.quiver(origins[:, a], origins[:, b], arrow * axes[:, a], arrow * axes[:, b], color=AXIS_COLOUR,
+                      angles="xy", scale_units="xy", scale=1, width=0.004)
         if b == 2:
             ax.axhline(0.0, color="saddlebrown", lw=1)
         ax.set_aspect("equal")

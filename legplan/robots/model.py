@@ -24,6 +24,14 @@ from legplan.robots.so3 import quat_to_rotvec, right_jacobian, rotvec_to_matrix,
 from legplan.robots.spec import Leg, Navigation, RobotSpec, SphereSet
 
 
+def chain_length(model: pin.Model, joint_ids, foot_frame_id: int) -> float:
+    """Length of a leg chain: the distances between consecutive joint origins, plus the last joint
+    to the foot frame (m)."""
+    segments = [model.jointPlacements[j].translation for j in joint_ids[1:]]
+    segments.append(model.frames[foot_frame_id].placement.translation)
+    return sum(float(np.linalg.norm(v)) for v in segments)
+
+
 class RobotModel:
     """A validated robot (see `legplan.robots.spec` for robot.yaml) with batch kinematics."""
 
@@ -67,15 +75,9 @@ class RobotModel:
 
     @property
     def leg_length(self) -> float:
-        """Mean over the legs of the chain length: the distances between consecutive joint origins
-        of the leg, plus the last joint to the foot (m; the robot's size for size-scaled defaults)."""
-        lengths = []
-        for leg in self.legs:
-            joints = [self.model.getJointId(name) for name in leg.joint_names]
-            segments = [self.model.jointPlacements[j].translation for j in joints[1:]]
-            segments.append(self.model.frames[leg.foot_frame_id].placement.translation)
-            lengths.append(sum(float(np.linalg.norm(v)) for v in segments))
-        return float(np.mean(lengths))
+        """Mean `chain_length` of the legs (m; the robot's size for size-scaled defaults)."""
+        return float(np.mean([chain_length(self.model, [self.model.getJointId(name) for name in leg.joint_names],
+                                           leg.foot_frame_id) for leg in self.legs]))
 
     @property
     def workspace(self) -> KinematicsWorkspace:

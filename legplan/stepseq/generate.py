@@ -37,6 +37,7 @@ import pinocchio as pin
 
 from legplan.contact.ik import Posture, solve_ik
 from legplan.errors import LegplanError
+from legplan.robots.sizing import SIZE_SCALED_DEFAULTS, size_scaled
 from legplan.contact.terms import ContactMode, collision_reach, com_terms
 from legplan.errors import LegplanError
 from legplan.geometry.polygon import support_polygon
@@ -46,18 +47,12 @@ from legplan.validate.judge import Requirements, shortfalls
 log = logging.getLogger(__name__)
 
 
-# Size-scaled defaults: tuned on SCARAB II (mean leg length REFERENCE_LEG_LENGTH), and for another
-# robot scaled by its mean leg length (`RobotModel.leg_length`) over that one, rounded to 0.1 mm.
-REFERENCE_LEG_LENGTH = 0.241  # m, SCARAB II: coxa 26 + femur 93 + tibia 122 mm
-SIZE_SCALED_DEFAULTS = {"lift_height": 0.05, "clearance": 0.02, "com_margin": 0.015, "reach_slack": 0.015}
-
-
 @dataclass
 class GenerateParams:
     """Parameters of the step-sequence generator (lengths in m, angles in rad).
 
     `lift_height`, `clearance`, `com_margin` and `reach_slack` left at None default from the
-    robot's size (`sized_for`): SCARAB II's values (`SIZE_SCALED_DEFAULTS`: 5 cm, 2 cm, 1.5 cm,
+    robot's size (`sized_for`, `legplan.robots.sizing`): SCARAB II's values (5 cm, 2 cm, 1.5 cm,
     1.5 cm at a mean leg length of 0.241 m) times the robot's mean leg length / 0.241 m, rounded to
     0.1 mm; `--param key=value` sets any of them."""
 
@@ -94,8 +89,7 @@ class GenerateParams:
 
     def sized_for(self, robot) -> GenerateParams:
         """These parameters with every size-scaled one left at None set from `robot`'s leg length."""
-        scale = robot.leg_length / REFERENCE_LEG_LENGTH
-        sized = {key: round(value * scale, 4) for key, value in SIZE_SCALED_DEFAULTS.items()
+        sized = {key: size_scaled(key, robot.leg_length) for key in SIZE_SCALED_DEFAULTS
                  if getattr(self, key) is None}
         return replace(self, **sized)
 
@@ -573,13 +567,13 @@ def generate_steps(robot, terrain, start, goal, *, params: GenerateParams = Gene
     Returns (StepSequence, GeneratedSequence, ConfigChecks); raises `GenerationError` when not even
     the start configuration exists.
     """
-    from legplan.stepseq.robotinfo import robot_sha256
+    from legplan.stepseq.robotinfo import robot_reference, robot_sha256
     from legplan.stepseq.sequence import StepSequence
 
     params = params.sized_for(robot)
     generated = StepGenerator(robot, terrain, params, seed).plan(start, goal, progress)
     seq = StepSequence(q=generated.q, stance=generated.stance, footholds=generated.footholds,
-                       robot=robot.name, robot_sha256=robot_sha256(robot),
+                       robot=robot_reference(robot), robot_sha256=robot_sha256(robot),
                        leg_names=[leg.name for leg in robot.legs], joint_names=robot.joint_names)
     generated.shortfalls, checks = shortfalls(validator, seq.q, seq.stance, seq.footholds, params.requirements())
     return seq, generated, checks

@@ -21,6 +21,7 @@ import pinocchio as pin
 
 from legplan.errors import SpecError
 from legplan.stepseq.records import read_records
+from legplan.stepseq.robotinfo import robot_reference
 from legplan.stepseq.sequence import StepSequence
 
 log = logging.getLogger(__name__)
@@ -250,7 +251,7 @@ def import_steps(path, robot, validator, *, urdf_order, robot_sha256: str,
     issues += physical_issues(checks, stance, limits, robot, explicit)
     filled = np.where(explicit[..., None], footholds, checks.foot_positions)
     filled[~stance] = np.nan
-    seq = StepSequence(q=Q, stance=stance, footholds=filled, robot=robot.name, robot_sha256=robot_sha256,
-                       leg_names=[leg.name for leg in robot.legs], joint_names=robot.joint_names)
+    seq = StepSequence(q=Q, stance=stance, footholds=filled, robot=robot_reference(robot),
+                       robot_sha256=robot_sha256, leg_names=[leg.name for leg in robot.legs], joint_names=robot.joint_names)
     issues.sort(key=lambda i: i.row)
     return ImportResult(seq, checks, issues)

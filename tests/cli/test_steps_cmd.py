@@ -179,7 +179,8 @@ def test_generate_param_overrides_and_size_scaled_defaults(flat_map, generated, 
 
 
 def test_size_scaled_defaults_follow_the_leg_length():
-    from legplan.stepseq.generate import REFERENCE_LEG_LENGTH, GenerateParams
+    from legplan.robots.sizing import REFERENCE_LEG_LENGTH
+    from legplan.stepseq.generate import GenerateParams
 
     class Robot:
         leg_length = 2 * REFERENCE_LEG_LENGTH
