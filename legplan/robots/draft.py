@@ -265,8 +265,14 @@ def _spheres(model, links, chains, feet, legs, q, clearance) -> list[SphereDraft
     return spheres
 
 
+def _number(value: float) -> str:
+    """`value` to 0.1 mm / 0.1 mrad, without trailing zeros ("0.138", "0", never "-0")."""
+    rounded = round(float(value), 4)
+    return f"{rounded:.4f}".rstrip("0").rstrip(".") if rounded != 0 else "0"
+
+
 def _vector(values) -> str:
-    return "[" + ", ".join(f"{v:.4f}".rstrip("0").rstrip(".") if v else "0" for v in values) + "]"
+    return "[" + ", ".join(_number(v) for v in values) + "]"
 
 
 def draft_yaml(draft: RobotDraft, urdf_ref: str) -> str:
