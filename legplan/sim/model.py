@@ -33,6 +33,7 @@ from dataclasses import dataclass
 
 import mujoco
 import numpy as np
+import pinocchio as pin
 
 from legplan.errors import LegplanError
 
@@ -69,6 +70,19 @@ class SimModel:
     dof_index: np.ndarray
 
 
+def _sphere_body(robot, bodies, k):
+    """The MuJoCo body holding collision sphere k and the sphere's centre in it: the sphere's URDF
+    link, or for a frame robot.yaml added (a foot given as `{link, offset}`) the link it sits on."""
+    spheres, model = robot.spheres, robot.model
+    frame = model.frames[int(spheres.frame_ids[k])]
+    if frame.name in bodies:
+        return bodies[frame.name], np.asarray(spheres.offsets[k], float)
+    link = model.frames[frame.parentFrame]
+    if frame.type == pin.FrameType.OP_FRAME and link.name in bodies:
+        return bodies[link.name], link.placement.actInv(frame.placement.act(np.asarray(spheres.offsets[k], float)))
+    raise LegplanError(f"{robot.yaml_path}: collision sphere frame {frame.name!r} is not a URDF link")
+
+
 def build_model(robot, terrain_map, friction: float, effort_scale: float = 1.0) -> SimModel:
     """The MuJoCo model of `robot` (a `legplan.robots.RobotModel`) on `terrain_map` with friction μ;
     `effort_scale` multiplies the URDF effort limits (1: as the URDF says)."""
@@ -96,13 +110,12 @@ def build_model(robot, terrain_map, friction: float, effort_scale: float = 1.0) 
     names = []
     for k in range(len(spheres)):
         frame = spheres.frame_names[k]
-        if frame not in bodies:
-            raise LegplanError(f"{robot.yaml_path}: collision sphere frame {frame!r} is not a URDF link")
+        body, centre = _sphere_body(robot, bodies, k)
         name = f"sphere{k}_{frame}"
-        bodies[frame].add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[spheres.radii[k], 0, 0],
-                               pos=spheres.offsets[k], contype=1, conaffinity=0, condim=3,
-                               friction=[friction, 0.005, 0.0001], solref=CONTACT_SOLREF, solimp=CONTACT_SOLIMP,
-                               mass=0, density=0, group=1)
+        body.add_geom(name=name, type=mujoco.mjtGeom.mjGEOM_SPHERE, size=[spheres.radii[k], 0, 0],
+                      pos=centre, contype=1, conaffinity=0, condim=3,
+                      friction=[friction, 0.005, 0.0001], solref=CONTACT_SOLREF, solimp=CONTACT_SOLIMP,
+                      mass=0, density=0, group=1)
         names.append(name)
     _add_terrain(spec, terrain_map, friction)
 

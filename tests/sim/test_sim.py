@@ -145,3 +145,36 @@ def test_bad_input_exits_2_and_writes_nothing(flat, trot, tmp_path, case):
     result = invoke("dyn", "simulate", *args, "-o", out)
     assert result.exit_code == 2, result.output
     assert not out.exists()
+
+
+def test_feet_given_as_link_and_offset_sit_on_their_link(robot, flat, tmp_path):
+    """robot.yaml feet as `{link: shank, offset}` (frames added to the model, not URDF links): the
+    foot spheres go on the shank bodies at the same places as the URDF foot links'."""
+    import shutil
+
+    import yaml
+
+    folder = tmp_path / "anymal_link_feet"
+    shutil.copytree(robot.yaml_path.parent, folder)
+    spec = yaml.safe_load((folder / "robot.yaml").read_text())
+    model = robot.model
+    for leg in spec["legs"]:
+        foot = model.frames[model.getFrameId(leg.pop("foot_frame"))]
+        shank = model.frames[foot.parentFrame]
+        while shank.type != pin.FrameType.BODY:       # up through the fixed joint to the shank link
+            shank = model.frames[shank.parentFrame]
+        leg["foot"] = {"link": shank.name, "offset": shank.placement.actInv(foot.placement.translation).tolist()}
+    for sphere in spec["collision_spheres"]:
+        sphere["link"] = sphere["link"].replace("foot_{leg}", "{leg}_foot")
+    (folder / "robot.yaml").write_text(yaml.safe_dump(spec))
+    linked = load_robot(folder)
+    assert linked.model.frames[linked.legs[0].foot_frame_id].type == pin.FrameType.OP_FRAME
+    positions = []
+    for each in (robot, linked):
+        sim = build_model(each, flat[0], 0.5)
+        data = mujoco.MjData(sim.model)
+        mujoco.mj_forward(sim.model, data)
+        positions.append(data.geom_xpos[sim.foot_geoms].copy())
+    np.testing.assert_allclose(positions[1], positions[0], atol=1e-12)
+    np.testing.assert_allclose(positions[1][:, :2], robot.foot_positions(pin.neutral(robot.model))[0][:, :2],
+                               atol=1e-9)
