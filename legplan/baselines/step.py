@@ -34,6 +34,7 @@ import numpy as np
 
 from legplan.baselines.names import CONSTRAINED_SPACES
 from legplan.errors import LegplanError
+from legplan.geometry.polyline import arc_length, resample_by_arc_length
 
 log = logging.getLogger(__name__)
 
@@ -87,13 +88,10 @@ class StepBaselineParams:
 def polyline_samples(waypoints: np.ndarray, count: int) -> np.ndarray:
     """`count` points (count, n) uniform in arc length along the polyline through `waypoints` (k, n)."""
     W = np.asarray(waypoints, float)
-    s = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(W, axis=0), axis=1))])
-    if s[-1] <= 0.0:
+    total = arc_length(W)[-1]
+    if total <= 0.0:
         return np.repeat(W[:1], count, axis=0)
-    keep = np.concatenate([[True], np.diff(s) > 0])
-    s, W = s[keep], W[keep]
-    target = np.linspace(0.0, s[-1], count)
-    return np.stack([np.interp(target, s, W[:, j]) for j in range(W.shape[1])], axis=1)
+    return resample_by_arc_length(W, np.linspace(0.0, total, count))[0]
 
 
 def polyline_quality(X: np.ndarray) -> tuple[float, float, float]:

@@ -33,6 +33,7 @@ from legplan.dyn.gait import GAITS
 from legplan.dyn.problem import DynTask
 from legplan.dyn.settings import PRESETS
 from legplan.errors import SpecError
+from legplan.geometry.angles import wrap_angle
 from legplan.specio import FieldReader, read_yaml_mapping
 
 FIELDS = ("name", "map", "robot", "gait", "strides", "duration", "costs", "start", "goal")
@@ -135,7 +136,7 @@ def task_vector(start, goal) -> np.ndarray:
     start, goal = np.asarray(start, float), np.asarray(goal, float)
     c, s = np.cos(goal[2]), np.sin(goal[2])
     d = start[:2] - goal[:2]
-    dyaw = (start[2] - goal[2] + np.pi) % (2 * np.pi) - np.pi
+    dyaw = wrap_angle(start[2] - goal[2])
     return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], dyaw, *goal])
 
 

@@ -55,6 +55,14 @@ def hinge(g: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.where(active, g, 0.0), active.astype(float)
 
 
+def interval_penalty(x: np.ndarray, low, high) -> tuple[np.ndarray, np.ndarray]:
+    """max(0, x − high) + max(0, low − x) and its slope (+1 above, −1 below, 0 between): the
+    penalty of `IntervalPenalty` with the margin already in `low`, `high` (∓∞ for no bound)."""
+    above, slope_above = hinge(x - high)
+    below, slope_below = hinge(low - x)
+    return above + below, slope_above - slope_below
+
+
 class HingeInequality(_ElementwiseWrapper):
     """g(θ) ≤ 0 as the residual max(g, 0) (eq. (8b))."""
 
@@ -75,8 +83,4 @@ class IntervalPenalty(_ElementwiseWrapper):
             raise ValueError("need epsilon ≥ 0 and upper − lower ≥ 2·epsilon")
 
     def _map(self, x):
-        above = x - (self.upper - self.epsilon)
-        below = (self.lower + self.epsilon) - x
-        r = np.maximum(above, 0.0) + np.maximum(below, 0.0)
-        slope = (above > 0).astype(float) - (below > 0).astype(float)
-        return r, slope
+        return interval_penalty(x, self.lower + self.epsilon, self.upper - self.epsilon)

@@ -70,24 +70,36 @@ class Grid2D:
         iy, ix, _ = self.cell_of(xy)
         return np.asarray(array)[iy, ix]
 
-    def bilinear(self, array: np.ndarray, xy) -> np.ndarray:
-        """Bilinear interpolation of a cell-centred `array` (ny, nx) at points `xy` (n, 2).
+    def bilinear(self, array: np.ndarray, xy, gradient: bool = False):
+        """Bilinear interpolation of a cell-centred `array` (ny, nx) at points `xy` (n, 2), and with
+        `gradient` also its exact gradient (n, 2) (per m; continuous inside a cell, jumping across
+        cell centre lines).
 
-        Outside the grid the border values are repeated (the point is clamped into the grid).
+        Outside the grid the border values are repeated (the point is clamped into the grid), with
+        zero gradient across the border.
         """
-        array = np.asarray(array, dtype=float)
+        flat = np.asarray(array, dtype=float).ravel()
+        ny, nx = self.shape
         u, v = self.continuous_index(xy)
-        ix, tx = _cell_and_fraction(u, self.shape[1])
-        iy, ty = _cell_and_fraction(v, self.shape[0])
-        ix1 = np.minimum(ix + 1, self.shape[1] - 1)
-        iy1 = np.minimum(iy + 1, self.shape[0] - 1)
-        bottom = array[iy, ix] * (1 - tx) + array[iy, ix1] * tx
-        top = array[iy1, ix] * (1 - tx) + array[iy1, ix1] * tx
-        return bottom * (1 - ty) + top * ty
+        ix, tx, inside_x = _cell_and_fraction(u, nx)
+        iy, ty, inside_y = _cell_and_fraction(v, ny)
+        step_x, step_y = min(nx - 1, 1), nx * min(ny - 1, 1)
+        k = iy * nx + ix
+        a00, a01, a10, a11 = flat[k], flat[k + step_x], flat[k + step_y], flat[k + step_y + step_x]
+        bottom = a00 * (1 - tx) + a01 * tx
+        top = a10 * (1 - tx) + a11 * tx
+        value = bottom * (1 - ty) + top * ty
+        if not gradient:
+            return value
+        scale = 1.0 / self.resolution
+        gx = ((a01 - a00) * (1 - ty) + (a11 - a10) * ty) * scale * inside_x
+        gy = (top - bottom) * scale * inside_y
+        return value, np.stack([gx, gy], axis=1)
 
 
-def _cell_and_fraction(u: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray]:
-    """Lower corner index in [0, n-2] and fraction in [0, 1] of clamped coordinates `u`."""
+def _cell_and_fraction(u: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Lower corner index in [0, n-2], fraction in [0, 1] of clamped coordinates `u`, and 1.0 where
+    `u` lies inside [0, n - 1] (0.0 where it was clamped)."""
     clamped = np.clip(u, 0.0, n - 1.0)
     lower = np.clip(np.floor(clamped).astype(np.int64), 0, max(n - 2, 0))
-    return lower, clamped - lower
+    return lower, clamped - lower, (u == clamped).astype(float)

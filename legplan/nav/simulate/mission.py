@@ -38,13 +38,14 @@ class SimParams:
     yaw: str = "velocity"  # yaw policy on the way: "velocity", "target" (face `target`) or "heading"
     target: tuple[float, float] | None = None  # world point faced with yaw "target"
     heading: float = 0.0  # rad, held with yaw "heading"
+    clearance_margin: float = 0.1  # m the TEB keeps beyond the collision radius (soft obstacle term, tracking lag)
 
     def __post_init__(self):
         checks = [("rate", self.rate > 0), ("substeps", self.substeps >= 1), ("window", self.window > 0),
                   ("sensing_radius", self.sensing_radius >= 0), ("goal_tolerance", self.goal_tolerance > 0),
                   ("heading_tolerance", self.heading_tolerance > 0), ("stop_speed", self.stop_speed > 0),
                   ("max_time", self.max_time > 0), ("stall_time", self.stall_time > 0),
-                  ("stall_distance", self.stall_distance >= 0), ("max_wall_seconds", self.max_wall_seconds > 0),
+                  ("stall_distance", self.stall_distance >= 0), ("clearance_margin", self.clearance_margin >= 0), ("max_wall_seconds", self.max_wall_seconds > 0),
                   ("yaw", self.yaw in YAW_POLICIES)]
         for name, ok in checks:
             if not ok:

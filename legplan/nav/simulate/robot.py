@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from legplan.nav.teb.band import wrap_angle
+from legplan.geometry.angles import wrap_angle
 from legplan.robots.navigation import KinodynamicLimits
 
 

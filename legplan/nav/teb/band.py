@@ -14,11 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-
-def wrap_angle(angle):
-    """Angle(s) wrapped to (−π, π]."""
-    wrapped = np.pi - np.mod(np.pi - np.asarray(angle, float), 2.0 * np.pi)
-    return wrapped if np.ndim(wrapped) else float(wrapped)
+from legplan.geometry.angles import wrap_angle
 
 
 @dataclass

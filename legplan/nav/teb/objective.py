@@ -2,7 +2,7 @@
 
 `TebObjective` stacks weighted terms (`residuals.py`). A term with bounds goes through the TEB
 interval penalty r = max(0, x − (upper − ε)) + max(0, (lower + ε) − x) (built from
-`legplan.solve.inequality.hinge`); its Jacobian rows are scaled by the penalty's slope, which
+`legplan.solve.inequality.interval_penalty`); its Jacobian rows are scaled by the penalty's slope, which
 keeps inactive rows in the pattern with zero values. The penalty is applied once to the stacked
 values of all terms (unbounded rows have bounds ∓∞ and pass through unchanged), and a term that
 appears in several entries (clearance: obstacle and inflation bounds) is evaluated once.
@@ -23,7 +23,7 @@ import scipy.sparse as sp
 
 from legplan.nav.teb.residuals import BAND, BandState, Term
 from legplan.solve import NormalTerms, StructuredBlock
-from legplan.solve.inequality import hinge
+from legplan.solve.inequality import interval_penalty
 
 
 @dataclass(frozen=True)
@@ -116,12 +116,11 @@ class TebObjective(StructuredBlock):
                 cache[id(e.term)] = e.term.linearize(state)
         parts = [cache[id(e.term)] for e in self.entries]
         x = np.concatenate([p[0] for p in parts]) if parts else np.zeros(0)
-        above, s_above = hinge(x - self._high)
-        below, s_below = hinge(self._low - x)
-        h = self._weight * (above + below + self._free * x)
+        penalty, slope = interval_penalty(x, self._low, self._high)
+        h = self._weight * (penalty + self._free * x)
         if not jacobian:
             return h, None
-        row_scale = self._weight * (s_above - s_below + self._free)
+        row_scale = self._weight * (slope + self._free)
         vals = np.concatenate([p[1] for p in parts]) if parts else np.zeros(0)
         return h, row_scale[self.rows] * vals
 

@@ -21,7 +21,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from legplan.nav.teb.band import Band, wrap_angle
+from legplan.geometry.angles import wrap_angle
+from legplan.geometry.polyline import arc_length
+from legplan.nav.teb.band import Band
 from legplan.nav.teb.distance import DistanceField
 from legplan.nav.teb.params import TebParams
 from legplan.nav.teb.reference import GlobalPath
@@ -149,7 +151,7 @@ def _path_term(band: Band, path: GlobalPath, params: TebParams) -> PathTerm:
     point at the same fraction of the path's length as pose i is of the band's (chord) length. Band
     and path are the same curve up to local deviations, but not the same timing: the band is
     re-timed (time optimality), so a window placed by time fraction would miss the pose's stretch."""
-    chord = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(band.poses[:, :2], axis=0).T))])
+    chord = arc_length(band.poses[:, :2])
     s_path = path.arc_length
     s_i = chord / max(chord[-1], 1e-12) * s_path[-1]
     first = np.searchsorted(s_path, s_i - params.path_window, side="right") - 1

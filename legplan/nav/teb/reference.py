@@ -13,6 +13,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from legplan.geometry.polyline import arc_length, resample_by_arc_length
 from legplan.nav.trajectory import Trajectory
 
 
@@ -28,7 +29,7 @@ class GlobalPath:
 
     @property
     def arc_length(self) -> np.ndarray:
-        return np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(self.points, axis=0).T))])
+        return arc_length(self.points)
 
     @property
     def length(self) -> float:
@@ -39,14 +40,11 @@ class GlobalPath:
         """Resample densely timed points (t, p) to `spacing` in arc length (stops collapse to one point)."""
         points = np.asarray(points, float).reshape(-1, 2)
         times = np.asarray(times, float).reshape(-1)
-        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(points, axis=0).T))])
-        if s[-1] <= 0.0:
+        total = arc_length(points)[-1]
+        if total <= 0.0:
             return cls(points[[0, -1]], times[[0, -1]], spacing)
-        grid = np.unique(np.concatenate([np.arange(0.0, s[-1], spacing), [s[-1]]]))
-        keep = np.concatenate([[True], np.diff(s) > 0])  # strictly increasing s for interpolation
-        s_k, t_k, p_k = s[keep], times[keep], points[keep]
-        new_points = np.column_stack([np.interp(grid, s_k, p_k[:, 0]), np.interp(grid, s_k, p_k[:, 1])])
-        new_times = np.interp(grid, s_k, t_k)
+        lengths = np.unique(np.concatenate([np.arange(0.0, total, spacing), [total]]))
+        new_points, new_times = resample_by_arc_length(points, lengths, times)
         new_times[-1] = times[-1]
         return cls(new_points, new_times, spacing)
 
@@ -59,8 +57,7 @@ class GlobalPath:
     def from_waypoints(cls, waypoints: np.ndarray, speed: float, spacing: float = 0.1) -> GlobalPath:
         """Position-only waypoints timed at constant `speed` (TEB's initialization of a plain path)."""
         waypoints = np.asarray(waypoints, float).reshape(-1, 2)
-        s = np.concatenate([[0.0], np.cumsum(np.hypot(*np.diff(waypoints, axis=0).T))])
-        return cls.from_samples(s / speed, waypoints, spacing)
+        return cls.from_samples(arc_length(waypoints) / speed, waypoints, spacing)
 
     def at_time(self, t) -> tuple[np.ndarray, np.ndarray]:
         """Positions (m, 2) and velocities (m, 2) at times t, piecewise linear between points."""
@@ -78,8 +75,3 @@ class GlobalPath:
         d = np.sum((self.points[lo:hi] - np.asarray(point, float)) ** 2, axis=1)
         return lo + int(np.argmin(d))
 
-    def slice(self, lo: int, hi: int) -> GlobalPath:
-        """Points lo … hi − 1 (at least two), times shifted to start at zero."""
-        hi = max(hi, lo + 2)
-        lo = max(min(lo, len(self.points) - 2), 0)
-        return GlobalPath(self.points[lo:hi].copy(), self.times[lo:hi] - self.times[lo], self.spacing)

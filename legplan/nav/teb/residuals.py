@@ -29,7 +29,8 @@ from functools import cached_property
 import numpy as np
 import scipy.sparse as sp
 
-from legplan.nav.teb.band import Band, interval_accelerations, interval_velocities, wrap_angle
+from legplan.geometry.angles import wrap_angle
+from legplan.nav.teb.band import Band, interval_accelerations, interval_velocities
 from legplan.nav.teb.distance import DistanceField
 from legplan.solve import ResidualBlock
 

@@ -11,7 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from legplan.nav.teb.band import Band, wrap_angle
+from legplan.geometry.angles import wrap_angle
+from legplan.nav.teb.band import Band
 from legplan.nav.teb.params import TebParams
 
 MAX_PASSES = 100

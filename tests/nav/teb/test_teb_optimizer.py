@@ -3,7 +3,8 @@
 import numpy as np
 import pytest
 
-from legplan.nav.teb.band import Band, wrap_angle
+from legplan.geometry.angles import wrap_angle
+from legplan.nav.teb.band import Band
 from legplan.nav.teb.distance import DistanceField
 from legplan.nav.teb.initialize import initial_band
 from legplan.nav.teb.optimizer import Scene, ViaPoint, limit_violations, objective_terms, optimize_band

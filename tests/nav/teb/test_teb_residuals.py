@@ -4,7 +4,7 @@ objective's JᵀJ, Jᵀh against the stacked Jacobian."""
 import numpy as np
 import pytest
 
-from legplan.nav.teb.band import wrap_angle
+from legplan.geometry.angles import wrap_angle
 from legplan.nav.teb.distance import DistanceField
 from legplan.nav.teb.objective import TebObjective, weighted
 from legplan.nav.teb.residuals import (AccelerationTerm, ClearanceTerm, NonholonomicTerm, PathTerm, TimeTerm,
