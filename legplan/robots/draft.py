@@ -107,9 +107,10 @@ def _attached_links(model: pin.Model, joint: int) -> list[int]:
 
 def foot_point(model: pin.Model, links: UrdfLinks, joint: int, urdf: Path) -> tuple[str, np.ndarray]:
     """(link name, offset in its frame) of the far end of the geometry on joint `joint`'s links."""
-    shapes = [(k, shape) for k in _attached_links(model, joint) for shape in links.primitives.get(model.frames[k].name, ())]
+    attached = _attached_links(model, joint)
+    shapes = [(k, shape) for k in attached for shape in links.primitives.get(model.frames[k].name, ())]
     if not shapes:
-        raise LegplanError(f"{urdf}: link(s) {', '.join(model.frames[k].name for k in _attached_links(model, joint))} "
+        raise LegplanError(f"{urdf}: link(s) {', '.join(model.frames[k].name for k in attached)} "
                            f"of joint '{model.names[joint]}' have no box, cylinder or sphere geometry: "
                            "give the foot in robot.yaml by hand (legs[i].foot: {link, offset})")
     points = [model.frames[k].placement.act(p) for k, shape in shapes for p in shape.extreme_points()]
@@ -121,7 +122,7 @@ def foot_point(model: pin.Model, links: UrdfLinks, joint: int, urdf: Path) -> tu
     direction /= np.linalg.norm(direction)
     reach = np.array(points) @ direction
     far = np.array(points)[reach >= reach.max() - 1e-5].mean(axis=0)   # the far face, to 10 µm
-    owner = max(shapes, key=lambda item: model.frames[item[0]].placement.act(item[1].placement.translation) @ direction)[0]
+    owner = max(zip(shapes, centres), key=lambda item: item[1] @ direction)[0][0]   # the farthest shape's link
     return model.frames[owner].name, model.frames[owner].placement.actInv(far)
 
 
@@ -237,7 +238,8 @@ def draft_robot(urdf: str | Path, name: str) -> RobotDraft:
     leg_length = float(np.mean([chain_length(model, c, f) for c, f in zip(chains, feet)]))
     spheres = _spheres(model, links, chains, feet, legs, q, size_scaled("clearance", leg_length))
     limits = {model.names[j]: (float(model.lowerPositionLimit[model.idx_qs[j]]),
-                               float(model.upperPositionLimit[model.idx_qs[j]])) for chain in chains for j in chain}
+                               float(model.upperPositionLimit[model.idx_qs[j]]))
+              for chain in chains for j in chain}
     joints = {leg.name: [float(q[model.idx_qs[j]]) for j in chain] for leg, chain in zip(legs, chains)}
     return RobotDraft(name=name, urdf=urdf, legs=tuple(legs), spheres=tuple(spheres), limits=limits,
                       base_height=float(q[2]), joints=joints, mesh_links=tuple(sorted(links.meshes)))
@@ -289,25 +291,27 @@ def draft_yaml(draft: RobotDraft, urdf_ref: str) -> str:
     for leg in draft.legs:
         lines.append(f"  - {{name: {leg.name}, joints: [{', '.join(leg.joints)}],")
         lines.append(f"     foot: {{link: {leg.foot_link}, offset: {_vector(leg.foot_offset)}}}}}")
-    lines += ["", "# Planning limits: the URDF's; narrow them to keep the legs apart (no self-collision check).",
-              "joint_limits:"]
-    lines += [f"  {joint}: [{math.ceil(lo * 1e4) / 1e4:.4f}, {math.floor(hi * 1e4) / 1e4:.4f}]"  # inside the URDF's
+    lines += ["", "# Planning limits: the URDF's; narrow them to keep the legs apart (no self-collision",
+              "# check).", "joint_limits:"]
+    lines += [f"  {joint}: [{math.ceil(lo * 1e4) / 1e4:.4f}, {math.floor(hi * 1e4) / 1e4:.4f}]"  # rounded inwards
               for joint, (lo, hi) in draft.limits.items()]
     lines += ["", "# Spheres along the links' primitive geometry; one small sphere on each foot point."]
     if draft.mesh_links:
         lines.append(f"# No spheres for mesh-only links (add them by hand): {', '.join(draft.mesh_links)}")
     lines.append("collision_spheres:")
-    lines += [f"  - {{link: {s.link}, offset: {_vector(s.offset)}, radius: {s.radius:.4f}}}" for s in draft.spheres]
+    lines += [f"  - {{link: {s.link}, offset: {_vector(s.offset)}, radius: {s.radius:.4f}}}"
+              for s in draft.spheres]
     lines += ["", "# Nominal stance: level base, feet on z = 0 (solved by least squares).", "nominal:",
               f"  base_height: {draft.base_height:.5f}", "  joints:"]
     lines += [f"    {leg}: {_vector(values)}" for leg, values in draft.joints.items()]
     return "\n".join(lines) + "\n"
 
 
-def write_draft(urdf: str | Path, folder: str | Path, name: str | None = None, overwrite: bool = False) -> Path:
+def write_draft(urdf: str | Path, folder: str | Path, name: str | None = None,
+                overwrite: bool = False) -> Path:
     """Draft robot.yaml for `urdf` into `folder` (created), naming the URDF by its path relative to
-    the folder (absolute when they share no folder but the root); the draft is loaded (`read_spec`) before it is published, so a written draft always
-    loads. Returns the robot.yaml path."""
+    the folder (absolute when they share no folder but the root). The draft is loaded
+    (`read_spec`) before it is published, so a written draft always loads. Returns its path."""
     from legplan.artefacts.publish import staged_output
     from legplan.artefacts.writer import check_output
     from legplan.robots.spec import read_spec

@@ -37,7 +37,8 @@ def joint_axes(robot, q) -> tuple[np.ndarray, np.ndarray]:
     pin.computeJointJacobians(model, data, q)
     origins, axes = [], []
     for joint in range(2, model.njoints):
-        column = pin.getJointJacobian(model, data, joint, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)[:, model.idx_vs[joint]]
+        jacobian = pin.getJointJacobian(model, data, joint, pin.ReferenceFrame.LOCAL_WORLD_ALIGNED)
+        column = jacobian[:, model.idx_vs[joint]]
         angular, linear = column[3:], column[:3]
         axis = angular if np.linalg.norm(angular) > 1e-9 else linear
         origins.append(data.oMi[joint].translation.copy())
