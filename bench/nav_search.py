@@ -78,7 +78,7 @@ SCALE_NOTES = (
 
 def sample_queries(grid: NavGrid, count: int, rng: np.random.Generator) -> np.ndarray:
     iy, ix = np.nonzero(grid.distance >= grid.l1 + 0.15)
-    free = grid.cell_center(iy, ix)
+    free = grid.frame.cell_center(iy, ix)
     free = free[~grid.blocked_at(free)]
     xmin, xmax, ymin, ymax = grid.extent
     min_gap = np.hypot(xmax - xmin, ymax - ymin) / 3

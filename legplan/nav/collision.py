@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 from legplan.errors import LegplanError
+from legplan.terrain.grid import Grid2D
 
 
 @dataclass(frozen=True)
@@ -34,6 +35,7 @@ class NavGrid:
     l1: float
     origin: tuple[float, float]
     resolution: float
+    frame: Grid2D = field(init=False, repr=False)  # origin, resolution, shape: extent and cell lookups
     lethal: np.ndarray = field(init=False, repr=False)  # (ny, nx) distance < l1
     # Padded (ny + 2) * (nx + 2) flat arrays indexed by `flat_index` (hot-path gathers).
     blocked_flat: np.ndarray = field(init=False, repr=False)
@@ -58,6 +60,7 @@ class NavGrid:
         setter(self, "costmap", costmap)
         setter(self, "distance", distance)
         setter(self, "origin", (float(self.origin[0]), float(self.origin[1])))
+        setter(self, "frame", Grid2D(self.origin, float(self.resolution), costmap.shape))
         setter(self, "lethal", lethal)
         setter(self, "blocked_flat", blocked.ravel())
         setter(self, "cost_flat", np.pad(costmap, 1, mode="edge").ravel())
@@ -86,12 +89,8 @@ class NavGrid:
 
     @property
     def extent(self) -> tuple[float, float, float, float]:
-        """(xmin, xmax, ymin, ymax) of the map's cell edges, m."""
-        ny, nx = self.shape
-        half = 0.5 * self.resolution
-        x0, y0 = self.origin
-        return (x0 - half, x0 + (nx - 0.5) * self.resolution, y0 - half,
-                y0 + (ny - 0.5) * self.resolution)
+        """(xmin, xmax, ymin, ymax) of the map's cell edges, m (`Grid2D.extent`)."""
+        return self.frame.extent
 
     def to_cells(self, points: np.ndarray) -> np.ndarray:
         """Points (..., 2) in padded-cell units: the cell holding a point is floor of this."""
@@ -141,8 +140,8 @@ class NavGrid:
             self._free_graph.extend(self._build_free_graph())
         graph, passable = self._free_graph
         ny, nx = self.shape
-        (iy,), (ix,) = (np.atleast_1d(i) for i in self.cell_of(np.asarray(point, float)))
-        if not (0 <= iy < ny and 0 <= ix < nx) or not passable[iy, ix]:
+        (iy,), (ix,), (inside,) = self.frame.cell_of(np.asarray(point, float))
+        if not inside or not passable[iy, ix]:
             return np.full((ny, nx), np.inf)
         steps = dijkstra(graph, directed=False, unweighted=True,
                          indices=int(iy * nx + ix))
@@ -168,15 +167,6 @@ class NavGrid:
         graph = coo_matrix((np.ones(len(rows)), (rows, cols)), shape=(ny * nx, ny * nx)).tocsr()
         return graph, free
 
-    def cell_center(self, iy: np.ndarray, ix: np.ndarray) -> np.ndarray:
-        """World coordinates (..., 2) of cell centres."""
-        return np.stack([self.origin[0] + ix * self.resolution,
-                         self.origin[1] + iy * self.resolution], axis=-1)
-
-    def cell_of(self, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """(iy, ix) of the cells holding the points (may fall outside the map)."""
-        scaled = np.floor((np.asarray(points, float) - self.origin) / self.resolution + 0.5)
-        return scaled[..., 1].astype(np.intp), scaled[..., 0].astype(np.intp)
 
 
 def dilate_3x3(mask: np.ndarray) -> np.ndarray:

@@ -35,7 +35,7 @@ def grid_graph(grid: NavGrid, rho_c: float):
     steps = [(dy, dx) for dy in (-1, 0, 1) for dx in (-1, 0, 1) if (dy, dx) != (0, 0)]
     lengths = [grid.resolution * (_SQRT2 if dy and dx else 1.0) for dy, dx in steps]
     iy, ix = np.mgrid[0:ny, 0:nx]
-    blocked = grid.blocked_at(grid.cell_center(iy, ix))
+    blocked = grid.blocked_at(grid.frame.cell_center(iy, ix))
     factor = np.where(blocked, np.inf, 1.0 + rho_c * grid.costmap)
     return steps, lengths, factor
 
@@ -57,8 +57,8 @@ def plan_grid(grid: NavGrid, start, goal, params: NavParams = NavParams(),
     ny, nx = grid.shape
     steps, lengths, factor = grid_graph(grid, params.rho_c)
     factor_list = factor.ravel().tolist()
-    (sy,), (sx,) = (np.atleast_1d(a) for a in grid.cell_of(start[:2]))
-    (gy,), (gx,) = (np.atleast_1d(a) for a in grid.cell_of(goal[:2]))
+    (sy,), (sx,), _ = grid.frame.cell_of(start[:2])
+    (gy,), (gx,), _ = grid.frame.cell_of(goal[:2])
     source, target = int(sy * nx + sx), int(gy * nx + gx)
     res = grid.resolution
     diag = (_SQRT2 - 1.0) * res
@@ -82,7 +82,7 @@ def plan_grid(grid: NavGrid, start, goal, params: NavParams = NavParams(),
         expansions += 1
         if cell == target:
             cells = _path(parent, target)
-            centres = grid.cell_center(np.array(cells) // nx, np.array(cells) % nx)
+            centres = grid.frame.cell_center(np.array(cells) // nx, np.array(cells) % nx)
             waypoints = _merge_collinear(np.vstack([start[:2], centres[1:-1], goal[:2]])
                                          if len(cells) > 1 else np.vstack([start[:2], goal[:2]]))
             trajectory = trapezoidal_polyline(waypoints, params.v_max, params.a_max)

@@ -166,12 +166,12 @@ class GeodesicTimeBound:
         self.resolution, self.v_max = R, v_max
 
     def __call__(self, px: float, py: float, straight: float) -> float:
-        """T_lb at the cell holding (px, py) (`NavGrid.cell_of`) given T_s = `straight`."""
+        """T_lb at the cell holding (px, py) (`Grid2D.cell_of`) given T_s = `straight`."""
         excess = self.route_time_at(px, py) - straight
         return straight + self.kappa * excess if excess > 0.0 else straight
 
     def route_time_at(self, px: float, py: float) -> float:
-        """T_g at the cell holding (px, py) (`NavGrid.cell_of`); inf off the goal's routes."""
+        """T_g at the cell holding (px, py) (`Grid2D.cell_of`); inf off the goal's routes."""
         ix = math.floor((px - self.x0) / self.resolution + 0.5)
         iy = math.floor((py - self.y0) / self.resolution + 0.5)
         return float(self.route_time[iy, ix])

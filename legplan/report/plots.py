@@ -10,6 +10,7 @@ import numpy as np
 from matplotlib.figure import Figure
 
 from legplan.artefacts import open_artefact
+from legplan.terrain.grid import Grid2D
 from legplan.report.items import read_items
 
 
@@ -20,9 +21,7 @@ def new_figure(width: float, height: float) -> Figure:
 def grid_extent(dataset: h5py.Dataset) -> list[float]:
     """imshow extent of a grid whose `origin` is cell [0, 0]'s centre and `resolution` its size."""
     x0, y0 = np.asarray(dataset.attrs["origin"], float)[:2]
-    r = float(dataset.attrs["resolution"])
-    ny, nx = dataset.shape[:2]
-    return [x0 - r / 2, x0 + r * (nx - 0.5), y0 - r / 2, y0 + r * (ny - 0.5)]
+    return list(Grid2D((x0, y0), float(dataset.attrs["resolution"]), dataset.shape[:2]).extent)
 
 
 def grid_figure(path: Path, png: Path, layers: list[tuple[str, str, str]]) -> str | None:

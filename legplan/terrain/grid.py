@@ -47,9 +47,11 @@ class Grid2D:
                 (xy[:, 1] - self.origin[1]) / self.resolution)
 
     def cell_of(self, xy) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        """(iy, ix, inside) of the cell containing each point; indices clipped into the grid."""
+        """(iy, ix, inside) of the cell containing each point; indices clipped into the grid. A cell
+        holds [centre − r/2, centre + r/2) per axis (floor(u + 1/2): the one rounding of every
+        layer lookup, the nav search's padded gathers included)."""
         u, v = self.continuous_index(xy)
-        ix, iy = np.rint(u).astype(np.int64), np.rint(v).astype(np.int64)
+        ix, iy = np.floor(u + 0.5).astype(np.int64), np.floor(v + 0.5).astype(np.int64)
         inside = (ix >= 0) & (ix < self.shape[1]) & (iy >= 0) & (iy < self.shape[0])
         return np.clip(iy, 0, self.shape[0] - 1), np.clip(ix, 0, self.shape[1] - 1), inside
 
@@ -64,6 +66,11 @@ class Grid2D:
         x0, x1, y0, y1 = self.extent
         return (f"{names[i]} at ({xy[i, 0]:.3f}, {xy[i, 1]:.3f}) is outside the map "
                 f"(x {x0:.3f}..{x1:.3f}, y {y0:.3f}..{y1:.3f})")
+
+    def cell_center(self, iy, ix) -> np.ndarray:
+        """World coordinates (..., 2) of the centres of cells [iy, ix] (arrays or ints)."""
+        return np.stack([self.origin[0] + np.asarray(ix) * self.resolution,
+                         self.origin[1] + np.asarray(iy) * self.resolution], axis=-1)
 
     def nearest(self, array: np.ndarray, xy) -> np.ndarray:
         """Value of the cell containing each point (border cells repeat outside the grid)."""

@@ -34,16 +34,16 @@ def test_step_distance_is_an_8_connected_breadth_first_search():
     occupancy[15, 5] = False  # a crack one cell wide: not lethal, but blocked for the planners
     grid = grid_from_occupancy(occupancy, 0.1, l1=0.05)
     point = np.array([0.35, 1.55])
-    (iy,), (ix,) = (np.atleast_1d(i) for i in grid.cell_of(point))
+    (iy,), (ix,), _ = grid.frame.cell_of(point)
     steps = grid.step_distance(point)
-    blocked = grid.blocked_at(grid.cell_center(*np.mgrid[0:30, 0:40]))
+    blocked = grid.blocked_at(grid.frame.cell_center(*np.mgrid[0:30, 0:40]))
     passable = binary_dilation(~blocked, structure=np.ones((3, 3), bool))
     np.testing.assert_array_equal(steps, reference_steps(passable, (iy, ix)))
     assert np.isinf(steps[28, 37]) and not grid.lethal[28, 37]
     assert not grid.lethal[15, 5] and np.isinf(steps[15, 5])
     assert steps[15, 6] > reference_steps(~grid.lethal, (iy, ix))[15, 6] + 5  # no short cut
     # From a lethal cell nothing is reachable.
-    assert np.isinf(grid.step_distance(grid.cell_center(np.array(10), np.array(20)))).all()
+    assert np.isinf(grid.step_distance(grid.frame.cell_center(10, 20))).all()
 
 
 def test_dilate_3x3_matches_scipy_binary_dilation():
@@ -54,3 +54,19 @@ def test_dilate_3x3_matches_scipy_binary_dilation():
         mask = rng.random(shape) < density
         expected = binary_dilation(mask, structure=np.ones((3, 3), bool))
         assert (dilate_3x3(mask) == expected).all()
+
+
+def test_one_rounding_for_cell_lookups():
+    """NavGrid's padded flat gathers and Grid2D.cell_of put every point, cell edges included, in
+    the same cell (edges belong to the upper cell)."""
+    rng = np.random.default_rng(2)
+    grid = grid_from_occupancy(rng.random((7, 9)) < 0.3, 0.25, l1=0.1)
+    x0, y0 = grid.origin
+    edges = np.stack(np.meshgrid(x0 + 0.25 * (np.arange(-1, 10) + 0.5),
+                                 y0 + 0.25 * (np.arange(-1, 8) + 0.5)), axis=-1).reshape(-1, 2)
+    points = np.vstack([edges, rng.uniform(x0 - 0.2, x0 + 2.4, (200, 2)) * [1, 0.8]])
+    iy, ix, inside = grid.frame.cell_of(points)
+    padded_costs = grid.cost_flat.reshape(grid.shape[0] + 2, grid.shape[1] + 2)
+    np.testing.assert_array_equal(grid.cost_at(points[inside]), padded_costs[iy[inside] + 1, ix[inside] + 1])
+    np.testing.assert_array_equal(grid.lethal_at(points[inside]), grid.lethal[iy[inside], ix[inside]])
+    assert np.all(grid.lethal_at(points[~inside]))

@@ -36,7 +36,8 @@ def test_grid_astar_cost_equals_dijkstra(pillars_grid, rho_c):
     result = plan_grid(pillars_grid, start, goal, params)
     assert result.success
     nx = pillars_grid.shape[1]
-    (sy, sx), (gy, gx) = pillars_grid.cell_of(start[:2]), pillars_grid.cell_of(goal[:2])
+    (sy,), (sx,), _ = pillars_grid.frame.cell_of(start[:2])
+    (gy,), (gx,), _ = pillars_grid.frame.cell_of(goal[:2])
     optimum = scipy_optimum(pillars_grid, rho_c, int(sy * nx + sx), int(gy * nx + gx))
     assert result.cost == pytest.approx(optimum, rel=1e-12)
 
