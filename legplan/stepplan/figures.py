@@ -8,7 +8,7 @@ import numpy as np
 from legplan.geometry.bezier import evaluate
 
 
-def motion_tracks(robot, records, samples: int = 60):
+def sampled_tracks(robot, records, samples: int = 60):
     """Foot positions (n, L, 3) and CoM (n, 3) along all planned steps, in order."""
     feet, com = [], []
     t = np.linspace(0.0, 1.0, samples)
@@ -27,7 +27,7 @@ def plot_motion(path, robot, terrain, records) -> None:
     """Write a PNG: side view (x–z) of the terrain profile under the tracks, and Fig. 4 histograms."""
     from matplotlib.figure import Figure
 
-    feet, com = motion_tracks(robot, records)
+    feet, com = sampled_tracks(robot, records)
     fig = Figure(figsize=(11, 7.5))
     grid = fig.add_gridspec(2, 2, height_ratios=(1.3, 1.0))
     side = fig.add_subplot(grid[0, :])
