@@ -84,3 +84,18 @@ def test_robot_show_centroidal(tmp_path):
     assert info["centroidal"]["nominal_feet"]["rh"] == [-0.34, -0.19, -0.42]
     assert info["centroidal"]["inertia"][0][1] == -0.000938112
     assert json.loads(run("robot", "show", "scarab2", "--json").output)["centroidal"] is None
+
+
+def test_robot_check_exit_1_on_errors_and_json(tmp_path):
+    from robot_helpers import toy_spec
+
+    spec = toy_spec()
+    spec["collision_spheres"][2]["offset"] = [0, 0, -0.14]       # shank spheres below the ground
+    folder = tmp_path / "sunk"
+    write_toy_robot(folder, spec)
+    result = run("robot", "check", folder)
+    assert result.exit_code == 1
+    assert "error: sphere 2 (shank_a): " in result.output and "toy: 4 errors, 0 warnings" in result.output
+    findings = json.loads(run("robot", "check", folder, "--json").output)
+    assert {f["severity"] for f in findings} == {"error"} and len(findings) == 4
+    assert run("robot", "check", "scarab2").exit_code == 0
