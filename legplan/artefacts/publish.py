@@ -75,13 +75,19 @@ def remove_stale_temps(target: str | os.PathLike) -> list[Path]:
 
 
 def _alive(pid: int) -> bool:
+    """Whether process `pid` runs: it exists and is not a zombie (a killed writer whose new parent
+    does not reap it, e.g. in a container without an init)."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
         return False
     except PermissionError:  # another user's process
         return True
-    return True
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):  # no /proc: trust kill()
+        return True
+    return state != "Z"
 
 
 def discard(path: Path) -> None:
@@ -118,11 +124,7 @@ def staged_output(target: str | os.PathLike, *, overwrite: bool, directory: bool
 
 def publish(temp: Path, target: Path, overwrite: bool) -> None:
     """Rename `temp` (a file or directory) to `target` as the last step (module docstring)."""
-    pause = float(os.environ.get(PAUSE_ENV) or 0)
-    if pause > 0:
-        sys.stderr.write(f"pausing before publishing {target}\n")
-        sys.stderr.flush()
-        time.sleep(pause)
+    _pause_for_tests(target)
     raise_if_interrupted()
     if temp.is_dir():
         _publish_directory(temp, target, overwrite)
@@ -135,6 +137,19 @@ def publish(temp: Path, target: Path, overwrite: bool) -> None:
             raise ArtefactError(f"{target}: output exists (use --overwrite to replace it)") from None
         temp.unlink()
     note_published(target)
+
+
+def _pause_for_tests(target: Path) -> None:
+    """The `LEGPLAN_TEST_PAUSE_BEFORE_PUBLISH` hook: say so, then wait (ending early on a signal)."""
+    pause = float(os.environ.get(PAUSE_ENV) or 0)
+    if pause <= 0:
+        return
+    sys.stderr.write(f"pausing before publishing {target}\n")
+    sys.stderr.flush()
+    deadline = time.monotonic() + pause
+    while time.monotonic() < deadline:
+        raise_if_interrupted()
+        time.sleep(0.05)
 
 
 def _publish_directory(temp: Path, target: Path, overwrite: bool) -> None:

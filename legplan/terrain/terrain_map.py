@@ -13,6 +13,7 @@ map.h5 layout (kind "map"):
 
 from __future__ import annotations
 
+import logging
 import os
 from dataclasses import asdict, dataclass
 
@@ -25,6 +26,8 @@ from legplan.terrain.grid import Grid2D
 from legplan.terrain.layers import (CostmapParams, FootholdParams, costmap_from_distance, foothold_mask,
                                     obstacle_distance, occupancy_grid)
 from legplan.terrain.sdf import Progress, SignedDistanceField, heightmap_sdf, sdf_layers
+
+log = logging.getLogger(__name__)
 
 MAX_MAP_BYTES = 2 * 1024 ** 3
 """Refuse maps whose estimated working memory exceeds this (bytes)."""
@@ -137,8 +140,10 @@ def terrain_from_heightmap(height, grid: Grid2D, *, name: str = "", ground: floa
     if not z_max > z_min:
         raise SpecError(f"{source}: field 'sdf.z_max' must be above 'sdf.z_min' ({z_max} <= {z_min})")
     explicit = sdf.z_min is not None or sdf.z_max is not None
-    check_memory(grid.shape, sdf_layers(z_min, z_max, r).size, source,
-                 "sdf.z_min/z_max" if explicit else "height")  # the grid alone was checked before
+    layers = sdf_layers(z_min, z_max, r).size
+    # the grid alone was checked before: what is refused here comes from the z range
+    check_memory(grid.shape, layers, source, "sdf.z_min/z_max" if explicit else "height")
+    log.info("%s: building %dx%d cells, SDF of %d layers", source, grid.shape[1], grid.shape[0], layers)
     field = heightmap_sdf(height, grid.origin, r, z_min, z_max, progress=progress)
     occupancy = occupancy_grid(height, ground, nav.obstacle_height, obstacles)
     distance = obstacle_distance(occupancy, r)
