@@ -30,7 +30,7 @@ def command():
 @click.option("--init", "init", default="heuristic", show_default=True, metavar="heuristic|INIT.h5",
               help="Initializer: the paper's Heuristic (A_h) or a trained init.h5 (A_θ).")
 @click.option("--iterations", type=click.IntRange(min=1), default=None,
-              help="LM iterations per planner stage (the paper's N_h = 100, N_θ = 25) [default: the planner's].")
+              help="LM iterations per task, all planner stages together (the paper's N_h = 100, N_θ = 25) [default: each stage's own cap].")
 @output_opt
 @overwrite_opt
 @batch_opts
@@ -129,9 +129,9 @@ def train_cmd(dataset_path, g_max, hidden, weights_path, validation, seed, outpu
 @click.option("--n", "count", type=click.IntRange(min=1), required=True, help="Tasks X (the same in every cycle).")
 @seed_opt
 @click.option("--heuristic-iterations", type=click.IntRange(min=1), default=100, show_default=True,
-              help="N_h: iterations per planner stage from the Heuristic.")
+              help="N_h: iterations per task (all planner stages) from the Heuristic.")
 @click.option("--learned-iterations", type=click.IntRange(min=1), default=25, show_default=True,
-              help="N_θ: iterations per planner stage from the learned initializer.")
+              help="N_θ: iterations per task (all planner stages) from the learned initializer.")
 @click.option("--g-max", "g_max", default="auto", show_default=True, callback=_g_max, metavar="auto|VALUE",
               help="Cost threshold of the filter, eq. (4), in every cycle.")
 @click.option("--hidden", default="256,256", show_default=True, callback=_hidden,

@@ -46,21 +46,65 @@ class PlanResult:
 
 def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynParams(), initializer=heuristic,
          callback=None) -> PlanResult:
-    """Build, solve and sample one task by `attempt`; if that fails, attempt once more with TOWR's
-    swing constraint switched (`DynParams.towr_swing`): of the bench cases and the tests, some stall
-    only with it and some only without (measured). Effort adds up; the reason names both attempts."""
-    problem, stages, setup = attempt(task, model, terrain, params, initializer, callback)
-    if not stages[-1][1].success:
-        other = replace(params, towr_swing=not params.towr_swing)
-        problem, more, seconds = attempt(task, model, terrain, other, initializer, callback)
-        label = "with" if other.towr_swing else "without"
-        stages += [(f"{name} ({label} TOWR's swing constraint)", r) for name, r in more]
+    """Build, solve and sample one task.
+
+    From a guess that solves a nearby task (an initializer with ``near_solution`` true: the learned
+    one) the whole problem — fine sampling, costs — is solved at once by `direct` (Algorithm 1's
+    A_θ: few iterations when the guess is good). Otherwise, or when that fails, by `attempt` (coarse
+    to fine, then the costs), from the initializer; if that fails too, `attempt` once more with
+    TOWR's swing constraint switched (`DynParams.towr_swing`): of the bench cases and the tests, some
+    stall only with it and some only without (measured). `DynParams.iteration_budget` caps the LM
+    iterations of all of it together. Effort adds up; the reason names every stage that ran."""
+    budget = Budget(params.iteration_budget)
+    stages, setup = [], 0.0
+    if getattr(initializer, "near_solution", False) and params.costs.active:
+        problem, stages, setup = direct(task, model, terrain, params, initializer, budget, callback)
+    for switched in (False, True):
+        if stages and (stages[-1][1].success or budget.spent):
+            break
+        run = replace(params, towr_swing=not params.towr_swing) if switched else params
+        problem, more, seconds = attempt(task, model, terrain, run, initializer, callback, budget)
+        label = f" ({'with' if run.towr_swing else 'without'} TOWR's swing constraint)" if switched else ""
+        stages += [(name + label, r) for name, r in more]
         setup += seconds
     result = stages[-1][1]
     return PlanResult(problem, _combined(stages), sample_solution(problem.form, result.values), setup)
 
 
-def attempt(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer=heuristic, callback=None):
+class Budget:
+    """What is left of `DynParams.iteration_budget` (None: unlimited) as stages spend it."""
+
+    def __init__(self, total: int | None):
+        self.left = total
+
+    @property
+    def spent(self) -> bool:
+        return self.left is not None and self.left <= 0
+
+    def solve(self, problem: Problem, solver: ALParams, callback) -> ALResult:
+        """`solve_augmented_lagrangian` on the problem with at most what is left (possibly 0
+        iterations: the stage then only reports where it stands)."""
+        if self.left is not None:
+            solver = replace(solver, max_iterations=min(solver.max_iterations, max(self.left, 0)))
+        result = solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints, solver,
+                                            callback=callback)
+        if self.left is not None:
+            self.left -= result.iterations
+        return result
+
+
+def direct(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer, budget: Budget,
+           callback=None):
+    """One stage: the problem with `params`' own sampling and costs, from the initializer, solved by
+    `DynParams.warm_solver`; returns (problem, [("direct", result)], setup seconds)."""
+    t0 = time.perf_counter()
+    problem = build_problem(task, model, terrain, params, initializer)
+    setup = time.perf_counter() - t0
+    return problem, [("direct", budget.solve(problem, params.warm_solver, callback))], setup
+
+
+def attempt(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer=heuristic, callback=None,
+            budget: Budget | None = None):
     """Build and solve one task in stages (each warm-started from the one before); returns the last
     stage's problem, the (name, `ALResult`) of every stage and the setup seconds:
 
@@ -76,47 +120,46 @@ def attempt(task: DynTask, model, terrain: TerrainModel, params: DynParams, init
     5. only if 4 ends short of the tolerance (its penalty can stall a few cm or N away): feasibility
        again from there, which keeps most of the costs' effect and meets the constraints.
     A stage that fails ends the sequence. Iterations and timings add up over the stages; the reason
-    names the stages that ran.
+    names the stages that ran. `budget` (default: `DynParams.iteration_budget`) caps them together.
     """
+    budget = Budget(params.iteration_budget) if budget is None else budget
     t0 = time.perf_counter()
     fine = dict(swing_dt=params.swing_dt, dt_range=params.dt_range, range_margin=params.range_margin)
     stage_params = replace(params, costs=CostWeights(), swing_dt=max(params.swing_dt, params.coarse_swing_dt),
                            dt_range=max(params.dt_range, params.coarse_dt_range), range_margin=0.0)
     problem = build_problem(task, model, terrain, stage_params, initializer)
     setup = time.perf_counter() - t0
-    result = solve_augmented_lagrangian(problem.variables, [], problem.constraints, params.solver, callback=callback)
+    result = budget.solve(problem, params.solver, callback)
     stages = [("coarse feasibility", result)]
     if not result.success and params.towr_swing:
         stage_params = replace(stage_params, towr_swing=False)
-        problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback)
+        problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback, budget)
         setup += seconds
         stages.append(("without TOWR's swing constraint", result))
     if result.success and any(getattr(stage_params, k) != value for k, value in fine.items()):
         stage_params = replace(stage_params, **fine)
-        problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback)
+        problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback, budget)
         setup += seconds
         stages.append(("fine feasibility", result))
     if result.success and params.costs.active:
         stage_params = replace(stage_params, costs=params.costs)
-        problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.cost_solver, callback)
+        problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.cost_solver, callback, budget)
         setup += seconds
         stages.append(("costs", result))
         if not result.success:  # near-feasible with lower costs: project it back onto the constraints
             stage_params = replace(stage_params, costs=CostWeights())
-            problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback)
+            problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback, budget)
             setup += seconds
             stages.append(("feasibility after costs", result))
     return problem, stages, setup
 
 
-def _stage(task, model, terrain, params: DynParams, previous: ALResult, solver, callback):
+def _stage(task, model, terrain, params: DynParams, previous: ALResult, solver, callback, budget: Budget):
     """Build the problem of one stage from the previous stage's values and solve it."""
     t0 = time.perf_counter()
     problem = build_problem(task, model, terrain, params, lambda *_: previous.values)
     seconds = time.perf_counter() - t0
-    result = solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints, solver,
-                                        callback=callback)
-    return problem, result, seconds
+    return problem, budget.solve(problem, solver, callback), seconds
 
 
 def _combined(stages: list[tuple[str, ALResult]]) -> ALResult:

@@ -68,10 +68,18 @@ class DynParams:
     (31-90 iterations in all on the pallet cases instead of 120-130 with the feasibility stage's
     settings). μ₀ = 10: with 100 or 1000 the single-pallet walk stalled 0.02 N short of feasible,
     a local minimum that a feasibility stage from there could not leave either (measured)."""
+    warm_solver: ALParams = ALParams(mu_init=100.0, cost_tolerance=1e-2, multipliers="least_squares",
+                                     inner=HingedParams(max_iterations=20, tolerance=0.0, function_tolerance=1e-3))
+    """The one-stage solve from a guess that is itself a solution of a nearby task (the learned
+    initializer, `planner.plan`): costs and every constraint at once, multipliers estimated at the
+    guess so that the first subproblem does not trade the constraints away for the costs."""
     costs: CostWeights = CostWeights()
     swing_height_min: float | None = None
     base_clearance: float | None = None
     solver: ALParams = ALParams()
+    iteration_budget: int | None = None
+    """LM iterations of the whole plan, all stages and both attempts (`planner.plan`) together: the
+    paper's N of Algorithm 1 (N_h = 100, N_θ = 25); None = only each stage's own cap."""
 
 
 LENGTH = 0.1  # m: the row scale of geometric constraints (a violation of 10 cm weighs 1)

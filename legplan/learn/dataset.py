@@ -6,8 +6,8 @@
     ... run_batch / run_stage ... write_dataset("dataset.h5", space, records, settings)
 
 Each task is solved by `legplan.dyn.planner.plan` from the initializer A (`heuristic`, A_h, or a
-learned init.h5, A_θ) with at most N LM iterations per planner stage (`--iterations`; the planner
-solves feasibility, then costs, and its iterations add up: the recorded count is the total). A
+learned init.h5, A_θ) with at most N LM iterations in all (`--iterations`, the planner's
+`iteration_budget`: every stage and attempt together; the recorded count is that total). A
 solve that does not converge is data, not an error: it is recorded with success false, its cost
 and violation. An item that raised is recorded with its reason and y of NaN.
 
@@ -31,15 +31,11 @@ KIND = "dataset"
 
 
 def solver_params(costs: str, iterations: int | None):
-    """The planner parameters of the space's costs with every stage capped at `iterations` (None: the
-    planner's own caps)."""
+    """The planner parameters of the space's costs with at most `iterations` LM iterations for the
+    whole plan (`DynParams.iteration_budget`: Algorithm 1's N; None: the planner's own caps)."""
     from legplan.dyn.settings import dyn_params
 
-    params = dyn_params(costs)
-    if iterations is None:
-        return params
-    return replace(params, solver=replace(params.solver, max_iterations=iterations),
-                   cost_solver=replace(params.cost_solver, max_iterations=iterations))
+    return replace(dyn_params(costs), iteration_budget=iterations)
 
 
 def initializer_of(init: str):

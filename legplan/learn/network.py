@@ -202,7 +202,10 @@ def check_space(init_path, trained: dict, space: dict) -> None:
 
 class LearnedInit:
     """A_θ as an initializer: ``(form, model, terrain, start, goal, start_feet) -> guess`` from init.h5
-    (picklable by path: it loads the file again where it is unpickled)."""
+    (picklable by path: it loads the file again where it is unpickled). Its guesses are solutions of
+    nearby tasks (`near_solution`): `legplan.dyn.planner.plan` solves from them in one stage."""
+
+    near_solution = True
 
     def __init__(self, path: str | os.PathLike):
         self.path = os.fspath(path)

@@ -9,7 +9,12 @@ every subproblem is again a sparse nonlinear least-squares problem, its bound ro
 equations with one symbolic analysis per subproblem, since the pattern never changes).
 Multipliers follow the first-order update y ← y + μ(c − l), y_u ← max(0, y_u + μ(c − u)); μ grows
 by `mu_growth` whenever the violation did not fall below `violation_decrease` times the last one
-(Nocedal & Wright, Alg. 17.4). Without costs every feasible point is a solution with zero
+(Nocedal & Wright, Alg. 17.4). They start at zero, or with `multipliers="least_squares"` at the
+first-order estimate of the start point (`least_squares_multipliers`): from a feasible start, zero
+multipliers let the first subproblem trade the constraints for the costs until the penalty alone
+balances them (measured on sampled pallet tasks: violation 0.5–3.9 after it, and some never
+recovered), while the estimate makes the start nearly stationary, so the steps follow the
+constraints. Without costs every feasible point is a solution with zero
 multipliers: the subproblem is Gauss-Newton on the constraints themselves (a root of the residual is
 a feasible point), as TOWR's feasibility problem, and further outer iterations only continue it.
 
@@ -33,9 +38,13 @@ import scipy.sparse as sp
 from legplan.solve.blocks import ResidualBlock
 from legplan.solve.inequality import _scale_rows
 from legplan.solve.hinged import HingedParams, solve_hinged_lm
+from legplan.solve.linsolve import make_solver
 from legplan.solve.lm import Status, Timings
 from legplan.solve.problem import Problem
 from legplan.solve.variables import VariableBlock
+
+
+MULTIPLIER_PASSES = 8  # active-set passes of `least_squares_multipliers`
 
 
 @dataclass
@@ -84,6 +93,12 @@ class ALParams:
     stall_decrease: float = 0.9  # an outer iteration whose violation exceeds this × the last one made no progress
     stall_outer: int = 2  # stop as stalled (infeasible local minimum) after this many such in a row
     max_iterations: int = 300
+    multipliers: str = "zero"  # initial multipliers: "zero" or "least_squares" (module docstring)
+    active_tolerance: float = 1e-4  # least_squares: a bound row within this (scaled) of its bound is active
+
+    def __post_init__(self):
+        if self.multipliers not in ("zero", "least_squares"):
+            raise ValueError(f"ALParams.multipliers: 'zero' or 'least_squares', not {self.multipliers!r}")
 
 
 @dataclass
@@ -157,6 +172,8 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
         problem.add_residual(block, np.sqrt(w))
     rows = [problem.add_residual(_AugmentedRows(k)) for k in constraints]
     theta = problem.layout.initial()
+    if costs and params.multipliers == "least_squares":
+        least_squares_multipliers(problem, rows, theta, params.active_tolerance)
     min_scale = min((float(k.scale.min()) for k in constraints if k.block.size), default=1.0)
     timings = Timings()
     history: list[dict] = []
@@ -230,6 +247,50 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
     values = {v.name: values[v.name] for v in variables}
     return ALResult(values, status, reason, iterations, len(history), violation, per_constraint, cost,
                     cost_terms, history, timings, first_iteration)
+
+
+def least_squares_multipliers(problem: Problem, rows: Sequence[_AugmentedRows], theta: np.ndarray,
+                              active_tolerance: float) -> None:
+    """Set the multipliers of `rows` (the problem's last residual blocks, after its costs) to the
+    first-order estimate at θ: y = argmin ‖∇f + J_Aᵀ y‖ over the rows A active at θ (equalities, and
+    bound rows within `active_tolerance` of their bound or beyond), with y ≥ 0 on bound rows
+    (Nocedal & Wright, eq. (18.21)). J_A are the scaled constraint rows s·∂c/∂θ, ∇f = J_fᵀ r_f of
+    the cost rows. The sign condition by an active-set loop: solve on A (CHOLMOD on J_A J_Aᵀ,
+    regularized by 1e-10 of its largest diagonal entry, so redundant rows get the least-norm split),
+    drop the bound rows whose y came out negative, repeat (at most `MULTIPLIER_PASSES` times; then
+    the remaining negatives are clipped). Clipping alone made the estimate worse than zero on the
+    pallet tasks (‖∇L‖ 32.6 against ‖∇f‖ 13.2; the loop: ≈ 0.6)."""
+    for r in rows:
+        r.mu, r.y = 1.0, np.zeros(r.size)
+    v, J = problem.jacobian(theta)
+    m = sum(r.size for r in rows)
+    k = v.size - m
+    J = sp.csr_matrix(J)
+    g = J[:k].T @ v[:k]
+    Jc = J[k:]
+    hinged = problem.hinge_mask()[k:]
+    active = ~hinged | (v[k:] > -active_tolerance)
+    y = np.zeros(m)
+    solver = make_solver("cholmod")
+    for _ in range(MULTIPLIER_PASSES):
+        pick = np.flatnonzero(active)
+        y[:] = 0.0
+        if not pick.size:
+            break
+        A = Jc[pick]
+        solver.set_jacobian(A.T)
+        diagonal = np.asarray(A.multiply(A).sum(axis=1)).ravel()
+        solver.refactor(1e-10 * max(float(diagonal.max()), 1e-300))
+        y[pick] = solver.solve(-(A @ g))
+        wrong = hinged & (y < 0.0)
+        if not wrong.any():
+            break
+        active &= ~wrong
+    y[hinged] = np.maximum(y[hinged], 0.0)
+    offset = 0
+    for r in rows:
+        r.y = y[offset:offset + r.size].copy()
+        offset += r.size
 
 
 def evaluate_costs(costs, values) -> dict[str, float]:

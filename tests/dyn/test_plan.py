@@ -1,11 +1,13 @@
 """End-to-end solves of the centroidal problem on small terrains (heuristic initialization)."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
 from legplan.dyn.constraints import GRAVITY
 from legplan.dyn.planner import plan
-from legplan.dyn.problem import DynParams, DynTask
+from legplan.dyn.problem import PAPER_COSTS, DynParams, DynTask
 
 
 def _newton_euler_at_knots(result, anymal):
@@ -46,3 +48,33 @@ def test_infeasible_task_fails_with_a_reason(anymal, flat):
     r = plan(DynTask((0.0, 0.0, 0.0), (1.5, 0.0, 0.0), "walk", 1, 0.8), anymal, flat, DynParams())
     assert not r.success
     assert r.solve.max_violation > 1e-3 and r.reason
+
+
+def test_iteration_budget_caps_every_stage_together(anymal, flat):
+    task = DynTask((0.0, 0.0, 0.0), (0.6, 0.1, 0.2), "trot", 3, 2.0)
+    r = plan(task, anymal, flat, replace(DynParams(), iteration_budget=3))
+    assert not r.success and r.solve.iterations <= 3  # unbudgeted: converges in more than 3 (the test above)
+    assert "budget" in r.reason
+
+
+class _Replay:
+    """An initializer that hands back a solution of the task itself, as a perfect learned one would."""
+
+    near_solution = True
+
+    def __init__(self, values):
+        self.values = values
+
+    def __call__(self, *_):
+        return self.values
+
+
+def test_a_near_solution_guess_is_solved_in_one_direct_stage(anymal, step):
+    task = DynTask((-0.2, 0.0, 0.0), (0.8, 0.0, 0.0), "trot", 4, 3.0)
+    params = replace(DynParams(), costs=PAPER_COSTS)
+    first = plan(task, anymal, step, params)
+    assert first.success, first.reason
+    again = plan(task, anymal, step, params, _Replay(first.solve.values))
+    assert again.success and again.reason.startswith("max violation")  # one stage: no stage names
+    assert again.solve.iterations <= 5 < first.solve.iterations
+    assert again.solve.cost <= first.solve.cost * (1 + 1e-2)

@@ -54,3 +54,47 @@ def test_infeasible_constraints_are_reported_as_failure():
 def test_constraint_bounds_are_validated():
     with pytest.raises(ValueError):
         Constraint(LinearBlock(("x",), [np.eye(2)]), [1.0, 0.0], [0.0, 1.0])
+
+
+def _multipliers(variables, costs, constraints):
+    """least_squares_multipliers on the problem solve_augmented_lagrangian would build."""
+    from legplan.solve.auglag import _AugmentedRows, least_squares_multipliers
+    from legplan.solve.problem import Problem
+
+    problem = Problem(variables)
+    for _, block, w in costs:
+        problem.add_residual(block, np.sqrt(w))
+    rows = [problem.add_residual(_AugmentedRows(k)) for k in constraints]
+    least_squares_multipliers(problem, rows, problem.layout.initial(), 1e-4)
+    return [r.y for r in rows]
+
+
+def test_least_squares_multipliers_are_the_kkt_multipliers_at_the_solution():
+    # at x* = (2, 1)/√5 on the circle: ∇f + y∇c = 0 with ∇f = x* − a, ∇c = 2x*  →  y = (√5 − 1)/2
+    x = np.array([2.0, 1.0]) / np.sqrt(5)
+    cost = LinearBlock(("x",), [np.eye(2)], np.array([2.0, 1.0]))
+    circle = Constraint(FunctionBlock(("x",), 1, _circle), 1.0, 1.0)
+    far = Constraint(LinearBlock(("x",), [np.eye(2)]), -5.0, 5.0)  # inactive box: no multiplier
+    (y_circle, y_far) = _multipliers([VariableBlock("x", x)], [("target", cost, 1.0)], [circle, far])
+    assert y_circle == pytest.approx([(np.sqrt(5) - 1) / 2], rel=1e-6)
+    assert np.all(y_far == 0.0)
+
+
+def test_least_squares_multipliers_of_bounds_are_nonnegative():
+    # x = 1 at both bounds x ≤ 1 (pushed against by the cost toward 3) and x ≥ 1 (pulled away from):
+    # only the upper bound carries the cost's pull, y = 2; the lower one's least-squares share is dropped
+    cost = LinearBlock(("x",), [np.eye(1)], np.array([3.0]))
+    upper = Constraint(LinearBlock(("x",), [np.eye(1)]), -np.inf, 1.0)
+    lower = Constraint(LinearBlock(("x",), [np.eye(1)]), 1.0, np.inf)
+    y_upper, y_lower = _multipliers([VariableBlock("x", [1.0])], [("target", cost, 1.0)], [upper, lower])
+    assert y_upper == pytest.approx([2.0], rel=1e-6) and y_lower == pytest.approx([0.0], abs=1e-12)
+
+
+def test_least_squares_start_from_the_solution_stays_there():
+    x = np.array([2.0, 1.0]) / np.sqrt(5)
+    cost = LinearBlock(("x",), [np.eye(2)], np.array([2.0, 1.0]))
+    circle = Constraint(FunctionBlock(("x",), 1, _circle), 1.0, 1.0)
+    params = ALParams(multipliers="least_squares", mu_init=10.0)
+    r = solve_augmented_lagrangian([VariableBlock("x", x)], [("target", cost, 1.0)], [circle], params)
+    assert r.success and r.outer_iterations <= 2
+    assert r.values["x"] == pytest.approx(x, abs=1e-4)
