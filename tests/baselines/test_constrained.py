@@ -1,15 +1,10 @@
 """Constrained RRT-Connect on an analytic two-legged toy: both feet fixed, the body must pass an obstacle."""
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
 
 from legplan.baselines.constrained import StanceConstraint, plan_constrained
-
-sys.path.insert(0, str(Path(__file__).parent))
-from toy2 import TwoLegToy  # noqa: E402
+from toy2 import TwoLegToy
 
 FEET = np.array([[0.0, 0.15, 0.0], [0.0, -0.15, 0.0]])
 BALL, RADIUS = np.array([0.0, 0.0, 0.3]), 0.05

@@ -1,8 +1,5 @@
 """The batch layer on toy tasks: backends agree, failures are recorded, the work file resumes."""
 
-import sys
-from pathlib import Path
-
 import h5py
 import numpy as np
 import pytest
@@ -10,9 +7,7 @@ import pytest
 from legplan.batch import Backend, Task, run_batch, work_path
 from legplan.batch.workfile import read_record, write_record
 from legplan.errors import LegplanError
-
-sys.path.insert(0, str(Path(__file__).parent))
-from toytasks import Context, computed, failed, square  # noqa: E402
+from toytasks import Context, computed, failed, square
 
 ITEMS = list(range(8))
 

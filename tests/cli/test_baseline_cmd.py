@@ -1,8 +1,5 @@
 """`legplan baseline nav|step` end to end: artefacts, exit codes 0 / 1 (failed items) / 2 (bad input)."""
 
-import sys
-from pathlib import Path
-
 import h5py
 import pytest
 from click.testing import CliRunner
@@ -10,19 +7,11 @@ from click.testing import CliRunner
 from legplan.artefacts import read_summary
 from legplan.cli.main import cli
 from legplan.stepplan.batch import read_motion
-from legplan.stepseq.sequence import StepSequence, write_steps
-
-TESTS = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(TESTS / "baselines"))
-sys.path.insert(0, str(TESTS / "stepplan"))
-from scenes import box_scene  # noqa: E402
-from wallmap import build_wall_map  # noqa: E402
 
 
 @pytest.fixture(scope="module")
-def wall(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("baselinecli")
-    return tmp, build_wall_map(tmp)
+def wall(tmp_path_factory, wall_map):
+    return tmp_path_factory.mktemp("baselinecli"), wall_map
 
 
 def test_nav_writes_a_nav_artefact(wall):
@@ -64,19 +53,13 @@ def test_nav_bad_input_exits_2_without_output(wall, args):
 
 
 @pytest.fixture(scope="module")
-def box(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("baselinestep")
-    robot, terrain, map_path, q, stance, footholds = box_scene(tmp)
-    seq = StepSequence(q=q, stance=stance, footholds=footholds, robot=robot.name, robot_sha256="test",
-                       leg_names=[leg.name for leg in robot.legs], joint_names=robot.joint_names)
-    from legplan.validate.checks import Validator
-    steps_path = tmp / "steps.h5"
-    write_steps(steps_path, seq, Validator(robot, terrain).check(seq.q, seq.stance, seq.footholds))
-    return tmp, map_path, steps_path
+def box_files(tmp_path_factory, box):
+    """(directory for outputs, the box scene's map and steps.h5 of its three configurations)."""
+    return tmp_path_factory.mktemp("baselinestep"), box.map_path, box.steps_file()
 
 
-def test_step_writes_motion_read_by_the_step_reader(box):
-    tmp, map_path, steps_path = box
+def test_step_writes_motion_read_by_the_step_reader(box_files):
+    tmp, map_path, steps_path = box_files
     out = tmp / "motion_ompl.h5"
     result = CliRunner().invoke(cli, ["baseline", "step", str(map_path), str(steps_path), "--steps", "0",
                                       "--space", "tangent", "-o", str(out)])
@@ -89,8 +72,8 @@ def test_step_writes_motion_read_by_the_step_reader(box):
         assert read_summary(f)["steps_succeeded"][0] == 1
 
 
-def test_step_out_of_time_exits_1(box):
-    tmp, map_path, steps_path = box
+def test_step_out_of_time_exits_1(box_files):
+    tmp, map_path, steps_path = box_files
     out = tmp / "motion_timeout.h5"
     result = CliRunner().invoke(cli, ["baseline", "step", str(map_path), str(steps_path), "--steps", "1",
                                       "--time-budget", "1e-9", "-o", str(out)])
@@ -99,8 +82,8 @@ def test_step_out_of_time_exits_1(box):
     assert not record["success"] and "budget" in record["reason"]
 
 
-def test_step_bad_range_exits_2(box):
-    tmp, map_path, steps_path = box
+def test_step_bad_range_exits_2(box_files):
+    tmp, map_path, steps_path = box_files
     result = CliRunner().invoke(cli, ["baseline", "step", str(map_path), str(steps_path), "--steps", "5:9",
                                       "-o", str(tmp / "never.h5")])
     assert result.exit_code == 2 and "--steps" in result.stderr

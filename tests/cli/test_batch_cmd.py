@@ -9,22 +9,15 @@ import signal
 import socket
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import h5py
-import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from legplan.cli.main import cli
-from legplan.stepseq.sequence import StepSequence, write_steps
-from legplan.validate.checks import Validator
+from test_reproducible import assert_same
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "stepplan"))
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from scenes import box_scene  # noqa: E402
-from test_reproducible import assert_same  # noqa: E402
+from legplan.cli.main import cli
 
 BIN = Path(sys.executable).parent
 DONE = re.compile(r"item (\d+) done")
@@ -32,17 +25,11 @@ FAST = ["--param", "samples=30", "--param", "dense_samples=200"]
 
 
 @pytest.fixture(scope="module")
-def scene(tmp_path_factory):
+def scene(tmp_path_factory, box):
     """The box scene walked back and forth: 8 pairs (body shifts and swings over the box), and the
     in-process motion.h5 of it."""
-    tmp = tmp_path_factory.mktemp("batchcli")
-    robot, terrain, map_path, q, stance, footholds = box_scene(tmp)
-    order = [0, 1, 2, 1, 0, 1, 2, 1, 0]
-    seq = StepSequence(q=q[order], stance=stance[order], footholds=footholds[order], robot=robot.name,
-                       robot_sha256="test", leg_names=[leg.name for leg in robot.legs], joint_names=robot.joint_names)
-    steps = tmp / "steps.h5"
-    write_steps(steps, seq, Validator(robot, terrain).check(seq.q, seq.stance, seq.footholds))
-    reference = tmp / "reference.h5"
+    map_path, steps = box.map_path, box.steps_file((0, 1, 2, 1, 0, 1, 2, 1, 0))
+    reference = tmp_path_factory.mktemp("batchcli") / "reference.h5"
     result = CliRunner().invoke(cli, ["step", "plan", str(map_path), str(steps), "-o", str(reference), "-q", *FAST])
     assert result.exit_code in (0, 1), result.output
     return map_path, steps, reference, result.exit_code
@@ -168,13 +155,8 @@ def test_resume_refuses_the_work_file_of_other_inputs(scene, tmp_path):
 
 
 @pytest.mark.parametrize("command", [["nav", "search"], ["baseline", "nav", "--planner", "rrtconnect", "--seed", "4"]])
-def test_nav_queries_file_in_a_pool_gives_the_in_process_artefact(tmp_path, command):
-    from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
-
-    height = np.zeros((50, 80))
-    height[10:30, 35:45] = 0.5
-    map_path = tmp_path / "map.h5"
-    save_map(terrain_from_heightmap(height, Grid2D((0.05, 0.05), 0.1, height.shape), name="block"), map_path)
+def test_nav_queries_file_in_a_pool_gives_the_in_process_artefact(tmp_path, command, block_map):
+    map_path = block_map
     queries = tmp_path / "queries.csv"
     queries.write_text("start_x,start_y,start_vx,start_vy,goal_x,goal_y,goal_vx,goal_vy\n"
                        "1,2,0,0,7,2,0,0\n1,1,0,0,4,1.5,0,0\n7,4,0,0,1,0.5,0,0\n")  # the 2nd's goal is in the block

@@ -1,15 +1,11 @@
 """`legplan compare` exit codes, table and JSON."""
 
 import json
-import sys
-from pathlib import Path
 
 from click.testing import CliRunner
+from fake_artefacts import write_map, write_motion
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "report"))
-from fake_artefacts import write_map, write_motion  # noqa: E402
-
-from legplan.cli.main import cli  # noqa: E402
+from legplan.cli.main import cli
 
 
 def test_within_tolerance_exit_0_and_table(tmp_path):

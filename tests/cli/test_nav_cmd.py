@@ -7,26 +7,15 @@ from click.testing import CliRunner
 from legplan.artefacts import open_artefact, read_summary
 from legplan.cli.main import cli
 from legplan.nav import Trajectory
-from legplan.terrain import CostmapParams, Grid2D, save_map, terrain_from_heightmap
+from pictures import pixels, share
 
 
 def run(*args):
     return CliRunner().invoke(cli, [str(a) for a in args])
 
 
-def small_map(tmp_path):
-    """8 m × 5 m at 0.1 m with one 1 m × 2 m block."""
-    height = np.zeros((50, 80))
-    height[10:30, 35:45] = 0.5
-    grid = Grid2D((0.05, 0.05), 0.1, height.shape)
-    terrain = terrain_from_heightmap(height, grid, name="block", nav=CostmapParams())
-    path = tmp_path / "map.h5"
-    save_map(terrain, path)
-    return path
-
-
-def test_single_query_with_start_velocity_and_show(tmp_path):
-    map_path = small_map(tmp_path)
+def test_single_query_with_start_velocity_and_show(tmp_path, block_map):
+    map_path = block_map
     out = tmp_path / "nav.h5"
     result = run("nav", "search", map_path, "--start", 1, 2, "--start-vel", 0.4, 0, "--goal", 7, 2,
                  "-o", out, "--param", "weight=2", "-q")
@@ -44,11 +33,12 @@ def test_single_query_with_start_velocity_and_show(tmp_path):
     png = tmp_path / "nav.png"
     result = run("nav", "show", out, "--map", map_path, "-o", png)
     assert result.exit_code == 0, result.output
-    assert png.stat().st_size > 1000
+    image = pixels(png)   # the query's path (C0) over the lethal block (black)
+    assert share(image, "tab:blue") > 2e-4 and share(image, "black") > 0.01
 
 
-def test_batch_with_a_failing_query_exits_1_and_records_reasons(tmp_path):
-    map_path = small_map(tmp_path)
+def test_batch_with_a_failing_query_exits_1_and_records_reasons(tmp_path, block_map):
+    map_path = block_map
     queries = tmp_path / "queries.csv"
     queries.write_text("start_x,start_y,start_vx,start_vy,goal_x,goal_y,goal_vx,goal_vy\n"
                        "1,1,0,0,7,4,0,0\n"
@@ -69,8 +59,8 @@ def test_batch_with_a_failing_query_exits_1_and_records_reasons(tmp_path):
             assert read_summary(handle)["succeeded"][0] == 2
 
 
-def test_bad_inputs_exit_2_without_output(tmp_path):
-    map_path = small_map(tmp_path)
+def test_bad_inputs_exit_2_without_output(tmp_path, block_map):
+    map_path = block_map
     out = tmp_path / "nav.h5"
     result = run("nav", "search", map_path, "--start", 1, 1, "-o", out)
     assert result.exit_code == 2 and "--goal" in result.output
@@ -84,8 +74,8 @@ def test_bad_inputs_exit_2_without_output(tmp_path):
     assert not out.exists()
 
 
-def test_queries_from_a_movingai_scen_file(tmp_path):
-    map_path = small_map(tmp_path)
+def test_queries_from_a_movingai_scen_file(tmp_path, block_map):
+    map_path = block_map
     scen = tmp_path / "block.map.scen"
     scen.write_text("version 1\n3\tblock.map\t80\t50\t10\t30\t70\t45\t6.0\n")
     out = tmp_path / "nav.h5"

@@ -1,14 +1,9 @@
 """`legplan report` end to end on fake artefacts."""
 
-import sys
-from pathlib import Path
-
 from click.testing import CliRunner
+from fake_artefacts import write_map
 
-sys.path.insert(0, str(Path(__file__).parents[1] / "report"))
-from fake_artefacts import write_map  # noqa: E402
-
-from legplan.cli.main import cli  # noqa: E402
+from legplan.cli.main import cli
 
 
 def test_report_writes_index_and_refuses_existing(tmp_path):

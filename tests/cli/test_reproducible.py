@@ -3,7 +3,6 @@ by dataset and attribute by attribute, except what measures the clock (creation 
 and the provenance naming the run's own files (command line, input paths and their hashes)."""
 
 import re
-import sys
 from pathlib import Path
 
 import h5py
@@ -11,12 +10,6 @@ import numpy as np
 from click.testing import CliRunner
 
 from legplan.cli.main import cli
-from legplan.stepseq.sequence import StepSequence, write_steps
-from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
-from legplan.validate.checks import Validator
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "stepplan"))
-from scenes import box_scene  # noqa: E402
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"
 CLOCK = re.compile(r"(^created$|time|timings|seconds)")  # names of values read off the clock
@@ -59,34 +52,23 @@ def assert_same(a, b):
             assert value == other or (value != value and other != other), key  # NaN (a failed item's) equals NaN
 
 
-def test_map_steps_and_step_plan_twice(tmp_path):
+def test_map_steps_and_step_plan_twice(tmp_path, flat_map, box):
     for name in ("a", "b"):
         run("map", "build", MAPS / "flat.yaml", "-o", tmp_path / f"map_{name}.h5")
     assert_same(tmp_path / "map_a.h5", tmp_path / "map_b.h5")
 
-    grid = Grid2D(origin=(-0.6, -0.4), resolution=0.01, shape=(81, 121))
-    small = tmp_path / "small.h5"
-    save_map(terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat_small"), small)
     for name in ("a", "b"):
-        run("steps", "generate", small, "--robot", "scarab2", "--start", "-0.05", "0", "0",
+        run("steps", "generate", flat_map[1], "--robot", "scarab2", "--start", "-0.05", "0", "0",
             "--goal", "0.05", "0", "0", "--seed", "3", "-o", tmp_path / f"steps_{name}.h5")
     assert_same(tmp_path / "steps_a.h5", tmp_path / "steps_b.h5")
 
-    robot, terrain, map_path, q, stance, footholds = box_scene(tmp_path)
-    seq = StepSequence(q=q, stance=stance, footholds=footholds, robot=robot.name, robot_sha256="test",
-                       leg_names=[leg.name for leg in robot.legs], joint_names=robot.joint_names)
-    steps = tmp_path / "box_steps.h5"
-    write_steps(steps, seq, Validator(robot, terrain).check(q, stance, footholds))
     for name in ("a", "b"):
-        run("step", "plan", map_path, steps, "-o", tmp_path / f"motion_{name}.h5")
+        run("step", "plan", box.map_path, box.steps_file(), "-o", tmp_path / f"motion_{name}.h5")
     assert_same(tmp_path / "motion_a.h5", tmp_path / "motion_b.h5")
 
 
-def test_nav_search_refine_and_baseline_twice(tmp_path):
-    height = np.zeros((50, 80))
-    height[10:30, 35:45] = 0.5
-    map_path = tmp_path / "map.h5"
-    save_map(terrain_from_heightmap(height, Grid2D((0.05, 0.05), 0.1, height.shape), name="block"), map_path)
+def test_nav_search_refine_and_baseline_twice(tmp_path, block_map):
+    map_path = block_map
     query = ["--start", 1, 2, "--goal", 7, 2]
     for name in ("a", "b"):
         run("nav", "search", map_path, *query, "-o", tmp_path / f"nav_{name}.h5")

@@ -1,8 +1,6 @@
 """`legplan step plan|show` end to end on a small box map with a hand-made jueying_mini sequence."""
 
 import json
-import sys
-from pathlib import Path
 
 import h5py
 import numpy as np
@@ -11,27 +9,13 @@ from click.testing import CliRunner
 
 from legplan.artefacts import read_summary
 from legplan.cli.main import cli
-from legplan.stepseq.sequence import StepSequence, write_steps
-
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "stepplan"))
-from scenes import box_scene  # noqa: E402
+from pictures import pixels, share
 
 
 @pytest.fixture(scope="module")
-def inputs(tmp_path_factory):
-    tmp = tmp_path_factory.mktemp("stepcli")
-    robot, terrain, map_path, q, stance, footholds = box_scene(tmp)
-    seq = StepSequence(q=q, stance=stance, footholds=footholds, robot=robot.name, robot_sha256="test",
-                       leg_names=[leg.name for leg in robot.legs], joint_names=robot.joint_names)
-    validator_checks = _checks(robot, terrain, seq)
-    steps_path = tmp / "steps.h5"
-    write_steps(steps_path, seq, validator_checks)
-    return tmp, map_path, steps_path
-
-
-def _checks(robot, terrain, seq):
-    from legplan.validate.checks import Validator
-    return Validator(robot, terrain).check(seq.q, seq.stance, seq.footholds)
+def inputs(tmp_path_factory, box):
+    """(directory for outputs, the box scene's map and steps.h5 of its three configurations)."""
+    return tmp_path_factory.mktemp("stepcli"), box.map_path, box.steps_file()
 
 
 def test_plan_writes_every_step_and_table2(inputs):
@@ -57,7 +41,8 @@ def test_plan_writes_every_step_and_table2(inputs):
     png = tmp / "motion.png"
     shown = CliRunner().invoke(cli, ["step", "show", str(out), "--map", str(map_path), "-o", str(png)])
     assert shown.exit_code == 0, shown.output + str(shown.exception)
-    assert png.stat().st_size > 10_000
+    image = pixels(png)   # histogram bars of the succeeded steps and the first foot's track: tab:blue
+    assert share(image, "tab:blue") > 0.005 and share(image, "tab:red") < share(image, "tab:blue")
 
 
 def test_failed_step_is_recorded_and_exit_1(inputs):

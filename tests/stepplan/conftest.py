@@ -1,14 +1,8 @@
 """Fixtures of the step-planner tests: the analytic toy robot/terrain and hand-made step pairs."""
 
-import sys
-from pathlib import Path
-
 import numpy as np
 import pytest
-
-sys.path.insert(0, str(Path(__file__).parent))
-
-from toy import HIPS, ToyHill, ToyRobot, toy_configuration  # noqa: E402
+from toy import HIPS, ToyHill, ToyRobot, toy_configuration
 
 
 @pytest.fixture

@@ -10,12 +10,12 @@ from legplan.stepplan.measure import dense_check, requirements
 from legplan.stepplan.params import StepPlanParams
 from legplan.stepplan.planner import plan_step, terrain_distance
 from legplan.validate.checks import Validator
-from scenes import box_scene, standing_configuration
+from scenes import standing_configuration
 
 
 @pytest.fixture(scope="module")
-def scene(tmp_path_factory):
-    return box_scene(tmp_path_factory.mktemp("box"))
+def scene(box):
+    return box.robot, box.terrain, box.map_path, box.q, box.stance, box.footholds
 
 
 def _plan_and_check(robot, terrain, q, stance_pair, footholds_pair, params=StepPlanParams()):

@@ -57,3 +57,36 @@ def box_scene(tmp: Path):
                   standing_configuration(robot, terrain, [-0.03, -0.04, 0.30], feet),
                   standing_configuration(robot, terrain, [-0.03, -0.04, 0.30], moved)])
     return robot, terrain, map_path, q, np.ones((3, 4), bool), np.stack([feet, feet, moved])
+
+
+class BoxFiles:
+    """`box_scene` on disk: the map and steps.h5 files of its configurations in any order (each
+    written once, validated like `steps import`). Shared by a session: tests read these files and
+    write their outputs elsewhere."""
+
+    def __init__(self, tmp: Path):
+        self.directory = Path(tmp)
+        self.robot, self.terrain, self.map_path, self.q, self.stance, self.footholds = box_scene(tmp)
+        self._written: dict[tuple[int, ...], Path] = {}
+
+    def sequence(self, order=(0, 1, 2)):
+        """The configurations `order` as a `StepSequence`."""
+        from legplan.stepseq.sequence import StepSequence
+
+        order = list(order)
+        return StepSequence(q=self.q[order], stance=self.stance[order], footholds=self.footholds[order],
+                            robot=self.robot.name, robot_sha256="test", leg_names=[leg.name for leg in self.robot.legs],
+                            joint_names=self.robot.joint_names)
+
+    def steps_file(self, order=(0, 1, 2)) -> Path:
+        """steps.h5 of the configurations `order` (e.g. (0, 1, 2, 1, 0): walked there and back)."""
+        from legplan.stepseq.sequence import write_steps
+        from legplan.validate.checks import Validator
+
+        order = tuple(order)
+        if order not in self._written:
+            seq = self.sequence(order)
+            path = self.directory / f"steps_{'-'.join(map(str, order))}.h5"
+            write_steps(path, seq, Validator(self.robot, self.terrain).check(seq.q, seq.stance, seq.footholds))
+            self._written[order] = path
+        return self._written[order]
