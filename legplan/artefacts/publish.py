@@ -122,6 +122,13 @@ def staged_output(target: str | os.PathLike, *, overwrite: bool, directory: bool
         discard(temp)
 
 
+def save_figure(figure, path: str | os.PathLike, *, overwrite: bool = False, **options) -> None:
+    """`figure.savefig(path, **options)` published like any output (format from `path`'s suffix)."""
+    path = Path(path)
+    with staged_output(path, overwrite=overwrite) as temp:
+        figure.savefig(temp, format=path.suffix.lstrip(".").lower() or "png", **options)
+
+
 def publish(temp: Path, target: Path, overwrite: bool) -> None:
     """Rename `temp` (a file or directory) to `target` as the last step (module docstring)."""
     _pause_for_tests(target)

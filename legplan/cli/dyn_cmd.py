@@ -126,9 +126,9 @@ def show_cmd(paths, task_index, output, overwrite):
         raise LegplanError(f"dyn show: give one or two traj artefacts, got {len(paths)}")
     runs = [shown_task(path, task_index) for path in paths]
     if len(runs) == 1:
-        plot_trajectory(output, *runs[0])
+        plot_trajectory(output, *runs[0], overwrite=overwrite)
     else:
-        plot_comparison(output, runs[0], runs[1])
+        plot_comparison(output, runs[0], runs[1], overwrite=overwrite)
     status(f"wrote {output}")
 
 

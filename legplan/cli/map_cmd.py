@@ -90,7 +90,7 @@ def show(path, output, overwrite):
     from legplan.terrain.plot import render_map
 
     check_output(output, overwrite)
-    render_map(load_map(path), output)
+    render_map(load_map(path), output, overwrite=overwrite)
     status(f"wrote {output}")
 
 

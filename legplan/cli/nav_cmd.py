@@ -97,7 +97,7 @@ def show(nav_path, map_path, output, overwrite):
     check_output(output, overwrite)
     with open_artefact(nav_path, kind="nav") as handle:
         queries = read_queries(handle)
-    render_nav(NavGrid.from_map(map_path), queries, output)
+    render_nav(NavGrid.from_map(map_path), queries, output, overwrite=overwrite)
     status(f"wrote {output}")
 
 

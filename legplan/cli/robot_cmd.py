@@ -142,7 +142,7 @@ def show_command(robot, png, overwrite, as_json):
     if png:
         from legplan.robots.draw import draw_robot
 
-        draw_robot(model, model.q_nominal, png)
+        draw_robot(model, model.q_nominal, png, overwrite=overwrite)
     if as_json:
         click.echo(json.dumps(info, indent=2))
         return

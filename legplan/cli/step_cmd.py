@@ -109,4 +109,4 @@ def show_cmd(motion_path, map_path, output, overwrite):
     if not robot_name:
         raise LegplanError(f"{motion_path}: missing root attribute 'robot'")
     records = read_motion(motion_path)
-    plot_motion(output, load_robot(robot_name), load_map(map_path), records)
+    plot_motion(output, load_robot(robot_name), load_map(map_path), records, overwrite=overwrite)

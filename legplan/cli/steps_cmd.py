@@ -136,7 +136,7 @@ def show_cmd(steps_path, map_path, output, overwrite):
     check_output(output, overwrite)
     seq = read_steps(steps_path)
     robot = load_robot(seq.robot)
-    plot_steps(seq, robot.com(seq.q), load_map(map_path), output)
+    plot_steps(seq, robot.com(seq.q), load_map(map_path), output, overwrite=overwrite)
     click.echo(f"{output}: written")
 
 
@@ -152,5 +152,5 @@ def export_cmd(steps_path, output, overwrite):
 
     check_output(output, overwrite)
     seq = read_steps(steps_path)
-    write_records(output, seq)
+    write_records(output, seq, overwrite=overwrite)
     click.echo(f"{output}: {len(seq)} configurations")

@@ -16,6 +16,7 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 
+from legplan.artefacts.publish import save_figure
 from legplan.dyn.artefact import read_tasks
 from legplan.errors import LegplanError
 
@@ -49,7 +50,7 @@ def _nodes(task, block: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return values, np.asarray(group["span"]), legs
 
 
-def plot_trajectory(output, label: str, legs: list[str], task: dict) -> None:
+def plot_trajectory(output, label: str, legs: list[str], task: dict, *, overwrite: bool = False) -> None:
     """Fig. 3 of one task: base (left column), foot heights (middle), forces (right), one row per leg."""
     s = task["samples"]
     t, contact = s["t"], np.asarray(s["contact"], bool)
@@ -98,10 +99,10 @@ def plot_trajectory(output, label: str, legs: list[str], task: dict) -> None:
     for col in (1, 2):
         fig.axes[-1 if col == 2 else -2].set_xlabel("t [s]")
     fig.suptitle(f"{label}: nodes (red) and 10 ms samples; stance shaded")
-    fig.savefig(output, dpi=90)
+    save_figure(fig, output, overwrite=overwrite, dpi=90)
 
 
-def plot_comparison(output, run_a: tuple, run_b: tuple) -> None:
+def plot_comparison(output, run_a: tuple, run_b: tuple, *, overwrite: bool = False) -> None:
     """Fig. 4 (a)–(d): foot forces along x, y, z per leg and the base's roll and pitch rates, run A
     solid and run B dashed."""
     (label_a, legs, a), (label_b, _, b) = run_a, run_b
@@ -125,4 +126,4 @@ def plot_comparison(output, run_a: tuple, run_b: tuple) -> None:
         ax.set_xlabel("t [s]")
     fig.legend([Line2D([], [], color="k"), Line2D([], [], color="k", ls="--")], [label_a, label_b],
                loc="outside lower center", ncol=2, fontsize=9)
-    fig.savefig(output, dpi=90)
+    save_figure(fig, output, overwrite=overwrite, dpi=90)

@@ -7,11 +7,12 @@ import os
 
 import numpy as np
 
+from legplan.artefacts.publish import save_figure
 from legplan.nav.collision import NavGrid
 
 
 def render_nav(grid: NavGrid, queries: list[dict], path: str | os.PathLike, dpi: int = 120,
-               arrows: int = 25) -> None:
+               arrows: int = 25, *, overwrite: bool = False) -> None:
     """Draw `queries` (from `legplan.nav.artefact.read_queries`) over `grid`'s costmap (PNG)."""
     import matplotlib
     from matplotlib.figure import Figure
@@ -66,4 +67,4 @@ def render_nav(grid: NavGrid, queries: list[dict], path: str | os.PathLike, dpi:
     if queries:
         axes.legend(loc="upper left", fontsize=7, framealpha=0.8)
     figure.tight_layout()
-    figure.savefig(path, dpi=dpi)
+    save_figure(figure, path, overwrite=overwrite, dpi=dpi)

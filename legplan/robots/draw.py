@@ -13,6 +13,8 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from legplan.artefacts.publish import save_figure
+
 
 def leg_polylines(robot, q) -> list[np.ndarray]:
     """Per leg (k+1, 3): the base origin's hip, each joint origin and the foot, in the world."""
@@ -46,7 +48,7 @@ def joint_axes(robot, q) -> tuple[np.ndarray, np.ndarray]:
     return np.array(origins), np.array(axes)
 
 
-def draw_robot(robot, q, path: str | Path, title: str | None = None) -> Path:
+def draw_robot(robot, q, path: str | Path, title: str | None = None, *, overwrite: bool = False) -> Path:
     """Write a PNG of `robot` in configuration q (nq,) to `path`."""
     import matplotlib
     from matplotlib.colors import to_rgba
@@ -103,5 +105,5 @@ def draw_robot(robot, q, path: str | Path, title: str | None = None) -> Path:
     fig.suptitle(title or f"{robot.name}: {robot.n_legs} legs, {robot.nv} DOF, {len(spheres)} spheres")
     fig.tight_layout()
     path = Path(path)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, overwrite=overwrite, dpi=110)
     return path

@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from legplan.artefacts.publish import save_figure
 from legplan.geometry.bezier import evaluate
 
 
@@ -23,7 +24,7 @@ def sampled_tracks(robot, records, samples: int = 60):
     return np.concatenate(feet), np.concatenate(com)
 
 
-def plot_motion(path, robot, terrain, records) -> None:
+def plot_motion(path, robot, terrain, records, *, overwrite: bool = False) -> None:
     """Write a PNG: side view (x–z) of the terrain profile under the tracks, and Fig. 4 histograms."""
     from matplotlib.figure import Figure
 
@@ -72,4 +73,4 @@ def plot_motion(path, robot, terrain, records) -> None:
         ax.set_title(f"Fig. 4{title}")
         ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, overwrite=overwrite, dpi=120)

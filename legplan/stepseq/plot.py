@@ -8,10 +8,11 @@ import numpy as np
 from matplotlib.figure import Figure
 from matplotlib.patches import Polygon
 
+from legplan.artefacts.publish import save_figure
 from legplan.geometry.polygon import support_polygon
 
 
-def plot_steps(seq, com: np.ndarray, terrain, path, *, title: str | None = None) -> None:
+def plot_steps(seq, com: np.ndarray, terrain, path, *, title: str | None = None, overwrite: bool = False) -> None:
     """Write the top view of `seq` (StepSequence) with CoM positions `com` (k, 3) to `path`."""
     height = np.asarray(terrain.height)
     extent = terrain.grid.extent
@@ -50,4 +51,4 @@ def plot_steps(seq, com: np.ndarray, terrain, path, *, title: str | None = None)
     ax.set_title(title or f"{seq.robot}: {len(seq)} configurations")
     ax.legend(loc="upper right", fontsize=8, ncol=2)
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, overwrite=overwrite, dpi=110)

@@ -23,6 +23,7 @@ import h5py
 import numpy as np
 import yaml
 
+from legplan.artefacts.publish import staged_output
 from legplan.errors import SpecError
 from legplan.specio import read_csv_table, read_text
 
@@ -126,14 +127,15 @@ def sequence_records(seq) -> list[dict]:
     return records
 
 
-def write_records(path, seq) -> None:
-    """Export a `StepSequence` as CSV, JSON or YAML (format from the suffix); exact float text."""
+def write_records(path, seq, *, overwrite: bool = False) -> None:
+    """Export a `StepSequence` as CSV, JSON or YAML (format from the suffix); exact float text.
+    Published like any output (`legplan.artefacts.publish`)."""
     path = Path(path)
     fmt = file_format(path)
     records = sequence_records(seq)
     if fmt == "csv":
         header = list(records[0]) if records else []
-        with path.open("w", newline="") as handle:
+        with staged_output(path, overwrite=overwrite) as temp, temp.open("w", newline="") as handle:
             writer = csv.writer(handle)
             writer.writerow(header)
             for r in records:
@@ -151,4 +153,5 @@ def write_records(path, seq) -> None:
         nested.append(out)
     doc = {"robot": seq.robot, "configurations": nested}
     text = json.dumps(doc, indent=1) if fmt == "json" else yaml.safe_dump(doc, sort_keys=False)
-    path.write_text(text)
+    with staged_output(path, overwrite=overwrite) as temp:
+        temp.write_text(text)

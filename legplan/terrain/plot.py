@@ -6,6 +6,7 @@ import os
 
 import numpy as np
 
+from legplan.artefacts.publish import save_figure
 from legplan.terrain.terrain_map import TerrainMap
 
 
@@ -27,7 +28,7 @@ def _add_scale_bar(axes, width: float) -> None:
                                     fontproperties=FontProperties(size=8)))
 
 
-def render_map(terrain: TerrainMap, path: str | os.PathLike, dpi: int = 120) -> None:
+def render_map(terrain: TerrainMap, path: str | os.PathLike, dpi: int = 120, *, overwrite: bool = False) -> None:
     """Write a PNG with three panels: heightmap (hill-shaded), foothold mask, costmap."""
     import matplotlib
     from matplotlib.cm import ScalarMappable
@@ -63,4 +64,4 @@ def render_map(terrain: TerrainMap, path: str | os.PathLike, dpi: int = 120) -> 
         ax.set_xlabel("x [m]")
         ax.set_ylabel("y [m]")
         _add_scale_bar(ax, width)
-    figure.savefig(path, dpi=dpi)
+    save_figure(figure, path, overwrite=overwrite, dpi=dpi)

@@ -265,3 +265,17 @@ def test_two_writers_to_one_new_path(tmp_path, overwrite):
     with open_artefact(output, kind="map"):
         pass
     assert sorted(p.name for p in tmp_path.iterdir()) == ["map.h5", "spec.yaml"]
+
+
+def test_figures_are_published_like_artefacts(scene, tmp_path):
+    """A figure command (here `map show`) interrupted while writing keeps the older image."""
+    png = tmp_path / "map.png"
+    png.write_bytes(OLDER)
+    show = Command("map", "show", scene[0], "-o", png, "--overwrite", pause=30)
+    show.wait_for(PAUSING)
+    code, family = show.signal(signal.SIGTERM)
+    assert code == 143, show.text()
+    assert_all_gone(family)
+    assert png.read_bytes() == OLDER and sorted(p.name for p in tmp_path.iterdir()) == ["map.png"]
+    assert Command("map", "show", scene[0], "-o", png, "--overwrite").finish() == 0
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
