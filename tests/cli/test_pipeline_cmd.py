@@ -1,11 +1,14 @@
-"""`legplan pipeline run|show` end to end (the stages themselves are `legplan map show`: a stage
-that fails on a missing input, dry-run/spec-error paths, and stages the click commands refuse)."""
+"""`legplan pipeline run|show` end to end: real `map build` and `report` stages run and then are up
+to date; `legplan map show` stages for a stage that fails on a missing input, dry-run/spec-error
+paths, and stages the click commands refuse."""
+
+from pathlib import Path
 
 import pytest
 import yaml
 from click.testing import CliRunner
 
-from legplan.artefacts import write_artefact, write_summary
+from legplan.artefacts import open_artefact, read_provenance, read_summary, sha256_file, write_artefact, write_summary
 from legplan.cli.console import verbosity
 from legplan.cli.main import cli
 
@@ -106,3 +109,29 @@ def test_show_prints_resolved_commands(tmp_path):
     assert result.exit_code == 0
     first, second = result.stdout.splitlines()
     assert first.startswith("a: legplan inspect x --json -o ") and second.startswith("b (after a): ")
+
+
+def test_real_stages_publish_linked_artefacts_then_are_up_to_date(tmp_path):
+    """`map build` then `report` of its map, the real commands: each output is an artefact whose
+    provenance holds its input's sha256; a second run runs nothing and leaves them as they are."""
+    spec = Path(__file__).resolve().parents[2] / "maps" / "flat.yaml"
+    path = write(tmp_path, [
+        {"name": "map", "command": ["map", "build", str(spec)], "inputs": [str(spec)], "output": "map.h5"},
+        {"name": "report", "command": ["report", "{stages.map.output}"], "inputs": ["{stages.map.output}"],
+         "output": "report/", "provenance": "report/report.h5", "params": {"title": "flat ground"}}])
+    out = tmp_path / "o"
+    result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "--out", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "ran map (no output yet)" in result.stderr and "ran report (no output yet)" in result.stderr
+    with open_artefact(out / "map.h5", kind="map") as f:
+        assert [r["sha256"] for r in read_provenance(f)["inputs"]] == [sha256_file(spec)]
+        assert "terrain/height" in f
+    with open_artefact(out / "report" / "report.h5", kind="report") as f:
+        assert [r["sha256"] for r in read_provenance(f)["inputs"]] == [sha256_file(out / "map.h5")]
+        assert read_summary(f)["figures"][0] == 1 and read_summary(f)["figure_failures"][0] == 0
+    assert "<title>flat ground</title>" in (out / "report" / "index.html").read_text()
+    before = {p: p.read_bytes() for p in (out / "map.h5", out / "report" / "report.h5")}
+    again = CliRunner().invoke(cli, ["pipeline", "run", str(path), "--out", str(out)])
+    assert again.exit_code == 0, again.output
+    assert "map: up to date" in again.stderr and "report: up to date" in again.stderr
+    assert {p: p.read_bytes() for p in before} == before
