@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from legplan.errors import SpecError
-from legplan.specio import read_yaml
+from legplan.specio import read_yaml_mapping
 
 _PLACEHOLDER = re.compile(r"\{([^{}]+)\}")
 _STAGE_REF = re.compile(r"stages\.([^.{}]+)\.output")
@@ -93,9 +93,7 @@ class Pipeline:
 def load_pipeline(path: str | os.PathLike) -> Pipeline:
     """Read and validate a pipeline file; `SpecError` naming the file and field on any problem."""
     path = Path(path)
-    data = read_yaml(path, "pipeline file")
-    if not isinstance(data, dict):
-        raise SpecError(f"{path}: expected a mapping with field 'stages'")
+    data = read_yaml_mapping(path, "pipeline file")
     unknown = sorted(set(data) - _TOP_KEYS)
     if unknown:
         raise SpecError(f"{path}: unknown field '{unknown[0]}' (expected {', '.join(sorted(_TOP_KEYS))})")

@@ -64,3 +64,10 @@ def test_order_dependencies_and_resolution(tmp_path, write_pipeline):
     assert b.argv[3:13] == ("--flag", "--param", "x=1", "--param", "y=2", "--start", "-0.6", "0", "0", "-o")
     report = resolve_stage(pipeline, pipeline.stage("report"), out)
     assert report.output == out / "rep" and report.provenance == out / "rep" / "report.h5"
+
+
+def test_a_pipeline_file_that_is_not_a_mapping_is_one_line(tmp_path):
+    path = tmp_path / "list.yaml"
+    path.write_text("- name: a\n")
+    with pytest.raises(SpecError, match=f"^{path}: pipeline file must be a YAML mapping$"):
+        load_pipeline(path)
