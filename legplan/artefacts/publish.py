@@ -15,7 +15,7 @@ left by a SIGKILL. `publish(temp, target, overwrite)` is the last step of every 
   exception was swallowed on the way (`legplan.interrupts.raise_if_interrupted`);
 - a file without `overwrite`: `os.link(temp, target)`, which fails if the target exists (created by
   a concurrent writer since the early `check_output`, say) → `ArtefactError` "output exists", exit 2;
-  then the temporary name is unlinked. With `overwrite`: `os.replace`;
+  the temporary name is unlinked afterwards by `discard`. With `overwrite`: `os.replace`;
 - a directory without `overwrite`: renameat2(RENAME_NOREPLACE); with `overwrite`: RENAME_EXCHANGE
   with the existing directory (the old one, now under the temporary name, is removed afterwards).
   Where the file system lacks these flags (EINVAL), the target is checked and moved aside first.
@@ -142,8 +142,7 @@ def publish(temp: Path, target: Path, overwrite: bool) -> None:
             os.link(temp, target)
         except FileExistsError:
             raise ArtefactError(f"{target}: output exists (use --overwrite to replace it)") from None
-        temp.unlink()
-    note_published(target)
+    note_published(target)  # the temporary name (a second link, or a replaced directory): `discard`
 
 
 def _pause_for_tests(target: Path) -> None:
