@@ -37,11 +37,13 @@ import argparse
 import datetime
 import json
 import os
+import resource
 import statistics
 import subprocess
 import sys
 import tarfile
 import tempfile
+import time
 import tracemalloc
 from collections import Counter
 from io import BytesIO
@@ -54,7 +56,7 @@ from common import ROOT, load_average, machine, update_benchmarks, write_result
 from legplan.nav import PLANNERS, NavGrid, NavParams
 from legplan.nav.queries import read_scen
 from legplan.robots import load_robot
-from legplan.terrain import build_map
+from legplan.terrain import build_map, save_map
 from legplan.terrain.importers import import_movingai, import_ros
 
 MAPS = {"nav_30m": lambda: build_map(ROOT / "maps" / "nav_30m.yaml"),
@@ -63,6 +65,12 @@ STEADY_EXPANSIONS = 3000
 SCALE_SIZES = (256, 512, 1024)  # cells per side at SCALE_RESOLUTION
 SCALE_RESOLUTION = 0.2  # m
 OLD_DEFAULTS = {"geodesic_bound": "0", "max_expansions": "200000"}  # before issue 19
+OMPL_SCALE = ("rrtconnect", "rrtstar")  # OMPL rows of nav_scale (1 s budget each)
+RESTART_NOTE = (
+    "Restart stage budget (`kinoastar.STAGE_EXPANSIONS_PER_STEP`): 10 expansions per route step, chosen "
+    "in a side run (5 queries each on 256² and 512² street maps, load 5–7): 20 → 10 → 5 per step gave "
+    "max expansions 12406 → 7006 → 5606 (256²) and 18672 → 11085 → 6085 (512²), the larger restarts "
+    "costing effort on some queries (J 11.6 → 15.4).")
 SCALE_NOTES = (
     "Why the former opt-in `geodesic_bound` (T ≥ κ·T_route, combined with the straight-line bound "
     "T_s = max_d |Δ_d| / v_max by max) barely helped: κ = v_max τ / ((⌊v_max τ / R⌋ + 1) R) keeps "
@@ -73,7 +81,13 @@ SCALE_NOTES = (
     "consistent and falls along every route. Development run (earlier generator version, 6 queries "
     "on a 256² map, 20,000-expansion cap, load 14): κ·T_route by max solved 1/6 even at weight 5, "
     "the default form 6/6 at weight 2 (1.4k–5k expansions), an inconsistent κ = 1 form 6/6 with "
-    "0.5k–1.2k expansions but without the weight's suboptimality bound, so not used.")
+    "0.5k–1.2k expansions but without the weight's suboptimality bound, so not used. "
+    "Time ratio: median planning time / grid A*'s on the same map (issue 19's target: ≤ 2× for "
+    "kinoastar). OMPL rows: geometric RRT-Connect and RRT* of `baseline nav` (1 s budget; RRT* "
+    "uses all of it), same hard constraint, their polylines timed like grid A*'s (stop at every "
+    "vertex), so their T and effort are not comparable with kinoastar's smooth trajectories; "
+    "'expansions' are their motion checks; peak memory not measured (OMPL allocates in C++, "
+    "which tracemalloc does not see). " + RESTART_NOTE)
 
 
 def sample_queries(grid: NavGrid, count: int, rng: np.random.Generator) -> np.ndarray:
@@ -100,15 +114,23 @@ def steady_expansion_cost(grid, queries, params, repeats) -> float:
     return statistics.median(costs)
 
 
-def run_planner(name, grid, queries, params, repeats):
+def run_planner(name, grid, queries, params, repeats, plan=None):
+    """Summary of planner `name` (or the function `plan`) over `queries`: wall planning time as the
+    planner reports it and CPU time (time.process_time around the call), medians over repeats."""
+    plan = plan or PLANNERS[name]
     rows = []
     for query in queries:
-        results = [PLANNERS[name](grid, query[:4], query[4:], params) for _ in range(repeats)]
+        results, cpu = [], []
+        for _ in range(repeats):
+            clock = time.process_time()
+            results.append(plan(grid, query[:4], query[4:], params))
+            cpu.append(time.process_time() - clock)
         result = results[0]
         time_s = statistics.median(r.planning_time for r in results)
         trajectory = result.trajectory
         rows.append({"success": result.success, "reason": result.reason,
                      "expansions": result.expansions, "planning_time": time_s,
+                     "cpu_time": statistics.median(cpu),
                      "time_per_expansion": time_s / max(result.expansions, 1),
                      "duration": trajectory.duration if trajectory else None,
                      "length": trajectory.path_length() if trajectory else None,
@@ -122,6 +144,7 @@ def run_planner(name, grid, queries, params, repeats):
     return {"success_rate": len(ok) / len(rows),
             "median_planning_time_s": median("planning_time", rows),
             "max_planning_time_s": max(row["planning_time"] for row in rows),
+            "median_cpu_time_s": median("cpu_time", rows),
             "median_expansions": median("expansions", rows),
             "median_time_per_expansion_us": 1e6 * median("time_per_expansion", rows),
             "median_duration_s": median("duration", ok), "median_effort": median("effort", ok),
@@ -192,12 +215,14 @@ def peak_memory_mb(planner, grid, query, params) -> float:
     return peak / 2**20
 
 
-def measure_scale(args) -> dict:
-    """{map: {planner: summary + peak memory}} on the synthetic street maps (module doc)."""
+def measure_scale(args) -> tuple[dict, dict]:
+    """{map: {planner: summary + peak memory}} on the synthetic street maps (module doc), and the
+    start-up times of `measure_startup` on the smallest one."""
     navigation = load_robot("jueying_mini").navigation
     params = NavParams.for_robot(navigation)
-    planners = [("astar", "astar", params), ("kinoastar", "kinoastar", params),
-                ("kinoastar (old)", "kinoastar", params.with_overrides(OLD_DEFAULTS))]
+    planners = [("astar", "astar", params, None), ("kinoastar", "kinoastar", params, None),
+                ("kinoastar (old)", "kinoastar", params.with_overrides(OLD_DEFAULTS), None)]
+    planners += [(f"OMPL {name} (1 s)", name, None, ompl_planner(name, params)) for name in OMPL_SCALE]
     folder = args.scale_dir or Path(tempfile.mkdtemp(prefix="nav_scale_"))
     folder.mkdir(parents=True, exist_ok=True)
     print(f"nav_scale maps and scenarios in {folder}", file=sys.stderr)
@@ -207,16 +232,19 @@ def measure_scale(args) -> dict:
         occupancy = street_map(n, rng)
         name = f"streets_{n}"
         path = write_movingai(folder, name, occupancy, np.zeros((0, 8)))
-        grid = NavGrid.from_terrain(import_movingai(path, SCALE_RESOLUTION),
-                                    lethal_radius=navigation.inscribed_radius)
+        terrain = import_movingai(path, SCALE_RESOLUTION)
+        grid = NavGrid.from_terrain(terrain, lethal_radius=navigation.inscribed_radius)
+        if n == SCALE_SIZES[0]:
+            save_map(terrain, folder / f"{name}.h5")
+            startup = measure_startup(folder / f"{name}.h5", grid)
         write_movingai(folder, name, occupancy, sample_queries(grid, args.scale, rng))
         queries = read_scen(folder / f"{name}.map.scen", grid)
         label = f"streets {n}² ({n * SCALE_RESOLUTION:.0f} m)"
         longest = queries[np.argmax(np.hypot(*(queries[:, 4:6] - queries[:, :2]).T))]
         results[label] = {}
-        for planner_label, planner, chosen in planners:
-            entry = run_planner(planner, grid, queries, chosen, 1)
-            entry["peak_memory_mb"] = float("nan") if planner_label.endswith("(old)") else \
+        for planner_label, planner, chosen, plan in planners:
+            entry = run_planner(planner, grid, queries, chosen, 1, plan)
+            entry["peak_memory_mb"] = float("nan") if plan or planner_label.endswith("(old)") else \
                 peak_memory_mb(planner, grid, longest, chosen)
             results[label][planner_label] = entry
             print(f"{label:24s} {planner_label:16s} success {entry['success_rate']:.0%} "
@@ -224,14 +252,52 @@ def measure_scale(args) -> dict:
                   f"{entry['median_planning_time_s']:.3f} s max {entry['max_planning_time_s']:.3f} "
                   f"s expansions {entry['median_expansions']:.0f} peak "
                   f"{entry['peak_memory_mb']:.0f} MB", file=sys.stderr, flush=True)
+    return results, startup
+
+
+def ompl_planner(name: str, params: NavParams):
+    """An OMPL geometric planner (`legplan.baselines.nav`, 1 s budget, seed = query index order)
+    with the nav search's signature, timed like grid A* (trapezoid, stop at every vertex)."""
+    from legplan.baselines.nav import NavBaselineParams, plan_baseline
+
+    settings = NavBaselineParams(planner=name, time_budget=1.0, v_max=params.v_max, a_max=params.a_max)
+    seeds = iter(range(10**6))
+    return lambda grid, start, goal, _: plan_baseline(grid, start, goal, settings, next(seeds)).result
+
+
+def measure_startup(map_path: Path, grid: NavGrid, runs: int = 5) -> dict:
+    """Median wall and CPU seconds (the child's user + system time) of `legplan --help` and of a
+    trivial `nav search` (two free cells 1 m apart) on `map_path`, each in a fresh process."""
+    free = grid.frame.cell_center(*np.nonzero(grid.distance >= grid.l1 + 0.15))
+    free = free[~grid.blocked_at(free)]
+    a = free[0]
+    b = free[np.argmin(np.abs(np.hypot(*(free - a).T) - 1.0))]
+    out = map_path.with_suffix(".nav.h5")
+    legplan = str(Path(sys.executable).with_name("legplan"))
+    commands = {"legplan --help": [legplan, "--help"],
+                "legplan nav search (1 m, 256² map)": [
+                    legplan, "nav", "search", str(map_path), "--start", *map(str, a), "--goal", *map(str, b),
+                    "-o", str(out), "--overwrite", "-q"]}
+    results = {}
+    for label, command in commands.items():
+        walls, cpus = [], []
+        for _ in range(runs):
+            before = resource.getrusage(resource.RUSAGE_CHILDREN)
+            clock = time.perf_counter()
+            subprocess.run(command, check=True, stdout=subprocess.DEVNULL)
+            walls.append(time.perf_counter() - clock)
+            after = resource.getrusage(resource.RUSAGE_CHILDREN)
+            cpus.append(after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime)
+        results[label] = {"wall_s": statistics.median(walls), "cpu_s": statistics.median(cpus)}
     return results
 
 
 def scale_table(results: dict) -> list[str]:
-    lines = ["| map | planner | solved | median time (s) | max time (s) | median expansions | "
-             "peak memory (MB) | median T (s) | median effort J | median length ratio |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| map | planner | solved | median time (s) | max time (s) | time ratio | median CPU (s) | "
+             "median expansions | peak memory (MB) | median T (s) | median effort J | median length ratio |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for map_name, entry in results.items():
+        astar_time = entry["astar"]["median_planning_time_s"]
         reference = {i: row["length"] for i, row in enumerate(entry["astar"]["queries"])
                      if row["success"]}
         for label, summary in entry.items():
@@ -242,6 +308,7 @@ def scale_table(results: dict) -> list[str]:
             lines.append(
                 f"| {map_name} | {label} | {solved}/{len(rows)} | "
                 f"{summary['median_planning_time_s']:.2f} | {summary['max_planning_time_s']:.2f} | "
+                f"{summary['median_planning_time_s'] / astar_time:.2f}× | {summary['median_cpu_time_s']:.2f} | "
                 f"{summary['median_expansions']:.0f} | {summary['peak_memory_mb']:.0f} | "
                 f"{summary['median_duration_s']:.1f} | {summary['median_effort']:.2f} | "
                 f"{statistics.median(ratios) if ratios else float('nan'):.3f} |")
@@ -358,7 +425,7 @@ def main() -> None:
     load_start = load_average()
     before = measure_revision(args.before, args) if args.before else None
     results = measure(args)
-    scale = measure_scale(args) if args.scale else None
+    scale, startup = measure_scale(args) if args.scale else (None, None)
     params = NavParams.for_robot(load_robot("jueying_mini").navigation).replace(
         max_expansions=args.max_expansions)
     out = {"date": datetime.date.today().isoformat(), "machine": machine(),
@@ -369,6 +436,7 @@ def main() -> None:
         out["before"] = {"revision": args.before, "maps": before}
     if scale is not None:
         out["scale"] = scale
+        out["startup"] = startup
     write_result("nav_search", out)
     if args.no_append:
         return
@@ -396,7 +464,10 @@ def main() -> None:
                   "bench/nav_search.py (synthetic stand-ins for MovingAI street maps). Length "
                   "ratio: path length / grid A*'s on the same query. 'kinoastar (old)': "
                   "geodesic_bound=0, max_expansions=200000 (the previous defaults).", ""] + \
-            scale_table(scale) + ["", SCALE_NOTES]
+            scale_table(scale) + ["", SCALE_NOTES, "", "Start-up (issue 19: shell pipelines call legplan once "
+                                  "per stage and query), median of 5 fresh processes, CPU = the child's user + "
+                                  "system time: " + "; ".join(f"`{label}` {v['wall_s']:.2f} s wall, {v['cpu_s']:.2f} s CPU"
+                                                              for label, v in startup.items()) + "."]
     update_benchmarks("nav_search", "\n".join(lines))
 
 
