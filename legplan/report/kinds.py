@@ -144,3 +144,17 @@ def traj_trajectory(path: Path, png: Path) -> str | None:
     plot_trajectory(png, *shown_task(path, drawn))
     return (f"Task {drawn} of {len(tasks)}: base, foot heights and forces over time with the optimization "
             "nodes (the TOWR-costs paper's Fig. 3).")
+
+
+@figure("dataset", "outcomes")
+def dataset_outcomes(path: Path, png: Path) -> str:
+    from legplan.learn.figures import dataset_figure
+
+    return dataset_figure(path, png)
+
+
+@figure("init", "fit")
+def init_fit(path: Path, png: Path) -> str:
+    from legplan.learn.figures import init_figure
+
+    return init_figure(path, png)

@@ -100,3 +100,25 @@ def test_dyn_plan_takes_the_learned_initializer_and_refuses_another_layout(train
     bad = invoke("dyn", "plan", flat, "--gait", "walk", "--strides", 2, "--duration", 2.4, "--init", tmp / "init.h5",
                  "--start", -0.5, 0.1, 0.0, "--goal", 0.0, 0.0, 0.0, "-o", tmp_path / "u.h5", "-q")
     assert bad.exit_code == 2 and "init.h5" in bad.output and not (tmp_path / "u.h5").exists()
+
+
+def test_report_draws_the_dataset_outcomes_and_the_fit(trained):
+    from matplotlib.image import imread
+
+    tmp, _ = trained
+    result = invoke("report", tmp / "d0.h5", tmp / "init.h5", "-o", tmp / "report", "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    pngs = {p.name: p for p in (tmp / "report").glob("*.png")}
+    outcome = next(p for name, p in pngs.items() if name.endswith("-outcomes.png"))
+    assert any(name.endswith("-fit.png") for name in pngs)
+    pixels = imread(outcome)[..., :3]
+    assert (pixels.std(axis=(0, 1)) > 0.05).any()  # drawn, not blank
+    assert "6/6 tasks converged" in (tmp / "report" / "index.html").read_text()
+
+
+def test_success_within_is_the_fraction_converged_by_each_budget():
+    from legplan.learn.figures import success_within
+
+    ok = np.array([True, True, False, True])
+    iterations = np.array([3, 10, 25, 0])
+    assert success_within(ok, iterations, np.array([0, 2, 3, 9, 10, 100])).tolist() == [0.25, 0.25, 0.5, 0.5, 0.75, 0.75]
