@@ -21,6 +21,7 @@ def write_motion(path, times=(0.5, 1.5, 12.0), slips=(1e-7, 2e-7, 3e-3), success
         steps = f.create_group("steps")
         for i, (t, slip, ok) in enumerate(zip(times, slips, success)):
             g = steps.create_group(f"{i:04d}")
+            g.attrs["index"] = i
             g.attrs["success"] = ok
             g.attrs["reason"] = "" if ok else "slip too large"
             g.attrs["seconds"] = t
@@ -68,9 +69,14 @@ def write_traj(path, map_path, samples=120):
     with write_artefact(path, "traj", inputs=[map_path]) as f:
         f.attrs.update(robot="anymal", legs="lf,rf,lh,rh")
         g = f.create_group("tasks/0000")
-        g.attrs.update(success=True, reason="converged", duration=1.2, max_violation=2e-4)
-        for name, value in {"t": t, "base_pos": base, "base_euler": np.zeros_like(base), "feet_pos": feet,
-                            "forces": forces, "contact": np.ones((samples, legs), bool)}.items():
+        g.attrs.update(index=0, success=True, reason="converged", duration=1.2, max_violation=2e-4)
+        write_dataset(g, "start", [0.0, 0.0, 0.0])
+        write_dataset(g, "goal", [0.3, 0.0, 0.0])
+        still = np.zeros_like(base)   # velocities, accelerations, Euler angles and rates
+        for name, value in {"t": t, "base_pos": base, "base_vel": still, "base_acc": still, "base_euler": still,
+                            "base_euler_rate": still, "base_ang_vel": still, "base_ang_acc": still, "feet_pos": feet,
+                            "feet_vel": np.zeros_like(feet), "forces": forces,
+                            "contact": np.ones((samples, legs), bool)}.items():
             write_dataset(g, f"samples/{name}", value)
         write_summary(f, {"tasks": 1, "succeeded": 1, "max_violation": 2e-4})
     return path

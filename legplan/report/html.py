@@ -59,6 +59,15 @@ def relative(text: str, directory: str) -> str:
     return prefix + sep + os.path.relpath(value, directory) if os.path.isabs(value) else text
 
 
+def _relative_values(value, directory: str):
+    """`value` (JSON: dicts, lists, strings, numbers) with every absolute path string made relative."""
+    if isinstance(value, dict):
+        return {key: _relative_values(item, directory) for key, item in value.items()}
+    if isinstance(value, list):
+        return [_relative_values(item, directory) for item in value]
+    return relative(value, directory) if isinstance(value, str) else value
+
+
 def _verdict_table(sections: list[ArtefactSection]) -> str:
     rows = []
     for s in sections:
@@ -77,7 +86,7 @@ def _section(section: ArtefactSection, directory: str) -> str:
     command = shlex.join(relative(token, directory) for token in p["command"])
     rows = [("kind", p["kind"]), ("schema", p["schema_version"]), ("legplan", p["legplan_version"]),
             ("created", p["created"]), ("command", command), ("seed", p["seed"]),
-            ("params", json.dumps(p["params"], sort_keys=True))]
+            ("params", json.dumps(_relative_values(p["params"], directory), sort_keys=True, ensure_ascii=False))]
     rows += [("input", f'{relative(r["path"], directory)} ({r["kind"]}, sha256 {r["sha256"][:12]})')
              for r in p["inputs"]]
     provenance = "".join(f"<tr><th>{escape(k)}</th><td><code>{escape(str(v))}</code></td></tr>"

@@ -58,7 +58,9 @@ def motion_scene(path: str | os.PathLike) -> dict | None:
     colours = ["#222" if foot else "#999" if leg < 0 else LEG_COLOURS[leg % len(LEG_COLOURS)]
                for foot, leg in zip(spheres.is_foot, spheres.leg_index)]
     points = np.array([f["s"] for f in frames], float).reshape(-1, 3) / 1000
-    return {"title": f"{Path(path).name}: {len(frames) // per_step} steps of {robot_name}",
+    shown = len(frames) // per_step
+    steps = f"{shown} steps" if shown == len(records) else f"the first {shown} of {len(records)} steps"
+    return {"title": f"{Path(path).name}: {steps} of {robot_name}",
             "dt": 1.0 / per_step, "terrain": _terrain(load_map(terrain_path), points),
             "radii": _mm(spheres.radii), "colours": colours, "frames": frames}
 

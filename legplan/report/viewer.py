@@ -46,22 +46,26 @@ VIEWER_JS = """
     var canvas = root.querySelector("canvas"), ctx = canvas.getContext("2d");
     var slider = root.querySelector("input"), button = root.querySelector("button"), label = root.querySelector("span");
     var quads = terrainQuads(scene.terrain), frames = scene.frames, frame = 0, playing = true, last = null;
-    var all = [];
-    frames.forEach(function (f) { all = all.concat(points(f.s), points(f.b || [])); });
-    quads.forEach(function (q) { all = all.concat(q.c); });
     var lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
-    all.forEach(function (p) { for (var k = 0; k < 3; k++) { lo[k] = Math.min(lo[k], p[k]); hi[k] = Math.max(hi[k], p[k]); } });
+    function extend(p) { for (var k = 0; k < 3; k++) { lo[k] = Math.min(lo[k], p[k]); hi[k] = Math.max(hi[k], p[k]); } }
+    frames.forEach(function (f) { points(f.s).forEach(extend); points(f.b || []).forEach(extend); });
+    quads.forEach(function (q) { q.c.forEach(extend); });
     var centre = [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2];
     var camera = {yaw: -2.2, pitch: 0.55, dist: 1.6 * Math.max(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 0.2)};
     slider.max = frames.length - 1;
 
-    function project(p) {
+    var view = null;  // eye and camera axes, set at the start of each draw
+    function look() {
       var cp = Math.cos(camera.pitch);
       var eye = [centre[0] + camera.dist * cp * Math.cos(camera.yaw), centre[1] + camera.dist * cp * Math.sin(camera.yaw),
                  centre[2] + camera.dist * Math.sin(camera.pitch)];
-      var f = unit(sub(centre, eye)), r = unit(cross(f, [0, 0, 1])), u = cross(r, f), d = sub(p, eye);
-      var depth = Math.max(dot(d, f), 1e-3), focal = canvas.height * 1.3;
-      return [canvas.width / 2 + focal * dot(d, r) / depth, canvas.height / 2 - focal * dot(d, u) / depth, depth, focal / depth];
+      var f = unit(sub(centre, eye)), r = unit(cross(f, [0, 0, 1]));
+      view = {eye: eye, f: f, r: r, u: cross(r, f), focal: canvas.height * 1.3};
+    }
+    function project(p) {
+      var d = sub(p, view.eye), depth = Math.max(dot(d, view.f), 1e-3);
+      return [canvas.width / 2 + view.focal * dot(d, view.r) / depth,
+              canvas.height / 2 - view.focal * dot(d, view.u) / depth, depth, view.focal / depth];
     }
     function path(list, close) {
       ctx.beginPath();
@@ -70,6 +74,7 @@ VIEWER_JS = """
     }
     function draw() {
       var f = frames[frame];
+      look();
       ctx.fillStyle = root.dataset.background;
       ctx.fillRect(0, 0, canvas.width, canvas.height);
       quads.map(function (q) { return {q: q, d: q.c.reduce(function (s, p) { return s + project(p)[2]; }, 0)}; })

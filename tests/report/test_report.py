@@ -62,10 +62,10 @@ def test_report_has_summary_tables_figures_and_provenance(tmp_path, artefacts):
 def test_unregistered_kind_gets_dataset_listing(tmp_path):
     from legplan.artefacts import write_artefact, write_dataset
 
-    with write_artefact(tmp_path / "t.h5", "init") as f:
+    with write_artefact(tmp_path / "t.h5", "report") as f:
         write_dataset(f, "com", [[0.0, 0.0, 0.1]], units="m")
     write_report([tmp_path / "t.h5"], tmp_path / "rep")
-    assert parse(tmp_path / "rep").images == ["00-init-datasets.png"]
+    assert parse(tmp_path / "rep").images == ["00-report-datasets.png"]
     assert "No" in parse(tmp_path / "rep").cells   # no /summary table message
 
 
