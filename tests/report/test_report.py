@@ -8,6 +8,7 @@ from html.parser import HTMLParser
 
 import numpy as np
 import pytest
+from pictures import pixels, share
 
 from legplan.artefacts import open_artefact, read_provenance, read_summary, sha256_file
 from legplan.errors import ArtefactError
@@ -49,8 +50,9 @@ def test_report_has_summary_tables_figures_and_provenance(tmp_path, artefacts):
                                            "2/3 steps succeeded", "worst slip 3 mm", "1 × slip too large"]
     assert str(tmp_path) not in (out / "index.html").read_text()   # paths relative to the report
     assert page.images == ["00-map-layers.png", "01-motion-steps.png"]
-    for image in page.images:
-        assert (out / image).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    layers, steps = (pixels(out / image) for image in page.images)
+    assert len(np.unique(layers.reshape(-1, 3), axis=0)) > 100   # two filled colour-mapped grids
+    assert share(steps, "tab:blue") > 1e-3 and share(steps, "tab:red") > 1e-3   # succeeded and failed bars
     assert result.failures == 0
     with open_artefact(out / "report.h5", kind="report") as f:
         inputs = read_provenance(f)["inputs"]
