@@ -22,13 +22,14 @@ TEB compute, measured afterwards one process at a time (nothing else of this ben
 time per simulation cycle (Table II pair 1, kinodynamic A*, first 15 s: 5 m window, warm-started or
 re-initialized every cycle) and refining whole nav_30m kinodynamic A* trajectories (`refine_path`),
 each in a fresh process, `--repeats` times, alternating with the same measurement of the reference:
-the TEB modules (legplan/nav/teb, legplan/nav/simulate.py, this script) at commit `--reference`
-over the rest of the current tree. Medians over the repeats.
+the `legplan` package and `bench/` at commit `--reference` (maps and robots of the current tree;
+none by default). Medians over the repeats. (Until the nav package was reorganised, the reference
+was the TEB modules alone of c878aef over the current tree; they no longer fit the current tree.)
 Everything runs with one BLAS thread (OPENBLAS/OMP/MKL_NUM_THREADS=1 unless set): with several
 runs on the 2-core machine, BLAS worker threads oversubscribe the cores (TEB cycles measured ~1.7×
 slower with the default threads, same results).
 Writes bench/results/nav_paper.json and updates its section of BENCHMARKS.md.
-    .venv/bin/python bench/nav_paper.py [--pairs 4] [--seed 0] [--jobs 2] [--repeats 3] [--reference c878aef] [--no-append]
+    .venv/bin/python bench/nav_paper.py [--pairs 4] [--seed 0] [--jobs 2] [--repeats 3] [--reference REV] [--no-append]
 """
 
 from __future__ import annotations
@@ -76,7 +77,6 @@ WALL_BUDGET = 240.0  # s of wall time per simulation run before it is recorded a
 HIDDEN_BOX = 0.6  # m, side of each unexpected obstacle of the Table II runs with hidden obstacles
 CYCLE_SIM_TIME = 15.0  # s simulated for the warm/cold cycle-time comparison
 REFINE_QUERIES = [((0.5, 0.5), (29.5, 29.5)), ((0.5, 15.0), (29.5, 15.0)), ((6.0, 0.5), (24.0, 29.5))]
-TEB_FILES = ("legplan/nav/teb", "legplan/nav/simulate.py", "bench/nav_paper.py")
 COMPUTE = """
 import json, sys
 sys.path[:0] = [{root!r}, {root!r} + "/bench"]
@@ -187,14 +187,16 @@ def refine_times(terrain, queries):
 
 
 def reference_tree(commit: str, where: Path) -> Path:
-    """The current tree's legplan, bench, maps and robots with `TEB_FILES` as at `commit`."""
-    for name in ("legplan", "bench", "maps", "robots"):
-        shutil.copytree(ROOT / name, where / name, ignore=shutil.ignore_patterns("__pycache__", "results"))
-    for name in TEB_FILES:
-        target = where / name
-        shutil.rmtree(target) if target.is_dir() else target.unlink()
-    archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit, *TEB_FILES], check=True, capture_output=True)
+    """`legplan/` and `bench/` as at `commit`, with the current tree's maps and robots."""
+    for name in ("maps", "robots"):
+        shutil.copytree(ROOT / name, where / name, ignore=shutil.ignore_patterns("__pycache__"))
+    archive = subprocess.run(["git", "-C", str(ROOT), "archive", commit, "legplan", "bench"], check=True,
+                             capture_output=True)
     subprocess.run(["tar", "-x", "-C", str(where)], input=archive.stdout, check=True)
+    shipped = where / "legplan" / "robot_models"
+    if shipped.is_symlink():  # the package-data link to ../robots, pointing into `where`
+        shipped.unlink()
+        shipped.symlink_to(where / "robots")
     return where
 
 
@@ -232,7 +234,7 @@ def main():
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--jobs", type=int, default=2)
     ap.add_argument("--repeats", type=int, default=3, help="fresh-process repeats of the compute-time rows")
-    ap.add_argument("--reference", default="c878aef", help="commit of the reference TEB ('' = none)")
+    ap.add_argument("--reference", default="", help="commit of the reference legplan and bench ('' = none)")
     ap.add_argument("--no-append", action="store_true")
     args = ap.parse_args()
     terrain = build_map(ROOT / "maps" / "nav_30m.yaml")
@@ -306,7 +308,7 @@ def report(result: dict, pairs) -> list[str]:
         lines.append(f"| {r['name']} | {legs} | {sum(r['legs']):.1f} | {total} | {paper} |")
     names = list(compute)
     lines += ["", f"TEB compute (one BLAS thread everywhere), one process at a time, median of {result['repeats']} fresh-process runs per tree, "
-              "alternating" + (f"; reference = TEB modules at {result['reference']} over the current tree" if len(names) > 1 else "") + ":", "",
+              "alternating" + (f"; reference = legplan and bench at {result['reference']} (maps, robots of the current tree)" if len(names) > 1 else "") + ":", "",
               "| TEB cycle, 5 m window (pair 1, kino A*, first 15 s) | tree | cycles | median (ms) | p95 (ms) | "
               "median LM iterations | median poses |", "|---|---|---|---|---|---|---|"]
     for i, label in enumerate(("warm start", "re-initialized every cycle")):
