@@ -67,7 +67,7 @@ def test_built_wheel_lists_robots_and_plans_outside_the_repository(tmp_path):
                            cwd=work, env=env, capture_output=True, text=True, check=True).stdout
     assert where.startswith(str(tmp_path / "venv"))
     listing = legplan("robot", "list")
-    assert f"robots in {tmp_path / 'venv'}" in listing and "robot_models" in listing
+    assert f"robots in {(tmp_path / 'venv').resolve()}" in listing and "robot_models" in listing
     assert {"scarab2", "jueying_mini", "anymal"} <= {line.split()[0] for line in listing.splitlines()[1:]}
     assert "broken" not in listing
     (work / "flat.yaml").write_text(FLAT_MAP)

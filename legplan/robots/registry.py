@@ -29,8 +29,9 @@ ENV_ROBOTS = "LEGPLAN_ROBOTS"
 
 
 def shipped_robots_dir() -> Path:
-    """The folder of the robots that ship with legplan (package data `legplan/robot_models`)."""
-    return Path(str(files("legplan") / "robot_models"))
+    """The folder of the robots that ship with legplan (package data `legplan/robot_models`), with
+    the link resolved: the repository's `robots/` in a source checkout, so messages name it."""
+    return Path(str(files("legplan") / "robot_models")).resolve()
 
 
 def robot_search_path() -> list[Path]:
