@@ -31,6 +31,9 @@ def drafted(tmp_path_factory):
 
 
 def test_draft_finds_legs_feet_limits_and_a_stance_on_the_ground(drafted):
+    urdf = pin.buildModelFromUrdf(str(HEXAPOD), pin.JointModelFreeFlyer())
+    assert not any("foot" in frame.name or "tip" in frame.name for frame in urdf.frames)  # no foot frames
+    assert {urdf.frames[k].name for k in range(len(urdf.frames))} >= {"tibia_lf", "tibia_rr"}
     spec = yaml.safe_load(drafted.read_text())
     assert spec["name"] == "phantom"
     assert [leg["name"] for leg in spec["legs"]] == ["lf", "lm", "lr", "rf", "rm", "rr"]
