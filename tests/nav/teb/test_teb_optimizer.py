@@ -13,19 +13,16 @@ from legplan.nav.teb.reference import GlobalPath
 from legplan.nav.teb.residuals import PathTerm, band_vector
 from legplan.nav.teb.resize import resize
 from legplan.nav.teb.yaw import YawPolicy
-from legplan.robots.navigation import KinodynamicLimits
 from legplan.terrain.grid import Grid2D
 from legplan.terrain.layers import obstacle_distance
 
-TABLE_I = KinodynamicLimits(v_x_max=0.75, v_x_min=0.10, v_y_max=0.20, omega_max=0.70, a_x_max=1.00,
-                            a_y_max=0.17, alpha_max=0.52)
 PARAMS = TebParams()
 
 
-def refine(waypoints, params=PARAMS, **scene):
+def refine(waypoints, table_i, params=PARAMS, **scene):
     path = GlobalPath.from_waypoints(np.array(waypoints, float), speed=0.5)
     band = initial_band(path, params.dt_ref)
-    return path, optimize_band(band, TABLE_I, params, Scene(path=path, start_velocity=np.zeros(3), **scene))
+    return path, optimize_band(band, table_i, params, Scene(path=path, start_velocity=np.zeros(3), **scene))
 
 
 def corridor_field(walls_y=(-1.0, 1.0)):
@@ -35,11 +32,11 @@ def corridor_field(walls_y=(-1.0, 1.0)):
     return DistanceField(obstacle_distance(occupied, grid.resolution), grid)
 
 
-def test_straight_corridor_satisfies_limits_within_epsilon():
+def test_straight_corridor_satisfies_limits_within_epsilon(table_i):
     field = corridor_field()
-    path, result = refine([[0, 0], [8, 0]], distance=field)
+    path, result = refine([[0, 0], [8, 0]], table_i, distance=field)
     band = result.band
-    violations = limit_violations(band, TABLE_I)
+    violations = limit_violations(band, table_i)
     assert max(violations.values()) <= PARAMS.epsilon, violations
     # time-optimal: close to the bang-coast-bang minimum 8/0.75 + 0.75/1.0 ≈ 11.4 s, faster than the 16 s path
     assert band.duration < 12.5
@@ -48,10 +45,10 @@ def test_straight_corridor_satisfies_limits_within_epsilon():
     assert field.values(band.poses[:, :2]).min() >= PARAMS.min_obstacle_distance
 
 
-def test_l_shaped_path_satisfies_limits_within_epsilon():
-    path, result = refine([[0, 0], [5, 0], [5, 4]])
+def test_l_shaped_path_satisfies_limits_within_epsilon(table_i):
+    path, result = refine([[0, 0], [5, 0], [5, 4]], table_i)
     band = result.band
-    violations = limit_violations(band, TABLE_I)
+    violations = limit_violations(band, table_i)
     assert max(violations.values()) <= PARAMS.epsilon, violations
     assert np.allclose(band.poses[-1, :2], [5, 4])
     assert len(result.rounds) == PARAMS.outer_iterations
@@ -59,23 +56,23 @@ def test_l_shaped_path_satisfies_limits_within_epsilon():
     assert abs(band.poses[0, 2]) < 1e-9 and abs(wrap_angle(band.poses[-2, 2] - np.pi / 2)) < 0.3
 
 
-def test_nonomnidirectional_band_has_no_lateral_velocity():
+def test_nonomnidirectional_band_has_no_lateral_velocity(table_i):
     path = GlobalPath.from_waypoints(np.array([[0, 0], [4, 0], [4, 3]], float), speed=0.5)
     band = initial_band(path, PARAMS.dt_ref)
     params = PARAMS.replace(omnidirectional=False, outer_iterations=8)  # turning on the spot needs more rounds
-    result = optimize_band(band, TABLE_I, params, Scene(path=path, start_velocity=np.zeros(3)))
+    result = optimize_band(band, table_i, params, Scene(path=path, start_velocity=np.zeros(3)))
     poses, dt = result.band.poses, result.band.dt
     mean = poses[:-1, 2] + wrap_angle(np.diff(poses[:, 2])) / 2  # chord direction of an arc
     delta = np.diff(poses[:, :2], axis=0)
     lateral = (-np.sin(mean) * delta[:, 0] + np.cos(mean) * delta[:, 1]) / dt
     assert np.abs(lateral).max() < 0.02
     assert np.abs(poses[-1, :2] - [4, 3]).max() < 1e-9
-    assert max(limit_violations(result.band, TABLE_I).values()) <= params.epsilon
+    assert max(limit_violations(result.band, table_i).values()) <= params.epsilon
 
 
-def test_via_point_with_heading_is_passed():
+def test_via_point_with_heading_is_passed(table_i):
     via = ViaPoint((3.0, 0.3), heading=0.3)
-    path, result = refine([[0, 0], [6, 0]], PARAMS.replace(outer_iterations=8), via=(via,))
+    path, result = refine([[0, 0], [6, 0]], table_i, PARAMS.replace(outer_iterations=8), via=(via,))
     band = result.band
     k = np.argmin(np.hypot(*(band.poses[:, :2] - via.xy).T))
     # pulled 0.3 m off the global path (lateral motion is slow: v_y ≤ 0.2 m/s, a_y ≤ 0.17 m/s²)
@@ -101,12 +98,12 @@ def test_resize_never_goes_below_min_poses():
     assert np.allclose(out.poses[[0, -1]], band.poses[[0, -1]])
 
 
-def test_yaw_wraps_the_short_way_around_pi():
+def test_yaw_wraps_the_short_way_around_pi(table_i):
     # start facing +179°, goal facing −179°: the band must turn 2°, not 358°
     start, goal = np.pi - np.radians(1), -np.pi + np.radians(1)
     path = GlobalPath.from_waypoints(np.array([[0, 0], [-2.0, 0.0]]), speed=0.5)
     band = initial_band(path, PARAMS.dt_ref, YawPolicy("heading", heading=start), goal_heading=goal)
-    result = optimize_band(band, TABLE_I, PARAMS, Scene(path=path, start_velocity=np.zeros(3)))
+    result = optimize_band(band, table_i, PARAMS, Scene(path=path, start_velocity=np.zeros(3)))
     turn = np.abs(wrap_angle(np.diff(result.band.poses[:, 2]))).sum()
     assert turn < 0.3  # the long way round would be 2π − 2° ≈ 6.25 rad
     assert np.all(np.abs(result.band.poses[:, 2]) > np.pi / 2)
@@ -123,12 +120,12 @@ def test_yaw_policies():
     assert np.allclose(YawPolicy("target", target=(1.0, 2.0)).angles(pts, vel)[2], np.pi / 2)
 
 
-def test_path_attraction_window_follows_arc_length_not_timing():
+def test_path_attraction_window_follows_arc_length_not_timing(table_i):
     # poses on the path, but the band spends 80 % of its time on the first half (the band is
     # re-timed): each pose must still be attracted to its own point of the path, not pulled along it
     path = GlobalPath.from_waypoints(np.array([[0, 0], [8, 0]], float), speed=0.5)
     s = np.linspace(0, 8, 17)
     band = Band(np.column_stack([s, np.zeros(17), np.zeros(17)]), np.where(s[:-1] < 4, 0.8, 0.2))
-    entries = objective_terms(band, TABLE_I, PARAMS, Scene(path=path))
+    entries = objective_terms(band, table_i, PARAMS, Scene(path=path))
     term = next(e.term for e in entries if isinstance(e.term, PathTerm))
     assert np.abs(term.evaluate([band_vector(band)], False)[0]).max() < 1e-9

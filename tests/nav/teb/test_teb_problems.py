@@ -10,9 +10,7 @@ from legplan.nav.teb.params import TebParams
 from legplan.nav.teb.problems import ProblemCache, new_problem
 from legplan.nav.teb.reference import GlobalPath
 from legplan.nav.teb.residuals import band_vector
-from legplan.robots.navigation import KinodynamicLimits
 
-TABLE_I = KinodynamicLimits(0.75, 0.10, 0.20, 0.70, 1.00, 0.17, 0.52)
 PARAMS = TebParams()
 
 
@@ -25,13 +23,13 @@ def band_and_scene(seed):
     return Band(poses, rng.uniform(0.2, 0.4, n - 1)), scene
 
 
-def test_refreshed_problem_matches_a_new_one():
+def test_refreshed_problem_matches_a_new_one(table_i):
     cache = ProblemCache()
     first, scene_a = band_and_scene(0)
     second, scene_b = band_and_scene(1)  # same size, other fixed poses, path and start velocity
-    problem = cache.problem(first, objective_terms(first, TABLE_I, PARAMS, scene_a), PARAMS.dt_min)
+    problem = cache.problem(first, objective_terms(first, table_i, PARAMS, scene_a), PARAMS.dt_min)
     problem.normal_equations(problem.layout.initial())  # the cached problem has been used once
-    entries = objective_terms(second, TABLE_I, PARAMS, scene_b)
+    entries = objective_terms(second, table_i, PARAMS, scene_b)
     assert cache.problem(second, entries, PARAMS.dt_min) is problem
     fresh = new_problem(second, entries, PARAMS.dt_min)
     theta = fresh.layout.initial()
@@ -44,9 +42,9 @@ def test_refreshed_problem_matches_a_new_one():
     assert np.array_equal(full, band_vector(second))  # fixed start and goal of the new band
 
 
-def test_refresh_rejects_another_pattern():
+def test_refresh_rejects_another_pattern(table_i):
     band, scene = band_and_scene(0)
-    objective = TebObjective(band.n, objective_terms(band, TABLE_I, PARAMS, scene))
+    objective = TebObjective(band.n, objective_terms(band, table_i, PARAMS, scene))
     other = Scene(path=scene.path, start_velocity=None, goal_velocity=np.zeros(3))  # no start-velocity rows
     with pytest.raises(ValueError, match="different Jacobian pattern"):
-        objective.refresh(objective_terms(band, TABLE_I, PARAMS, other))
+        objective.refresh(objective_terms(band, table_i, PARAMS, other))

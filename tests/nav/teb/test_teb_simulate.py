@@ -5,11 +5,9 @@ import numpy as np
 from legplan.nav.params import NavParams
 from legplan.nav.simulate import Goal, Robot, SimParams, World, kinodynamic_planner, simulate
 from legplan.nav.teb.params import TebParams
-from legplan.robots.navigation import KinodynamicLimits
 from legplan.terrain.grid import Grid2D
 from legplan.terrain.layers import CostmapParams
 
-TABLE_I = KinodynamicLimits(0.75, 0.10, 0.20, 0.70, 1.00, 0.17, 0.52)
 RADIUS = 0.4031  # circumscribed radius of the 0.70 m × 0.40 m footprint
 
 
@@ -21,11 +19,11 @@ def small_world(hidden_box=True):
     return World(grid, walls, hidden, CostmapParams(), RADIUS)
 
 
-def test_simulation_reaches_goal_around_hidden_obstacle_without_collision():
+def test_simulation_reaches_goal_around_hidden_obstacle_without_collision(table_i):
     world = small_world()
     # sensing radius 1.5 m: the box is unknown when the global plan is made straight through it
     sim = SimParams(sensing_radius=1.5, max_time=40.0)
-    result = simulate(world, kinodynamic_planner(NavParams()), [1.0, 2.5, 0.0], [Goal((5.0, 2.5))], TABLE_I,
+    result = simulate(world, kinodynamic_planner(NavParams()), [1.0, 2.5, 0.0], [Goal((5.0, 2.5))], table_i,
                       TebParams(outer_iterations=2), sim)
     assert result.success, result.reason
     assert result.collisions == 0
@@ -33,17 +31,17 @@ def test_simulation_reaches_goal_around_hidden_obstacle_without_collision():
     assert np.hypot(*(result.states[-1, :2] - [5.0, 2.5])) <= sim.goal_tolerance
     # the executed motion respects the robot's limits and passes the box at a distance
     v = result.states[:, 3:]
-    assert v[:, 0].max() <= TABLE_I.v_x_max + 1e-9 and np.abs(v[:, 1]).max() <= TABLE_I.v_y_max + 1e-9
+    assert v[:, 0].max() <= table_i.v_x_max + 1e-9 and np.abs(v[:, 1]).max() <= table_i.v_y_max + 1e-9
     near_box = np.abs(result.states[:, 0] - 3.0) < 0.15
     assert np.all(np.abs(result.states[near_box, 1] - 2.3) > 0.35)
     assert result.effort() > 0 and len(result.compute_seconds) == len(result.commands)
 
 
-def test_robot_obeys_acceleration_limits_and_nonholonomic_model():
-    robot = Robot([0, 0, 0], TABLE_I, omnidirectional=False)
+def test_robot_obeys_acceleration_limits_and_nonholonomic_model(table_i):
+    robot = Robot([0, 0, 0], table_i, omnidirectional=False)
     robot.step(np.array([1.0, 0.2, 0.0]), 0.1)
     assert np.allclose(robot.velocity, [0.1, 0.0, 0.0])  # a_x max 1.0 m/s² for 0.1 s, no lateral motion
-    omni = Robot([0, 0, np.pi / 2], TABLE_I)
+    omni = Robot([0, 0, np.pi / 2], table_i)
     for _ in range(100):
         omni.step(np.array([0.0, 0.5, 0.0]), 0.01)
     assert np.allclose(omni.velocity, [0, 0.17, 0])  # a_y max for 1 s, below v_y max
@@ -64,7 +62,7 @@ def test_collision_disc_uses_true_map_and_the_planners_radius():
     assert not world.nav_grid.lethal_at(np.array([[0.6, 1.0]]))[0]
 
 
-def test_a_run_with_a_collision_is_not_a_success():
+def test_a_run_with_a_collision_is_not_a_success(table_i):
     class Clumsy(World):
         def in_collision(self, pose):
             return pose[0] > 2.0  # a phantom obstacle the planners do not know
@@ -74,7 +72,7 @@ def test_a_run_with_a_collision_is_not_a_success():
     walls = (X < 0.2) | (X > 5.8) | (Y < 0.2) | (Y > 4.8)
     world = Clumsy(grid, walls, np.zeros_like(walls), CostmapParams(), RADIUS)
     result = simulate(world, kinodynamic_planner(NavParams()), [1.0, 2.5, 0.0], [Goal((3.0, 2.5))],
-                      TABLE_I, TebParams(outer_iterations=2), SimParams(max_time=30.0))
+                      table_i, TebParams(outer_iterations=2), SimParams(max_time=30.0))
     assert np.hypot(*(result.states[-1, :2] - [3.0, 2.5])) <= 0.1  # it got there ...
     assert result.collisions > 0 and not result.success  # ... but touched the obstacle
     assert result.reason.startswith(f"reached the goal with {result.collisions} substeps in collision")

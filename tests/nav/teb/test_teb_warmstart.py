@@ -9,9 +9,7 @@ from legplan.nav.teb.optimizer import Scene, optimize_band
 from legplan.nav.teb.params import TebParams
 from legplan.nav.teb.reference import GlobalPath
 from legplan.nav.teb.warmstart import shift_band
-from legplan.robots.navigation import KinodynamicLimits
 
-TABLE_I = KinodynamicLimits(0.75, 0.10, 0.20, 0.70, 1.00, 0.17, 0.52)
 PARAMS = TebParams()
 
 
@@ -47,17 +45,17 @@ def test_shift_reports_invalid_band():
     assert shift_band(band, band.duration + 0.1, goal, goal, PARAMS.dt_min) is None  # band used up
 
 
-def test_warm_start_needs_fewer_iterations_than_cold_start():
+def test_warm_start_needs_fewer_iterations_than_cold_start(table_i):
     path = GlobalPath.from_waypoints(np.array([[0, 0], [3.0, 0.0], [4.5, 1.5]]), speed=0.5)
     scene = Scene(path=path, start_velocity=np.zeros(3))
-    previous = optimize_band(initial_band(path, PARAMS.dt_ref), TABLE_I, PARAMS, scene).band
+    previous = optimize_band(initial_band(path, PARAMS.dt_ref), table_i, PARAMS, scene).band
     elapsed = 0.1  # one control cycle: the robot is where the band expected it, with its velocity
     times = previous.times
     robot = np.array([np.interp(elapsed, times, previous.poses[:, i]) for i in range(3)])
     velocity = previous.velocities()[0]
     scene = Scene(path=path, start_velocity=velocity)
-    warm = optimize_band(shift_band(previous, elapsed, robot, previous.poses[-1], PARAMS.dt_min), TABLE_I, PARAMS, scene)
-    cold = optimize_band(initial_band(path, PARAMS.dt_ref, start_pose=robot), TABLE_I, PARAMS, scene)
+    warm = optimize_band(shift_band(previous, elapsed, robot, previous.poses[-1], PARAMS.dt_min), table_i, PARAMS, scene)
+    cold = optimize_band(initial_band(path, PARAMS.dt_ref, start_pose=robot), table_i, PARAMS, scene)
     assert warm.iterations < cold.iterations
     assert len(warm.rounds) < len(cold.rounds)
     assert np.allclose(warm.band.poses[-1], previous.poses[-1]) and np.allclose(warm.band.poses[0], robot)
