@@ -1,8 +1,8 @@
 """Fixtures shared across test packages: the scarab2 robot, small terrains at 1 cm, and map / steps
 files of the scenes many stages' tests use (box scene, flat, block and wall maps).
 
-Helper modules beside this file (`scenes`, `wallmap`, `fake_artefacts`) are importable from every
-test directory: pytest puts this conftest's directory on `sys.path`."""
+Helper modules beside this file (`scenes`, `wallmap`, `fake_artefacts`, `pictures`, `robot_helpers`)
+are importable from every test directory: pytest puts this conftest's directory on `sys.path`."""
 
 import numpy as np
 import pytest

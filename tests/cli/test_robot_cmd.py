@@ -1,15 +1,11 @@
 """`legplan robot list|show`."""
 
 import json
-import sys
-from pathlib import Path
 
 from click.testing import CliRunner
+from robot_helpers import write_toy_robot
 
 from legplan.cli.main import cli
-
-sys.path.insert(0, str(Path(__file__).parents[1] / "robots"))
-from robot_helpers import write_toy_robot  # noqa: E402
 
 
 def run(*args, env=None):

@@ -9,23 +9,14 @@ import pytest
 from click.testing import CliRunner
 
 from legplan.cli.main import cli
-from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
 
 EXAMPLE = Path(__file__).parents[1] / "data" / "steps_example.csv"
 
 
 @pytest.fixture(scope="module")
-def flat_map(tmp_path_factory):
-    grid = Grid2D(origin=(-0.6, -0.4), resolution=0.01, shape=(81, 121))
-    path = tmp_path_factory.mktemp("maps") / "flat.h5"
-    save_map(terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat_small"), path)
-    return path
-
-
-@pytest.fixture(scope="module")
 def generated(flat_map, tmp_path_factory):
     out = tmp_path_factory.mktemp("steps") / "steps.h5"
-    result = CliRunner().invoke(cli, ["steps", "generate", str(flat_map), "--robot", "scarab2",
+    result = CliRunner().invoke(cli, ["steps", "generate", str(flat_map[1]), "--robot", "scarab2",
                                       "--start", "-0.05", "0", "0", "--goal", "0.05", "0", "0",
                                       "-o", str(out), "-q"])
     assert result.exit_code == 0, result.output + result.stderr
@@ -62,7 +53,7 @@ def test_export_import_round_trip(generated, flat_map, tmp_path, suffix):
     assert runner.invoke(cli, ["steps", "export", str(generated), "-o", str(exported)]).exit_code == 0
     again = tmp_path / "again.h5"
     result = runner.invoke(cli, ["steps", "import", str(exported), "--robot", "scarab2", "--map",
-                                 str(flat_map), "-o", str(again), "--strict"])
+                                 str(flat_map[1]), "-o", str(again), "--strict"])
     assert result.exit_code == 0, result.stderr
     before, attrs_before = _content(generated)
     after, attrs_after = _content(again)
@@ -77,10 +68,10 @@ def test_example_file_imports_and_shows(flat_map, tmp_path):
     runner = CliRunner()
     out = tmp_path / "example.h5"
     result = runner.invoke(cli, ["steps", "import", str(EXAMPLE), "--robot", "scarab2", "--map",
-                                 str(flat_map), "-o", str(out)])
+                                 str(flat_map[1]), "-o", str(out)])
     assert result.exit_code == 0, result.stderr
     png = tmp_path / "example.png"
-    result = runner.invoke(cli, ["steps", "show", str(out), "--map", str(flat_map), "-o", str(png)])
+    result = runner.invoke(cli, ["steps", "show", str(out), "--map", str(flat_map[1]), "-o", str(png)])
     assert result.exit_code == 0, result.stderr
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
@@ -94,7 +85,7 @@ def test_invalid_row_exits_2_and_writes_nothing(flat_map, tmp_path):
     bad.write_text("\n".join(lines[:3] + [",".join(row)] + lines[4:]) + "\n")
     out = tmp_path / "bad.h5"
     result = CliRunner().invoke(cli, ["steps", "import", str(bad), "--robot", "scarab2", "--map",
-                                      str(flat_map), "-o", str(out)])
+                                      str(flat_map[1]), "-o", str(out)])
     assert result.exit_code == 2
     assert "row 1: field 'coxa_rf'" in result.stderr
     assert not out.exists()
@@ -136,7 +127,7 @@ def test_generated_rows_missing_a_requirement_are_named(flat_map, tmp_path, monk
 
     monkeypatch.setattr(GenerateParams, "requirements", lambda self: Requirements(clearance=0.1))
     out = tmp_path / "steps.h5"
-    result = CliRunner().invoke(cli, ["steps", "generate", str(flat_map), "--robot", "scarab2",
+    result = CliRunner().invoke(cli, ["steps", "generate", str(flat_map[1]), "--robot", "scarab2",
                                       "--start", "-0.05", "0", "0", "--goal", "0.05", "0", "0", "-o", str(out), "-q"])
     assert result.exit_code == 1
     assert "row 0: clearance short by" in result.stderr
@@ -155,7 +146,7 @@ def test_generate_param_overrides_and_size_scaled_defaults(flat_map, generated, 
     assert (defaults["lift_height"], defaults["clearance"], defaults["com_margin"], defaults["reach_slack"]) \
         == (0.05, 0.02, 0.015, 0.015)
     out = tmp_path / "lifted.h5"
-    args = ["steps", "generate", str(flat_map), "--robot", "scarab2", "--start", "-0.05", "0", "0",
+    args = ["steps", "generate", str(flat_map[1]), "--robot", "scarab2", "--start", "-0.05", "0", "0",
             "--goal", "0.05", "0", "0", "-q"]
     result = CliRunner().invoke(cli, [*args, "-o", str(out), "--param", "lift_height=0.07",
                                       "--param", "candidates=4"])
