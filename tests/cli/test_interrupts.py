@@ -19,10 +19,6 @@ from pathlib import Path
 import pytest
 
 from legplan.artefacts import open_artefact
-from legplan.stepseq.sequence import StepSequence, write_steps
-from legplan.validate.checks import Validator
-
-from scenes import box_scene
 
 LEGPLAN = str(Path(sys.executable).parent / "legplan")
 PAUSING = "pausing before publishing"
@@ -153,16 +149,9 @@ def test_map_build_killed_while_writing_leaves_a_temp_the_next_run_removes(tmp_p
 
 
 @pytest.fixture(scope="module")
-def scene(tmp_path_factory):
+def scene(box):
     """The box scene walked back and forth (4 steps), its map and steps files."""
-    tmp = tmp_path_factory.mktemp("interrupts")
-    robot, terrain, map_path, q, stance, footholds = box_scene(tmp)
-    order = [0, 1, 2, 1, 0]
-    seq = StepSequence(q=q[order], stance=stance[order], footholds=footholds[order], robot=robot.name,
-                       robot_sha256="test", leg_names=[leg.name for leg in robot.legs],
-                       joint_names=robot.joint_names)
-    write_steps(tmp / "steps.h5", seq, Validator(robot, terrain).check(seq.q, seq.stance, seq.footholds))
-    return map_path, tmp / "steps.h5"
+    return box.map_path, box.steps_file((0, 1, 2, 1, 0))
 
 
 @pytest.mark.parametrize("signum, moment", [(signal.SIGINT, "compute"), (signal.SIGTERM, "write"),
