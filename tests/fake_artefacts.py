@@ -78,5 +78,15 @@ def write_traj(path, map_path, samples=120):
                             "feet_vel": np.zeros_like(feet), "forces": forces,
                             "contact": np.ones((samples, legs), bool)}.items():
             write_dataset(g, f"samples/{name}", value)
+        ends = [0, -1]   # nodes at the start and the end: values with zero derivatives
+        for block, values, legs in (("base_lin", base[ends], None), ("base_ang", still[ends], None),
+                                    ("feet", feet[ends].reshape(-1, 3), np.tile(np.arange(legs), 2)),
+                                    ("forces", forces[ends].reshape(-1, 3), np.tile(np.arange(legs), 2))):
+            nodes = np.stack([values, np.zeros_like(values)], axis=1).reshape(-1)
+            write_dataset(g, f"nodes/{block}/value", nodes)
+            write_dataset(g, f"nodes/{block}/fixed", np.zeros(nodes.shape, bool))
+            write_dataset(g, f"nodes/{block}/span", np.repeat(t[ends], len(values) // 2)[:, None].repeat(2, axis=1))
+            if legs is not None:
+                write_dataset(g, f"nodes/{block}/leg", legs)
         write_summary(f, {"tasks": 1, "succeeded": 1, "max_violation": 2e-4})
     return path
