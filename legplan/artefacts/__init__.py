@@ -10,10 +10,11 @@
 
 from legplan.artefacts.describe import describe_artefact
 from legplan.artefacts.provenance import input_record, sha256_file
-from legplan.artefacts.reader import check_finite, open_artefact, read_array, read_provenance, read_summary, require
+from legplan.artefacts.reader import (check_finite, open_artefact, read_array, read_provenance, read_summary,
+                                      require, require_attrs)
 from legplan.artefacts.schema import SCHEMA_VERSIONS
 from legplan.artefacts.writer import check_output, write_artefact, write_dataset, write_summary
 
 __all__ = ["SCHEMA_VERSIONS", "check_finite", "check_output", "describe_artefact", "input_record",
-           "open_artefact", "read_array", "read_provenance", "read_summary", "require", "sha256_file", "write_artefact",
-           "write_dataset", "write_summary"]
+           "open_artefact", "read_array", "read_provenance", "read_summary", "require", "require_attrs",
+           "sha256_file", "write_artefact", "write_dataset", "write_summary"]

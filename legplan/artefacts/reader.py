@@ -68,6 +68,16 @@ def require(handle: h5py.File | h5py.Group, name: str):
         raise ArtefactError(f"{handle.file.filename}: cannot read '{name}' ({exc})") from exc
 
 
+def require_attrs(group: h5py.File | h5py.Group, names) -> dict:
+    """Every attribute of `group` as a dict, or an `ArtefactError` naming the file, the group and
+    the first of `names` it lacks (a reader's check that what its consumers index is there)."""
+    attrs = dict(group.attrs)
+    missing = [name for name in names if name not in attrs]
+    if missing:
+        raise ArtefactError(f"{group.file.filename}: group '{group.name}' lacks attribute '{missing[0]}'")
+    return attrs
+
+
 def read_array(handle: h5py.File | h5py.Group, name: str, *, ndim: int | None = None,
                finite: bool = True) -> np.ndarray:
     """The array of dataset `name`, checked at the boundary: readable (a truncated file fails here,

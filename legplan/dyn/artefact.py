@@ -38,9 +38,11 @@ from dataclasses import asdict
 import h5py
 import numpy as np
 
-from legplan.artefacts import check_finite, open_artefact, require, write_artefact, write_dataset, write_summary
+from legplan.artefacts import (check_finite, open_artefact, require, require_attrs, write_artefact, write_dataset,
+                               write_summary)
 
 NAN = float("nan")
+NODE_BLOCKS = ("base_lin", "base_ang", "feet", "forces")
 SAMPLE_UNITS = {"t": "s", "base_pos": "m", "base_vel": "m/s", "base_acc": "m/s^2", "base_euler": "rad",
                 "base_euler_rate": "rad/s", "base_ang_vel": "rad/s", "base_ang_acc": "rad/s^2",
                 "feet_pos": "m", "feet_vel": "m/s", "forces": "N", "contact": ""}
@@ -216,9 +218,25 @@ def read_tasks(path) -> tuple[dict, list[dict]]:
     """Root attributes and every task group of a traj artefact, each as a nested dict of its
     attributes and datasets (numpy values)."""
     with open_artefact(path, kind="traj") as handle:
-        attrs = dict(handle.attrs)
+        attrs = require_attrs(handle, ("robot", "legs"))
         tasks = require(handle, "tasks")
+        for name in sorted(tasks):
+            _check_task(tasks[name])
         return attrs, [_read_group(tasks[name]) for name in sorted(tasks)]
+
+
+def _check_task(group: h5py.Group) -> None:
+    """An `ArtefactError` naming the file and item unless a task group holds what its readers
+    index: the attributes and start/goal of every task, and the samples and nodes of a solved one."""
+    require_attrs(group, ("index", "success", "reason"))
+    for name in ("start", "goal"):
+        require(group, name)
+    if "samples" in group:
+        for name in SAMPLE_UNITS:
+            require(group["samples"], name)
+        for block in NODE_BLOCKS:
+            for name in ("value", "fixed", "span"):
+                require(group, f"nodes/{block}/{name}")
 
 
 def check_executable(path, task: dict) -> None:

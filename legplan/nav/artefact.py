@@ -23,7 +23,7 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
-from legplan.artefacts import read_array, require, write_artefact, write_dataset, write_summary
+from legplan.artefacts import read_array, require, require_attrs, write_artefact, write_dataset, write_summary
 from legplan.errors import ArtefactError
 from legplan.nav.collision import NavGrid
 from legplan.nav.result import SearchResult
@@ -45,6 +45,8 @@ def trajectory_metrics(trajectory: Trajectory | None, grid: NavGrid) -> dict[str
             "max_speed_axis": float(np.abs(v).max()), "max_accel_axis": float(np.abs(a).max())}
 
 
+QUERY_ATTRS = ("success", "reason", "planner", "start", "goal", "effort", "duration")
+"""Attributes every query group has (`query_record`) and `read_queries` checks for."""
 DATASET_UNITS = {"t": "s", "p": "m", "v": "m/s", "a": "m/s^2", "waypoints": "m"}  # and "segments"
 KEPT_OUT_OF_ROWS = ("planner", "start", "goal", "segments", *DATASET_UNITS)
 
@@ -122,7 +124,7 @@ def read_queries(handle: h5py.File) -> list[dict]:
     for name in sorted(group):
         item = group[name]
         entry = {key: (value.item() if isinstance(value, np.generic) else value)
-                 for key, value in item.attrs.items()}
+                 for key, value in require_attrs(item, QUERY_ATTRS).items()}
         entry["name"] = name
         entry["trajectory"] = _read_trajectory(item) if "segments" in item else None
         entry["waypoints"] = read_array(item, "waypoints", ndim=2) if "waypoints" in item else None

@@ -27,7 +27,8 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from legplan.artefacts import open_artefact, require, write_artefact, write_dataset, write_summary
+from legplan.artefacts import open_artefact, require, require_attrs, write_artefact, write_dataset, write_summary
+from legplan.errors import ArtefactError
 from legplan.stepplan.measure import DENSE_UNITS, dense_check, judged, requirements
 from legplan.stepplan.params import StepPlanParams
 from legplan.stepplan.planner import plan_step, terrain_distance
@@ -204,8 +205,11 @@ def read_motion(path) -> list[dict]:
     """The per-step records of motion.h5 (control points, success, times, dense checks)."""
     out = []
     with open_artefact(path, kind="motion") as f:
-        for name, g in require(f, "steps").items():
-            r = {key: g.attrs[key] for key in g.attrs}
+        steps = require(f, "steps")
+        if not len(steps):
+            raise ArtefactError(f"{path}: group '/steps' holds no steps")
+        for name, g in steps.items():
+            r = require_attrs(g, ("index", "success", "reason", "seconds"))
             for key in ("q_start", "q_end", "footholds", "stance", "control_points", "waypoints"):
                 if key in g:
                     r[key] = g[key][()]

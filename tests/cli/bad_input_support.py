@@ -18,7 +18,6 @@ import numpy as np
 from click.testing import CliRunner
 from hypothesis import HealthCheck, settings
 
-from legplan.artefacts import write_artefact, write_dataset
 from legplan.cli.main import cli
 from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
 
@@ -70,7 +69,7 @@ def leaf_commands(group: click.Group = cli, path: tuple[str, ...] = ()):
 def valid_inputs(directory: Path) -> dict[str, Path]:
     """One small valid input of each kind: map.h5 (2 x 2 m flat at 2 cm), steps.h5 (the example
     CSV imported), motion.h5 (its first step planned), nav.h5 (one query searched), traj.h5 (a
-    hand-written two-sample task of anymal), and a copy of the example steps CSV."""
+    2-stride anymal trot planned), and a copy of the example steps CSV."""
     paths = {name: directory / f"{name}.h5" for name in ("map", "steps", "motion", "nav", "traj")}
     grid = Grid2D(origin=(-0.99, -0.99), resolution=0.02, shape=(100, 100))
     save_map(terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat"), paths["map"])
@@ -78,26 +77,15 @@ def valid_inputs(directory: Path) -> dict[str, Path]:
         ["steps", "import", EXAMPLE_STEPS, "--robot", "scarab2", "--map", paths["map"], "-o", paths["steps"]],
         ["step", "plan", paths["map"], paths["steps"], "--steps", "0", "-o", paths["motion"]],
         ["nav", "search", paths["map"], "--start", "-0.5", "-0.5", "--goal", "0.5", "0.5", "-o", paths["nav"]],
+        ["dyn", "plan", paths["map"], "--start", "0", "0", "0", "--goal", "0.3", "0", "0", "--strides", "2",
+         "--duration", "1.6", "-o", paths["traj"]],
     ]
     for args in commands:
         result = invoke([*args, "-q"])
         assert result.exit_code == 0, result.stderr
-    _write_traj(paths["traj"])
     paths["csv"] = directory / "steps.csv"
     paths["csv"].write_bytes(EXAMPLE_STEPS.read_bytes())
     return paths
-
-
-def _write_traj(path: Path) -> None:
-    with write_artefact(path, "traj", params={}) as f:
-        f.attrs["robot"] = "anymal"
-        task = f.create_group("tasks/0000")
-        task.attrs["index"], task.attrs["success"] = 0, True
-        write_dataset(task, "goal", np.array([0.1, 0.0, 0.0]), units="m,m,rad")
-        samples = task.create_group("samples")
-        write_dataset(samples, "t", np.array([0.0, 0.01]), units="s")
-        write_dataset(samples, "base_pos", np.array([[0.0, 0.0, 0.45], [0.001, 0.0, 0.45]]), units="m")
-        write_dataset(samples, "feet_pos", np.zeros((2, 4, 3)), units="m")
 
 
 def mutated(source: Path, target: Path, dataset: str, change) -> Path:

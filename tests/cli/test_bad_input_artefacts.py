@@ -6,7 +6,7 @@ any work with exit 2 and one line naming the file and the dataset (`bad_input_su
 from __future__ import annotations
 
 import pytest
-from bad_input_support import (SENTINEL, assert_refused, few, invoke, leaf_commands, mutated, valid_inputs,
+from bad_input_support import (SENTINEL, assert_refused, few, invoke, leaf_commands, mutated,
                                with_value)
 from hypothesis import given
 from hypothesis import strategies as st
@@ -47,11 +47,6 @@ MAP_CASES = {
     "NaN SDF voxel": (lambda ok, bad: mutated(ok, bad, "terrain/sdf", with_value(999, float("nan"))),
                       "'/terrain/sdf' holds NaN"),
 }
-
-
-@pytest.fixture(scope="module")
-def inputs(tmp_path_factory):
-    return valid_inputs(tmp_path_factory.mktemp("valid"))
 
 
 def _refuses(inputs, tmp_path, kind, cases, case, path, template):

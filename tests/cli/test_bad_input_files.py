@@ -9,7 +9,7 @@ import json
 from pathlib import Path
 
 import pytest
-from bad_input_support import EXAMPLE_STEPS, assert_refused, few, invoke, valid_inputs
+from bad_input_support import EXAMPLE_STEPS, assert_refused, few, invoke
 from hypothesis import assume, given
 from hypothesis import strategies as st
 
@@ -47,11 +47,6 @@ TEXT_CASES = {
     "empty": (b"", ""),
     "garbage text": ("}{ ][ ::: ,,, \t\"'\n\u00e9\u6f22\n".encode(), ""),
 }
-
-
-@pytest.fixture(scope="module")
-def inputs(tmp_path_factory):
-    return valid_inputs(tmp_path_factory.mktemp("valid"))
 
 
 def _refused(inputs, tmp_path, template, bad: Path, *names: str):
