@@ -49,11 +49,17 @@ def parse_number(text: str, where: str) -> float:
     return value
 
 
-def apply_overrides(cls, overrides: dict[str, str] | None, source: str, what: str):
-    """An instance of the parameter dataclass `cls`: its defaults with `key=value` strings applied,
-    each converted to the field's declared type (str as given; int and float finite numbers, an int
-    whole; a field declared `float | None` takes a float). Unknown keys and fields of other types
-    (tuples) are a one-line `SpecError` naming `source` and the `what` parameter."""
+BOOLEAN_WORDS = {"1": True, "true": True, "yes": True, "on": True,
+                 "0": False, "false": False, "no": False, "off": False}
+
+
+def apply_overrides(base, overrides: dict[str, str] | None, source: str, what: str):
+    """An instance of a parameter dataclass with `key=value` strings applied: `base` is the class
+    (start from its defaults) or an instance (start from its values). Each string is converted to
+    the field's declared type (str as given; int and float finite numbers, an int whole; bool one of
+    `BOOLEAN_WORDS`; a field declared `float | None` takes a float). Unknown keys and fields of other
+    types (tuples) are a one-line `SpecError` naming `source` and the `what` parameter."""
+    cls = base if isinstance(base, type) else type(base)
     hints = typing.get_type_hints(cls)
     names = [f.name for f in dataclasses.fields(cls)]
     values = {}
@@ -66,13 +72,19 @@ def apply_overrides(cls, overrides: dict[str, str] | None, source: str, what: st
         if kind is str:
             values[key] = text
             continue
+        if kind is bool:
+            if text.strip().lower() not in BOOLEAN_WORDS:
+                raise SpecError(f"{source}: parameter '{key}' expects bool (true/false, 1/0, yes/no, on/off), "
+                                f"got {text!r}")
+            values[key] = BOOLEAN_WORDS[text.strip().lower()]
+            continue
         if kind not in (int, float):
             raise SpecError(f"{source}: {what} parameter '{key}' cannot be set with key=value")
         number = parse_number(text, f"{source}: parameter '{key}'")  # finite, or a one-line error
         if kind is int and not number.is_integer():
             raise SpecError(f"{source}: parameter '{key}' expects int, got {text!r}")
         values[key] = kind(number)
-    return cls(**values)
+    return cls(**values) if base is cls else dataclasses.replace(base, **values)
 
 
 def read_yaml(path: str | os.PathLike, what: str = "spec"):

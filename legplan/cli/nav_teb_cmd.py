@@ -120,11 +120,12 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
     from legplan.artefacts import check_output, write_artefact, write_summary
     from legplan.robots.navigation import read_navigation
     from legplan.errors import LegplanError
-    from legplan.nav.params import NavParams, with_field_overrides
+    from legplan.nav.params import NavParams
     from legplan.nav.simulate import (Goal, SimParams, World, grid_planner, hidden_obstacles as load_hidden,
                                       kinodynamic_planner, simulate as run)
     from legplan.nav.teb.artefact import write_simulation
     from legplan.nav.teb.params import TebParams
+    from legplan.specio import apply_overrides
     from legplan.terrain import load_map
 
     check_output(output, overwrite)
@@ -143,15 +144,14 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
               else np.zeros(terrain.grid.shape, bool))
     world = World(terrain.grid, terrain.occupancy, hidden, terrain.nav_params, navigation.circumscribed_radius)
     overrides = simulation_overrides(params)
-    search = with_field_overrides(NavParams.for_robot(navigation), overrides["search"], "--param",
-                                  "search parameter")
+    search = apply_overrides(NavParams.for_robot(navigation), overrides["search"], "--param", "search")
     plan = (kinodynamic_planner(search) if planner == "kinoastar"
             else grid_planner(search, navigation.limits.v_x_max))
-    teb = with_field_overrides(TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni),
-                               overrides["teb"], "--param", "teb parameter")
-    sim = with_field_overrides(SimParams(sensing_radius=sensing_radius, max_time=max_time, warm_start=warm_start,
-                                         yaw="target" if target else "velocity", target=target),
-                               overrides["sim"], "--param", "sim parameter")
+    teb = apply_overrides(TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni),
+                          overrides["teb"], "--param", "teb")
+    sim = apply_overrides(SimParams(sensing_radius=sensing_radius, max_time=max_time, warm_start=warm_start,
+                                    yaw="target" if target else "velocity", target=target),
+                          overrides["sim"], "--param", "sim")
     pose = np.array([start[0], start[1], start[2] if len(start) > 2 else 0.0])
     with progress_bar("simulating") as progress:
         result = run(world, plan, pose, goals, navigation.limits, teb, sim, progress)

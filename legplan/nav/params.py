@@ -31,10 +31,9 @@ import dataclasses
 from dataclasses import dataclass
 
 from legplan.errors import LegplanError
-from legplan.specio import parse_number
+from legplan.specio import apply_overrides
 
 MIN_EXPANSIONS = 200_000  # the auto budget's floor (the former fixed limit)
-_TRUE, _FALSE = ("1", "true", "yes", "on"), ("0", "false", "no", "off")
 
 
 @dataclass(frozen=True)
@@ -83,35 +82,9 @@ class NavParams:
         return dataclasses.replace(self, **changes)
 
     def with_overrides(self, overrides: dict[str, str], source: str = "--param") -> NavParams:
-        """A copy with `key=value` text overrides converted to each field's type."""
-        return with_field_overrides(self, overrides, source, "nav parameter")
+        """A copy with `key=value` text overrides converted to each field's type
+        (`legplan.specio.apply_overrides`)."""
+        return apply_overrides(self, overrides, source, "nav")
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)
-
-
-def with_field_overrides(params, overrides: dict[str, str], source: str, what: str):
-    """A copy of the frozen dataclass `params` with `key=value` text overrides, each converted to
-    the type of the field's current value (bool: 1/0, true/false, yes/no, on/off; int: a whole
-    number); an unknown key or a bad value is a one-line `LegplanError` naming `source` and the key."""
-    names = {f.name for f in dataclasses.fields(params)}
-    changes = {}
-    for key, text in overrides.items():
-        if key not in names:
-            raise LegplanError(f"{source}: unknown {what} '{key}' (known: {', '.join(sorted(names))})")
-        changes[key] = _convert(type(getattr(params, key)), key, str(text), source)
-    return dataclasses.replace(params, **changes)
-
-
-def _convert(kind: type, key: str, text: str, source: str):
-    where = f"{source}: parameter '{key}'"
-    if kind is bool:
-        if text.lower() in _TRUE + _FALSE:
-            return text.lower() in _TRUE
-        raise LegplanError(f"{where} expects bool, got {text!r}")
-    number = parse_number(text, where)  # finite, or a one-line error
-    if kind is float:
-        return number
-    if number.is_integer():
-        return int(number)
-    raise LegplanError(f"{where} expects int, got {text!r}")
