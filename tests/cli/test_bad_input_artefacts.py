@@ -188,3 +188,50 @@ def test_unreadable_artefact_is_one_line_naming_it(inputs, tmp_path, key, case):
     out = tmp_path / f"out{template[-1].removeprefix('{out}')}" if template[-1].startswith("{out}") else None
     result = invoke([*key[0], *(part.format(**values) for part in template)])
     assert_refused(result, "bad.h5", field, output=out)
+
+
+DELETION_READERS = {  # artefact kind: the command that reads all of it
+    "steps": ["steps", "export", "{bad}", "-o", "{out}.csv"],
+    "nav": ["nav", "show", "{bad}", "--map", "{map}", "-o", "{out}.png"],
+    "motion": ["step", "show", "{bad}", "--map", "{map}", "-o", "{out}.png"],
+    "traj": ["dyn", "show", "{bad}", "-o", "{out}.png"],
+}
+
+
+def _items(path) -> list[tuple[str, str]]:
+    """Every dataset, group and attribute of an HDF5 file as (kind, name) ("attr" names are
+    "group@attribute")."""
+    import h5py
+
+    items = []
+    with h5py.File(path, "r") as f:
+        def visit(name, obj):
+            items.append(("item", name))
+            items.extend(("attr", f"{name}@{key}") for key in obj.attrs)
+        f.visititems(visit)
+        items.extend(("attr", f"/@{key}") for key in f.attrs)
+    return items
+
+
+@few(25)
+@given(data=st.data())
+def test_a_deleted_dataset_or_attribute_is_never_a_traceback(inputs, tmp_path_factory, data):
+    import h5py
+
+    kind = data.draw(st.sampled_from(sorted(DELETION_READERS)))
+    what = data.draw(st.sampled_from(["attr", "item"]))
+    name = data.draw(st.sampled_from([name for other, name in _items(inputs[kind]) if other == what]))
+    tmp_path = tmp_path_factory.mktemp("deleted")
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes(inputs[kind].read_bytes())
+    with h5py.File(bad, "r+") as f:
+        if what == "item":
+            del f[name]
+        else:
+            group, key = name.split("@")
+            del f[group].attrs[key]
+    values = {"bad": str(bad), "map": str(inputs["map"]), "out": str(tmp_path / "out")}
+    result = invoke([part.format(**values) for part in DELETION_READERS[kind]])
+    assert result.exit_code in (0, 2), f"{kind} without {name}: exit {result.exit_code} {result.exception!r}"
+    if result.exit_code == 2:  # refused: by the contract; otherwise the item was not needed
+        assert_refused(result, "bad.h5")
