@@ -30,7 +30,6 @@ the solution's controls are exactly the nav `Trajectory` segments (constant a, z
 from __future__ import annotations
 
 import dataclasses
-import logging
 import math
 import time
 from dataclasses import dataclass
@@ -43,8 +42,6 @@ from legplan.errors import LegplanError
 from legplan.nav.collision import NavGrid
 from legplan.nav.result import SearchResult, endpoint_problem
 from legplan.nav.trajectory import Trajectory, trapezoidal_polyline
-
-log = logging.getLogger(__name__)
 
 ANYTIME = ("rrtstar", "prmstar")
 
