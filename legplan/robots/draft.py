@@ -35,7 +35,7 @@ from legplan.errors import LegplanError
 from legplan.robots.model import chain_length
 from legplan.robots.sizing import size_scaled
 from legplan.robots.spec import add_foot_frame
-from legplan.robots.urdf import Primitive, UrdfLinks, read_urdf_links
+from legplan.robots.urdf import Primitive, UrdfLinks, UrdfParseError, build_free_flyer_model, read_urdf_links
 
 MAX_SPHERES_PER_SHAPE = 3
 STANCE_STARTS = 8
@@ -222,9 +222,9 @@ def draft_robot(urdf: str | Path, name: str) -> RobotDraft:
     """Draft the robot.yaml content for the URDF at `urdf` (see the module docstring)."""
     urdf = Path(urdf)
     try:
-        model = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
-    except (RuntimeError, ValueError) as exc:
-        raise LegplanError(f"{urdf}: cannot be parsed by pinocchio ({str(exc).splitlines()[0]})") from None
+        model = build_free_flyer_model(urdf)
+    except UrdfParseError as exc:
+        raise LegplanError(f"{urdf}: cannot be parsed by pinocchio ({exc})") from None
     links = read_urdf_links(urdf)
     chains = leg_chains(model, urdf)
     names = leg_names([[model.names[j] for j in chain] for chain in chains])

@@ -33,19 +33,16 @@ every field with a worked example.
 
 from __future__ import annotations
 
-import logging
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
 
-from legplan.native_stderr import captured_stderr
 from legplan.robots.centroidal import Centroidal, parse_centroidal
 from legplan.robots.navigation import Navigation, parse_navigation
+from legplan.robots.urdf import UrdfParseError, build_free_flyer_model
 from legplan.specio import FieldReader, read_yaml_mapping
-
-log = logging.getLogger("legplan.robots")
 
 FOOT_HEIGHT_TOLERANCE = 1e-3  # m, |z| of every foot in the nominal stance
 
@@ -106,13 +103,9 @@ def _build_model(reader: FieldReader, data: dict) -> tuple[Path, pin.Model]:
     if not urdf.is_file():
         reader.fail("urdf", f"names a missing file {urdf}")
     try:
-        with captured_stderr() as parser_output:  # urdfdom prints its parse errors on fd 2
-            model = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
-    except (RuntimeError, ValueError) as exc:
-        detail = "; ".join([str(exc).splitlines()[0], *parser_output.lines[:1]])
-        reader.fail("urdf", f"cannot be parsed by pinocchio ({' '.join(detail.split())})")
-    for line in parser_output.lines:
-        log.debug("urdfdom: %s", line)
+        model = build_free_flyer_model(urdf)
+    except UrdfParseError as exc:
+        reader.fail("urdf", f"cannot be parsed by pinocchio ({exc})")
     for jid in range(2, model.njoints):
         if model.nqs[jid] != 1 or model.nvs[jid] != 1:
             reader.fail("urdf", f"joint '{model.names[jid]}' has nq={model.nqs[jid]}, nv={model.nvs[jid]}; "

@@ -223,3 +223,13 @@ def test_broken_urdf_is_one_line_without_the_parser_s_own_lines(tmp_path, capfd)
     assert "urdf_parser" not in native and "XML_ERROR" not in native, native
     line = assert_refused(result, "robot.yaml", "field 'urdf' cannot be parsed")
     assert "XML_ERROR" in line  # urdfdom's reason, folded into our line
+
+
+def test_robot_init_of_a_broken_urdf_is_one_line_without_the_parser_s_own_lines(tmp_path, capfd):
+    urdf = tmp_path / "cut.urdf"
+    urdf.write_bytes((ROOT / "tests" / "data" / "hexapod.urdf").read_bytes()[:400])
+    out = tmp_path / "robot"
+    result = invoke(["robot", "init", urdf, "-o", out])
+    native = capfd.readouterr().err
+    assert "urdf_parser" not in native and "XML_ERROR" not in native, native
+    assert_refused(result, "cut.urdf", "cannot be parsed by pinocchio", output=out)
