@@ -233,3 +233,19 @@ def test_robot_init_of_a_broken_urdf_is_one_line_without_the_parser_s_own_lines(
     native = capfd.readouterr().err
     assert "urdf_parser" not in native and "XML_ERROR" not in native, native
     assert_refused(result, "cut.urdf", "cannot be parsed by pinocchio", output=out)
+
+
+@pytest.mark.parametrize("value", [float("nan"), float("inf")])
+def test_non_finite_value_in_an_hdf5_steps_file_names_row_and_field(inputs, tmp_path, value):
+    import h5py
+
+    lines = EXAMPLE_STEPS.read_text().splitlines()[1:]
+    header = lines[0].split(",")
+    rows = [[float(cell) if cell else float("nan") for cell in line.split(",")] for line in lines[1:]]
+    columns = list(zip(*rows, strict=True))  # empty cells (swing legs' footholds) as NaN, as exported
+    bad = tmp_path / "steps.h5"
+    with h5py.File(bad, "w") as f:
+        for name, column in zip(header, columns, strict=True):
+            f.create_dataset(f"configurations/{name}", data=[value if name == "femur_lf" and i == 2 else v
+                                                             for i, v in enumerate(column)])
+    _refused(inputs, tmp_path, TEXT_READERS[("steps import", ".csv")], bad, "row 2", "'femur_lf'")
