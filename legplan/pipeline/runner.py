@@ -22,6 +22,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from legplan.interrupts import note_published
 from legplan.pipeline.plan import ResolvedStage, check_declared_inputs, resolve_stage, up_to_date_reason
 from legplan.pipeline.processes import DIE_WITH_PARENT, StageProcesses
 from legplan.pipeline.spec import Pipeline
@@ -94,6 +95,8 @@ def run_pipeline(pipeline: Pipeline, out_dir: str | os.PathLike, *, force: bool 
     def settle(stage_result: StageResult) -> None:
         settled[stage_result.name] = stage_result
         result.results.append(stage_result)
+        if stage_result.status in ("ran", "items_failed"):  # an interrupt later cannot take it back
+            note_published(stages[stage_result.name].output)
         if on_result:
             on_result(stage_result)
         if progress:

@@ -228,6 +228,8 @@ def test_pipeline_interrupted_or_killed_takes_its_stage_along(tmp_path, signum, 
     assert_all_gone(family)  # with SIGKILL: the stage died with the pipeline (parent-death signal)
     assert (out / "map.h5").read_bytes() == OLDER
     assert not (out / "report").exists()
+    if signum != signal.SIGKILL:
+        assert "Interrupted: stopped; nothing published" in run.text()
     if signum == signal.SIGKILL:
         assert len(temporaries(out)) == 1
         assert Command("pipeline", "run", tmp_path / "pipe.yaml", "--out", out, "-q").finish() == 0

@@ -3,9 +3,11 @@
 import os
 import time
 
+import pytest
 import yaml
 from fake_stage import FAKE_ENTRY
 
+from legplan import interrupts
 from legplan.artefacts import open_artefact, read_summary
 from legplan.pipeline import load_pipeline, plan_run, run_pipeline
 
@@ -110,3 +112,19 @@ def test_stage_leaving_stale_output_counts_as_failed(tmp_path, write_pipeline):
     result = run(path, out)
     assert result.failed[0].name == "a" and result.failed[0].returncode == 2
     assert (out / "a.h5").exists()
+
+
+def test_an_interrupt_starts_nothing_more_and_names_what_was_published(tmp_path, chain):
+    """The interrupt arrives (here: raised by the progress callback) once stage 'a' has settled:
+    no later stage runs, and the interrupted message names a's output, not "nothing published"."""
+    out = tmp_path / "out"
+
+    def interrupt(result):
+        if result.name == "a":
+            raise KeyboardInterrupt
+
+    with interrupts.handle_interrupts():
+        with pytest.raises(KeyboardInterrupt):
+            run(chain, out, jobs=1, on_result=interrupt)
+        assert interrupts.interrupted_message() == f"stopped after publishing {out / 'a.h5'}"
+    assert sorted(p.name for p in out.iterdir()) == ["a.h5", "logs"]
