@@ -143,6 +143,28 @@ class TerrainHeightBlock(ResidualBlock):
         return r[:, 0], [sampled_jacobian([(j, self.matrix)], 1, self.n, 3 * self.matrix.shape[1])]
 
 
+class StanceSlopeBlock(ResidualBlock):
+    """`TerrainModel.stance_slope` at foot positions sampled by `matrix` (stance nodes): bounded above,
+    it keeps footholds off step edges (`DynParams.stance_slope_max`)."""
+
+    variables = ("feet",)
+
+    def __init__(self, terrain: TerrainModel, matrix: sp.csr_matrix):
+        self.terrain = terrain
+        self.matrix = sp.csr_matrix(matrix)
+        self.size = self.matrix.shape[0]
+
+    def _slope(self, q):
+        return self.terrain.stance_slope(q[:, 0], q[:, 1])[:, None]
+
+    def evaluate(self, values, jacobians):
+        q = self.matrix @ _nodes(values[0])
+        if not jacobians:
+            return self._slope(q)[:, 0], None
+        r, (j,) = complex_step(self._slope, (q,), (0,))
+        return r[:, 0], [sampled_jacobian([(j, self.matrix)], 1, self.size, 3 * self.matrix.shape[1])]
+
+
 class ForceBlock(ResidualBlock):
     """Per force point of one foot (rows of `force`, e.g. Bézier control points): f·n, then ±f·t1 − μ f·n
     and ±f·t2 − μ f·n (5 rows), with the terrain basis at the foot's stance position (`foot` selects

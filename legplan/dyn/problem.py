@@ -12,7 +12,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from legplan.dyn.constraints import (GRAVITY, DynamicsBlock, ForceBlock, RangeOfMotionBlock, TerrainHeightBlock,
+from legplan.dyn.constraints import (GRAVITY, DynamicsBlock, ForceBlock, RangeOfMotionBlock, StanceSlopeBlock,
+                                     TerrainHeightBlock,
                                      acceleration_continuity, base_above_feet, swing_constraint, swing_height)
 from legplan.dyn.costs import CostWeights, StairEdgeBlock, integral_costs
 from legplan.dyn.formulation import Formulation, Pose
@@ -52,6 +53,12 @@ class DynParams:
     cases: with it the 2-stride trot and the stairs walk stall, without it they converge, and no
     case needs it; `planner.plan` drops it when a solve with it stalls). `swing_height_min` (m above both adjacent footholds) and
     `base_clearance` (base z minus foot z, m) are the paper's constraints, None = off.
+    `stance_slope_max` bounds `TerrainModel.stance_slope` (smoothed terrain slope) under every free
+    stance foothold, which keeps them about 4 cm off a pallet's edge (a foot's radius is 3 cm): on the
+    heightmap's one-cell edge ramp the terrain normal tilts by up to 86°, the friction pyramid cannot
+    carry the weight and the raw slope gives the solver no direction off the ramp (measured: the
+    double-pallet walk stalled there at 4 N; with the bound it converges, and the stairs walk's
+    stance foot no longer stands 8.4 mm inside a riser's column). None = off.
     """
 
     dt: float = 0.1
@@ -61,6 +68,7 @@ class DynParams:
     coarse_swing_dt: float = 0.05
     coarse_dt_range: float = 0.08
     swing_clearance: float = 0.0
+    stance_slope_max: float | None = 0.5
     towr_swing: bool = False
     cost_solver: ALParams = ALParams(mu_init=10.0, cost_tolerance=1e-2,
                                      inner=HingedParams(max_iterations=20, tolerance=0.0, function_tolerance=1e-3))
@@ -163,6 +171,9 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
                             name="range_of_motion", scale=1.0 / LENGTH))
         k.append(Constraint(TerrainHeightBlock(terrain, form.node_selector(foot.stance_nodes, form.motion_nodes)),
                             name="stance_on_terrain", scale=1.0 / LENGTH))
+        if params.stance_slope_max is not None and len(foot.stance_nodes) > 1:  # the first is the start
+            k.append(Constraint(StanceSlopeBlock(terrain, form.node_selector(foot.stance_nodes[1:], form.motion_nodes)),
+                                -np.inf, params.stance_slope_max, name="stance_off_edges"))
         if swing_t.size:
             k.append(Constraint(TerrainHeightBlock(terrain, form.foot_matrix(leg, swing_t), envelope=True),
                                 params.swing_clearance, np.inf, name="swing_above_terrain", scale=1.0 / LENGTH))

@@ -9,6 +9,11 @@ differentiate them by complex step exactly, including the terrain normal's chang
 The stair-edge cost (TOWR-costs paper, Sec. III-A-2) needs each foothold's distance to the nearest
 terrain edge: cells whose height differs from a 4-neighbour by more than `edge_step` are edges; the
 Euclidean distance transform of the non-edge cells, bilinear again, gives that distance.
+
+`stance_slope` is the slope |∇(G_σ * h)| of the heightmap smoothed by a Gaussian of σ =
+`SLOPE_SMOOTHING`, bilinear: near a step it rises smoothly toward the edge (a 16.5 cm pallet edge on
+the 1 cm grid: 3.1 on it, 1.5 at 2.5 cm, 0.76 at 3.5 cm, 0.30 at 4.5 cm), so a bound on it keeps stance feet off edges
+with a gradient that points away from them, where the raw heightmap's one-cell ramp has none.
 """
 
 from __future__ import annotations
@@ -19,6 +24,7 @@ from scipy import ndimage
 from legplan.terrain import TerrainMap
 
 EDGE_STEP = 0.02  # m: a height jump between neighbouring cells that makes both an edge
+SLOPE_SMOOTHING = 0.02  # m: σ of the Gaussian under `stance_slope`
 
 
 class TerrainModel:
@@ -40,6 +46,9 @@ class TerrainModel:
         edge[:-1, :] |= jump_y
         self.envelope_grid = ndimage.maximum_filter(h, size=3, mode="nearest")
         self.has_edges = bool(edge.any())
+        smooth = ndimage.gaussian_filter(h, SLOPE_SMOOTHING / self.resolution, mode="nearest")
+        gy, gx = np.gradient(smooth, self.resolution)
+        self.slope_grid = np.hypot(gx, gy)
         self.edge_distance_grid = (ndimage.distance_transform_edt(~edge) * self.resolution if self.has_edges
                                    else np.full(h.shape, np.inf))
 
@@ -92,6 +101,10 @@ class TerrainModel:
         t2 = np.stack([zero, one, hy], axis=-1)
         unit = lambda a: a / np.sqrt(np.sum(a * a, axis=-1, keepdims=True))  # holomorphic norm
         return unit(n), unit(t1), unit(t2)
+
+    def stance_slope(self, x, y):
+        """Slope of the Gaussian-smoothed heightmap at (x, y) (module docstring), real or complex."""
+        return self._bilinear(self.slope_grid, x, y)[0]
 
     def edge_distance(self, x, y):
         """Distance (m) from (x, y) to the nearest edge cell (inf on a map without edges)."""

@@ -30,7 +30,7 @@ def test_every_constraint_block_matches_finite_differences(pallet_problem):
         assert report.ok(atol=1e-5, rtol=1e-4), (k.name, report)
         names.add(k.name)
     assert {"dynamics", "range_of_motion", "stance_on_terrain", "swing_above_terrain", "force",
-            "acceleration_continuity", "swing", "swing_height", "base_clearance"} <= names
+            "acceleration_continuity", "swing", "swing_height", "base_clearance", "stance_off_edges"} <= names
 
 
 def test_every_cost_block_matches_finite_differences(pallet_problem):

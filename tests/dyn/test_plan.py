@@ -41,6 +41,8 @@ def test_step_climb_keeps_swing_feet_above_the_step(anymal, step):
     clearance = feet[:, 2] - step.height(feet[:, 0], feet[:, 1])
     assert clearance.min() >= -5e-3
     assert r.samples["base_pos"][-1, 2] > 0.1 + 0.3  # ended on top of the step
+    stance = r.samples["feet_pos"][r.samples["contact"]]
+    assert step.stance_slope(stance[:, 0], stance[:, 1]).max() <= 0.5 + 1e-3  # off the step's edge
 
 
 def test_infeasible_task_fails_with_a_reason(anymal, flat):
