@@ -119,33 +119,9 @@ class RangeOfMotionBlock(ResidualBlock):
                    sampled_jacobian([(rt, self.foot)], 3, self.n, self.columns[2])]
 
 
-class TerrainHeightBlock(ResidualBlock):
-    """z − h(x, y) of foot positions sampled by `matrix` (rows of the ``feet`` node array); h is the
-    terrain surface, or with `envelope` its upper bound over the column terrain (for swing feet)."""
-
-    variables = ("feet",)
-
-    def __init__(self, terrain: TerrainModel, matrix: sp.csr_matrix, envelope: bool = False):
-        self.terrain = terrain
-        self.height = terrain.envelope if envelope else terrain.height
-        self.matrix = sp.csr_matrix(matrix)
-        self.n = self.matrix.shape[0]
-        self.size = self.n
-
-    def _clearance(self, q):
-        return (q[:, 2] - self.height(q[:, 0], q[:, 1]))[:, None]
-
-    def evaluate(self, values, jacobians):
-        q = self.matrix @ _nodes(values[0])
-        if not jacobians:
-            return self._clearance(q)[:, 0], None
-        r, (j,) = complex_step(self._clearance, (q,), (0,))
-        return r[:, 0], [sampled_jacobian([(j, self.matrix)], 1, self.n, 3 * self.matrix.shape[1])]
-
-
-class StanceSlopeBlock(ResidualBlock):
-    """`TerrainModel.stance_slope` at foot positions sampled by `matrix` (stance nodes): bounded above,
-    it keeps footholds off step edges (`DynParams.stance_slope_max`)."""
+class FootTerrainBlock(ResidualBlock):
+    """One row per foot position sampled by `matrix` (rows of the ``feet`` node array): a terrain
+    function of the position, `_row(q)` for q (n, 3), differentiated by complex step."""
 
     variables = ("feet",)
 
@@ -154,15 +130,38 @@ class StanceSlopeBlock(ResidualBlock):
         self.matrix = sp.csr_matrix(matrix)
         self.size = self.matrix.shape[0]
 
-    def _slope(self, q):
-        return self.terrain.stance_slope(q[:, 0], q[:, 1])[:, None]
+    def _row(self, q):
+        raise NotImplementedError
+
+    def _column(self, q):
+        return self._row(q)[:, None]
 
     def evaluate(self, values, jacobians):
         q = self.matrix @ _nodes(values[0])
         if not jacobians:
-            return self._slope(q)[:, 0], None
-        r, (j,) = complex_step(self._slope, (q,), (0,))
+            return self._row(q), None
+        r, (j,) = complex_step(self._column, (q,), (0,))
         return r[:, 0], [sampled_jacobian([(j, self.matrix)], 1, self.size, 3 * self.matrix.shape[1])]
+
+
+class TerrainHeightBlock(FootTerrainBlock):
+    """z − h(x, y) of the sampled foot positions; h is the terrain surface, or with `envelope` its
+    upper bound over the column terrain (for swing feet)."""
+
+    def __init__(self, terrain: TerrainModel, matrix: sp.csr_matrix, envelope: bool = False):
+        super().__init__(terrain, matrix)
+        self.height = terrain.envelope if envelope else terrain.height
+
+    def _row(self, q):
+        return q[:, 2] - self.height(q[:, 0], q[:, 1])
+
+
+class StanceSlopeBlock(FootTerrainBlock):
+    """`TerrainModel.stance_slope` at the sampled (stance) foot positions: bounded above, it keeps
+    footholds off step edges (`DynParams.stance_slope_max`)."""
+
+    def _row(self, q):
+        return self.terrain.stance_slope(q[:, 0], q[:, 1])
 
 
 class ForceBlock(ResidualBlock):
