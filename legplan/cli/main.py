@@ -45,6 +45,11 @@ class LegplanGroup(click.Group):
     """Turns `LegplanError` (and OS errors on inputs) into a one-line message and exit code 2, and
     SIGINT / SIGTERM into exit 130 / 143 after cleanup."""
 
+    def main(self, *args, **kwargs):
+        """Every invocation runs under `interrupts.handle_interrupts`, argument parsing included."""
+        with interrupts.handle_interrupts():
+            return super().main(*args, **kwargs)
+
     def make_context(self, info_name, args, parent=None, **extra):
         if parent is None:
             set_verbosity(0)  # each invocation starts at the default; -v/-q callbacks adjust it
@@ -54,13 +59,14 @@ class LegplanGroup(click.Group):
             raise
         except click.UsageError as exc:
             raise OneLineUsageError.of(exc, None) from exc
+        except (KeyboardInterrupt, interrupts.Terminated) as exc:
+            raise _stopped(exc) from None
 
     def invoke(self, ctx: click.Context):
         try:
-            with interrupts.handle_interrupts():
-                result = super().invoke(ctx)
-                interrupts.raise_if_interrupted()  # a signal whose exception was swallowed on the way
-                return result
+            result = super().invoke(ctx)
+            interrupts.raise_if_interrupted()  # a signal whose exception was swallowed on the way
+            return result
         except click.exceptions.NoArgsIsHelpError:
             raise
         except click.UsageError as exc:
@@ -71,8 +77,13 @@ class LegplanGroup(click.Group):
             stderr_line(" ".join(str(exc).split()), "Error:")
             ctx.exit(EXIT_BAD_INPUT)
         except (KeyboardInterrupt, interrupts.Terminated) as exc:
-            stderr_line(interrupts.interrupted_message(), "Interrupted:")
-            ctx.exit(interrupts.exit_code(exc))
+            raise _stopped(exc) from None
+
+
+def _stopped(error: BaseException) -> click.exceptions.Exit:
+    """Say that SIGINT / SIGTERM stopped the command (and what it had published); exit 130 / 143."""
+    stderr_line(interrupts.interrupted_message(), "Interrupted:")
+    return click.exceptions.Exit(interrupts.exit_code(error))
 
 
 @click.group(cls=LegplanGroup, context_settings={"help_option_names": ["-h", "--help"]})

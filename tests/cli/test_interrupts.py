@@ -16,9 +16,13 @@ import threading
 import time
 from pathlib import Path
 
+import click
 import pytest
+from click.testing import CliRunner
 
 from legplan.artefacts import open_artefact
+from legplan.cli.main import cli
+from legplan.interrupts import Terminated
 
 LEGPLAN = str(Path(sys.executable).parent / "legplan")
 PAUSING = "pausing before publishing"
@@ -270,3 +274,15 @@ def test_figures_are_published_like_artefacts(scene, tmp_path):
     assert png.read_bytes() == OLDER and sorted(p.name for p in tmp_path.iterdir()) == ["map.png"]
     assert Command("map", "show", scene[0], "-o", png, "--overwrite").finish() == 0
     assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize("error, code", [(KeyboardInterrupt, 130), (Terminated, 143)])
+def test_an_interrupt_while_the_arguments_are_parsed_is_130_or_143_too(monkeypatch, error, code):
+    """Not click's "Aborted!" and exit 1: the handling covers parsing as well as the command."""
+    def interrupted(*args, **kwargs):
+        raise error
+
+    monkeypatch.setattr(click.Group, "make_context", interrupted)
+    result = CliRunner().invoke(cli, ["map", "build", "x.yaml", "-o", "x.h5"])
+    assert result.exit_code == code
+    assert result.stderr.strip() == "Interrupted: stopped; nothing published"
