@@ -34,7 +34,7 @@ def query_opts(velocity_help: str):
 
 def resolve_queries(command: str, start, start_vel, goal, goal_vel, queries_path, grid=None):
     """The (n, 8) query array of the options above, and the input files it came from; a `.scen`
-    file is read on `grid` (the map's `NavGrid`)."""
+    file is read on `grid` (the map's `NavGrid`), and a start or goal off `grid` is refused."""
     import numpy as np
 
     from legplan.errors import LegplanError
@@ -45,6 +45,14 @@ def resolve_queries(command: str, start, start_vel, goal, goal_vel, queries_path
     if queries_path is None and (start is None or goal is None):
         raise LegplanError(f"{command}: --start and --goal are required (or --queries FILE)")
     if queries_path is not None:
-        return read_queries(queries_path, grid), [queries_path]
-    return np.array([[*start, *start_vel, *goal, *goal_vel]]), []
+        queries, files = read_queries(queries_path, grid), [queries_path]
+        names = [f"{queries_path}: row {i}: {end}" for i in range(len(queries)) for end in ("start", "goal")]
+    else:
+        queries, files = np.array([[*start, *start_vel, *goal, *goal_vel]]), []
+        names = ["command line: --start", "command line: --goal"]
+    if grid is not None:  # an end off the map is bad input (exit 2), not a failed query
+        off_map = grid.frame.outside_problem(queries[:, [0, 1, 4, 5]].reshape(-1, 2), names)
+        if off_map is not None:
+            raise LegplanError(off_map)
+    return queries, files
 

@@ -235,3 +235,35 @@ def test_a_deleted_dataset_or_attribute_is_never_a_traceback(inputs, tmp_path_fa
     assert result.exit_code in (0, 2), f"{kind} without {name}: exit {result.exit_code} {result.exception!r}"
     if result.exit_code == 2:  # refused: by the contract; otherwise the item was not needed
         assert_refused(result, "bad.h5")
+
+
+# Class 3: a start or goal off the map is bad input (exit 2 before any work), not a failed item.
+OFF_MAP = [  # (command line on {map}, what the line names)
+    (["steps", "generate", "{map}", "--robot", "scarab2", "--start", "-0.05", "0", "0", "--goal", "5", "0", "0"],
+     "goal pose (5, 0, 0): base at (5.000, 0.000) is outside the map"),
+    (["steps", "generate", "{map}", "--robot", "scarab2", "--start", "-0.95", "0", "0", "--goal", "0.05", "0", "0"],
+     "start pose (-0.95, 0, 0): nominal foot"),
+    (["nav", "search", "{map}", "--start", "-5", "0", "--goal", "0.5", "0.5"], "--start at (-5.000, 0.000)"),
+    (["baseline", "nav", "{map}", "--start", "-0.5", "0", "--goal", "0.5", "9"], "--goal at (0.500, 9.000)"),
+    (["nav", "simulate", "{map}", "--start", "-0.5", "-0.5", "--goal", "3", "0.5"], "--goal at (3.000, 0.500)"),
+    (["nav", "simulate", "{map}", "--start", "-0.5", "-0.5", "--via", "0", "-4", "--goal", "0.5", "0.5"],
+     "--via at (0.000, -4.000)"),
+    (["dyn", "plan", "{map}", "--start", "0", "0", "0", "--goal", "4", "0", "0"], "off the map"),
+]
+
+
+@pytest.mark.parametrize("args, field", OFF_MAP, ids=lambda v: " ".join(v[:2]) if isinstance(v, list) else None)
+def test_start_or_goal_off_the_map_is_refused_before_any_work(inputs, tmp_path, args, field):
+    out = tmp_path / "out.h5"
+    result = invoke([*(part.format(map=inputs["map"]) for part in args), "-o", out])
+    assert_refused(result, "outside the map" if "outside" in field else "", field, output=out)
+
+
+def test_an_off_map_query_row_names_the_file_and_row(inputs, tmp_path):
+    queries = tmp_path / "queries.csv"
+    queries.write_text("start_x,start_y,start_vx,start_vy,goal_x,goal_y,goal_vx,goal_vy\n"
+                       "-0.5,-0.5,0,0,0.5,0.5,0,0\n-0.5,-0.5,0,0,0.5,7,0,0\n")
+    out = tmp_path / "out.h5"
+    for command in (["nav", "search"], ["baseline", "nav"]):
+        result = invoke([*command, inputs["map"], "--queries", queries, "-o", out])
+        assert_refused(result, "queries.csv: row 1: goal at (0.500, 7.000) is outside the map", output=out)
