@@ -10,6 +10,8 @@ import functools
 import logging
 from contextlib import contextmanager
 
+from legplan.interrupts import raise_if_interrupted
+
 # rich is imported on first output (`_stderr`), not at import: `legplan --help` and commands
 # that print nothing do not pay for it (issue 19, start-up time).
 _state = {"verbosity": 0}
@@ -52,12 +54,14 @@ def verbosity() -> int:
 @contextmanager
 def progress_bar(description: str):
     """Yields a `progress(done, total, message="")` callback drawing a bar on stderr (none if -q).
+    Each call first re-raises a SIGINT / SIGTERM whose exception was swallowed on the way
+    (`legplan.interrupts`), so long work stops at its next step.
 
     The bar appears at the first update, so a command that fails before any work shows only its
     one-line error.
     """
     if verbosity() < 0:
-        yield lambda done, total, message="": None
+        yield lambda done, total, message="": raise_if_interrupted()
         return
     from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
@@ -67,6 +71,7 @@ def progress_bar(description: str):
     task = bar.add_task(description, total=None, message="")
 
     def update(done: int, total: int, message: str = "") -> None:
+        raise_if_interrupted()  # long work reports progress often: stop even if a signal's exception was lost
         if not bar.live.is_started:
             bar.start()
         bar.update(task, completed=done, total=total, message=message)
