@@ -3,17 +3,7 @@
 import numpy as np
 import pytest
 
-from legplan.nav import NavGrid
-from legplan.terrain import costmap_from_distance, obstacle_distance
-
-
-def grid_from_occupancy(occupancy, resolution, l1=0.1, l2=0.4, c_max=100.0, lambda_c=5.0,
-                        origin=None):
-    occupancy = np.asarray(occupancy, bool)
-    distance = obstacle_distance(occupancy, resolution)
-    costmap = costmap_from_distance(distance, l1, l2, c_max, lambda_c)
-    origin = (0.5 * resolution, 0.5 * resolution) if origin is None else origin
-    return NavGrid(costmap, distance, l1, origin, resolution)
+from navgrids import grid_from_occupancy
 
 
 @pytest.fixture

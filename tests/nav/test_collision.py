@@ -5,7 +5,7 @@ import collections
 import numpy as np
 from scipy.ndimage import binary_dilation
 
-from conftest import grid_from_occupancy
+from navgrids import grid_from_occupancy
 
 
 def reference_steps(free, start):

@@ -14,7 +14,7 @@ from legplan.nav.primitives import PrimitiveSet, input_lattice, sample_count
 from legplan.robots import load_robot
 from legplan.terrain import build_map
 
-from conftest import grid_from_occupancy
+from navgrids import grid_from_occupancy
 
 PARAMS = NavParams(weight=2.0)
 MAPS = Path(__file__).resolve().parents[2] / "maps"
