@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
-from legplan.solve.linsolve import SOLVER_NAMES, NotPositiveDefiniteError, make_solver
+from legplan.solve.linsolve import SOLVER_NAMES, LinearSolver, NotPositiveDefiniteError, make_solver
 from legplan.solve.problem import ASSEMBLY_MODES, Problem
 from legplan.solve.schur import SchurSolver
 
@@ -127,106 +127,191 @@ def solve_lm(problem: Problem, params: LMParams = LMParams(), theta0: np.ndarray
     """
     t_start = time.perf_counter()
     layout = problem.layout
-    timings = Timings()
     theta = layout.initial() if theta0 is None else layout.project(np.array(theta0, float))
+    state = _LMState(problem, params, theta, params.lambda_init, t_start)
     solver = make_solver(params.linear_solver, params.cholmod_mode)
     schur = layout.schur_columns() if params.schur else None
     if schur is not None:
         solver = SchurSolver(solver, *schur)
-
-    def finish(status, reason, it, norm, initial, hist_h, hist_l, accepted, rejected):
-        timings.total = time.perf_counter() - t_start
-        log.info("SolveLM %s after %d iterations: ‖h‖=%.3e (%s)", status.value, it, norm, reason)
-        return LMResult(theta, layout.values(theta), status, reason, it, norm, initial, hist_h, hist_l,
-                        accepted, rejected, timings)
-
-    lam = params.lambda_init
-    hist_h: list[float] = []
-    hist_l: list[float] = []
-    accepted = rejected = 0
-    linearization = None
-    norm = initial = np.inf
-    for it in range(params.max_iterations + 1):
-        # no linearisation where the loop stops anyway (see the module docstring)
-        if linearization is None and (it == 0 or (norm >= params.tolerance and it < params.max_iterations)):
-            linearization = problem.normal_equations(theta, params.assembly)
-            timings.evaluate += linearization.evaluate_seconds
-            timings.assemble += linearization.assemble_seconds
-            norm = float(np.linalg.norm(linearization.residual))
-            if it == 0:
-                initial = norm
-            from_jacobian = linearization.hessian is None  # assembly="jacobian": the solver forms JᵀJ
-            matrix = linearization.jacobian if from_jacobian else linearization.hessian
-            if not np.isfinite(norm) or not np.all(np.isfinite(matrix.data)):
-                return finish(Status.NUMERICAL_FAILURE, "residual or Jacobian not finite at the current point",
-                              it, norm, initial, hist_h, hist_l, accepted, rejected)
-            matrix, g, scale = _damping_system(matrix, linearization.gradient, params.marquardt_scaling, from_jacobian)
-            matrix_set = False
-        if norm < params.tolerance:
-            return finish(Status.CONVERGED, f"‖h‖ = {norm:.3e} < ε_num = {params.tolerance:.1e}",
-                          it, norm, initial, hist_h, hist_l, accepted, rejected)
-        if it == params.max_iterations:
-            return finish(Status.MAX_ITERATIONS, f"reached MaxIt = {params.max_iterations} with ‖h‖ = {norm:.3e}",
-                          it, norm, initial, hist_h, hist_l, accepted, rejected)
-        if lam > params.lambda_max:
-            return finish(Status.STALLED, f"λ = {lam:.3e} exceeded lambda_max = {params.lambda_max:.1e}: "
-                          f"no decrease of ‖h‖ = {norm:.3e} found (local minimum?)",
-                          it, norm, initial, hist_h, hist_l, accepted, rejected)
-        step = None
-        t0 = time.perf_counter()
-        try:
-            if not matrix_set:  # once per linearisation; a rejected step only refactors at the new λ
-                if from_jacobian:
-                    solver.set_jacobian(matrix)
-                else:
-                    solver.set_matrix(matrix)
-                matrix_set = True
-            solver.refactor(lam)
-            t1 = time.perf_counter()
-            timings.factorize += t1 - t0
-            step = -solver.solve(g) if scale is None else -scale * solver.solve(scale * g)
-            timings.solve += time.perf_counter() - t1
-        except NotPositiveDefiniteError as exc:
-            timings.factorize += time.perf_counter() - t0
-            log.debug("iteration %d: factorisation failed at λ=%.3e (%s); raising λ", it + 1, lam, exc)
-        if step is not None and np.all(np.isfinite(step)):
-            trial = layout.project(theta + step)
-            taken = trial - theta
-            if np.linalg.norm(taken) < params.step_tolerance * (np.linalg.norm(theta) + params.step_tolerance):
-                return finish(Status.STALLED, f"step ‖Δθ‖ = {np.linalg.norm(taken):.3e} below step_tolerance "
-                              f"relative to ‖θ‖ at λ = {lam:.3e}; ‖h‖ = {norm:.3e}",
-                              it, norm, initial, hist_h, hist_l, accepted, rejected)
-            t0 = time.perf_counter()
-            if params.early_reject:  # only the accept/reject decision needs ‖h(trial)‖ vs ‖h‖
-                trial_norm = problem.trial_norm(trial, norm)
-            else:
-                trial_norm = float(np.linalg.norm(problem.residual(trial)))
-            timings.evaluate += time.perf_counter() - t0
-        else:
-            trial_norm = np.inf
-        if trial_norm < norm:  # Algorithm 1, lines 5-7
-            theta = trial
-            lam = max(lam * params.lambda_drop, params.lambda_min)
-            linearization = None
-            accepted += 1
-            norm = trial_norm
-        else:  # Algorithm 1, line 9
-            lam *= params.lambda_boost
-            rejected += 1
-        hist_h.append(norm)
-        hist_l.append(lam)
-        log.debug("iteration %d: ‖h‖=%.6e λ=%.3e %s", it + 1, norm, lam, "accepted" if linearization is None else "rejected")
+    system = None
+    while True:
+        if system is None and state.must_linearize():
+            system = _linearize(state)
+            if system is None:
+                return state.result(Status.NUMERICAL_FAILURE, "residual or Jacobian not finite at the current point")
+        stop = _stop_before_step(state)
+        if stop is not None:
+            return state.result(*stop)
+        step = _damped_step(solver, system, state)
+        trial_norm, trial = np.inf, None
+        if step is not None:
+            trial = layout.project(state.theta + step)
+            stop = _negligible_step(state, trial)
+            if stop is not None:
+                return state.result(*stop)
+            trial_norm = _trial_norm(state, trial)
+        if state.accept_or_reject(trial, trial_norm):
+            system = None
         if callback is not None:
-            callback(it + 1, norm, lam)
-        if params.stall_window and len(hist_h) > params.stall_window:
-            past = hist_h[-1 - params.stall_window]
-            remaining = params.max_iterations - (it + 1)
-            if remaining > 0 and norm >= params.tolerance and _out_of_reach(norm, past, params, remaining):
-                return finish(Status.STALLED, f"‖h‖ went from {past:.3e} to {norm:.3e} over the last "
-                              f"{params.stall_window} iterations: ε_num = {params.tolerance:.1e} out of reach "
-                              f"within the {remaining} iterations left at that rate (stall_window)",
-                              it + 1, norm, initial, hist_h, hist_l, accepted, rejected)
-    raise AssertionError("unreachable: the loop returns at it == max_iterations")
+            callback(state.iterations, state.norm, state.lam)
+        stop = _stall_window_stop(state)
+        if stop is not None:
+            return state.result(*stop)
+
+
+@dataclass
+class _LMState:
+    """What one `solve_lm` run carries from iteration to iteration, and the `LMResult` made of it."""
+
+    problem: Problem
+    params: LMParams
+    theta: np.ndarray
+    lam: float
+    t_start: float  # perf_counter at the call, for Timings.total
+    norm: float = np.inf  # ‖h(θ)‖
+    initial: float = np.inf  # ‖h(θ0)‖
+    norm_history: list[float] = field(default_factory=list)
+    lambda_history: list[float] = field(default_factory=list)
+    accepted: int = 0
+    rejected: int = 0
+    timings: Timings = field(default_factory=Timings)
+
+    @property
+    def iterations(self) -> int:
+        """Iterations finished so far (one history entry each)."""
+        return len(self.norm_history)
+
+    def must_linearize(self) -> bool:
+        """Whether the point needs its Jacobians: always at the start, else only if the loop goes on."""
+        it = self.iterations
+        return it == 0 or (self.norm >= self.params.tolerance and it < self.params.max_iterations)
+
+    def accept_or_reject(self, trial: np.ndarray | None, trial_norm: float) -> bool:
+        """Algorithm 1, lines 5-9: move to `trial` and drop λ if ‖h‖ decreases, else raise λ.
+
+        Records the iteration in the histories; returns whether the step was accepted.
+        """
+        accepted = trial_norm < self.norm
+        if accepted:
+            self.theta = trial
+            self.lam = max(self.lam * self.params.lambda_drop, self.params.lambda_min)
+            self.accepted += 1
+            self.norm = trial_norm
+        else:
+            self.lam *= self.params.lambda_boost
+            self.rejected += 1
+        self.norm_history.append(self.norm)
+        self.lambda_history.append(self.lam)
+        log.debug("iteration %d: ‖h‖=%.6e λ=%.3e %s", self.iterations, self.norm, self.lam,
+                  "accepted" if accepted else "rejected")
+        return accepted
+
+    def result(self, status: Status, reason: str) -> LMResult:
+        """The outcome at the current point, ending the run's clock."""
+        self.timings.total = time.perf_counter() - self.t_start
+        log.info("SolveLM %s after %d iterations: ‖h‖=%.3e (%s)", status.value, self.iterations, self.norm, reason)
+        return LMResult(self.theta, self.problem.layout.values(self.theta), status, reason, self.iterations,
+                        self.norm, self.initial, self.norm_history, self.lambda_history, self.accepted,
+                        self.rejected, self.timings)
+
+
+@dataclass
+class _DampedSystem:
+    """Eq. (13) at one linearisation, as `_damping_system` returns it, loaded into the solver once."""
+
+    matrix: sp.spmatrix  # (scaled) JᵀJ, or (scaled) J when `from_jacobian`
+    gradient: np.ndarray
+    scale: np.ndarray | None
+    from_jacobian: bool
+    loaded: bool = False  # set into the solver; a rejected step only refactors at the new λ
+
+
+def _linearize(state: _LMState) -> _DampedSystem | None:
+    """Jacobians and eq. (13) at the current point, updating ‖h‖; None if anything is not finite."""
+    linearization = state.problem.normal_equations(state.theta, state.params.assembly)
+    state.timings.evaluate += linearization.evaluate_seconds
+    state.timings.assemble += linearization.assemble_seconds
+    state.norm = float(np.linalg.norm(linearization.residual))
+    if state.iterations == 0:
+        state.initial = state.norm
+    from_jacobian = linearization.hessian is None  # assembly="jacobian": the solver forms JᵀJ
+    matrix = linearization.jacobian if from_jacobian else linearization.hessian
+    if not np.isfinite(state.norm) or not np.all(np.isfinite(matrix.data)):
+        return None
+    matrix, g, scale = _damping_system(matrix, linearization.gradient, state.params.marquardt_scaling, from_jacobian)
+    return _DampedSystem(matrix, g, scale, from_jacobian)
+
+
+def _stop_before_step(state: _LMState) -> tuple[Status, str] | None:
+    """Converged, MaxIt reached or λ beyond `lambda_max`: the status and reason, else None."""
+    params, norm = state.params, state.norm
+    if norm < params.tolerance:
+        return Status.CONVERGED, f"‖h‖ = {norm:.3e} < ε_num = {params.tolerance:.1e}"
+    if state.iterations == params.max_iterations:
+        return Status.MAX_ITERATIONS, f"reached MaxIt = {params.max_iterations} with ‖h‖ = {norm:.3e}"
+    if state.lam > params.lambda_max:
+        return Status.STALLED, (f"λ = {state.lam:.3e} exceeded lambda_max = {params.lambda_max:.1e}: "
+                                f"no decrease of ‖h‖ = {norm:.3e} found (local minimum?)")
+    return None
+
+
+def _damped_step(solver: LinearSolver, system: _DampedSystem, state: _LMState) -> np.ndarray | None:
+    """Δθ of eq. (13) at the current λ; None if the factorisation fails or the step is not finite."""
+    timings = state.timings
+    t0 = time.perf_counter()
+    try:
+        if not system.loaded:
+            if system.from_jacobian:
+                solver.set_jacobian(system.matrix)
+            else:
+                solver.set_matrix(system.matrix)
+            system.loaded = True
+        solver.refactor(state.lam)
+        t1 = time.perf_counter()
+        timings.factorize += t1 - t0
+        g, scale = system.gradient, system.scale
+        step = -solver.solve(g) if scale is None else -scale * solver.solve(scale * g)
+        timings.solve += time.perf_counter() - t1
+    except NotPositiveDefiniteError as exc:
+        timings.factorize += time.perf_counter() - t0
+        log.debug("iteration %d: factorisation failed at λ=%.3e (%s); raising λ", state.iterations + 1, state.lam, exc)
+        return None
+    return step if np.all(np.isfinite(step)) else None
+
+
+def _negligible_step(state: _LMState, trial: np.ndarray) -> tuple[Status, str] | None:
+    """STALLED and its reason if the projected step to `trial` is below `step_tolerance`, else None."""
+    tolerance = state.params.step_tolerance
+    taken = np.linalg.norm(trial - state.theta)
+    if taken < tolerance * (np.linalg.norm(state.theta) + tolerance):
+        return Status.STALLED, (f"step ‖Δθ‖ = {taken:.3e} below step_tolerance relative to ‖θ‖ "
+                                f"at λ = {state.lam:.3e}; ‖h‖ = {state.norm:.3e}")
+    return None
+
+
+def _trial_norm(state: _LMState, trial: np.ndarray) -> float:
+    """‖h(trial)‖, or with `early_reject` any value ≥ ‖h‖ once the partial sum reaches it."""
+    t0 = time.perf_counter()
+    if state.params.early_reject:  # only the accept/reject decision needs ‖h(trial)‖ vs ‖h‖
+        trial_norm = state.problem.trial_norm(trial, state.norm)
+    else:
+        trial_norm = float(np.linalg.norm(state.problem.residual(trial)))
+    state.timings.evaluate += time.perf_counter() - t0
+    return trial_norm
+
+
+def _stall_window_stop(state: _LMState) -> tuple[Status, str] | None:
+    """STALLED and its reason if `stall_window` says ε_num is out of reach before MaxIt, else None."""
+    params, history = state.params, state.norm_history
+    if not params.stall_window or len(history) <= params.stall_window:
+        return None
+    past, norm = history[-1 - params.stall_window], state.norm
+    remaining = params.max_iterations - state.iterations
+    if remaining > 0 and norm >= params.tolerance and _out_of_reach(norm, past, params, remaining):
+        return Status.STALLED, (f"‖h‖ went from {past:.3e} to {norm:.3e} over the last {params.stall_window} "
+                                f"iterations: ε_num = {params.tolerance:.1e} out of reach within the "
+                                f"{remaining} iterations left at that rate (stall_window)")
+    return None
 
 
 def _out_of_reach(norm: float, past: float, params: LMParams, remaining: int) -> bool:
