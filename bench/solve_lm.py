@@ -25,6 +25,7 @@ import datetime
 import os
 import pstats
 import statistics
+import sys
 import time
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
@@ -33,9 +34,11 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 from scipy.optimize import least_squares  # noqa: E402
 
-from common import machine, update_benchmarks, write_result  # noqa: E402
+from common import ROOT, machine, update_benchmarks, write_result  # noqa: E402
 from legplan.solve import CholmodSolver, LMParams, solve_lm  # noqa: E402
-from legplan.solve import testproblems as tp  # noqa: E402
+
+sys.path.append(str(ROOT / "tests"))  # the test problems are test support, beside tests/conftest.py
+import testproblems as tp  # noqa: E402
 
 TOL = 1e-8
 

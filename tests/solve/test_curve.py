@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from legplan.solve import LMParams, Status, StructuredBlock, check_jacobian, check_normal_terms, make_solver, solve_lm
-from legplan.solve import testproblems as tp
 from legplan.solve.schur import SchurSolver
+import testproblems as tp
 
 
 @pytest.fixture(scope="module")

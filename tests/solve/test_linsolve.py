@@ -6,7 +6,7 @@ import scipy.sparse as sp
 
 from legplan.solve import (CholmodSolver, NotPositiveDefiniteError, SchurSolver, make_solver)
 from legplan.solve.linsolve import natural_order_suffices
-from legplan.solve import testproblems as tp
+import testproblems as tp
 
 
 def _spd(n=40, seed=0):

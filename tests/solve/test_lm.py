@@ -5,7 +5,7 @@ import pytest
 
 from legplan.solve import (BlockDiagonal, FunctionBlock, LMParams, NormalTerms, Problem, Status, StructuredBlock,
                            VariableBlock, solve_lm)
-from legplan.solve import testproblems as tp
+import testproblems as tp
 
 
 def test_damping_follows_algorithm_1():

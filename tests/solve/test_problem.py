@@ -5,7 +5,7 @@ import pytest
 import scipy.sparse as sp
 
 from legplan.solve import FunctionBlock, LMParams, Problem, Status, VariableBlock, solve_lm
-from legplan.solve import testproblems as tp
+import testproblems as tp
 
 
 def _quadratic_problem(fixed=None, weight=1.0, lower=-np.inf, upper=np.inf):

@@ -5,7 +5,7 @@ import pytest
 from scipy.optimize import least_squares
 
 from legplan.solve import LMParams, Status, solve_lm
-from legplan.solve import testproblems as tp
+import testproblems as tp
 
 CASES = {
     "rosenbrock": (tp.rosenbrock, np.array([1.0, 1.0])),

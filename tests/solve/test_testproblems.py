@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from legplan.solve import check_jacobian
-from legplan.solve import testproblems as tp
+import testproblems as tp
 
 
 @pytest.mark.parametrize("make", [tp.rosenbrock, tp.powell_singular, tp.brown_almost_linear,

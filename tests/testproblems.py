@@ -1,4 +1,4 @@
-"""Standard nonlinear least-squares problems as `Problem`s, for verification and benchmarks.
+"""Standard nonlinear least-squares problems as `Problem`s, for the solver tests and bench/solve_lm.py.
 
 Rosenbrock, Powell singular, Brown almost-linear and Broyden tridiagonal are from Moré, Garbow &
 Hillstrom, "Testing unconstrained optimization software" (1981), with their standard start points.
