@@ -76,7 +76,7 @@ class Trajectory:
         """Arc length ∫ ||v|| dt by the trapezoidal rule on a fine time grid, m."""
         t, _, v, _ = self.sample(max_step)
         speed = np.linalg.norm(v, axis=1)
-        return float(np.sum(0.5 * (speed[1:] + speed[:-1]) * np.diff(t)))
+        return float(np.trapezoid(speed, t))
 
     def end_state(self) -> tuple[np.ndarray, np.ndarray]:
         p, v, _ = self.evaluate([self.duration])

@@ -26,7 +26,6 @@ without JᵀJ being formed in Python; the other solvers form JᵀJ.
 
 from __future__ import annotations
 
-import logging
 import warnings
 from abc import ABC, abstractmethod
 
@@ -42,8 +41,6 @@ except ImportError as exc:  # pragma: no cover - depends on the environment
     _CHOLMOD_IMPORT_ERROR = exc
 
 _fallback_warned = False
-
-log = logging.getLogger(__name__)
 
 SOLVER_NAMES = ("cholmod", "scipy", "dense")
 NATURAL_FILL_SLACK = 1.25  # "auto" ordering: natural when its fill bound ≤ this × the least fill possible

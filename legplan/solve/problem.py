@@ -59,11 +59,6 @@ class Problem:
         self._index_cache: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
     # --- building -------------------------------------------------------------------------------
-    def add_variable(self, block: VariableBlock) -> VariableBlock:
-        self._variables.append(block)
-        self._invalidate()
-        return block
-
     def add_residual(self, block: ResidualBlock, weight: float | np.ndarray = 1.0) -> ResidualBlock:
         """Add a residual block; `weight` multiplies its rows (scalar, or one per row)."""
         names = {v.name for v in self._variables}
@@ -110,10 +105,6 @@ class Problem:
         `solve_hinged_lm`); the other rows are used as they are."""
         parts = [np.broadcast_to(np.asarray(getattr(b, "hinged", False), bool), (b.size,)) for b, _ in self._blocks]
         return np.concatenate(parts) if parts else np.zeros(0, bool)
-
-    @property
-    def num_residuals(self) -> int:
-        return sum(b.size for b, _ in self._blocks)
 
     # --- evaluation -----------------------------------------------------------------------------
     def _block_values(self, values: dict[str, np.ndarray], block: ResidualBlock) -> list[np.ndarray]:

@@ -30,13 +30,12 @@ from __future__ import annotations
 
 import logging
 import math
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pinocchio as pin
 
 from legplan.contact.ik import Posture, solve_ik
-from legplan.errors import LegplanError
 from legplan.robots.sizing import SIZE_SCALED_DEFAULTS, size_scaled
 from legplan.contact.terms import ContactMode, collision_reach, com_terms
 from legplan.errors import LegplanError
@@ -553,10 +552,6 @@ def _option(action: str, leg, cell=None) -> tuple:
 
 def _angle_diff(a: float, b: float) -> float:
     return (a - b + math.pi) % (2 * math.pi) - math.pi
-
-
-def params_dict(params: GenerateParams) -> dict:
-    return asdict(params)
 
 
 def generate_steps(robot, terrain, start, goal, *, params: GenerateParams = GenerateParams(), seed: int = 0,

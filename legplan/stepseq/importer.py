@@ -11,7 +11,6 @@ most one leg (the sequence of eq. (2) switches one leg at a time). Warnings (err
 
 from __future__ import annotations
 
-import logging
 import math
 import re
 from dataclasses import dataclass, field
@@ -23,8 +22,6 @@ from legplan.errors import SpecError
 from legplan.stepseq.records import read_records
 from legplan.stepseq.robotinfo import robot_reference
 from legplan.stepseq.sequence import StepSequence
-
-log = logging.getLogger(__name__)
 
 QUATERNION_KEYS = ("qx", "qy", "qz", "qw")
 RPY_KEYS = ("roll", "pitch", "yaw")

@@ -40,3 +40,9 @@ def test_trapezoid_respects_per_axis_limits_and_is_time_optimal_per_segment(poin
     # the straight segment (0,0)→(3,0) of 3 m: accelerate 0.75 s, cruise 3.25 s, decelerate 0.75 s
     if points[1] == [3, 0]:
         assert trajectory.segments[:3, 8] == pytest.approx([0.75, 3.25, 0.75])
+
+
+def test_path_length_of_a_polyline_is_the_sum_of_its_segments():
+    # a polyline stops at every vertex, so the integrated speed runs along each straight segment once
+    trajectory = trapezoidal_polyline(np.array([[0, 0], [3, 0], [3, 4], [0, 0]], float), 0.75, 1.0)
+    assert trajectory.path_length() == pytest.approx(3 + 4 + 5, rel=1e-6)
