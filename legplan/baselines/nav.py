@@ -40,8 +40,10 @@ from legplan.baselines.names import GEOMETRIC_PLANNERS, NAV_PLANNERS
 from legplan.baselines.runtime import ompl_modules, real_vector_bounds, seed_ompl
 from legplan.errors import LegplanError
 from legplan.nav.collision import NavGrid
+from legplan.nav.params import NavParams
 from legplan.nav.result import SearchResult, endpoint_problem
 from legplan.nav.trajectory import Trajectory, trapezoidal_polyline
+from legplan.parameters import check_ranges, inherit, param
 
 ANYTIME = ("rrtstar", "prmstar")
 
@@ -51,25 +53,19 @@ _ob, _og, _oc = ompl_modules().ob, ompl_modules().og, ompl_modules().oc
 @dataclass(frozen=True)
 class NavBaselineParams:
     planner: str = "rrtconnect"
-    time_budget: float = 1.0  # s of OMPL solve() per query
-    seed: int = 0  # query i is planned with OMPL seed `seed + i`
-    v_max: float = 0.75  # m/s per axis (the nav search's, `NavParams.for_robot`)
-    a_max: float = 1.0  # m/s² per axis
-    simplify_time: float = 0.2  # s of shortcutting of a geometric solution
-    goal_tolerance: float = 0.25  # control planners: distance to the goal state (m, m/s mixed)
-    max_control_steps: int = 10  # control planners: a control lasts 1..this many steps
-    projection_cell: float = 0.5  # m, KPIECE1 grid cell of the position projection
+    time_budget: float = param(1.0, "(0, inf)", doc="s of OMPL solve() per query")
+    seed: int = param(0, "[0, inf)", doc="query i is planned with OMPL seed `seed + i`")
+    v_max: float = inherit(NavParams, "v_max")  # the nav search's limits (`NavParams.for_robot`)
+    a_max: float = inherit(NavParams, "a_max")
+    simplify_time: float = param(0.2, "[0, inf)", doc="s of shortcutting of a geometric solution")
+    goal_tolerance: float = param(0.25, "(0, inf)", doc="control planners: distance to the goal state (m, m/s mixed)")
+    max_control_steps: int = param(10, "[1, inf)", doc="control planners: a control lasts 1..this many steps")
+    projection_cell: float = param(0.5, "(0, inf)", doc="m, KPIECE1 grid cell of the position projection")
 
     def __post_init__(self):
         if self.planner not in NAV_PLANNERS:
             raise LegplanError(f"--planner: expected one of {', '.join(NAV_PLANNERS)}, got {self.planner!r}")
-        checks = [("time_budget", self.time_budget > 0), ("v_max", self.v_max > 0), ("a_max", self.a_max > 0),
-                  ("simplify_time", self.simplify_time >= 0), ("goal_tolerance", self.goal_tolerance > 0),
-                  ("max_control_steps", self.max_control_steps >= 1), ("seed", self.seed >= 0),
-                  ("projection_cell", self.projection_cell > 0)]
-        for name, ok in checks:
-            if not ok:
-                raise LegplanError(f"nav baseline parameter '{name}' out of range: {getattr(self, name)!r}")
+        check_ranges(self, "nav baseline")
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)

@@ -35,6 +35,8 @@ import numpy as np
 from legplan.baselines.names import CONSTRAINED_SPACES
 from legplan.errors import LegplanError
 from legplan.geometry.polyline import arc_length, resample_by_arc_length
+from legplan.parameters import check_ranges, inherit, param
+from legplan.stepplan.params import StepPlanParams
 
 log = logging.getLogger(__name__)
 
@@ -43,34 +45,29 @@ END_EXEMPTION = 1e-3  # m | rad, per coordinate of x (see `step_validity`)
 
 @dataclass(frozen=True)
 class StepBaselineParams:
-    time_budget: float = 10.0  # s of OMPL solve() per step
+    time_budget: float = param(10.0, "(0, inf)", doc="s of OMPL solve() per step")
     space: str = "atlas"  # projected | atlas | tangent
-    seed: int = 0  # step i is planned with OMPL seed `seed + i`
-    tolerance: float = 1e-4  # m, constraint tolerance of the projection (OMPL default)
-    delta: float = 0.02  # constrained-space step in x units (m | rad)
-    simplify_time: float = 0.0  # s of path shortcutting after the first solution (0: none)
-    waypoints: int = 100  # states asked of the interpolated solution (capped by the geodesic step `delta`)
+    seed: int = param(0, "[0, inf)", doc="step i is planned with OMPL seed `seed + i`")
+    tolerance: float = param(1e-4, "(0, inf)", doc="m, constraint tolerance of the projection (OMPL default)")
+    delta: float = param(0.02, "(0, inf)", doc="constrained-space step in x units (m | rad)")
+    simplify_time: float = param(0.0, "[0, inf)", doc="s of path shortcutting after the first solution (0: none)")
+    waypoints: int = param(100, "[2, inf)",
+                           doc="states asked of the interpolated solution (capped by the geodesic step `delta`)")
     position_margin: float = 0.1  # m, ambient bounds around the start/goal base positions
     rotation_margin: float = 0.5  # rad, ambient bounds around the start/goal rotation vectors
-    # the step planner's constraint settings (StepPlanParams), for the same problem:
-    epsilon: float = 1e-3
-    slack_fraction: float = 0.95
-    clearance: float = 0.02
-    relax_radius: float = 0.05
-    com_margin: float = 0.0
-    dense_samples: int = 1000
-    judge_tolerance: float = 1e-5
+    # the step planner's constraint settings, for the same problem:
+    epsilon: float = inherit(StepPlanParams, "epsilon")
+    slack_fraction: float = inherit(StepPlanParams, "slack_fraction")
+    clearance: float = inherit(StepPlanParams, "clearance")
+    relax_radius: float = inherit(StepPlanParams, "relax_radius")
+    com_margin: float = inherit(StepPlanParams, "com_margin")
+    dense_samples: int = inherit(StepPlanParams, "dense_samples", range="[4, inf)")  # third differences
+    judge_tolerance: float = inherit(StepPlanParams, "judge_tolerance")
 
     def __post_init__(self):
         if self.space not in CONSTRAINED_SPACES:
             raise LegplanError(f"--space: expected one of {', '.join(CONSTRAINED_SPACES)}, got {self.space!r}")
-        checks = [("time_budget", self.time_budget > 0), ("tolerance", self.tolerance > 0),
-                  ("delta", self.delta > 0), ("simplify_time", self.simplify_time >= 0),
-                  ("waypoints", self.waypoints >= 2), ("dense_samples", self.dense_samples >= 4),
-                  ("seed", self.seed >= 0)]
-        for name, ok in checks:
-            if not ok:
-                raise LegplanError(f"step baseline parameter '{name}' out of range: {getattr(self, name)!r}")
+        check_ranges(self, "step baseline")
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)

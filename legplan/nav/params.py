@@ -30,7 +30,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from legplan.errors import LegplanError
+from legplan.parameters import check_ranges, param
 from legplan.specio import apply_overrides
 
 MIN_EXPANSIONS = 200_000  # the auto budget's floor (the former fixed limit)
@@ -38,34 +38,26 @@ MIN_EXPANSIONS = 200_000  # the auto budget's floor (the former fixed limit)
 
 @dataclass(frozen=True)
 class NavParams:
-    v_max: float = 0.75  # m/s per axis (Table I v_x max)
-    a_max: float = 1.0  # m/s² per axis (Table I a_x max)
-    mu: int = 2  # (2μ+1)² motion primitives
-    tau: float = 0.4  # s, primitive duration
-    rho: float = 1.0  # time weight ρ of eq. (5)
-    rho_c: float = 0.01  # collision-cost weight ρ_c of eq. (19) (C_max = 100 → ρ_c·F ≤ 1)
-    weight: float = 2.0  # heuristic weight (1 = A*); cost ≤ weight (restarts: 2.5·weight) × opt.
+    v_max: float = param(0.75, "(0, inf)", "v_max", "m/s per axis (Table I v_x max)")
+    a_max: float = param(1.0, "(0, inf)", "u_max", "m/s² per axis (Table I a_x max)")
+    mu: int = param(2, "[1, inf)", "μ", "(2μ+1)² motion primitives")
+    tau: float = param(0.4, "(0, inf)", "τ", "s, primitive duration")
+    rho: float = param(1.0, "(0, inf)", "ρ", "time weight of eq. (5)")
+    rho_c: float = param(0.01, "[0, inf)", "ρ_c", "collision-cost weight of eq. (19) (C_max = 100 → ρ_c·F ≤ 1)")
+    weight: float = param(2.0, "[1, inf)",
+                          doc="heuristic weight (1 = A*); cost ≤ weight (restarts: 2.5·weight) × opt.")
     time_bound: bool = True  # heuristic minimizes over T ≥ max|Δp_d| / v_max
     geodesic_bound: bool = True  # ... and over T ≥ the time around obstacles (one BFS per query)
     restarts: bool = True  # with geodesic_bound: restart a stalled search with a larger weight
-    pos_res: float = 0.1  # m, state hash grid
-    vel_res: float = 0.2  # m/s, state hash grid
-    oneshot_radius: float = 5.0  # m
-    goal_tolerance: float = 0.0  # m
-    goal_vel_tolerance: float = 0.0  # m/s
-    max_expansions: int = 0  # 0: scale with the map (`expansion_budget`)
+    pos_res: float = param(0.1, "(0, inf)", doc="m, state hash grid")
+    vel_res: float = param(0.2, "(0, inf)", doc="m/s, state hash grid")
+    oneshot_radius: float = param(5.0, "[0, inf)", doc="m")
+    goal_tolerance: float = param(0.0, "[0, inf)", doc="m")
+    goal_vel_tolerance: float = param(0.0, "[0, inf)", doc="m/s")
+    max_expansions: int = param(0, "[0, inf)", doc="0: scale with the map (`expansion_budget`)")
 
     def __post_init__(self):
-        checks = [("v_max", self.v_max > 0), ("a_max", self.a_max > 0), ("mu", self.mu >= 1),
-                  ("tau", self.tau > 0), ("rho", self.rho > 0), ("rho_c", self.rho_c >= 0),
-                  ("weight", self.weight >= 1), ("pos_res", self.pos_res > 0),
-                  ("vel_res", self.vel_res > 0), ("oneshot_radius", self.oneshot_radius >= 0),
-                  ("goal_tolerance", self.goal_tolerance >= 0),
-                  ("goal_vel_tolerance", self.goal_vel_tolerance >= 0),
-                  ("max_expansions", self.max_expansions >= 0)]
-        for name, ok in checks:
-            if not ok:
-                raise LegplanError(f"nav parameter '{name}' out of range: {getattr(self, name)!r}")
+        check_ranges(self, "nav")
 
     @classmethod
     def for_robot(cls, navigation) -> NavParams:

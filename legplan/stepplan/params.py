@@ -39,43 +39,35 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from legplan.errors import LegplanError
+from legplan.parameters import check_ranges, param
 from legplan.specio import apply_overrides
 
 
 @dataclass(frozen=True)
 class StepPlanParams:
-    samples: int = 100  # N of eq. (10): constraints are sampled at t_i = i/N, i = 1..N-1
-    max_degree: int = 10  # d_max
-    max_iterations: int = 100  # MaxIt of SolveLM
-    lambda_init: float = 1.0
-    lambda_drop: float = 0.1
-    lambda_boost: float = 1.5
-    epsilon: float = 1e-3  # ε of eq. (11b), m: allowed stance-foot deviation per foot
-    eps_num: float = 1e-5  # ε_num of Algorithm 1
-    slack_fraction: float = 0.95  # sample-level slack bound = slack_fraction·ε
-    clearance: float = 0.02  # m, sphere-terrain margin
-    clearance_headroom: float = 0.1  # m·N: swing feet keep clearance + clearance_headroom / N at the samples
-    relax_radius: float = 0.05  # m, swing-foot margin relaxation around its footholds
-    com_margin: float = 0.0  # m, CoM distance to every support-polygon edge
-    dense_samples: int = 1000  # independent re-check of the finished path
-    judge_tolerance: float = 1e-5  # m | rad, allowed dense miss of CoM margin, clearance, joint limits
-    stall_window: int = 0  # opt-in SolveLM stall stop (departure from Algorithm 1); 0 = off
+    samples: int = param(100, "[2, inf)", "N", "eq. (10): constraints are sampled at t_i = i/N, i = 1..N-1")
+    max_degree: int = param(10, "[1, inf)", "d_max")
+    max_iterations: int = param(100, "[0, inf)", "MaxIt", "of SolveLM")
+    lambda_init: float = param(1.0, "(0, inf)", "λ_init")
+    lambda_drop: float = param(0.1, "(0, 1)", "λ_drop")
+    lambda_boost: float = param(1.5, "(1, inf)", "λ_boost")
+    epsilon: float = param(1e-3, "(0, inf)", "ε", "eq. (11b), m: allowed stance-foot deviation per foot")
+    eps_num: float = param(1e-5, "(0, inf)", "ε_num", "of Algorithm 1")
+    slack_fraction: float = param(0.95, "(0, 1]", doc="sample-level slack bound = slack_fraction·ε")
+    clearance: float = param(0.02, doc="m, sphere-terrain margin")
+    clearance_headroom: float = param(0.1, "[0, inf)",
+                                      doc="m·N: swing feet keep clearance + clearance_headroom / N at the samples")
+    relax_radius: float = param(0.05, "(0, inf)", doc="m, swing-foot margin relaxation around its footholds")
+    com_margin: float = param(0.0, doc="m, CoM distance to every support-polygon edge")
+    dense_samples: int = param(1000, "[2, inf)", doc="independent re-check of the finished path")
+    judge_tolerance: float = param(1e-5, "[0, inf)",
+                                   doc="m | rad, allowed dense miss of CoM margin, clearance, joint limits")
+    stall_window: int = param(0, "[0, inf)", doc="opt-in SolveLM stall stop (departure from Algorithm 1); 0 = off")
     linear_solver: str = "cholmod"
     assembly: str = "blocks"
 
     def __post_init__(self):
-        checks = [("samples", self.samples >= 2), ("max_degree", self.max_degree >= 1),
-                  ("max_iterations", self.max_iterations >= 0), ("epsilon", self.epsilon > 0),
-                  ("eps_num", self.eps_num > 0), ("relax_radius", self.relax_radius > 0),
-                  ("slack_fraction", 0 < self.slack_fraction <= 1), ("dense_samples", self.dense_samples >= 2),
-                  ("judge_tolerance", self.judge_tolerance >= 0),
-                  ("clearance_headroom", self.clearance_headroom >= 0),
-                  ("lambda_init", self.lambda_init > 0), ("lambda_drop", 0 < self.lambda_drop < 1),
-                  ("lambda_boost", self.lambda_boost > 1), ("stall_window", self.stall_window >= 0)]
-        for name, ok in checks:
-            if not ok:
-                raise LegplanError(f"step planner parameter '{name}' out of range: {getattr(self, name)!r}")
+        check_ranges(self, "step planner")
 
     @classmethod
     def from_overrides(cls, overrides: dict[str, str] | None = None, source: str = "--param") -> StepPlanParams:

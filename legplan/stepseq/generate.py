@@ -40,6 +40,7 @@ from legplan.robots.sizing import SIZE_SCALED_DEFAULTS, size_scaled
 from legplan.contact.terms import ContactMode, collision_reach, com_terms
 from legplan.errors import LegplanError
 from legplan.geometry.polygon import support_polygon
+from legplan.parameters import check_ranges, param
 from legplan.terrain.columns import ColumnDistance
 from legplan.validate.judge import Requirements, shortfalls
 
@@ -55,36 +56,34 @@ class GenerateParams:
     1.5 cm at a mean leg length of 0.241 m) times the robot's mean leg length / 0.241 m, rounded to
     0.1 mm; `--param key=value` sets any of them."""
 
-    com_margin: float | None = None  # CoM distance to every support edge during planning (size-scaled)
-    clearance: float | None = None  # sphere clearance from the terrain (size-scaled; paper Sec. IV: 2 cm)
-    foot_clearance: float = 0.01  # swing-foot sphere clearance
-    foot_tolerance: float = 1e-4  # stance feet within this of their footholds (IK)
-    judge_tolerance: float = 1e-6  # allowed miss of CoM margin, clearance, joint limits when judged
-    step_radius: float | None = None  # start footholds' search radius around the nominal positions
-    reach_slack: float | None = None  # candidate footholds lie this far inside the leg workspace radii (size-scaled)
-    advance: float | None = None  # how far ahead of the body the target pose lies
-    lift_height: float | None = None  # swing apex above the higher of the two footholds / terrain (size-scaled)
-    min_progress: float = 0.02  # a move must bring the foot this much closer along the path
-    foot_separation: float | None = None  # minimum distance between two footholds (4 foot radii)
-    candidates: int = 6  # footholds tried per leg
-    goal_tolerance: float = 0.05  # body distance to the goal that ends the sequence
-    max_moves: int = 200
-    backtracks: int = 20  # moves taken back at dead ends (depth-first over each move's options)
-    restarts: int = 1  # IK retries from a seeded random perturbation
-    restart_noise: float = 0.05  # std of that perturbation (m, rad)
+    com_margin: float | None = param(None, "[0, inf)",
+                                     doc="CoM distance to every support edge during planning (size-scaled)")
+    clearance: float | None = param(None, "[0, inf)",
+                                    doc="sphere clearance from the terrain (size-scaled; paper Sec. IV: 2 cm)")
+    foot_clearance: float = param(0.01, "[0, inf)", doc="swing-foot sphere clearance")
+    foot_tolerance: float = param(1e-4, "(0, inf)", doc="stance feet within this of their footholds (IK)")
+    judge_tolerance: float = param(1e-6, "[0, inf)",
+                                   doc="allowed miss of CoM margin, clearance, joint limits when judged")
+    step_radius: float | None = param(None, "(0, inf)",
+                                      doc="start footholds' search radius around the nominal positions")
+    reach_slack: float | None = param(None, "[0, inf)",
+                                      doc="candidate footholds lie this far inside the leg workspace radii (size-scaled)")
+    advance: float | None = param(None, "(0, inf)", doc="how far ahead of the body the target pose lies")
+    lift_height: float | None = param(None, "[0, inf)",
+                                      doc="swing apex above the higher of the two footholds / terrain (size-scaled)")
+    min_progress: float = param(0.02, "[0, inf)", doc="a move must bring the foot this much closer along the path")
+    foot_separation: float | None = param(None, "(0, inf)",
+                                          doc="minimum distance between two footholds (4 foot radii)")
+    candidates: int = param(6, "[1, inf)", doc="footholds tried per leg")
+    goal_tolerance: float = param(0.05, "(0, inf)", doc="body distance to the goal that ends the sequence")
+    max_moves: int = param(200, "[1, inf)")
+    backtracks: int = param(20, "[0, inf)", doc="moves taken back at dead ends (depth-first over each move's options)")
+    restarts: int = param(1, "[0, inf)", doc="IK retries from a seeded random perturbation")
+    restart_noise: float = param(0.05, "[0, inf)", doc="std of that perturbation (m, rad)")
     posture_weights: tuple[float, float, float, float] = (0.3, 1.0, 1.0, 0.05)  # xy, z, rot, joints
 
     def __post_init__(self):
-        lengths = ("com_margin", "clearance", "foot_clearance", "reach_slack", "lift_height", "min_progress")
-        checks = [(name, getattr(self, name) is None or getattr(self, name) >= 0) for name in lengths]
-        checks += [(name, getattr(self, name) is None or getattr(self, name) > 0)
-                   for name in ("foot_tolerance", "step_radius", "advance", "foot_separation", "goal_tolerance")]
-        checks += [("candidates", self.candidates >= 1), ("max_moves", self.max_moves >= 1),
-                   ("backtracks", self.backtracks >= 0), ("restarts", self.restarts >= 0),
-                   ("judge_tolerance", self.judge_tolerance >= 0), ("restart_noise", self.restart_noise >= 0)]
-        for name, ok in checks:
-            if not ok:
-                raise LegplanError(f"generator parameter '{name}' out of range: {getattr(self, name)!r}")
+        check_ranges(self, "generator")
 
     def sized_for(self, robot) -> GenerateParams:
         """These parameters with every size-scaled one left at None set from `robot`'s leg length."""

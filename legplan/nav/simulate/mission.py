@@ -5,7 +5,7 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from legplan.errors import LegplanError
+from legplan.parameters import check_ranges, param
 
 YAW_POLICIES = ("velocity", "target", "heading")
 
@@ -23,33 +23,28 @@ class Goal:
 class SimParams:
     """Settings of a run (`nav simulate --param sim.KEY=VALUE` for the numbers and flags)."""
 
-    rate: float = 10.0  # Hz, TEB cycles
-    substeps: int = 10  # robot integration steps per cycle
-    window: float = 5.0  # m of global path in the local band
-    sensing_radius: float = 4.0  # m
-    goal_tolerance: float = 0.1  # m
-    heading_tolerance: float = 0.1  # rad
-    stop_speed: float = 0.05  # m/s, "at rest" for arrival at a via point
-    max_time: float = 300.0  # s of simulated time before the run fails
-    stall_time: float = 20.0  # s: the run fails when the robot moved less than `stall_distance` in this time
-    stall_distance: float = 0.3  # m
-    max_wall_seconds: float = float("inf")  # wall-clock budget of the run
+    rate: float = param(10.0, "(0, inf)", doc="Hz, TEB cycles")
+    substeps: int = param(10, "[1, inf)", doc="robot integration steps per cycle")
+    window: float = param(5.0, "(0, inf)", doc="m of global path in the local band")
+    sensing_radius: float = param(4.0, "[0, inf)", doc="m")
+    goal_tolerance: float = param(0.1, "(0, inf)", doc="m")
+    heading_tolerance: float = param(0.1, "(0, inf)", doc="rad")
+    stop_speed: float = param(0.05, "(0, inf)", doc="m/s, \"at rest\" for arrival at a via point")
+    max_time: float = param(300.0, "(0, inf)", doc="s of simulated time before the run fails")
+    stall_time: float = param(20.0, "(0, inf)",
+                              doc="s: the run fails when the robot moved less than `stall_distance` in this time")
+    stall_distance: float = param(0.3, "[0, inf)", doc="m")
+    max_wall_seconds: float = param(float("inf"), "(0, inf]", doc="wall-clock budget of the run")
     warm_start: bool = True  # warm-start the local band from the previous cycle
-    yaw: str = "velocity"  # yaw policy on the way: "velocity", "target" (face `target`) or "heading"
+    yaw: str = param("velocity", YAW_POLICIES,
+                     doc="yaw policy on the way: \"velocity\", \"target\" (face `target`) or \"heading\"")
     target: tuple[float, float] | None = None  # world point faced with yaw "target"
     heading: float = 0.0  # rad, held with yaw "heading"
-    clearance_margin: float = 0.1  # m the TEB keeps beyond the collision radius (soft obstacle term, tracking lag)
+    clearance_margin: float = param(0.1, "[0, inf)", doc="m the TEB keeps beyond the collision radius "
+                                    "(soft obstacle term, tracking lag)")
 
     def __post_init__(self):
-        checks = [("rate", self.rate > 0), ("substeps", self.substeps >= 1), ("window", self.window > 0),
-                  ("sensing_radius", self.sensing_radius >= 0), ("goal_tolerance", self.goal_tolerance > 0),
-                  ("heading_tolerance", self.heading_tolerance > 0), ("stop_speed", self.stop_speed > 0),
-                  ("max_time", self.max_time > 0), ("stall_time", self.stall_time > 0),
-                  ("stall_distance", self.stall_distance >= 0), ("clearance_margin", self.clearance_margin >= 0), ("max_wall_seconds", self.max_wall_seconds > 0),
-                  ("yaw", self.yaw in YAW_POLICIES)]
-        for name, ok in checks:
-            if not ok:
-                raise LegplanError(f"simulation parameter '{name}' out of range: {getattr(self, name)!r}")
+        check_ranges(self, "simulation")
 
     def as_dict(self) -> dict:
         return dataclasses.asdict(self)

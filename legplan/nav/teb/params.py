@@ -23,61 +23,56 @@ from __future__ import annotations
 import dataclasses
 from dataclasses import dataclass
 
-from legplan.errors import LegplanError
+from legplan.parameters import check_ranges, param
 
 
 @dataclass(frozen=True)
 class TebParams:
     # band resolution and iteration counts (TEB defaults)
-    dt_ref: float = 0.3  # s
-    dt_hysteresis: float = 0.1  # s
-    dt_min: float = 0.01  # s, lower bound of every ΔT_i
-    min_poses: int = 3
-    max_poses: int = 500
-    outer_iterations: int = 4
-    inner_iterations: int = 5
-    tries_per_iteration: int = 3  # LM iterations (accepted or rejected) per TEB inner iteration
-    lambda_boost: float = 3.0  # LM damping increase after a rejected step
-    round_tolerance: float = 0.01  # stop the rounds once one lowers ‖h‖ by less than this fraction
-    step_tolerance: float = 1e-6  # LM stops a round when a step is below this fraction of ‖z‖
-    epsilon: float = 0.01  # penalty margin ε (m/s, rad/s, m/s², rad/s²)
+    dt_ref: float = param(0.3, "(0, inf)", doc="s")
+    dt_hysteresis: float = param(0.1, "[0, dt_ref)", doc="s")
+    dt_min: float = param(0.01, "(0, dt_merge_below)", doc="s, lower bound of every ΔT_i")
+    min_poses: int = param(3, "[2, inf)")
+    max_poses: int = param(500, "[min_poses, inf)")
+    outer_iterations: int = param(4, "[1, inf)")
+    inner_iterations: int = param(5, "[1, inf)")
+    tries_per_iteration: int = param(3, "[1, inf)", doc="LM iterations (accepted or rejected) per TEB inner iteration")
+    lambda_boost: float = param(3.0, "(1, inf)", doc="LM damping increase after a rejected step")
+    round_tolerance: float = param(0.01, "[0, inf)",
+                                   doc="stop the rounds once one lowers ‖h‖ by less than this fraction")
+    step_tolerance: float = param(1e-6, "[0, inf)",
+                                  doc="LM stops a round when a step is below this fraction of ‖z‖")
+    epsilon: float = param(0.01, "[0, inf)", "ε", "penalty margin (m/s, rad/s, m/s², rad/s²)")
     # kinematics
     omnidirectional: bool = True
     # weights (multiply squared residuals)
-    weight_velocity: float = 100.0
-    weight_omega: float = 100.0
-    weight_acceleration: float = 50.0
-    weight_alpha: float = 50.0
-    gamma_forward: float = 2.0  # γ on forward (x) rows
-    gamma_lateral: float = 1.0  # γ on lateral (y) rows
-    weight_time: float = 1.0
-    weight_path: float = 0.5  # attraction to the global path
-    weight_obstacle: float = 50.0
-    weight_inflation: float = 0.5
-    weight_viapoint: float = 20.0
-    weight_via_heading: float = 20.0
-    weight_yaw_change: float = 0.2  # the paper's yaw-change penalty
-    weight_nonholonomic: float = 1000.0
+    weight_velocity: float = param(100.0, "[0, inf)")
+    weight_omega: float = param(100.0, "[0, inf)")
+    weight_acceleration: float = param(50.0, "[0, inf)")
+    weight_alpha: float = param(50.0, "[0, inf)")
+    gamma_forward: float = param(2.0, "[0, inf)", "γ", "on forward (x) rows")
+    gamma_lateral: float = param(1.0, "[0, inf)", "γ", "on lateral (y) rows")
+    weight_time: float = param(1.0, "[0, inf)")
+    weight_path: float = param(0.5, "[0, inf)", doc="attraction to the global path")
+    weight_obstacle: float = param(50.0, "[0, inf)")
+    weight_inflation: float = param(0.5, "[0, inf)")
+    weight_viapoint: float = param(20.0, "[0, inf)")
+    weight_via_heading: float = param(20.0, "[0, inf)")
+    weight_yaw_change: float = param(0.2, "[0, inf)", doc="the paper's yaw-change penalty")
+    weight_nonholonomic: float = param(1000.0, "[0, inf)")
     # obstacles (distance of the robot centre to the nearest obstacle)
-    min_obstacle_distance: float = 0.35  # m
-    inflation_distance: float = 0.6  # m
-    path_window: float = 1.0  # m of arc length around a pose's reference point searched for attraction
+    min_obstacle_distance: float = param(0.35, "[0, inf)", doc="m")
+    inflation_distance: float = param(0.6, "[min_obstacle_distance, inf)", doc="m")
+    path_window: float = param(1.0, "(0, inf)",
+                               doc="m of arc length around a pose's reference point searched for attraction")
 
     def __post_init__(self):
-        checks = [("dt_ref", self.dt_ref > 0), ("dt_hysteresis", 0 <= self.dt_hysteresis < self.dt_ref),
-                  ("dt_min", 0 < self.dt_min < self.dt_ref - self.dt_hysteresis),
-                  ("min_poses", self.min_poses >= 2), ("max_poses", self.max_poses >= self.min_poses),
-                  ("outer_iterations", self.outer_iterations >= 1),
-                  ("inner_iterations", self.inner_iterations >= 1), ("epsilon", self.epsilon >= 0),
-                  ("tries_per_iteration", self.tries_per_iteration >= 1),
-                  ("round_tolerance", self.round_tolerance >= 0), ("step_tolerance", self.step_tolerance >= 0), ("lambda_boost", self.lambda_boost > 1),
-                  ("inflation_distance", self.inflation_distance >= self.min_obstacle_distance >= 0),
-                  ("path_window", self.path_window > 0)]
-        checks += [(f.name, getattr(self, f.name) >= 0) for f in dataclasses.fields(self)
-                   if f.name.startswith(("weight_", "gamma_"))]
-        for name, ok in checks:
-            if not ok:
-                raise LegplanError(f"teb parameter '{name}' out of range: {getattr(self, name)!r}")
+        check_ranges(self, "teb")
+
+    @property
+    def dt_merge_below(self) -> float:
+        """ΔT below which resizing removes a pose (merges two intervals): dt_ref − dt_hysteresis."""
+        return self.dt_ref - self.dt_hysteresis
 
     def replace(self, **changes) -> TebParams:
         return dataclasses.replace(self, **changes)
