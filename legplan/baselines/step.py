@@ -36,6 +36,7 @@ from legplan.baselines.names import CONSTRAINED_SPACES
 from legplan.errors import LegplanError
 from legplan.geometry.polyline import arc_length, resample_by_arc_length
 from legplan.parameters import check_ranges, inherit, param
+from legplan.stepplan.batch import StepWorker, plan_pairs
 from legplan.stepplan.params import StepPlanParams
 
 log = logging.getLogger(__name__)
@@ -141,22 +142,9 @@ def step_validity(robot, sdf, x0, x1, stance, footholds, params: StepBaselinePar
     return valid
 
 
-class StepBaselineWorker:
-    """Robot, terrain and independent validator, loaded once; `plan` judges one pair like `StepWorker`."""
-
-    def __init__(self, robot_name: str, map_path: str, params: StepBaselineParams):
-        from legplan.robots import load_robot
-        from legplan.stepplan.measure import requirements
-        from legplan.stepplan.planner import terrain_distance
-        from legplan.terrain import load_map
-        from legplan.validate.checks import Validator
-
-        self.robot = load_robot(robot_name)
-        self.terrain = load_map(map_path)
-        self.distance = terrain_distance(self.robot, self.terrain, params)
-        self.validator = Validator(self.robot, self.terrain)
-        self.params = params
-        self.required = requirements(params)
+class StepBaselineWorker(StepWorker):
+    """The step planner's worker (robot, exact terrain distance, independent validator, loaded once)
+    whose `plan` plans one pair with OMPL instead, judged by the same rules."""
 
     def plan(self, index: int, q_start, q_end, stance, footholds) -> dict:
         """Plan and judge one step; never raises (a failure is a record with a reason)."""
@@ -198,6 +186,4 @@ def plan_sequence_baseline(seq, map_path, params: StepBaselineParams, indices: S
     """Plan pairs (q_i, q_{i+1}) for i in `indices` of a `StepSequence` in this process (each step
     reseeds OMPL, so any worker gives the same path); records in index order, for
     `legplan.stepplan.write_motion`."""
-    from legplan.stepplan.batch import plan_pairs
-
     return plan_pairs(StepBaselineWorker(seq.robot, str(map_path), params), seq, indices, progress)
