@@ -36,11 +36,12 @@ import numpy as np
 import pinocchio as pin
 
 from legplan.contact.ik import Posture, solve_ik
-from legplan.robots.sizing import SIZE_SCALED_DEFAULTS, size_scaled
 from legplan.contact.terms import ContactMode, collision_reach, com_terms
 from legplan.errors import LegplanError
+from legplan.geometry.angles import wrap_angle
 from legplan.geometry.polygon import support_polygon
 from legplan.parameters import check_ranges, param
+from legplan.robots.sizing import SIZE_SCALED_DEFAULTS, size_scaled
 from legplan.terrain.columns import ColumnDistance
 from legplan.validate.judge import Requirements, shortfalls
 
@@ -222,7 +223,7 @@ class StepGenerator:
     def _pose(self, s: float):
         s = min(max(s, 0.0), 1.0)
         xy = self.start[:2] + s * (self.goal[:2] - self.start[:2])
-        yaw = self.start[2] + s * _angle_diff(self.goal[2], self.start[2])
+        yaw = self.start[2] + s * wrap_angle(self.goal[2] - self.start[2])
         return xy, yaw
 
     def _nominal_feet(self, xy, yaw) -> np.ndarray:
@@ -547,10 +548,6 @@ class StepGenerator:
 def _option(action: str, leg, cell=None) -> tuple:
     """Key of one option of `StepGenerator._move`: action, leg and foothold (rounded to µm)."""
     return action, int(leg), None if cell is None else tuple(np.round(cell, 6).tolist())
-
-
-def _angle_diff(a: float, b: float) -> float:
-    return (a - b + math.pi) % (2 * math.pi) - math.pi
 
 
 def generate_steps(robot, terrain, start, goal, *, params: GenerateParams = GenerateParams(), seed: int = 0,

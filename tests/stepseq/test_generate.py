@@ -1,6 +1,7 @@
 """Step-sequence generation: a dead end takes the previous move back and tries its next option."""
 
 import numpy as np
+import pytest
 
 from legplan.stepseq.generate import GenerateParams, StepGenerator, _option
 
@@ -40,3 +41,11 @@ def test_dead_ends_beyond_the_budget_stop_with_the_reason(scarab, flat_map, monk
     generated = StepGenerator(scarab, terrain, GenerateParams(backtracks=2)).plan((-0.05, 0, 0), (0.05, 0, 0))
     assert not generated.success and generated.reason == "move 1: always stuck"
     assert len(generated.moves) == 1
+
+
+def test_the_target_pose_turns_the_short_way_round(scarab, flat_map):
+    generator = StepGenerator(scarab, flat_map[0], GenerateParams())
+    generator.start, generator.goal = np.array([0.0, 0.0, 3.0]), np.array([0.2, 0.0, -3.0])
+    xy, yaw = generator._pose(0.5)
+    np.testing.assert_allclose(xy, [0.1, 0.0])
+    assert yaw == pytest.approx(3.0 + (2 * np.pi - 6.0) / 2)  # through ±π, not back through 0
