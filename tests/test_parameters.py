@@ -89,6 +89,13 @@ def test_the_step_baseline_solves_the_step_planners_problem():
         StepBaselineParams(dense_samples=3)  # third differences need 4 (the planner takes 2)
 
 
+def test_choices_are_ranges_too():
+    with pytest.raises(LegplanError, match=r"^nav baseline parameter 'planner' out of range: 'rrt' \(allowed 'rrtconnect'"):
+        NavBaselineParams(planner="rrt")
+    with pytest.raises(LegplanError, match=r"^step baseline parameter 'space' out of range: 'flat'"):
+        StepBaselineParams(space="flat")
+
+
 def _just_outside(interval: Interval, params):
     """A value just below the low bound or just above the high one, or None if both are infinite."""
     low, high = (getattr(params, b) if isinstance(b, str) else b for b in (interval.low, interval.high))

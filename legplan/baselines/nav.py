@@ -38,7 +38,6 @@ import numpy as np
 
 from legplan.baselines.names import GEOMETRIC_PLANNERS, NAV_PLANNERS
 from legplan.baselines.runtime import ompl_modules, real_vector_bounds, seed_ompl
-from legplan.errors import LegplanError
 from legplan.nav.collision import NavGrid
 from legplan.nav.params import NavParams
 from legplan.nav.result import SearchResult, endpoint_problem
@@ -52,7 +51,7 @@ _ob, _og, _oc = ompl_modules().ob, ompl_modules().og, ompl_modules().oc
 
 @dataclass(frozen=True)
 class NavBaselineParams:
-    planner: str = "rrtconnect"
+    planner: str = param("rrtconnect", NAV_PLANNERS)
     time_budget: float = param(1.0, "(0, inf)", doc="s of OMPL solve() per query")
     seed: int = param(0, "[0, inf)", doc="query i is planned with OMPL seed `seed + i`")
     v_max: float = inherit(NavParams, "v_max")  # the nav search's limits (`NavParams.for_robot`)
@@ -63,8 +62,6 @@ class NavBaselineParams:
     projection_cell: float = param(0.5, "(0, inf)", doc="m, KPIECE1 grid cell of the position projection")
 
     def __post_init__(self):
-        if self.planner not in NAV_PLANNERS:
-            raise LegplanError(f"--planner: expected one of {', '.join(NAV_PLANNERS)}, got {self.planner!r}")
         check_ranges(self, "nav baseline")
 
     def as_dict(self) -> dict:

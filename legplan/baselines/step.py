@@ -33,7 +33,6 @@ from dataclasses import dataclass
 import numpy as np
 
 from legplan.baselines.names import CONSTRAINED_SPACES
-from legplan.errors import LegplanError
 from legplan.geometry.polyline import arc_length, resample_by_arc_length
 from legplan.parameters import check_ranges, inherit, param
 from legplan.stepplan.batch import StepWorker, plan_pairs
@@ -47,7 +46,7 @@ END_EXEMPTION = 1e-3  # m | rad, per coordinate of x (see `step_validity`)
 @dataclass(frozen=True)
 class StepBaselineParams:
     time_budget: float = param(10.0, "(0, inf)", doc="s of OMPL solve() per step")
-    space: str = "atlas"  # projected | atlas | tangent
+    space: str = param("atlas", CONSTRAINED_SPACES)
     seed: int = param(0, "[0, inf)", doc="step i is planned with OMPL seed `seed + i`")
     tolerance: float = param(1e-4, "(0, inf)", doc="m, constraint tolerance of the projection (OMPL default)")
     delta: float = param(0.02, "(0, inf)", doc="constrained-space step in x units (m | rad)")
@@ -66,8 +65,6 @@ class StepBaselineParams:
     judge_tolerance: float = inherit(StepPlanParams, "judge_tolerance")
 
     def __post_init__(self):
-        if self.space not in CONSTRAINED_SPACES:
-            raise LegplanError(f"--space: expected one of {', '.join(CONSTRAINED_SPACES)}, got {self.space!r}")
         check_ranges(self, "step baseline")
 
     def as_dict(self) -> dict:
