@@ -1,13 +1,12 @@
 """Parameter declarations: each field of a parameter dataclass declared once with its default, its
 allowed range, its paper symbol and its doc (`param`), and the one range check (`check_ranges`) with
-the one error line "WHAT parameter 'NAME' out of range: VALUE (allowed RANGE)".
+the one error line "WHAT parameter 'NAME' out of range: VALUE (allowed RANGE)"; `Parameters`,
+the base of the parameter dataclasses, runs it after construction.
 
     @dataclass(frozen=True)
-    class StepPlanParams:
+    class StepPlanParams(Parameters):
+        what = "step planner"  # the error line's WHAT (not a field: no annotation)
         epsilon: float = param(1e-3, "(0, inf)", "ε", "m: allowed stance-foot deviation per foot")
-
-        def __post_init__(self):
-            check_ranges(self, "step planner")
 
 A range is an interval in the usual notation, "[0, inf)", "(0, 1]", whose bounds are numbers or
 the names of other attributes of the same object ("[min_poses, inf)"), or a tuple of the allowed
@@ -102,3 +101,20 @@ def check_ranges(params, what: str) -> None:
         if not inside:
             shown = ", ".join(map(repr, allowed)) if isinstance(allowed, tuple) else allowed.describe(params)
             raise LegplanError(f"{what} parameter '{f.name}' out of range: {value!r} (allowed {shown})")
+
+
+class Parameters:
+    """Base of a parameter dataclass: its fields' ranges checked on construction (`check_ranges`
+    with the class attribute `what`), `as_dict` and `replace`."""
+
+    what = "legplan"
+
+    def __post_init__(self):
+        check_ranges(self, self.what)
+
+    def as_dict(self) -> dict:
+        return dataclasses.asdict(self)
+
+    def replace(self, **changes):
+        """A copy with `changes`, checked again."""
+        return dataclasses.replace(self, **changes)

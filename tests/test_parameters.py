@@ -13,7 +13,7 @@ from legplan.errors import LegplanError
 from legplan.nav.params import NavParams
 from legplan.nav.simulate.mission import SimParams
 from legplan.nav.teb.params import TebParams
-from legplan.parameters import Interval, check_ranges, inherit, param
+from legplan.parameters import Interval, Parameters, inherit, param
 from legplan.stepplan.params import StepPlanParams
 from legplan.stepseq.generate import GenerateParams
 
@@ -22,14 +22,13 @@ PARAMETER_CLASSES = [GenerateParams, StepPlanParams, StepBaselineParams, NavPara
 
 
 @dataclass(frozen=True)
-class _Example:
+class _Example(Parameters):
+    what = "example"
+
     low: float = param(1.0, "[0, inf)", "ℓ", "a length")
     high: float = param(2.0, "(low, 10]")
     maybe: float | None = param(None, "(0, 1)")
     mode: str = param("a", ("a", "b"))
-
-    def __post_init__(self):
-        check_ranges(self, "example")
 
 
 @pytest.mark.parametrize("text, inside, outside", [
@@ -60,6 +59,13 @@ def test_one_error_line_names_the_class_field_value_and_range():
     assert _Example(maybe=None).maybe is None  # None: filled in later, not checked
     with pytest.raises(LegplanError, match="'maybe' out of range"):
         _Example(maybe=1.0)
+
+
+def test_replace_and_as_dict():
+    example = _Example().replace(low=0.5)
+    assert example.as_dict() == {"low": 0.5, "high": 2.0, "maybe": None, "mode": "a"}
+    with pytest.raises(LegplanError, match="'high' out of range"):
+        example.replace(high=0.5)
 
 
 def test_the_declaration_carries_symbol_and_doc():

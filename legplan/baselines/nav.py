@@ -29,7 +29,6 @@ the solution's controls are exactly the nav `Trajectory` segments (constant a, z
 
 from __future__ import annotations
 
-import dataclasses
 import math
 import time
 from dataclasses import dataclass
@@ -42,7 +41,7 @@ from legplan.nav.collision import NavGrid
 from legplan.nav.params import NavParams
 from legplan.nav.result import SearchResult, endpoint_problem
 from legplan.nav.trajectory import Trajectory, trapezoidal_polyline
-from legplan.parameters import check_ranges, inherit, param
+from legplan.parameters import Parameters, inherit, param
 
 ANYTIME = ("rrtstar", "prmstar")
 
@@ -50,7 +49,9 @@ _ob, _og, _oc = ompl_modules().ob, ompl_modules().og, ompl_modules().oc
 
 
 @dataclass(frozen=True)
-class NavBaselineParams:
+class NavBaselineParams(Parameters):
+    what = "nav baseline"
+
     planner: str = param("rrtconnect", NAV_PLANNERS)
     time_budget: float = param(1.0, "(0, inf)", doc="s of OMPL solve() per query")
     seed: int = param(0, "[0, inf)", doc="query i is planned with OMPL seed `seed + i`")
@@ -60,12 +61,6 @@ class NavBaselineParams:
     goal_tolerance: float = param(0.25, "(0, inf)", doc="control planners: distance to the goal state (m, m/s mixed)")
     max_control_steps: int = param(10, "[1, inf)", doc="control planners: a control lasts 1..this many steps")
     projection_cell: float = param(0.5, "(0, inf)", doc="m, KPIECE1 grid cell of the position projection")
-
-    def __post_init__(self):
-        check_ranges(self, "nav baseline")
-
-    def as_dict(self) -> dict:
-        return dataclasses.asdict(self)
 
     @property
     def label(self) -> str:

@@ -24,7 +24,6 @@ reported for completeness only, at the stated dense_samples).
 
 from __future__ import annotations
 
-import dataclasses
 import logging
 import time
 from collections.abc import Callable, Sequence
@@ -34,7 +33,7 @@ import numpy as np
 
 from legplan.baselines.names import CONSTRAINED_SPACES
 from legplan.geometry.polyline import arc_length, resample_by_arc_length
-from legplan.parameters import check_ranges, inherit, param
+from legplan.parameters import Parameters, inherit, param
 from legplan.stepplan.batch import StepWorker, plan_pairs
 from legplan.stepplan.params import StepPlanParams
 
@@ -44,7 +43,9 @@ END_EXEMPTION = 1e-3  # m | rad, per coordinate of x (see `step_validity`)
 
 
 @dataclass(frozen=True)
-class StepBaselineParams:
+class StepBaselineParams(Parameters):
+    what = "step baseline"
+
     time_budget: float = param(10.0, "(0, inf)", doc="s of OMPL solve() per step")
     space: str = param("atlas", CONSTRAINED_SPACES)
     seed: int = param(0, "[0, inf)", doc="step i is planned with OMPL seed `seed + i`")
@@ -63,12 +64,6 @@ class StepBaselineParams:
     com_margin: float = inherit(StepPlanParams, "com_margin")
     dense_samples: int = inherit(StepPlanParams, "dense_samples", range="[4, inf)")  # third differences
     judge_tolerance: float = inherit(StepPlanParams, "judge_tolerance")
-
-    def __post_init__(self):
-        check_ranges(self, "step baseline")
-
-    def as_dict(self) -> dict:
-        return dataclasses.asdict(self)
 
     @property
     def sample_clearance(self) -> float:

@@ -27,17 +27,18 @@ geodesic bound needs a few expansions per cell of its route (nav_scale in `BENCH
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
-from legplan.parameters import check_ranges, param
+from legplan.parameters import Parameters, param
 from legplan.specio import apply_overrides
 
 MIN_EXPANSIONS = 200_000  # the auto budget's floor (the former fixed limit)
 
 
 @dataclass(frozen=True)
-class NavParams:
+class NavParams(Parameters):
+    what = "nav"
+
     v_max: float = param(0.75, "(0, inf)", "v_max", "m/s per axis (Table I v_x max)")
     a_max: float = param(1.0, "(0, inf)", "u_max", "m/s² per axis (Table I a_x max)")
     mu: int = param(2, "[1, inf)", "μ", "(2μ+1)² motion primitives")
@@ -56,9 +57,6 @@ class NavParams:
     goal_vel_tolerance: float = param(0.0, "[0, inf)", doc="m/s")
     max_expansions: int = param(0, "[0, inf)", doc="0: scale with the map (`expansion_budget`)")
 
-    def __post_init__(self):
-        check_ranges(self, "nav")
-
     @classmethod
     def for_robot(cls, navigation) -> NavParams:
         """Defaults with v_max, a_max from a robot's `navigation.limits` (forward values)."""
@@ -70,13 +68,7 @@ class NavParams:
         `cells` and `MIN_EXPANSIONS` (module doc)."""
         return self.max_expansions or max(cells, MIN_EXPANSIONS)
 
-    def replace(self, **changes) -> NavParams:
-        return dataclasses.replace(self, **changes)
-
     def with_overrides(self, overrides: dict[str, str], source: str = "--param") -> NavParams:
         """A copy with `key=value` text overrides converted to each field's type
         (`legplan.specio.apply_overrides`)."""
         return apply_overrides(self, overrides, source, "nav")
-
-    def as_dict(self) -> dict:
-        return dataclasses.asdict(self)

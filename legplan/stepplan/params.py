@@ -36,15 +36,16 @@ Extras (not in Table I, chosen here):
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
-from legplan.parameters import check_ranges, param
+from legplan.parameters import Parameters, param
 from legplan.specio import apply_overrides
 
 
 @dataclass(frozen=True)
-class StepPlanParams:
+class StepPlanParams(Parameters):
+    what = "step planner"
+
     samples: int = param(100, "[2, inf)", "N", "eq. (10): constraints are sampled at t_i = i/N, i = 1..N-1")
     max_degree: int = param(10, "[1, inf)", "d_max")
     max_iterations: int = param(100, "[0, inf)", "MaxIt", "of SolveLM")
@@ -66,9 +67,6 @@ class StepPlanParams:
     linear_solver: str = "cholmod"
     assembly: str = "blocks"
 
-    def __post_init__(self):
-        check_ranges(self, "step planner")
-
     @classmethod
     def from_overrides(cls, overrides: dict[str, str] | None = None, source: str = "--param") -> StepPlanParams:
         """Defaults with `key=value` strings applied (`legplan.specio.apply_overrides`)."""
@@ -78,6 +76,3 @@ class StepPlanParams:
     def sample_clearance(self) -> float:
         """The largest clearance required at a sample (see `clearance_headroom`)."""
         return self.clearance + self.clearance_headroom / self.samples
-
-    def as_dict(self) -> dict:
-        return dataclasses.asdict(self)

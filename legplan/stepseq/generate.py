@@ -40,7 +40,7 @@ from legplan.contact.terms import ContactMode, collision_reach, com_terms
 from legplan.errors import LegplanError
 from legplan.geometry.angles import wrap_angle
 from legplan.geometry.polygon import support_polygon
-from legplan.parameters import check_ranges, param
+from legplan.parameters import Parameters, param
 from legplan.robots.sizing import SIZE_SCALED_DEFAULTS, size_scaled
 from legplan.terrain.columns import ColumnDistance
 from legplan.validate.judge import Requirements, shortfalls
@@ -49,13 +49,15 @@ log = logging.getLogger(__name__)
 
 
 @dataclass
-class GenerateParams:
+class GenerateParams(Parameters):
     """Parameters of the step-sequence generator (lengths in m, angles in rad).
 
     `lift_height`, `clearance`, `com_margin` and `reach_slack` left at None default from the
     robot's size (`sized_for`, `legplan.robots.sizing`): SCARAB II's values (5 cm, 2 cm, 1.5 cm,
     1.5 cm at a mean leg length of 0.241 m) times the robot's mean leg length / 0.241 m, rounded to
     0.1 mm; `--param key=value` sets any of them."""
+
+    what = "generator"
 
     com_margin: float | None = param(None, "[0, inf)",
                                      doc="CoM distance to every support edge during planning (size-scaled)")
@@ -82,9 +84,6 @@ class GenerateParams:
     restarts: int = param(1, "[0, inf)", doc="IK retries from a seeded random perturbation")
     restart_noise: float = param(0.05, "[0, inf)", doc="std of that perturbation (m, rad)")
     posture_weights: tuple[float, float, float, float] = (0.3, 1.0, 1.0, 0.05)  # xy, z, rot, joints
-
-    def __post_init__(self):
-        check_ranges(self, "generator")
 
     def sized_for(self, robot) -> GenerateParams:
         """These parameters with every size-scaled one left at None set from `robot`'s leg length."""

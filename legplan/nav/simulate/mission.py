@@ -2,10 +2,9 @@
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
-from legplan.parameters import check_ranges, param
+from legplan.parameters import Parameters, param
 
 YAW_POLICIES = ("velocity", "target", "heading")
 
@@ -20,8 +19,10 @@ class Goal:
 
 
 @dataclass(frozen=True)
-class SimParams:
+class SimParams(Parameters):
     """Settings of a run (`nav simulate --param sim.KEY=VALUE` for the numbers and flags)."""
+
+    what = "simulation"
 
     rate: float = param(10.0, "(0, inf)", doc="Hz, TEB cycles")
     substeps: int = param(10, "[1, inf)", doc="robot integration steps per cycle")
@@ -42,9 +43,3 @@ class SimParams:
     heading: float = 0.0  # rad, held with yaw "heading"
     clearance_margin: float = param(0.1, "[0, inf)", doc="m the TEB keeps beyond the collision radius "
                                     "(soft obstacle term, tracking lag)")
-
-    def __post_init__(self):
-        check_ranges(self, "simulation")
-
-    def as_dict(self) -> dict:
-        return dataclasses.asdict(self)

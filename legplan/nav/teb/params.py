@@ -20,14 +20,15 @@ to zero.
 
 from __future__ import annotations
 
-import dataclasses
 from dataclasses import dataclass
 
-from legplan.parameters import check_ranges, param
+from legplan.parameters import Parameters, param
 
 
 @dataclass(frozen=True)
-class TebParams:
+class TebParams(Parameters):
+    what = "teb"
+
     # band resolution and iteration counts (TEB defaults)
     dt_ref: float = param(0.3, "(0, inf)", doc="s")
     dt_hysteresis: float = param(0.1, "[0, dt_ref)", doc="s")
@@ -66,16 +67,7 @@ class TebParams:
     path_window: float = param(1.0, "(0, inf)",
                                doc="m of arc length around a pose's reference point searched for attraction")
 
-    def __post_init__(self):
-        check_ranges(self, "teb")
-
     @property
     def dt_merge_below(self) -> float:
         """ΔT below which resizing removes a pose (merges two intervals): dt_ref − dt_hysteresis."""
         return self.dt_ref - self.dt_hysteresis
-
-    def replace(self, **changes) -> TebParams:
-        return dataclasses.replace(self, **changes)
-
-    def as_dict(self) -> dict:
-        return dataclasses.asdict(self)
