@@ -1,7 +1,7 @@
 """Ours vs OMPL on the same problems, same machine, same run: step planning and navigation.
 
     .venv/bin/python bench/baselines.py [--map gap.h5 --steps steps.h5] [--step-budget 10]
-        [--queries 10] [--nav-budget 1] [--control-budget 10] [--seed 0] [--no-append]
+        [--queries 10] [--nav-budget 1] [--control-budget 10] [--seed 0] [--only steps|nav] [--no-append]
 
 Steps: maps/gap_crossing.yaml with the scarab2 sequence of `legplan steps generate` (as
 bench/step_plan.py builds it, or --map/--steps), both variants of bench/step_plan.py ('as
@@ -11,11 +11,17 @@ seconds per step. Both judged by the same dense check (worst stance-foot slip, C
 clearance shortfall with the swing-foot ramp; eq. (5) length and roughness — exact for the Bézier curve, finite differences of the
 dense samples for the OMPL polyline, see legplan/baselines/step.py).
 
-Navigation: maps/nav_30m.yaml, --queries seeded start/goal pairs of bench/nav_search.py
-(`sample_queries`), jueying_mini limits. Ours: kinodynamic A* and grid A* (`legplan.nav.PLANNERS`);
-OMPL: RRT-Connect, RRT*, PRM* (--nav-budget s) and KPIECE1 / RRT on the double integrator
-(--control-budget s). Metrics from `legplan.nav.artefact.trajectory_metrics` for every planner.
-Writes bench/results/baselines.json and updates its section of BENCHMARKS.md.
+Navigation: the maps of bench/nav_search.py (`MAPS`: maps/nav_30m.yaml and the ROS warehouse map
+maps/ros/warehouse.yaml through `legplan.terrain.importers.import_ros`), on each its --queries
+seeded start/goal pairs (`sample_queries`, same seed: the first --queries of nav_search's queries),
+jueying_mini limits. Ours: kinodynamic A* and grid A* (`legplan.nav.PLANNERS`); OMPL: RRT-Connect,
+RRT*, PRM* (--nav-budget s) and KPIECE1 / RRT on the double integrator (--control-budget s), query i
+with seed --seed + i as `legplan baseline nav`. Wall time as each planner reports it, CPU time
+(time.process_time) around each query. Metrics from `legplan.nav.artefact.trajectory_metrics` for
+every planner.
+Writes bench/results/baselines.json and updates its section of BENCHMARKS.md. `--only steps|nav`
+runs one part: the other part's JSON entry and its BENCHMARKS.md text (up to / from the line
+starting "Navigation:") are kept as they are, each with the date and load of the run that made it.
 """
 
 from __future__ import annotations
@@ -23,16 +29,18 @@ from __future__ import annotations
 import argparse
 import datetime
 import importlib.util
+import json
 import os
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")
 
 import numpy as np  # noqa: E402
-from common import ROOT, load_average, machine, update_benchmarks, write_result  # noqa: E402
+from common import BENCHMARKS, ROOT, load_average, machine, update_benchmarks, write_result  # noqa: E402
 
 
 def bench_module(name: str):
@@ -77,23 +85,26 @@ def run_steps(args, progress) -> dict:
             map_path, steps_path = args.map, args.steps
         generated = read_steps(steps_path)
         ompl = StepBaselineParams(time_budget=args.step_budget, space=args.space, seed=args.seed)
-        out = {"configurations": len(generated), "ompl_params": ompl.as_dict(),
+        out = {"date": datetime.date.today().isoformat(), "load_average": {"start": load_average()},
+               "configurations": len(generated), "ompl_params": ompl.as_dict(),
                "ours_params": StepPlanParams().as_dict(), "variants": {}}
         for name, seq in (("as generated", generated), ("whole swings", step_bench.merge_swings(generated))):
             pairs = range(len(seq) - 1)
             ours = plan_sequence(seq, map_path, StepPlanParams(), pairs, progress=progress(f"ours {name}"))
             theirs = plan_sequence_baseline(seq, map_path, ompl, pairs, progress=progress(f"ompl {name}"))
             out["variants"][name] = {"ours": step_rows(ours), "ompl": step_rows(theirs)}
+    out["load_average"]["end"] = load_average()
     return out
 
 
-def nav_rows(results, planning_times, first_times, grid) -> dict:
+def nav_rows(results, planning_times, first_times, cpu_times, grid) -> dict:
     from legplan.nav.artefact import trajectory_metrics
 
     metrics = [trajectory_metrics(r.trajectory, grid) for r in results]
     ok = [m for r, m in zip(results, metrics) if r.success]
     return {"queries": len(results), "succeeded": len(ok),
             "median_time": _median(planning_times), "max_time": float(max(planning_times)),
+            "median_cpu_time": _median(cpu_times), "total_cpu_time": float(sum(cpu_times)),
             "median_first_solution": _median(first_times),
             "median_length": _median([m["path_length"] for m in ok]),
             "median_duration": _median([m["duration"] for m in ok]),
@@ -104,30 +115,67 @@ def nav_rows(results, planning_times, first_times, grid) -> dict:
             "failures": sorted({r.reason for r in results if not r.success})}
 
 
-def run_nav(args, progress) -> dict:
-    from legplan.baselines.nav import NavBaselineParams, plan_queries
-    from legplan.nav import PLANNERS, NavGrid, NavParams
-    from legplan.robots import load_robot
-    from legplan.terrain import build_map
+def timed(plan, queries, progress=None):
+    """[(outcome, CPU seconds)] of plan(index, query) for every query (time.process_time: all threads)."""
+    out = []
+    for index, query in enumerate(queries):
+        if progress is not None:
+            progress(index, len(queries), f"query {index}")
+        cpu = time.process_time()
+        outcome = plan(index, query)
+        out.append((outcome, time.process_time() - cpu))
+    if progress is not None:
+        progress(len(queries), len(queries))
+    return out
 
-    navigation = load_robot("jueying_mini").navigation
-    params = NavParams.for_robot(navigation)
-    grid = NavGrid.from_terrain(build_map(ROOT / "maps" / "nav_30m.yaml"), lethal_radius=navigation.inscribed_radius)
-    queries = bench_module("nav_search").sample_queries(grid, args.queries, np.random.default_rng(args.seed))
-    out = {"queries": queries.tolist(), "l1": grid.l1, "v_max": params.v_max, "a_max": params.a_max, "planners": {}}
+
+def run_nav_map(grid, queries, params, args, progress) -> dict:
+    from legplan.baselines.nav import NavBaselineParams, plan_baseline
+    from legplan.nav import PLANNERS
+
+    planners = {}
     for name in ("kinoastar", "astar"):
-        results = [PLANNERS[name](grid, q[:4], q[4:], params) for q in queries]
+        runs = timed(lambda i, q, name=name: PLANNERS[name](grid, q[:4], q[4:], params), queries,
+                     progress(f"ours {name}"))
+        results = [r for r, _ in runs]
         times = [r.planning_time for r in results]
-        out["planners"][f"ours: {name}"] = nav_rows(results, times, [t if r.success else None
-                                                                    for r, t in zip(results, times)], grid)
+        planners[f"ours: {name}"] = nav_rows(results, times, [t if r.success else None for r, t in zip(results, times)],
+                                             [c for _, c in runs], grid)
     for planner in ("rrtconnect", "rrtstar", "prmstar", "kpiece-control", "rrt-control"):
         budget = args.control_budget if planner.endswith("control") else args.nav_budget
         settings = NavBaselineParams(planner=planner, time_budget=budget, seed=args.seed, v_max=params.v_max,
                                      a_max=params.a_max)
-        outcomes = plan_queries(grid, queries, settings, progress(f"ompl {planner}"))
-        out["planners"][f"OMPL {planner} ({budget:g} s)"] = nav_rows(
+        # query i with seed settings.seed + i, as `legplan baseline nav` (baselines.nav.plan_queries)
+        runs = timed(lambda i, q: plan_baseline(grid, q[:4], q[4:], settings, settings.seed + i), queries,
+                     progress(f"ompl {planner}"))
+        outcomes = [o for o, _ in runs]
+        planners[f"OMPL {planner} ({budget:g} s)"] = nav_rows(
             [o.result for o in outcomes], [o.result.planning_time for o in outcomes],
-            [o.time_to_first_solution for o in outcomes], grid)
+            [o.time_to_first_solution for o in outcomes], [c for _, c in runs], grid)
+    return planners
+
+
+def run_nav(args, progress) -> dict:
+    from legplan.nav import NavGrid, NavParams
+    from legplan.robots import load_robot
+
+    nav_search = bench_module("nav_search")
+    navigation = load_robot("jueying_mini").navigation
+    params = NavParams.for_robot(navigation)
+    out = {"date": datetime.date.today().isoformat(), "load_average": {"start": load_average()},
+           "seed": args.seed, "l1": navigation.inscribed_radius, "v_max": params.v_max, "a_max": params.a_max,
+           "maps": {}}
+    wall, cpu = time.perf_counter(), time.process_time()
+    for map_name, build in nav_search.MAPS.items():
+        grid = NavGrid.from_terrain(build(), lethal_radius=navigation.inscribed_radius)
+        queries = nav_search.sample_queries(grid, args.queries, np.random.default_rng(args.seed))
+        xmin, xmax, ymin, ymax = grid.extent
+        out["maps"][map_name] = {"extent": [xmin, xmax, ymin, ymax], "resolution": grid.resolution,
+                                 "queries": queries.tolist(),
+                                 "planners": run_nav_map(grid, queries, params, args,
+                                                         lambda label: progress(f"{map_name} {label}"))}
+    out["load_average"]["end"] = load_average()
+    out["wall_s"], out["cpu_s"] = time.perf_counter() - wall, time.process_time() - cpu
     return out
 
 
@@ -140,10 +188,29 @@ def stopping_rules(ompl: dict, ours: dict) -> str:
             "rules, not a difference in path quality.")
 
 
-def markdown(result) -> list[str]:
-    date, steps, nav = result["date"], result["steps"], result["nav"]
-    lines = [f"## baselines — ours vs OMPL 2.0.1, same problems, same run ({date}, load {result['load_average']:.1f})\n",
-             f"Machine: {result['machine']}; single process, one BLAS thread. Steps: scarab2 on "
+NAV_MARKER = "Navigation:"  # first line of the navigation part of the section
+
+
+def load_text(load) -> str:
+    """'load 0.5' or 'load 2.3 → 3.1' (older results recorded one value)."""
+    if isinstance(load, dict):
+        return f"load {load['start']:.1f} → {load['end']:.1f}"
+    return f"load {load:.1f}"
+
+
+def header(result) -> str:
+    steps, nav = result["steps"], result["nav"]
+    if steps["date"] == nav["date"] and steps["load_average"] == nav["load_average"]:
+        when = f"{steps['date']}, {load_text(steps['load_average'])}"
+    else:
+        when = (f"steps {steps['date']}, {load_text(steps['load_average'])}; "
+                f"navigation {nav['date']}, {load_text(nav['load_average'])}")
+    return f"## baselines — ours vs OMPL 2.0.1, same problems, same run ({when})\n"
+
+
+def steps_markdown(result) -> list[str]:
+    steps = result["steps"]
+    lines = [f"Machine: {result['machine']}; single process, one BLAS thread. Steps: scarab2 on "
              f"maps/gap_crossing.yaml, `legplan steps generate` sequence ({steps['configurations']} configurations), "
              "every pair of both bench/step_plan.py variants; ours = Bézier + LM (`legplan step plan` defaults), "
              f"OMPL = constrained RRT-Connect ({steps['ompl_params']['space']} space, "
@@ -163,22 +230,99 @@ def markdown(result) -> list[str]:
                          f"{row['max_time']:.3g} | {row['worst_slip_mm']:.3g} | {row['worst_com_margin_mm']:.3g} | "
                          f"{row['worst_clearance_shortfall_mm']:.3g} | {row['median_length']:.3g} | "
                          f"{row['median_roughness2']:.3g} | {row['median_roughness3']:.3g} |")
-    lines += ["", stopping_rules(steps["ompl_params"], steps["ours_params"])]
-    lines += ["", f"Navigation: maps/nav_30m.yaml, {len(nav['queries'])} seeded queries of bench/nav_search.py "
-              f"(seed {result['seed']}), jueying_mini (l1 = {nav['l1']:g} m, v_max = {nav['v_max']:g} m/s, "
-              f"a_max = {nav['a_max']:g} m/s² per axis). Same hard constraint for all (NavGrid.blocked_at); "
-              "geometric OMPL paths and grid A* use the same trapezoidal time parametrization (stop at each vertex); "
-              "'first solution' of RRT*/PRM* from a same-seed run stopped at the first solution. Metrics: "
-              "`legplan.nav.artefact.trajectory_metrics` for every planner.\n",
-              "| planner | succeeded | median time [s] | max time [s] | median first solution [s] | "
-              "median length [m] | median duration [s] | median effort ∫‖a‖² [m²/s³] | min clearance [m] | "
-              "max |v| axis [m/s] | max |a| axis [m/s²] |", "|---|---|---|---|---|---|---|---|---|---|---|"]
-    for name, row in nav["planners"].items():
-        lines.append(f"| {name} | {row['succeeded']}/{row['queries']} | {row['median_time']:.3g} | "
-                     f"{row['max_time']:.3g} | {row['median_first_solution']:.3g} | {row['median_length']:.3g} | "
-                     f"{row['median_duration']:.3g} | {row['median_effort']:.3g} | {row['min_clearance']:.3g} | "
-                     f"{row['max_speed_axis']:.3g} | {row['max_accel_axis']:.3g} |")
+    return lines + ["", stopping_rules(steps["ompl_params"], steps["ours_params"])]
+
+
+def nav_differences(args_like: dict) -> str:
+    """Where the navigation sides differ: what each stops at and what its trajectory is."""
+    return ("Where the sides differ: our planners stop when the search reaches the goal state exactly "
+            "(kinodynamic A* weighted, weight 2: cost within 2× the lattice optimum, up to 2.5× that after a "
+            "restart; grid A* optimal on its 8-connected grid); OMPL RRT-Connect stops at its first solution, "
+            "RRT* and PRM* use the whole budget (their median time ≈ the budget by design; 'first solution' is "
+            "the time to compare), every geometric OMPL solution is then shortcut for up to "
+            f"{args_like['simplify_time']:g} s (inside its time); the control planners stop at the first state "
+            f"within {args_like['goal_tolerance']:g} of the goal state (m and m/s mixed, so they do not end at "
+            "the goal exactly) or at the budget. Geometric OMPL and grid A* polylines stop at every vertex, the "
+            "kinodynamic A* trajectory does not, so durations and efforts compare trajectories of different "
+            "kinds. OMPL's budgets are wall-clock (timedPlannerTerminationCondition): on a loaded machine a "
+            "budget buys fewer CPU seconds (CPU column), which can turn a control planner's late success into "
+            "a failure.")
+
+
+def nav_markdown(result) -> list[str]:
+    from legplan.baselines.nav import NavBaselineParams
+
+    nav = result["nav"]
+    defaults = NavBaselineParams().as_dict()
+    names = {"nav_30m": "maps/nav_30m.yaml", "warehouse (ROS)": "maps/ros/warehouse.yaml (ROS map_server, "
+             "`legplan.terrain.importers.import_ros`)"}
+    maps = "; ".join(f"{names.get(name, name)} {m['extent'][1] - m['extent'][0]:g} × "
+                     f"{m['extent'][3] - m['extent'][2]:g} m at {m['resolution']:g} m"
+                     for name, m in nav["maps"].items())
+    counts = sorted({len(m["queries"]) for m in nav["maps"].values()})
+    lines = [f"{NAV_MARKER} {maps}; on each map {'/'.join(map(str, counts))} seeded queries of bench/nav_search.py "
+             f"(`sample_queries`, seed {nav['seed']}: the first of nav_search's queries on the same map), "
+             f"jueying_mini (l1 = {nav['l1']:g} m, v_max = {nav['v_max']:g} m/s, "
+             f"a_max = {nav['a_max']:g} m/s² per axis), every planner on the same queries in the same run "
+             f"(OMPL as `legplan baseline nav`, query i with seed {nav['seed']} + i). Same hard constraint for all "
+             "(NavGrid.blocked_at); geometric OMPL paths and grid A* use the same trapezoidal time parametrization "
+             "(stop at each vertex); 'first solution' of RRT*/PRM* from a same-seed run stopped at the first "
+             "solution (its time is inside the RRT*/PRM* query time). Time: wall time each planner reports; CPU: "
+             "time.process_time around each query (all threads). Metrics: `legplan.nav.artefact.trajectory_metrics` "
+             f"for every planner. Navigation part: {nav['wall_s'] / 60:.1f} min wall, {nav['cpu_s'] / 60:.1f} min CPU.\n",
+             nav_differences(defaults) + "\n",
+             "| map | planner | succeeded | median time [s] | max time [s] | median CPU [s] | "
+             "median first solution [s] | median length [m] | median duration [s] | median effort ∫‖a‖² [m²/s³] | "
+             "min clearance [m] | max |v| axis [m/s] | max |a| axis [m/s²] |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for map_name, entry in nav["maps"].items():
+        for name, row in entry["planners"].items():
+            lines.append(f"| {map_name} | {name} | {row['succeeded']}/{row['queries']} | {row['median_time']:.3g} | "
+                         f"{row['max_time']:.3g} | {row['median_cpu_time']:.3g} | {row['median_first_solution']:.3g} | "
+                         f"{row['median_length']:.3g} | {row['median_duration']:.3g} | {row['median_effort']:.3g} | "
+                         f"{row['min_clearance']:.3g} | {row['max_speed_axis']:.3g} | {row['max_accel_axis']:.3g} |")
+    failures = {(m, n): row["failures"] for m, e in nav["maps"].items() for n, row in e["planners"].items()
+                if row["failures"]}
+    if failures:
+        lines += ["", "Failures: " + "; ".join(f"{m} {n}: {', '.join(f)}" for (m, n), f in failures.items()) + "."]
     return lines
+
+
+def kept_part(part: str) -> list[str]:
+    """The `part` ("steps" or "nav") text of the current BENCHMARKS.md section, without its header: kept as
+    written by the run that measured it (its JSON entry may come from an older version of this script)."""
+    begin, end = "<!-- bench:baselines -->", "<!-- /bench:baselines -->"
+    text = BENCHMARKS.read_text()
+    if begin not in text or end not in text:
+        raise SystemExit(f"--only: no baselines section in {BENCHMARKS} to keep the {part} part of")
+    lines = text.split(begin, 1)[1].split(end, 1)[0].strip().splitlines()[1:]
+    split = next((i for i, line in enumerate(lines) if line.startswith(NAV_MARKER)), None)
+    if split is None:
+        raise SystemExit(f"--only: no line starting {NAV_MARKER!r} in the baselines section of {BENCHMARKS}")
+    kept = lines[:split] if part == "steps" else lines[split:]
+    while kept and not kept[0].strip():  # the blank line after the header, which header() ends with
+        kept.pop(0)
+    while kept and not kept[-1].strip():
+        kept.pop()
+    return kept
+
+
+def markdown(result, only: str | None = None) -> list[str]:
+    steps = steps_markdown(result) if only in (None, "steps") else kept_part("steps")
+    nav = nav_markdown(result) if only in (None, "nav") else kept_part("nav")
+    return [header(result)] + steps + [""] + nav
+
+
+def previous_part(part: str) -> dict:
+    """The `part` entry of bench/results/baselines.json, with the date and load of its run."""
+    path = ROOT / "bench" / "results" / "baselines.json"
+    if not path.exists():
+        raise SystemExit(f"--only: {path} is missing, run both parts first")
+    previous = json.loads(path.read_text())
+    entry = previous[part]
+    entry.setdefault("date", previous["date"])  # results before --only: one date and load for both parts
+    entry.setdefault("load_average", previous["load_average"])
+    return entry
 
 
 def main() -> None:
@@ -191,6 +335,8 @@ def main() -> None:
     ap.add_argument("--nav-budget", type=float, default=1.0)
     ap.add_argument("--control-budget", type=float, default=10.0)
     ap.add_argument("--seed", type=int, default=0)
+    ap.add_argument("--only", choices=("steps", "nav"),
+                    help="run one part; keep the other's JSON entry and BENCHMARKS.md text")
     ap.add_argument("--no-append", action="store_true")
     args = ap.parse_args()
 
@@ -198,12 +344,13 @@ def main() -> None:
         return lambda done, total, message="": print(f"\r{label}: {done}/{total} {message}   ", end="",
                                                      file=sys.stderr)
 
-    result = {"date": datetime.date.today().isoformat(), "machine": machine(), "load_average": load_average(),
-              "seed": args.seed,
-              "steps": run_steps(args, progress), "nav": run_nav(args, progress)}
+    steps = run_steps(args, progress) if args.only in (None, "steps") else previous_part("steps")
+    nav = run_nav(args, progress) if args.only in (None, "nav") else previous_part("nav")
     print(file=sys.stderr)
+    result = {"date": max(steps["date"], nav["date"]), "machine": machine(), "seed": args.seed,
+              "steps": steps, "nav": nav}
+    lines = markdown(result, args.only)
     write_result("baselines", result)
-    lines = markdown(result)
     print("\n".join(lines))
     if not args.no_append:
         update_benchmarks("baselines", "\n".join(lines))
