@@ -27,6 +27,7 @@ import logging
 import os
 import warnings
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
@@ -193,9 +194,16 @@ def load_init(path) -> tuple[Network, dict[str, int], dict]:
 
 
 def check_space(init_path, trained: dict, space: dict) -> None:
-    """One-line error when init.h5 was trained for another map, gait, strides or duration than `space`."""
+    """One-line error when init.h5 was trained for another map, gait, strides or duration than `space`.
+    The map is the same map when its file's content is (`map_sha256`; records without it: the same
+    file name), wherever and however the path to it was written."""
     for key in ("map", "gait", "strides", "duration"):
-        if trained[key] != space[key]:
+        if key == "map":
+            same = (trained["map_sha256"] == space["map_sha256"] if "map_sha256" in trained and "map_sha256" in space
+                    else Path(trained["map"]).name == Path(space["map"]).name)
+        else:
+            same = trained[key] == space[key]
+        if not same:
             raise SpecError(f"{init_path}: field 'space.{key}' is {trained[key]!r}, the task space "
                             f"has {space[key]!r} (trained for another task space)")
 

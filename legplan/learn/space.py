@@ -60,7 +60,10 @@ class TaskSpace:
 
     def record(self) -> dict:
         """The JSON-able identity of the space (what a dataset and an initializer were made for)."""
-        return {"name": self.name, "map": self.map, "robot": self.robot, "gait": self.gait,
+        from legplan.artefacts import sha256_file
+
+        return {"name": self.name, "map": self.map, "map_sha256": sha256_file(self.map), "robot": self.robot,
+                "gait": self.gait,
                 "strides": self.strides, "duration": self.duration, "costs": self.costs,
                 "start": [list(r) for r in self.start], "goal": [list(r) for r in self.goal]}
 

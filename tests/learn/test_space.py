@@ -64,3 +64,20 @@ def test_sampling_is_seeded_and_inside_the_ranges(tmp_path):
 def test_task_vector_is_the_start_in_the_goal_frame():
     x = task_vector((1.0, 1.0, 0.1), (1.0, 0.0, np.pi / 2))
     assert np.allclose(x, [1.0, 0.0, 0.1 - np.pi / 2, 1.0, 0.0, np.pi / 2])
+
+
+def test_an_init_knows_its_map_by_content_not_by_how_the_path_was_written(tmp_path, monkeypatch):
+    from legplan.learn.network import check_space
+
+    monkeypatch.chdir(ROOT)
+    relative = read_space(Path("tasks") / "single_pallet_walk.yaml").record()
+    absolute = read_space(ROOT / "tasks" / "single_pallet_walk.yaml").record()
+    assert relative["map"] != absolute["map"]
+    check_space("init.h5", relative, absolute)  # the same map file: accepted
+    other = dict(absolute, map_sha256="0" * 64)  # same name, other content
+    with pytest.raises(SpecError, match="field 'space.map'"):
+        check_space("init.h5", relative, other)
+    legacy = {k: v for k, v in relative.items() if k != "map_sha256"}  # an init.h5 from before the hash
+    check_space("init.h5", legacy, absolute)
+    with pytest.raises(SpecError, match="field 'space.map'"):
+        check_space("init.h5", legacy, dict(absolute, map=str(ROOT / "maps" / "double_pallet.yaml")))
