@@ -33,6 +33,7 @@ class TerrainModel:
     def __init__(self, terrain: TerrainMap, edge_step: float = EDGE_STEP):
         self.name = terrain.name
         self.height_grid = np.asarray(terrain.height, float)
+        self.grid = terrain.grid
         self.origin = np.asarray(terrain.grid.origin, float)
         self.resolution = float(terrain.grid.resolution)
         self.shape = self.height_grid.shape
@@ -59,37 +60,29 @@ class TerrainModel:
         hi = self.origin + self.resolution * (np.array(self.shape[::-1]) - 1)
         return np.all((xy >= lo) & (xy <= hi), axis=1)
 
-    def _bilinear(self, grid: np.ndarray, x, y):
-        u = (x - self.origin[0]) / self.resolution
-        v = (y - self.origin[1]) / self.resolution
-        ny, nx = grid.shape
-        ix = np.clip(np.floor(np.real(u)).astype(np.int64), 0, nx - 2)
-        iy = np.clip(np.floor(np.real(v)).astype(np.int64), 0, ny - 2)
-        # outside the grid the border values continue (fractions clamped, derivative zero there)
-        tx = np.where((np.real(u) < 0) | (np.real(u) > nx - 1), np.clip(np.real(u), 0, nx - 1) - ix, u - ix)
-        ty = np.where((np.real(v) < 0) | (np.real(v) > ny - 1), np.clip(np.real(v), 0, ny - 1) - iy, v - iy)
-        g00, g01 = grid[iy, ix], grid[iy, ix + 1]
-        g10, g11 = grid[iy + 1, ix], grid[iy + 1, ix + 1]
-        return (g00 * (1 - tx) + g01 * tx) * (1 - ty) + (g10 * (1 - tx) + g11 * tx) * ty, (tx, ty, g00, g01, g10, g11)
+    def _bilinear(self, grid: np.ndarray, x, y, gradient: bool = False):
+        """`Grid2D.bilinear` of one of this model's grids at arrays x, y (real or complex), shaped as x."""
+        shape = np.shape(x)
+        out = self.grid.bilinear(grid, np.stack([np.ravel(x), np.ravel(y)], axis=-1), gradient)
+        if not gradient:
+            return out.reshape(shape)
+        value, g = out
+        return value.reshape(shape), g[:, 0].reshape(shape), g[:, 1].reshape(shape)
 
     def height(self, x, y):
         """h(x, y) for arrays x, y (real or complex)."""
-        return self._bilinear(self.height_grid, x, y)[0]
+        return self._bilinear(self.height_grid, x, y)
 
     def envelope(self, x, y):
         """An upper bound of the column terrain (each cell a flat column, the model of the map's SDF):
         the bilinear interpolation of the 3 × 3 maximum-filtered heightmap. The four cell centres
         around a point are neighbours of the cell that contains it, so every interpolated value is at
         least that cell's height. Swing feet are kept above this surface."""
-        return self._bilinear(self.envelope_grid, x, y)[0]
+        return self._bilinear(self.envelope_grid, x, y)
 
     def height_gradient(self, x, y):
         """(h, ∂h/∂x, ∂h/∂y) at (x, y), real or complex."""
-        h, (tx, ty, g00, g01, g10, g11) = self._bilinear(self.height_grid, x, y)
-        r = self.resolution
-        hx = ((g01 - g00) * (1 - ty) + (g11 - g10) * ty) / r
-        hy = ((g10 - g00) * (1 - tx) + (g11 - g01) * tx) / r
-        return h, hx, hy
+        return self._bilinear(self.height_grid, x, y, gradient=True)
 
     def basis(self, x, y):
         """Unit normal n and tangents t1, t2 (each (n, 3)) of the terrain at (x, y), as TOWR's height
@@ -104,8 +97,8 @@ class TerrainModel:
 
     def stance_slope(self, x, y):
         """Slope of the Gaussian-smoothed heightmap at (x, y) (module docstring), real or complex."""
-        return self._bilinear(self.slope_grid, x, y)[0]
+        return self._bilinear(self.slope_grid, x, y)
 
     def edge_distance(self, x, y):
         """Distance (m) from (x, y) to the nearest edge cell (inf on a map without edges)."""
-        return self._bilinear(self.edge_distance_grid, x, y)[0]
+        return self._bilinear(self.edge_distance_grid, x, y)

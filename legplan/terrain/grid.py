@@ -42,7 +42,8 @@ class Grid2D:
 
     def continuous_index(self, xy) -> tuple[np.ndarray, np.ndarray]:
         """Fractional (ix, iy) of world points `xy` (n, 2): cell centres sit at integers."""
-        xy = np.asarray(xy, dtype=float).reshape(-1, 2)
+        xy = np.asarray(xy)
+        xy = xy.astype(np.result_type(xy.dtype, float)).reshape(-1, 2)  # complex points stay complex
         return ((xy[:, 0] - self.origin[0]) / self.resolution,
                 (xy[:, 1] - self.origin[1]) / self.resolution)
 
@@ -106,7 +107,11 @@ class Grid2D:
 
 def _cell_and_fraction(u: np.ndarray, n: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Lower corner index in [0, n-2], fraction in [0, 1] of clamped coordinates `u`, and 1.0 where
-    `u` lies inside [0, n - 1] (0.0 where it was clamped)."""
-    clamped = np.clip(u, 0.0, n - 1.0)
+    `u` lies inside [0, n - 1] (0.0 where it was clamped). Complex `u` (complex-step differentiation):
+    the cell from the real part; inside, the fraction keeps the imaginary part, so the interpolation
+    is a polynomial in u and its complex step exact."""
+    real = np.real(u)
+    clamped = np.clip(real, 0.0, n - 1.0)
     lower = np.clip(np.floor(clamped).astype(np.int64), 0, max(n - 2, 0))
-    return lower, clamped - lower, (u == clamped).astype(float)
+    inside = real == clamped
+    return lower, np.where(inside, u - lower, clamped - lower), inside.astype(float)

@@ -40,3 +40,18 @@ def test_bilinear_gradient_matches_central_differences_on_a_curved_layer():
 def test_bilinear_on_a_single_row_grid():
     grid = Grid2D((0.0, 0.0), 1.0, (1, 3))
     assert grid.bilinear(np.array([[0.0, 1.0, 4.0]]), [[1.5, 7.0]])[0] == 2.5
+
+
+def test_bilinear_takes_complex_points_for_complex_step_derivatives():
+    grid = Grid2D((0.0, 0.0), 0.1, (12, 15))
+    X, Y = grid.centres()
+    layer = np.sin(3 * X) * np.cos(2 * Y) + X * Y
+    points = np.array([[0.33, 0.41], [1.02, 0.77], [-0.5, 0.3]])  # the last beyond the left border
+    value, gradient = grid.bilinear(layer, points, gradient=True)
+    h = 1e-30
+    for axis in range(2):
+        step = np.zeros(2, complex)
+        step[axis] = 1j * h
+        shifted = grid.bilinear(layer, points + step)
+        np.testing.assert_allclose(shifted.real, value, rtol=0, atol=1e-15)
+        np.testing.assert_allclose(shifted.imag / h, gradient[:, axis], rtol=1e-12, atol=1e-12)
