@@ -19,6 +19,8 @@ step (`euler.complex_step`, exact to round-off), the rest analytically.
 
 from __future__ import annotations
 
+from abc import abstractmethod
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -130,8 +132,9 @@ class FootTerrainBlock(ResidualBlock):
         self.matrix = sp.csr_matrix(matrix)
         self.size = self.matrix.shape[0]
 
+    @abstractmethod
     def _row(self, q):
-        raise NotImplementedError
+        """The row value at foot positions q (n, 3), real or complex."""
 
     def _column(self, q):
         return self._row(q)[:, None]
