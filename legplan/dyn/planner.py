@@ -50,9 +50,9 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
 
     From a guess that solves a nearby task (an initializer with ``near_solution`` true: the learned
     one) `direct` skips the coarse stages: the fine problem's constraints from the guess, then its
-    costs (Algorithm 1's A_θ: few iterations when the guess is good). Otherwise, or when that fails, by `attempt` (coarse
-    to fine, then the costs), from the initializer; if that fails too, `attempt` once more with
-    TOWR's swing constraint switched (`DynParams.towr_swing`): of the bench cases and the tests, some
+    costs (Algorithm 1's A_θ: few iterations when the guess is good). Otherwise, or when that fails,
+    `attempt` (coarse to fine, then the costs) from the initializer; if that fails too, `attempt`
+    once more with TOWR's swing constraint switched (`DynParams.towr_swing`): of the bench cases and the tests, some
     stall only with it and some only without (measured). `DynParams.iteration_budget` caps the LM
     iterations of all of it together. Effort adds up; the reason names every stage that ran."""
     budget = Budget(params.iteration_budget)
