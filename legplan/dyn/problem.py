@@ -78,11 +78,11 @@ class DynParams:
     a local minimum that a feasibility stage from there could not leave either (measured)."""
     warm_solver: ALParams = ALParams(mu_init=1e3, cost_tolerance=1e-2, multipliers="least_squares",
                                      inner=HingedParams(max_iterations=5, tolerance=0.0, function_tolerance=1e-3))
-    """The cost stage after a guess that is itself a solution of a nearby task (the learned
-    initializer, `planner.direct`): multipliers estimated at the feasible start, a stiff penalty and
-    short subproblems keep the steps near the constraints (measured from a network trained on 21
-    pallet tasks: μ₀ = 100 with 20-iteration subproblems left the first one 17-64 N off the dynamics
-    and spent the 25-iteration budget; 10³ with 5: 2 of 4 converged within it)."""
+    """The one-stage solve from a guess that is itself a solution of a nearby task (the learned
+    initializer, `planner.direct`): multipliers estimated at the guess, a stiff penalty and short
+    subproblems keep the steps near the constraints (measured from a network trained on 21 pallet
+    tasks, after a feasibility stage: μ₀ = 100 with 20-iteration subproblems left the first one
+    17-64 N off the dynamics and spent the 25-iteration budget; 10³ with 5: 2 of 4 converged)."""
     costs: CostWeights = CostWeights()
     swing_height_min: float | None = None
     base_clearance: float | None = None
