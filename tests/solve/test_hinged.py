@@ -49,3 +49,46 @@ def test_function_tolerance_stops_at_a_nonzero_minimum():
     r = solve_hinged_lm(p, HingedParams(lambda_init=10.0, function_tolerance=1e-8, tolerance=0.0))
     assert r.status is Status.CONVERGED and "function_tolerance" in r.reason
     assert r.values["x"] == pytest.approx([1.0], abs=1e-3)
+
+
+def _quadratic_rows(x):
+    """r = [x0² + x1 − 1, x0·x1, 2 − x1]: second directional derivative along d is [2d0², 2d0d1, 0]."""
+    return (np.array([x[0] ** 2 + x[1] - 1.0, x[0] * x[1], 2.0 - x[1]]),
+            [np.array([[2 * x[0], 1.0], [x[1], x[0]], [0.0, -1.0]])])
+
+
+def test_geodesic_acceleration_solves_the_damped_system_with_the_exact_curvature():
+    from legplan.solve.hinged import _HingeModel
+    from legplan.solve.linsolve import make_solver
+    from legplan.solve.lm import Timings
+
+    x = np.array([0.7, -0.4])
+    v, (J,) = _quadratic_rows(x)
+    import scipy.sparse as sp
+    J = sp.csr_matrix(J)
+    model = _HingeModel(J, v, np.zeros(3, bool), 2, None)
+    solver = make_solver("cholmod")
+    lam = 0.3
+    d_scaled = model.step(solver, lam, 10, Timings())
+    d = model.scale * d_scaled
+    h = 0.1  # the residuals are quadratic: the finite difference of the method is exact
+    difference = (_quadratic_rows(x + h * d)[0] - v) / h - J @ d
+    a = model.acceleration(solver, difference, h)
+    Js = J.toarray() * model.scale
+    r_vv = np.array([2 * d[0] ** 2, 2 * d[0] * d[1], 0.0])
+    expected = -np.linalg.solve(Js.T @ Js + lam * np.eye(2), Js.T @ r_vv)
+    assert a == pytest.approx(expected, rel=1e-9, abs=1e-12)
+
+
+def test_geodesic_acceleration_takes_fewer_steps_on_a_curved_valley():
+    # Rosenbrock's valley is the textbook case of parameter-effects curvature (Transtrum & Sethna)
+    def rosen(x):
+        return np.array([10 * (x[1] - x[0] ** 2), 1 - x[0]]), [np.array([[-20 * x[0], 10.0], [-1.0, 0.0]])]
+    runs = {}
+    for alpha in (0.0, 0.75):
+        p = Problem([VariableBlock("x", [-1.2, 1.0])])
+        p.add_residual(FunctionBlock(("x",), 2, rosen))
+        r = solve_hinged_lm(p, HingedParams(tolerance=1e-10, max_iterations=200, geodesic_acceleration=alpha))
+        assert r.success and r.values["x"] == pytest.approx([1.0, 1.0], abs=1e-8)
+        runs[alpha] = r.iterations
+    assert runs[0.75] < runs[0.0]
