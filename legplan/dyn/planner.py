@@ -16,12 +16,13 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from legplan.dyn.euler import world_rates
+from legplan.dyn.constraints import RangeOfMotionBlock
 from legplan.dyn.costs import CostWeights
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.init import heuristic
 from legplan.dyn.problem import DynParams, DynTask, Problem, build_problem
 from legplan.dyn.terrain import TerrainModel
-from legplan.solve.auglag import ALResult, solve_augmented_lagrangian
+from legplan.solve.auglag import ALParams, ALResult, solve_augmented_lagrangian
 
 SAMPLE_DT = 0.01  # s, the artefact's sampling of the solution
 
@@ -53,8 +54,10 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
     1's A_θ: few iterations when the guess is good). Otherwise, or when that fails,
     `attempt` (coarse to fine, then the costs) from the initializer; if that fails too, `attempt`
     once more with TOWR's swing constraint switched (`DynParams.towr_swing`): of the bench cases and the tests, some
-    stall only with it and some only without (measured). `DynParams.iteration_budget` caps the LM
-    iterations of all of it together. Effort adds up; the reason names every stage that ran."""
+    stall only with it and some only without (measured). A successful plan then goes through
+    `refine_range` (feet inside their boxes between the constraint's samples too).
+    `DynParams.iteration_budget` caps the LM iterations of all of it together. Effort adds up; the
+    reason names every stage that ran."""
     budget = Budget(params.iteration_budget)
     stages, setup = [], 0.0
     if getattr(initializer, "near_solution", False) and params.costs.active:
@@ -67,6 +70,12 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
         label = f" ({'with' if run.towr_swing else 'without'} TOWR's swing constraint)" if switched else ""
         stages += [(name + label, r) for name, r in more]
         setup += seconds
+        params = run
+    solver = ((params.warm_solver if stages[-1][0] == "direct" else params.cost_solver) if problem.costs
+              else params.solver)  # the solver of the stage that made the plan
+    problem, more, seconds = refine_range(problem, stages[-1][1], params, solver, budget, callback)
+    stages += more
+    setup += seconds
     result = stages[-1][1]
     return PlanResult(problem, _combined(stages), sample_solution(problem.form, result.values), setup)
 
@@ -156,10 +165,56 @@ def attempt(task: DynTask, model, terrain: TerrainModel, params: DynParams, init
     return problem, stages, setup
 
 
-def _stage(task, model, terrain, params: DynParams, previous: ALResult, solver, callback, budget: Budget):
+def refine_range(problem: Problem, result: ALResult, params: DynParams, solver: ALParams, budget: Budget,
+                 callback=None):
+    """Keep the feet inside their range-of-motion boxes between the constraint's samples, not only at
+    them (an exchange method for the continuous constraint): while a successful plan has a foot
+    outside its box on the `RANGE_CHECK_DT` grid (`range_excess_times`), add those times to the
+    constraint's samples and solve again from the plan (by `solver`, with costs if `problem` has
+    them), at most `RANGE_ROUNDS` times. Measured: with samples every 0.04 s the flat walk left the box by
+    1.64 mm and the double pallet walk by 2.27 mm between samples (every 0.02 s: 0.19 and 0 mm,
+    at 10-30 % more CPU on every case). Returns (problem, [(stage name, result)], setup seconds)."""
+    stages, setup, times = [], 0.0, np.empty(0)
+    if not problem.costs:
+        params = replace(params, costs=CostWeights())
+    for _ in range(RANGE_ROUNDS):
+        if not result.success or budget.spent:
+            break
+        found = range_excess_times(problem, result.values)
+        if not found.size:
+            break
+        times = np.union1d(times, found)
+        problem, result, seconds = _stage(problem.task, problem.model, problem.terrain, params, result, solver,
+                                          callback, budget, times)
+        setup += seconds
+        stages.append((f"range of motion at {times.size} more times", result))
+    return problem, stages, setup
+
+
+RANGE_CHECK_DT = 0.001  # s: the grid on which `refine_range` looks for a foot outside its box
+RANGE_ROUNDS = 3
+
+
+def range_excess_times(problem: Problem, values: dict[str, np.ndarray]) -> np.ndarray:
+    """The times on the `RANGE_CHECK_DT` grid at which some foot's excess over its range-of-motion
+    box (the model's box, not the planner's margin-reduced one) has a positive local maximum."""
+    form, model = problem.form, problem.model
+    t = np.append(np.arange(0.0, form.duration, RANGE_CHECK_DT), form.duration)
+    found = []
+    for leg in range(form.legs):
+        block = RangeOfMotionBlock(form, leg, model.nominal_feet[leg], t)
+        offset = block.evaluate([values[v] for v in block.variables], False)[0].reshape(-1, 3)
+        excess = np.pad((np.abs(offset) - model.range_of_motion).max(axis=1), 1, constant_values=-np.inf)
+        peak = (excess[1:-1] > 0.0) & (excess[1:-1] >= excess[:-2]) & (excess[1:-1] >= excess[2:])
+        found.append(t[peak])
+    return np.unique(np.concatenate(found))
+
+
+def _stage(task, model, terrain, params: DynParams, previous: ALResult, solver, callback, budget: Budget,
+           range_times: np.ndarray = ()):
     """Build the problem of one stage from the previous stage's values and solve it."""
     t0 = time.perf_counter()
-    problem = build_problem(task, model, terrain, params, lambda *_: previous.values)
+    problem = build_problem(task, model, terrain, params, lambda *_: previous.values, range_times)
     seconds = time.perf_counter() - t0
     return problem, budget.solve(problem, solver, callback), seconds
 

@@ -147,8 +147,11 @@ def sample_times(form: Formulation, params: DynParams) -> dict:
     return {"dynamics": form.knots.copy(), "range": rom}
 
 
-def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer) -> Problem:
-    """The constrained least-squares problem of one task (see module docstring)."""
+def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer,
+                  range_times: np.ndarray = ()) -> Problem:
+    """The constrained least-squares problem of one task (see module docstring); `range_times` are
+    extra range-of-motion sample times (s), where the planner found a foot outside its box between
+    the regular ones (`planner.range_excess_times`)."""
     form = Formulation(make_gait(task.gait, task.strides, task.duration), params.dt)
     start, goal = task_poses(task, model, terrain)
     feet0 = start_feet(model, start, terrain)
@@ -165,7 +168,8 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         k.append(Constraint(swing_constraint(form), name="swing", scale=np.tile([1.0 / LENGTH, 1.0], 2 * form.footsteps)))
     for leg, foot in enumerate(form.feet):
         swing_t = _swing_times(foot, params.swing_dt)
-        rom_t = np.union1d(times["range"], swing_t)  # swing feet move fastest: also between the dt_range points
+        rom_t = np.union1d(np.union1d(times["range"], swing_t),  # swing feet move fastest: also between
+                           np.asarray(range_times, float))  # the dt_range points
         box = np.tile(model.range_of_motion - params.range_margin, rom_t.size)
         k.append(Constraint(RangeOfMotionBlock(form, leg, model.nominal_feet[leg], rom_t), -box, box,
                             name="range_of_motion", scale=1.0 / LENGTH))

@@ -80,3 +80,28 @@ def test_a_near_solution_guess_is_solved_in_one_stage(anymal, step):
     assert again.success and again.reason.startswith("max violation")  # one stage, no stage names
     assert again.solve.iterations <= 8 < first.solve.iterations
     assert again.solve.cost <= first.solve.cost * (1 + 1e-2)
+
+
+def _range_excess(result, anymal) -> float:
+    """Largest excess (m) of any foot over its range-of-motion box on a 1 ms grid, recomputed with
+    scipy's rotation (roll, pitch, yaw as extrinsic x, y, z) from the sampled solution."""
+    from scipy.spatial.transform import Rotation
+
+    from legplan.dyn.planner import sample_solution
+
+    s = sample_solution(result.problem.form, result.solve.values, 0.001)
+    rot = Rotation.from_euler("xyz", s["base_euler"]).as_matrix()
+    offset = np.einsum("nji,nlj->nli", rot, s["feet_pos"] - s["base_pos"][:, None]) - anymal.nominal_feet
+    return float((np.abs(offset) - anymal.range_of_motion).max())
+
+
+def test_feet_stay_in_their_range_of_motion_between_the_samples(anymal, flat, monkeypatch):
+    import legplan.dyn.planner as planner
+
+    task = DynTask((0.0, 0.0, 0.0), (1.5, 0.0, 0.0), "walk", 4, 3.5)
+    refined = plan(task, anymal, flat, DynParams())
+    assert refined.success, refined.reason
+    assert _range_excess(refined, anymal) <= 1e-9
+    monkeypatch.setattr(planner, "RANGE_ROUNDS", 0)  # samples every 0.04 s only: a foot leaves the box between
+    sampled = plan(task, anymal, flat, DynParams())
+    assert sampled.success and _range_excess(sampled, anymal) > 1e-4
