@@ -27,7 +27,7 @@ import scipy.sparse as sp
 from legplan.dyn.euler import body_rates, complex_step, rotation
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.terrain import TerrainModel
-from legplan.geometry.hermite import hermite_weights, kron_dim, sampled_jacobian
+from legplan.geometry.hermite import SampledJacobian, hermite_weights, kron_dim
 from legplan.robots.so3 import skew
 from legplan.solve import ResidualBlock
 from legplan.solve.blocks import LinearBlock
@@ -53,6 +53,11 @@ class DynamicsBlock(ResidualBlock):
         self.feet = [form.foot_matrix(leg, self.times) for leg in range(form.legs)]
         self.forces = [form.force_matrix(leg, self.times) for leg in range(form.legs)]
         self.columns = [3 * m.shape[1] for m in (self.base[0], self.base[0], self.feet[0], self.forces[0])]
+        n, c = self.n, self.columns
+        self.jacobians = [SampledJacobian([self.base[2], self.base[0]], 6, n, c[0]),
+                          SampledJacobian(self.base, 6, n, c[1]),
+                          SampledJacobian(self.feet, 6, n, c[2]),
+                          SampledJacobian(self.forces, 6, n, c[3])]
 
     def inertial_torque(self, e, ed, edd):
         """I_W ω̇ + ω × I_W ω = R (I_B ω̇_B + ω_B × I_B ω_B), rows (n, 3)."""
@@ -77,17 +82,14 @@ class DynamicsBlock(ResidualBlock):
         r = np.hstack([linear, angular]).reshape(-1)
         if not jacobians:
             return r, None
-        n, zero, eye = self.n, np.zeros((self.n, 3, 3)), np.broadcast_to(np.eye(3), (self.n, 3, 3))
+        zero, eye = np.zeros((self.n, 3, 3)), np.broadcast_to(np.eye(3), (self.n, 3, 3))
         stack = lambda top, bottom: np.concatenate([top, bottom], axis=1)  # (n, 6, 3)
         f_skew = [skew(fi) for fi in f]
-        j_lin = sampled_jacobian([(stack(self.mass * eye, zero), self.base[2]),
-                                  (stack(zero, -sum(f_skew)), self.base[0])], 6, n, self.columns[0])
-        j_ang = sampled_jacobian([(stack(zero, j_e), self.base[0]), (stack(zero, j_ed), self.base[1]),
-                                  (stack(zero, j_edd), self.base[2])], 6, n, self.columns[1])
-        j_feet = sampled_jacobian([(stack(zero, fs), m) for fs, m in zip(f_skew, self.feet)], 6, n, self.columns[2])
-        j_forces = sampled_jacobian([(stack(-eye, -skew(q - p0)), m) for q, m in zip(pf, self.forces)],
-                                    6, n, self.columns[3])
-        return r, [j_lin, j_ang, j_feet, j_forces]
+        lin_j, ang_j, feet_j, forces_j = self.jacobians
+        return r, [lin_j([stack(self.mass * eye, zero), stack(zero, -sum(f_skew))]),
+                   ang_j([stack(zero, j_e), stack(zero, j_ed), stack(zero, j_edd)]),
+                   feet_j([stack(zero, fs) for fs in f_skew]),
+                   forces_j([stack(-eye, -skew(q - p0)) for q in pf])]
 
 
 class RangeOfMotionBlock(ResidualBlock):
@@ -103,6 +105,8 @@ class RangeOfMotionBlock(ResidualBlock):
         self.base = form.base_matrix(self.times)
         self.foot = form.foot_matrix(leg, self.times)
         self.columns = (3 * self.base.shape[1], 3 * self.base.shape[1], 3 * self.foot.shape[1])
+        self.base_jacobian = SampledJacobian([self.base], 3, self.n, self.columns[0])  # base_lin and base_ang
+        self.foot_jacobian = SampledJacobian([self.foot], 3, self.n, self.columns[2])
 
     @staticmethod
     def _in_base(e, d):
@@ -116,9 +120,7 @@ class RangeOfMotionBlock(ResidualBlock):
         x, (j_e,) = complex_step(self._in_base, (e, q - p), (0,))
         rt = np.transpose(rotation(e), (0, 2, 1))
         r = (x - self.nominal).reshape(-1)
-        return r, [sampled_jacobian([(-rt, self.base)], 3, self.n, self.columns[0]),
-                   sampled_jacobian([(j_e, self.base)], 3, self.n, self.columns[1]),
-                   sampled_jacobian([(rt, self.foot)], 3, self.n, self.columns[2])]
+        return r, [self.base_jacobian([-rt]), self.base_jacobian([j_e]), self.foot_jacobian([rt])]
 
 
 class FootTerrainBlock(ResidualBlock):
@@ -131,6 +133,7 @@ class FootTerrainBlock(ResidualBlock):
         self.terrain = terrain
         self.matrix = sp.csr_matrix(matrix)
         self.size = self.matrix.shape[0]
+        self.jacobian = SampledJacobian([self.matrix], 1, self.size, 3 * self.matrix.shape[1])
 
     @abstractmethod
     def _row(self, q):
@@ -144,7 +147,7 @@ class FootTerrainBlock(ResidualBlock):
         if not jacobians:
             return self._row(q), None
         r, (j,) = complex_step(self._column, (q,), (0,))
-        return r[:, 0], [sampled_jacobian([(j, self.matrix)], 1, self.size, 3 * self.matrix.shape[1])]
+        return r[:, 0], [self.jacobian([j])]
 
 
 class TerrainHeightBlock(FootTerrainBlock):
@@ -180,6 +183,8 @@ class ForceBlock(ResidualBlock):
         self.force, self.foot = sp.csr_matrix(force), sp.csr_matrix(foot)
         self.n = self.force.shape[0]
         self.size = self.ROWS * self.n
+        self.foot_jacobian = SampledJacobian([self.foot], self.ROWS, self.n, 3 * self.foot.shape[1])
+        self.force_jacobian = SampledJacobian([self.force], self.ROWS, self.n, 3 * self.force.shape[1])
 
     def _rows(self, f, q):
         n, t1, t2 = self.terrain.basis(q[:, 0], q[:, 1])
@@ -192,8 +197,7 @@ class ForceBlock(ResidualBlock):
         if not jacobians:
             return self._rows(f, q).reshape(-1), None
         r, (j_f, j_q) = complex_step(self._rows, (f, q), (0, 1))
-        return r.reshape(-1), [sampled_jacobian([(j_q, self.foot)], self.ROWS, self.n, 3 * self.foot.shape[1]),
-                               sampled_jacobian([(j_f, self.force)], self.ROWS, self.n, 3 * self.force.shape[1])]
+        return r.reshape(-1), [self.foot_jacobian([j_q]), self.force_jacobian([j_f])]
 
     @staticmethod
     def bounds(n: int, max_normal_force: float) -> tuple[np.ndarray, np.ndarray]:

@@ -31,7 +31,7 @@ import scipy.sparse as sp
 from legplan.dyn.euler import complex_step
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.terrain import TerrainModel
-from legplan.geometry.hermite import NodeSpline, hermite_gram, sampled_jacobian
+from legplan.geometry.hermite import NodeSpline, SampledJacobian, hermite_gram
 from legplan.solve import ResidualBlock
 from legplan.solve.blocks import LinearBlock
 
@@ -134,6 +134,7 @@ class StairEdgeBlock(ResidualBlock):
         self.terrain, self.selector, self.sigma = terrain, sp.csr_matrix(selector), float(sigma)
         self.n = self.selector.shape[0]
         self.size = self.n
+        self.jacobian = SampledJacobian([self.selector], 1, self.n, 3 * self.selector.shape[1])
 
     def _gauss(self, q):
         d = self.terrain.edge_distance(q[:, 0], q[:, 1])
@@ -144,4 +145,4 @@ class StairEdgeBlock(ResidualBlock):
         if not jacobians:
             return self._gauss(q)[:, 0], None
         r, (j,) = complex_step(self._gauss, (q,), (0,))
-        return r[:, 0], [sampled_jacobian([(j, self.selector)], 1, self.n, 3 * self.selector.shape[1])]
+        return r[:, 0], [self.jacobian([j])]

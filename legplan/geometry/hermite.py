@@ -122,23 +122,36 @@ def kron_dim(m: sp.spmatrix, dim: int = 3) -> sp.csr_matrix:
     return sp.kron(sp.csr_matrix(m), sp.identity(dim, format="csr"), format="csr")
 
 
-def sampled_jacobian(terms, rows: int, samples: int, columns: int) -> sp.csr_matrix:
+class SampledJacobian:
     """Jacobian of `rows` residuals per sample, J[(i, a), (j, b)] = Σ_terms M[i, j] · G_i[a, b].
 
-    Each term is (G, M): per-sample blocks G (samples, rows, 3) = ∂r_i/∂x_i of a sampled 3-vector
-    x_i = (M ⊗ I₃) N, M sparse (samples × columns/3). Terms over the same variable are summed; the
-    pattern depends on the M's only (explicit zeros kept), so it is the same at every evaluation.
+    Each term has a fixed sparse M (samples × columns/3): the sampled 3-vector x_i = (M ⊗ I₃) N; at
+    each evaluation the call gives per-sample blocks G (samples, rows, 3) = ∂r_i/∂x_i, one per term.
+    Terms over the same variable are summed. The pattern depends on the M's only (explicit zeros
+    kept), so the entries' places, the merge of coinciding ones and the CSR order are worked out
+    once here; a call multiplies, sums into those places and wraps the CSR arrays (no sorting).
     """
-    all_rows, all_cols, all_vals = [], [], []
-    for g, m in terms:
-        m = sp.csr_matrix(m)
-        entry_row = np.repeat(np.arange(samples), np.diff(m.indptr))
-        vals = m.data[:, None, None] * g[entry_row]  # (nnz, rows, 3)
-        r = (rows * entry_row)[:, None, None] + np.arange(rows)[None, :, None]
-        c = (3 * m.indices)[:, None, None] + np.arange(3)[None, None, :]
-        all_vals.append(vals.reshape(-1))
-        all_rows.append(np.broadcast_to(r, vals.shape).reshape(-1))
-        all_cols.append(np.broadcast_to(c, vals.shape).reshape(-1))
-    coo = sp.coo_matrix((np.concatenate(all_vals), (np.concatenate(all_rows), np.concatenate(all_cols))),
-                        shape=(samples * rows, columns))
-    return coo.tocsr()
+
+    def __init__(self, matrices, rows: int, samples: int, columns: int):
+        self.matrices = [sp.csr_matrix(m) for m in matrices]
+        self.entry_rows = [np.repeat(np.arange(samples), np.diff(m.indptr)) for m in self.matrices]
+        keys = []
+        for m, entry_row in zip(self.matrices, self.entry_rows):
+            shape = (entry_row.size, rows, 3)
+            r = np.broadcast_to((rows * entry_row)[:, None, None] + np.arange(rows)[None, :, None], shape)
+            c = np.broadcast_to((3 * m.indices)[:, None, None] + np.arange(3)[None, None, :], shape)
+            keys.append((r.astype(np.int64) * columns + c).reshape(-1))
+        unique, self.slot = np.unique(np.concatenate(keys), return_inverse=True)
+        self.shape = (samples * rows, columns)
+        self.indices = unique % columns
+        self.indptr = np.searchsorted(unique // columns, np.arange(samples * rows + 1))
+
+    def __call__(self, blocks) -> sp.csr_matrix:
+        """J for the per-sample blocks G of every term, in the order of the matrices."""
+        values = np.concatenate([(m.data[:, None, None] * g[entry_row]).reshape(-1)
+                                 for m, g, entry_row in zip(self.matrices, blocks, self.entry_rows)])
+        size = self.indices.size
+        data = np.bincount(self.slot, weights=values.real, minlength=size)
+        if np.iscomplexobj(values):
+            data = data + 1j * np.bincount(self.slot, weights=values.imag, minlength=size)
+        return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)

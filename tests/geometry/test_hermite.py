@@ -2,9 +2,10 @@
 
 import numpy as np
 import pytest
+import scipy.sparse as sp
 from scipy.integrate import quad
 
-from legplan.geometry.hermite import NodeSpline, Segment, hermite_gram, hermite_weights, sampled_jacobian
+from legplan.geometry.hermite import NodeSpline, SampledJacobian, Segment, hermite_gram, hermite_weights
 
 
 def _poly(c, h, t, d=0):
@@ -48,11 +49,17 @@ def test_spline_with_constant_and_hermite_segments():
 def test_sampled_jacobian_matches_dense_kron():
     rng = np.random.default_rng(1)
     spline = NodeSpline([Segment(0, 1, 0, 1), Segment(1, 2, 1, 2)], 3)
-    m = spline.matrix(np.array([0.2, 1.0, 1.7]), 1)
-    g = rng.normal(size=(3, 2, 3))
-    j = sampled_jacobian([(g, m)], 2, 3, 18).toarray()
-    dense = m.toarray()
-    expect = np.zeros((6, 18))
-    for i in range(3):
-        expect[2 * i:2 * i + 2] = g[i] @ np.kron(dense[i][None], np.eye(3))  # ∂r_i/∂x_i · ∂x_i/∂N
-    assert j == pytest.approx(expect)
+    m, m1 = spline.matrix(np.array([0.2, 1.0, 1.7]), 1), spline.matrix(np.array([0.2, 1.0, 1.7]))
+    jacobian = SampledJacobian([m, m1], 2, 3, 18)  # two terms over one variable: overlapping entries sum
+    for _ in range(2):  # the structure is reused by every call
+        g, g1 = rng.normal(size=(3, 2, 3)), rng.normal(size=(3, 2, 3))
+        j = jacobian([g, g1])
+        expect = np.zeros((6, 18))
+        for i in range(3):  # ∂r_i/∂x_i · ∂x_i/∂N, summed over the terms
+            expect[2 * i:2 * i + 2] = (g[i] @ np.kron(m.toarray()[i][None], np.eye(3))
+                                       + g1[i] @ np.kron(m1.toarray()[i][None], np.eye(3)))
+        assert j.toarray() == pytest.approx(expect)
+        pattern = sum(sp.csr_matrix((np.ones(a.nnz), a.indices, a.indptr), shape=a.shape) for a in (m, m1))
+        assert j.has_sorted_indices and j.nnz == pattern.nnz * 6  # canonical CSR, explicit zeros kept
+    complex_j = jacobian([g * (1 + 2j), g1 * (1 + 2j)])
+    assert complex_j.toarray() == pytest.approx(expect * (1 + 2j))
