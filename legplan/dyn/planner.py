@@ -173,7 +173,7 @@ def refine_range(problem: Problem, result: ALResult, params: DynParams, solver: 
     constraint's samples and solve again from the plan (by `solver`, with costs if `problem` has
     them), at most `RANGE_ROUNDS` times. Measured: with samples every 0.04 s the flat walk left the box by
     1.64 mm and the double pallet walk by 2.27 mm between samples (every 0.02 s: 0.19 and 0 mm,
-    at 10-30 % more CPU on every case). Returns (problem, [(stage name, result)], setup seconds)."""
+    at up to a third more CPU). Returns (problem, [(stage name, result)], setup seconds)."""
     stages, setup, times = [], 0.0, np.empty(0)
     if not problem.costs:
         params = replace(params, costs=CostWeights())

@@ -129,11 +129,17 @@ class SampledJacobian:
     each evaluation the call gives per-sample blocks G (samples, rows, 3) = ∂r_i/∂x_i, one per term.
     Terms over the same variable are summed. The pattern depends on the M's only (explicit zeros
     kept), so the entries' places, the merge of coinciding ones and the CSR order are worked out
-    once here; a call multiplies, sums into those places and wraps the CSR arrays (no sorting).
+    once, at the first call (a block evaluated without Jacobians never pays for them); a call
+    multiplies, sums into those places and wraps the CSR arrays (no sorting).
     """
 
     def __init__(self, matrices, rows: int, samples: int, columns: int):
         self.matrices = [sp.csr_matrix(m) for m in matrices]
+        self.rows, self.samples, self.columns = rows, samples, columns
+        self.slot = None
+
+    def _structure(self) -> None:
+        rows, samples, columns = self.rows, self.samples, self.columns
         self.entry_rows = [np.repeat(np.arange(samples), np.diff(m.indptr)) for m in self.matrices]
         keys = []
         for m, entry_row in zip(self.matrices, self.entry_rows):
@@ -148,6 +154,8 @@ class SampledJacobian:
 
     def __call__(self, blocks) -> sp.csr_matrix:
         """J for the per-sample blocks G of every term, in the order of the matrices."""
+        if self.slot is None:
+            self._structure()
         values = np.concatenate([(m.data[:, None, None] * g[entry_row]).reshape(-1)
                                  for m, g, entry_row in zip(self.matrices, blocks, self.entry_rows)])
         size = self.indices.size
