@@ -23,7 +23,8 @@
    (problem build, solve, sampling), median over the converged ones.
 5. Dataset throughput: tasks/s of the batch layer for every dataset computed in this run.
 
-Writes bench/results/learn.json and the learn section of BENCHMARKS.md.
+Writes bench/results/learn.json and the learn section of BENCHMARKS.md (for another space than the single
+pallet walk: learn_<space name>.json and its own section).
 """
 
 from __future__ import annotations
@@ -177,8 +178,11 @@ def main() -> None:
               "load_average_end": load_average(), "space": args.space, "train_tasks": args.n,
               "held_out_tasks": args.held_out, "jobs": args.jobs, "cycle_seconds_this_run": cycle_seconds,
               "held_out": rows, "one_core": timing, "throughput_tasks_per_second": throughput, "cycles": cycles}
-    write_result("learn", result)
-    update_benchmarks("learn", "\n".join(section(result, args)))
+    name = "learn" if space.name == "single_pallet_walk" else f"learn_{space.name}"  # one section per space
+    result["space_shape"] = {"name": space.name, "gait": space.gait, "strides": space.strides,
+                             "duration": space.duration, "costs": space.costs}
+    write_result(name, result)
+    update_benchmarks(name, "\n".join(section(result, args)))
     print("\n".join(section(result, args)))
 
 
@@ -191,11 +195,12 @@ def _tasks(path: Path) -> np.ndarray:
 
 def section(result: dict, args) -> list[str]:
     """The BENCHMARKS.md section of a result."""
-    rows, timing, cycles = result["held_out"], result["one_core"], result["cycles"]
-    lines = [f"## Learned initialization (`bench/learn.py`, {result['date']})", "",
+    rows, timing, cycles, shape = result["held_out"], result["one_core"], result["cycles"], result["space_shape"]
+    title = "" if shape["name"] == "single_pallet_walk" else f", {shape['name']}"
+    lines = [f"## Learned initialization{title} (`bench/learn.py`, {result['date']})", "",
              f"{result['machine']}, load average {result['load_average_start']:.1f} at start, "
-             f"{result['load_average_end']:.1f} at end (shared machine). Task space `{result['space']}` (Single "
-             f"Pallet walk, 16 footsteps, 5.5 s, the paper's costs); Algorithm 1 on {result['train_tasks']} training "
+             f"{result['load_average_end']:.1f} at end (shared machine). Task space `{result['space']}` ({shape['name']}: "
+             f"{shape['gait']}, {shape['strides']} strides, {shape['duration']:g} s, costs {shape['costs']}); Algorithm 1 on {result['train_tasks']} training "
              f"tasks (seed 0, `learn cycle --cycles {args.cycles}`), evaluated on {result['held_out_tasks']} held-out "
              f"tasks (seed 1), `--jobs {result['jobs']}`. N is the LM iteration budget of the whole plan "
              "(all planner stages). Seconds are solve wall times inside one-thread workers on the shared machine; "
@@ -226,10 +231,10 @@ def section(result: dict, args) -> list[str]:
             f"{r['feasible_within'][str(k)]:.0%} ({r['median_violation'][str(k)]:.1g})" for k in BUDGETS) + " |")
     lines += ["", f"One core (this process, one BLAS thread): `plan` from the last init.h5 on {timing['tasks']} held-out "
               f"tasks: {timing['converged']:.0%} converged, median {timing['median_iterations']:g} iterations, median "
-              f"{timing['median_cpu_seconds']:.2f} CPU s to a converged 16-footstep trajectory (problem build, solve "
+              f"{timing['median_cpu_seconds']:.2f} CPU s to a converged trajectory (problem build, solve "
               "and 10 ms sampling).", ""]
     if result["throughput_tasks_per_second"]:
-        lines.append("Dataset throughput (`--jobs 2`, batch layer): " + ", ".join(
+        lines.append(f"Dataset throughput (`--jobs {result['jobs']}`, batch layer): " + ", ".join(
             f"{label}: {v:.2f} tasks/s" for label, v in result["throughput_tasks_per_second"].items()) + ".")
         lines.append("")
     lines += ["Training cycles (the training tasks, `cycles.json`):", "",
