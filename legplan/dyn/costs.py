@@ -23,6 +23,7 @@ adjacent stance z (the cost that keeps swings low; the constraint keeps them abo
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -38,10 +39,17 @@ from legplan.solve.blocks import LinearBlock
 GRAVITY = 9.81
 
 
-def _factor(q: np.ndarray) -> np.ndarray:
-    """L with LᵀL = Q for a symmetric positive semi-definite 4 × 4 Q (eigen-decomposition)."""
+@functools.lru_cache(maxsize=256)
+def _segment_factor(h: float, derivative: int, derivative_weight: float) -> np.ndarray:
+    """L with LᵀL = Q₀ + ω_d Q₁ of eq. (1) on a segment of duration h (eigen-decomposition of the
+    positive semi-definite 4 × 4 Gram matrix), read-only. Cached: a spline's segments share a few
+    durations, and every task of a task space has the same ones (it was half of a pallet problem's
+    build time)."""
+    q = hermite_gram(h, derivative) + derivative_weight * hermite_gram(h, derivative + 1)
     w, v = np.linalg.eigh(q)
-    return np.sqrt(np.clip(w, 0.0, None))[:, None] * v.T
+    L = np.sqrt(np.clip(w, 0.0, None))[:, None] * v.T
+    L.flags.writeable = False
+    return L
 
 
 def integral_rows(spline: NodeSpline, axes: list[int], derivative: int, derivative_weight: float,
@@ -55,9 +63,7 @@ def integral_rows(spline: NodeSpline, axes: list[int], derivative: int, derivati
     for k, seg in enumerate(spline.segments):
         if seg.constant:
             continue
-        h = seg.t1 - seg.t0
-        q = hermite_gram(h, derivative) + derivative_weight * hermite_gram(h, derivative + 1)
-        L = _factor(q)
+        L = _segment_factor(seg.t1 - seg.t0, derivative, derivative_weight)
         ref = 0.0 if reference is None else reference[k]
         c_ref = L @ np.array([ref, 0.0, ref, 0.0])
         for axis in axes:

@@ -192,15 +192,20 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     if params.base_clearance is not None:
         k.append(Constraint(base_above_feet(form, times["range"]), params.base_clearance, np.inf,
                             name="base_clearance", scale=1.0 / LENGTH))
-    w = params.costs
-    problem.costs = integral_costs(form, w, model.mass)
+    problem.costs = cost_blocks(form, terrain, model, params.costs)
+    return problem
+
+
+def cost_blocks(form: Formulation, terrain: TerrainModel, model, w: CostWeights) -> list:
+    """The weighted cost blocks (name, block, weight) of the weights `w` with a positive weight."""
+    costs = integral_costs(form, w, model.mass)
     if w.stair_edge > 0 and terrain.has_edges:
         nodes = [n for foot in form.feet for n in foot.stance_nodes]
-        problem.costs.append(("stair_edge", StairEdgeBlock(terrain, form.node_selector(nodes, form.motion_nodes),
-                                                           w.stair_edge_sigma), w.stair_edge))
+        costs.append(("stair_edge", StairEdgeBlock(terrain, form.node_selector(nodes, form.motion_nodes),
+                                                   w.stair_edge_sigma), w.stair_edge))
     if w.swing_height > 0 and form.footsteps:
-        problem.costs.append(("swing_height", swing_height(form), w.swing_height))
-    return problem
+        costs.append(("swing_height", swing_height(form), w.swing_height))
+    return costs
 
 
 def _swing_times(foot, dt: float) -> np.ndarray:

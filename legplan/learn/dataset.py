@@ -105,11 +105,14 @@ def cost_of(worker: DatasetWorker, task, values: dict[str, np.ndarray]) -> float
     """g(y): the space's weighted cost terms at the solution, whichever planner stage ended the solve
     (the planner's own `cost` is that of its last stage, which is a feasibility stage without costs
     when the cost stage ends short)."""
-    from legplan.dyn.problem import build_problem
+    from legplan.dyn.formulation import Formulation
+    from legplan.dyn.gait import make_gait
+    from legplan.dyn.problem import cost_blocks
     from legplan.solve.auglag import evaluate_costs
 
-    problem = build_problem(task, worker.model, worker.terrain, worker.params, lambda *_: values)
-    return float(sum(evaluate_costs(problem.costs, values).values()))
+    form = Formulation(make_gait(task.gait, task.strides, task.duration), worker.params.dt)
+    costs = cost_blocks(form, worker.terrain, worker.model, worker.params.costs)
+    return float(sum(evaluate_costs(costs, values).values()))
 
 
 def failed_item(item, reason: str) -> dict:

@@ -79,7 +79,9 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
     hinged = problem.hinge_mask()
     timings = Timings()
     theta = layout.initial() if theta0 is None else layout.project(np.array(theta0, float))
-    solver = make_solver("cholmod")
+    solver = problem.structure_cache.get("cholmod")  # its symbolic analysis holds for the next solve too
+    if solver is None:
+        solver = problem.structure_cache["cholmod"] = make_solver("cholmod")
     lam, nu = params.lambda_init, 2.0
     hist_h, hist_l = [], []
     accepted = rejected = 0
@@ -94,7 +96,7 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
     v, J = problem.jacobian(theta)
     timings.evaluate += time.perf_counter() - t0
     norm = initial = hinged_norm(v, hinged)
-    model, pattern = None, None
+    model, pattern = None, problem.structure_cache.get("normal_pattern")  # reused by the next solve
     initial_gradient = None
     for it in range(params.max_iterations + 1):
         if not np.isfinite(norm) or not np.all(np.isfinite(J.data)):
@@ -117,7 +119,7 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
         if model is None:
             t0 = time.perf_counter()
             model = _HingeModel(J, v, hinged, layout.n, pattern)
-            pattern = model.pattern
+            pattern = problem.structure_cache["normal_pattern"] = model.pattern
             timings.assemble += time.perf_counter() - t0
         step = model.step(solver, lam, params.active_set_iterations, timings)
         if step is None:
@@ -181,9 +183,10 @@ class _NormalPattern:
     def scatter(self, m) -> np.ndarray:
         """Values of the sparse n × n matrix m laid out in this pattern."""
         m = sp.csc_matrix(m)
+        m.sum_duplicates()  # one entry per place: a plain assignment scatters it
         keys = np.repeat(np.arange(self.n, dtype=np.int64), np.diff(m.indptr)) * self.n + m.indices
         data = np.zeros(self.keys.size)
-        np.add.at(data, np.searchsorted(self.keys, keys), m.data)
+        data[np.searchsorted(self.keys, keys)] = m.data
         return data
 
     def matrix(self, data: np.ndarray) -> sp.csc_matrix:

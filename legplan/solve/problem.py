@@ -57,6 +57,9 @@ class Problem:
         self._blocks: list[tuple[ResidualBlock, float | np.ndarray]] = []
         self._layout: VariableLayout | None = None
         self._index_cache: dict[tuple, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+        self.structure_cache: dict[str, object] = {}
+        """What a solver derives from the problem's structure (e.g. the pattern of JᵀJ) and reuses
+        across its solves of this problem; emptied when a block is added."""
 
     # --- building -------------------------------------------------------------------------------
     def add_residual(self, block: ResidualBlock, weight: float | np.ndarray = 1.0) -> ResidualBlock:
@@ -79,6 +82,7 @@ class Problem:
     def _invalidate(self) -> None:
         self._layout = None
         self._index_cache.clear()
+        self.structure_cache.clear()
         self._offsets = None
         self._jac_assembler = None
         self._jact_assembler = None

@@ -105,3 +105,22 @@ def test_feet_stay_in_their_range_of_motion_between_the_samples(anymal, flat, mo
     monkeypatch.setattr(planner, "RANGE_ROUNDS", 0)  # samples every 0.04 s only: a foot leaves the box between
     sampled = plan(task, anymal, flat, DynParams())
     assert sampled.success and _range_excess(sampled, anymal) > 1e-4
+
+
+def test_range_refinement_of_a_plan_with_costs_keeps_its_cost_terms(anymal, flat):
+    """The refinement solves the constraints alone; the plan still reports its costs' terms, evaluated
+    at the final values by blocks built apart from the planner's."""
+    from legplan.dyn.costs import integral_costs
+
+    task = DynTask((0.0, 0.0, 0.0), (1.5, 0.0, 0.0), "walk", 4, 3.5)
+    result = plan(task, anymal, flat, replace(DynParams(), costs=PAPER_COSTS))
+    assert result.success, result.reason
+    assert "range of motion at" in result.reason  # the last stage was a refinement
+    assert _range_excess(result, anymal) <= 1e-9
+    expected = {name: 0.5 * w * float(np.sum(block.evaluate([result.solve.values[v] for v in block.variables],
+                                                            False)[0] ** 2))
+                for name, block, w in integral_costs(result.problem.form, PAPER_COSTS, anymal.mass)}
+    for name, value in expected.items():
+        assert result.solve.cost_terms[name] == pytest.approx(value, rel=1e-9)
+    assert result.solve.cost == pytest.approx(sum(result.solve.cost_terms.values()), rel=1e-12)
+    assert result.solve.cost > 0.0
