@@ -95,7 +95,7 @@ def _hidden(ctx, param, value):
 
 
 @command.command("train")
-@click.argument("dataset_path", metavar="DATASET", type=input_artefact)
+@click.argument("dataset_paths", metavar="DATASET...", type=input_artefact, nargs=-1, required=True)
 @click.option("--g-max", "g_max", default="auto", show_default=True, callback=_g_max, metavar="auto|VALUE",
               help="Cost threshold of the filter, eq. (4); auto: median + 3 robust sigmas of the converged costs.")
 @click.option("--hidden", default="256,256", show_default=True, callback=_hidden,
@@ -108,19 +108,26 @@ def _hidden(ctx, param, value):
 @output_opt
 @overwrite_opt
 @verbosity_opts
-def train_cmd(dataset_path, g_max, hidden, weights_path, validation, seed, output, overwrite):
-    """Filter DATASET by g(y) <= g_max, fit the network of eq. (3), write init.h5 (numpy-readable)."""
+def train_cmd(dataset_paths, g_max, hidden, weights_path, validation, seed, output, overwrite):
+    """Filter DATASET by g(y) <= g_max, fit the network of eq. (3), write init.h5 (numpy-readable).
+
+    Several datasets of the same tasks (a cycle's) are trained on each task's best converged outcome."""
     from legplan.artefacts import check_output
     from legplan.learn.train import train_initializer
 
     check_output(output, overwrite)
     if weights_path is not None and not os.path.isfile(weights_path):
         raise LegplanError(f"--weights: '{weights_path}' is not a file")
-    report = train_initializer(dataset_path, output, g_max=g_max, hidden=hidden, weights_path=weights_path,
+    report = train_initializer(dataset_paths, output, g_max=g_max, hidden=hidden, weights_path=weights_path,
                                seed=seed, validation=validation, overwrite=overwrite)
-    status(f"wrote {output}: {report['good']}/{report['tasks']} tasks with g <= {report['g_max']:.4g} "
+    status(f"wrote {output}: {report['good']}/{report['tasks']} tasks with {_filtered(report)} "
            f"({report['converged']} converged); validation loss {report['validation_loss']:.3g} "
            f"(train {report['train_loss']:.3g}) on {report['validation_tasks']} held-out tasks")
+
+
+def _filtered(report: dict) -> str:
+    """The filter of a train report, as the status line says it."""
+    return (f"g <= g_fit(x) + {report['g_max']:.4g}" if report["g_max_conditional"] else f"g <= {report['g_max']:.4g}")
 
 
 @command.command("cycle")
@@ -149,7 +156,8 @@ def cycle_cmd(space_path, cycles, count, seed, heuristic_iterations, learned_ite
               weights_path, output, overwrite, jobs, scheduler, resume):
     """Algorithm 1 (TRAININITIALIZER): Y ← solve(A_h(X); N_h), then K times filter, train, Y ← solve(A_θ(X); N_θ).
 
-    Keeps every dataset and initializer in OUTPUT; cycles.json holds per cycle the success rate,
+    Each cycle trains on every task's best converged outcome so far (all earlier datasets), so a
+    cycle never trains on a worse solution of a task than an earlier one found. Keeps every dataset and initializer in OUTPUT; cycles.json holds per cycle the success rate,
     median iterations and time of converged tasks and their cost quantiles. --resume reuses the
     artefacts already written and continues an interrupted dataset."""
     from pathlib import Path
@@ -176,9 +184,10 @@ def cycle_cmd(space_path, cycles, count, seed, heuristic_iterations, learned_ite
         if k > 0:
             init = paths[2 * k - 1]
             if not done(init):
-                report = train_initializer(paths[2 * k - 2], init, g_max=g_max, hidden=hidden if k == 1 else hidden_later,
-                                           weights_path=weights_path, seed=seed, overwrite=overwrite)
-                status(f"wrote {init}: {report['good']}/{report['tasks']} tasks with g <= {report['g_max']:.4g}, "
+                report = train_initializer(paths[0:2 * k - 1:2], init, g_max=g_max,
+                                           hidden=hidden if k == 1 else hidden_later, weights_path=weights_path,
+                                           seed=seed, overwrite=overwrite)
+                status(f"wrote {init}: {report['good']}/{report['tasks']} tasks with {_filtered(report)}, "
                        f"validation loss {report['validation_loss']:.3g}")
         if not done(dataset):
             _dataset(space, space_path, count, seed, paths[2 * k - 1] if k else "heuristic",

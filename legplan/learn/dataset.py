@@ -24,6 +24,7 @@ from dataclasses import replace
 
 import numpy as np
 
+from legplan.errors import LegplanError
 from legplan.learn.layout import CATEGORIES, join, layout_of
 from legplan.learn.space import X_NAMES, TaskSpace, load_terrain_map, sample_tasks, task_vector
 
@@ -127,7 +128,6 @@ def write_dataset(path, space: TaskSpace, records: list[dict], settings: dict, s
     import h5py
 
     from legplan.artefacts import write_artefact, write_dataset as put, write_summary
-    from legplan.errors import LegplanError
 
     solved = [r for r in records if "y" in r]
     if not solved:
@@ -176,3 +176,22 @@ def read_dataset(path) -> dict:
         data["layout"] = {name: int(read_array(f, f"layout/{name}", ndim=0)) for name in CATEGORIES}
         data["space"] = json.loads(f.attrs["space"])
     return data
+
+
+def best_outcomes(paths) -> dict:
+    """Datasets of the same tasks (a cycle's) as one: per task the converged outcome of the lowest cost,
+    or the first dataset's when none converged (the arrays of `read_dataset`, `source` per task:
+    the index of the dataset it came from). One-line error for a dataset of other tasks or layout."""
+    datas = [read_dataset(p) for p in paths]
+    first = datas[0]
+    for path, data in zip(paths[1:], datas[1:]):
+        if data["layout"] != first["layout"]:
+            raise LegplanError(f"{path}: field 'layout': not the variable layout of {paths[0]}")
+        if data["x"].shape != first["x"].shape or not np.array_equal(data["x"], first["x"]):
+            raise LegplanError(f"{path}: field 'x': not the tasks of {paths[0]}")
+    cost = np.stack([np.where(np.asarray(d["success"], bool), d["cost"], np.inf) for d in datas])
+    source = np.where(np.isfinite(cost).any(axis=0), np.argmin(cost, axis=0), 0)
+    rows = np.arange(source.size)
+    merged = {name: np.stack([d[name] for d in datas])[source, rows]
+              for name in ("y", "cost", "max_violation", "iterations", "seconds", "success")}
+    return {**merged, "x": first["x"], "layout": first["layout"], "space": first["space"], "source": source}

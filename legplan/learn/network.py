@@ -1,12 +1,18 @@
 """The learned initializer A_θ of Sec. IV of the TOWR-costs paper: filter (4), weighted fit (3), numpy inference.
 
-* Filter, eq. (4): D_good = {(x_i, y_i) | task i converged and g(y_i) ≤ g_max}. ``auto`` puts g_max
-  at the start of the cost distribution's tail (`auto_g_max`): median + 3 robust standard deviations
-  (1.4826 × the median absolute deviation) of the converged tasks' costs, recomputed on the costs
+* Filter, eq. (4): D_good = {(x_i, y_i) | task i converged and g(y_i) ≤ g_max}. A number is the
+  paper's constant g_max. ``auto`` puts it at the start of the tail (`auto_g_max`): median + 3
+  robust standard deviations (1.4826 × the median absolute deviation), recomputed on the values
   under it until it stays. The median and the MAD ignore up to half the tasks, and the repetition
   takes out what a heavy tail (30 % of the tasks, tested) still adds to them; on a normal body it
   keeps about 99.7 %. (≤ rather than the paper's <, so that a dataset of equal costs, e.g. without
-  cost terms, keeps all its tasks.)
+  cost terms, keeps all its tasks.) Given the task vectors, ``auto`` looks for the tail of the cost
+  *given the task* (`conditional_filter`): the tail rule on g(y_i) − ĝ(x_i), ĝ a quadratic
+  least-squares fit of the cost over x, refitted on the kept tasks. Deliberate change from a
+  constant g_max: the cost grows with the distance to the goal, so a constant threshold cuts the far
+  tasks, not the poor local minima. Measured on the 1000 single-pallet training tasks: the
+  constant rule kept 616 of 905 converged Heuristic outcomes and 59 % of the tasks starting over
+  1.3 m behind the goal, the conditional one 867 and 95 % (ĝ explains R² = 0.64 of the cost).
 * Fit, eq. (3): θ = argmin Σ ‖A_θ x − y‖²_W with W = diag(w_c / σ_c²) for an output of category c
   (`CATEGORIES`: base linear, base angular, feet, forces; phase durations are not variables here):
   w_c > 0 its weight, σ_c the category's RMS standard deviation in D_good, so each category's error
@@ -60,17 +66,56 @@ def auto_g_max(cost: np.ndarray, passes: int = 20) -> float:
     return threshold
 
 
-def filter_good(success: np.ndarray, cost: np.ndarray, g_max: float | str, source: str = "dataset"
-                ) -> tuple[np.ndarray, float]:
-    """Mask of D_good (eq. (4), converged tasks only) and the g_max used (`auto` or a number)."""
+def filter_good(success: np.ndarray, cost: np.ndarray, g_max: float | str, source: str = "dataset",
+                x: np.ndarray | None = None) -> tuple[np.ndarray, float, bool]:
+    """Mask of D_good (eq. (4), converged tasks only), its threshold and whether that bounds
+    g − ĝ(x) rather than g: a number is g_max itself; `auto` is the start of the tail of the costs,
+    or with the task vectors `x` (enough tasks for the fit) of the costs' excess over the quadratic
+    fit ĝ(x) (`conditional_filter`)."""
+    cost = np.asarray(cost, float)
     ok = np.asarray(success, bool) & np.isfinite(cost)
     if not ok.any():
         raise LegplanError(f"{source}: field 'success': no converged task to train on")
-    threshold = auto_g_max(cost[ok]) if g_max == "auto" else float(g_max)
-    good = ok & (cost <= threshold)
+    conditional = (g_max == "auto" and x is not None
+                   and ok.sum() >= FIT_TASKS_PER_FEATURE * quadratic_features(np.asarray(x, float)).shape[1])
+    if conditional:
+        good, threshold = conditional_filter(np.asarray(x, float), cost, ok)
+    else:
+        threshold = auto_g_max(cost[ok]) if g_max == "auto" else float(g_max)
+        good = ok & (cost <= threshold)
     if not good.any():
         raise LegplanError(f"{source}: field 'cost': no converged task has g(y) <= g_max = {threshold:g}")
-    return good, threshold
+    return good, threshold, bool(conditional)
+
+
+FIT_TASKS_PER_FEATURE = 5  # `conditional_filter` fits ĝ only with at least this many tasks per coefficient
+
+
+def quadratic_features(x: np.ndarray) -> np.ndarray:
+    """1, x_j and x_j x_k (j ≤ k) of the standardized non-constant columns of x."""
+    x = np.asarray(x, float)
+    std = x.std(axis=0)
+    z = (x[:, std > 0] - x[:, std > 0].mean(axis=0)) / std[std > 0]
+    pairs = [z[:, j] * z[:, k] for j in range(z.shape[1]) for k in range(j, z.shape[1])]
+    return np.column_stack([np.ones(len(x)), z, *pairs])
+
+
+def conditional_filter(x: np.ndarray, cost: np.ndarray, ok: np.ndarray, passes: int = 10) -> tuple[np.ndarray, float]:
+    """D_good by the tail of the cost given the task (module docstring): ĝ fitted by least squares on
+    `quadratic_features` of the kept tasks, the tail rule (`auto_g_max`) on the residuals of the
+    converged ones, repeated until the kept set stays. Returns the mask and the residual threshold.
+    `filter_good` uses it with at least `FIT_TASKS_PER_FEATURE` converged tasks per coefficient."""
+    features = quadratic_features(x)
+    kept, threshold = ok.copy(), np.inf
+    for _ in range(passes):
+        coef = np.linalg.lstsq(features[kept], cost[kept], rcond=None)[0]
+        residual = cost - features @ coef
+        threshold = auto_g_max(residual[ok])
+        now = ok & (residual <= threshold)
+        if np.array_equal(now, kept):
+            break
+        kept = now
+    return kept, threshold
 
 
 def read_weights(path: str | os.PathLike | None) -> dict[str, float]:

@@ -56,6 +56,45 @@ def test_train_writes_an_init_that_plans_the_next_dataset(trained):
         assert f["success"][()].all() and json.loads(f.attrs["params"])["init"].endswith("init.h5")
 
 
+def test_train_on_several_datasets_takes_each_tasks_best_converged_outcome(trained):
+    """`best_outcomes` per task: the converged outcome of the lowest cost; a dataset of other tasks is
+    refused with the file and field named, nothing written."""
+    import shutil
+
+    from legplan.learn.dataset import best_outcomes
+
+    tmp, _ = trained
+    worse, failed = tmp / "worse.h5", tmp / "failed.h5"
+    for path in (worse, failed):
+        shutil.copy(tmp / "d0.h5", path)
+    with h5py.File(tmp / "d0.h5", "r") as f:
+        y0 = f["y"][()]
+    with h5py.File(worse, "r+") as f:  # tasks 0-2 better than d0's (cost −1), 3-5 worse (+1), other y
+        f["cost"][...] = f["cost"][()] + np.array([-1.0, -1.0, -1.0, 1.0, 1.0, 1.0])
+        f["y"][...] = y0 + 1.0
+    with h5py.File(failed, "r+") as f:  # the cheapest of all, but not converged
+        f["cost"][...] = f["cost"][()] - 5.0
+        f["success"][...] = False
+        f["y"][...] = y0 + 2.0
+    merged = best_outcomes([tmp / "d0.h5", worse, failed])
+    assert merged["source"].tolist() == [1, 1, 1, 0, 0, 0]
+    assert np.array_equal(merged["y"][:3], y0[:3] + 1.0) and np.array_equal(merged["y"][3:], y0[3:])
+    assert merged["success"].all()
+    result = invoke("learn", "train", tmp / "d0.h5", worse, failed, "--hidden", "8,8", "-o", tmp / "best.h5", "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    with h5py.File(tmp / "best.h5", "r") as f:
+        summary = read_summary(f)
+        assert [summary[f"good_from_{n}"][0] for n in ("d0", "worse", "failed")] == [3, 3, 0]
+        assert len(json.loads(f.attrs["inputs"])) == 3
+    other = tmp / "other_tasks.h5"
+    shutil.copy(tmp / "d0.h5", other)
+    with h5py.File(other, "r+") as f:
+        f["x"][0, 0] += 0.1
+    result = invoke("learn", "train", tmp / "d0.h5", other, "-o", tmp / "x.h5")
+    assert result.exit_code == 2 and f"{other}: field 'x'" in result.output
+    assert not (tmp / "x.h5").exists()
+
+
 def test_bad_space_and_foreign_init_are_exit_2_with_no_output(trained):
     tmp, space = trained
     bad = tmp / "bad.yaml"
@@ -74,15 +113,20 @@ def test_bad_space_and_foreign_init_are_exit_2_with_no_output(trained):
 def test_cycle_keeps_every_dataset_and_initializer_and_summarizes_each_cycle(trained):
     tmp, space = trained
     out = tmp / "cycle"
-    result = invoke("learn", "cycle", space, "--cycles", 1, "--n", 3, "--hidden", "8,8", "--hidden-later", "8,8,8",
+    result = invoke("learn", "cycle", space, "--cycles", 2, "--n", 3, "--hidden", "8,8", "--hidden-later", "8,8,8",
                     "--heuristic-iterations", 50, "-o", out, "-q")
     assert result.exit_code == 0, result.output + str(result.exception)
-    assert {p.name for p in out.iterdir()} == {"dataset_0.h5", "init_1.h5", "dataset_1.h5", "cycles.json"}
+    assert {p.name for p in out.iterdir()} == {"dataset_0.h5", "init_1.h5", "dataset_1.h5", "init_2.h5",
+                                               "dataset_2.h5", "cycles.json"}
     rows = json.loads((out / "cycles.json").read_text())["cycles"]
-    assert [r["init"] for r in rows] == ["heuristic", "init_1.h5"] and all(r["tasks"] == 3 for r in rows)
+    assert [r["init"] for r in rows] == ["heuristic", "init_1.h5", "init_2.h5"] and all(r["tasks"] == 3 for r in rows)
     with h5py.File(out / "dataset_0.h5", "r") as a, h5py.File(out / "dataset_1.h5", "r") as b:
         assert np.array_equal(a["x"][()], b["x"][()])  # Algorithm 1: the same tasks X in every cycle
         assert json.loads(b.attrs["params"])["iterations"] == 25
+    with h5py.File(out / "init_2.h5", "r") as f:  # cycle 2 trains on the best outcome of cycles 0 and 1
+        summary = read_summary(f)
+        assert summary["good_from_dataset_0"][0] + summary["good_from_dataset_1"][0] == summary["good"][0] > 0
+        assert [Path(p["path"]).name for p in json.loads(f.attrs["inputs"])] == ["dataset_0.h5", "dataset_1.h5"]
     result = invoke("learn", "cycle", space, "--cycles", 1, "--n", 3, "-o", out)
     assert result.exit_code == 2 and "exists" in result.output
 

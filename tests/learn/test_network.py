@@ -23,11 +23,41 @@ def test_auto_g_max_starts_the_tail_of_a_long_tailed_distribution():
 def test_filter_keeps_converged_tasks_under_g_max_and_refuses_an_empty_result():
     success = np.array([True, True, True, False, True])
     cost = np.array([1.0, 1.1, 50.0, 0.5, 0.9])
-    good, threshold = filter_good(success, cost, "auto")
+    good, threshold, _ = filter_good(success, cost, "auto")
     assert good.tolist() == [True, True, False, False, True] and 1.1 <= threshold < 50.0
     assert filter_good(success, np.zeros(5), "auto")[0].tolist() == success.tolist()  # no costs: keep all converged
     with pytest.raises(LegplanError, match="field 'cost'"):
         filter_good(success, cost, 0.1, "d.h5")
+
+
+def test_auto_filter_finds_the_poor_minima_of_every_task_distance_with_the_task_vectors():
+    """Costs that rise steeply for the farthest tasks, 10 % poor local minima 1.0 above their task's
+    cost: given x, `auto` cuts the poor minima at every distance; the constant rule cuts far tasks."""
+    rng = np.random.default_rng(3)
+    n = 600
+    u = rng.random(n)  # 0: nearest start, 1: farthest
+    x = np.column_stack([-1.0 - u, rng.uniform(-0.7, 0.7, n), rng.uniform(-0.5, 0.5, n),
+                         np.full(n, 0.6), np.zeros(n), np.zeros(n)])  # goal fixed: constant columns
+    cost = 3.0 + 2.0 * u ** 4 + rng.normal(0.0, 0.05, n)
+    poor = rng.random(n) < 0.1
+    cost[poor] += 1.0
+    success = rng.random(n) > 0.05
+    good, threshold, conditional = filter_good(success, cost, "auto", "d.h5", x)
+    assert conditional
+    far = u > 0.85
+    assert not np.any(good & ~success)
+    assert np.mean(good[success & ~poor]) > 0.97 and np.mean(good[success & ~poor & far]) > 0.9
+    assert np.mean(good[success & poor]) < 0.1
+    assert 0.05 < threshold < 1.0  # a residual over the fit, not a cost
+    constant, _, conditional = filter_good(success, cost, "auto", "d.h5")
+    assert not conditional
+    assert np.mean(constant[success & ~poor & far]) < 0.5
+    few = np.flatnonzero(success)[:20]  # too few tasks to fit the quadratic: the constant rule
+    mask = np.zeros(n, bool)
+    mask[few] = True
+    assert filter_good(mask, cost, "auto", "d.h5", x)[2] is False
+    assert np.array_equal(filter_good(mask, cost, "auto", "d.h5", x)[0], filter_good(mask, cost, "auto", "d.h5")[0])
+    assert np.array_equal(filter_good(success, cost, 3.5, "d.h5", x)[0], success & (cost <= 3.5))  # a number: eq. (4)
 
 
 def test_join_split_round_trip():
