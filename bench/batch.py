@@ -35,7 +35,7 @@ from multiprocessing import get_context
 from pathlib import Path
 
 import psutil
-from common import ROOT, load_average, machine, update_benchmarks, write_result
+from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result
 from step_plan import merge_swings, scenario
 
 DATASET_TASKS = 2000 * 3 * 2 * 4  # TOWR-costs paper Sec. IV-B: tasks × environments × gaits × cycles
@@ -180,8 +180,7 @@ def main(argv=None) -> int:
 
     from legplan.batch import Backend, Task, run_batch
 
-    commit = subprocess.run(["git", "-C", str(ROOT), "rev-parse", "--short", "HEAD"], capture_output=True,
-                            text=True).stdout.strip()
+    commit = code_version()
     load_start = os.getloadavg()
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)

@@ -6,6 +6,7 @@ from __future__ import annotations
 import json
 import os
 import platform
+import subprocess
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -22,6 +23,14 @@ def cpu_model() -> str:
 def machine() -> str:
     """CPU model, architecture and core count, e.g. 'AMD EPYC 7B13, x86_64, 2 cores'."""
     return f"{cpu_model()}, {platform.machine()}, {os.cpu_count()} cores"
+
+
+def code_version() -> str:
+    """The commit the benchmarked code is at, and whether legplan/ has uncommitted changes."""
+    git = ["git", "-C", str(ROOT)]
+    sha = subprocess.run([*git, "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+    dirty = subprocess.run([*git, "status", "--porcelain", "--", "legplan"], capture_output=True, text=True).stdout.strip()
+    return f"{sha or 'unknown commit'}{' + uncommitted changes in legplan/' if dirty else ''}"
 
 
 def load_average() -> float:

@@ -49,7 +49,6 @@ import datetime
 import json
 import os
 import statistics
-import subprocess
 import time
 from dataclasses import replace
 
@@ -59,7 +58,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 import scipy.sparse as sp  # noqa: E402
 
-from common import ROOT, machine, update_benchmarks, write_result  # noqa: E402
+from common import ROOT, code_version, machine, update_benchmarks, write_result  # noqa: E402
 import legplan.dyn.planner as planner  # noqa: E402
 from legplan.dyn.costs import CostWeights  # noqa: E402
 from legplan.dyn.init import heuristic  # noqa: E402
@@ -476,15 +475,6 @@ def check_cells(check):
     return text + (" ✓" if check["ok"] else f" ✗ ({', '.join(check['failed'])})")
 
 
-def git_state() -> str:
-    def run(*args):
-        return subprocess.run(["git", *args], cwd=ROOT, capture_output=True, text=True).stdout.strip()
-    head = run("rev-parse", "--short", "HEAD")
-    dirty = run("status", "--porcelain", "--", "legplan/dyn", "legplan/solve")
-    return head + (f" + uncommitted changes in {len(dirty.splitlines())} file(s) of legplan/dyn, legplan/solve"
-                   if dirty else "")
-
-
 def targets(result) -> list[str]:
     lines = []
     cases = result["cases"]
@@ -687,7 +677,7 @@ def main():
     ipopt_ok = cyipopt is not None and not args.skip_ipopt
     ipopt_version = ".".join(map(str, cyipopt.IPOPT_VERSION)) if cyipopt is not None else None
     result = {
-        "date": datetime.date.today().isoformat(), "machine": machine(), "code": git_state(),
+        "date": datetime.date.today().isoformat(), "machine": machine(), "code": code_version(),
         "quick": args.quick, "repeats": args.repeats, "load_start": load_start,
         "paper_params": PAPER_SOURCE, "dense_check": check_trajectory is not None,
         "ipopt": {"available": cyipopt is not None, "version": ipopt_version,

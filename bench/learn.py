@@ -42,7 +42,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")  # before numpy loads BLAS
 
 import numpy as np  # noqa: E402
-from common import ROOT, load_average, machine, update_benchmarks, write_result  # noqa: E402
+from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result  # noqa: E402
 
 LEGPLAN = [sys.executable, "-c", "import sys; from legplan.cli.main import cli; sys.argv[0] = 'legplan'; cli()"]
 BUDGETS = (0, 1, 2, 3, 5, 10, 25)
@@ -154,7 +154,7 @@ def main() -> None:
     out = (ROOT / args.out).resolve()
     (out / "cycle").mkdir(parents=True, exist_ok=True)
     space = read_space(ROOT / args.space)
-    started = load_average()
+    started, code = load_average(), code_version()
     throughput = {}
     t0 = time.perf_counter()
     run("learn", "cycle", ROOT / args.space, "--cycles", args.cycles, "--n", args.n, "--seed", 0, "--jobs", args.jobs,
@@ -174,7 +174,7 @@ def main() -> None:
     held_out_tasks = _tasks(out / "heldout_heuristic.h5")
     timing = one_core_times(inits[-1], space, held_out_tasks[:args.timing_tasks])
     cycles = json.loads((out / "cycle" / "cycles.json").read_text())["cycles"]
-    result = {"date": datetime.date.today().isoformat(), "machine": machine(), "load_average_start": started,
+    result = {"date": datetime.date.today().isoformat(), "machine": machine(), "code": code, "load_average_start": started,
               "load_average_end": load_average(), "space": args.space, "train_tasks": args.n,
               "held_out_tasks": args.held_out, "jobs": args.jobs, "cycle_seconds_this_run": cycle_seconds,
               "held_out": rows, "one_core": timing, "throughput_tasks_per_second": throughput, "cycles": cycles}
@@ -198,7 +198,8 @@ def section(result: dict, args) -> list[str]:
     rows, timing, cycles, shape = result["held_out"], result["one_core"], result["cycles"], result["space_shape"]
     title = "" if shape["name"] == "single_pallet_walk" else f", {shape['name']}"
     lines = [f"## Learned initialization{title} (`bench/learn.py`, {result['date']})", "",
-             f"{result['machine']}, load average {result['load_average_start']:.1f} at start, "
+             f"{result['machine']}, code {result.get('code', 'not recorded')}, load average "
+             f"{result['load_average_start']:.1f} at start, "
              f"{result['load_average_end']:.1f} at end (shared machine). Task space `{result['space']}` ({shape['name']}: "
              f"{shape['gait']}, {shape['strides']} strides, {shape['duration']:g} s, costs {shape['costs']}); Algorithm 1 on {result['train_tasks']} training "
              f"tasks (seed 0, `learn cycle --cycles {args.cycles}`), evaluated on {result['held_out_tasks']} held-out "

@@ -51,7 +51,7 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import numpy as np
 
-from common import ROOT, load_average, machine, update_benchmarks, write_result
+from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result
 
 from legplan.nav import NavParams
 from legplan.nav.collision import NavGrid
@@ -198,14 +198,6 @@ def reference_tree(commit: str, where: Path) -> Path:
         shipped.unlink()
         shipped.symlink_to(where / "robots")
     return where
-
-
-def code_version() -> str:
-    """The commit the benchmarked code is at, and whether legplan/ has uncommitted changes."""
-    git = ["git", "-C", str(ROOT)]
-    sha = subprocess.run([*git, "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
-    dirty = subprocess.run([*git, "status", "--porcelain", "--", "legplan"], capture_output=True, text=True).stdout.strip()
-    return f"{sha or 'unknown commit'}{' + uncommitted changes in legplan/' if dirty else ''}"
 
 
 def compute_times(root: Path) -> dict:

@@ -26,14 +26,13 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import subprocess
 import sys
 import time
 
 import numpy as np
 import pinocchio as pin
 
-from common import ROOT, load_average, machine, update_benchmarks, write_result
+from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result
 
 from legplan.dyn.planner import plan
 from legplan.dyn.problem import PAPER, DynParams, DynTask
@@ -148,7 +147,7 @@ def main():
     prox_times, prox_worst = time_proxqp(qps, robot.n_joints)
     osqp_times, osqp_worst = time_osqp(qps, robot.n_joints)
     speed = sum(r["simulated"] for r in rows) / sum(r["cpu"] for r in rows)
-    commit = subprocess.run(["git", "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
+    commit = code_version()
     for row in rows:
         row.pop("result"), row.pop("samples")
     result = {"machine": machine(), "commit": commit, "load_start": load_start, "load_end": load_average(),
