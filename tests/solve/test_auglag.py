@@ -98,3 +98,37 @@ def test_least_squares_start_from_the_solution_stays_there():
     r = solve_augmented_lagrangian([VariableBlock("x", x)], [("target", cost, 1.0)], [circle], params)
     assert r.success and r.outer_iterations <= 2
     assert r.values["x"] == pytest.approx(x, abs=1e-4)
+
+
+def test_row_picker_scales_picked_rows_keeping_explicit_zeros_and_follows_a_new_pattern():
+    """diag(factor)·J[pick] with rows picked twice (both bounds of a row), explicit zeros kept, and
+    recomputed when the Jacobian's pattern changes; dense Jacobians too."""
+    import scipy.sparse as sp
+
+    from legplan.solve.auglag import _RowPicker
+
+    pick = np.array([2, 0, 2, 1])
+    factor = np.array([1.0, -2.0, 3.0, 0.5])
+    J = sp.csr_matrix((np.array([1.0, 0.0, 2.0, 3.0, 4.0]), np.array([0, 2, 1, 0, 2]), np.array([0, 2, 3, 5])),
+                      shape=(3, 3))  # row 0 has an explicit zero at column 2
+    picker = _RowPicker(pick)
+    for values in ([1.0, 0.0, 2.0, 3.0, 4.0], [5.0, 6.0, 7.0, 8.0, 9.0]):  # same pattern, new values
+        J.data = np.array(values)
+        out = picker(J, factor)
+        assert np.allclose(out.toarray(), factor[:, None] * J.toarray()[pick])
+        assert out.nnz == sum(np.diff(J.indptr)[pick])  # the explicit zero kept its place
+    other = sp.csr_matrix(np.array([[0.0, 1.0, 0.0], [2.0, 0.0, 0.0], [0.0, 0.0, 3.0]]))  # another pattern
+    assert np.allclose(picker(other, factor).toarray(), factor[:, None] * other.toarray()[pick])
+    dense = np.arange(9.0).reshape(3, 3)
+    assert np.allclose(picker(dense, factor), factor[:, None] * dense[pick])
+
+
+def test_problem_structure_cache_is_emptied_when_a_block_is_added():
+    from legplan.solve import Problem, VariableBlock
+    from legplan.solve.blocks import LinearBlock
+
+    problem = Problem([VariableBlock("x", np.zeros(2))])
+    problem.add_residual(LinearBlock(("x",), [np.eye(2)]))
+    problem.structure_cache["normal_pattern"] = object()
+    problem.add_residual(LinearBlock(("x",), [np.ones((1, 2))]))
+    assert problem.structure_cache == {}
