@@ -170,12 +170,12 @@ class _RowPicker:
         if not sp.issparse(jac):
             return factor[:, None] * np.asarray(jac, float)[self.pick]
         jac = jac if jac.format == "csr" else sp.csr_matrix(jac)
-        if self.pattern is None or not (self.pattern[0].shape == jac.shape
+        if self.pattern is None or not (self.pattern[0] == jac.shape
                                         and np.array_equal(self.pattern[1], jac.indptr)
                                         and np.array_equal(self.pattern[2], jac.indices)):
             numbers = sp.csr_matrix((np.arange(1.0, jac.nnz + 1.0), jac.indices, jac.indptr), shape=jac.shape)[self.pick]
             source = numbers.data.astype(np.int64) - 1
-            self.pattern = (jac, jac.indptr.copy(), jac.indices.copy(), source, numbers.indices, numbers.indptr,
+            self.pattern = (jac.shape, jac.indptr.copy(), jac.indices.copy(), source, numbers.indices, numbers.indptr,
                             np.repeat(np.arange(self.pick.size), np.diff(numbers.indptr)))
         _, _, _, source, indices, indptr, row = self.pattern
         return sp.csr_matrix((jac.data[source] * factor[row], indices, indptr), shape=(self.pick.size, jac.shape[1]))
