@@ -126,8 +126,9 @@ def train_cmd(dataset_paths, g_max, hidden, weights_path, validation, seed, outp
 
 
 def _filtered(report: dict) -> str:
-    """The filter of a train report, as the status line says it."""
-    return (f"g <= g_fit(x) + {report['g_max']:.4g}" if report["g_max_conditional"] else f"g <= {report['g_max']:.4g}")
+    from legplan.learn.network import filter_rule
+
+    return filter_rule(report["g_max"], bool(report["g_max_conditional"]))
 
 
 @command.command("cycle")

@@ -19,6 +19,7 @@ from matplotlib.figure import Figure
 from legplan.artefacts import open_artefact, read_summary
 from legplan.learn.dataset import read_dataset
 from legplan.learn.layout import CATEGORIES
+from legplan.learn.network import filter_rule
 
 
 def success_within(success: np.ndarray, iterations: np.ndarray, budgets: np.ndarray) -> np.ndarray:
@@ -63,5 +64,6 @@ def init_figure(path: Path, png: Path) -> str:
     ax.set(ylabel="RMS error (SI units)", yscale="log", title="network vs solutions, validation tasks")
     ax.tick_params(axis="x", labelrotation=20)
     fig.savefig(png, dpi=90)
-    return (f"Trained on {value('good'):g} of {value('tasks'):g} tasks (g ≤ {value('g_max'):.4g}); weighted "
+    rule = filter_rule(value("g_max"), value("g_max_conditional") == 1.0)
+    return (f"Trained on {value('good'):g} of {value('tasks'):g} tasks ({rule}); weighted "
             f"validation loss {value('validation_loss'):.3g}. RMS error per variable category.")

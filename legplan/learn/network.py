@@ -88,6 +88,11 @@ def filter_good(success: np.ndarray, cost: np.ndarray, g_max: float | str, sourc
     return good, threshold, bool(conditional)
 
 
+def filter_rule(g_max: float, conditional: bool) -> str:
+    """The filter of a train report in words: ``g <= 3.5`` or ``g <= g_fit(x) + 0.66``."""
+    return f"g <= g_fit(x) + {g_max:.4g}" if conditional else f"g <= {g_max:.4g}"
+
+
 FIT_TASKS_PER_FEATURE = 5  # `conditional_filter` fits ĝ only with at least this many tasks per coefficient
 
 
