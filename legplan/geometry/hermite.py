@@ -124,7 +124,7 @@ class NodeSpline:
         return m.tocsr()
 
 
-@functools.lru_cache(maxsize=1024)
+@functools.lru_cache(maxsize=256)  # a learned pallet plan samples 48 (spline, times) pairs
 def _sampling_matrix(segments: tuple[Segment, ...], nodes: int, times: bytes, derivative: int) -> sp.csr_matrix:
     """`NodeSpline.matrix` of the spline (segments, nodes) at the float64 times given as bytes."""
     return NodeSpline(list(segments), nodes)._matrix(np.frombuffer(times, float), derivative)
