@@ -153,7 +153,7 @@ OTHER_ARTEFACT_ARGUMENTS = {  # (command, parameter): (valid kind to truncate, c
     (("dyn", "show"), "paths"): ("traj", ["{bad}", "-o", "{out}.png"]),
     (("dyn", "simulate"), "traj_path"): ("traj", ["{bad}", "{map}", "-o", "{out}.h5"]),
     (("inspect",), "path"): ("nav", ["{bad}"]),
-    (("learn", "train"), "dataset_path"): ("map", ["{bad}", "-o", "{out}.h5"]),
+    (("learn", "train"), "dataset_paths"): ("map", ["{bad}", "-o", "{out}.h5"]),
     (("nav", "refine"), "nav_path"): ("nav", ["{map}", "{bad}", "-o", "{out}.h5"]),
     (("nav", "show"), "nav_path"): ("nav", ["{bad}", "--map", "{map}", "-o", "{out}.png"]),
     (("report",), "artefacts"): ("motion", ["{bad}", "-o", "{out}"]),
