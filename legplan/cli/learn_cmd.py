@@ -97,7 +97,8 @@ def _hidden(ctx, param, value):
 @command.command("train")
 @click.argument("dataset_paths", metavar="DATASET...", type=input_artefact, nargs=-1, required=True)
 @click.option("--g-max", "g_max", default="auto", show_default=True, callback=_g_max, metavar="auto|VALUE",
-              help="Cost threshold of the filter, eq. (4); auto: median + 3 robust sigmas of the converged costs.")
+              help="Cost threshold of the filter, eq. (4); auto: the tail of the cost given the task "
+                   "(median + 3 robust sigmas of g - g_fit(x), g_fit quadratic in x).")
 @click.option("--hidden", default="256,256", show_default=True, callback=_hidden,
               help="Hidden layer sizes (2 or 3 layers).")
 @click.option("--weights", "weights_path", type=click.Path(dir_okay=False), default=None,
@@ -158,8 +159,9 @@ def cycle_cmd(space_path, cycles, count, seed, heuristic_iterations, learned_ite
     """Algorithm 1 (TRAININITIALIZER): Y ← solve(A_h(X); N_h), then K times filter, train, Y ← solve(A_θ(X); N_θ).
 
     Each cycle trains on every task's best converged outcome so far (all earlier datasets), so a
-    cycle never trains on a worse solution of a task than an earlier one found. Keeps every dataset and initializer in OUTPUT; cycles.json holds per cycle the success rate,
-    median iterations and time of converged tasks and their cost quantiles. --resume reuses the
+    cycle never trains on a worse solution of a task than an earlier one found. Keeps every dataset
+    and initializer in OUTPUT; cycles.json holds per cycle the success rate, median iterations and
+    time of converged tasks and their cost quantiles. --resume reuses the
     artefacts already written and continues an interrupted dataset."""
     from pathlib import Path
 

@@ -66,6 +66,9 @@ def auto_g_max(cost: np.ndarray, passes: int = 20) -> float:
     return threshold
 
 
+FIT_TASKS_PER_FEATURE = 5  # `filter_good` fits ĝ only with at least this many tasks per coefficient
+
+
 def filter_good(success: np.ndarray, cost: np.ndarray, g_max: float | str, source: str = "dataset",
                 x: np.ndarray | None = None) -> tuple[np.ndarray, float, bool]:
     """Mask of D_good (eq. (4), converged tasks only), its threshold and whether that bounds
@@ -76,10 +79,10 @@ def filter_good(success: np.ndarray, cost: np.ndarray, g_max: float | str, sourc
     ok = np.asarray(success, bool) & np.isfinite(cost)
     if not ok.any():
         raise LegplanError(f"{source}: field 'success': no converged task to train on")
-    conditional = (g_max == "auto" and x is not None
-                   and ok.sum() >= FIT_TASKS_PER_FEATURE * quadratic_features(np.asarray(x, float)).shape[1])
+    features = quadratic_features(x) if g_max == "auto" and x is not None else None
+    conditional = features is not None and ok.sum() >= FIT_TASKS_PER_FEATURE * features.shape[1]
     if conditional:
-        good, threshold = conditional_filter(np.asarray(x, float), cost, ok)
+        good, threshold = conditional_filter(features, cost, ok)
     else:
         threshold = auto_g_max(cost[ok]) if g_max == "auto" else float(g_max)
         good = ok & (cost <= threshold)
@@ -93,9 +96,6 @@ def filter_rule(g_max: float, conditional: bool) -> str:
     return f"g <= g_fit(x) + {g_max:.4g}" if conditional else f"g <= {g_max:.4g}"
 
 
-FIT_TASKS_PER_FEATURE = 5  # `conditional_filter` fits ĝ only with at least this many tasks per coefficient
-
-
 def quadratic_features(x: np.ndarray) -> np.ndarray:
     """1, x_j and x_j x_k (j ≤ k) of the standardized non-constant columns of x."""
     x = np.asarray(x, float)
@@ -105,12 +105,12 @@ def quadratic_features(x: np.ndarray) -> np.ndarray:
     return np.column_stack([np.ones(len(x)), z, *pairs])
 
 
-def conditional_filter(x: np.ndarray, cost: np.ndarray, ok: np.ndarray, passes: int = 10) -> tuple[np.ndarray, float]:
+def conditional_filter(features: np.ndarray, cost: np.ndarray, ok: np.ndarray, passes: int = 10
+                       ) -> tuple[np.ndarray, float]:
     """D_good by the tail of the cost given the task (module docstring): ĝ fitted by least squares on
-    `quadratic_features` of the kept tasks, the tail rule (`auto_g_max`) on the residuals of the
-    converged ones, repeated until the kept set stays. Returns the mask and the residual threshold.
-    `filter_good` uses it with at least `FIT_TASKS_PER_FEATURE` converged tasks per coefficient."""
-    features = quadratic_features(x)
+    the tasks' `quadratic_features` (rows) of the kept tasks, the tail rule (`auto_g_max`) on the
+    residuals of the converged ones, repeated until the kept set stays. Returns the mask and the
+    residual threshold."""
     kept, threshold = ok.copy(), np.inf
     for _ in range(passes):
         coef = np.linalg.lstsq(features[kept], cost[kept], rcond=None)[0]
