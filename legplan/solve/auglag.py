@@ -210,8 +210,6 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
     for outer in range(1, params.max_outer + 1):
         for r in rows:
             r.mu = mu
-        values = problem.layout.values(theta)
-        c_now = [np.asarray(k.block.evaluate([values[v] for v in k.block.variables], False)[0]) for k in constraints]
         budget = params.max_iterations - iterations
         # without costs a subproblem is done once every row is within tolerance: ‖h‖ ≤ √μ·tol·min(w) suffices
         inner = replace(params.inner, max_iterations=min(params.inner.max_iterations, budget),
