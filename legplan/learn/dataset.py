@@ -12,7 +12,7 @@ solve that does not converge is data, not an error: it is recorded with success 
 and violation. An item that raised is recorded with its reason and y of NaN.
 
 dataset.h5 (kind "dataset"): per task (rows in task order) `x` (n, 6, `space.X_NAMES`), `y` (n, |y|,
-`layout`), `cost` g(y) (the space's weighted cost terms at y, `cost_of`), `max_violation`,
+`layout`), `cost` g(y) (the space's weighted cost terms at y, as `plan` reports them), `max_violation`,
 `iterations`, `seconds` (solve time), `success`, `reason`, `tasks` (n, 6: start x, y, yaw, goal x,
 y, yaw); `layout/<category>` sizes; the space as the `space` attribute (JSON).
 """
@@ -97,23 +97,9 @@ def solve_item(worker: DatasetWorker, item) -> dict:
     values = result.solve.values  # the solution (the problem's blocks hold the last stage's start)
     return {"index": index, "x": x, "task": np.array([*task.start, *task.goal]), "y": join(values),
             "layout": np.array([layout_of(result.problem.form)[c] for c in CATEGORIES]),
-            "success": bool(result.success), "reason": result.reason, "cost": cost_of(worker, task, values),
+            "success": bool(result.success), "reason": result.reason, "cost": float(result.solve.cost),
             "max_violation": float(result.solve.max_violation), "iterations": int(result.solve.iterations),
             "seconds": float(result.solve.timings.total)}
-
-
-def cost_of(worker: DatasetWorker, task, values: dict[str, np.ndarray]) -> float:
-    """g(y): the space's weighted cost terms at the solution, whichever planner stage ended the solve
-    (the planner's own `cost` is that of its last stage, which is a feasibility stage without costs
-    when the cost stage ends short)."""
-    from legplan.dyn.formulation import Formulation
-    from legplan.dyn.gait import make_gait
-    from legplan.dyn.problem import cost_blocks
-    from legplan.solve.auglag import evaluate_costs
-
-    form = Formulation(make_gait(task.gait, task.strides, task.duration), worker.params.dt)
-    costs = cost_blocks(form, worker.terrain, worker.model, worker.params.costs)
-    return float(sum(evaluate_costs(costs, values).values()))
 
 
 def failed_item(item, reason: str) -> dict:
