@@ -10,12 +10,14 @@
 from __future__ import annotations
 
 import os
+from dataclasses import replace
 
 import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import batch_opts, input_artefact, number, output_opt, overwrite_opt, verbosity_opts
+from legplan.cli.options import (batch_opts, input_artefact, number, output_opt, overwrite_opt, verbosity_opts,
+                                  warm_stage_opt)
 from legplan.errors import LegplanError
 
 POSE = (number(), number(), number())
@@ -42,13 +44,14 @@ def command():
               help="The paper's costs and constraints, none (TOWR's formulation), or a costs file.")
 @click.option("--optimize-phases", is_flag=True, help="Optimize the phase durations (not supported yet).")
 @click.option("--init", "init", default="heuristic", show_default=True, help="Initializer of the optimization.")
+@warm_stage_opt
 @output_opt
 @overwrite_opt
 @batch_opts
 @verbosity_opts
 @click.pass_context
 def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_path, costs, optimize_phases,
-             init, output, overwrite, jobs, scheduler, resume):
+             init, warm_stage, output, overwrite, jobs, scheduler, resume):
     """Plan every task on MAP; write traj.h5, each task with its solver outcome and independent check.
 
     Exit 1 when any task failed (its reason is recorded)."""
@@ -57,7 +60,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     from legplan.cli.batching import run_stage
     from legplan.dyn.artefact import write_traj
     from legplan.dyn.items import DynWorker, failed_item, plan_item, task_items
-    from legplan.dyn.settings import costs_file, dyn_params, initializer, settings_record
+    from legplan.dyn.settings import check_warm_stage, costs_file, dyn_params, initializer, settings_record
     from legplan.dyn.tasks import centroidal_model, check_placements, command_line_task, read_tasks
     from legplan.dyn.terrain import TerrainModel
     from legplan.robots import load_robot
@@ -71,7 +74,8 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
         raise LegplanError("dyn plan: give either --tasks or --start/--goal, not both")
     if tasks_path is None and (start is None or goal is None):
         raise LegplanError("dyn plan: --start and --goal are required (or --tasks FILE)")
-    params = dyn_params(costs)
+    check_warm_stage(warm_stage, init)
+    params = replace(dyn_params(costs), warm_stage=warm_stage)
     init_fn = initializer(init)  # an unknown --init: exit 2 before any work
     loaded = load_robot(robot)
     model = centroidal_model(loaded)

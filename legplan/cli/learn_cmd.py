@@ -13,7 +13,8 @@ import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import batch_opts, input_artefact, number, output_opt, overwrite_opt, seed_opt, verbosity_opts
+from legplan.cli.options import (batch_opts, input_artefact, number, output_opt, overwrite_opt, seed_opt, verbosity_opts,
+                                  warm_stage_opt)
 from legplan.errors import LegplanError
 
 
@@ -31,29 +32,34 @@ def command():
               help="Initializer: the paper's Heuristic (A_h) or a trained init.h5 (A_θ).")
 @click.option("--iterations", type=click.IntRange(min=1), default=None,
               help="LM iterations per task, all planner stages together (the paper's N_h = 100, N_θ = 25) [default: each stage's own cap].")
+@warm_stage_opt
 @output_opt
 @overwrite_opt
 @batch_opts
 @verbosity_opts
 @click.pass_context
-def dataset_cmd(ctx, space_path, count, seed, init, iterations, output, overwrite, jobs, scheduler, resume):
+def dataset_cmd(ctx, space_path, count, seed, init, iterations, warm_stage, output, overwrite, jobs, scheduler,
+                resume):
     """Sample N tasks of SPACE (a task-space YAML), solve each, write dataset.h5 (x, y, g(y), ...).
 
     A solve that does not converge is recorded (success false); exit 1 only when a task raised."""
     from legplan.artefacts import check_output
+    from legplan.dyn.settings import check_warm_stage
     from legplan.learn.dataset import check_init
     from legplan.learn.space import read_space
 
     check_output(output, overwrite)
+    check_warm_stage(warm_stage, init)
     space = read_space(space_path)
     check_init(init, space)
     records = _dataset(space, space_path, count, seed, init, iterations, output, overwrite=overwrite, jobs=jobs,
-                       scheduler=scheduler, resume=resume)
+                       scheduler=scheduler, resume=resume, warm_stage=warm_stage)
     if any("y" not in r for r in records):
         ctx.exit(EXIT_ITEMS_FAILED)
 
 
-def _dataset(space, space_path, count, seed, init, iterations, output, *, overwrite, jobs, scheduler, resume):
+def _dataset(space, space_path, count, seed, init, iterations, output, *, overwrite, jobs, scheduler, resume,
+             warm_stage="costs"):
     """Sample, solve through `legplan.batch` and write one dataset.h5; returns the records."""
     from legplan.batch import Task
     from legplan.cli.batching import run_stage
@@ -62,9 +68,10 @@ def _dataset(space, space_path, count, seed, init, iterations, output, *, overwr
     items = dataset_items(space, count, seed)
     learned = str(init).endswith(".h5")
     init = os.fspath(init)
-    settings = {"space": space.record(), "n": count, "init": init, "iterations": iterations}
+    settings = {"space": space.record(), "n": count, "init": init, "iterations": iterations, "warm_stage": warm_stage}
     inputs = [space_path, space.map] + ([init] if learned else [])
-    task = Task(solve_item, failed_item, DatasetWorker, (space, os.path.abspath(init) if learned else init, iterations))
+    task = Task(solve_item, failed_item, DatasetWorker,
+                (space, os.path.abspath(init) if learned else init, iterations, warm_stage))
     records, _ = run_stage(task, items, f"learn dataset {os.path.basename(output)}", output=output,
                            identity={"stage": "learn dataset", "seed": seed, **settings}, inputs=inputs, jobs=jobs,
                            scheduler=scheduler, resume=resume, overwrite=overwrite,

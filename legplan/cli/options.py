@@ -150,5 +150,9 @@ def batch_opts(func):
 
 seed_opt = click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
                         help="Seed of every random choice; same inputs and seed, same artefact.")
+warm_stage_opt = click.option(
+    "--warm-stage", type=click.Choice(["costs", "projection"]), default="costs", show_default=True,
+    help="From a learned --init: optimize the costs under the constraints (costs), or only project the "
+         "network's guess onto the constraints (projection: fewer iterations, the cost not optimized).")
 json_opt = click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout.")
 input_artefact = click.Path(exists=False, dir_okay=False)

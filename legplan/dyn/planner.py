@@ -51,7 +51,8 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
 
     From a guess that solves a nearby task (an initializer with ``near_solution`` true: the learned
     one) `direct` solves the whole problem, costs included, from the guess in one stage (Algorithm
-    1's A_θ: few iterations when the guess is good). Otherwise, or when that fails,
+    1's A_θ: few iterations when the guess is good), or with `DynParams.warm_stage` "projection"
+    the constraints alone. Otherwise, or when that fails,
     `attempt` (coarse to fine, then the costs) from the initializer; if that fails too, `attempt`
     once more with TOWR's swing constraint switched (`DynParams.towr_swing`): of the bench cases and the tests, some
     stall only with it and some only without (measured). A successful plan then goes through
@@ -61,7 +62,7 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
     reason names every stage that ran."""
     budget = Budget(params.iteration_budget)
     stages, setup = [], 0.0
-    if getattr(initializer, "near_solution", False) and params.costs.active:
+    if getattr(initializer, "near_solution", False) and (params.costs.active or params.warm_stage == "projection"):
         problem, stages, setup = direct(task, model, terrain, params, initializer, budget, callback)
     for switched in (False, True):
         if stages and (stages[-1][1].success or budget.spent):
@@ -109,11 +110,16 @@ def direct(task: DynTask, model, terrain: TerrainModel, params: DynParams, initi
     """The whole problem (`params`' own sampling and costs) from the initializer's guess in one stage,
     by `DynParams.warm_solver`; returns (problem, [("direct", result)], setup seconds). Measured on
     held-out pallet tasks from networks trained on 300: 11/12 and 17/24 converged within 25
-    iterations, against 8/12 and 13/24 when the constraints were solved first and the costs after."""
+    iterations, against 8/12 and 13/24 when the constraints were solved first and the costs after.
+    With `DynParams.warm_stage` "projection": the same sampling without the costs, by
+    `DynParams.solver` (stage "projection")."""
     t0 = time.perf_counter()
-    problem = build_problem(task, model, terrain, params, initializer)
+    projection = params.warm_stage == "projection"
+    problem = build_problem(task, model, terrain, replace(params, costs=CostWeights()) if projection else params,
+                            initializer)
     setup = time.perf_counter() - t0
-    return problem, [("direct", budget.solve(problem, params.warm_solver, callback))], setup
+    solver = params.solver if projection else params.warm_solver
+    return problem, [("projection" if projection else "direct", budget.solve(problem, solver, callback))], setup
 
 
 def attempt(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer=heuristic, callback=None,

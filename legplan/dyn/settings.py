@@ -65,6 +65,13 @@ def initializer(name: str):
     return INITIALIZERS[name]
 
 
+def check_warm_stage(warm_stage: str, init: str) -> None:
+    """`--warm-stage projection` projects a learned guess: refused (one line) with any other `--init`."""
+    if warm_stage == "projection" and not str(init).endswith(".h5"):
+        raise LegplanError(f"--warm-stage projection: needs a learned --init INIT.h5, not '{init}' "
+                           "(only a near-solution guess is projected; others are solved in stages)")
+
+
 def settings_record(costs: str, init: str, params: DynParams) -> dict:
     """The JSON-able settings of a run: `--costs` as given, `--init`, and every planner parameter."""
     return {"costs": os.fspath(costs), "init": init, "dyn": asdict(params)}

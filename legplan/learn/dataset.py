@@ -31,12 +31,13 @@ from legplan.learn.space import X_NAMES, TaskSpace, load_terrain_map, sample_tas
 KIND = "dataset"
 
 
-def solver_params(costs: str, iterations: int | None):
+def solver_params(costs: str, iterations: int | None, warm_stage: str = "costs"):
     """The planner parameters of the space's costs with at most `iterations` LM iterations for the
-    whole plan (`DynParams.iteration_budget`: Algorithm 1's N; None: the planner's own caps)."""
+    whole plan (`DynParams.iteration_budget`: Algorithm 1's N; None: the planner's own caps) and
+    `DynParams.warm_stage` from a learned guess."""
     from legplan.dyn.settings import dyn_params
 
-    return replace(dyn_params(costs), iteration_budget=iterations)
+    return replace(dyn_params(costs), iteration_budget=iterations, warm_stage=warm_stage)
 
 
 def initializer_of(init: str):
@@ -66,14 +67,14 @@ def check_init(init: str, space: TaskSpace) -> None:
 class DatasetWorker:
     """What a worker loads once: the centroidal model, the space's terrain, parameters, initializer."""
 
-    def __init__(self, space: TaskSpace, init: str, iterations: int | None):
+    def __init__(self, space: TaskSpace, init: str, iterations: int | None, warm_stage: str = "costs"):
         from legplan.dyn.tasks import centroidal_model
         from legplan.dyn.terrain import TerrainModel
         from legplan.robots import load_robot
 
         self.model = centroidal_model(load_robot(space.robot))
         self.terrain = TerrainModel(load_terrain_map(space))
-        self.params = solver_params(space.costs, iterations)
+        self.params = solver_params(space.costs, iterations, warm_stage)
         self.initializer = initializer_of(init)
 
 

@@ -110,6 +110,22 @@ def test_bad_space_and_foreign_init_are_exit_2_with_no_output(trained):
     assert not (tmp / "x.h5").exists()
 
 
+def test_warm_stage_projection_needs_a_learned_init(trained, tmp_path):
+    tmp, space = trained
+    flat = tmp_path / "flat.h5"
+    assert invoke("map", "build", ROOT / "maps" / "flat.yaml", "-o", flat, "-q").exit_code == 0
+    for args in (["learn", "dataset", space, "--n", 2, "--warm-stage", "projection"],
+                 ["dyn", "plan", flat, "--start", -0.5, 0.0, 0.0, "--goal", 0.0, 0.0, 0.0, "--warm-stage", "projection"]):
+        result = invoke(*args, "-o", tmp_path / "x.h5")
+        assert result.exit_code == 2 and "--warm-stage projection: needs a learned --init" in result.output
+        assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "x.h5").exists()
+    result = invoke("learn", "dataset", space, "--n", 2, "--seed", 2, "--init", tmp / "init.h5", "--iterations", 25,
+                    "--warm-stage", "projection", "-o", tmp_path / "p.h5", "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    with h5py.File(tmp_path / "p.h5", "r") as f:
+        assert f["success"][()].all() and json.loads(f.attrs["params"])["warm_stage"] == "projection"
+
+
 def test_cycle_keeps_every_dataset_and_initializer_and_summarizes_each_cycle(trained):
     tmp, space = trained
     out = tmp / "cycle"
@@ -141,6 +157,11 @@ def test_dyn_plan_takes_the_learned_initializer_and_refuses_another_layout(train
     with h5py.File(tmp_path / "t.h5", "r") as f:
         assert json.loads(f.attrs["params"])["init"].endswith("init.h5")
         assert f["tasks/0000"].attrs["success"]
+    result = invoke(*common, "--warm-stage", "projection", "--start", -0.5, 0.1, 0.0, "--goal", 0.0, 0.0, 0.0,
+                    "-o", tmp_path / "p.h5", "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    with h5py.File(tmp_path / "p.h5", "r") as f:
+        assert json.loads(f.attrs["params"])["dyn"]["warm_stage"] == "projection" and f["tasks/0000"].attrs["success"]
     bad = invoke("dyn", "plan", flat, "--gait", "walk", "--strides", 2, "--duration", 2.4, "--init", tmp / "init.h5",
                  "--start", -0.5, 0.1, 0.0, "--goal", 0.0, 0.0, 0.0, "-o", tmp_path / "u.h5", "-q")
     assert bad.exit_code == 2 and "init.h5" in bad.output and not (tmp_path / "u.h5").exists()

@@ -7,7 +7,7 @@ import pytest
 
 from legplan.dyn.constraints import GRAVITY
 from legplan.dyn.planner import plan
-from legplan.dyn.problem import PAPER_COSTS, DynParams, DynTask
+from legplan.dyn.problem import PAPER_COSTS, DynParams, DynTask, build_problem
 
 
 def _newton_euler_at_knots(result, anymal):
@@ -80,6 +80,36 @@ def test_a_near_solution_guess_is_solved_in_one_stage(anymal, step):
     assert again.success and again.reason.startswith("max violation")  # one stage, no stage names
     assert again.solve.iterations <= 8 < first.solve.iterations
     assert again.solve.cost <= first.solve.cost * (1 + 1e-2)
+
+
+def test_a_near_solution_guess_is_projected_onto_the_constraints_with_warm_stage_projection(anymal, step):
+    """warm_stage "projection": the constraints alone from the guess (one stage, fewer iterations than
+    the costs from the same guess), the guess's shape kept, the costs reported at the result."""
+    task = DynTask((-0.2, 0.0, 0.0), (0.8, 0.0, 0.0), "trot", 4, 3.0)
+    params = replace(DynParams(), costs=PAPER_COSTS)
+    solved = plan(task, anymal, step, params)
+    assert solved.success, solved.reason
+    guess = {name: value.copy() for name, value in solved.solve.values.items()}
+    guess["forces"] *= 1.05  # off the dynamics by 5 % of the weight: not feasible as given
+    guess["base_lin"] += 0.005
+    projected = plan(task, anymal, step, replace(params, warm_stage="projection"), _Replay(guess))
+    costs = plan(task, anymal, step, params, _Replay(guess))
+    assert projected.success and costs.success, (projected.reason, costs.reason)
+    assert "cost change" not in projected.reason  # the constraints alone: no cost test
+    assert projected.solve.iterations < costs.solve.iterations
+    violations = [float(k.violation(np.asarray(k.block.evaluate([projected.solve.values[v] for v in k.block.variables],
+                                                                False)[0])).max(initial=0.0))
+                  for k in build_problem(task, anymal, step, params, lambda *_: projected.solve.values).constraints]
+    assert max(violations) <= 1e-3
+    assert np.abs(projected.solve.values["base_lin"] - guess["base_lin"]).max() < 0.05
+    assert set(projected.solve.cost_terms) == set(costs.solve.cost_terms)
+    assert projected.solve.cost == pytest.approx(sum(projected.solve.cost_terms.values()))
+    assert projected.solve.cost >= costs.solve.cost * (1 - 1e-2)  # the costs' optimum is no worse
+
+
+def test_warm_stage_is_costs_or_projection():
+    with pytest.raises(ValueError, match="warm_stage"):
+        DynParams(warm_stage="feasibility")
 
 
 def _range_excess(result, anymal) -> float:
