@@ -197,7 +197,8 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
     theta = problem.layout.initial()
     if costs and params.multipliers == "least_squares":
         least_squares_multipliers(problem, rows, theta, params.active_tolerance)
-    min_scale = min((float(k.scale.min()) for k in constraints if k.block.size), default=1.0)
+    # without costs (multipliers 0) a subproblem is done once every row is within tolerance: |h_i| ≤ √μ·tol·w_i
+    row_scale = None if costs else np.concatenate([r.constraint.scale[r.pick] for r in rows] or [np.zeros(0)])
     timings = Timings()
     history: list[dict] = []
     iterations = 0
@@ -211,12 +212,10 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
         for r in rows:
             r.mu = mu
         budget = params.max_iterations - iterations
-        # without costs a subproblem is done once every row is within tolerance: ‖h‖ ≤ √μ·tol·min(w) suffices
-        inner = replace(params.inner, max_iterations=min(params.inner.max_iterations, budget),
-                        tolerance=np.sqrt(mu) * params.violation_tolerance * min_scale if not costs
-                        else params.inner.tolerance)
+        inner = replace(params.inner, max_iterations=min(params.inner.max_iterations, budget))
         t_lm = time.perf_counter()
-        result = solve_hinged_lm(problem, inner, theta0=theta)
+        result = solve_hinged_lm(problem, inner, theta0=theta, row_tolerance=None if row_scale is None else
+                                 np.sqrt(mu) * params.violation_tolerance * row_scale)
         if outer == 1 and result.iterations:
             first_iteration = (time.perf_counter() - t_lm) / result.iterations
         iterations += result.iterations

@@ -43,6 +43,25 @@ def test_smooth_problem_matches_plain_lm():
     assert runs[0] == pytest.approx(runs[1], abs=1e-8) and runs[0] == pytest.approx([1.0, 1.0], abs=1e-8)
 
 
+def test_row_tolerance_stops_once_every_row_is_within_its_own():
+    """Rows in different units: a coarse row tolerance is met before the norm test of the finest one
+    (which must assume the worst row) would stop; each row is within its tolerance at the result."""
+    def rows(x):
+        return (np.array([x[0] ** 3 - 8.0, 1e-3 * (x[1] ** 3 - 1.0)]),
+                [np.array([[3 * x[0] ** 2, 0.0], [0.0, 3e-3 * x[1] ** 2]])])
+    tolerance = np.array([1e-1, 1e-6])
+    runs = {}
+    for name, kwargs in (("rows", {"row_tolerance": tolerance}), ("norm", {})):
+        p = Problem([VariableBlock("x", [4.0, 1.5])])
+        p.add_residual(FunctionBlock(("x",), 2, rows))
+        runs[name] = solve_hinged_lm(p, HingedParams(tolerance=0.0 if kwargs else tolerance.min()), **kwargs)
+        assert runs[name].status is Status.CONVERGED, runs[name].reason
+        h = rows(runs[name].values["x"])[0]
+        assert np.all(np.abs(h) <= tolerance)
+    assert "every row within its tolerance" in runs["rows"].reason
+    assert runs["rows"].iterations < runs["norm"].iterations
+
+
 def test_function_tolerance_stops_at_a_nonzero_minimum():
     p = Problem([VariableBlock("x", [5.0])])
     p.add_residual(LinearBlock(("x",), [np.array([[1.0], [1.0]])], np.array([0.0, 2.0])))  # min at x = 1, ‖h‖ = √2
