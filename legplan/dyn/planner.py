@@ -112,13 +112,13 @@ def direct(task: DynTask, model, terrain: TerrainModel, params: DynParams, initi
     held-out pallet tasks from networks trained on 300: 11/12 and 17/24 converged within 25
     iterations, against 8/12 and 13/24 when the constraints were solved first and the costs after.
     With `DynParams.warm_stage` "projection": the same sampling without the costs, by
-    `DynParams.solver` (stage "projection")."""
+    `DynParams.projection_solver` (stage "projection")."""
     t0 = time.perf_counter()
     projection = params.warm_stage == "projection"
     problem = build_problem(task, model, terrain, replace(params, costs=CostWeights()) if projection else params,
                             initializer)
     setup = time.perf_counter() - t0
-    solver = params.solver if projection else params.warm_solver
+    solver = params.projection_solver if projection else params.warm_solver
     return problem, [("projection" if projection else "direct", budget.solve(problem, solver, callback))], setup
 
 

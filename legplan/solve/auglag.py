@@ -94,6 +94,13 @@ class ALParams:
     max_iterations: int = 300
     multipliers: str = "zero"  # initial multipliers: "zero" or "least_squares" (module docstring)
     active_tolerance: float = 1e-4  # least_squares: a bound row within this (scaled) of its bound is active
+    exact_rows: bool = False
+    """Without costs: stop a subproblem once every row is within `violation_tolerance` (the exact test,
+    |h_i| ≤ √μ·tol·w_i). Default: the norm test ‖h‖ ≤ √μ·tol·min(w), which assumes the worst row
+    and so solves further; that precision warm-starts the next stage of a staged solve (measured:
+    the stairs walk took 158 iterations instead of 125 with the exact test in all its feasibility
+    stages), while a last stage gains nothing from it (learned projections: 4 iterations instead of 5
+    on 3 of 8 held-out pallet tasks)."""
 
     def __post_init__(self):
         if self.multipliers not in ("zero", "least_squares"):
@@ -198,7 +205,9 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
     if costs and params.multipliers == "least_squares":
         least_squares_multipliers(problem, rows, theta, params.active_tolerance)
     # without costs (multipliers 0) a subproblem is done once every row is within tolerance: |h_i| ≤ √μ·tol·w_i
-    row_scale = None if costs else np.concatenate([r.constraint.scale[r.pick] for r in rows] or [np.zeros(0)])
+    # (`exact_rows`), for which ‖h‖ ≤ √μ·tol·min(w) suffices
+    row_scale = np.concatenate([r.constraint.scale[r.pick] for r in rows] or [np.ones(0)])
+    min_scale = min((float(k.scale.min()) for k in constraints if k.block.size), default=1.0)
     timings = Timings()
     history: list[dict] = []
     iterations = 0
@@ -212,10 +221,12 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
         for r in rows:
             r.mu = mu
         budget = params.max_iterations - iterations
-        inner = replace(params.inner, max_iterations=min(params.inner.max_iterations, budget))
+        inner = replace(params.inner, max_iterations=min(params.inner.max_iterations, budget),
+                        tolerance=np.sqrt(mu) * params.violation_tolerance * min_scale
+                        if not costs and not params.exact_rows else params.inner.tolerance)
         t_lm = time.perf_counter()
-        result = solve_hinged_lm(problem, inner, theta0=theta, row_tolerance=None if row_scale is None else
-                                 np.sqrt(mu) * params.violation_tolerance * row_scale)
+        result = solve_hinged_lm(problem, inner, theta0=theta, row_tolerance=np.sqrt(mu) * params.violation_tolerance
+                                 * row_scale if not costs and params.exact_rows else None)
         if outer == 1 and result.iterations:
             first_iteration = (time.perf_counter() - t_lm) / result.iterations
         iterations += result.iterations

@@ -42,6 +42,23 @@ def test_feasibility_problem_without_costs_meets_the_tolerance_in_raw_units():
     assert abs(x @ x - 4.0) <= 1e-3 and x[0] - x[1] >= -1e-3
 
 
+def test_exact_rows_stops_once_every_row_is_within_tolerance_in_its_own_units():
+    """Rows of very different scales: the norm test must reach the smallest scale's precision on
+    every row; the exact test stops as soon as each row meets the tolerance in its own units."""
+    def double_root(x):  # (x0 − 1)² = 0: Gauss-Newton halves the distance per step
+        return np.array([(x[0] - 1.0) ** 2]), [np.array([[2.0 * (x[0] - 1.0), 0.0]])]
+
+    k1 = Constraint(FunctionBlock(("x",), 1, _circle), 4.0, 4.0, scale=1e-3)
+    k2 = Constraint(FunctionBlock(("x",), 1, double_root), 0.0, 0.0, scale=10.0)
+    runs = {exact: solve_augmented_lagrangian([VariableBlock("x", [3.0, 0.5])], [], [k1, k2],
+                                              ALParams(exact_rows=exact)) for exact in (False, True)}
+    for r in runs.values():
+        x = r.values["x"]
+        assert r.success and abs(x @ x - 4.0) <= 1e-3 and (x[0] - 1.0) ** 2 <= 1e-3
+    assert runs[True].iterations < runs[False].iterations
+    assert "every row within its tolerance" in runs[True].history[-1]["lm"]
+
+
 def test_infeasible_constraints_are_reported_as_failure():
     a = Constraint(LinearBlock(("x",), [np.array([[1.0]])]), 1.0, 1.0, name="a")
     b = Constraint(LinearBlock(("x",), [np.array([[1.0]])]), -np.inf, 0.0, name="b")
