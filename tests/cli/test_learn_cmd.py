@@ -119,6 +119,10 @@ def test_warm_stage_projection_needs_a_learned_init(trained, tmp_path):
         result = invoke(*args, "-o", tmp_path / "x.h5")
         assert result.exit_code == 2 and "--warm-stage projection: needs a learned --init" in result.output
         assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "x.h5").exists()
+    for value in ("nan", "\udcff\x00", "Projection"):  # not a stage: click's one-line error, exit 2
+        result = invoke("learn", "dataset", space, "--n", 2, "--init", tmp / "init.h5", "--warm-stage", value,
+                        "-o", tmp_path / "x.h5")
+        assert result.exit_code == 2 and "--warm-stage" in result.output and not (tmp_path / "x.h5").exists()
     result = invoke("learn", "dataset", space, "--n", 2, "--seed", 2, "--init", tmp / "init.h5", "--iterations", 25,
                     "--warm-stage", "projection", "-o", tmp_path / "p.h5", "-q")
     assert result.exit_code == 0, result.output + str(result.exception)
