@@ -89,7 +89,7 @@ class DynParams:
     constraints alone, by `projection_solver` (Gauss-Newton onto the constraints from the guess: the
     plan keeps the guess's shape and its cost is not optimized). Measured on 50 held-out
     single-pallet tasks from the n = 1000 cycle-3 network (`bench/learn.py`): 94 % converged, median
-    4 iterations, 0.24 CPU s on one core, median cost +13 % against "costs" (12.5 iterations, 0.73 s);
+    4 iterations, 0.27 CPU s on one core, median cost +13 % against "costs" (12.5 iterations, 0.78 s);
     on 200 held-out tasks 96 % converged, +9.7 % against the same task's "costs" solve."""
     costs: CostWeights = CostWeights()
     swing_height_min: float | None = None
