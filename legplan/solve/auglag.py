@@ -206,7 +206,8 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
         least_squares_multipliers(problem, rows, theta, params.active_tolerance)
     # without costs (multipliers 0) a subproblem is done once every row is within tolerance: |h_i| ≤ √μ·tol·w_i
     # (`exact_rows`), for which ‖h‖ ≤ √μ·tol·min(w) suffices
-    row_scale = np.concatenate([r.constraint.scale[r.pick] for r in rows] or [np.ones(0)])
+    exact = not costs and params.exact_rows
+    row_scale = np.concatenate([r.constraint.scale[r.pick] for r in rows] or [np.ones(0)]) if exact else None
     min_scale = min((float(k.scale.min()) for k in constraints if k.block.size), default=1.0)
     timings = Timings()
     history: list[dict] = []
@@ -223,10 +224,10 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
         budget = params.max_iterations - iterations
         inner = replace(params.inner, max_iterations=min(params.inner.max_iterations, budget),
                         tolerance=np.sqrt(mu) * params.violation_tolerance * min_scale
-                        if not costs and not params.exact_rows else params.inner.tolerance)
+                        if not costs and not exact else params.inner.tolerance)
         t_lm = time.perf_counter()
-        result = solve_hinged_lm(problem, inner, theta0=theta, row_tolerance=np.sqrt(mu) * params.violation_tolerance
-                                 * row_scale if not costs and params.exact_rows else None)
+        result = solve_hinged_lm(problem, inner, theta0=theta,
+                                 row_tolerance=np.sqrt(mu) * params.violation_tolerance * row_scale if exact else None)
         if outer == 1 and result.iterations:
             first_iteration = (time.perf_counter() - t_lm) / result.iterations
         iterations += result.iterations
