@@ -140,6 +140,7 @@ def one_core_times(init: Path, space, tasks: np.ndarray, warm_stage: str = "cost
 
 
 def main() -> None:
+    from legplan.dyn.problem import WARM_STAGES
     from legplan.learn.space import read_space
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -176,7 +177,7 @@ def main() -> None:
         rows[label] = outcome(path, space)
         rows[label].update(feasibility_within(init, space, _tasks(path)[:args.feasibility_tasks], warm_stage))
     held_out_tasks = _tasks(out / "heldout_heuristic.h5")[:args.timing_tasks]
-    timing = {stage: one_core_times(inits[-1], space, held_out_tasks, stage) for stage in ("costs", "projection")}
+    timing = {stage: one_core_times(inits[-1], space, held_out_tasks, stage) for stage in WARM_STAGES}
     cycles = json.loads((out / "cycle" / "cycles.json").read_text())["cycles"]
     result = {"date": datetime.date.today().isoformat(), "machine": machine(), "code": code, "load_average_start": started,
               "load_average_end": load_average(), "space": args.space, "train_tasks": args.n,
