@@ -55,11 +55,11 @@ def write_robot_motion(path, map_path, steps=3):
     return path
 
 
-def write_traj(path, map_path, samples=120):
-    """A traj of anymal on `map_path`: the base moving 0.3 m forward over 1.2 s, all four feet in
-    contact carrying its weight."""
+def write_traj(path, map_path, samples=120, duration=1.2):
+    """A traj of anymal on `map_path`: the base moving forward at 0.25 m/s over `duration` s (0.3 m
+    by default), all four feet in contact carrying its weight."""
     legs = 4
-    t = np.linspace(0.0, 1.2, samples)
+    t = np.linspace(0.0, duration, samples)
     base = np.stack([0.25 * t, np.zeros_like(t), np.full_like(t, 0.45)], axis=1)
     corners = np.array([[0.34, 0.19], [0.34, -0.19], [-0.34, 0.19], [-0.34, -0.19]])
     feet = np.zeros((samples, legs, 3))
@@ -69,9 +69,9 @@ def write_traj(path, map_path, samples=120):
     with write_artefact(path, "traj", inputs=[map_path]) as f:
         f.attrs.update(robot="anymal", legs="lf,rf,lh,rh")
         g = f.create_group("tasks/0000")
-        g.attrs.update(index=0, success=True, reason="converged", duration=1.2, max_violation=2e-4)
+        g.attrs.update(index=0, success=True, reason="converged", duration=duration, max_violation=2e-4)
         write_dataset(g, "start", [0.0, 0.0, 0.0])
-        write_dataset(g, "goal", [0.3, 0.0, 0.0])
+        write_dataset(g, "goal", [0.25 * duration, 0.0, 0.0])
         still = np.zeros_like(base)   # velocities, accelerations, Euler angles and rates
         for name, value in {"t": t, "base_pos": base, "base_vel": still, "base_acc": still, "base_euler": still,
                             "base_euler_rate": still, "base_ang_vel": still, "base_ang_acc": still, "feet_pos": feet,

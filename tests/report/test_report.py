@@ -187,7 +187,8 @@ def test_page_and_3d_views_render_in_headless_chromium(tmp_path, robot_motion):
     assert CHROMIUM, "chromium is not installed (packaging/apt-packages-test.txt)"
     map_path, motion_path = robot_motion
     out = tmp_path / "rep"
-    write_report([motion_path, write_traj(tmp_path / "traj.h5", map_path)], out)
+    # 3 s of motion: no viewer wraps back to frame 0 within the 1.5 s of virtual time
+    write_report([motion_path, write_traj(tmp_path / "traj.h5", map_path, samples=300, duration=3.0)], out)
     shot = tmp_path / "shot.png"
     run = subprocess.run(
         [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
