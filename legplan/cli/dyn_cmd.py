@@ -42,7 +42,8 @@ def command():
                    "[,gait,strides,duration] (instead of --start/--goal).")
 @click.option("--costs", default="none", show_default=True, metavar="paper|none|FILE.yaml",
               help="The paper's costs and constraints, none (TOWR's formulation), or a costs file.")
-@click.option("--optimize-phases", is_flag=True, help="Optimize the phase durations (not supported yet).")
+@click.option("--optimize-phases", is_flag=True,
+              help="Optimize the phase durations of every foot too (2 more variables per footstep).")
 @click.option("--init", "init", default="heuristic", show_default=True, help="Initializer of the optimization.")
 @warm_stage_opt
 @output_opt
@@ -67,15 +68,12 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     from legplan.terrain import load_map
 
     check_output(output, overwrite)
-    if optimize_phases:
-        raise LegplanError("--optimize-phases: optimizing the phase durations is not supported yet "
-                           "(the centroidal core plans the gait's fixed timings)")
     if tasks_path is not None and (start is not None or goal is not None):
         raise LegplanError("dyn plan: give either --tasks or --start/--goal, not both")
     if tasks_path is None and (start is None or goal is None):
         raise LegplanError("dyn plan: --start and --goal are required (or --tasks FILE)")
     check_warm_stage(warm_stage, init)
-    params = replace(dyn_params(costs), warm_stage=warm_stage)
+    params = replace(dyn_params(costs), warm_stage=warm_stage, optimize_phases=optimize_phases)
     init_fn = initializer(init)  # an unknown --init: exit 2 before any work
     loaded = load_robot(robot)
     model = centroidal_model(loaded)

@@ -13,8 +13,10 @@ step (`euler.complex_step`, exact to round-off), the rest analytically.
 * `ForceBlock` — f·n ∈ [0, f_max] and the friction pyramid ±f·t_k − μ f·n ≤ 0 in stance, on the
   Bézier control points of the force polynomials (so along the whole of them).
 * linear rows (`LinearBlock`): base acceleration continuity at the spline junctions, TOWR's swing
-  constraint (apex x, y halfway, apex velocity = step / swing time), the paper's swing-height and
-  base-above-feet rows.
+  constraint (apex x, y halfway, apex velocity = step / swing time), the paper's swing-height rows;
+  `BaseAboveFeetBlock`, the paper's base-above-feet rows.
+* With a `PhaseTiming` (`legplan.dyn.timing`) the blocks that sample feet or forces in time also
+  read the ``phases`` variable: their samples move with the phase durations.
 """
 
 from __future__ import annotations
@@ -27,6 +29,7 @@ import scipy.sparse as sp
 from legplan.dyn.euler import body_rates, complex_step, rotation
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.terrain import TerrainModel
+from legplan.dyn.timing import PHASES, PhaseTiming, TimedControlPoints, TimedSamples, phase_jacobian, refresh
 from legplan.geometry.hermite import SampledJacobian, hermite_weights, kron_dim
 from legplan.robots.so3 import skew
 from legplan.solve import ResidualBlock
@@ -39,25 +42,53 @@ def _nodes(v: np.ndarray) -> np.ndarray:
     return np.asarray(v).reshape(-1, 3)
 
 
+def _invalid(block, jacobians: bool):
+    """NaN rows at phase durations that leave a segment without time (a trial step of the solver,
+    which then rejects it)."""
+    if jacobians:
+        raise ValueError(f"{type(block).__name__}: Jacobians requested at phase durations that are no timing")
+    return np.full(block.size, np.nan), None
+
+
 class DynamicsBlock(ResidualBlock):
     """Newton-Euler residual of the single rigid body at `times` (see module docstring)."""
 
     variables = ("base_lin", "base_ang", "feet", "forces")
 
-    def __init__(self, form: Formulation, mass: float, inertia: np.ndarray, times: np.ndarray):
+    def __init__(self, form: Formulation, mass: float, inertia: np.ndarray, times: np.ndarray,
+                 timing: PhaseTiming | None = None):
         self.mass, self.inertia = float(mass), np.asarray(inertia, float)
         self.times = np.asarray(times, float)
         self.n = self.times.size
         self.size = 6 * self.n
         self.base = [form.base_matrix(self.times, d) for d in range(3)]
-        self.feet = [form.foot_matrix(leg, self.times) for leg in range(form.legs)]
-        self.forces = [form.force_matrix(leg, self.times) for leg in range(form.legs)]
+        self.timing = timing
+        if timing is None:
+            self.feet = [form.foot_matrix(leg, self.times) for leg in range(form.legs)]
+            self.forces = [form.force_matrix(leg, self.times) for leg in range(form.legs)]
+        else:  # feet and forces move with the phase durations (`legplan.dyn.timing`)
+            self.variables = DynamicsBlock.variables + (PHASES,)
+            self.samples = [TimedSamples(timing, kind, leg, self.times) for kind in ("motion", "force")
+                            for leg in range(form.legs)]
+            self.feet = [s.matrix for s in self.samples[:form.legs]]
+            self.forces = [s.matrix for s in self.samples[form.legs:]]
         self.columns = [3 * m.shape[1] for m in (self.base[0], self.base[0], self.feet[0], self.forces[0])]
         n, c = self.n, self.columns
         self.jacobians = [SampledJacobian([self.base[2], self.base[0]], 6, n, c[0]),
                           SampledJacobian(self.base, 6, n, c[1]),
                           SampledJacobian(self.feet, 6, n, c[2]),
                           SampledJacobian(self.forces, 6, n, c[3])]
+
+    def _retime(self, d: np.ndarray) -> bool:
+        """Move the feet and force samples to the durations d; False if d is no valid timing."""
+        changed, valid = refresh(self.samples, d)
+        if changed and valid:
+            legs = len(self.feet)
+            self.feet = [s.matrix for s in self.samples[:legs]]
+            self.forces = [s.matrix for s in self.samples[legs:]]
+            self.jacobians[2] = SampledJacobian(self.feet, 6, self.n, self.columns[2])
+            self.jacobians[3] = SampledJacobian(self.forces, 6, self.n, self.columns[3])
+        return valid
 
     def inertial_torque(self, e, ed, edd):
         """I_W ω̇ + ω × I_W ω = R (I_B ω̇_B + ω_B × I_B ω_B), rows (n, 3)."""
@@ -67,7 +98,9 @@ class DynamicsBlock(ResidualBlock):
         return np.einsum("nij,nj->ni", rotation(e), u)
 
     def evaluate(self, values, jacobians):
-        lin, ang, feet, forces = (_nodes(v) for v in values)
+        if self.timing is not None and not self._retime(values[4]):
+            return _invalid(self, jacobians)
+        lin, ang, feet, forces = (_nodes(v) for v in values[:4])
         p0, p1, p2 = (m @ lin for m in self.base)
         e, ed, edd = (m @ ang for m in self.base)
         pf = [m @ feet for m in self.feet]
@@ -86,10 +119,16 @@ class DynamicsBlock(ResidualBlock):
         stack = lambda top, bottom: np.concatenate([top, bottom], axis=1)  # (n, 6, 3)
         f_skew = [skew(fi) for fi in f]
         lin_j, ang_j, feet_j, forces_j = self.jacobians
-        return r, [lin_j([stack(self.mass * eye, zero), stack(zero, -sum(f_skew))]),
-                   ang_j([stack(zero, j_e), stack(zero, j_ed), stack(zero, j_edd)]),
-                   feet_j([stack(zero, fs) for fs in f_skew]),
-                   forces_j([stack(-eye, -skew(q - p0)) for q in pf])]
+        g_feet = [stack(zero, fs) for fs in f_skew]
+        g_forces = [stack(-eye, -skew(q - p0)) for q in pf]
+        out = [lin_j([stack(self.mass * eye, zero), stack(zero, -sum(f_skew))]),
+               ang_j([stack(zero, j_e), stack(zero, j_ed), stack(zero, j_edd)]), feet_j(g_feet), forces_j(g_forces)]
+        if self.timing is not None:
+            legs = len(self.feet)
+            terms = [(g, s, values[2]) for g, s in zip(g_feet, self.samples[:legs])]
+            terms += [(g, s, values[3]) for g, s in zip(g_forces, self.samples[legs:])]
+            out.append(phase_jacobian(terms, self.size, self.timing.size))
+        return r, out
 
 
 class RangeOfMotionBlock(ResidualBlock):
@@ -97,30 +136,49 @@ class RangeOfMotionBlock(ResidualBlock):
 
     variables = ("base_lin", "base_ang", "feet")
 
-    def __init__(self, form: Formulation, leg: int, nominal: np.ndarray, times: np.ndarray):
+    def __init__(self, form: Formulation, leg: int, nominal: np.ndarray, times: np.ndarray,
+                 timing: PhaseTiming | None = None):
         self.times = np.asarray(times, float)
         self.n = self.times.size
         self.size = 3 * self.n
         self.nominal = np.asarray(nominal, float)
         self.base = form.base_matrix(self.times)
-        self.foot = form.foot_matrix(leg, self.times)
+        self.timing = timing
+        if timing is None:
+            self.foot = form.foot_matrix(leg, self.times)
+        else:
+            self.variables = RangeOfMotionBlock.variables + (PHASES,)
+            self.samples = TimedSamples(timing, "motion", leg, self.times)
+            self.foot = self.samples.matrix
         self.columns = (3 * self.base.shape[1], 3 * self.base.shape[1], 3 * self.foot.shape[1])
         self.base_jacobian = SampledJacobian([self.base], 3, self.n, self.columns[0])  # base_lin and base_ang
         self.foot_jacobian = SampledJacobian([self.foot], 3, self.n, self.columns[2])
+
+    def _retime(self, d: np.ndarray) -> bool:
+        changed, valid = refresh([self.samples], d)
+        if changed and valid:
+            self.foot = self.samples.matrix
+            self.foot_jacobian = SampledJacobian([self.foot], 3, self.n, self.columns[2])
+        return valid
 
     @staticmethod
     def _in_base(e, d):
         return np.einsum("nji,nj->ni", rotation(e), d)
 
     def evaluate(self, values, jacobians):
-        lin, ang, feet = (_nodes(v) for v in values)
+        if self.timing is not None and not self._retime(values[3]):
+            return _invalid(self, jacobians)
+        lin, ang, feet = (_nodes(v) for v in values[:3])
         p, e, q = self.base @ lin, self.base @ ang, self.foot @ feet
         if not jacobians:
             return (self._in_base(e, q - p) - self.nominal).reshape(-1), None
         x, (j_e,) = complex_step(self._in_base, (e, q - p), (0,))
         rt = np.transpose(rotation(e), (0, 2, 1))
         r = (x - self.nominal).reshape(-1)
-        return r, [self.base_jacobian([-rt]), self.base_jacobian([j_e]), self.foot_jacobian([rt])]
+        out = [self.base_jacobian([-rt]), self.base_jacobian([j_e]), self.foot_jacobian([rt])]
+        if self.timing is not None:
+            out.append(phase_jacobian([(rt, self.samples, values[2])], self.size, self.timing.size))
+        return r, out
 
 
 class FootTerrainBlock(ResidualBlock):
@@ -129,11 +187,22 @@ class FootTerrainBlock(ResidualBlock):
 
     variables = ("feet",)
 
-    def __init__(self, terrain: TerrainModel, matrix: sp.csr_matrix):
+    def __init__(self, terrain: TerrainModel, matrix: sp.csr_matrix | TimedSamples):
         self.terrain = terrain
+        self.samples = matrix if isinstance(matrix, TimedSamples) else None
+        if self.samples is not None:  # samples moving with the phase durations
+            self.variables = FootTerrainBlock.variables + (PHASES,)
+            matrix = self.samples.matrix
         self.matrix = sp.csr_matrix(matrix)
         self.size = self.matrix.shape[0]
         self.jacobian = SampledJacobian([self.matrix], 1, self.size, 3 * self.matrix.shape[1])
+
+    def _retime(self, d: np.ndarray) -> bool:
+        changed, valid = refresh([self.samples], d)
+        if changed and valid:
+            self.matrix = self.samples.matrix
+            self.jacobian = SampledJacobian([self.matrix], 1, self.size, 3 * self.matrix.shape[1])
+        return valid
 
     @abstractmethod
     def _row(self, q):
@@ -143,11 +212,16 @@ class FootTerrainBlock(ResidualBlock):
         return self._row(q)[:, None]
 
     def evaluate(self, values, jacobians):
+        if self.samples is not None and not self._retime(values[1]):
+            return _invalid(self, jacobians)
         q = self.matrix @ _nodes(values[0])
         if not jacobians:
             return self._row(q), None
         r, (j,) = complex_step(self._column, (q,), (0,))
-        return r[:, 0], [self.jacobian([j])]
+        out = [self.jacobian([j])]
+        if self.samples is not None:
+            out.append(phase_jacobian([(j, self.samples, values[0])], self.size, self.samples.timing.size))
+        return r[:, 0], out
 
 
 class TerrainHeightBlock(FootTerrainBlock):
@@ -178,13 +252,25 @@ class ForceBlock(ResidualBlock):
     variables = ("feet", "forces")
     ROWS = 5
 
-    def __init__(self, terrain: TerrainModel, friction: float, force: sp.csr_matrix, foot: sp.csr_matrix):
+    def __init__(self, terrain: TerrainModel, friction: float, force: sp.csr_matrix | TimedControlPoints,
+                 foot: sp.csr_matrix):
         self.terrain, self.mu = terrain, float(friction)
+        self.samples = force if isinstance(force, TimedControlPoints) else None
+        if self.samples is not None:  # control points moving with the phase durations
+            self.variables = ForceBlock.variables + (PHASES,)
+            force = self.samples.matrix
         self.force, self.foot = sp.csr_matrix(force), sp.csr_matrix(foot)
         self.n = self.force.shape[0]
         self.size = self.ROWS * self.n
         self.foot_jacobian = SampledJacobian([self.foot], self.ROWS, self.n, 3 * self.foot.shape[1])
         self.force_jacobian = SampledJacobian([self.force], self.ROWS, self.n, 3 * self.force.shape[1])
+
+    def _retime(self, d: np.ndarray) -> bool:
+        changed, valid = refresh([self.samples], d)
+        if changed and valid:
+            self.force = self.samples.matrix
+            self.force_jacobian = SampledJacobian([self.force], self.ROWS, self.n, 3 * self.force.shape[1])
+        return valid
 
     def _rows(self, f, q):
         n, t1, t2 = self.terrain.basis(q[:, 0], q[:, 1])
@@ -193,11 +279,16 @@ class ForceBlock(ResidualBlock):
         return np.stack([fn, a - self.mu * fn, -a - self.mu * fn, b - self.mu * fn, -b - self.mu * fn], axis=1)
 
     def evaluate(self, values, jacobians):
+        if self.samples is not None and not self._retime(values[2]):
+            return _invalid(self, jacobians)
         q, f = self.foot @ _nodes(values[0]), self.force @ _nodes(values[1])
         if not jacobians:
             return self._rows(f, q).reshape(-1), None
         r, (j_f, j_q) = complex_step(self._rows, (f, q), (0, 1))
-        return r.reshape(-1), [self.foot_jacobian([j_q]), self.force_jacobian([j_f])]
+        out = [self.foot_jacobian([j_q]), self.force_jacobian([j_f])]
+        if self.samples is not None:
+            out.append(phase_jacobian([(j_f, self.samples, values[1])], self.size, self.samples.timing.size))
+        return r.reshape(-1), out
 
     @staticmethod
     def bounds(n: int, max_normal_force: float) -> tuple[np.ndarray, np.ndarray]:
@@ -260,10 +351,42 @@ def swing_height(form: Formulation) -> LinearBlock:
     return LinearBlock(("feet",), [_foot_rows(form, entries)])
 
 
-def base_above_feet(form: Formulation, times: np.ndarray) -> LinearBlock:
-    """Base z minus each foot's z at `times` (legs × times rows): the paper's base clearance."""
-    base = form.base_matrix(times)
-    z = lambda m: kron_dim(m)[2::3]
-    rows_base = sp.vstack([z(base)] * form.legs)
-    rows_feet = sp.vstack([-z(form.foot_matrix(leg, times)) for leg in range(form.legs)])
-    return LinearBlock(("base_lin", "feet"), [rows_base, rows_feet])
+class BaseAboveFeetBlock(ResidualBlock):
+    """Base z minus each foot's z at `times` (legs × times rows, leg after leg): the paper's base
+    clearance. Linear in the nodes; with a `timing` the feet move with the phase durations."""
+
+    variables = ("base_lin", "feet")
+
+    def __init__(self, form: Formulation, times: np.ndarray, timing: PhaseTiming | None = None):
+        self.n, self.legs = np.asarray(times).size, form.legs
+        self.size = self.n * self.legs
+        self.base = kron_dim(sp.vstack([form.base_matrix(times)] * form.legs))[2::3]
+        self.timing = timing
+        if timing is None:
+            self.samples = []
+            self.feet = kron_dim(sp.vstack([form.foot_matrix(leg, times) for leg in range(form.legs)]))[2::3]
+        else:
+            self.variables = BaseAboveFeetBlock.variables + (PHASES,)
+            self.samples = [TimedSamples(timing, "motion", leg, times) for leg in range(form.legs)]
+            self._stack()
+
+    def _stack(self) -> None:
+        self.feet = kron_dim(sp.vstack([s.matrix for s in self.samples]))[2::3]
+
+    def evaluate(self, values, jacobians):
+        if self.timing is not None:
+            changed, valid = refresh(self.samples, values[2])
+            if not valid:
+                return _invalid(self, jacobians)
+            if changed:
+                self._stack()
+        r = self.base @ values[0] - self.feet @ values[1]
+        if not jacobians:
+            return r, None
+        out = [self.base, -self.feet]
+        if self.timing is not None:
+            e_z = np.zeros((self.n, 1, 3))
+            e_z[:, 0, 2] = -1.0
+            out.append(sp.vstack([phase_jacobian([(e_z, s, values[1])], self.n, self.timing.size)
+                                  for s in self.samples]).tocsr())
+        return r, out

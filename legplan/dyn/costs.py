@@ -24,7 +24,7 @@ adjacent stance z (the cost that keeps swings low; the constraint keeps them abo
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import scipy.sparse as sp
@@ -103,8 +103,17 @@ def _embedded(matrix: sp.csr_matrix, offset_nodes: int, total_nodes: int) -> sp.
     return sp.csr_matrix((m.data, m.indices + 6 * offset_nodes, m.indptr), shape=(m.shape[0], 6 * total_nodes))
 
 
-def integral_costs(form: Formulation, w: CostWeights, mass: float) -> list[tuple[str, ResidualBlock, float]]:
-    """The eq. (1) terms with a positive weight as (name, block, weight)."""
+def integral_costs(form: Formulation, w: CostWeights, mass: float, timing=None) -> list[tuple[str, ResidualBlock, float]]:
+    """The eq. (1) terms with a positive weight as (name, block, weight); with a `PhaseTiming` the
+    force terms are `TimedForceIntegralBlock`s."""
+    if timing is not None:
+        out = integral_costs(form, replace(w, force=0.0, force_rate=0.0, normal_force=0.0), mass)
+        for name, weight, axes, derivative in (("force", w.force, [0, 1, 2], 0), ("force_rate", w.force_rate, [0, 1, 2], 1),
+                                               ("normal_force", w.normal_force, [2], 0)):
+            if weight > 0:
+                block = TimedForceIntegralBlock(timing, axes, derivative, w.derivative_weight, mass, name == "normal_force")
+                out.append((name, block, weight))
+        return out
     out = []
     wd = w.derivative_weight
     if w.base_z_velocity > 0:
@@ -129,6 +138,102 @@ def integral_costs(form: Formulation, w: CostWeights, mass: float) -> list[tuple
         out.append(("normal_force", LinearBlock(("forces",), [sp.vstack(mats).tocsr() / weight_force],
                                                 np.concatenate(offsets) / weight_force), w.normal_force))
     return out
+
+
+@functools.lru_cache(maxsize=8)
+def _unit_factor(derivative: int) -> np.ndarray:
+    """L̂ with L̂ᵀL̂ = Q_d(1): on a segment of duration h, Q_d(h) = h^(1−2d) S Q_d(1) S with S = diag(1, h,
+    1, h) (`hermite_gram`), so L_d(h) = h^((1−2d)/2) L̂ S is a factor smooth in h."""
+    w, v = np.linalg.eigh(hermite_gram(1.0, derivative))
+    factor = np.sqrt(np.clip(w, 0.0, None))[:, None] * v.T
+    factor.flags.writeable = False
+    return factor
+
+
+class TimedForceIntegralBlock(ResidualBlock):
+    """Eq. (1) over every stance force polynomial (``force``, ``force_rate`` or ``normal_force`` of
+    `integral_costs`) while the phase durations are variables: the polynomials' durations h, and with
+    them the Gram matrices, move with ``phases``. Rows L_d(h)(c − c_ref) and √ω_d L_(d+1)(h)(c − c_ref)
+    (the two parts of Q₀ + ω_d Q₁ stacked, each factor smooth in h, see `_unit_factor`), scaled by
+    1/(m·g). `normal_force`: axis z, reference m·g over the feet in stance at the polynomial's middle
+    (piecewise constant in the durations; its derivative is taken as 0)."""
+
+    variables = ("forces", "phases")
+
+    def __init__(self, timing, axes: list[int], derivative: int, derivative_weight: float, mass: float,
+                 normal_force: bool = False):
+        self.timing, self.axes, self.normal_force = timing, list(axes), normal_force
+        self.mass = float(mass)
+        self.terms = [(derivative, 1.0)] + ([(derivative + 1, np.sqrt(derivative_weight))] if derivative_weight > 0 else [])
+        form = timing.form
+        self.total = 6 * form.force_nodes
+        self.segments = []  # per leg: indices, a, b (global nodes) of its Hermite force segments
+        for foot in form.feet:
+            k = np.array([i for i, seg in enumerate(foot.force.segments) if not seg.constant])
+            self.segments.append((k, np.array([foot.force_offset + foot.force.segments[i].a for i in k]),
+                                  np.array([foot.force_offset + foot.force.segments[i].b for i in k])))
+        self.size = sum(k.size for k, _, _ in self.segments) * len(self.terms) * len(self.axes) * 4
+
+    def evaluate(self, values, jacobians):
+        nodes = np.asarray(values[0]).reshape(-1, 2, 3)
+        d = np.asarray(values[1], float)
+        gait = self.timing.gait(d) if self.normal_force else None
+        rows, node_j, phase_j = [], [], []
+        row = 0
+        for leg, (k, a, b) in enumerate(self.segments):
+            t0, t1 = self.timing.segment_ends("force", leg, d)
+            h = (t1 - t0)[k]
+            if np.any(h <= 1e-6):
+                return np.full(self.size, np.nan), None
+            c = np.stack([nodes[a, 0], nodes[a, 1], nodes[b, 0], nodes[b, 1]], axis=1)[:, :, self.axes]  # (K, 4, A)
+            if self.normal_force:
+                mids = 0.5 * (t0 + t1)[k]
+                share = self.mass * GRAVITY / np.maximum(gait.contact(mids).sum(axis=1), 1)
+                c[:, 0::2, :] -= share[:, None, None]
+            scale = np.stack([np.ones_like(h), h, np.ones_like(h), h], axis=1)  # S(h)
+            _, a0, _, a1 = self.timing.ends["force"][leg]
+            dh = (a1 - a0)[k]  # ∂h/∂d_leg (K, count)
+            for r, weight in self.terms:
+                e = 0.5 - r
+                lhat = weight * _unit_factor(r) / (self.mass * GRAVITY)
+                hp = h ** e
+                res = hp[:, None, None] * np.einsum("ij,kja->kia", lhat, scale[:, :, None] * c)  # (K, 4, A)
+                rows.append(res.transpose(0, 2, 1).reshape(-1))  # (segment, axis, row)
+                if jacobians:
+                    v_only = c * np.array([0.0, 1.0, 0.0, 1.0])[None, :, None]
+                    d_res = e / h[:, None, None] * res + hp[:, None, None] * np.einsum("ij,kja->kia", lhat, v_only)
+                    node_j.append((row, h, hp, lhat, a, b))
+                    phase_j.append((row, leg, d_res.transpose(0, 2, 1).reshape(k.size * len(self.axes) * 4), dh))
+                row += res.size
+        r = np.concatenate(rows)
+        if not jacobians:
+            return r, None
+        return r, [self._node_jacobian(node_j), self._phase_jacobian(phase_j)]
+
+    def _node_jacobian(self, parts) -> sp.csr_matrix:
+        rows, cols, vals = [], [], []
+        n_axes = len(self.axes)
+        for row, h, hp, lhat, a, b in parts:
+            scale = np.stack([np.ones_like(h), h, np.ones_like(h), h], axis=1)
+            # entry (segment k, axis α, row i; node column j) = hp_k L̂[i, j] S_kj
+            coef = hp[:, None, None] * lhat[None, :, :] * scale[:, None, :]  # (K, 4, 4)
+            node_cols = np.stack([6 * a, 6 * a + 3, 6 * b, 6 * b + 3], axis=1)  # (K, 4): p_a, v_a, p_b, v_b
+            for m, axis in enumerate(self.axes):
+                r_idx = row + (np.arange(h.size)[:, None] * n_axes + m) * 4 + np.arange(4)[None, :]  # (K, 4)
+                rows.append(np.repeat(r_idx[:, :, None], 4, axis=2).reshape(-1))
+                cols.append(np.broadcast_to((node_cols + axis)[:, None, :], coef.shape).reshape(-1))
+                vals.append(coef.reshape(-1))
+        return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                             shape=(self.size, self.total))
+
+    def _phase_jacobian(self, parts) -> sp.csr_matrix:
+        dense = np.zeros((self.size, self.timing.size))
+        n_axes = len(self.axes)
+        for row, leg, d_res, dh in parts:
+            per_segment = np.repeat(dh, n_axes * 4, axis=0)  # (K·A·4, count)
+            cols = slice(self.timing.offsets[leg], self.timing.offsets[leg + 1])
+            dense[row:row + d_res.size, cols] = d_res[:, None] * per_segment
+        return sp.csr_matrix(dense)
 
 
 class StairEdgeBlock(ResidualBlock):

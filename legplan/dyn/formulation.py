@@ -59,7 +59,7 @@ class Formulation:
     """Splines and variable blocks of one problem: a gait over `duration`, `legs` feet."""
 
     def __init__(self, gait: Gait, dt: float = 0.1):
-        self.gait = gait
+        self.gait, self.dt = gait, dt
         self.duration = gait.duration
         self.legs = gait.stance.shape[1]
         count = max(1, int(np.ceil(self.duration / dt - 1e-9)))

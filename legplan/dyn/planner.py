@@ -22,6 +22,7 @@ from legplan.dyn.formulation import Formulation
 from legplan.dyn.init import heuristic
 from legplan.dyn.problem import DynParams, DynTask, Problem, build_problem, cost_blocks
 from legplan.dyn.terrain import TerrainModel
+from legplan.dyn.timing import PHASES
 from legplan.solve.auglag import ALParams, ALResult, evaluate_costs, solve_augmented_lagrangian
 
 SAMPLE_DT = 0.01  # s, the artefact's sampling of the solution
@@ -102,6 +103,8 @@ class Budget:
                                             callback=callback)
         if self.left is not None:
             self.left -= result.iterations
+        if problem.timing is not None:  # what reads the solution reads it on its own timing
+            problem.form = problem.timing.formulation(result.values[PHASES])
         return result
 
 

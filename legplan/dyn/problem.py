@@ -14,11 +14,12 @@ import numpy as np
 
 from legplan.dyn.constraints import (GRAVITY, DynamicsBlock, ForceBlock, RangeOfMotionBlock, StanceSlopeBlock,
                                      TerrainHeightBlock,
-                                     acceleration_continuity, base_above_feet, swing_constraint, swing_height)
+                                     BaseAboveFeetBlock, acceleration_continuity, swing_constraint, swing_height)
 from legplan.dyn.costs import CostWeights, StairEdgeBlock, integral_costs
 from legplan.dyn.formulation import Formulation, Pose
 from legplan.dyn.gait import make_gait
 from legplan.dyn.terrain import TerrainModel
+from legplan.dyn.timing import PHASES, PhaseTiming, TimedControlPoints, TimedSamples
 from legplan.solve import VariableBlock
 from legplan.solve.auglag import ALParams, Constraint
 from legplan.solve.hinged import HingedParams
@@ -98,6 +99,13 @@ class DynParams:
     projection_solver: ALParams = ALParams(exact_rows=True)
     """The "projection" warm stage's: the constraints alone, stopped by the exact per-row test (a last
     stage: no next stage profits from more precision, see `ALParams.exact_rows`)."""
+    optimize_phases: bool = False
+    """Optimize the phase durations too (`legplan.dyn.timing`: 2S more variables), from the gait's
+    timing or the guess's; the swing samples move with their swing, the other samples stay at their
+    times. TOWR's swing constraint (`towr_swing`) then keeps the swing durations of the timing it
+    was built at."""
+    phase_min: float = 0.2
+    """s: the shortest phase of a foot when the durations are optimized (TOWR's lower bound)."""
     iteration_budget: int | None = None
     """LM iterations of the whole plan, all stages and both attempts (`planner.plan`) together: the
     paper's N of Algorithm 1 (N_h = 100, N_θ = 25); None = only each stage's own cap."""
@@ -140,6 +148,9 @@ class Problem:
     variables: list[VariableBlock]
     costs: list = field(default_factory=list)
     constraints: list[Constraint] = field(default_factory=list)
+    timing: PhaseTiming | None = None
+    """Set when the phase durations are variables (`DynParams.optimize_phases`); `form` then has the
+    timing of the last solution (`planner.Budget.solve` moves it)."""
 
 
 def start_feet(model, pose: Pose, terrain: TerrainModel) -> np.ndarray:
@@ -174,11 +185,21 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     start, goal = task_poses(task, model, terrain)
     feet0 = start_feet(model, start, terrain)
     guess = initializer(form, model, terrain, start, goal, feet0)
-    problem = Problem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess))
+    timing = None
+    if params.optimize_phases:  # the guess's durations (a previous stage's), else the gait's
+        timing = PhaseTiming(form, params.phase_min)
+        if PHASES in guess:
+            form = timing.formulation(guess[PHASES])
+            timing = PhaseTiming(form, params.phase_min)
+    problem = Problem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess),
+                      timing=timing)
     times = sample_times(form, params)
     k = problem.constraints
+    if timing is not None:
+        problem.variables.append(timing.variable(guess.get(PHASES)))
+        k.append(Constraint(timing.last_phase_block(), params.phase_min, np.inf, name="last_phase", scale=1.0 / LENGTH))
     weight = model.mass * GRAVITY
-    k.append(Constraint(DynamicsBlock(form, model.mass, model.inertia, times["dynamics"]), name="dynamics",
+    k.append(Constraint(DynamicsBlock(form, model.mass, model.inertia, times["dynamics"], timing), name="dynamics",
                         scale=np.tile(np.repeat([1.0 / weight, 1.0 / (weight * LEVER)], 3), times["dynamics"].size)))
     for var in ("base_lin", "base_ang"):
         k.append(Constraint(acceleration_continuity(form, var), name="acceleration_continuity", scale=1.0 / GRAVITY))
@@ -189,7 +210,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         rom_t = np.union1d(np.union1d(times["range"], swing_t),  # swing feet move fastest: also between
                            np.asarray(range_times, float))  # the dt_range points
         box = np.tile(model.range_of_motion - params.range_margin, rom_t.size)
-        k.append(Constraint(RangeOfMotionBlock(form, leg, model.nominal_feet[leg], rom_t), -box, box,
+        k.append(Constraint(RangeOfMotionBlock(form, leg, model.nominal_feet[leg], rom_t, timing), -box, box,
                             name="range_of_motion", scale=1.0 / LENGTH))
         k.append(Constraint(TerrainHeightBlock(terrain, form.node_selector(foot.stance_nodes, form.motion_nodes)),
                             name="stance_on_terrain", scale=1.0 / LENGTH))
@@ -197,26 +218,29 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
             k.append(Constraint(StanceSlopeBlock(terrain, form.node_selector(foot.stance_nodes[1:], form.motion_nodes)),
                                 -np.inf, params.stance_slope_max, name="stance_off_edges"))
         if swing_t.size:
-            k.append(Constraint(TerrainHeightBlock(terrain, form.foot_matrix(leg, swing_t), envelope=True),
+            swing = form.foot_matrix(leg, swing_t) if timing is None else \
+                TimedSamples(timing, "motion", leg, swing_t, moving=True)  # they move with their swing
+            k.append(Constraint(TerrainHeightBlock(terrain, swing, envelope=True),
                                 params.swing_clearance, np.inf, name="swing_above_terrain", scale=1.0 / LENGTH))
         points, stance_node = form.force_control_points(leg)
         lower, upper = ForceBlock.bounds(points.shape[0], model.max_normal_force)
-        k.append(Constraint(ForceBlock(terrain, model.friction, points,
+        k.append(Constraint(ForceBlock(terrain, model.friction, points if timing is None else TimedControlPoints(timing, leg),
                                        form.node_selector(stance_node, form.motion_nodes)),
                             lower, upper, name="force", scale=1.0 / weight))
     if params.swing_height_min is not None and form.footsteps:
         k.append(Constraint(swing_height(form), params.swing_height_min, np.inf, name="swing_height",
                             scale=1.0 / LENGTH))
     if params.base_clearance is not None:
-        k.append(Constraint(base_above_feet(form, times["range"]), params.base_clearance, np.inf,
+        k.append(Constraint(BaseAboveFeetBlock(form, times["range"], timing), params.base_clearance, np.inf,
                             name="base_clearance", scale=1.0 / LENGTH))
-    problem.costs = cost_blocks(form, terrain, model, params.costs)
+    problem.costs = cost_blocks(form, terrain, model, params.costs, timing)
     return problem
 
 
-def cost_blocks(form: Formulation, terrain: TerrainModel, model, w: CostWeights) -> list:
+def cost_blocks(form: Formulation, terrain: TerrainModel, model, w: CostWeights, timing: PhaseTiming | None = None
+                ) -> list:
     """The weighted cost blocks (name, block, weight) of the weights `w` with a positive weight."""
-    costs = integral_costs(form, w, model.mass)
+    costs = integral_costs(form, w, model.mass, timing)
     if w.stair_edge > 0 and terrain.has_edges:
         nodes = [n for foot in form.feet for n in foot.stance_nodes]
         costs.append(("stair_edge", StairEdgeBlock(terrain, form.node_selector(nodes, form.motion_nodes),

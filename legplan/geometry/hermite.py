@@ -47,6 +47,26 @@ def hermite_weights(s: np.ndarray, h: np.ndarray, derivative: int = 0) -> np.nda
     return w
 
 
+def hermite_time_partials(s: np.ndarray, h: np.ndarray, derivative: int = 0, moving: bool = False
+                          ) -> tuple[np.ndarray, np.ndarray]:
+    """(n, 4) weights of (p_a, v_a, p_b, v_b) in ∂x^(r)/∂t0 and ∂x^(r)/∂t1, the derivatives of a sample
+    of the segment [t0, t1] with respect to its ends (r = `derivative`): at a fixed time t when not
+    `moving`, at a fixed fraction s = (t − t0)/h when `moving` (the sample moves with the segment).
+
+    With x^(r) = h^(−r) Σ_k P_k^(r)(s) (M_k · (p_a, h v_a, p_b, h v_b)): ∂x^(r)/∂s = h x^(r+1) and
+    ∂x^(r)/∂h at fixed s = −(r/h) x^(r) + (the v terms)/h; at a fixed time ∂s/∂t0 = (s − 1)/h,
+    ∂s/∂t1 = −s/h, and ∂h/∂t0 = −1, ∂h/∂t1 = 1 either way."""
+    s = np.asarray(s, float).reshape(-1)
+    h = np.broadcast_to(np.asarray(h, float), s.shape)
+    w = hermite_weights(s, h, derivative)
+    w_h = -derivative / h[:, None] * w
+    w_h[:, 1::2] += w[:, 1::2] / h[:, None]
+    if moving:
+        return -w_h, w_h
+    rate = hermite_weights(s, h, derivative + 1)
+    return rate * (s - 1.0)[:, None] - w_h, -rate * s[:, None] + w_h
+
+
 def hermite_gram(h: float, derivative: int = 0) -> np.ndarray:
     """Q (4 × 4) with ∫_0^h x^(d)(t)² dt = cᵀQc, c = (p_a, v_a, p_b, v_b), exact (rational integrals
     of the monomial basis, then scaled by h)."""
@@ -105,7 +125,13 @@ class NodeSpline:
 
     def _matrix(self, t: np.ndarray, derivative: int) -> sp.csr_matrix:
         seg = self.segment_index(t)
+        return self.matrix_at(seg, np.clip((t - self.starts[seg]) / (self.ends[seg] - self.starts[seg]), 0.0, 1.0),
+                              derivative)
+
+    def matrix_at(self, seg: np.ndarray, fraction: np.ndarray, derivative: int = 0) -> sp.csr_matrix:
+        """`matrix` of samples given by their segment and the fraction s ∈ [0, 1] of it."""
         rows, cols, vals = [], [], []
+        frac = np.asarray(fraction, float)
         for k in np.unique(seg):
             s = self.segments[k]
             idx = np.flatnonzero(seg == k)
@@ -113,14 +139,13 @@ class NodeSpline:
                 if derivative == 0:
                     rows.append(idx), cols.append(np.full(idx.size, 2 * s.a)), vals.append(np.ones(idx.size))
                 continue
-            h = s.t1 - s.t0
-            w = hermite_weights(np.clip((t[idx] - s.t0) / h, 0.0, 1.0), h, derivative)
+            w = hermite_weights(frac[idx], s.t1 - s.t0, derivative)
             c = np.array([2 * s.a, 2 * s.a + 1, 2 * s.b, 2 * s.b + 1])
             rows.append(np.repeat(idx, 4)), cols.append(np.tile(c, idx.size)), vals.append(w.reshape(-1))
         if not rows:
-            return sp.csr_matrix((t.size, 2 * self.nodes))
+            return sp.csr_matrix((frac.size, 2 * self.nodes))
         m = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
-                          shape=(t.size, 2 * self.nodes))
+                          shape=(frac.size, 2 * self.nodes))
         return m.tocsr()
 
 

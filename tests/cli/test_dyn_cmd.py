@@ -109,7 +109,6 @@ def test_tasks_file_records_an_infeasible_task_as_failed(planned, tmp_path):
     (["--goal", "3", "0", "0"], "command line: field 'goal' (3, 0, 0) puts the base at (3.000, 0.000) off the map"),
     (["--start", "1", "0.5", "0"], "command line: field 'start' (1, 0.5, 0) is in a wall of the map"),
     (["--robot", "scarab2"], "robots/scarab2/robot.yaml: field 'centroidal' is missing"),
-    (["--optimize-phases"], "--optimize-phases: optimizing the phase durations is not supported yet"),
     (["--init", "learned"], "--init: unknown initializer 'learned' (known: heuristic)"),
     (["--costs", "cheap"], "--costs: 'cheap' is neither a preset (paper, none) nor a file"),
     (["--costs", "COSTS"], "costs.yaml: field 'speed' is unknown"),
