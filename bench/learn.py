@@ -10,18 +10,22 @@
    continued and its parts computed elsewhere.
 2. `legplan learn dataset` of --held-out tasks of another seed (1) from the Heuristic (N_h = 100) and
    from every cycle's init.h5 (N_θ = 25), and from the last one with `--warm-stage projection` (the
-   network's guess projected onto the constraints, its cost not optimized), reused when present.
+   network's guess projected onto the constraints, its cost not optimized) and with
+   `--optimize-phases` (the phase durations optimized too, from the network's timing: the gait's
+   when it was trained on fixed-timing outcomes), reused when present.
 3. Per held-out set (the paper's Fig. 6): convergence rate, median iterations and solve seconds of the
    converged tasks (wall time inside a one-thread worker), final cost median / p90 / max and max ÷
    median, peak foot force (median over converged tasks of the largest |f| of the 10 ms samples).
-   Fig. 8 without the simulator, phase durations fixed (the planner does not optimize them), read
-   two ways on the budgets k = 0 … 25: converged within k iterations (read off the dataset's one
+   Fig. 8 without the simulator, phase durations fixed at their initialized values or optimized
+   (the paper's dotted and solid curves), read two ways on the budgets k = 0 … 25: converged within k iterations (read off the dataset's one
    solve per task), and feasible after k iterations — `plan` with at most k iterations on the first
    --feasibility-tasks held-out tasks, its values checked against every constraint of the full
    problem (tolerance 1e-3; k = 0 is the raw guess: the paper's "executable without optimization").
-4. Time to a converged trajectory on one core: `plan` from the last init.h5 (both warm stages) on
-   --timing-tasks held-out tasks in this process (one BLAS thread), CPU seconds (`time.process_time`)
-   of the whole call (problem build, solve, sampling), median over the converged ones.
+4. Time to a converged trajectory on one core: `plan` from the last init.h5 (both warm stages, and the
+   costs with the phase durations optimized) on --timing-tasks held-out tasks in this process (one
+   BLAS thread), CPU seconds (`time.process_time`) of the whole call (problem build, solve,
+   sampling), median over the converged ones; and per LM iteration (the paper's Table I, "Full" vs
+   "No Phase"): the median over those tasks of CPU seconds ÷ iterations.
 5. Dataset throughput: tasks/s of the batch layer for every dataset computed in this run.
 
 Writes bench/results/learn.json and the learn section of BENCHMARKS.md (for another space than the single
@@ -60,15 +64,21 @@ def run(*args) -> float:
 
 
 def peak_force(space, y: np.ndarray, layout: dict) -> float:
-    """Largest |f| (N) of any foot over the 10 ms samples of solution y."""
+    """Largest |f| (N) of any foot over the 10 ms samples of solution y (on its own timing when y
+    holds the phase durations)."""
     from legplan.dyn.formulation import Formulation
     from legplan.dyn.gait import make_gait
     from legplan.dyn.planner import sample_solution
     from legplan.dyn.problem import DynParams
+    from legplan.dyn.timing import PHASES, PhaseTiming
     from legplan.learn.layout import split
 
-    form = Formulation(make_gait(space.gait, space.strides, space.duration), DynParams().dt)
-    forces = sample_solution(form, split(y, layout))["forces"]
+    params = DynParams()
+    form = Formulation(make_gait(space.gait, space.strides, space.duration), params.dt)
+    values = split(y, layout)
+    if PHASES in values:
+        form = PhaseTiming(form, params.phase_min).formulation(values[PHASES])
+    forces = sample_solution(form, values)["forces"]
     return float(np.linalg.norm(forces, axis=-1).max())
 
 
@@ -89,11 +99,12 @@ def outcome(path: Path, space) -> dict:
             "success_within": dict(zip(map(str, BUDGETS), success_within(ok, it, np.array(BUDGETS)).tolist()))}
 
 
-def feasibility_within(init: str, space, tasks: np.ndarray, warm_stage: str = "costs") -> dict:
+def feasibility_within(init: str, space, tasks: np.ndarray, warm_stage: str = "costs", phases: bool = False) -> dict:
     """Fig. 8 by the constraints (module docstring, 3): for every budget k, `plan` with at most k LM
     iterations on each task, and the max violation of its values against every constraint of the
     space's full problem (fine sampling and the costs' constraints), whatever stage the planner
-    stopped in. k = 0 is the initializer's raw guess."""
+    stopped in (on the plan's own timing when the durations are optimized). k = 0 is the
+    initializer's raw guess."""
     from legplan.dyn.planner import plan
     from legplan.dyn.problem import DynTask, build_problem
     from legplan.learn.dataset import DatasetWorker, solver_params
@@ -102,7 +113,7 @@ def feasibility_within(init: str, space, tasks: np.ndarray, warm_stage: str = "c
     full = solver_params(space.costs, None)
     within, medians = {}, {}
     for k in BUDGETS:
-        params = solver_params(space.costs, k, warm_stage)
+        params = solver_params(space.costs, k, warm_stage, phases)
         violations = []
         for row in tasks:
             task = DynTask(tuple(row[:3]), tuple(row[3:]), space.gait, space.strides, space.duration)
@@ -116,14 +127,15 @@ def feasibility_within(init: str, space, tasks: np.ndarray, warm_stage: str = "c
     return {"feasible_within": within, "median_violation": medians}
 
 
-def one_core_times(init: Path, space, tasks: np.ndarray, warm_stage: str = "costs") -> dict:
-    """CPU seconds of `plan` from init.h5 on these tasks, in this process (module docstring, 4)."""
+def one_core_times(init: Path, space, tasks: np.ndarray, warm_stage: str = "costs", phases: bool = False) -> dict:
+    """CPU seconds of `plan` from init.h5 on these tasks, in this process, and per iteration
+    (module docstring, 4)."""
     from legplan.dyn.planner import plan
     from legplan.dyn.problem import DynTask
     from legplan.learn.dataset import DatasetWorker, solver_params
 
     worker = DatasetWorker(space, str(init), None)
-    params = solver_params(space.costs, 25, warm_stage)
+    params = solver_params(space.costs, 25, warm_stage, phases)
     seconds, converged, iterations, costs = [], [], [], []
     for row in tasks:
         task = DynTask(tuple(row[:3]), tuple(row[3:]), space.gait, space.strides, space.duration)
@@ -135,8 +147,10 @@ def one_core_times(init: Path, space, tasks: np.ndarray, warm_stage: str = "cost
         costs.append(result.solve.cost)
     ok = np.array(converged)
     median = (lambda a: float(np.median(np.array(a)[ok])) if ok.any() else float("nan"))
+    per_iteration = np.array(seconds) / np.maximum(iterations, 1)
     return {"tasks": len(ok), "converged": float(ok.mean()), "median_cpu_seconds": median(seconds),
-            "median_iterations": median(iterations), "median_cost": median(costs)}
+            "median_iterations": median(iterations), "median_cost": median(costs),
+            "median_cpu_seconds_per_iteration": median(per_iteration)}
 
 
 def main() -> None:
@@ -164,20 +178,26 @@ def main() -> None:
     cycle_seconds = time.perf_counter() - t0
     inits = [out / "cycle" / f"init_{k}.h5" for k in range(1, args.cycles + 1)]
     rows = {}
-    for label, init, iterations, warm_stage in [("Heuristic (N_h = 100)", "heuristic", 100, "costs")] + \
-            [(f"LearnedInit cycle {k} (N_θ = 25)", init, 25, "costs") for k, init in enumerate(inits, 1)] + \
-            [(f"LearnedInit cycle {len(inits)}, projection (N_θ = 25)", inits[-1], 25, "projection")]:
+    last = len(inits)
+    for label, init, iterations, warm_stage, phases in [("Heuristic (N_h = 100)", "heuristic", 100, "costs", False)] + \
+            [(f"LearnedInit cycle {k} (N_θ = 25)", init, 25, "costs", False) for k, init in enumerate(inits, 1)] + \
+            [(f"LearnedInit cycle {last}, projection (N_θ = 25)", inits[-1], 25, "projection", False),
+             (f"LearnedInit cycle {last}, phases optimized (N_θ = 25)", inits[-1], 25, "costs", True)]:
         path = out / ("heldout_heuristic.h5" if init == "heuristic" else f"heldout_{Path(init).stem}.h5")
         if warm_stage != "costs":
             path = path.with_name(f"{path.stem}_{warm_stage}.h5")
+        if phases:
+            path = path.with_name(f"{path.stem}_phases.h5")
         if not path.exists():
             wall = run("learn", "dataset", ROOT / args.space, "--n", args.held_out, "--seed", 1, "--init", init,
-                       "--iterations", iterations, "--warm-stage", warm_stage, "--jobs", args.jobs, "-o", path)
+                       "--iterations", iterations, "--warm-stage", warm_stage, "--jobs", args.jobs, "-o", path,
+                       *(["--optimize-phases"] if phases else []))
             throughput[label] = args.held_out / wall
         rows[label] = outcome(path, space)
-        rows[label].update(feasibility_within(init, space, _tasks(path)[:args.feasibility_tasks], warm_stage))
+        rows[label].update(feasibility_within(init, space, _tasks(path)[:args.feasibility_tasks], warm_stage, phases))
     held_out_tasks = _tasks(out / "heldout_heuristic.h5")[:args.timing_tasks]
     timing = {stage: one_core_times(inits[-1], space, held_out_tasks, stage) for stage in WARM_STAGES}
+    timing["costs, phases optimized"] = one_core_times(inits[-1], space, held_out_tasks, "costs", True)
     cycles = json.loads((out / "cycle" / "cycles.json").read_text())["cycles"]
     result = {"date": datetime.date.today().isoformat(), "machine": machine(), "code": code, "load_average_start": started,
               "load_average_end": load_average(), "space": args.space, "train_tasks": args.n,
@@ -220,8 +240,8 @@ def section(result: dict, args) -> list[str]:
                      f"| {r['cost_median']:.3g} / {r['cost_p90']:.3g} / {r['cost_max']:.3g} "
                      f"| {r['cost_max_over_median']:.2f} | {r['peak_force_median']:.0f} | "
                      + f"{raw['feasible_fraction']:.0%} ({raw['median_violation']:.2g}) |")
-    lines += ["", "Success against the iteration budget k (Fig. 8, phase durations fixed; fraction of the "
-              "held-out tasks converged within k):", "",
+    lines += ["", "Success against the iteration budget k (Fig. 8; phase durations fixed at their initialized "
+              "values unless a row says optimized; fraction of the held-out tasks converged within k):", "",
               "| initializer | " + " | ".join(f"k = {k}" for k in BUDGETS) + " |",
               "|---|" + "---|" * len(BUDGETS)]
     for label, r in rows.items():
@@ -239,7 +259,8 @@ def section(result: dict, args) -> list[str]:
               "held-out tasks (problem build, solve and 10 ms sampling), to a converged trajectory:", ""]
     for stage, t in timing.items():
         lines.append(f"- warm stage {stage}: {t['converged']:.0%} converged, median {t['median_iterations']:g} iterations, "
-                     f"median {t['median_cpu_seconds']:.2f} CPU s, median cost {t['median_cost']:.3g}.")
+                     f"median {t['median_cpu_seconds']:.2f} CPU s ({t['median_cpu_seconds_per_iteration']:.3f} s per "
+                     f"iteration), median cost {t['median_cost']:.3g}.")
     lines.append("")
     if result["throughput_tasks_per_second"]:
         lines.append(f"Dataset throughput (`--jobs {result['jobs']}`, batch layer): " + ", ".join(
@@ -250,7 +271,8 @@ def section(result: dict, args) -> list[str]:
     for c in cycles:
         lines.append(f"| {c['cycle']} | {c['init']} | {c['success_rate']:.0%} | {c['median_iterations']:g} "
                      f"| {c['cost_median']:.3g} / {c['cost_p90']:.3g} / {c['cost_max']:.3g} |")
-    last, projection = (rows[label] for label in list(rows)[-2:])
+    last, projection, phases = (rows[f"LearnedInit cycle {args.cycles}{part} (N_θ = 25)"]
+                                for part in ("", ", projection", ", phases optimized"))
     lines += ["", "Targets (issue 16), LearnedInit after 3 cycles (costs optimized; projection in brackets): converges "
               f"on ≥ 95 % of held-out tasks: {last['converged']:.0%} ({projection['converged']:.0%}); max final cost "
               f"≤ 2× the median: {last['cost_max_over_median']:.2f}× ({projection['cost_max_over_median']:.2f}×); "
@@ -258,6 +280,15 @@ def section(result: dict, args) -> list[str]:
               f"time to a converged trajectory ≤ 0.3 s on one core: {timing['costs']['median_cpu_seconds']:.2f} s "
               f"({timing['projection']['median_cpu_seconds']:.2f} s). The projection's median cost is "
               f"{projection['cost_median'] / last['cost_median'] - 1:+.1%} against the costs' (held-out)."]
+    full, fixed = timing["costs, phases optimized"], timing["costs"]
+    ratio = full["median_cpu_seconds_per_iteration"] / fixed["median_cpu_seconds_per_iteration"]
+    lines.append(f"Phase durations optimized too, from the network's timing (Fig. 8 solid against dotted): "
+                 f"{phases['converged']:.0%} converged against {last['converged']:.0%} with them fixed, median "
+                 f"{phases['median_iterations']:g} against {last['median_iterations']:g} iterations, median cost "
+                 f"{phases['cost_median']:.3g} against {last['cost_median']:.3g} (held-out). Per LM iteration on one "
+                 f"core (Table I, \"Full\" against \"No Phase\"): {full['median_cpu_seconds_per_iteration']:.3f} "
+                 f"against {fixed['median_cpu_seconds_per_iteration']:.3f} CPU s, {ratio:.1f}× (the paper's pallets, "
+                 "mean with costs: 417 against 117 ms, 3.6×).")
     if result["train_tasks"] < 1000:
         lines.append(f"Scale: {result['train_tasks']} training tasks, below the issue's n ≥ 1000.")
     return lines

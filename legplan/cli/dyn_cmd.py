@@ -17,7 +17,7 @@ import click
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
 from legplan.cli.options import (batch_opts, input_artefact, number, output_opt, overwrite_opt, verbosity_opts,
-                                  warm_stage_opt)
+                                  optimize_phases_opt, warm_stage_opt)
 from legplan.errors import LegplanError
 
 POSE = (number(), number(), number())
@@ -42,8 +42,7 @@ def command():
                    "[,gait,strides,duration] (instead of --start/--goal).")
 @click.option("--costs", default="none", show_default=True, metavar="paper|none|FILE.yaml",
               help="The paper's costs and constraints, none (TOWR's formulation), or a costs file.")
-@click.option("--optimize-phases", is_flag=True,
-              help="Optimize the phase durations of every foot too (2 more variables per footstep).")
+@optimize_phases_opt
 @click.option("--init", "init", default="heuristic", show_default=True, help="Initializer of the optimization.")
 @warm_stage_opt
 @output_opt

@@ -13,8 +13,8 @@ import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import (batch_opts, input_artefact, number, output_opt, overwrite_opt, seed_opt, verbosity_opts,
-                                  warm_stage_opt)
+from legplan.cli.options import (batch_opts, input_artefact, number, optimize_phases_opt, output_opt, overwrite_opt,
+                                  seed_opt, verbosity_opts, warm_stage_opt)
 from legplan.errors import LegplanError
 
 
@@ -33,13 +33,14 @@ def command():
 @click.option("--iterations", type=click.IntRange(min=1), default=None,
               help="LM iterations per task, all planner stages together (the paper's N_h = 100, N_θ = 25) [default: each stage's own cap].")
 @warm_stage_opt
+@optimize_phases_opt
 @output_opt
 @overwrite_opt
 @batch_opts
 @verbosity_opts
 @click.pass_context
-def dataset_cmd(ctx, space_path, count, seed, init, iterations, warm_stage, output, overwrite, jobs, scheduler,
-                resume):
+def dataset_cmd(ctx, space_path, count, seed, init, iterations, warm_stage, optimize_phases, output, overwrite, jobs,
+                scheduler, resume):
     """Sample N tasks of SPACE (a task-space YAML), solve each, write dataset.h5 (x, y, g(y), ...).
 
     A solve that does not converge is recorded (success false); exit 1 only when a task raised."""
@@ -53,13 +54,13 @@ def dataset_cmd(ctx, space_path, count, seed, init, iterations, warm_stage, outp
     space = read_space(space_path)
     check_init(init, space)
     records = _dataset(space, space_path, count, seed, init, iterations, output, overwrite=overwrite, jobs=jobs,
-                       scheduler=scheduler, resume=resume, warm_stage=warm_stage)
+                       scheduler=scheduler, resume=resume, warm_stage=warm_stage, optimize_phases=optimize_phases)
     if any("y" not in r for r in records):
         ctx.exit(EXIT_ITEMS_FAILED)
 
 
 def _dataset(space, space_path, count, seed, init, iterations, output, *, overwrite, jobs, scheduler, resume,
-             warm_stage="costs"):
+             warm_stage="costs", optimize_phases=False):
     """Sample, solve through `legplan.batch` and write one dataset.h5; returns the records."""
     from legplan.batch import Task
     from legplan.cli.batching import run_stage
@@ -68,10 +69,11 @@ def _dataset(space, space_path, count, seed, init, iterations, output, *, overwr
     items = dataset_items(space, count, seed)
     learned = str(init).endswith(".h5")
     init = os.fspath(init)
-    settings = {"space": space.record(), "n": count, "init": init, "iterations": iterations, "warm_stage": warm_stage}
+    settings = {"space": space.record(), "n": count, "init": init, "iterations": iterations, "warm_stage": warm_stage,
+                "optimize_phases": optimize_phases}
     inputs = [space_path, space.map] + ([init] if learned else [])
     task = Task(solve_item, failed_item, DatasetWorker,
-                (space, os.path.abspath(init) if learned else init, iterations, warm_stage))
+                (space, os.path.abspath(init) if learned else init, iterations, warm_stage, optimize_phases))
     records, _ = run_stage(task, items, f"learn dataset {os.path.basename(output)}", output=output,
                            identity={"stage": "learn dataset", "seed": seed, **settings}, inputs=inputs, jobs=jobs,
                            scheduler=scheduler, resume=resume, overwrite=overwrite,
@@ -156,13 +158,14 @@ def _filtered(report: dict) -> str:
               help="Hidden layers of the later networks (more tasks pass the filter).")
 @click.option("--weights", "weights_path", type=click.Path(dir_okay=False), default=None,
               help="YAML of W per category, eq. (3).")
+@optimize_phases_opt
 @click.option("-o", "--output", required=True, type=click.Path(file_okay=False),
               help="Directory of the cycle's artefacts: dataset_0.h5, init_1.h5, dataset_1.h5, ..., cycles.json.")
 @overwrite_opt
 @batch_opts
 @verbosity_opts
 def cycle_cmd(space_path, cycles, count, seed, heuristic_iterations, learned_iterations, g_max, hidden, hidden_later,
-              weights_path, output, overwrite, jobs, scheduler, resume):
+              weights_path, optimize_phases, output, overwrite, jobs, scheduler, resume):
     """Algorithm 1 (TRAININITIALIZER): Y ← solve(A_h(X); N_h), then K times filter, train, Y ← solve(A_θ(X); N_θ).
 
     Each cycle trains on every task's best converged outcome so far (all earlier datasets), so a
@@ -202,7 +205,7 @@ def cycle_cmd(space_path, cycles, count, seed, heuristic_iterations, learned_ite
         if not done(dataset):
             _dataset(space, space_path, count, seed, paths[2 * k - 1] if k else "heuristic",
                      learned_iterations if k else heuristic_iterations, dataset, overwrite=overwrite, jobs=jobs,
-                     scheduler=scheduler, resume=resume)
+                     scheduler=scheduler, resume=resume, optimize_phases=optimize_phases)
         rows.append(cycle_row(k, dataset))
         status("cycle {cycle}: {init}, success {success_rate:.0%}, median iterations {median_iterations:g}, "
                "cost median {cost_median:.4g} / p90 {cost_p90:.4g} / max {cost_max:.4g}".format(**rows[-1]))

@@ -154,5 +154,9 @@ warm_stage_opt = click.option(
     "--warm-stage", type=click.Choice(["costs", "projection"]), default="costs", show_default=True,
     help="From a learned --init: optimize the costs under the constraints (costs), or only project the "
          "network's guess onto the constraints (projection: fewer iterations, the cost not optimized).")
+optimize_phases_opt = click.option(
+    "--optimize-phases", is_flag=True,
+    help="Optimize the phase durations of every foot too (2 more variables per footstep); without it the "
+         "gait's timing, or a learned --init's predicted one, stays fixed.")
 json_opt = click.option("--json", "as_json", is_flag=True, help="Machine-readable JSON on stdout.")
 input_artefact = click.Path(exists=False, dir_okay=False)

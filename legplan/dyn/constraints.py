@@ -29,7 +29,8 @@ import scipy.sparse as sp
 from legplan.dyn.euler import body_rates, complex_step, rotation
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.terrain import TerrainModel
-from legplan.dyn.timing import PHASES, PhaseTiming, TimedControlPoints, TimedSamples, phase_jacobian, refresh
+from legplan.dyn.timing import (PHASES, PhaseTiming, TimedControlPoints, TimedSamples, invalid_timing, phase_jacobian,
+                                refresh)
 from legplan.geometry.hermite import SampledJacobian, hermite_weights, kron_dim
 from legplan.robots.so3 import skew
 from legplan.solve import ResidualBlock
@@ -40,14 +41,6 @@ GRAVITY = 9.81
 
 def _nodes(v: np.ndarray) -> np.ndarray:
     return np.asarray(v).reshape(-1, 3)
-
-
-def _invalid(block, jacobians: bool):
-    """NaN rows at phase durations that leave a segment without time (a trial step of the solver,
-    which then rejects it)."""
-    if jacobians:
-        raise ValueError(f"{type(block).__name__}: Jacobians requested at phase durations that are no timing")
-    return np.full(block.size, np.nan), None
 
 
 class DynamicsBlock(ResidualBlock):
@@ -99,7 +92,7 @@ class DynamicsBlock(ResidualBlock):
 
     def evaluate(self, values, jacobians):
         if self.timing is not None and not self._retime(values[4]):
-            return _invalid(self, jacobians)
+            return invalid_timing(self, jacobians)
         lin, ang, feet, forces = (_nodes(v) for v in values[:4])
         p0, p1, p2 = (m @ lin for m in self.base)
         e, ed, edd = (m @ ang for m in self.base)
@@ -167,7 +160,7 @@ class RangeOfMotionBlock(ResidualBlock):
 
     def evaluate(self, values, jacobians):
         if self.timing is not None and not self._retime(values[3]):
-            return _invalid(self, jacobians)
+            return invalid_timing(self, jacobians)
         lin, ang, feet = (_nodes(v) for v in values[:3])
         p, e, q = self.base @ lin, self.base @ ang, self.foot @ feet
         if not jacobians:
@@ -213,7 +206,7 @@ class FootTerrainBlock(ResidualBlock):
 
     def evaluate(self, values, jacobians):
         if self.samples is not None and not self._retime(values[1]):
-            return _invalid(self, jacobians)
+            return invalid_timing(self, jacobians)
         q = self.matrix @ _nodes(values[0])
         if not jacobians:
             return self._row(q), None
@@ -280,7 +273,7 @@ class ForceBlock(ResidualBlock):
 
     def evaluate(self, values, jacobians):
         if self.samples is not None and not self._retime(values[2]):
-            return _invalid(self, jacobians)
+            return invalid_timing(self, jacobians)
         q, f = self.foot @ _nodes(values[0]), self.force @ _nodes(values[1])
         if not jacobians:
             return self._rows(f, q).reshape(-1), None
@@ -377,7 +370,7 @@ class BaseAboveFeetBlock(ResidualBlock):
         if self.timing is not None:
             changed, valid = refresh(self.samples, values[2])
             if not valid:
-                return _invalid(self, jacobians)
+                return invalid_timing(self, jacobians)
             if changed:
                 self._stack()
         r = self.base @ values[0] - self.feet @ values[1]

@@ -32,6 +32,7 @@ import scipy.sparse as sp
 from legplan.dyn.euler import complex_step
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.terrain import TerrainModel
+from legplan.dyn.timing import invalid_timing
 from legplan.geometry.hermite import NodeSpline, SampledJacobian, hermite_gram
 from legplan.solve import ResidualBlock
 from legplan.solve.blocks import LinearBlock
@@ -184,7 +185,7 @@ class TimedForceIntegralBlock(ResidualBlock):
             t0, t1 = self.timing.segment_ends("force", leg, d)
             h = (t1 - t0)[k]
             if np.any(h <= 1e-6):
-                return np.full(self.size, np.nan), None
+                return invalid_timing(self, jacobians)
             c = np.stack([nodes[a, 0], nodes[a, 1], nodes[b, 0], nodes[b, 1]], axis=1)[:, :, self.axes]  # (K, 4, A)
             if self.normal_force:
                 mids = 0.5 * (t0 + t1)[k]

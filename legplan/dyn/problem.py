@@ -103,7 +103,8 @@ class DynParams:
     """Optimize the phase durations too (`legplan.dyn.timing`: 2S more variables), from the gait's
     timing or the guess's; the swing samples move with their swing, the other samples stay at their
     times. TOWR's swing constraint (`towr_swing`) then keeps the swing durations of the timing it
-    was built at."""
+    was built at. A guess with durations (a previous stage's, or a network's that predicts them)
+    sets the timing either way: without this, the plan keeps it fixed (the paper's Fig. 8, dotted)."""
     phase_min: float = 0.2
     """s: the shortest phase of a foot when the durations are optimized (TOWR's lower bound)."""
     iteration_budget: int | None = None
@@ -185,18 +186,18 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     start, goal = task_poses(task, model, terrain)
     feet0 = start_feet(model, start, terrain)
     guess = initializer(form, model, terrain, start, goal, feet0)
-    timing = None
-    if params.optimize_phases:  # the guess's durations (a previous stage's), else the gait's
-        timing = PhaseTiming(form, params.phase_min)
-        if PHASES in guess:
-            form = timing.formulation(guess[PHASES])
-            timing = PhaseTiming(form, params.phase_min)
+    durations = None
+    if PHASES in guess or params.optimize_phases:  # a previous stage's or a network's timing, optimized
+        gait_timing = PhaseTiming(form, params.phase_min)  # from or kept at; or the gait's, in the bounds
+        durations = gait_timing.admissible(guess.get(PHASES, gait_timing.initial()))
+        form = gait_timing.formulation(durations)
+    timing = PhaseTiming(form, params.phase_min) if params.optimize_phases else None
     problem = Problem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess),
                       timing=timing)
     times = sample_times(form, params)
     k = problem.constraints
     if timing is not None:
-        problem.variables.append(timing.variable(guess.get(PHASES)))
+        problem.variables.append(timing.variable(durations))
         k.append(Constraint(timing.last_phase_block(), params.phase_min, np.inf, name="last_phase", scale=1.0 / LENGTH))
     weight = model.mass * GRAVITY
     k.append(Constraint(DynamicsBlock(form, model.mass, model.inertia, times["dynamics"], timing), name="dynamics",

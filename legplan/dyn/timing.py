@@ -67,7 +67,18 @@ class PhaseTiming:
 
     def initial(self) -> np.ndarray:
         """The durations of the formulation's own phases (the gait's, or those it was retimed to)."""
-        return np.concatenate([[p.duration for p in foot.phases[:-1]] for foot in self.form.feet])
+        return foot_durations(self.form)
+
+    def admissible(self, d: np.ndarray) -> np.ndarray:
+        """d with every phase at least `minimum` long, each foot's last one included (a foot whose
+        durations leave less is scaled down): a network's prediction made a timing."""
+        d = np.maximum(np.asarray(d, float), self.minimum)
+        for leg in range(len(self.counts)):
+            part = d[self.offsets[leg]:self.offsets[leg + 1]]
+            room = self.duration - self.minimum
+            if part.sum() > room:
+                part *= room / part.sum()
+        return d
 
     def variable(self, value: np.ndarray | None = None) -> VariableBlock:
         return VariableBlock(PHASES, self.initial() if value is None else value, lower=self.minimum)
@@ -101,6 +112,12 @@ class PhaseTiming:
                                                                  len(foot.phases) - 1)]
             for foot, b in zip(self.form.feet, bounds)])
         return Gait(self.form.gait.name, np.diff(events), stance)
+
+
+def foot_durations(form: Formulation) -> np.ndarray:
+    """The ``phases`` values of a formulation's own timing: per foot, the durations of all its
+    phases but the last."""
+    return np.concatenate([[p.duration for p in foot.phases[:-1]] for foot in form.feet])
 
 
 def _between(a, b, s: float):
@@ -232,6 +249,14 @@ def refresh(samples, d: np.ndarray) -> tuple[bool, bool]:
     """Move every sampler to the durations d: (any changed, all valid)."""
     changed = [s.refresh(d) for s in samples]
     return any(changed), all(s.valid for s in samples)
+
+
+def invalid_timing(block, jacobians: bool):
+    """The (residual, Jacobians) of a block at phase durations that leave a segment without time: NaN
+    rows (a trial step of the solver, which rejects it); Jacobians there are an error."""
+    if jacobians:
+        raise ValueError(f"{type(block).__name__}: Jacobians requested at phase durations that are no timing")
+    return np.full(block.size, np.nan), None
 
 
 def phase_jacobian(terms, rows: int, size: int) -> sp.csr_matrix:

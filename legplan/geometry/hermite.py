@@ -130,20 +130,19 @@ class NodeSpline:
 
     def matrix_at(self, seg: np.ndarray, fraction: np.ndarray, derivative: int = 0) -> sp.csr_matrix:
         """`matrix` of samples given by their segment and the fraction s ∈ [0, 1] of it."""
-        rows, cols, vals = [], [], []
-        frac = np.asarray(fraction, float)
-        for k in np.unique(seg):
-            s = self.segments[k]
-            idx = np.flatnonzero(seg == k)
-            if s.constant:
-                if derivative == 0:
-                    rows.append(idx), cols.append(np.full(idx.size, 2 * s.a)), vals.append(np.ones(idx.size))
-                continue
-            w = hermite_weights(frac[idx], s.t1 - s.t0, derivative)
-            c = np.array([2 * s.a, 2 * s.a + 1, 2 * s.b, 2 * s.b + 1])
-            rows.append(np.repeat(idx, 4)), cols.append(np.tile(c, idx.size)), vals.append(w.reshape(-1))
-        if not rows:
-            return sp.csr_matrix((frac.size, 2 * self.nodes))
+        seg = np.asarray(seg, int).reshape(-1)
+        frac = np.asarray(fraction, float).reshape(-1)
+        a = np.array([s.a for s in self.segments])[seg]
+        b = np.array([s.b for s in self.segments])[seg]
+        hermite = b >= 0
+        idx = np.flatnonzero(hermite)
+        w = hermite_weights(frac[idx], (self.ends - self.starts)[seg[idx]], derivative)
+        cols = np.stack([2 * a[idx], 2 * a[idx] + 1, 2 * b[idx], 2 * b[idx] + 1], axis=1)
+        rows, vals = [np.repeat(idx, 4)], [w.reshape(-1)]
+        cols = [cols.reshape(-1)]
+        if derivative == 0:  # a constant segment holds its node's value; its derivatives vanish
+            const = np.flatnonzero(~hermite)
+            rows.append(const), cols.append(2 * a[const]), vals.append(np.ones(const.size))
         m = sp.coo_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
                           shape=(frac.size, 2 * self.nodes))
         return m.tocsr()

@@ -14,7 +14,9 @@ and violation. An item that raised is recorded with its reason and y of NaN.
 dataset.h5 (kind "dataset"): per task (rows in task order) `x` (n, 6, `space.X_NAMES`), `y` (n, |y|,
 `layout`), `cost` g(y) (the space's weighted cost terms at y, as `plan` reports them), `max_violation`,
 `iterations`, `seconds` (solve time), `success`, `reason`, `tasks` (n, 6: start x, y, yaw, goal x,
-y, yaw); `layout/<category>` sizes; the space as the `space` attribute (JSON).
+y, yaw); `layout/<category>` sizes; the space as the `space` attribute (JSON). y holds the phase
+durations (`legplan.learn.layout`) when the tasks were solved with them optimized (`--optimize-phases`)
+or from a network that predicts them (then kept fixed at its values).
 """
 
 from __future__ import annotations
@@ -25,19 +27,20 @@ from dataclasses import replace
 import numpy as np
 
 from legplan.errors import LegplanError
-from legplan.learn.layout import CATEGORIES, join, layout_of
+from legplan.learn.layout import CATEGORIES, join, layout_of, read_layout
 from legplan.learn.space import X_NAMES, TaskSpace, load_terrain_map, sample_tasks, task_vector
 
 KIND = "dataset"
 
 
-def solver_params(costs: str, iterations: int | None, warm_stage: str = "costs"):
+def solver_params(costs: str, iterations: int | None, warm_stage: str = "costs", optimize_phases: bool = False):
     """The planner parameters of the space's costs with at most `iterations` LM iterations for the
-    whole plan (`DynParams.iteration_budget`: Algorithm 1's N; None: the planner's own caps) and
-    `DynParams.warm_stage` from a learned guess."""
+    whole plan (`DynParams.iteration_budget`: Algorithm 1's N; None: the planner's own caps),
+    `DynParams.warm_stage` from a learned guess and `DynParams.optimize_phases`."""
     from legplan.dyn.settings import dyn_params
 
-    return replace(dyn_params(costs), iteration_budget=iterations, warm_stage=warm_stage)
+    return replace(dyn_params(costs), iteration_budget=iterations, warm_stage=warm_stage,
+                   optimize_phases=optimize_phases)
 
 
 def initializer_of(init: str):
@@ -67,14 +70,15 @@ def check_init(init: str, space: TaskSpace) -> None:
 class DatasetWorker:
     """What a worker loads once: the centroidal model, the space's terrain, parameters, initializer."""
 
-    def __init__(self, space: TaskSpace, init: str, iterations: int | None, warm_stage: str = "costs"):
+    def __init__(self, space: TaskSpace, init: str, iterations: int | None, warm_stage: str = "costs",
+                 optimize_phases: bool = False):
         from legplan.dyn.tasks import centroidal_model
         from legplan.dyn.terrain import TerrainModel
         from legplan.robots import load_robot
 
         self.model = centroidal_model(load_robot(space.robot))
         self.terrain = TerrainModel(load_terrain_map(space))
-        self.params = solver_params(space.costs, iterations, warm_stage)
+        self.params = solver_params(space.costs, iterations, warm_stage, optimize_phases)
         self.initializer = initializer_of(init)
 
 
@@ -92,15 +96,24 @@ def dataset_items(space: TaskSpace, n: int, seed: int) -> list[tuple[int, object
 def solve_item(worker: DatasetWorker, item) -> dict:
     """Solve one task (`legplan.batch.Task`'s per-item function) and return its record."""
     from legplan.dyn.planner import plan
+    from legplan.dyn.timing import PHASES, foot_durations
 
     index, task, x = item
     result = plan(task, worker.model, worker.terrain, worker.params, worker.initializer)
-    values = result.solve.values  # the solution (the problem's blocks hold the last stage's start)
+    values = dict(result.solve.values)  # the solution (the problem's blocks hold the last stage's start)
+    with_phases = worker.params.optimize_phases or predicts_phases(worker.initializer)
+    if with_phases:  # the timing the nodes belong to (optimized, or the network's kept fixed)
+        values[PHASES] = foot_durations(result.problem.form)
     return {"index": index, "x": x, "task": np.array([*task.start, *task.goal]), "y": join(values),
-            "layout": np.array([layout_of(result.problem.form)[c] for c in CATEGORIES]),
+            "layout": np.array([layout_of(result.problem.form, with_phases)[c] for c in CATEGORIES]),
             "success": bool(result.success), "reason": result.reason, "cost": float(result.solve.cost),
             "max_violation": float(result.solve.max_violation), "iterations": int(result.solve.iterations),
             "seconds": float(result.solve.timings.total)}
+
+
+def predicts_phases(initializer) -> bool:
+    """Whether an initializer's guesses carry phase durations (a network trained with them)."""
+    return getattr(initializer, "layout", {}).get("phases", 0) > 0
 
 
 def failed_item(item, reason: str) -> dict:
@@ -160,7 +173,7 @@ def read_dataset(path) -> dict:
         data = {"x": read_array(f, "x", ndim=2)}  # task vectors are always finite; outcomes may be NaN
         data.update({name: read_array(f, name, finite=False) for name in
                      ("y", "cost", "max_violation", "iterations", "seconds", "success")})
-        data["layout"] = {name: int(read_array(f, f"layout/{name}", ndim=0)) for name in CATEGORIES}
+        data["layout"] = read_layout(f)
         data["space"] = json.loads(f.attrs["space"])
     return data
 

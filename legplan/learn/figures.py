@@ -57,10 +57,10 @@ def init_figure(path: Path, png: Path) -> str:
     with open_artefact(path, kind="init") as handle:
         report = read_summary(handle)
     value = lambda key: report.get(key, (np.nan, ""))[0]  # noqa: E731
-    rms = [value(f"rms_{c}") for c in CATEGORIES]
+    names = [c for c in CATEGORIES if f"rms_{c}" in report]  # the categories the network predicts
     fig = Figure(figsize=(6.0, 3.0), layout="constrained")
     ax = fig.subplots()
-    ax.bar(CATEGORIES, rms, color="tab:purple")
+    ax.bar(names, [value(f"rms_{c}") for c in names], color="tab:purple")
     ax.set(ylabel="RMS error (SI units)", yscale="log", title="network vs solutions, validation tasks")
     ax.tick_params(axis="x", labelrotation=20)
     fig.savefig(png, dpi=90)

@@ -14,7 +14,7 @@
   constant rule kept 616 of 905 converged Heuristic outcomes and 59 % of the tasks starting over
   1.3 m behind the goal, the conditional one 867 and 95 % (ĝ explains R² = 0.64 of the cost).
 * Fit, eq. (3): θ = argmin Σ ‖A_θ x − y‖²_W with W = diag(w_c / σ_c²) for an output of category c
-  (`CATEGORIES`: base linear, base angular, feet, forces; phase durations are not variables here):
+  (`CATEGORIES`: base linear, base angular, feet, forces, phase durations when they were optimized):
   w_c > 0 its weight, σ_c the category's RMS standard deviation in D_good, so each category's error
   is measured in its own units at a comparable scale. (Per-output σ_j made outputs that hardly vary
   in the training tasks, e.g. near-fixed nodes, dominate the validation loss: 1e5 on 14 tasks.)
@@ -38,7 +38,7 @@ from pathlib import Path
 import numpy as np
 
 from legplan.errors import LegplanError, SpecError
-from legplan.learn.layout import CATEGORIES, category_index, check_layout, layout_of, split
+from legplan.learn.layout import CATEGORIES, category_index, check_layout, layout_of, read_layout, split
 from legplan.learn.space import task_vector
 
 log = logging.getLogger(__name__)
@@ -46,9 +46,10 @@ log = logging.getLogger(__name__)
 KIND = "init"
 MAD_SIGMA = 1.4826  # MAD of a normal distribution × this = its standard deviation
 TAIL_SIGMAS = 3.0
-DEFAULT_WEIGHTS = {"base_lin": 2.0, "base_ang": 1.0, "feet": 1.0, "forces": 2.0}
-"""W per category: the paper found base positions and forces the most crucial to initialize well, and
-its best weights "coarsely tuned" with all categories included; these follow that, untuned here."""
+DEFAULT_WEIGHTS = {"base_lin": 2.0, "base_ang": 1.0, "feet": 1.0, "forces": 2.0, "phases": 2.0}
+"""W per category: the paper found base positions, phase durations and forces the most crucial to
+initialize well, and its best weights "coarsely tuned" with all categories included; these follow
+that, untuned here."""
 ACTIVATIONS = {"tanh": np.tanh, "relu": lambda a: np.maximum(a, 0.0), "identity": lambda a: a}
 
 
@@ -182,7 +183,8 @@ def fit(x: np.ndarray, y: np.ndarray, layout: dict[str, int], weights: dict[str,
     in_offset, in_scale = _scale(x[train])
     y_mean = y[train].mean(axis=0)
     cats = category_index(layout)
-    sigma = np.sqrt(np.bincount(cats, y[train].var(axis=0), len(CATEGORIES)) / np.bincount(cats, None, len(CATEGORIES)))
+    counts = np.maximum(np.bincount(cats, None, len(CATEGORIES)), 1)  # an empty category: no outputs
+    sigma = np.sqrt(np.bincount(cats, y[train].var(axis=0), len(CATEGORIES)) / counts)
     sigma = np.where(sigma > 0, sigma, 1.0)
     out_scale = (sigma / np.sqrt([weights[c] for c in CATEGORIES]))[cats]
     model = MLPRegressor(hidden_layer_sizes=hidden, activation="tanh", solver="adam", max_iter=max_iter,
@@ -203,7 +205,8 @@ def fit(x: np.ndarray, y: np.ndarray, layout: dict[str, int], weights: dict[str,
     cats = category_index(layout)
     report = {"train_tasks": len(train), "validation_tasks": len(val), "train_loss": weighted_mse(train),
               "validation_loss": weighted_mse(val), "fit_iterations": int(model.n_iter_),
-              **{f"rms_{c}": float(np.sqrt(np.mean(err[:, cats == k] ** 2))) for k, c in enumerate(CATEGORIES)}}
+              **{f"rms_{c}": float(np.sqrt(np.mean(err[:, cats == k] ** 2))) for k, c in enumerate(CATEGORIES)
+                 if layout[c] > 0}}
     return net, report, model
 
 
@@ -238,7 +241,7 @@ def load_init(path) -> tuple[Network, dict[str, int], dict]:
         net = Network([read_array(f, f"network/layer_{k}/weights", ndim=2) for k in range(layers)],
                       [read_array(f, f"network/layer_{k}/biases", ndim=1) for k in range(layers)], activation,
                       *(read_array(f, f"normalization/{n}", ndim=1) for n in ("in_offset", "in_scale", "out_offset", "out_scale")))
-        layout = {name: int(read_array(f, f"layout/{name}", ndim=0)) for name in CATEGORIES}
+        layout = read_layout(f)
         space = json.loads(f.attrs["space"])
     return net, layout, space
 
@@ -281,10 +284,10 @@ class LearnedInit:
         from legplan.dyn.formulation import Formulation
         from legplan.dyn.gait import make_gait
 
-        check_layout(self.layout, layout_of(Formulation(make_gait(task.gait, task.strides, task.duration), dt)),
-                     self.path)
+        check_layout(self.layout, layout_of(Formulation(make_gait(task.gait, task.strides, task.duration), dt),
+                                            phases=True), self.path)
 
     def __call__(self, form, model, terrain, start, goal, start_feet) -> dict[str, np.ndarray]:
-        check_layout(self.layout, layout_of(form), self.path)
+        check_layout(self.layout, layout_of(form, phases=True), self.path)
         x = task_vector((*start.position[:2], start.euler[2]), (*goal.position[:2], goal.euler[2]))
         return split(self.net.predict(x), self.layout)

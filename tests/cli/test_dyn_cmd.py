@@ -76,6 +76,28 @@ def test_plan_writes_the_traj_artefact(planned):
     assert summary["check_base_height"][0] > 0.3  # a minimum: the base stays above the ground
 
 
+def test_plan_with_optimized_phase_durations(planned, tmp_path):
+    """--optimize-phases: recorded in the params, 2S = 28 more variables than the fixed-timing run
+    (14 footsteps), phase durations of the plan's own summing to T, and the check passed."""
+    _, map_path, fixed = planned
+    out = tmp_path / "phases.h5"
+    result = invoke("dyn", "plan", map_path, *TROT, "--optimize-phases", "-o", out, "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    with h5py.File(fixed, "r") as f:
+        fixed_variables = int(f["tasks/0000"].attrs["variables"])
+        fixed_durations = f["tasks/0000/phases/durations"][()]
+        assert json.loads(f.attrs["params"])["dyn"]["optimize_phases"] is False
+    with h5py.File(out, "r") as f:
+        assert json.loads(f.attrs["params"])["dyn"]["optimize_phases"] is True
+        task = f["tasks/0000"]
+        assert task.attrs["success"]
+        assert task.attrs["variables"] == fixed_variables + 28
+        durations = task["phases/durations"][()]
+        assert durations.sum() == pytest.approx(2.4) and durations.min() > 0
+        assert durations.shape != fixed_durations.shape or not np.allclose(durations, fixed_durations)
+        assert task["check"].attrs["passed"]
+
+
 def check_value(path, metric):
     with h5py.File(path, "r") as f:
         return float(f[f"tasks/0000/check/{metric}"][()])

@@ -1,6 +1,8 @@
 """Every constraint and cost block of the centroidal problem against finite differences, and the
 closed-form cost integrals against numerical quadrature of the sampled splines."""
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 
@@ -8,6 +10,7 @@ from legplan.dyn.costs import CostWeights, integral_costs
 from legplan.dyn.euler import body_rates, complex_step, rotation, world_rates
 from legplan.dyn.init import heuristic
 from legplan.dyn.problem import PAPER_COSTS, DynParams, DynTask, build_problem
+from legplan.dyn.timing import PHASES
 from legplan.solve import check_jacobian
 
 
@@ -16,31 +19,83 @@ def _perturbed(problem, seed=0, scale=0.02):
     return {b.name: b.value + scale * rng.standard_normal(b.size) for b in problem.variables}
 
 
+PALLET_TASK = DynTask((-0.3, 0.1, 0.2), (0.9, 0.0, 0.0), "walk", 2, 3.0)
+PALLET_PARAMS = DynParams(costs=PAPER_COSTS, swing_height_min=0.05, base_clearance=0.3, towr_swing=True)
+# the blocks that sample feet or forces in time, which read the phase durations when optimized
+TIMED_CONSTRAINTS = {"dynamics", "range_of_motion", "swing_above_terrain", "force", "base_clearance", "last_phase"}
+TIMED_COSTS = {"force", "force_rate", "normal_force"}
+
+
 @pytest.fixture(scope="module")
 def pallet_problem(anymal, step):
-    params = DynParams(costs=PAPER_COSTS, swing_height_min=0.05, base_clearance=0.3, towr_swing=True)
-    return build_problem(DynTask((-0.3, 0.1, 0.2), (0.9, 0.0, 0.0), "walk", 2, 3.0), anymal, step, params, heuristic)
+    return build_problem(PALLET_TASK, anymal, step, PALLET_PARAMS, heuristic)
 
 
-def test_every_constraint_block_matches_finite_differences(pallet_problem):
-    values = _perturbed(pallet_problem)
+@pytest.fixture(scope="module")
+def timed_pallet_problem(anymal, step):
+    """The same problem with the phase durations as variables (`DynParams.optimize_phases`)."""
+    return build_problem(PALLET_TASK, anymal, step, replace(PALLET_PARAMS, optimize_phases=True), heuristic)
+
+
+both_timings = pytest.mark.parametrize("problem_name", ["pallet_problem", "timed_pallet_problem"],
+                                       ids=["fixed_timing", "optimize_phases"])
+
+
+@both_timings
+def test_every_constraint_block_matches_finite_differences(request, problem_name):
+    """Every constraint block's Jacobian (the phases' too when optimized) against finite differences."""
+    problem = request.getfixturevalue(problem_name)
+    values = _perturbed(problem)
     names = set()
-    for k in pallet_problem.constraints:
+    for k in problem.constraints:
         report = check_jacobian(k.block, {v: values[v] for v in k.block.variables})
         assert report.ok(atol=1e-5, rtol=1e-4), (k.name, report)
         names.add(k.name)
     assert {"dynamics", "range_of_motion", "stance_on_terrain", "swing_above_terrain", "force",
             "acceleration_continuity", "swing", "swing_height", "base_clearance", "stance_off_edges"} <= names
+    reading = {k.name for k in problem.constraints if PHASES in k.block.variables}
+    if problem.timing is None:
+        assert not reading and "last_phase" not in names
+    else:  # every block of those names reads the durations, no other block does
+        assert "last_phase" in names and reading == TIMED_CONSTRAINTS
+        assert all(PHASES in k.block.variables for k in problem.constraints if k.name in TIMED_CONSTRAINTS)
 
 
-def test_every_cost_block_matches_finite_differences(pallet_problem):
-    values = _perturbed(pallet_problem, seed=1)
-    names = {name for name, _, _ in pallet_problem.costs}
+@both_timings
+def test_every_cost_block_matches_finite_differences(request, problem_name):
+    """Every cost block's Jacobian (the phases' too when optimized) against finite differences."""
+    problem = request.getfixturevalue(problem_name)
+    values = _perturbed(problem, seed=1)
+    names = {name for name, _, _ in problem.costs}
     assert {"base_z_velocity", "base_angular_velocity", "force", "force_rate", "normal_force", "stair_edge",
             "swing_height"} <= names
-    for name, block, _ in pallet_problem.costs:
+    for name, block, _ in problem.costs:
         report = check_jacobian(block, {v: values[v] for v in block.variables})
         assert report.ok(atol=1e-6, rtol=1e-5), (name, report)
+    reading = {name for name, block, _ in problem.costs if PHASES in block.variables}
+    assert reading == (set() if problem.timing is None else TIMED_COSTS)
+
+
+@pytest.mark.parametrize("perturb", [False, True], ids=["initial", "perturbed_nodes"])
+def test_timed_costs_equal_the_fixed_timing_costs_at_the_same_timing(pallet_problem, timed_pallet_problem, perturb):
+    """At the gait's own durations the costs of the timed problem (`TimedForceIntegralBlock`: another
+    factor of the same quadratic form) equal the fixed-timing problem's, term by term."""
+    from legplan.solve.auglag import evaluate_costs
+
+    values = {b.name: b.value.copy() for b in timed_pallet_problem.variables}
+    np.testing.assert_allclose(values[PHASES], timed_pallet_problem.timing.initial(), atol=1e-12)
+    fixed = {b.name: b.value for b in pallet_problem.variables}
+    for name, value in fixed.items():
+        np.testing.assert_array_equal(values[name], value)
+    if perturb:
+        nodes = _perturbed(pallet_problem, seed=4, scale=0.5)
+        values.update({name: nodes[name] for name in fixed})
+    timed, plain = evaluate_costs(timed_pallet_problem.costs, values), evaluate_costs(pallet_problem.costs, values)
+    assert set(timed) == set(plain)
+    for name in plain:
+        assert timed[name] == pytest.approx(plain[name], rel=1e-9, abs=1e-300), name
+    assert sum(timed.values()) == pytest.approx(sum(plain.values()), rel=1e-9)
+    assert all(timed[name] > 0 for name in TIMED_COSTS)
 
 
 def _quadrature(form, values, fn, n=20001):

@@ -154,3 +154,48 @@ def test_range_refinement_of_a_plan_with_costs_keeps_its_cost_terms(anymal, flat
         assert result.solve.cost_terms[name] == pytest.approx(value, rel=1e-9)
     assert result.solve.cost == pytest.approx(sum(result.solve.cost_terms.values()), rel=1e-12)
     assert result.solve.cost > 0.0
+
+
+def test_optimized_phase_durations_give_a_checked_plan_on_their_own_timing(anymal, flat):
+    """optimize_phases: the flat trot converges with durations of its own (at least `phase_min`
+    each, the last of every foot included, summing to T), the plan is sampled on that timing (contact
+    flags from the optimized durations, no force off contact) and passes the independent check."""
+    from legplan.dyn.gait import make_gait
+    from legplan.dyn.timing import PHASES
+    from legplan.robots import load_robot
+    from legplan.terrain import Grid2D, terrain_from_heightmap
+    from legplan.validate.centroidal import check_trajectory
+
+    task = DynTask((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), "trot", 4, 2.4)
+    params = replace(DynParams(), optimize_phases=True)
+    r = plan(task, anymal, flat, params)
+    assert r.success, r.reason
+    form, timing = r.problem.form, r.problem.timing
+    gait = make_gait("trot", 4, 2.4)
+    durations = form.gait.durations
+    assert durations.sum() == pytest.approx(2.4, abs=1e-9)
+    assert not (durations.shape == gait.durations.shape and np.allclose(durations, gait.durations, atol=1e-6))
+    d = r.solve.values[PHASES]
+    assert d.size == 2 * gait.footsteps == timing.size
+    assert d.min() >= params.phase_min - 1e-9
+    last = np.array([task.duration - timing.leg_durations(d, leg).sum() for leg in range(form.legs)])
+    assert last.min() >= params.phase_min - 1e-3
+
+    s = r.samples
+    t = s["t"]
+    assert np.diff(t)[:-1] == pytest.approx(np.full(t.size - 2, 0.01))
+    np.testing.assert_array_equal(s["contact"], form.gait.contact(t))
+    for leg in range(form.legs):  # the flags again from the durations alone: stance, swing, ..., stance
+        bounds = np.concatenate([[0.0], np.cumsum(timing.leg_durations(d, leg))])
+        phase = np.searchsorted(bounds, t, side="right") - 1
+        away = np.abs(t[:, None] - bounds[None, 1:]).min(axis=1) > 1e-9
+        np.testing.assert_array_equal(s["contact"][away, leg], phase[away] % 2 == 0)
+    assert not np.array_equal(s["contact"], gait.contact(t))  # not the gait's timing
+    swing = ~s["contact"]
+    assert swing.any() and np.linalg.norm(s["forces"][swing], axis=-1).max() < 1e-6
+
+    grid = Grid2D(origin=(-1.5, -1.0), resolution=0.02, shape=(101, 176))  # the `flat` fixture's map
+    terrain_map = terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat")
+    check = check_trajectory(s, anymal, terrain_map, load_robot("anymal"), node_times=form.knots)
+    assert check.ok, {name: check.worst[name] for name, ok in check.passed.items() if not ok}
+    assert _newton_euler_at_knots(r, anymal) <= 1e-3

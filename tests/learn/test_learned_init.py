@@ -35,7 +35,7 @@ def test_learned_initializer_plans_a_flat_trot(anymal, flat, init_h5):
     task = DynTask((-0.45, 0.05, 0.1), (0.0, 0.0, 0.0), "trot", 2, 2.4)
     guess = build_problem(task, anymal, flat, DynParams(), learned)
     reference = build_problem(task, anymal, flat, DynParams(), heuristic)
-    for name in CATEGORIES:  # it learned the Heuristic: same guess up to the fit
+    for name in (c for c in CATEGORIES if learned.layout[c]):  # it learned the Heuristic: same guess up to the fit
         mine = next(b.value for b in guess.variables if b.name == name)
         theirs = next(b.value for b in reference.variables if b.name == name)
         assert np.max(np.abs(mine - theirs)) < 0.1 * max(1.0, np.abs(theirs).max())

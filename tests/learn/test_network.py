@@ -8,7 +8,8 @@ from legplan.errors import LegplanError
 from legplan.learn.layout import CATEGORIES, check_layout, join, split
 from legplan.learn.network import DEFAULT_WEIGHTS, Network, auto_g_max, filter_good, fit, load_init, save_init
 
-LAYOUT = {"base_lin": 3, "base_ang": 2, "feet": 2, "forces": 1}
+LAYOUT = {"base_lin": 3, "base_ang": 2, "feet": 2, "forces": 1, "phases": 0}
+WITH_PHASES = {**LAYOUT, "phases": 2}
 
 
 def test_auto_g_max_starts_the_tail_of_a_long_tailed_distribution():
@@ -62,11 +63,32 @@ def test_auto_filter_finds_the_poor_minima_of_every_task_distance_with_the_task_
 
 def test_join_split_round_trip():
     y = np.arange(8.0)
-    parts = split(y, LAYOUT)
-    assert list(parts) == list(CATEGORIES) and parts["forces"].tolist() == [7.0]
+    parts = split(y, LAYOUT)  # no phase durations: no such entry (the gait's timing stays)
+    assert list(parts) == [c for c in CATEGORIES if c != "phases"] and parts["forces"].tolist() == [7.0]
+    assert np.array_equal(join(parts), y)
+    y = np.arange(10.0)
+    parts = split(y, WITH_PHASES)
+    assert list(parts) == list(CATEGORIES) and parts["phases"].tolist() == [8.0, 9.0]
     assert np.array_equal(join(parts), y)
     with pytest.raises(LegplanError, match="layout/feet"):
         check_layout(LAYOUT, {**LAYOUT, "feet": 4}, "init.h5")
+    check_layout(LAYOUT, WITH_PHASES, "init.h5")  # a network without durations fits a problem with them
+    with pytest.raises(LegplanError, match="layout/phases"):
+        check_layout({**LAYOUT, "phases": 3}, WITH_PHASES, "init.h5")
+
+
+def test_init_h5_without_the_phase_category_reads_as_predicting_none(tmp_path):
+    """Files written before the fifth category have no layout/phases."""
+    rng = np.random.default_rng(0)
+    x, y = rng.normal(size=(20, 6)), rng.normal(size=(20, 10))
+    net, report, _ = fit(x, y, WITH_PHASES, DEFAULT_WEIGHTS, (4, 4), seed=0, max_iter=5)
+    assert "rms_phases" in report
+    path = tmp_path / "init.h5"
+    save_init(path, net, WITH_PHASES, {"map": "m.yaml"}, report, {}, 0, [], False)
+    assert load_init(path)[1] == WITH_PHASES
+    with h5py.File(path, "a") as f:
+        del f["layout/phases"]
+    assert load_init(path)[1] == {**WITH_PHASES, "phases": 0}
 
 
 @pytest.fixture(scope="module")
