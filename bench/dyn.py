@@ -32,8 +32,8 @@ Side by side in one process, on TOWR's cases (issue 14's table) plus stairs:
 * The paper's Table I: CPU time of the first and the mean iteration, No Phase (our planner) and
   No Phase&Feet (the ``feet`` variable fixed at the initializer's values, whose footholds the heuristic
   already puts at the terrain height: the paper's "adapting the height to the terrain"), with and
-  without costs, on flat ground (walk 1.5 m / 3.5 s) and the single pallet (walk). "Full" (phase
-  durations optimized) is not implemented. First iteration = CPU of `solve_augmented_lagrangian` with
+  without costs, on flat ground (walk 1.5 m / 3.5 s) and the single pallet (walk), and Full (the phase
+  durations optimized too, `DynParams.optimize_phases`). First iteration = CPU of `solve_augmented_lagrangian` with
   an iteration budget of 1 from the initializer (set-up, CHOLMOD analysis and one LM step).
 
 One BLAS thread. Writes bench/results/dyn.json and replaces the `dyn` section of BENCHMARKS.md;
@@ -416,20 +416,23 @@ TABLE_ONE_BUDGET = 30  # LM iterations of the timed runs (the paper's mean is ov
 def table_one(cases, model, terrains, ours_plain, ours_costs, repeats: int):
     """Per (row, column, costs): first iteration (median of `repeats` one-iteration runs), mean
     iteration (a run capped at TABLE_ONE_BUDGET iterations), and the outcome of the full solve
-    (No Phase: the planner runs above; No Phase&Feet: `solve_feet_fixed`)."""
+    (Full: the planner with the phase durations optimized; No Phase: the planner runs above; No
+    Phase&Feet: `solve_feet_fixed`)."""
     out = {}
     for column, key in TABLE_ONE_CASES:
         case = cases[key]
         terrain = terrains[case["map"]]
         for with_costs, params in ((False, DynParams()), (True, PAPER_PARAMS)):
             tag = "with costs" if with_costs else "without costs"
-            for row_name, feet in (("No Phase", False), ("No Phase&Feet", True)):
-                first = statistics.median(budget_run(case, model, terrain, params, feet, 1)[0] for _ in range(repeats))
-                cpu, iterations = budget_run(case, model, terrain, params, feet, TABLE_ONE_BUDGET)
+            for row_name, feet, phases in (("Full", False, True), ("No Phase", False, False),
+                                           ("No Phase&Feet", True, False)):
+                run = replace(params, optimize_phases=phases)
+                first = statistics.median(budget_run(case, model, terrain, run, feet, 1)[0] for _ in range(repeats))
+                cpu, iterations = budget_run(case, model, terrain, run, feet, TABLE_ONE_BUDGET)
                 if not feet:
-                    done = (ours_costs if with_costs else ours_plain).get(key)
+                    done = None if phases else (ours_costs if with_costs else ours_plain).get(key)
                     if done is None:
-                        done = run_ours(case, model, terrain, params, 1)[1]
+                        done = run_ours(case, model, terrain, run, 1)[1]
                     full = {k: done[k] for k in ("success", "iterations", "reason", "max_violation")}
                 else:
                     full = solve_feet_fixed(case, model, terrain, params)
@@ -600,11 +603,12 @@ def markdown(result) -> str:
                    "paper's on its onboard computer. Both from the heuristic, one stage (costs from the start): "
                    "1st iter. = a solve capped at one LM iteration (Problem assembly and CHOLMOD analysis "
                    f"included), median of {min(r['repeats'], 3)}; mean = CPU ÷ iterations of a solve capped at "
-                   f"{TABLE_ONE_BUDGET} LM iterations (the paper's mean is over 100). \"Full\" (phase durations "
-                   "optimized) is not implemented here. No Phase = our formulation (feet free); No Phase&Feet = "
+                   f"{TABLE_ONE_BUDGET} LM iterations (the paper's mean is over 100). Full = the phase durations "
+                   "optimized too (`--optimize-phases`); No Phase = our formulation (feet free); No Phase&Feet = "
                    "the ``feet`` variable fixed at the heuristic's footholds (already at the terrain height, the "
                    "paper's adaptation) and swing apexes. Full solve = the outcome when run to convergence "
-                   "(No Phase: the planner runs above; No Phase&Feet: the same stages with the feet fixed).")
+                   "(Full: the planner with the durations optimized; No Phase: the planner runs above; No "
+                   "Phase&Feet: the same stages with the feet fixed).")
         out.append("")
         out.append("| variables optimized | Flat Ground 1st iter. | Flat Ground mean | Pallets 1st iter. | Pallets mean | "
                    "full solve: flat / pallets, with [without] costs | paper Flat 1st / mean | paper Pallets 1st / mean |")
@@ -631,10 +635,10 @@ def markdown(result) -> str:
         def worst(v):
             per = {k: x for k, x in (v["full_solve"].get("violations") or {}).items() if x > VIOLATION_TOL}
             return " (violated: " + ", ".join(f"{k} {x:.2g}" for k, x in per.items()) + ")" if per else ""
-        fails = [f"{k.split('|')[1]}, {k.split('|')[2]}: {v['full_solve']['reason']}{worst(v)}"
-                 for k, v in t1.items() if not v["full_solve"]["success"] and k.startswith("No Phase&Feet")]
+        fails = [f"{k.split('|')[0]}, {k.split('|')[1]}, {k.split('|')[2]}: {v['full_solve']['reason']}{worst(v)}"
+                 for k, v in t1.items() if not v["full_solve"]["success"] and not k.startswith("No Phase|")]
         if fails:
-            out.append("No Phase&Feet full-solve failures: " + "; ".join(fails) + ".")
+            out.append("Full and No Phase&Feet full-solve failures: " + "; ".join(fails) + ".")
             out.append("")
     out.append("Ipopt: " + r["ipopt"]["install"])
     return "\n".join(out)
