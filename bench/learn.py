@@ -28,8 +28,12 @@
    "No Phase"): the median over those tasks of CPU seconds ÷ iterations.
 5. Dataset throughput: tasks/s of the batch layer for every dataset computed in this run.
 
+`--phases`: Algorithm 1 with the phase durations optimized (`learn cycle --optimize-phases`): the
+Heuristic rows optimize them too, the networks predict them, and their rows keep them fixed at the
+predicted values (the paper's dotted curves of Fig. 8) except the "phases optimized" row (solid).
+
 Writes bench/results/learn.json and the learn section of BENCHMARKS.md (for another space than the single
-pallet walk: learn_<space name>.json and its own section).
+pallet walk: learn_<space name>.json and its own section; with --phases, `_phases` appended).
 """
 
 from __future__ import annotations
@@ -166,6 +170,10 @@ def main() -> None:
     parser.add_argument("--timing-tasks", type=int, default=20)
     parser.add_argument("--feasibility-tasks", type=int, default=50)
     parser.add_argument("--out", default="bench/results/learn")
+    parser.add_argument("--phases", action="store_true",
+                        help="Algorithm 1 with the phase durations optimized (`learn cycle --optimize-phases`): the "
+                             "Heuristic rows optimize them, the networks predict them (kept fixed at their "
+                             "values unless a row says optimized); a section of its own")
     args = parser.parse_args()
     out = (ROOT / args.out).resolve()
     (out / "cycle").mkdir(parents=True, exist_ok=True)
@@ -174,19 +182,19 @@ def main() -> None:
     throughput = {}
     t0 = time.perf_counter()
     run("learn", "cycle", ROOT / args.space, "--cycles", args.cycles, "--n", args.n, "--seed", 0, "--jobs", args.jobs,
-        "-o", out / "cycle", "--resume")
+        "-o", out / "cycle", "--resume", *(["--optimize-phases"] if args.phases else []))
     cycle_seconds = time.perf_counter() - t0
     inits = [out / "cycle" / f"init_{k}.h5" for k in range(1, args.cycles + 1)]
     rows = {}
     last = len(inits)
-    for label, init, iterations, warm_stage, phases in [("Heuristic (N_h = 100)", "heuristic", 100, "costs", False)] + \
+    for label, init, iterations, warm_stage, phases in [("Heuristic (N_h = 100)", "heuristic", 100, "costs", args.phases)] + \
             [(f"LearnedInit cycle {k} (N_θ = 25)", init, 25, "costs", False) for k, init in enumerate(inits, 1)] + \
             [(f"LearnedInit cycle {last}, projection (N_θ = 25)", inits[-1], 25, "projection", False),
              (f"LearnedInit cycle {last}, phases optimized (N_θ = 25)", inits[-1], 25, "costs", True)]:
         path = out / ("heldout_heuristic.h5" if init == "heuristic" else f"heldout_{Path(init).stem}.h5")
         if warm_stage != "costs":
             path = path.with_name(f"{path.stem}_{warm_stage}.h5")
-        if phases:
+        if phases and init != "heuristic":
             path = path.with_name(f"{path.stem}_phases.h5")
         if not path.exists():
             wall = run("learn", "dataset", ROOT / args.space, "--n", args.held_out, "--seed", 1, "--init", init,
@@ -204,6 +212,8 @@ def main() -> None:
               "held_out_tasks": args.held_out, "jobs": args.jobs, "cycle_seconds_this_run": cycle_seconds,
               "held_out": rows, "one_core": timing, "throughput_tasks_per_second": throughput, "cycles": cycles}
     name = "learn" if space.name == "single_pallet_walk" else f"learn_{space.name}"  # one section per space
+    name += "_phases" if args.phases else ""
+    result["phases_in_training"] = args.phases
     result["space_shape"] = {"name": space.name, "gait": space.gait, "strides": space.strides,
                              "duration": space.duration, "costs": space.costs}
     write_result(name, result)
@@ -222,12 +232,15 @@ def section(result: dict, args) -> list[str]:
     """The BENCHMARKS.md section of a result."""
     rows, timing, cycles, shape = result["held_out"], result["one_core"], result["cycles"], result["space_shape"]
     title = "" if shape["name"] == "single_pallet_walk" else f", {shape['name']}"
+    if result.get("phases_in_training"):
+        title += ", phase durations optimized in training"
     lines = [f"## Learned initialization{title} (`bench/learn.py`, {result['date']})", "",
              f"{result['machine']}, code {result.get('code', 'not recorded')}, load average "
              f"{result['load_average_start']:.1f} at start, "
              f"{result['load_average_end']:.1f} at end (shared machine). Task space `{result['space']}` ({shape['name']}: "
              f"{shape['gait']}, {shape['strides']} strides, {shape['duration']:g} s, costs {shape['costs']}); Algorithm 1 on {result['train_tasks']} training "
-             f"tasks (seed 0, `learn cycle --cycles {args.cycles}`), evaluated on {result['held_out_tasks']} held-out "
+             f"tasks (seed 0, `learn cycle --cycles {args.cycles}"
+             f"{' --optimize-phases' if result.get('phases_in_training') else ''}`), evaluated on {result['held_out_tasks']} held-out "
              f"tasks (seed 1), `--jobs {result['jobs']}`. N is the LM iteration budget of the whole plan "
              "(all planner stages). Seconds are solve wall times inside one-thread workers on the shared machine; "
              "the one-core row below is CPU time.", "",
