@@ -16,6 +16,9 @@ The terms (x_i and its reference):
 Force terms integrate f / (m·g), so that every weight is per unit of a dimensionless force, like the
 motion terms' m/s and rad/s: a weight of 1 on a base moving at 0.1 m/s for 5 s costs 0.05.
 
+With the phase durations optimized, the force terms' polynomials change length with them:
+`TimedForceIntegralBlock` is the same quadratic form with its Jacobian in the durations too.
+
 ``stair_edge`` (Sec. III-A-2): Σ exp(−d²/2σ²) over the footholds, d the distance to the nearest
 terrain edge; as a residual exp(−d²/4σ²) per stance node. ``swing_height``: apex z minus each
 adjacent stance z (the cost that keeps swings low; the constraint keeps them above a clearance).

@@ -3,7 +3,8 @@
 `build_problem` turns a `DynTask` (start and goal base pose, gait, strides, duration) on a terrain into
 the variable blocks of a `Formulation` (initialized by an `Initializer`), the weighted cost blocks of
 `costs` and the bounded constraint blocks of `constraints` — the NLP of Sec. III-A of the TOWR-costs
-paper, stated as constrained least squares for `legplan.solve.solve_augmented_lagrangian`.
+paper, stated as constrained least squares for `legplan.solve.solve_augmented_lagrangian`. With
+`DynParams.optimize_phases` the phase durations are variables too (`legplan.dyn.timing`).
 """
 
 from __future__ import annotations
@@ -12,9 +13,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from legplan.dyn.constraints import (GRAVITY, DynamicsBlock, ForceBlock, RangeOfMotionBlock, StanceSlopeBlock,
-                                     TerrainHeightBlock,
-                                     BaseAboveFeetBlock, acceleration_continuity, swing_constraint, swing_height)
+from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock, ForceBlock, RangeOfMotionBlock,
+                                     StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity, swing_constraint,
+                                     swing_height)
 from legplan.dyn.costs import CostWeights, StairEdgeBlock, integral_costs
 from legplan.dyn.formulation import Formulation, Pose
 from legplan.dyn.gait import make_gait
