@@ -271,3 +271,44 @@ def test_an_invalid_timing_gives_nan_residuals_and_refuses_jacobians(timed_probl
             assert np.all(np.isnan(r)), name
             with pytest.raises(ValueError, match="phase durations"):
                 block.evaluate(at, True)
+
+
+def test_admissible_durations_respect_the_minimum_and_end_within_the_motion():
+    """A network's predicted durations made a timing: short phases raised to the minimum, a foot whose
+    phases leave less than the minimum for its last one scaled down, valid ones left as they are."""
+    _, timing = _timing("walk")
+    d = timing.initial()
+    assert np.array_equal(timing.admissible(d), d)
+    bad = d.copy()
+    bad[0] = -0.3  # a negative prediction
+    bad[timing.offsets[1]:timing.offsets[2]] *= 3.0  # the second foot overruns T
+    fixed = timing.admissible(bad)
+    assert fixed.min() >= timing.minimum - 1e-12 and fixed[0] == timing.minimum
+    for leg in range(4):
+        part = fixed[timing.offsets[leg]:timing.offsets[leg + 1]]
+        assert timing.duration - part.sum() >= timing.minimum - 1e-9
+    second = fixed[timing.offsets[1]:timing.offsets[2]]
+    assert np.allclose(second / second.sum(), d[timing.offsets[1]:timing.offsets[2]] / d[timing.offsets[1]:timing.offsets[2]].sum())
+    timing.formulation(fixed)  # a valid formulation (positive segments)
+
+
+def test_a_guess_with_durations_sets_the_timing_optimized_or_fixed(anymal, flat):
+    """The paper's Fig. 8 curves: a guess that carries durations (a network's that predicts them) sets
+    the problem's timing; without optimize_phases it stays fixed there (no ``phases`` variable),
+    with it they are the variable's start."""
+    task = DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "walk", 2, 3.0)
+    _, timing = _timing("walk")
+    d = _perturbed(timing, seed=5)
+
+    def with_durations(form, *args):
+        return {**heuristic(form, *args), PHASES: d}
+
+    fixed = build_problem(task, anymal, flat, DynParams(), with_durations)
+    assert fixed.timing is None and PHASES not in {v.name for v in fixed.variables}
+    np.testing.assert_allclose(PhaseTiming(fixed.form, 0.2).initial(), d, atol=1e-9)
+    timed = build_problem(task, anymal, flat, DynParams(optimize_phases=True), with_durations)
+    start = next(v.value for v in timed.variables if v.name == PHASES)
+    np.testing.assert_allclose(start, d, atol=1e-12)
+    np.testing.assert_allclose(timed.timing.initial(), d, atol=1e-9)
+    plain = build_problem(task, anymal, flat, DynParams(), heuristic)  # no durations: the gait's timing
+    np.testing.assert_array_equal(plain.form.gait.durations, make_gait("walk", 2, 3.0).durations)
