@@ -105,6 +105,8 @@ class Budget:
             self.left -= result.iterations
         if problem.timing is not None:  # what reads the solution reads it on its own timing
             problem.form = problem.timing.formulation(result.values[PHASES])
+        elif problem.durations is not None:  # a fixed timing of the guess's: the next stage keeps it
+            result.values[PHASES] = problem.durations
         return result
 
 

@@ -153,6 +153,9 @@ class Problem:
     timing: PhaseTiming | None = None
     """Set when the phase durations are variables (`DynParams.optimize_phases`); `form` then has the
     timing of the last solution (`planner.Budget.solve` moves it)."""
+    durations: np.ndarray | None = None
+    """The foot durations (``phases`` values) of a timing the guess set, None for the gait's: kept
+    fixed when not optimized, and handed on with the solution so later stages keep it."""
 
 
 def start_feet(model, pose: Pose, terrain: TerrainModel) -> np.ndarray:
@@ -194,7 +197,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         form = gait_timing.formulation(durations)
     timing = PhaseTiming(form, params.phase_min) if params.optimize_phases else None
     problem = Problem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess),
-                      timing=timing)
+                      timing=timing, durations=durations)
     times = sample_times(form, params)
     k = problem.constraints
     if timing is not None:

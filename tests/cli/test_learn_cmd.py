@@ -171,6 +171,45 @@ def test_dyn_plan_takes_the_learned_initializer_and_refuses_another_layout(train
     assert bad.exit_code == 2 and "init.h5" in bad.output and not (tmp_path / "u.h5").exists()
 
 
+def test_phase_durations_flow_through_dataset_train_and_plan(trained, tmp_path):
+    """With --optimize-phases the dataset's y holds the durations (the fifth category), the network
+    learns them, and `dyn plan --init` keeps the plan at its predicted timing; an init whose phase
+    count fits no problem, and a weights file with a bad phases weight, are exit 2 with no output."""
+    tmp, space = trained
+    result = invoke("learn", "dataset", space, "--n", 3, "--seed", 1, "--iterations", 60, "--optimize-phases",
+                    "-o", tmp_path / "dp.h5", "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    with h5py.File(tmp_path / "dp.h5", "r") as f:
+        assert int(f["layout/phases"][()]) == 12  # 2 per footstep, 6 footsteps
+        assert json.loads(f.attrs["params"])["optimize_phases"] is True and f["success"][()].any()
+    result = invoke("learn", "train", tmp_path / "dp.h5", "--hidden", "8,8", "-o", tmp_path / "ip.h5", "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    flat = tmp_path / "flat.h5"
+    assert invoke("map", "build", ROOT / "maps" / "flat.yaml", "-o", flat, "-q").exit_code == 0
+    common = ["dyn", "plan", flat, "--gait", "trot", "--strides", 2, "--duration", 2.4,
+              "--start", -0.5, 0.1, 0.0, "--goal", 0.0, 0.0, 0.0, "-q"]
+    result = invoke(*common, "--init", tmp_path / "ip.h5", "-o", tmp_path / "t.h5")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    from legplan.dyn.gait import make_gait
+    with h5py.File(tmp_path / "t.h5", "r") as f:
+        durations = f["tasks/0000/phases/durations"][()]
+        assert f["tasks/0000"].attrs["success"] and json.loads(f.attrs["params"])["dyn"]["optimize_phases"] is False
+    assert durations.sum() == pytest.approx(2.4)
+    nominal = make_gait("trot", 2, 2.4).durations  # the network's timing (near the gait's here), not the gait's
+    assert durations.size != nominal.size or np.abs(durations - nominal).max() > 0
+    bad = tmp_path / "bad.h5"
+    bad.write_bytes((tmp_path / "ip.h5").read_bytes())
+    with h5py.File(bad, "a") as f:
+        del f["layout/phases"]
+        f["layout/phases"] = np.int64(5)
+    result = invoke(*common, "--init", bad, "-o", tmp_path / "u.h5")
+    assert result.exit_code == 2 and "field 'layout/phases'" in result.output and not (tmp_path / "u.h5").exists()
+    weights = tmp_path / "w.yaml"
+    weights.write_text("phases: 0\n")
+    result = invoke("learn", "train", tmp_path / "dp.h5", "--weights", weights, "-o", tmp_path / "iw.h5", "-q")
+    assert result.exit_code == 2 and "field 'phases'" in result.output and not (tmp_path / "iw.h5").exists()
+
+
 def test_report_draws_the_dataset_outcomes_and_the_fit(trained):
     from matplotlib.image import imread
 
