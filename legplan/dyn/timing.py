@@ -19,6 +19,8 @@ blocks its node Jacobian is built from (`phase_jacobian`).
 
 from __future__ import annotations
 
+from abc import ABC, abstractmethod
+
 import numpy as np
 import scipy.sparse as sp
 
@@ -125,7 +127,33 @@ def _between(a, b, s: float):
     return (1 - s) * a[0] + s * b[0], (1 - s) * a[1] + s * b[1]
 
 
-class TimedSamples:
+class _FootSamples(ABC):
+    """What the timed samplers of one foot share: `refresh` moves them to new durations."""
+
+    timing: PhaseTiming
+    kind: str
+    leg: int
+    key: np.ndarray | None = None
+
+    def refresh(self, d: np.ndarray) -> bool:
+        """Move the samples to the durations d; True if they changed. `valid` says whether d leaves
+        every segment time; only then is `matrix` that of d."""
+        dl = self.timing.leg_durations(d, self.leg)
+        if self.key is not None and np.array_equal(dl, self.key):
+            return False
+        self.key = dl.copy()
+        t0, t1 = self.timing.segment_ends(self.kind, self.leg, d)
+        self.valid = bool(np.all(t1 - t0 > 1e-6))
+        if self.valid:
+            self._resample(t0, t1)
+        return True
+
+    @abstractmethod
+    def _resample(self, t0: np.ndarray, t1: np.ndarray) -> None:
+        """Set `matrix` for the segment ends (t0, t1) of the foot's spline."""
+
+
+class TimedSamples(_FootSamples):
     """Samples of one foot's motion or force spline (`kind`) as the phase durations change: at fixed
     `times`, or moving with their segments (`moving`: the segment and fraction of each sample fixed
     at construction). `matrix` is M(d) over the all-feet node array (as `Formulation.foot_matrix`),
@@ -142,19 +170,9 @@ class TimedSamples:
         starts, ends = self.spline.starts[self.segment], self.spline.ends[self.segment]
         self.fraction = (self.times - starts) / (ends - starts)
         self.columns = slice(timing.offsets[leg], timing.offsets[leg + 1])
-        self.key = None
         self.refresh(timing.initial())
 
-    def refresh(self, d: np.ndarray) -> bool:
-        """Move the samples to the durations d; True if they changed (the matrix is new)."""
-        dl = self.timing.leg_durations(d, self.leg)
-        if self.key is not None and np.array_equal(dl, self.key):
-            return False
-        self.key = dl.copy()
-        t0, t1 = self.timing.segment_ends(self.kind, self.leg, d)
-        self.valid = bool(np.all(t1 - t0 > 1e-6))
-        if not self.valid:
-            return True
+    def _resample(self, t0: np.ndarray, t1: np.ndarray) -> None:
         spline = NodeSpline([Segment(a, b, s.a, s.b) for a, b, s in zip(t0, t1, self.spline.segments)],
                             self.spline.nodes)
         self.t0, self.t1 = t0, t1
@@ -165,7 +183,6 @@ class TimedSamples:
             self.local = np.clip((self.times - t0[self.segment]) / (t1 - t0)[self.segment], 0.0, 1.0)
         m = spline.matrix_at(self.segment, self.local, self.derivative)
         self.matrix = sp.csr_matrix((m.data, m.indices + 2 * self.offset, m.indptr), shape=(m.shape[0], 2 * self.total))
-        return True
 
     def time_jacobian(self, nodes: np.ndarray) -> np.ndarray:
         """∂x/∂d of the samples (n, 3, count) at the flattened all-feet `nodes` of the last refresh."""
@@ -188,10 +205,12 @@ class TimedSamples:
         return out
 
 
-class TimedControlPoints:
+class TimedControlPoints(_FootSamples):
     """The Bézier control points p_a, p_a + h v_a/3, p_b − h v_b/3, p_b of every stance force polynomial
     of foot `leg` (`Formulation.force_control_points`) as the durations change: rows over the
     all-feet ``forces`` node array; only the inner points move with h."""
+
+    kind = "force"
 
     def __init__(self, timing: PhaseTiming, leg: int):
         self.timing, self.leg = timing, leg
@@ -214,25 +233,16 @@ class TimedControlPoints:
         self.row_sign = np.array(self.row_sign)
         if self.row_segment.size != self.base.shape[0]:
             raise AssertionError("control point rows out of step with Formulation.force_control_points")
-        self.key = None
         self.refresh(timing.initial())
 
-    def refresh(self, d: np.ndarray) -> bool:
-        """As `TimedSamples.refresh`."""
-        dl = self.timing.leg_durations(d, self.leg)
-        if self.key is not None and np.array_equal(dl, self.key):
-            return False
-        self.key = dl.copy()
-        t0, t1 = self.timing.segment_ends("force", self.leg, d)
+    def _resample(self, t0: np.ndarray, t1: np.ndarray) -> None:
         self.h = t1 - t0
-        self.valid = bool(np.all(self.h > 1e-6))
         m = self.base.tocoo()
         moving = self.row_segment[m.row] >= 0
         odd = (m.col % 2 == 1) & moving  # the v entry of an inner point: ±h/3
         data = m.data.copy()
         data[odd] = self.row_sign[m.row[odd]] * self.h[self.row_segment[m.row[odd]]] / 3.0
         self.matrix = sp.csr_matrix((data, (m.row, m.col)), shape=m.shape)
-        return True
 
     def time_jacobian(self, nodes: np.ndarray) -> np.ndarray:
         n3 = np.asarray(nodes).reshape(-1, 2, 3)
