@@ -79,8 +79,8 @@ class DynamicsBlock(ResidualBlock):
             legs = len(self.feet)
             self.feet = [s.matrix for s in self.samples[:legs]]
             self.forces = [s.matrix for s in self.samples[legs:]]
-            self.jacobians[2] = SampledJacobian(self.feet, 6, self.n, self.columns[2])
-            self.jacobians[3] = SampledJacobian(self.forces, 6, self.n, self.columns[3])
+            self.jacobians[2] = self.jacobians[2].with_matrices(self.feet)
+            self.jacobians[3] = self.jacobians[3].with_matrices(self.forces)
         return valid
 
     def inertial_torque(self, e, ed, edd):
@@ -151,7 +151,7 @@ class RangeOfMotionBlock(ResidualBlock):
         changed, valid = refresh([self.samples], d)
         if changed and valid:
             self.foot = self.samples.matrix
-            self.foot_jacobian = SampledJacobian([self.foot], 3, self.n, self.columns[2])
+            self.foot_jacobian = self.foot_jacobian.with_matrices([self.foot])
         return valid
 
     @staticmethod
@@ -194,7 +194,7 @@ class FootTerrainBlock(ResidualBlock):
         changed, valid = refresh([self.samples], d)
         if changed and valid:
             self.matrix = self.samples.matrix
-            self.jacobian = SampledJacobian([self.matrix], 1, self.size, 3 * self.matrix.shape[1])
+            self.jacobian = self.jacobian.with_matrices([self.matrix])
         return valid
 
     @abstractmethod
@@ -262,7 +262,7 @@ class ForceBlock(ResidualBlock):
         changed, valid = refresh([self.samples], d)
         if changed and valid:
             self.force = self.samples.matrix
-            self.force_jacobian = SampledJacobian([self.force], self.ROWS, self.n, 3 * self.force.shape[1])
+            self.force_jacobian = self.force_jacobian.with_matrices([self.force])
         return valid
 
     def _rows(self, f, q):

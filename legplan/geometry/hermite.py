@@ -189,6 +189,17 @@ class SampledJacobian:
         self.indices = unique % columns
         self.indptr = np.searchsorted(unique // columns, np.arange(samples * rows + 1))
 
+    def with_matrices(self, matrices) -> SampledJacobian:
+        """This Jacobian for new matrices of the same sizes: itself, with their values, when every
+        pattern is the same (the entries' places stay: samples that moved within their segments);
+        a new one otherwise."""
+        new = [sp.csr_matrix(m) for m in matrices]
+        if all(np.array_equal(a.indptr, b.indptr) and np.array_equal(a.indices, b.indices)
+               for a, b in zip(self.matrices, new)):
+            self.matrices = new
+            return self
+        return SampledJacobian(new, self.rows, self.samples, self.columns)
+
     def __call__(self, blocks) -> sp.csr_matrix:
         """J for the per-sample blocks G of every term, in the order of the matrices."""
         if self.slot is None:
