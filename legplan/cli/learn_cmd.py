@@ -111,7 +111,7 @@ def _hidden(ctx, param, value):
 @click.option("--hidden", default="256,256", show_default=True, callback=_hidden,
               help="Hidden layer sizes (2 or 3 layers).")
 @click.option("--weights", "weights_path", type=click.Path(dir_okay=False), default=None,
-              help="YAML of W per category (base_lin, base_ang, feet, forces; > 0), eq. (3).")
+              help="YAML of W per category (base_lin, base_ang, feet, forces, phases; > 0), eq. (3).")
 @click.option("--validation", type=number(0.0, 0.5), default=0.2, show_default=True,
               help="Fraction of the filtered tasks held out for validation.")
 @seed_opt

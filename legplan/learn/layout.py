@@ -9,7 +9,8 @@ problem's variable blocks, in the order of `CATEGORIES`:
     forces     force nodes of all feet, foot after foot: (nodes, value|derivative, xyz)  (N, N/s)
     phases     the phase durations, foot after foot, all but each foot's last (s): the paper's fifth
                category; present (2S values) when the tasks were solved with the durations
-               optimized (`DynParams.optimize_phases`), else empty (the gait's fixed timing)
+               optimized (`DynParams.optimize_phases`) or from a network that predicts them,
+               else empty (the gait's fixed timing)
 
 (`legplan.dyn.formulation`, `legplan.dyn.timing`). The sizes depend only on gait, strides, duration,
 the node spacing and whether the durations are optimized, so one task space has one layout per
