@@ -231,13 +231,18 @@ class TimedForceIntegralBlock(ResidualBlock):
                              shape=(self.size, self.total))
 
     def _phase_jacobian(self, parts) -> sp.csr_matrix:
-        dense = np.zeros((self.size, self.timing.size))
+        """Rows of a foot's polynomials against that foot's durations, every entry kept (zeros too),
+        so the pattern does not depend on the values."""
+        rows, cols, vals = [], [], []
         n_axes = len(self.axes)
         for row, leg, d_res, dh in parts:
             per_segment = np.repeat(dh, n_axes * 4, axis=0)  # (K·A·4, count)
-            cols = slice(self.timing.offsets[leg], self.timing.offsets[leg + 1])
-            dense[row:row + d_res.size, cols] = d_res[:, None] * per_segment
-        return sp.csr_matrix(dense)
+            block = d_res[:, None] * per_segment
+            r, c = np.indices(block.shape)
+            rows.append((row + r).reshape(-1)), cols.append((self.timing.offsets[leg] + c).reshape(-1))
+            vals.append(block.reshape(-1))
+        return sp.csr_matrix((np.concatenate(vals), (np.concatenate(rows), np.concatenate(cols))),
+                             shape=(self.size, self.timing.size))
 
 
 class StairEdgeBlock(ResidualBlock):

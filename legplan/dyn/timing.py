@@ -189,16 +189,13 @@ class TimedSamples(_FootSamples):
         n3 = np.asarray(nodes).reshape(-1, 2, 3)[self.offset:self.offset + self.spline.nodes]
         c0, a0, c1, a1 = self.timing.ends[self.kind][self.leg]
         out = np.zeros((self.times.size, 3, a0.shape[1]))
-        segs = self.spline.segments
-        hermite = np.array([not segs[k].constant for k in self.segment])
-        if not hermite.any():
+        idx = np.flatnonzero(self.spline.node_b[self.segment] >= 0)  # samples on Hermite segments
+        if not idx.size:
             return out
-        idx = np.flatnonzero(hermite)
         k = self.segment[idx]
         h = (self.t1 - self.t0)[k]
         w0, w1 = hermite_time_partials(self.local[idx], h, self.derivative, self.moving)
-        a = np.array([segs[j].a for j in k])
-        b = np.array([segs[j].b for j in k])
+        a, b = self.spline.node_a[k], self.spline.node_b[k]
         c = np.stack([n3[a, 0], n3[a, 1], n3[b, 0], n3[b, 1]], axis=1)  # (n, 4, 3)
         x0, x1 = np.einsum("nj,nja->na", w0, c), np.einsum("nj,nja->na", w1, c)
         out[idx] = x0[:, :, None] * a0[k][:, None, :] + x1[:, :, None] * a1[k][:, None, :]

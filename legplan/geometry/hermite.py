@@ -107,6 +107,8 @@ class NodeSpline:
         self.segments = list(segments)
         self.nodes = int(nodes)
         self.starts, self.ends = starts, ends
+        self.node_a = np.array([s.a for s in self.segments])  # per segment: its nodes (b = -1: constant)
+        self.node_b = np.array([s.b for s in self.segments])
         self.duration = float(ends[-1])
 
     def segment_index(self, times) -> np.ndarray:
@@ -132,8 +134,7 @@ class NodeSpline:
         """`matrix` of samples given by their segment and the fraction s ∈ [0, 1] of it."""
         seg = np.asarray(seg, int).reshape(-1)
         frac = np.asarray(fraction, float).reshape(-1)
-        a = np.array([s.a for s in self.segments])[seg]
-        b = np.array([s.b for s in self.segments])[seg]
+        a, b = self.node_a[seg], self.node_b[seg]
         hermite = b >= 0
         idx = np.flatnonzero(hermite)
         w = hermite_weights(frac[idx], (self.ends - self.starts)[seg[idx]], derivative)
