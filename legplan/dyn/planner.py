@@ -141,8 +141,10 @@ def attempt(task: DynTask, model, terrain: TerrainModel, params: DynParams, init
        pallet cases stall when started fine, and converge when refined);
     4. only with costs: the costs, by the augmented Lagrangian from the feasible point
        (`DynParams.cost_solver`; measured: 3 of 3 pallet cases instead of 1 from the initializer);
-    5. only if 4 ends short of the tolerance (its penalty can stall a few cm or N away): feasibility
-       again from there, which keeps most of the costs' effect and meets the constraints.
+    5. only if 4 ends short of the tolerance (its penalty can stall a few cm or N away) with budget
+       left: feasibility again from there, which keeps most of the costs' effect and meets the
+       constraints. Once the budget is spent the plan has not converged: a feasible point whose costs
+       never ran (a budget spent before stage 4) or did not settle is not reported as a solution.
     A stage that fails ends the sequence. Iterations and timings add up over the stages; the reason
     names the stages that ran. `budget` (default: `DynParams.iteration_budget`) caps them together.
     """
@@ -170,7 +172,7 @@ def attempt(task: DynTask, model, terrain: TerrainModel, params: DynParams, init
         problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.cost_solver, callback, budget)
         setup += seconds
         stages.append(("costs", result))
-        if not result.success:  # near-feasible with lower costs: project it back onto the constraints
+        if not result.success and not budget.spent:  # near-feasible with lower costs: project it back
             stage_params = replace(stage_params, costs=CostWeights())
             problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback, budget)
             setup += seconds

@@ -59,6 +59,22 @@ def test_iteration_budget_caps_every_stage_together(anymal, flat):
     assert "budget" in r.reason
 
 
+def test_a_budget_spent_before_the_costs_settle_is_no_solution(anymal, flat):
+    """A budget that ends with the feasibility stages leaves the costs unoptimized: the plan is
+    feasible but has not converged, and says which stage the budget ran out in (with one iteration
+    of costs it is neither: their first step trades the constraints for the costs)."""
+    task = DynTask((0.0, 0.0, 0.0), (0.6, 0.1, 0.2), "trot", 3, 2.0)
+    params = replace(DynParams(), costs=PAPER_COSTS)
+    full = plan(task, anymal, flat, params)
+    assert full.success and "; costs:" in full.reason, full.reason
+    before_costs = sum(h["iterations"] for h in full.solve.history if "feasibility" in h["stage"])
+    for extra in (0, 1):  # the costs stage gets no iteration, or one (not enough to settle)
+        r = plan(task, anymal, flat, replace(params, iteration_budget=before_costs + extra))
+        assert not r.success, r.reason
+        assert extra or r.solve.max_violation <= 1e-3  # feasible all the same
+        assert "costs: iteration budget" in r.reason and "feasibility after costs" not in r.reason
+
+
 class _Replay:
     """An initializer that hands back a solution of the task itself, as a perfect learned one would."""
 
