@@ -123,20 +123,30 @@ def main() -> None:
                 print(f"{count}/{len(items)} executed, {time.perf_counter() - t0:.0f} s", file=sys.stderr, flush=True)
     finally:
         executor.close()
-    table = {}
-    for r, (label, init, stage, phases) in enumerate(rows):
-        mine = [x for x in records if x["row"] == r]
-        table[label] = {"init": Path(init).name, "warm_stage": stage, "phases_optimized": phases, **{
-            str(k): {"executed": float(np.mean([x["success"] for x in mine if x["k"] == k])),
-                     "converged": float(np.mean([x["converged"] for x in mine if x["k"] == k])),
-                     "fell": float(np.mean([x["fell"] for x in mine if x["k"] == k]))} for k in BUDGETS}}
     result = {"date": datetime.date.today().isoformat(), "machine": machine(), "code": code,
               "load_average_start": started, "load_average_end": load_average(), "space": args.space,
               "run": str(run_dir), "tasks": len(tasks), "jobs": args.jobs, "wall_seconds": time.perf_counter() - t0,
-              "rows": table, "records": records}
+              "rows": summarize(records, rows)}
     write_result("learn_sim", result)
     update_benchmarks("learn_sim", "\n".join(section(result)))
     print("\n".join(section(result)))
+
+
+def summarize(records: list[dict], rows: list[tuple]) -> dict:
+    """Per row: the fractions executed, converged and fallen at every k, and the converged plans of
+    the largest k that fell (task indices, and the non-foot spheres that touched the terrain)."""
+    table = {}
+    for r, (label, init, stage, phases) in enumerate(rows):
+        mine = [x for x in records if x["row"] == r]
+        fell = sorted((x for x in mine if x["k"] == BUDGETS[-1] and x["converged"] and x["fell"]),
+                      key=lambda x: x["index"])
+        table[label] = {"init": Path(init).name, "warm_stage": stage, "phases_optimized": phases, **{
+            str(k): {"executed": float(np.mean([x["success"] for x in mine if x["k"] == k])),
+                     "converged": float(np.mean([x["converged"] for x in mine if x["k"] == k])),
+                     "fell": float(np.mean([x["fell"] for x in mine if x["k"] == k]))} for k in BUDGETS},
+            "converged_but_fell": {"tasks": [x["index"] for x in fell],
+                                   "touched": sorted({name for x in fell for name in x["unplanned_contacts"]})}}
+    return table
 
 
 def section(result: dict) -> list[str]:
@@ -155,12 +165,10 @@ def section(result: dict) -> list[str]:
             f"{r[str(k)]['executed']:.0%} ({r[str(k)]['converged']:.0%})" for k in BUDGETS) + " |")
     lines += ["", f"Converged plans (k = {BUDGETS[-1]}) that fell, and the robot's spheres other than the feet that "
               "touched the terrain in those runs (the centroidal model keeps the feet, not the legs, off the terrain):", ""]
-    for r, label in enumerate(result["rows"]):
-        fell = sorted((x for x in result["records"] if x["row"] == r and x["k"] == BUDGETS[-1] and x["converged"]
-                       and x["fell"]), key=lambda x: x["index"])
-        touched = sorted({name for x in fell for name in x["unplanned_contacts"]})
-        lines.append(f"- {label}: {len(fell)} (tasks {', '.join(str(x['index']) for x in fell) or 'none'})"
-                     + (f"; {', '.join(touched)}" if touched else "") + ".")
+    for label, r in result["rows"].items():
+        fell = r["converged_but_fell"]
+        lines.append(f"- {label}: {len(fell['tasks'])} (tasks {', '.join(map(str, fell['tasks'])) or 'none'})"
+                     + (f"; {', '.join(fell['touched'])}" if fell["touched"] else "") + ".")
     return lines
 
 
