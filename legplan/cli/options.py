@@ -151,9 +151,11 @@ def batch_opts(func):
 seed_opt = click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
                         help="Seed of every random choice; same inputs and seed, same artefact.")
 warm_stage_opt = click.option(
-    "--warm-stage", type=click.Choice(["costs", "projection"]), default="costs", show_default=True,
+    "--warm-stage", type=click.Choice(["costs", "projection", "polish"]), default="costs", show_default=True,
     help="From a learned --init: optimize the costs under the constraints (costs), or only project the "
-         "network's guess onto the constraints (projection: fewer iterations, the cost not optimized).")
+         "network's guess onto the constraints (projection: fewer iterations, the cost not optimized), or "
+         "project it and optimize the costs only where the plan costs more than the network's training "
+         "filter kept (polish).")
 optimize_phases_opt = click.option(
     "--optimize-phases", is_flag=True,
     help="Optimize the phase durations of every foot too (2 more variables per footstep); without it the "

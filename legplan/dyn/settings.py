@@ -66,10 +66,18 @@ def initializer(name: str):
 
 
 def check_warm_stage(warm_stage: str, init: str) -> None:
-    """`--warm-stage projection` projects a learned guess: refused (one line) with any other `--init`."""
-    if warm_stage == "projection" and not str(init).endswith(".h5"):
-        raise LegplanError(f"--warm-stage projection: needs a learned --init INIT.h5, not '{init}' "
+    """`--warm-stage projection` and `polish` project a learned guess: refused (one line) with any other
+    `--init`; `polish` also needs the training filter an init.h5 keeps (`learn.network.CostBound`)."""
+    if warm_stage == "costs":
+        return
+    if not str(init).endswith(".h5"):
+        raise LegplanError(f"--warm-stage {warm_stage}: needs a learned --init INIT.h5, not '{init}' "
                            "(only a near-solution guess is projected; others are solved in stages)")
+    if warm_stage == "polish":
+        from legplan.learn.network import load_bound, missing_filter  # learn builds on dyn: imported where used
+
+        if os.path.isfile(init) and load_bound(init) is None:
+            raise missing_filter(init)
 
 
 def settings_record(costs: str, init: str, params: DynParams) -> dict:

@@ -97,13 +97,45 @@ def filter_rule(g_max: float, conditional: bool) -> str:
     return f"g <= g_fit(x) + {g_max:.4g}" if conditional else f"g <= {g_max:.4g}"
 
 
-def quadratic_features(x: np.ndarray) -> np.ndarray:
-    """1, x_j and x_j x_k (j ≤ k) of the standardized non-constant columns of x."""
-    x = np.asarray(x, float)
-    std = x.std(axis=0)
-    z = (x[:, std > 0] - x[:, std > 0].mean(axis=0)) / std[std > 0]
+def quadratic_features(x: np.ndarray, standardization: tuple[np.ndarray, np.ndarray] | None = None) -> np.ndarray:
+    """1, x_j and x_j x_k (j ≤ k) of the standardized non-constant columns of x, by x's own column
+    means and spreads or by `standardization` (mean, std) of other tasks (std 0: a constant column)."""
+    x = np.atleast_2d(np.asarray(x, float))
+    mean, std = (x.mean(axis=0), x.std(axis=0)) if standardization is None else standardization
+    z = (x[:, std > 0] - mean[std > 0]) / std[std > 0]
     pairs = [z[:, j] * z[:, k] for j in range(z.shape[1]) for k in range(j, z.shape[1])]
     return np.column_stack([np.ones(len(x)), z, *pairs])
+
+
+@dataclass(frozen=True)
+class CostBound:
+    """The filter of eq. (4) as a bound on the cost of one task's solution: g ≤ ĝ(x) + `threshold`,
+    ĝ the quadratic fit of `conditional_filter` (coefficients `coef` over `quadratic_features` by the
+    training tasks' `mean` and `std`), or g ≤ g_max = `threshold` for a constant one (`coef` empty).
+    A plan whose cost is above it would not have been kept to train on: the "polish" warm stage
+    optimizes its costs (`legplan.dyn.planner.direct`)."""
+
+    mean: np.ndarray
+    std: np.ndarray
+    coef: np.ndarray
+    threshold: float
+
+    @classmethod
+    def of_filter(cls, x: np.ndarray, cost: np.ndarray, good: np.ndarray, threshold: float, conditional: bool):
+        """The bound of a `filter_good` outcome on tasks x with costs `cost`: ĝ fitted on the kept
+        tasks, the fit the conditional filter's passes settled on."""
+        x = np.asarray(x, float)
+        if not conditional:
+            return cls(x.mean(axis=0), x.std(axis=0), np.empty(0), float(threshold))
+        standardization = (x.mean(axis=0), x.std(axis=0))
+        features = quadratic_features(x, standardization)
+        coef = np.linalg.lstsq(features[good], np.asarray(cost, float)[good], rcond=None)[0]
+        return cls(*standardization, coef, float(threshold))
+
+    def __call__(self, x: np.ndarray) -> float:
+        """ĝ(x) + threshold for one task vector x."""
+        fit = float(quadratic_features(x, (self.mean, self.std))[0] @ self.coef) if self.coef.size else 0.0
+        return fit + self.threshold
 
 
 def conditional_filter(features: np.ndarray, cost: np.ndarray, ok: np.ndarray, passes: int = 10
@@ -175,6 +207,7 @@ def fit(x: np.ndarray, y: np.ndarray, layout: dict[str, int], weights: dict[str,
     (weighted mean squared error on the training and validation tasks, RMS error per category)."""
     from sklearn.exceptions import ConvergenceWarning
     from sklearn.neural_network import MLPRegressor
+    from threadpoolctl import threadpool_limits
 
     rng = np.random.default_rng(seed)
     order = rng.permutation(len(x))
@@ -189,7 +222,10 @@ def fit(x: np.ndarray, y: np.ndarray, layout: dict[str, int], weights: dict[str,
     out_scale = (sigma / np.sqrt([weights[c] for c in CATEGORIES]))[cats]
     model = MLPRegressor(hidden_layer_sizes=hidden, activation="tanh", solver="adam", max_iter=max_iter,
                          alpha=1e-4, random_state=int(seed), tol=1e-6, n_iter_no_change=20, batch_size=min(32, len(train)))
-    with warnings.catch_warnings(record=True) as caught:
+    # one BLAS thread: a multi-threaded product sums in another order, and the fit's 500-odd epochs
+    # carry that rounding into the weights (measured: 1e-4 apart with 2 threads, so `learn train` and
+    # `learn cycle` wrote different networks from the same datasets and seed)
+    with warnings.catch_warnings(record=True) as caught, threadpool_limits(limits=1):
         warnings.simplefilter("always", ConvergenceWarning)
         model.fit((x[train] - in_offset) / in_scale, (y[train] - y_mean) / out_scale)
     for warning in caught:  # reaching max_iter epochs is no error: the validation loss tells the fit
@@ -211,8 +247,8 @@ def fit(x: np.ndarray, y: np.ndarray, layout: dict[str, int], weights: dict[str,
 
 
 def save_init(path, net: Network, layout: dict[str, int], space: dict, report: dict, settings: dict, seed: int,
-              inputs, overwrite: bool) -> None:
-    """init.h5: plain arrays only (module docstring)."""
+              inputs, overwrite: bool, bound: CostBound | None = None) -> None:
+    """init.h5: plain arrays only (module docstring), and the training filter's `CostBound` (`filter/`)."""
     from legplan.artefacts import write_artefact, write_dataset, write_summary
 
     with write_artefact(path, KIND, params=settings, seed=seed, inputs=inputs, overwrite=overwrite) as f:
@@ -226,11 +262,15 @@ def save_init(path, net: Network, layout: dict[str, int], space: dict, report: d
             write_dataset(f, f"normalization/{name}", getattr(net, name))
         for name in CATEGORIES:
             write_dataset(f, f"layout/{name}", np.int64(layout[name]))
+        if bound is not None:
+            for name in ("mean", "std", "coef"):
+                write_dataset(f, f"filter/{name}", getattr(bound, name))
+            write_dataset(f, "filter/threshold", np.float64(bound.threshold))
         write_summary(f, report)
 
 
 def load_init(path) -> tuple[Network, dict[str, int], dict]:
-    """The network, layout and space record of an init.h5."""
+    """The network, layout and space record of an init.h5 (its filter: `load_bound`)."""
     from legplan.artefacts import open_artefact, read_array
 
     with open_artefact(path, kind=KIND) as f:
@@ -244,6 +284,29 @@ def load_init(path) -> tuple[Network, dict[str, int], dict]:
         layout = read_layout(f)
         space = json.loads(f.attrs["space"])
     return net, layout, space
+
+
+def missing_filter(path) -> LegplanError:
+    """The one-line error for an init.h5 without the `CostBound` that the "polish" warm stage reads."""
+    return LegplanError(f"{path}: field 'filter' is missing (trained before init.h5 kept its filter: train it "
+                        "again with legplan learn train); --warm-stage polish needs it")
+
+
+def load_bound(path) -> CostBound | None:
+    """The training filter's `CostBound` of an init.h5; None for a file trained without it."""
+    from legplan.artefacts import open_artefact, read_array
+
+    with open_artefact(path, kind=KIND) as f:
+        if "filter" not in f:
+            return None
+        bound = CostBound(read_array(f, "filter/mean", ndim=1), read_array(f, "filter/std", ndim=1),
+                          read_array(f, "filter/coef", ndim=1), float(read_array(f, "filter/threshold", ndim=0)))
+    varying = int(np.sum(bound.std > 0))
+    expected = 1 + varying + varying * (varying + 1) // 2
+    if bound.mean.shape != bound.std.shape or bound.coef.size not in (0, expected):
+        raise LegplanError(f"{path}: field 'filter/coef' has {bound.coef.size} entries for {bound.mean.size} task "
+                           f"inputs with {bound.std.size} spreads (expected {expected} or none)")
+    return bound
 
 
 def check_space(init_path, trained: dict, space: dict) -> None:
@@ -271,6 +334,7 @@ class LearnedInit:
     def __init__(self, path: str | os.PathLike):
         self.path = os.fspath(path)
         self.net, self.layout, self.space = load_init(self.path)
+        self.bound = load_bound(self.path)
 
     def __getstate__(self):
         return {"path": self.path}
@@ -286,6 +350,13 @@ class LearnedInit:
 
         check_layout(self.layout, layout_of(Formulation(make_gait(task.gait, task.strides, task.duration), dt),
                                             phases=True), self.path)
+
+    def cost_bound(self, task) -> float:
+        """The largest cost of a `DynTask`'s plan that the training filter would keep (`CostBound`);
+        a one-line error for an init.h5 trained without it."""
+        if self.bound is None:
+            raise missing_filter(self.path)
+        return self.bound(task_vector(task.start, task.goal))
 
     def __call__(self, form, model, terrain, start, goal, start_feet) -> dict[str, np.ndarray]:
         check_layout(self.layout, layout_of(form, phases=True), self.path)

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from legplan.learn.dataset import best_outcomes, read_dataset
-from legplan.learn.network import filter_good, fit, read_weights, save_init
+from legplan.learn.network import CostBound, filter_good, fit, read_weights, save_init
 
 
 def train_initializer(dataset_paths, output, *, g_max: float | str = "auto", hidden: tuple[int, ...] = (256, 256),
@@ -34,5 +34,6 @@ def train_initializer(dataset_paths, output, *, g_max: float | str = "auto", hid
             report[f"good_from_{Path(path).stem}"] = int(count)
     settings = {"g_max": g_max, "hidden": list(hidden), "weights": weights, "validation": validation}
     inputs = paths + ([weights_path] if weights_path is not None else [])
-    save_init(output, net, data["layout"], data["space"], report, settings, seed, inputs, overwrite)
+    bound = CostBound.of_filter(data["x"], data["cost"], good, threshold, conditional)
+    save_init(output, net, data["layout"], data["space"], report, settings, seed, inputs, overwrite, bound)
     return report

@@ -110,14 +110,15 @@ def test_bad_space_and_foreign_init_are_exit_2_with_no_output(trained):
     assert not (tmp / "x.h5").exists()
 
 
-def test_warm_stage_projection_needs_a_learned_init(trained, tmp_path):
+@pytest.mark.parametrize("stage", ["projection", "polish"])
+def test_warm_stage_projection_needs_a_learned_init(trained, tmp_path, stage):
     tmp, space = trained
     flat = tmp_path / "flat.h5"
     assert invoke("map", "build", ROOT / "maps" / "flat.yaml", "-o", flat, "-q").exit_code == 0
-    for args in (["learn", "dataset", space, "--n", 2, "--warm-stage", "projection"],
-                 ["dyn", "plan", flat, "--start", -0.5, 0.0, 0.0, "--goal", 0.0, 0.0, 0.0, "--warm-stage", "projection"]):
+    for args in (["learn", "dataset", space, "--n", 2, "--warm-stage", stage],
+                 ["dyn", "plan", flat, "--start", -0.5, 0.0, 0.0, "--goal", 0.0, 0.0, 0.0, "--warm-stage", stage]):
         result = invoke(*args, "-o", tmp_path / "x.h5")
-        assert result.exit_code == 2 and "--warm-stage projection: needs a learned --init" in result.output
+        assert result.exit_code == 2 and f"--warm-stage {stage}: needs a learned --init" in result.output
         assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "x.h5").exists()
     for value in ("nan", "\udcff\x00", "Projection"):  # not a stage: click's one-line error, exit 2
         result = invoke("learn", "dataset", space, "--n", 2, "--init", tmp / "init.h5", "--warm-stage", value,
@@ -128,6 +129,37 @@ def test_warm_stage_projection_needs_a_learned_init(trained, tmp_path):
     assert result.exit_code == 0, result.output + str(result.exception)
     with h5py.File(tmp_path / "p.h5", "r") as f:
         assert f["success"][()].all() and json.loads(f.attrs["params"])["warm_stage"] == "projection"
+
+
+def test_warm_stage_polish_reads_the_filter_that_learn_train_keeps(trained, tmp_path):
+    """init.h5 keeps the training filter as a bound on the cost of each task; an init.h5 without it
+    (trained before it was kept) is refused by --warm-stage polish in one line, exit 2, no output."""
+    import shutil
+
+    from legplan.learn.network import LearnedInit
+
+    tmp, space = trained
+    init = LearnedInit(tmp / "init.h5")
+    assert init.bound is not None
+    result = invoke("learn", "dataset", space, "--n", 2, "--seed", 2, "--init", tmp / "init.h5", "--iterations", 25,
+                    "--warm-stage", "polish", "-o", tmp_path / "p.h5", "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    with h5py.File(tmp_path / "p.h5", "r") as f:
+        assert f["success"][()].all() and json.loads(f.attrs["params"])["warm_stage"] == "polish"
+    old = tmp_path / "old.h5"
+    shutil.copy(tmp / "init.h5", old)
+    with h5py.File(old, "a") as f:
+        del f["filter"]
+    flat = tmp_path / "flat.h5"
+    assert invoke("map", "build", ROOT / "maps" / "flat.yaml", "-o", flat, "-q").exit_code == 0
+    for args in (["learn", "dataset", space, "--n", 2],
+                 ["dyn", "plan", flat, "--gait", "trot", "--strides", 2, "--duration", 2.4,
+                  "--start", -0.5, 0.0, 0.0, "--goal", 0.0, 0.0, 0.0]):
+        result = invoke(*args, "--init", old, "--warm-stage", "polish", "-o", tmp_path / "x.h5")
+        assert result.exit_code == 2 and f"{old}: field 'filter' is missing" in result.output
+        assert len(result.output.strip().splitlines()) == 1 and not (tmp_path / "x.h5").exists()
+    assert invoke("learn", "dataset", space, "--n", 2, "--init", old, "--warm-stage", "projection",
+                  "-o", tmp_path / "y.h5", "-q").exit_code == 0  # the other stages do not read it
 
 
 def test_cycle_keeps_every_dataset_and_initializer_and_summarizes_each_cycle(trained):

@@ -123,6 +123,48 @@ def test_a_near_solution_guess_is_projected_onto_the_constraints_with_warm_stage
     assert projected.solve.cost >= costs.solve.cost * (1 - 1e-2)  # the costs' optimum is no worse
 
 
+class _Bounded(_Replay):
+    """A replayed guess with the training filter's bound on the cost, as a learned init.h5 has."""
+
+    def __init__(self, values, bound):
+        super().__init__(values)
+        self.bound = bound
+
+    def cost_bound(self, task):
+        return self.bound
+
+
+def test_warm_stage_polish_optimizes_the_costs_only_of_a_projection_above_the_bound(anymal, step):
+    """polish: the projection as it is when its cost is within the bound; above it, the costs then
+    the constraints from the projection, kept when converged at a lower cost, the effort of every
+    stage counted within the budget."""
+    task = DynTask((-0.2, 0.0, 0.0), (0.8, 0.0, 0.0), "trot", 4, 3.0)
+    params = replace(DynParams(), costs=PAPER_COSTS)
+    solved = plan(task, anymal, step, params)
+    guess = {name: value.copy() for name, value in solved.solve.values.items()}
+    guess["forces"] *= 1.05
+    guess["base_lin"] += 0.005
+    projected = plan(task, anymal, step, replace(params, warm_stage="projection"), _Replay(guess))
+    assert projected.success, projected.reason
+    within = plan(task, anymal, step, replace(params, warm_stage="polish"), _Bounded(guess, projected.solve.cost))
+    assert within.reason == projected.reason and within.solve.cost == projected.solve.cost
+    budget = 40
+    above = plan(task, anymal, step, replace(params, warm_stage="polish", iteration_budget=budget),
+                 _Bounded(guess, 0.5 * projected.solve.cost))
+    assert above.success, above.reason
+    assert "projection after costs" in above.reason and "kept" not in above.reason
+    assert above.solve.cost < projected.solve.cost
+    assert above.solve.iterations > projected.solve.iterations and above.solve.iterations <= budget
+    assert sum(h["iterations"] for h in above.solve.history) == above.solve.iterations
+    tight = plan(task, anymal, step, replace(params, warm_stage="polish",
+                                             iteration_budget=projected.solve.iterations + 1),
+                 _Bounded(guess, 0.5 * projected.solve.cost))  # one iteration of costs: not converged
+    assert tight.success and "projection kept" in tight.reason
+    assert tight.solve.cost == pytest.approx(projected.solve.cost)
+    assert np.array_equal(tight.solve.values["base_lin"], projected.solve.values["base_lin"])
+    assert tight.solve.iterations == projected.solve.iterations + 1
+
+
 def test_warm_stage_is_costs_or_projection():
     with pytest.raises(ValueError, match="warm_stage"):
         DynParams(warm_stage="feasibility")

@@ -6,7 +6,8 @@ import pytest
 
 from legplan.errors import LegplanError
 from legplan.learn.layout import CATEGORIES, check_layout, join, split
-from legplan.learn.network import DEFAULT_WEIGHTS, Network, auto_g_max, filter_good, fit, load_init, save_init
+from legplan.learn.network import (DEFAULT_WEIGHTS, CostBound, Network, auto_g_max, filter_good, fit, load_bound, load_init,
+                                   save_init)
 
 LAYOUT = {"base_lin": 3, "base_ang": 2, "feet": 2, "forces": 1, "phases": 0}
 WITH_PHASES = {**LAYOUT, "phases": 2}
@@ -59,6 +60,61 @@ def test_auto_filter_finds_the_poor_minima_of_every_task_distance_with_the_task_
     assert filter_good(mask, cost, "auto", "d.h5", x)[2] is False
     assert np.array_equal(filter_good(mask, cost, "auto", "d.h5", x)[0], filter_good(mask, cost, "auto", "d.h5")[0])
     assert np.array_equal(filter_good(success, cost, 3.5, "d.h5", x)[0], success & (cost <= 3.5))  # a number: eq. (4)
+
+
+def _distance_costs(seed=3, n=600):
+    """Task vectors and costs as in the test above: rising with the distance, 10 % poor minima."""
+    rng = np.random.default_rng(seed)
+    u = rng.random(n)
+    x = np.column_stack([-1.0 - u, rng.uniform(-0.7, 0.7, n), rng.uniform(-0.5, 0.5, n),
+                         np.full(n, 0.6), np.zeros(n), np.zeros(n)])
+    cost = 3.0 + 2.0 * u ** 4 + rng.normal(0.0, 0.05, n) + (rng.random(n) < 0.1) * 1.0
+    return x, cost, rng.random(n) > 0.05
+
+
+@pytest.mark.parametrize("g_max", ["auto", 3.6])
+def test_cost_bound_is_the_filter_as_a_function_of_the_task(g_max, tmp_path):
+    """Every task the filter keeps is within the bound of its x and every converged task it drops
+    is above it; the bound of a new task follows the fitted cost; init.h5 keeps it as plain arrays."""
+    x, cost, success = _distance_costs()
+    good, threshold, conditional = filter_good(success, cost, g_max, "d.h5", x)
+    bound = CostBound.of_filter(x, cost, good, threshold, conditional)
+    limits = np.array([bound(row) for row in x])
+    assert np.array_equal(good, success & (cost <= limits + 1e-12))
+    if conditional:
+        near, far = x[0].copy(), x[0].copy()
+        near[0], far[0] = -1.05, -1.95
+        assert bound(far) - bound(near) > 1.0  # 3 + 2u⁴: about 1.6 apart
+    else:
+        assert np.all(limits == g_max) and bound.coef.size == 0
+    rng = np.random.default_rng(0)
+    net, report, _ = fit(rng.normal(size=(20, 6)), rng.normal(size=(20, 8)), LAYOUT, DEFAULT_WEIGHTS, (4,), 0, max_iter=5)
+    path = tmp_path / "init.h5"
+    save_init(path, net, LAYOUT, {"map": "m.yaml"}, report, {}, 0, [], False, bound)
+    loaded = load_bound(path)
+    assert [loaded(row) for row in x[:20]] == [bound(row) for row in x[:20]]
+    save_init(path, net, LAYOUT, {"map": "m.yaml"}, report, {}, 0, [], True)  # trained before: no bound
+    assert load_bound(path) is None
+    with h5py.File(path, "a") as f:  # a bound whose fit does not match its inputs
+        for name in ("mean", "std", "coef"):
+            f[f"filter/{name}"] = np.ones(3 if name == "coef" else 6)
+        f["filter/threshold"] = 0.5
+    with pytest.raises(LegplanError, match="filter/coef"):
+        load_bound(path)
+
+
+def test_fit_does_not_depend_on_the_blas_thread_count():
+    """The same data and seed give the same weights with any number of BLAS threads."""
+    from threadpoolctl import threadpool_limits
+
+    rng = np.random.default_rng(4)
+    x, y = rng.normal(size=(200, 6)), rng.normal(size=(200, 1200))  # products large enough to be threaded
+    layout = {**LAYOUT, "feet": 1194}
+    with threadpool_limits(limits=2):
+        two = fit(x, y, layout, DEFAULT_WEIGHTS, (256, 256), seed=0, max_iter=5)[0]
+    with threadpool_limits(limits=1):
+        one = fit(x, y, layout, DEFAULT_WEIGHTS, (256, 256), seed=0, max_iter=5)[0]
+    assert all(np.array_equal(a, b) for a, b in zip(one.weights, two.weights))
 
 
 def test_join_split_round_trip():
