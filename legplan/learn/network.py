@@ -39,7 +39,7 @@ import numpy as np
 
 from legplan.errors import LegplanError, SpecError
 from legplan.learn.layout import CATEGORIES, category_index, check_layout, layout_of, read_layout, split
-from legplan.learn.space import task_vector
+from legplan.learn.space import X_NAMES, task_vector
 
 log = logging.getLogger(__name__)
 
@@ -303,9 +303,12 @@ def load_bound(path) -> CostBound | None:
                           read_array(f, "filter/coef", ndim=1), float(read_array(f, "filter/threshold", ndim=0)))
     varying = int(np.sum(bound.std > 0))
     expected = 1 + varying + varying * (varying + 1) // 2
-    if bound.mean.shape != bound.std.shape or bound.coef.size not in (0, expected):
-        raise LegplanError(f"{path}: field 'filter/coef' has {bound.coef.size} entries for {bound.mean.size} task "
-                           f"inputs with {bound.std.size} spreads (expected {expected} or none)")
+    if bound.mean.size != len(X_NAMES) or bound.std.size != len(X_NAMES):
+        raise LegplanError(f"{path}: field 'filter/mean' and 'filter/std' need {len(X_NAMES)} entries (the task "
+                           f"vector), got {bound.mean.size} and {bound.std.size}")
+    if bound.coef.size not in (0, expected):
+        raise LegplanError(f"{path}: field 'filter/coef' has {bound.coef.size} entries, expected {expected} "
+                           f"(the quadratic fit over {varying} varying task inputs) or none")
     return bound
 
 

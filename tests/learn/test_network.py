@@ -101,6 +101,11 @@ def test_cost_bound_is_the_filter_as_a_function_of_the_task(g_max, tmp_path):
         f["filter/threshold"] = 0.5
     with pytest.raises(LegplanError, match="filter/coef"):
         load_bound(path)
+    with h5py.File(path, "a") as f:
+        del f["filter/mean"]
+        f["filter/mean"] = np.ones(5)
+    with pytest.raises(LegplanError, match="filter/mean"):
+        load_bound(path)
 
 
 def test_fit_does_not_depend_on_the_blas_thread_count():
