@@ -144,10 +144,12 @@ class DaskCluster:
         try:  # results come in batches (fewer round trips than one `result()` per future)
             for future, result in as_completed(futures, with_results=True, raise_errors=False):
                 position, item = waiting.pop(future.key)
-                if future.status == "finished":
+                # by what came back, not by `future.status`: a CI run read a record whose future no
+                # longer said "finished" (its worker had died after it finished)
+                if isinstance(result, dict):  # a record (Task always returns one)
                     record = result
                 else:
-                    error = result[1]  # (type, exception, traceback)
+                    error = result[1] if isinstance(result, tuple) else result  # (type, exc, tb) or CancelledError
                     reason = f"{type(error).__name__}: {error}"
                     record = task.failed(item, f"worker died ({reason})" if type(error).__name__ == "KilledWorker"
                                          else reason)

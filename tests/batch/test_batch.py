@@ -137,3 +137,39 @@ def test_dask_records_an_item_that_killed_two_workers_as_failed(tmp_path):
     kept = [i for i, r in enumerate(records) if i != 2 and not r["reason"].startswith("worker died")]
     assert kept  # at least one innocent item ran on the surviving worker
     assert_same_records([records[i] for i in kept], [reference[i] for i in kept])
+
+
+def test_dask_reads_each_outcome_by_what_came_back_not_by_the_future_status(monkeypatch):
+    """A record whose future no longer reads "finished" (its worker died after it finished, a race a
+    CI run met) is still the record; an error tuple or a cancellation is a failed item."""
+    import distributed
+
+    from legplan.batch.backends import DaskCluster
+
+    class Future:
+        def __init__(self, key):
+            self.key, self.status = key, "lost"
+
+        def release(self):
+            pass
+
+    class Client:
+        def map(self, fn, items, key):
+            self.futures = [Future(k) for k in key]
+            return self.futures
+
+        def cancel(self, futures):
+            pass
+
+    class KilledWorker(Exception):
+        pass
+
+    outcomes = [{"index": 0, "success": True}, (KilledWorker, KilledWorker("gone"), None),
+                distributed.client.CancelledError("cancelled")]
+    monkeypatch.setattr(distributed, "as_completed",
+                        lambda futures, **_: iter(zip(futures, outcomes)))
+    toy = Task(run=square, failed=failed)
+    records = dict(DaskCluster(Client()).run(toy, [(0, 0), (1, 1), (2, 2)]))
+    assert records[0] == {"index": 0, "success": True}
+    assert records[1] == failed(1, "worker died (KilledWorker: gone)")
+    assert not records[2]["success"] and "CancelledError" in records[2]["reason"]
