@@ -97,7 +97,8 @@ class DynParams:
     (the initializer's `cost_bound`, eq. (4)) the costs from it (`planner.polish`): on the same 50
     tasks 94 % converged, median 4 iterations, 0.27 CPU s, median cost +2 % against "costs", the
     largest 2.06× the median (projection: 2.32×); the costs ran on 18 of the 50 tasks, and 17 of
-    those polished plans were kept."""
+    those polished plans were kept. On 200 held-out tasks: 95.5 % converged, median 7 iterations
+    (the costs ran on 90), +3.8 % median cost against the same task's "costs" solve."""
     costs: CostWeights = CostWeights()
     swing_height_min: float | None = None
     base_clearance: float | None = None
