@@ -80,7 +80,7 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
     setup += seconds
     result = _combined(stages)
     if params.costs.active and not problem.costs:  # the last stage solved the constraints alone
-        result.cost_terms = evaluate_costs(cost_blocks(problem.form, terrain, model, params.costs), result.values)
+        result.cost_terms = _cost_terms(problem, params, result.values)
         result.cost = sum(result.cost_terms.values())
     return PlanResult(problem, result, sample_solution(problem.form, result.values), setup)
 
@@ -128,7 +128,7 @@ def direct(task: DynTask, model, terrain: TerrainModel, params: DynParams, initi
     solver = params.projection_solver if projection else params.warm_solver
     stages = [("projection" if projection else "direct", budget.solve(problem, solver, callback))]
     if params.warm_stage == "polish" and params.costs.active and stages[0][1].success and not budget.spent:
-        cost = _cost(problem, params, stages[0][1].values)
+        cost = sum(_cost_terms(problem, params, stages[0][1].values).values())
         if cost > initializer.cost_bound(task):
             problem, stages, seconds = polish(problem, stages[0][1], cost, params, budget, callback)
             setup += seconds
@@ -153,15 +153,16 @@ def polish(problem: Problem, projected: ALResult, cost: float, params: DynParams
                                        params.projection_solver, callback, budget)
     setup += seconds
     stages = [("projection", projected), ("costs", lowered), ("projection after costs", result)]
-    if result.success and _cost(polished, params, result.values) < cost:
+    if result.success and sum(_cost_terms(polished, params, result.values).values()) < cost:
         return polished, stages, setup
     kept = replace(projected, iterations=0, outer_iterations=0, history=[], timings=Timings())  # its effort is counted
     return problem, stages + [("the projection kept (the polished plan did not converge lower)", kept)], setup
 
 
-def _cost(problem: Problem, params: DynParams, values: dict[str, np.ndarray]) -> float:
-    """The cost of `params.costs` at the values, on the problem's formulation."""
-    return sum(evaluate_costs(cost_blocks(problem.form, problem.terrain, problem.model, params.costs), values).values())
+def _cost_terms(problem: Problem, params: DynParams, values: dict[str, np.ndarray]) -> dict[str, float]:
+    """The terms of `params.costs` at the values, on the problem's formulation (whether or not the
+    problem's own blocks include the costs)."""
+    return evaluate_costs(cost_blocks(problem.form, problem.terrain, problem.model, params.costs), values)
 
 
 def attempt(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer=heuristic, callback=None,
