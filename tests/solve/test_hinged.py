@@ -111,3 +111,62 @@ def test_geodesic_acceleration_takes_fewer_steps_on_a_curved_valley():
         assert r.success and r.values["x"] == pytest.approx([1.0, 1.0], abs=1e-8)
         runs[alpha] = r.iterations
     assert runs[0.75] < runs[0.0]
+
+
+def _model_value(J, v, hinged, lam, d):
+    r = v + J @ d
+    return float(np.sum(np.where(hinged, np.maximum(r, 0.0), r) ** 2) + lam * d @ d)
+
+
+@pytest.mark.parametrize("seed", range(40))
+def test_model_line_search_finds_the_minimum_along_the_direction(seed):
+    from legplan.solve.hinged import _model_line_search
+
+    rng = np.random.default_rng(seed)
+    m, n = rng.integers(3, 40), rng.integers(2, 12)
+    a, b = rng.normal(size=m), rng.normal(size=m) * rng.uniform(0.1, 5.0)
+    hinged = rng.random(m) < 0.6
+    d, p, lam = rng.normal(size=n), rng.normal(size=n), rng.uniform(0.0, 1.0)
+
+    def phi(t):
+        r = a + t * b
+        return np.sum(np.where(hinged, np.maximum(r, 0.0), r) ** 2) + lam * np.sum((d + t * p) ** 2)
+
+    grid = np.linspace(0.0, 1.0, 20001)
+    t = _model_line_search(a, b, hinged, lam, d, p)
+    assert 0.0 <= t <= 1.0
+    assert phi(t) <= min(phi(s) for s in grid) + 1e-12
+
+
+@pytest.mark.parametrize("seed", range(20))
+def test_model_step_never_raises_the_model_and_reaches_its_minimum(seed):
+    """Many hinges crossing at once (an underdetermined system, small damping: the centroidal
+    projection's case) make the plain active-set iteration cycle; with the exact line search each pass
+    lowers the convex model, so even one pass is a descent step and enough passes reach its minimum."""
+    import scipy.optimize
+    import scipy.sparse as sp
+
+    from legplan.solve.hinged import _HingeModel
+    from legplan.solve.linsolve import make_solver
+    from legplan.solve.lm import Timings
+
+    rng = np.random.default_rng(seed)
+    m, n = 60, 40
+    J = sp.csr_matrix(rng.normal(size=(m, n)) * (rng.random((m, n)) < 0.3))
+    v = rng.normal(size=m) * 3.0
+    hinged = rng.random(m) < 0.7
+    lam = 1e-4
+    model = _HingeModel(J, v, hinged, n, None)
+    Js = J.toarray() * model.scale
+    start = _model_value(Js, v, hinged, lam, np.zeros(n))
+    for passes in (1, 2, 3):
+        step = model.step(make_solver("cholmod"), lam, passes, Timings())
+        assert _model_value(Js, v, hinged, lam, step) <= start + 1e-12
+    step = model.step(make_solver("cholmod"), lam, 200, Timings())
+
+    def grad(d):
+        r = v + Js @ d
+        return 2 * Js.T @ np.where(hinged, np.maximum(r, 0.0), r) + 2 * lam * d
+    best = scipy.optimize.minimize(lambda d: _model_value(Js, v, hinged, lam, d), np.zeros(n), jac=grad,
+                                   method="L-BFGS-B", options={"maxiter": 20000, "ftol": 1e-15, "gtol": 1e-12})
+    assert _model_value(Js, v, hinged, lam, step) <= best.fun + 1e-6 * max(1.0, abs(best.fun))
