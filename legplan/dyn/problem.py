@@ -89,16 +89,15 @@ class DynParams:
     """What `planner.direct` solves from a near-solution guess (the learned initializer): "costs" —
     the whole problem, the costs under the constraints, by `warm_solver`; "projection" — the
     constraints alone, by `projection_solver` (Gauss-Newton onto the constraints from the guess: the
-    plan keeps the guess's shape and its cost is not optimized). Measured on 50 held-out
-    single-pallet tasks from the n = 1000 cycle-3 network (`bench/learn.py`): 94 % converged, median
-    4 iterations, 0.27 CPU s on one core, median cost +13 % against "costs" (12.5 iterations, 0.78 s);
-    on 200 held-out tasks 96 % converged, +9.7 % against the same task's "costs" solve. "polish" —
-    the projection, then where its cost exceeds what the network's training filter kept for the task
-    (the initializer's `cost_bound`, eq. (4)) the costs from it (`planner.polish`): on the same 50
-    tasks 94 % converged, median 4 iterations, 0.27 CPU s, median cost +2 % against "costs", the
-    largest 2.06× the median (projection: 2.32×); the costs ran on 18 of the 50 tasks, and 17 of
-    those polished plans were kept. On 200 held-out tasks: 95.5 % converged, median 7 iterations
-    (the costs ran on 90), +3.8 % median cost against the same task's "costs" solve."""
+    plan keeps the guess's shape and its cost is not optimized). "polish" — the projection, then
+    where its cost exceeds what the network's training filter kept for the task (the initializer's
+    `cost_bound`, eq. (4)) the costs from it (`planner.polish`). Measured from the n = 1000 cycle-3
+    network (`bench/learn.py`, 50 held-out single-pallet tasks; the first 200 of the same seed by
+    hand), converged / median iterations / largest cost ÷ median: "costs" 94 % / 11 / 1.85× (200:
+    96 % / 12 / 1.85×); "projection" 96 % / 4 / 2.30× (200: 97.5 % / 4 / 2.48×, median cost +9.7 %
+    against the same task's "costs" solve); "polish" 96 % / 4 / 1.84× (200: 97.5 % / 7 / 2.73×,
+    +4.3 %; the costs ran on 86 of the 200, and the largest costs are projections that used the
+    budget before the costs could run). One core (median of 10 tasks): 0.83, 0.26 and 0.28 CPU s."""
     costs: CostWeights = CostWeights()
     swing_height_min: float | None = None
     base_clearance: float | None = None
