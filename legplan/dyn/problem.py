@@ -46,8 +46,7 @@ class DynParams:
 
     Points every `swing_dt` (at most) inside each swing polynomial keep the foot above the terrain
     between nodes (`swing_clearance` m above its column envelope) and inside its range of motion
-    (which TOWR checks every `dt_range` only: swing feet left the box by 1.3 cm in between); `planner.plan` first solves with
-    them every `coarse_swing_dt`. The force bounds and the friction pyramid hold at the
+    (which TOWR checks every `dt_range` only: swing feet left the box by 1.3 cm in between). The force bounds and the friction pyramid hold at the
     Bézier control points of every force polynomial, hence along all of it (the terrain normal is
     that of the stance foothold, constant over the stance). `towr_swing` adds TOWR's swing constraint (apex x, y halfway
     between the footholds, apex velocity = step / swing time); off by default: it is a regularizer,
@@ -67,8 +66,6 @@ class DynParams:
     dt_range: float = 0.04
     range_margin: float = 0.002
     swing_dt: float = 0.01
-    coarse_swing_dt: float = 0.05
-    coarse_dt_range: float = 0.08
     swing_clearance: float = 0.0
     stance_slope_max: float | None = 0.5
     towr_swing: bool = False
