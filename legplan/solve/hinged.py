@@ -19,8 +19,9 @@ raise ‖h‖ by up to 10³, each a rejected iteration. Measured with and withou
 projected on 50 held-out pallet tasks, 3 → 2 not converged within 25 iterations, 199 → 161
 iterations on the tasks that took more than 5; the Heuristic on them (N = 100), median 50 → 36
 iterations, 49/50 converged either way; `bench/dyn.py` feasibility, single pallet trot 139 → 55,
-double pallet walk 54 → 27, stairs 125 → 99, single pallet walk 9 → 10 (with the paper's costs the
-double pallet walk's fine stage now stalls in a local minimum, 0.39 N off).
+double pallet walk 54 → 27, stairs 125 → 99, single pallet walk 9 → 10 (the planner's coarse and
+fine feasibility stages then; with the paper's costs the double pallet walk's fine stage stalled, 0.39
+N off, until one stage at the full sampling replaced the pair: `legplan.dyn.planner.attempt`).
 
 Every solve is a numeric refactorization by CHOLMOD of JᵀD_AJ + λI from J with inactive rows
 zeroed, so the symbolic analysis of the pattern is done once per problem. λ follows the gain ratio ρ = actual / model decrease (Nielsen: λ ← λ·max(⅓,
