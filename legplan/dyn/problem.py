@@ -94,7 +94,7 @@ class DynParams:
     96 % / 12 / 1.85×); "projection" 96 % / 4 / 2.30× (200: 97.5 % / 4 / 2.48×, median cost +9.7 %
     against the same task's "costs" solve); "polish" 96 % / 4 / 1.84× (200: 97.5 % / 7 / 2.73×,
     +4.3 %; the costs ran on 86 of the 200, and the largest costs are projections that used the
-    budget before the costs could run). One core (median of 10 tasks): 0.83, 0.26 and 0.28 CPU s."""
+    budget before the costs could run). One core (median of 10 tasks): 0.80, 0.27 and 0.28 CPU s."""
     costs: CostWeights = CostWeights()
     swing_height_min: float | None = None
     base_clearance: float | None = None
