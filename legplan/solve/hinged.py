@@ -291,7 +291,6 @@ class _HingeModel:
         return -solver.solve(self.J.T @ second)
 
 
-
 def _model_line_search(a: np.ndarray, b: np.ndarray, hinged: np.ndarray, lam: float, d: np.ndarray,
                        p: np.ndarray) -> float:
     """argmin over t ∈ [0, 1] of the model along d + t·p: φ(t) = Σ_plain (a + tb)² + Σ_hinged max(0,
@@ -304,8 +303,7 @@ def _model_line_search(a: np.ndarray, b: np.ndarray, hinged: np.ndarray, lam: fl
     if A0 >= 0.0:
         return 0.0
     crossing = hinged & (b != 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        t = np.where(crossing, -a / np.where(crossing, b, 1.0), -1.0)
+    t = np.where(crossing, -a / np.where(crossing, b, 1.0), -1.0)
     inside = np.flatnonzero((t > 0.0) & (t < 1.0))
     order = inside[np.argsort(t[inside], kind="stable")]
     sign = np.sign(b[order])
