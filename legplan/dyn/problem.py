@@ -89,12 +89,10 @@ class DynParams:
     plan keeps the guess's shape and its cost is not optimized). "polish" — the projection, then
     where its cost exceeds what the network's training filter kept for the task (the initializer's
     `cost_bound`, eq. (4)) the costs from it (`planner.polish`). Measured from the n = 1000 cycle-3
-    network (`bench/learn.py`, 50 held-out single-pallet tasks; the first 200 of the same seed by
-    hand), converged / median iterations / largest cost ÷ median: "costs" 94 % / 11 / 1.85× (200:
-    96 % / 12 / 1.85×); "projection" 96 % / 4 / 2.30× (200: 97.5 % / 4 / 2.48×, median cost +9.7 %
-    against the same task's "costs" solve); "polish" 96 % / 4 / 1.84× (200: 97.5 % / 7 / 2.73×,
-    +4.3 %; the costs ran on 86 of the 200, and the largest costs are projections that used the
-    budget before the costs could run). One core (median of 10 tasks): 0.80, 0.27 and 0.28 CPU s."""
+    network on 200 held-out single-pallet tasks, converged / median iterations (all tasks) / largest
+    cost ÷ median: "costs" 95.5 % / 10 / 1.92×; "projection" 97 % / 4 / 2.45× (its costs +10 %
+    against the same task's "costs" solve); "polish" 97 % / 5 / 1.86× (`bench/learn.py` holds the
+    run and the one-core times)."""
     costs: CostWeights = CostWeights()
     swing_height_min: float | None = None
     base_clearance: float | None = None
@@ -158,6 +156,8 @@ class Problem:
     durations: np.ndarray | None = None
     """The foot durations (``phases`` values) of a timing the guess set, None for the gait's: kept
     fixed when not optimized, and handed on with the solution so later stages keep it."""
+    range_times: np.ndarray = field(default_factory=lambda: np.empty(0))
+    """The extra range-of-motion sample times (s) it was built with (`build_problem`)."""
 
 
 def start_feet(model, pose: Pose, terrain: TerrainModel) -> np.ndarray:
@@ -199,7 +199,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         form = gait_timing.formulation(durations)
     timing = PhaseTiming(form, params.phase_min) if params.optimize_phases else None
     problem = Problem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess),
-                      timing=timing, durations=durations)
+                      timing=timing, durations=durations, range_times=np.asarray(range_times, float))
     times = sample_times(form, params)
     k = problem.constraints
     if timing is not None:
@@ -215,7 +215,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     for leg, foot in enumerate(form.feet):
         swing_t = _swing_times(foot, params.swing_dt)
         rom_t = np.union1d(np.union1d(times["range"], swing_t),  # swing feet move fastest: also between
-                           np.asarray(range_times, float))  # the dt_range points
+                           problem.range_times)  # the dt_range points
         box = np.tile(model.range_of_motion - params.range_margin, rom_t.size)
         k.append(Constraint(RangeOfMotionBlock(form, leg, model.nominal_feet[leg], rom_t, timing), -box, box,
                             name="range_of_motion", scale=1.0 / LENGTH))

@@ -71,25 +71,24 @@ FIT_TASKS_PER_FEATURE = 5  # `filter_good` fits ĝ only with at least this many 
 
 
 def filter_good(success: np.ndarray, cost: np.ndarray, g_max: float | str, source: str = "dataset",
-                x: np.ndarray | None = None) -> tuple[np.ndarray, float, bool]:
-    """Mask of D_good (eq. (4), converged tasks only), its threshold and whether that bounds
-    g − ĝ(x) rather than g: a number is g_max itself; `auto` is the start of the tail of the costs,
-    or with the task vectors `x` (enough tasks for the fit) of the costs' excess over the quadratic
-    fit ĝ(x) (`conditional_filter`)."""
+                x: np.ndarray | None = None) -> tuple[np.ndarray, CostBound]:
+    """Mask of D_good (eq. (4), converged tasks only) and the filter as a `CostBound`: a number is
+    g_max itself; `auto` is the start of the tail of the costs, or with the task vectors `x` (enough
+    tasks for the fit) of the costs' excess over the quadratic fit ĝ(x) (`conditional_filter`)."""
     cost = np.asarray(cost, float)
     ok = np.asarray(success, bool) & np.isfinite(cost)
     if not ok.any():
         raise LegplanError(f"{source}: field 'success': no converged task to train on")
     features = quadratic_features(x) if g_max == "auto" and x is not None else None
-    conditional = features is not None and ok.sum() >= FIT_TASKS_PER_FEATURE * features.shape[1]
-    if conditional:
-        good, threshold = conditional_filter(features, cost, ok)
+    if features is not None and ok.sum() >= FIT_TASKS_PER_FEATURE * features.shape[1]:
+        good, threshold, coef = conditional_filter(features, cost, ok)
     else:
         threshold = auto_g_max(cost[ok]) if g_max == "auto" else float(g_max)
-        good = ok & (cost <= threshold)
+        good, coef = ok & (cost <= threshold), np.empty(0)
     if not good.any():
         raise LegplanError(f"{source}: field 'cost': no converged task has g(y) <= g_max = {threshold:g}")
-    return good, threshold, bool(conditional)
+    columns = np.empty((cost.size, 0)) if x is None else np.asarray(x, float)  # `quadratic_features`' standardization
+    return good, CostBound(columns.mean(axis=0), columns.std(axis=0), coef, float(threshold))
 
 
 def filter_rule(g_max: float, conditional: bool) -> str:
@@ -120,17 +119,10 @@ class CostBound:
     coef: np.ndarray
     threshold: float
 
-    @classmethod
-    def of_filter(cls, x: np.ndarray, cost: np.ndarray, good: np.ndarray, threshold: float, conditional: bool):
-        """The bound of a `filter_good` outcome on tasks x with costs `cost`: ĝ fitted on the kept
-        tasks, the fit the conditional filter's passes settled on."""
-        x = np.asarray(x, float)
-        if not conditional:
-            return cls(x.mean(axis=0), x.std(axis=0), np.empty(0), float(threshold))
-        standardization = (x.mean(axis=0), x.std(axis=0))
-        features = quadratic_features(x, standardization)
-        coef = np.linalg.lstsq(features[good], np.asarray(cost, float)[good], rcond=None)[0]
-        return cls(*standardization, coef, float(threshold))
+    @property
+    def conditional(self) -> bool:
+        """Whether it bounds g − ĝ(x) (the conditional filter) rather than g."""
+        return self.coef.size > 0
 
     def __call__(self, x: np.ndarray) -> float:
         """ĝ(x) + threshold for one task vector x."""
@@ -139,11 +131,11 @@ class CostBound:
 
 
 def conditional_filter(features: np.ndarray, cost: np.ndarray, ok: np.ndarray, passes: int = 10
-                       ) -> tuple[np.ndarray, float]:
+                       ) -> tuple[np.ndarray, float, np.ndarray]:
     """D_good by the tail of the cost given the task (module docstring): ĝ fitted by least squares on
     the tasks' `quadratic_features` (rows) of the kept tasks, the tail rule (`auto_g_max`) on the
-    residuals of the converged ones, repeated until the kept set stays. Returns the mask and the
-    residual threshold."""
+    residuals of the converged ones, repeated until the kept set stays. Returns the mask, the
+    residual threshold and ĝ's coefficients."""
     kept, threshold = ok.copy(), np.inf
     for _ in range(passes):
         coef = np.linalg.lstsq(features[kept], cost[kept], rcond=None)[0]
@@ -153,7 +145,7 @@ def conditional_filter(features: np.ndarray, cost: np.ndarray, ok: np.ndarray, p
         if np.array_equal(now, kept):
             break
         kept = now
-    return kept, threshold
+    return now, threshold, coef
 
 
 def read_weights(path: str | os.PathLike | None) -> dict[str, float]:

@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from legplan.learn.dataset import best_outcomes, read_dataset
-from legplan.learn.network import CostBound, filter_good, fit, read_weights, save_init
+from legplan.learn.network import filter_good, fit, read_weights, save_init
 
 
 def train_initializer(dataset_paths, output, *, g_max: float | str = "auto", hidden: tuple[int, ...] = (256, 256),
@@ -25,15 +25,14 @@ def train_initializer(dataset_paths, output, *, g_max: float | str = "auto", hid
     weights = read_weights(weights_path)  # the small input first: a bad file fails before the dataset is read
     data = best_outcomes(paths) if len(paths) > 1 else read_dataset(paths[0])
     source = ", ".join(map(os.fspath, paths))
-    good, threshold, conditional = filter_good(data["success"], data["cost"], g_max, source, data["x"])
+    good, bound = filter_good(data["success"], data["cost"], g_max, source, data["x"])
     net, report, _ = fit(data["x"][good], data["y"][good], data["layout"], weights, tuple(hidden), seed, validation)
     report = {"tasks": len(good), "converged": int(np.sum(data["success"])), "good": int(good.sum()),
-              "g_max": float(threshold), "g_max_conditional": float(conditional), **report}
+              "g_max": bound.threshold, "g_max_conditional": float(bound.conditional), **report}
     if len(paths) > 1:  # where the kept outcomes came from
         for path, count in zip(paths, np.bincount(data["source"][good], minlength=len(paths))):
             report[f"good_from_{Path(path).stem}"] = int(count)
     settings = {"g_max": g_max, "hidden": list(hidden), "weights": weights, "validation": validation}
     inputs = paths + ([weights_path] if weights_path is not None else [])
-    bound = CostBound.of_filter(data["x"], data["cost"], good, threshold, conditional)
     save_init(output, net, data["layout"], data["space"], report, settings, seed, inputs, overwrite, bound)
     return report

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from legplan.dyn.constraints import GRAVITY
-from legplan.dyn.planner import plan
+from legplan.dyn.planner import POLISH_RESERVE, plan
 from legplan.dyn.problem import PAPER_COSTS, DynParams, DynTask, build_problem
 
 
@@ -166,6 +166,11 @@ def test_warm_stage_polish_optimizes_the_costs_only_of_a_projection_above_the_bo
     assert tight.solve.cost == pytest.approx(projected.solve.cost)
     assert np.array_equal(tight.solve.values["base_lin"], projected.solve.values["base_lin"])
     assert tight.solve.iterations == projected.solve.iterations + 1
+    reserved = replace(params, warm_stage="polish", iteration_budget=projected.solve.iterations + 2 + POLISH_RESERVE)
+    kept = plan(task, anymal, step, reserved, _Bounded(guess, 0.5 * projected.solve.cost))
+    spent = {name: sum(h["iterations"] for h in kept.solve.history if h["stage"] == name)
+             for name in ("costs", "projection after costs")}
+    assert spent["costs"] <= 2 and spent["projection after costs"] >= 1  # the costs leave the last projection its share
 
 
 def test_warm_stage_is_costs_or_projection():
@@ -197,6 +202,28 @@ def test_feet_stay_in_their_range_of_motion_between_the_samples(anymal, flat, mo
     monkeypatch.setattr(planner, "RANGE_ROUNDS", 0)  # samples every 0.04 s only: a foot leaves the box between
     sampled = plan(task, anymal, flat, params)
     assert sampled.success and _range_excess(sampled, anymal) > 1e-4
+
+
+def test_a_near_solution_guess_is_sampled_where_it_comes_near_its_range_of_motion(anymal, flat, monkeypatch):
+    """From a guess whose feet leave their boxes between the regular samples (a plan solved without
+    the range margin or its refinement, nudged off the dynamics), the projection samples the range
+    there from the start: no refinement round, no foot out of its box."""
+    import legplan.dyn.planner as planner
+
+    task = DynTask((0.0, 0.0, 0.0), (1.5, 0.0, 0.0), "walk", 4, 3.5)
+    with monkeypatch.context() as unrefined:
+        unrefined.setattr(planner, "RANGE_ROUNDS", 0)
+        sampled = plan(task, anymal, flat, replace(DynParams(), range_margin=0.0))
+    assert sampled.success and _range_excess(sampled, anymal) > 1e-4
+    guess = {name: value.copy() for name, value in sampled.solve.values.items()}
+    guess["forces"] *= 1.05
+    params = replace(DynParams(), warm_stage="projection")
+    projected = plan(task, anymal, flat, params, _Replay(guess))
+    assert projected.success and "range of motion at" not in projected.reason, projected.reason
+    assert projected.problem.range_times.size and _range_excess(projected, anymal) <= 1e-6
+    near = planner.range_excess_times(projected.problem, guess, -planner.GUESS_RANGE_NEAR)
+    assert np.array_equal(projected.problem.range_times, near)
+    assert near.size > planner.range_excess_times(projected.problem, guess).size  # also where inside, within 5 mm
 
 
 def test_range_refinement_of_a_plan_with_costs_keeps_its_cost_terms(anymal, flat):

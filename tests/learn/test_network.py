@@ -6,7 +6,7 @@ import pytest
 
 from legplan.errors import LegplanError
 from legplan.learn.layout import CATEGORIES, check_layout, join, split
-from legplan.learn.network import (DEFAULT_WEIGHTS, CostBound, Network, auto_g_max, filter_good, fit, load_bound, load_init,
+from legplan.learn.network import (DEFAULT_WEIGHTS, Network, auto_g_max, filter_good, fit, load_bound, load_init,
                                    save_init)
 
 LAYOUT = {"base_lin": 3, "base_ang": 2, "feet": 2, "forces": 1, "phases": 0}
@@ -25,8 +25,8 @@ def test_auto_g_max_starts_the_tail_of_a_long_tailed_distribution():
 def test_filter_keeps_converged_tasks_under_g_max_and_refuses_an_empty_result():
     success = np.array([True, True, True, False, True])
     cost = np.array([1.0, 1.1, 50.0, 0.5, 0.9])
-    good, threshold, _ = filter_good(success, cost, "auto")
-    assert good.tolist() == [True, True, False, False, True] and 1.1 <= threshold < 50.0
+    good, bound = filter_good(success, cost, "auto")
+    assert good.tolist() == [True, True, False, False, True] and 1.1 <= bound.threshold < 50.0
     assert filter_good(success, np.zeros(5), "auto")[0].tolist() == success.tolist()  # no costs: keep all converged
     with pytest.raises(LegplanError, match="field 'cost'"):
         filter_good(success, cost, 0.1, "d.h5")
@@ -44,20 +44,20 @@ def test_auto_filter_finds_the_poor_minima_of_every_task_distance_with_the_task_
     poor = rng.random(n) < 0.1
     cost[poor] += 1.0
     success = rng.random(n) > 0.05
-    good, threshold, conditional = filter_good(success, cost, "auto", "d.h5", x)
-    assert conditional
+    good, bound = filter_good(success, cost, "auto", "d.h5", x)
+    assert bound.conditional
     far = u > 0.85
     assert not np.any(good & ~success)
     assert np.mean(good[success & ~poor]) > 0.97 and np.mean(good[success & ~poor & far]) > 0.9
     assert np.mean(good[success & poor]) < 0.1
-    assert 0.05 < threshold < 1.0  # a residual over the fit, not a cost
-    constant, _, conditional = filter_good(success, cost, "auto", "d.h5")
-    assert not conditional
+    assert 0.05 < bound.threshold < 1.0  # a residual over the fit, not a cost
+    constant, bound = filter_good(success, cost, "auto", "d.h5")
+    assert not bound.conditional
     assert np.mean(constant[success & ~poor & far]) < 0.5
     few = np.flatnonzero(success)[:20]  # too few tasks to fit the quadratic: the constant rule
     mask = np.zeros(n, bool)
     mask[few] = True
-    assert filter_good(mask, cost, "auto", "d.h5", x)[2] is False
+    assert not filter_good(mask, cost, "auto", "d.h5", x)[1].conditional
     assert np.array_equal(filter_good(mask, cost, "auto", "d.h5", x)[0], filter_good(mask, cost, "auto", "d.h5")[0])
     assert np.array_equal(filter_good(success, cost, 3.5, "d.h5", x)[0], success & (cost <= 3.5))  # a number: eq. (4)
 
@@ -77,11 +77,10 @@ def test_cost_bound_is_the_filter_as_a_function_of_the_task(g_max, tmp_path):
     """Every task the filter keeps is within the bound of its x and every converged task it drops
     is above it; the bound of a new task follows the fitted cost; init.h5 keeps it as plain arrays."""
     x, cost, success = _distance_costs()
-    good, threshold, conditional = filter_good(success, cost, g_max, "d.h5", x)
-    bound = CostBound.of_filter(x, cost, good, threshold, conditional)
+    good, bound = filter_good(success, cost, g_max, "d.h5", x)
     limits = np.array([bound(row) for row in x])
     assert np.array_equal(good, success & (cost <= limits + 1e-12))
-    if conditional:
+    if bound.conditional:
         near, far = x[0].copy(), x[0].copy()
         near[0], far[0] = -1.05, -1.95
         assert bound(far) - bound(near) > 1.0  # 3 + 2u⁴: about 1.6 apart
