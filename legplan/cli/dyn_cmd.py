@@ -75,7 +75,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     params = replace(dyn_params(costs), warm_stage=warm_stage, optimize_phases=optimize_phases)
     init_fn = initializer(init)  # an unknown --init: exit 2 before any work
     loaded = load_robot(robot)
-    model = centroidal_model(loaded)
+    model = centroidal_model(loaded, params, costs)
     tasks = (read_tasks(tasks_path, gait, strides, duration) if tasks_path is not None
              else [command_line_task(start, goal, gait, strides, duration)])
     check_placements(tasks, model, TerrainModel(load_map(map_path)), tasks_path, map_path)

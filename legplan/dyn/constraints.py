@@ -8,6 +8,7 @@ step (`euler.complex_step`, exact to round-off), the rest analytically.
 * `DynamicsBlock` — single-rigid-body Newton-Euler at every dynamics time (6 rows, N and N·m):
   m·p̈ + m·g·e_z − Σ f_i = 0 and I_W ω̇ + ω × I_W ω − Σ (p_i − p) × f_i = 0, I_W = R I_B Rᵀ.
 * `RangeOfMotionBlock` — Rᵀ(p_i − p) − p̄_i, bounded by the range-of-motion box.
+* `LegClearanceBlock` — the height of the thigh and shank spheres above the terrain's envelope.
 * `TerrainHeightBlock` — z − h(x, y) of foot samples: = 0 for stance nodes, ≥ 0 along swings against
   the terrain's column envelope (ours, between nodes too: TOWR constrains the swing apex only).
 * `ForceBlock` — f·n ∈ [0, f_max] and the friction pyramid ±f·t_k − μ f·n ≤ 0 in stance, on the
@@ -158,20 +159,67 @@ class RangeOfMotionBlock(ResidualBlock):
     def _in_base(e, d):
         return np.einsum("nji,nj->ni", rotation(e), d)
 
-    def evaluate(self, values, jacobians):
+    def _sampled(self, values):
+        """Base position p, Euler angles e and foot q at the samples (n, 3) each; None for an
+        invalid timing."""
         if self.timing is not None and not self._retime(values[3]):
-            return invalid_timing(self, jacobians)
+            return None
         lin, ang, feet = (_nodes(v) for v in values[:3])
-        p, e, q = self.base @ lin, self.base @ ang, self.foot @ feet
+        return self.base @ lin, self.base @ ang, self.foot @ feet
+
+    def _jacobians(self, j_p, j_e, j_q, values) -> list:
+        """The block's Jacobians from the per-sample ones (n, rows, 3) w.r.t. p, e and q."""
+        out = [self.base_jacobian([j_p]), self.base_jacobian([j_e]), self.foot_jacobian([j_q])]
+        if self.timing is not None:
+            out.append(phase_jacobian([(j_q, self.samples, values[2])], self.size, self.timing.size))
+        return out
+
+    def evaluate(self, values, jacobians):
+        sampled = self._sampled(values)
+        if sampled is None:
+            return invalid_timing(self, jacobians)
+        p, e, q = sampled
         if not jacobians:
             return (self._in_base(e, q - p) - self.nominal).reshape(-1), None
         x, (j_e,) = complex_step(self._in_base, (e, q - p), (0,))
         rt = np.transpose(rotation(e), (0, 2, 1))
-        r = (x - self.nominal).reshape(-1)
-        out = [self.base_jacobian([-rt]), self.base_jacobian([j_e]), self.foot_jacobian([rt])]
-        if self.timing is not None:
-            out.append(phase_jacobian([(rt, self.samples, values[2])], self.size, self.timing.size))
-        return r, out
+        return (x - self.nominal).reshape(-1), self._jacobians(-rt, j_e, rt, values)
+
+
+class LegClearanceBlock(RangeOfMotionBlock):
+    """Per sample time, per collision sphere of leg `leg`'s thigh and shank: the height of its
+    surface above the column terrain within its radius, c_z − r − h̄_r(c_x, c_y), c = p + R s(Rᵀ(p_i − p))
+    with s the leg's closed-form kinematics (`legplan.robots.planar_legs`: the spheres in the base
+    frame given the foot in it) and h̄_r `TerrainModel.envelope_within`. Bounded below by the
+    clearance, it keeps the legs, not only the feet, off the terrain, the sides of steps included
+    (ours: the paper keeps the legs clear through the swing height only, Sec. III-A2)."""
+
+    def __init__(self, form: Formulation, leg: int, legs, terrain: TerrainModel, times: np.ndarray,
+                 timing: PhaseTiming | None = None):
+        super().__init__(form, leg, np.zeros(3), times, timing)
+        self.leg, self.legs = leg, legs
+        self.radius = legs.sphere_radius[legs.spheres_of(leg)]
+        self.envelopes = [terrain.envelope_within(float(r)) for r in self.radius]
+        self.rows = self.radius.size
+        self.size = self.rows * self.n
+        self.base_jacobian = SampledJacobian([self.base], self.rows, self.n, self.columns[0])
+        self.foot_jacobian = SampledJacobian([self.foot], self.rows, self.n, self.columns[2])
+
+    def _clearance(self, p, e, q):
+        rot = rotation(e)
+        centres = p[:, None] + np.einsum("nij,nkj->nki", rot, self.legs.sphere_centres(self.leg, self._in_base(e, q - p)))
+        below = np.stack([envelope(centres[:, k, 0], centres[:, k, 1]) for k, envelope in enumerate(self.envelopes)],
+                         axis=1)
+        return centres[..., 2] - self.radius - below
+
+    def evaluate(self, values, jacobians):
+        sampled = self._sampled(values)
+        if sampled is None:
+            return invalid_timing(self, jacobians)
+        if not jacobians:
+            return self._clearance(*sampled).reshape(-1), None
+        r, per_sample = complex_step(self._clearance, sampled, (0, 1, 2))
+        return r.reshape(-1), self._jacobians(*per_sample, values)
 
 
 class FootTerrainBlock(ResidualBlock):

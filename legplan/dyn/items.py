@@ -25,7 +25,7 @@ class DynWorker:
         from legplan.terrain import load_map
 
         self.robot = load_robot(robot_name)
-        self.model = centroidal_model(self.robot)
+        self.model = centroidal_model(self.robot, params)
         self.terrain_map = load_map(map_path)
         self.terrain = TerrainModel(self.terrain_map)
         self.params = params
@@ -33,10 +33,11 @@ class DynWorker:
 
     def plan(self, index: int, task: DynTask) -> dict:
         from legplan.dyn.planner import plan
-        from legplan.validate.centroidal import check_trajectory
+        from legplan.validate.centroidal import CheckTolerances, check_trajectory
 
         result = plan(task, self.model, self.terrain, self.params, self.initializer)
         check = check_trajectory(result.samples, self.model, self.terrain_map, self.robot,
+                                 CheckTolerances(legs=self.params.leg_clearance is not None),
                                  node_times=result.problem.form.knots)
         return trajectory_record(index, task, result, check)
 

@@ -13,8 +13,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock, ForceBlock, RangeOfMotionBlock,
-                                     StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity, swing_constraint,
+from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock, ForceBlock, LegClearanceBlock,
+                                     RangeOfMotionBlock, StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity, swing_constraint,
                                      swing_height)
 from legplan.dyn.costs import CostWeights, StairEdgeBlock, integral_costs
 from legplan.dyn.formulation import Formulation, Pose
@@ -97,6 +97,10 @@ class DynParams:
     costs: CostWeights = CostWeights()
     swing_height_min: float | None = None
     base_clearance: float | None = None
+    leg_clearance: float | None = None
+    """m: the surfaces of the legs' thigh and shank spheres stay this far above the terrain's envelope
+    at the range-of-motion samples (`LegClearanceBlock`; needs the robot's closed-form legs,
+    `Centroidal.leg_kinematics`). None = off."""
     solver: ALParams = ALParams()
     projection_solver: ALParams = ALParams(exact_rows=True)
     """The "projection" warm stage's: the constraints alone, stopped by the exact per-row test (a last
@@ -235,6 +239,11 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         k.append(Constraint(ForceBlock(terrain, model.friction, points if timing is None else TimedControlPoints(timing, leg),
                                        form.node_selector(stance_node, form.motion_nodes)),
                             lower, upper, name="force", scale=1.0 / weight))
+        if params.leg_clearance is not None:
+            if model.leg_kinematics is None:
+                raise ValueError("DynParams.leg_clearance needs the robot's closed-form legs (Centroidal.leg_kinematics)")
+            k.append(Constraint(LegClearanceBlock(form, leg, model.leg_kinematics, terrain, rom_t, timing),
+                                params.leg_clearance, np.inf, name="leg_clearance", scale=1.0 / LENGTH))
     if params.swing_height_min is not None and form.footsteps:
         k.append(Constraint(swing_height(form), params.swing_height_min, np.inf, name="swing_height",
                             scale=1.0 / LENGTH))

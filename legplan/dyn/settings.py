@@ -2,12 +2,18 @@
 
 Presets: ``paper`` — `legplan.dyn.problem.PAPER`, the paper's costs with its swing-height and
 base-clearance constraints; ``none`` — TOWR's formulation alone, `DynParams()`. A costs file is a YAML mapping of `CostWeights` fields (each >= 0,
-`stair_edge_sigma` > 0; missing fields are 0 = off) plus optional `swing_height_min` and
-`base_clearance` (m, >= 0; missing or null = off), e.g.
+`stair_edge_sigma` > 0; missing fields are 0 = off) plus optional `swing_height_min`,
+`base_clearance` and `leg_clearance` (m, >= 0; missing or null = off); with `preset: NAME` the
+missing fields are the preset's instead (null still switches a constraint off), e.g.
 
     base_angular_velocity: 20.0
     force_rate: 1.0e-4
     swing_height_min: 0.05
+
+or the paper's settings with the legs kept 6 cm off the terrain:
+
+    preset: paper
+    leg_clearance: 0.06
 
 Unknown fields and bad values are one-line errors naming the file and the field.
 """
@@ -15,7 +21,7 @@ Unknown fields and bad values are one-line errors naming the file and the field.
 from __future__ import annotations
 
 import os
-from dataclasses import asdict, fields
+from dataclasses import asdict, fields, replace
 from pathlib import Path
 
 from legplan.dyn.costs import CostWeights
@@ -25,7 +31,7 @@ from legplan.errors import LegplanError
 from legplan.specio import FieldReader, read_yaml_mapping
 
 PRESETS = {"paper": PAPER, "none": DynParams()}
-CONSTRAINT_FIELDS = ("swing_height_min", "base_clearance")
+CONSTRAINT_FIELDS = ("swing_height_min", "base_clearance", "leg_clearance")
 POSITIVE_WEIGHTS = ("stair_edge_sigma",)
 
 
@@ -44,12 +50,13 @@ def dyn_params(costs: str) -> DynParams:
     data = read_yaml_mapping(path, "costs file")
     reader = FieldReader(path)
     weights = [f.name for f in fields(CostWeights)]
-    reader.unknown(data, (*weights, *CONSTRAINT_FIELDS))
+    reader.unknown(data, ("preset", *weights, *CONSTRAINT_FIELDS))
+    base = PRESETS[reader.choice(data["preset"], "preset", tuple(PRESETS))] if "preset" in data else DynParams()
     values = {name: (reader.positive if name in POSITIVE_WEIGHTS else reader.nonnegative)(data[name], name)
               for name in weights if name in data}
-    limits = {name: None if data.get(name) is None else reader.nonnegative(data[name], name)
-              for name in CONSTRAINT_FIELDS}
-    return DynParams(costs=CostWeights(**values), **limits)
+    limits = {name: None if data[name] is None else reader.nonnegative(data[name], name)
+              for name in CONSTRAINT_FIELDS if name in data}
+    return replace(base, costs=replace(base.costs, **values), **limits)
 
 
 def initializer(name: str):

@@ -138,9 +138,15 @@ def check_placements(tasks: list[DynTask], model, terrain: TerrainModel, source:
                 raise SpecError(f"{where}: field '{end}' ({', '.join(f'{v:g}' for v in pose)}) {problem}")
 
 
-def centroidal_model(robot):
-    """The `centroidal:` model of a loaded robot, or a one-line error naming its robot.yaml."""
+def centroidal_model(robot, params=None, costs: str = "--costs"):
+    """The `centroidal:` model of a loaded robot, or a one-line error naming its robot.yaml; with
+    `params` (`DynParams`) asking for leg clearance, one naming the `costs` source when the robot's
+    legs have no closed form."""
     if robot.centroidal is None:
         raise LegplanError(f"{robot.yaml_path}: field 'centroidal' is missing (the single-rigid-body model "
                            "that `legplan dyn` plans with, see legplan.robots.centroidal)")
+    if params is not None and params.leg_clearance is not None and robot.centroidal.leg_kinematics is None:
+        raise LegplanError(f"{costs}: field 'leg_clearance': {robot.yaml_path}'s legs are not hip-abduction (x), "
+                           "hip and knee flexion (y) chains, whose thigh and shank the planner can place "
+                           "(legplan.robots.planar_legs)")
     return robot.centroidal

@@ -45,7 +45,6 @@ class TerrainModel:
         edge[:, :-1] |= jump_x
         edge[1:, :] |= jump_y
         edge[:-1, :] |= jump_y
-        self.envelope_grid = ndimage.maximum_filter(h, size=3, mode="nearest")
         self.has_edges = bool(edge.any())
         smooth = ndimage.gaussian_filter(h, SLOPE_SMOOTHING / self.resolution, mode="nearest")
         gy, gx = np.gradient(smooth, self.resolution)
@@ -75,10 +74,27 @@ class TerrainModel:
 
     def envelope(self, x, y):
         """An upper bound of the column terrain (each cell a flat column, the model of the map's SDF):
-        the bilinear interpolation of the 3 × 3 maximum-filtered heightmap. The four cell centres
-        around a point are neighbours of the cell that contains it, so every interpolated value is at
-        least that cell's height. Swing feet are kept above this surface."""
-        return self._bilinear(self.envelope_grid, x, y)
+        the bilinear interpolation of the 3 × 3 maximum-filtered heightmap (`envelope_within` 0). The
+        four cell centres around a point are neighbours of the cell that contains it, so every
+        interpolated value is at least that cell's height. Swing feet are kept above this surface."""
+        return self.envelope_within(0.0)(x, y)
+
+    def envelope_within(self, radius: float):
+        """An upper bound h̄_r of the column terrain within `radius` (m) of (x, y) horizontally, as
+        a function of arrays x, y (real or complex): the bilinear interpolation of the heightmap
+        maximum-filtered, at each cell centre, over every cell whose square comes within radius +
+        √2 cells of it (a cell within `radius` of a point is within that of each of the four cell
+        centres around the point; radius 0 is the 3 × 3 neighbourhood). A sphere of that radius whose
+        centre is its radius above h̄_r clears every column. The filtered grid is kept per radius."""
+        grids = self.__dict__.setdefault("_envelopes", {})
+        if radius not in grids:
+            reach = radius / self.resolution + np.sqrt(2.0)
+            span = int(np.floor(reach + 0.5))
+            i, j = np.abs(np.mgrid[-span:span + 1, -span:span + 1])
+            footprint = np.hypot(np.maximum(i - 0.5, 0.0), np.maximum(j - 0.5, 0.0)) <= reach
+            grids[radius] = ndimage.maximum_filter(self.height_grid, footprint=footprint, mode="nearest")
+        grid = grids[radius]
+        return lambda x, y: self._bilinear(grid, x, y)
 
     def height_gradient(self, x, y):
         """(h, ∂h/∂x, ∂h/∂y) at (x, y), real or complex."""

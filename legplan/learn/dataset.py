@@ -84,11 +84,12 @@ class DatasetWorker:
 
 def dataset_items(space: TaskSpace, n: int, seed: int) -> list[tuple[int, object, np.ndarray]]:
     """`n` tasks of the space from `numpy.random.default_rng(seed)`: (index, DynTask, x) items."""
+    from legplan.dyn.settings import dyn_params
     from legplan.dyn.tasks import centroidal_model
     from legplan.dyn.terrain import TerrainModel
     from legplan.robots import load_robot
 
-    model = centroidal_model(load_robot(space.robot))
+    model = centroidal_model(load_robot(space.robot), dyn_params(space.costs), space.costs)
     tasks = sample_tasks(space, n, np.random.default_rng(seed), model, TerrainModel(load_terrain_map(space)))
     return [(i, task, task_vector(task.start, task.goal)) for i, task in enumerate(tasks)]
 

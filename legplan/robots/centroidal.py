@@ -49,6 +49,9 @@ class Centroidal:
     range_of_motion: np.ndarray
     max_normal_force: float
     friction: float
+    leg_kinematics: object = None
+    """The legs' closed-form kinematics (`legplan.robots.planar_legs.PlanarLegs`), set by `RobotModel`
+    from the URDF; None for legs of another kind (the planner's leg clearance needs it)."""
 
     def __post_init__(self):
         for array in (self.inertia, self.nominal_feet, self.range_of_motion):

@@ -13,6 +13,7 @@ x = [p (3), ω (3) rotation vector of the base orientation in the world, joints]
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
@@ -20,6 +21,7 @@ import pinocchio as pin
 
 from legplan.robots.centroidal import Centroidal
 from legplan.robots.kinematics import AttachedPoints, Kinematics, KinematicsWorkspace
+from legplan.robots.planar_legs import PlanarLegs
 from legplan.robots.so3 import quat_to_rotvec, right_jacobian, rotvec_to_matrix, rotvec_to_quat
 from legplan.robots.spec import Leg, Navigation, RobotSpec, SphereSet
 
@@ -54,11 +56,12 @@ class RobotModel:
         self.spheres: SphereSet = spec.spheres
         self.q_nominal: np.ndarray = spec.q_nominal
         self.navigation: Navigation | None = spec.navigation
-        self.centroidal: Centroidal | None = spec.centroidal
         self.mass: float = float(pin.computeTotalMass(model))
         self._feet = AttachedPoints.of_frames(model, [leg.foot_frame_id for leg in spec.legs])
         self._sphere_points = AttachedPoints.of_frames(model, spec.spheres.frame_ids, spec.spheres.offsets)
         self._workspace: KinematicsWorkspace | None = None
+        self.centroidal: Centroidal | None = None if spec.centroidal is None else \
+            replace(spec.centroidal, leg_kinematics=PlanarLegs.of_robot(self))
 
     def __repr__(self) -> str:
         return (f"RobotModel({self.name!r}, nq={self.nq}, nv={self.nv}, legs={len(self.legs)}, "

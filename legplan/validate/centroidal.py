@@ -40,6 +40,9 @@ Metrics (the worst value over all samples; units in `UNITS`; "pass" ones are jud
   leg_reach                 pass      largest foot error (m) of per-foot IK inside the URDF's planning
                                       joint limits (`legplan.robots.leg_reach`)
   joint_limit_margin        recorded  smallest distance of an IK solution's joint to its limit (rad)
+  leg_penetration           recorded  max over the legs' thigh and shank collision spheres, at the IK
+                                      solution, of radius − SDF(centre) (m); judged (pass) with
+                                      `CheckTolerances.legs`, for a plan made with leg clearance
 
 "Relative" force violations are divided by max(f·n, m g / 4) (the force of one foot of four
 carrying the weight), so 1e-3 means a thousandth of a foot's share of the weight or of the force.
@@ -62,7 +65,7 @@ UNITS = {"newton_euler_force": "N", "newton_euler_torque": "N m", "newton_euler_
          "friction_pyramid": "1", "friction_cone": "1", "swing_force": "1", "stance_slip": "m",
          "stance_height": "m", "stance_sdf": "m", "penetration_height": "m", "penetration_sdf": "m",
          "base_height": "m", "base_above_feet": "m", "trunk_penetration": "m", "range_of_motion": "m",
-         "leg_reach": "m", "joint_limit_margin": "rad"}
+         "leg_reach": "m", "joint_limit_margin": "rad", "leg_penetration": "m"}
 
 
 @dataclass(frozen=True)
@@ -81,6 +84,9 @@ class CheckTolerances:
     range_of_motion: float = 1e-3
     leg_reach: float = 1e-4
     node_dt: float = 0.1
+    legs: bool = False
+    """Judge `leg_penetration` by `penetration` (a plan that claims its legs clear of the terrain:
+    `DynParams.leg_clearance`); otherwise it is recorded."""
 
 
 @dataclass
@@ -142,7 +148,7 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
     worst.update(_base(robot, terrain_map, p, rot, feet))
     offset = np.abs(np.einsum("nji,nlj->nli", rot, feet - p[:, None]) - model.nominal_feet) - model.range_of_motion
     worst["range_of_motion"] = _max(np.maximum(offset, 0.0))
-    worst.update(_reach(robot, model, p, rot, feet, tolerances.leg_reach))
+    worst.update(_reach(robot, model, p, rot, feet, tolerances.leg_reach, terrain_map))
 
     half_cell = 0.5 * float(terrain_map.grid.resolution)
     tolerance = {"newton_euler_force_nodes": rel * weight, "newton_euler_torque_nodes": rel * weight * lever,
@@ -152,6 +158,8 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
                  "penetration_height": tolerances.penetration,
                  "penetration_sdf": tolerances.penetration + half_cell, "trunk_penetration": tolerances.penetration,
                  "range_of_motion": tolerances.range_of_motion, "leg_reach": tolerances.leg_reach}
+    if tolerances.legs:
+        tolerance["leg_penetration"] = tolerances.penetration
     worst = {name: float(worst[name]) for name in UNITS}
     passed = {name: bool(worst[name] <= bound) for name, bound in tolerance.items()}
     return CentroidalCheck(worst=worst, tolerance=tolerance, passed=passed)
@@ -252,8 +260,16 @@ def _base(robot, terrain_map, p, rot, feet) -> dict[str, float]:
             "trunk_penetration": float(depth.max(initial=-np.inf))}
 
 
-def _reach(robot, model, p, rot, feet, tolerance: float) -> dict[str, float]:
-    """Per-foot IK inside the joint limits; feet reordered from `model.legs` to `robot.legs` by name."""
+def _reach(robot, model, p, rot, feet, tolerance: float, terrain_map) -> dict[str, float]:
+    """Per-foot IK inside the joint limits (feet reordered from `model.legs` to `robot.legs` by
+    name), and the depth of the legs' thigh and shank spheres into the terrain at its solution
+    (sphere centres by pinocchio FK)."""
     order = [model.legs.index(leg.name) for leg in robot.legs]
     reach = leg_reach(robot, p, rot, feet[:, order], tolerance=tolerance)
-    return {"leg_reach": float(reach.error.max()), "joint_limit_margin": float(reach.limit_margin.min())}
+    Q = np.empty((len(p), robot.nq))
+    Q[:, :3], Q[:, 3:7], Q[:, 7:] = p, Rotation.from_matrix(rot).as_quat(), reach.joints
+    legs = np.flatnonzero((np.asarray(robot.spheres.leg_index) >= 0) & ~np.asarray(robot.spheres.is_foot, bool))
+    centres = robot.sphere_centres(Q)[:, legs]
+    depth = robot.spheres.radii[legs] - terrain_map.surface_distance(centres.reshape(-1, 3)).reshape(len(p), -1)
+    return {"leg_reach": float(reach.error.max()), "joint_limit_margin": float(reach.limit_margin.min()),
+            "leg_penetration": float(depth.max(initial=-np.inf))}

@@ -288,3 +288,29 @@ def test_optimized_phase_durations_give_a_checked_plan_on_their_own_timing(anyma
     check = check_trajectory(s, anymal, terrain_map, load_robot("anymal"), node_times=form.knots)
     assert check.ok, {name: check.worst[name] for name, ok in check.passed.items() if not ok}
     assert _newton_euler_at_knots(r, anymal) <= 1e-3
+
+
+def test_leg_clearance_keeps_thigh_and_shank_off_the_step_by_an_independent_check(anymal):
+    """A trot onto a 10 cm step: with `leg_clearance` 5 cm the legs' spheres, placed by pinocchio FK
+    of the numerical IK (the validator, not the planner's closed form), clear the terrain's SDF by
+    over 4 cm; without it the plan takes a shank within 2 cm of the step."""
+    from legplan.dyn.terrain import TerrainModel
+    from legplan.robots import load_robot
+    from legplan.terrain import Grid2D, terrain_from_heightmap
+    from legplan.validate.centroidal import CheckTolerances, check_trajectory
+
+    robot = load_robot("anymal")
+    grid = Grid2D(origin=(-1.5, -1.0), resolution=0.02, shape=(101, 176))
+    x, _ = grid.centres()
+    terrain_map = terrain_from_heightmap(0.1 * np.clip((x - 0.46) / 0.04, 0.0, 1.0), grid, name="step")
+    terrain = TerrainModel(terrain_map)
+    task = DynTask((-0.2, 0.0, 0.0), (1.0, 0.0, 0.0), "trot", 4, 3.0)
+    depth = {}
+    for clearance in (None, 0.05):
+        result = plan(task, anymal, terrain, replace(DynParams(), leg_clearance=clearance))
+        assert result.success, result.reason
+        check = check_trajectory(result.samples, anymal, terrain_map, robot, CheckTolerances(legs=True),
+                                 node_times=result.problem.form.knots)
+        assert check.ok, check.worst
+        depth[clearance] = check.worst["leg_penetration"]
+    assert depth[0.05] < -0.04 and depth[None] > -0.02

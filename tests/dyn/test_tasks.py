@@ -1,13 +1,17 @@
 """The checked inputs of `legplan dyn plan`: task fields, tasks files, placement on the map, costs files."""
 
+from dataclasses import replace
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
 from legplan.dyn.problem import PAPER, DynParams, DynTask
 from legplan.dyn.settings import dyn_params, initializer
-from legplan.dyn.tasks import check_placements, command_line_task, placement_problem, read_tasks
+from legplan.dyn.tasks import centroidal_model, check_placements, command_line_task, placement_problem, read_tasks
 from legplan.dyn.terrain import TerrainModel
 from legplan.errors import LegplanError, SpecError
+from legplan.robots import load_robot
 from legplan.terrain import Grid2D, terrain_from_heightmap
 
 HEADER = "start_x,start_y,start_yaw,goal_x,goal_y,goal_yaw"
@@ -95,6 +99,17 @@ def test_placement_off_the_map_and_in_a_wall(anymal, pillar):
         check_placements(tasks, anymal, pillar, "tasks.csv", "m.h5")
 
 
+def test_leg_clearance_needs_legs_the_planner_can_place(tmp_path):
+    """A robot whose legs have no closed form (`Centroidal.leg_kinematics` None) is refused with one
+    line naming the costs source and the field; without leg clearance it plans as before."""
+    robot = load_robot("anymal")
+    other = SimpleNamespace(centroidal=replace(robot.centroidal, leg_kinematics=None), yaml_path=robot.yaml_path)
+    assert centroidal_model(other, replace(PAPER, leg_clearance=None), "c.yaml") is other.centroidal
+    with pytest.raises(LegplanError, match=r"^c.yaml: field 'leg_clearance': .*robot.yaml's legs are not"):
+        centroidal_model(other, replace(PAPER, leg_clearance=0.05), "c.yaml")
+    assert centroidal_model(robot, replace(PAPER, leg_clearance=0.05)).leg_kinematics is not None
+
+
 def test_costs_presets_and_files(tmp_path):
     assert dyn_params("paper") == PAPER and dyn_params("none") == DynParams()
     good = tmp_path / "costs.yaml"
@@ -104,6 +119,14 @@ def test_costs_presets_and_files(tmp_path):
     assert params.swing_height_min == 0.04 and params.base_clearance is None
     for text, message in (("force: -1\n", "field 'force' must be >= 0"), ("stair_edge_sigma: 0\n", "field 'stair_edge_sigma' must be > 0"),
                           ("speed: 1\n", "field 'speed' is unknown"), ("force: .nan\n", "field 'force' must be a finite number")):
+        good.write_text(text)
+        with pytest.raises(SpecError, match=f"^{good}: {message}"):
+            dyn_params(str(good))
+    good.write_text("preset: paper\nleg_clearance: 0.06\nforce_rate: 0.5\nbase_clearance: null\n")
+    params = dyn_params(str(good))  # the preset's fields unless given; null switches a constraint off
+    assert params == replace(PAPER, costs=replace(PAPER.costs, force_rate=0.5), leg_clearance=0.06, base_clearance=None)
+    for text, message in (("preset: towr\n", "field 'preset' must be one of paper, none"),
+                          ("preset: paper\nleg_clearance: -0.01\n", "field 'leg_clearance' must be >= 0")):
         good.write_text(text)
         with pytest.raises(SpecError, match=f"^{good}: {message}"):
             dyn_params(str(good))

@@ -38,3 +38,21 @@ def test_stance_slope_gradient_points_away_from_the_edge_where_the_raw_ramp_has_
     # inside the raw heightmap's one-cell ramp the slope is constant: no direction off it
     _, hx, _ = pallet_edge.height_gradient(EDGE + np.array([-0.004, 0.0, 0.004]), np.zeros(3))
     assert np.ptp(hx) == pytest.approx(0.0, abs=1e-9) and hx[0] > 10.0
+
+
+@pytest.mark.parametrize("radius", [0.0, 0.03, 0.06])
+def test_envelope_within_a_radius_bounds_every_column_that_reaches_within_it(radius):
+    """On random blocks, at random points: h̄_r is at least the height of every cell whose square
+    comes within r of the point (the column terrain a sphere of radius r there could touch), and at
+    most the highest cell within r + 3 cells."""
+    rng = np.random.default_rng(int(radius * 100))
+    grid = Grid2D(origin=(-0.3, -0.3), resolution=0.01, shape=(61, 61))
+    heights = np.where(rng.random((6, 6)) < 0.3, rng.uniform(0.05, 0.3, (6, 6)), 0.0).repeat(10, 0).repeat(10, 1)
+    terrain = TerrainModel(terrain_from_heightmap(np.pad(heights, ((0, 1), (0, 1)), mode="edge"), grid, name="blocks"))
+    x, y = grid.centres()
+    points = rng.uniform(-0.2, 0.2, (400, 2))
+    bound = terrain.envelope_within(radius)(points[:, 0], points[:, 1])
+    for (px, py), value in zip(points, bound):
+        gap = np.hypot(np.maximum(np.abs(x - px) - 0.005, 0.0), np.maximum(np.abs(y - py) - 0.005, 0.0))
+        assert value >= terrain.height_grid[gap <= radius].max() - 1e-12
+        assert value <= terrain.height_grid[gap <= radius + 0.03].max() + 1e-12

@@ -9,7 +9,7 @@ import pytest
 from legplan.robots import load_robot
 from legplan.terrain import Grid2D, terrain_from_heightmap
 from legplan.validate import CentroidalCheck, check_trajectory
-from legplan.validate.centroidal import GRAVITY, UNITS
+from legplan.validate.centroidal import GRAVITY, UNITS, CheckTolerances
 
 N = 21  # samples 0, 0.01, ..., 0.2 s: nodes at 0, 0.1, 0.2
 
@@ -69,6 +69,30 @@ def test_static_stance_has_no_residual_and_passes(model, flat_terrain, anymal):
     assert check.worst["trunk_penetration"] == pytest.approx(0.13 - 0.42)   # trunk spheres r = 0.13 at z = 0.42
     assert check.worst["leg_reach"] < 1e-4 and check.worst["joint_limit_margin"] > 0.2
     assert set(check.worst) == set(UNITS)
+
+
+def test_leg_penetration_is_recorded_and_judged_for_plans_that_claim_clear_legs(model, flat_terrain, anymal):
+    """Standing nominally on flat ground the legs' spheres are where pinocchio puts them at the
+    nominal joints (the stance's IK solution); a 25 cm plateau under the knees (the feet beside it)
+    reaches into the shank spheres: recorded, and failed only when the legs are judged."""
+    Q = anymal.q_nominal.copy()
+    Q[:3] = [0.0, 0.0, 0.42]
+    legs = np.flatnonzero((np.asarray(anymal.spheres.leg_index) >= 0) & ~np.asarray(anymal.spheres.is_foot, bool))
+    centres = anymal.sphere_centres(Q)[0, legs]
+    expected = float(np.max(anymal.spheres.radii[legs] - centres[:, 2]))
+    check = _check(_stance(model), model, flat_terrain, anymal)
+    assert check.worst["leg_penetration"] == pytest.approx(expected, abs=1e-4) and expected < -0.05
+    assert "leg_penetration" not in check.passed
+    judged = _check(_stance(model), model, flat_terrain, anymal, tolerances=CheckTolerances(legs=True))
+    assert judged.passed["leg_penetration"] and judged.ok
+    grid = Grid2D(origin=(-0.6, -0.5), resolution=0.01, shape=(101, 121))
+    x, _ = grid.centres()
+    plateau = terrain_from_heightmap(np.where(np.abs(x) < 0.2, 0.25, 0.0), grid, name="plateau")
+    low = centres[:, 2] - anymal.spheres.radii[legs]
+    assert np.any((np.abs(centres[:, 0]) < 0.19) & (low < 0.25))  # some leg sphere reaches below the top
+    into = _check(_stance(model), model, plateau, anymal, tolerances=CheckTolerances(legs=True))
+    assert into.worst["leg_penetration"] > 0.01 and _failed(into) == {"leg_penetration"}
+    assert "leg_penetration" not in _failed(_check(_stance(model), model, plateau, anymal))
 
 
 def test_constant_acceleration_known_residuals(model, flat_terrain, anymal):

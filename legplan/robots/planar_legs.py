@@ -1,0 +1,169 @@
+"""Closed-form leg kinematics for the centroidal planner: where a leg's thigh and shank are, given its foot.
+
+The centroidal model (`legplan.dyn`) plans the base and the feet, not the joints; to keep the legs
+themselves off the terrain it needs the leg's collision spheres as a function of the foot's
+position in the base frame. For the common three-joint leg — hip abduction (HAA) about the base x
+axis, then hip and knee flexion (HFE, KFE) about the leg's own y axis — that function is closed
+form (the leg's inverse kinematics, knee on the side it has in the nominal stance):
+
+* HAA: after the abduction α, the knee and the foot lie in the plane y' = w of the abducted frame
+  (w their lateral offset from the HAA axis), so with T the foot relative to the HAA joint,
+  T_y² + T_z² = w² + z'², z' = −√(T_y² + T_z² − w²) the foot's depth in that plane, and
+  (cos α, sin α) = (w T_y + z' T_z, w T_z − z' T_y) / (T_y² + T_z²).
+* HFE, KFE: in the plane, the hip H = (h_x, h_z), the foot F = (T_x, z'), the thigh's in-plane
+  length l₁ and the shank l₂ give the knee K = H + a u + σ b n with d = |F − H|, u = (F − H)/d,
+  n ⟂ u, a = (l₁² − l₂² + d²)/(2d), b = √(l₁² − a²) (0 where the foot is out of reach), σ the
+  nominal knee side.
+* A sphere on the thigh (shank) turns with it about y: its offset from the hip (knee) in the nominal
+  stance, rotated in the x-z plane by the angle from the nominal thigh (shank) direction to the
+  current one, then everything by α about x.
+
+Only +, ·, / and √ appear, so the function takes complex arguments and the planner differentiates
+it by complex step. The geometry is read from the robot's URDF at the nominal stance (HAA at 0);
+`PlanarLegs.of_robot` returns None for a robot whose legs are not of this kind.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+AXIS_TOLERANCE = 1e-6  # |axis × expected axis| and in-plane offsets that count as exact (m, rad)
+REACH_FLOOR = 1e-9  # m²: b² below this (the foot at or beyond full reach) is taken as this
+
+
+@dataclass(frozen=True)
+class PlanarLegs:
+    """Per leg (the robot's leg order; arrays (n_legs, ...)): the HAA joint `haa` (3,) in the base
+    frame, the hip `hip` (x, y, z) relative to it, the lateral offset `lateral` w of knee and foot,
+    the in-plane thigh `thigh` l₁ and `shank` l₂, the knee side `knee_side` σ, and the nominal
+    in-plane thigh and shank directions (x, z). Per collision sphere of a leg (not its foot):
+    `sphere_leg`, `sphere_link` (0 thigh, 1 shank), `sphere_offset` from the hip or knee in the
+    nominal stance (3,), `sphere_radius`, `sphere_index` into the robot's sphere set."""
+
+    haa: np.ndarray
+    hip: np.ndarray
+    lateral: np.ndarray
+    thigh: np.ndarray
+    shank: np.ndarray
+    knee_side: np.ndarray
+    thigh_direction: np.ndarray
+    shank_direction: np.ndarray
+    sphere_leg: np.ndarray
+    sphere_link: np.ndarray
+    sphere_offset: np.ndarray
+    sphere_radius: np.ndarray
+    sphere_index: np.ndarray
+
+    @classmethod
+    def of_robot(cls, robot) -> PlanarLegs | None:
+        """The closed-form legs of a `RobotModel` (module docstring); None unless every leg is an
+        HAA-x, HFE-y, KFE-y chain with knee and foot in one plane."""
+        model, data = robot.model, robot.model.createData()
+        q = robot.q_nominal.copy()
+        q[:7] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
+        joints = [[model.getJointId(name) for name in leg.joint_names] for leg in robot.legs]
+        if any(len(j) != 3 for j in joints):
+            return None
+        for haa, _, _ in joints:
+            q[model.idx_qs[haa]] = 0.0
+        pin.forwardKinematics(model, data, q)
+        pin.updateFramePlacements(model, data)
+        rows = {name: [] for name in ("haa", "hip", "lateral", "thigh", "shank", "knee_side", "thigh_direction",
+                                      "shank_direction")}
+        spheres = {name: [] for name in ("leg", "link", "offset", "radius", "index")}
+        for k, (leg, (haa, hfe, kfe)) in enumerate(zip(robot.legs, joints)):
+            axes = [_joint_axis(model, data, q, j) for j in (haa, hfe, kfe)]
+            if not all(np.linalg.norm(np.cross(a, e)) < AXIS_TOLERANCE
+                       for a, e in zip(axes, ([1.0, 0, 0], [0, 1.0, 0], [0, 1.0, 0]))):
+                return None
+            origin = data.oMi[haa].translation.copy()
+            hip, knee = data.oMi[hfe].translation - origin, data.oMi[kfe].translation - origin
+            foot = data.oMf[leg.foot_frame_id].translation - origin
+            if abs(knee[1] - foot[1]) > AXIS_TOLERANCE or foot[2] >= 0.0:
+                return None
+            lateral = knee[1]
+            thigh = np.linalg.norm(knee - hip) ** 2 - (lateral - hip[1]) ** 2
+            shank = np.hypot(foot[0] - knee[0], foot[2] - knee[2])
+            h2, k2, f2 = hip[[0, 2]], knee[[0, 2]], foot[[0, 2]]
+            u = (f2 - h2) / np.linalg.norm(f2 - h2)
+            side = np.sign((k2 - h2) @ np.array([-u[1], u[0]]))
+            rows["haa"].append(origin)
+            rows["hip"].append(hip)
+            rows["lateral"].append(lateral)
+            rows["thigh"].append(np.sqrt(thigh))
+            rows["shank"].append(shank)
+            rows["knee_side"].append(side)
+            rows["thigh_direction"].append((k2 - h2) / np.sqrt(thigh))
+            rows["shank_direction"].append((f2 - k2) / shank)
+            for s in np.flatnonzero((np.asarray(robot.spheres.leg_index) == k) & ~np.asarray(robot.spheres.is_foot)):
+                frame = model.frames[int(robot.spheres.frame_ids[s])]
+                parent = frame.parentJoint
+                if parent not in (hfe, kfe):
+                    return None
+                centre = data.oMf[int(robot.spheres.frame_ids[s])].act(robot.spheres.offsets[s]) - origin
+                spheres["leg"].append(k)
+                spheres["link"].append(0 if parent == hfe else 1)
+                spheres["offset"].append(centre - (hip if parent == hfe else knee))
+                spheres["radius"].append(robot.spheres.radii[s])
+                spheres["index"].append(s)
+        return cls(**{name: np.array(value, float) for name, value in rows.items()},
+                   sphere_leg=np.array(spheres["leg"], int), sphere_link=np.array(spheres["link"], int),
+                   sphere_offset=np.array(spheres["offset"], float).reshape(-1, 3),
+                   sphere_radius=np.array(spheres["radius"], float), sphere_index=np.array(spheres["index"], int))
+
+    def spheres_of(self, leg: int) -> np.ndarray:
+        """Indices (into the `sphere_*` arrays) of the spheres of one leg."""
+        return np.flatnonzero(self.sphere_leg == leg)
+
+    def sphere_centres(self, leg: int, feet: np.ndarray) -> np.ndarray:
+        """Centres (n, k, 3), base frame, of the leg's k spheres with its foot at `feet` (n, 3), base
+        frame; real or complex (module docstring)."""
+        t = feet - self.haa[leg]
+        w = self.lateral[leg]
+        rho2 = t[:, 1] ** 2 + t[:, 2] ** 2
+        depth = -np.sqrt(rho2 - w ** 2)
+        cos_a, sin_a = (w * t[:, 1] + depth * t[:, 2]) / rho2, (w * t[:, 2] - depth * t[:, 1]) / rho2
+        hip = self.hip[leg]
+        dx, dz = t[:, 0] - hip[0], depth - hip[2]
+        d2 = dx ** 2 + dz ** 2
+        d = np.sqrt(d2)
+        l1, l2 = self.thigh[leg], self.shank[leg]
+        a = (l1 ** 2 - l2 ** 2 + d2) / (2.0 * d)
+        b2 = l1 ** 2 - a ** 2
+        b = np.sqrt(np.where(b2.real > REACH_FLOOR, b2, REACH_FLOOR))
+        ux, uz = dx / d, dz / d
+        side = self.knee_side[leg]
+        knee_x = hip[0] + a * ux - side * b * uz
+        knee_z = hip[2] + a * uz + side * b * ux
+        pick = self.spheres_of(leg)
+        out = []
+        for s in pick:
+            if self.sphere_link[s] == 0:
+                nominal, start = self.thigh_direction[leg], (hip[0], hip[1], hip[2])
+                now = ((knee_x - hip[0]) / l1, (knee_z - hip[2]) / l1)
+            else:
+                nominal, start = self.shank_direction[leg], (knee_x, w, knee_z)
+                now = ((t[:, 0] - knee_x) / l2, (depth - knee_z) / l2)
+            cos_p = nominal[0] * now[0] + nominal[1] * now[1]
+            sin_p = nominal[0] * now[1] - nominal[1] * now[0]
+            ox, oy, oz = self.sphere_offset[s]
+            x = start[0] + cos_p * ox - sin_p * oz
+            y = start[1] + oy + 0.0 * x
+            z = start[2] + sin_p * ox + cos_p * oz
+            out.append(np.stack([x, y * cos_a - z * sin_a, y * sin_a + z * cos_a], axis=-1) + self.haa[leg])
+        return np.stack(out, axis=1) if out else np.zeros((len(feet), 0, 3), dtype=feet.dtype)
+
+
+def _joint_axis(model: pin.Model, data: pin.Data, q: np.ndarray, joint: int) -> np.ndarray:
+    """The rotation axis of a one-degree-of-freedom joint in the base frame at q (from the change of
+    its placement under a small turn)."""
+    turned = q.copy()
+    turned[model.idx_qs[joint]] += 1e-6
+    rotation = data.oMi[joint].rotation.copy()
+    other = model.createData()
+    pin.forwardKinematics(model, other, turned)
+    axis = rotation @ pin.log3(rotation.T @ other.oMi[joint].rotation)
+    return axis / np.linalg.norm(axis)

@@ -1,0 +1,49 @@
+"""The closed-form leg kinematics of the centroidal planner against pinocchio's, and its derivative."""
+
+import numpy as np
+from legplan.robots import leg_reach, load_robot
+from legplan.robots.planar_legs import PlanarLegs
+
+
+def _feet_in_range(robot, n, seed=0):
+    """Feet (n, legs, 3) in the base frame, uniform in each leg's range-of-motion box (robot leg order)."""
+    c = robot.centroidal
+    order = [c.legs.index(leg.name) for leg in robot.legs]
+    rng = np.random.default_rng(seed)
+    return c.nominal_feet[order][None] + rng.uniform(-1.0, 1.0, (n, len(order), 3)) * c.range_of_motion
+
+
+def test_thigh_and_shank_spheres_are_where_pinocchio_puts_them(anymal):
+    """For 300 feet across the range-of-motion boxes: the spheres at pinocchio's FK of the numerical
+    IK solution (`leg_reach`) and the closed form agree to the IK tolerance, every thigh and shank
+    sphere of every leg."""
+    legs = anymal.centroidal.leg_kinematics
+    assert legs is not None and legs.sphere_index.size == 16  # 2 thigh + 2 shank spheres per leg
+    n = 300
+    feet = _feet_in_range(anymal, n)
+    reach = leg_reach(anymal, np.zeros((n, 3)), np.tile(np.eye(3), (n, 1, 1)), feet)
+    assert reach.reachable.all()
+    Q = np.zeros((n, anymal.nq))
+    Q[:, 6], Q[:, 7:] = 1.0, reach.joints
+    truth = anymal.sphere_centres(Q)
+    for leg in range(anymal.n_legs):
+        mine = legs.sphere_centres(leg, feet[:, leg])
+        assert np.abs(mine - truth[:, legs.sphere_index[legs.spheres_of(leg)]]).max() < 1e-6
+
+
+def test_closed_form_takes_complex_steps_exactly(anymal):
+    """The complex step of the closed form equals its central difference (the planner's Jacobian)."""
+    legs = anymal.centroidal.leg_kinematics
+    feet = _feet_in_range(anymal, 20, seed=1)[:, 2]
+    h, step = 1e-20, 1e-6
+    for axis in range(3):
+        direction = np.zeros(3)
+        direction[axis] = 1.0
+        complex_step = legs.sphere_centres(2, feet + 1j * h * direction).imag / h
+        central = (legs.sphere_centres(2, feet + step * direction) - legs.sphere_centres(2, feet - step * direction)) / (2 * step)
+        assert np.abs(complex_step - central).max() < 1e-6
+
+
+def test_legs_of_another_kind_have_no_closed_form():
+    """scarab2's legs are no hip-abduction (x), hip and knee flexion (y) chains."""
+    assert PlanarLegs.of_robot(load_robot("scarab2")) is None
