@@ -6,7 +6,8 @@ tracking of planned trajectories with vs without the TOWR-costs paper's costs (i
 * Tasks: flat ground (trot, 4 strides, 2.4 s: 1 m, 0.5 m, 0.6 m diagonal, 1 m with a 0.5 rad turn) and
   the Single Pallet (walk, 4 strides, 5.5 s, from (-1.0, 0.3, 0.3) and (-0.8, -0.2, 0) to (0.6, 0, 0),
   the paper's Sec. V-2 task), each planned by `legplan.dyn.planner.plan` without costs (TOWR's
-  formulation, `DynParams()`) and with them (`PAPER`), then executed by `legplan.sim.simulate`
+  formulation, `DynParams()`) and with them (`PAPER`), the pallet tasks also with the paper's settings
+  and the legs kept 6 cm off the terrain (`leg_clearance`, ours), then executed by `legplan.sim.simulate`
   (ANYmal at its URDF's 40 N m, μ = 0.5 as planned). Success, fall time, rms/max base position and
   orientation tracking errors, peak torque and torque saturation per run; a failed run is executed
   again with twice the torque limits (`SimParams.effort_scale`), to tell torque-limited plans apart.
@@ -28,6 +29,7 @@ import datetime
 import json
 import sys
 import time
+from dataclasses import replace
 
 import numpy as np
 import pinocchio as pin
@@ -48,11 +50,15 @@ FLAT = [((0, 0, 0), (1.0, 0, 0)), ((0, 0, 0), (0.5, 0, 0)), ((0, 0, 0), (0.6, 0.
 PALLET = [((-1.0, 0.3, 0.3), (0.6, 0, 0)), ((-0.8, -0.2, 0.0), (0.6, 0, 0))]
 
 
-def run_tasks(robot, terrain_map, tasks, gait, duration):
+SETTINGS = {"none": DynParams(), "paper": PAPER, "paper, legs 6 cm": replace(PAPER, leg_clearance=0.06)}
+
+
+def run_tasks(robot, terrain_map, tasks, gait, duration, labels):
     terrain = TerrainModel(terrain_map)
     rows = []
     for start, goal in tasks:
-        for label, params in (("none", DynParams()), ("paper", PAPER)):
+        for label in labels:
+            params = SETTINGS[label]
             task = DynTask(start, goal, gait, 4, duration)
             planned = plan(task, robot.centroidal, terrain, params)
             row = {"map": terrain_map.name, "start": start, "goal": goal, "costs": label,
@@ -142,7 +148,8 @@ def main():
     robot = load_robot("anymal")
     load_start = load_average()
     maps = {name: build_map(ROOT / "maps" / f"{name}.yaml") for name in ("flat", "single_pallet")}
-    rows = run_tasks(robot, maps["flat"], FLAT, "trot", 2.4) + run_tasks(robot, maps["single_pallet"], PALLET, "walk", 5.5)
+    rows = run_tasks(robot, maps["flat"], FLAT, "trot", 2.4, ("none", "paper")) + \
+        run_tasks(robot, maps["single_pallet"], PALLET, "walk", 5.5, tuple(SETTINGS))
     qps = collect_qps(robot, maps["flat"], rows[0])
     prox_times, prox_worst = time_proxqp(qps, robot.n_joints)
     osqp_times, osqp_worst = time_osqp(qps, robot.n_joints)
@@ -180,7 +187,7 @@ def markdown(result) -> str:
                      f"{outcome} | {r['rms_position_error']:.3f} | {r['max_position_error']:.3f} | "
                      f"{r['rms_orientation_error']:.3f} | {r['max_orientation_error']:.3f} | {r['peak_torque']:.0f} | "
                      f"{100 * r['saturation']:.0f} % |")
-    for label in ("none", "paper"):
+    for label in dict.fromkeys(r["costs"] for r in result["runs"]):
         runs = [r for r in result["runs"] if r["costs"] == label]
         lines.append(f"\n{label}: {sum(r['success'] for r in runs)}/{len(runs)} succeeded, median rms position error "
                      f"{np.median([r['rms_position_error'] for r in runs]):.3f} m, orientation "
