@@ -16,11 +16,10 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from legplan.dyn.euler import world_rates
-from legplan.dyn.constraints import RangeOfMotionBlock
 from legplan.dyn.costs import CostWeights
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.init import heuristic
-from legplan.dyn.problem import DynParams, DynTask, Problem, build_problem, cost_blocks
+from legplan.dyn.problem import DynParams, DynTask, Problem, build_problem, cost_blocks, range_excess_times
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import PHASES
 from legplan.solve.auglag import ALParams, ALResult, evaluate_costs, solve_augmented_lagrangian
@@ -126,11 +125,8 @@ def direct(task: DynTask, model, terrain: TerrainModel, params: DynParams, initi
     5 iterations before, 51 after)."""
     t0 = time.perf_counter()
     projection = params.warm_stage != "costs"
-    stage_params = replace(params, costs=CostWeights()) if projection else params
-    problem = build_problem(task, model, terrain, stage_params, initializer)
-    times = range_excess_times(problem, {v.name: v.value for v in problem.variables}, -GUESS_RANGE_NEAR)
-    if times.size:
-        problem = build_problem(task, model, terrain, stage_params, initializer, times)
+    problem = build_problem(task, model, terrain, replace(params, costs=CostWeights()) if projection else params,
+                            initializer, near_range=GUESS_RANGE_NEAR)
     setup = time.perf_counter() - t0
     solver = params.projection_solver if projection else params.warm_solver
     stages = [("projection" if projection else "direct", budget.solve(problem, solver, callback))]
@@ -258,29 +254,12 @@ def refine_range(problem: Problem, result: ALResult, params: DynParams, budget: 
     return problem, stages, setup
 
 
-RANGE_CHECK_DT = 0.001  # s: the grid on which `refine_range` looks for a foot outside its box
 GUESS_RANGE_NEAR = 0.005
 """m: `direct` samples the range of motion also where a near-solution guess comes within this of a
 box between the regular samples (`range_excess_times`), where its solution would likely leave the box
 and need a `refine_range` round. Measured (projections of the first 60 held-out single-pallet tasks,
 converged within 5 iterations): none 63 %, where the guess is outside (0 m) 72 %, 5, 10 or 20 mm 85 %."""
 RANGE_ROUNDS = 3
-
-
-def range_excess_times(problem: Problem, values: dict[str, np.ndarray], above: float = 0.0) -> np.ndarray:
-    """The times on the `RANGE_CHECK_DT` grid at which some foot's excess over its range-of-motion
-    box (the model's box, not the planner's margin-reduced one) has a local maximum above `above`
-    (m; 0: the foot is outside)."""
-    form, model = problem.form, problem.model
-    t = np.append(np.arange(0.0, form.duration, RANGE_CHECK_DT), form.duration)
-    found = []
-    for leg in range(form.legs):
-        block = RangeOfMotionBlock(form, leg, model.nominal_feet[leg], t)
-        offset = block.evaluate([values[v] for v in block.variables], False)[0].reshape(-1, 3)
-        excess = np.pad((np.abs(offset) - model.range_of_motion).max(axis=1), 1, constant_values=-np.inf)
-        peak = (excess[1:-1] > above) & (excess[1:-1] >= excess[:-2]) & (excess[1:-1] >= excess[2:])
-        found.append(t[peak])
-    return np.unique(np.concatenate(found))
 
 
 def _stage(task, model, terrain, params: DynParams, previous: ALResult, solver, callback, budget: Budget,

@@ -14,8 +14,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock, ForceBlock, LegClearanceBlock,
-                                     RangeOfMotionBlock, StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity, swing_constraint,
-                                     swing_height)
+                                     RangeOfMotionBlock, StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity,
+                                     swing_constraint, swing_height)
 from legplan.dyn.costs import CostWeights, StairEdgeBlock, integral_costs
 from legplan.dyn.formulation import Formulation, Pose
 from legplan.dyn.gait import make_gait
@@ -165,6 +165,25 @@ class Problem:
     """The extra range-of-motion sample times (s) it was built with (`build_problem`)."""
 
 
+RANGE_CHECK_DT = 0.001  # s: the grid on which `range_excess_times` looks for a foot outside its box
+
+
+def range_excess_times(problem: Problem, values: dict[str, np.ndarray], above: float = 0.0) -> np.ndarray:
+    """The times on the `RANGE_CHECK_DT` grid at which some foot's excess over its range-of-motion
+    box (the model's box, not the planner's margin-reduced one) has a local maximum above `above`
+    (m; 0: the foot is outside)."""
+    form, model = problem.form, problem.model
+    t = np.append(np.arange(0.0, form.duration, RANGE_CHECK_DT), form.duration)
+    found = []
+    for leg in range(form.legs):
+        block = RangeOfMotionBlock(form, leg, model.nominal_feet[leg], t)
+        offset = block.evaluate([values[v] for v in block.variables], False)[0].reshape(-1, 3)
+        excess = np.pad((np.abs(offset) - model.range_of_motion).max(axis=1), 1, constant_values=-np.inf)
+        peak = (excess[1:-1] > above) & (excess[1:-1] >= excess[:-2]) & (excess[1:-1] >= excess[2:])
+        found.append(t[peak])
+    return np.unique(np.concatenate(found))
+
+
 def start_feet(model, pose: Pose, terrain: TerrainModel) -> np.ndarray:
     """Nominal stance under a base pose, rotated by its yaw, on the terrain (legs, 3)."""
     yaw = pose.euler[2]
@@ -189,10 +208,11 @@ def sample_times(form: Formulation, params: DynParams) -> dict:
 
 
 def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer,
-                  range_times: np.ndarray = ()) -> Problem:
+                  range_times: np.ndarray = (), near_range: float | None = None) -> Problem:
     """The constrained least-squares problem of one task (see module docstring); `range_times` are
     extra range-of-motion sample times (s), where the planner found a foot outside its box between
-    the regular ones (`planner.range_excess_times`)."""
+    the regular ones (`range_excess_times`); with `near_range` (m) also those where the
+    initializer's guess comes within that of a box (`planner.GUESS_RANGE_NEAR`)."""
     form = Formulation(make_gait(task.gait, task.strides, task.duration), params.dt)
     start, goal = task_poses(task, model, terrain)
     feet0 = start_feet(model, start, terrain)
@@ -205,6 +225,9 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     timing = PhaseTiming(form, params.phase_min) if params.optimize_phases else None
     problem = Problem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess),
                       timing=timing, durations=durations, range_times=np.asarray(range_times, float))
+    if near_range is not None:
+        guess_values = {v.name: v.value for v in problem.variables}
+        problem.range_times = np.union1d(problem.range_times, range_excess_times(problem, guess_values, -near_range))
     times = sample_times(form, params)
     k = problem.constraints
     if timing is not None:

@@ -154,6 +154,27 @@ def test_bad_input_exits_2_with_one_line_and_no_output(planned, tmp_path, args, 
     assert not out.exists() and not (tmp_path / "bad.h5.work").exists()
 
 
+@pytest.mark.parametrize("text, message", [
+    ("preset: towr\n", "field 'preset' must be one of paper, none, got 'towr'"),
+    ("preset: [paper]\n", "field 'preset' must be one of paper, none, got ['paper']"),
+    ("preset: paper\nleg_clearance: .nan\n", "field 'leg_clearance' must be a finite number"),
+    ("leg_clearance: -0.1\n", "field 'leg_clearance' must be >= 0"),
+    ("leg_clearance: high\n", "field 'leg_clearance'"),
+])
+def test_bad_costs_file_presets_and_leg_clearance_exit_2(planned, tmp_path, text, message):
+    """The costs file's `preset` and `leg_clearance` by input class: one line naming the file and
+    the field, exit 2, no artefact."""
+    _, map_path, _ = planned
+    costs = tmp_path / "costs.yaml"
+    costs.write_text(text)
+    out = tmp_path / "bad.h5"
+    result = invoke("dyn", "plan", map_path, *TROT, "--costs", costs, "-o", out)
+    assert result.exit_code == 2, result.output + str(result.exception)
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and f"{costs}: {message}" in lines[0], result.stderr
+    assert not out.exists() and not (tmp_path / "bad.h5.work").exists()
+
+
 def test_bad_maps_and_tasks_files(planned, tmp_path):
     _, map_path, _ = planned
     no_height = tmp_path / "no_height.h5"

@@ -7,7 +7,7 @@ import pytest
 
 from legplan.dyn.constraints import GRAVITY
 from legplan.dyn.planner import POLISH_RESERVE, plan
-from legplan.dyn.problem import PAPER_COSTS, DynParams, DynTask, build_problem
+from legplan.dyn.problem import PAPER_COSTS, DynParams, DynTask, build_problem, range_excess_times
 
 
 def _newton_euler_at_knots(result, anymal):
@@ -221,9 +221,9 @@ def test_a_near_solution_guess_is_sampled_where_it_comes_near_its_range_of_motio
     projected = plan(task, anymal, flat, params, _Replay(guess))
     assert projected.success and "range of motion at" not in projected.reason, projected.reason
     assert projected.problem.range_times.size and _range_excess(projected, anymal) <= 1e-6
-    near = planner.range_excess_times(projected.problem, guess, -planner.GUESS_RANGE_NEAR)
+    near = range_excess_times(projected.problem, guess, -planner.GUESS_RANGE_NEAR)
     assert np.array_equal(projected.problem.range_times, near)
-    assert near.size > planner.range_excess_times(projected.problem, guess).size  # also where inside, within 5 mm
+    assert near.size > range_excess_times(projected.problem, guess).size  # also where inside, within 5 mm
 
 
 def test_range_refinement_of_a_plan_with_costs_keeps_its_cost_terms(anymal, flat):
