@@ -151,7 +151,7 @@ class PlanarLegs:
             sin_p = nominal[0] * now[1] - nominal[1] * now[0]
             ox, oy, oz = self.sphere_offset[s]
             x = start[0] + cos_p * ox - sin_p * oz
-            y = start[1] + oy + 0.0 * x
+            y = np.full_like(x, start[1] + oy)
             z = start[2] + sin_p * ox + cos_p * oz
             out.append(np.stack([x, y * cos_a - z * sin_a, y * sin_a + z * cos_a], axis=-1) + self.haa[leg])
         return np.stack(out, axis=1) if out else np.zeros((len(feet), 0, 3), dtype=feet.dtype)

@@ -145,10 +145,12 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
              "angular_velocity": _max(np.linalg.norm(s["base_ang_vel"] - omega, axis=1))}
     worst.update(_forces(model, terrain_map, feet, forces, contact))
     worst.update(_feet_on_terrain(terrain_map, feet, contact))
-    worst.update(_base(robot, terrain_map, p, rot, feet))
+    worst.update(_base(terrain_map, p, feet))
     offset = np.abs(np.einsum("nji,nlj->nli", rot, feet - p[:, None]) - model.nominal_feet) - model.range_of_motion
     worst["range_of_motion"] = _max(np.maximum(offset, 0.0))
-    worst.update(_reach(robot, model, p, rot, feet, tolerances.leg_reach, terrain_map))
+    reach, joints = _reach(robot, model, p, rot, feet, tolerances.leg_reach)
+    worst.update(reach)
+    worst.update(_spheres(robot, terrain_map, p, rot, joints))
 
     half_cell = 0.5 * float(terrain_map.grid.resolution)
     tolerance = {"newton_euler_force_nodes": rel * weight, "newton_euler_torque_nodes": rel * weight * lever,
@@ -247,29 +249,29 @@ def _feet_on_terrain(terrain_map, feet, contact) -> dict[str, float]:
             "penetration_sdf": _max(np.maximum(-sdf, 0.0))}
 
 
-def _base(robot, terrain_map, p, rot, feet) -> dict[str, float]:
-    """Base height above the terrain and the feet, and the trunk spheres' depth into the terrain
-    (sphere centres by pinocchio FK of the base pose)."""
-    Q = np.tile(robot.q_nominal, (len(p), 1))
-    Q[:, :3], Q[:, 3:7] = p, Rotation.from_matrix(rot).as_quat()           # (x, y, z, w) as pinocchio
-    trunk = np.flatnonzero(np.asarray(robot.spheres.leg_index) == -1)
-    centres = robot.sphere_centres(Q)[:, trunk]
-    depth = robot.spheres.radii[trunk] - terrain_map.surface_distance(centres.reshape(-1, 3)).reshape(len(p), -1)
+def _base(terrain_map, p, feet) -> dict[str, float]:
+    """Base height above the terrain and the feet."""
     return {"base_height": float(np.min(p[:, 2] - terrain_map.height_at(p[:, :2]))),
-            "base_above_feet": float(np.min(p[:, 2] - feet[..., 2].max(axis=1))),
-            "trunk_penetration": float(depth.max(initial=-np.inf))}
+            "base_above_feet": float(np.min(p[:, 2] - feet[..., 2].max(axis=1)))}
 
 
-def _reach(robot, model, p, rot, feet, tolerance: float, terrain_map) -> dict[str, float]:
+def _reach(robot, model, p, rot, feet, tolerance: float) -> tuple[dict[str, float], np.ndarray]:
     """Per-foot IK inside the joint limits (feet reordered from `model.legs` to `robot.legs` by
-    name), and the depth of the legs' thigh and shank spheres into the terrain at its solution
-    (sphere centres by pinocchio FK)."""
+    name); also returns its joints (n, n_joints)."""
     order = [model.legs.index(leg.name) for leg in robot.legs]
     reach = leg_reach(robot, p, rot, feet[:, order], tolerance=tolerance)
+    return {"leg_reach": float(reach.error.max()), "joint_limit_margin": float(reach.limit_margin.min())}, reach.joints
+
+
+def _spheres(robot, terrain_map, p, rot, joints) -> dict[str, float]:
+    """How deep the trunk's and the legs' thigh and shank spheres reach into the terrain (radius −
+    SDF of the centre), the centres by one pinocchio FK of the base pose and the IK joints."""
     Q = np.empty((len(p), robot.nq))
-    Q[:, :3], Q[:, 3:7], Q[:, 7:] = p, Rotation.from_matrix(rot).as_quat(), reach.joints
-    legs = np.flatnonzero((np.asarray(robot.spheres.leg_index) >= 0) & ~np.asarray(robot.spheres.is_foot, bool))
-    centres = robot.sphere_centres(Q)[:, legs]
-    depth = robot.spheres.radii[legs] - terrain_map.surface_distance(centres.reshape(-1, 3)).reshape(len(p), -1)
-    return {"leg_reach": float(reach.error.max()), "joint_limit_margin": float(reach.limit_margin.min()),
-            "leg_penetration": float(depth.max(initial=-np.inf))}
+    Q[:, :3], Q[:, 3:7], Q[:, 7:] = p, Rotation.from_matrix(rot).as_quat(), joints   # (x, y, z, w) as pinocchio
+    index, foot = np.asarray(robot.spheres.leg_index), np.asarray(robot.spheres.is_foot, bool)
+    picked = np.flatnonzero(~foot)
+    centres = robot.sphere_centres(Q)[:, picked]
+    depth = robot.spheres.radii[picked] - terrain_map.surface_distance(centres.reshape(-1, 3)).reshape(len(p), -1)
+    trunk = index[picked] == -1
+    return {"trunk_penetration": float(depth[:, trunk].max(initial=-np.inf)),
+            "leg_penetration": float(depth[:, ~trunk].max(initial=-np.inf))}
