@@ -341,16 +341,13 @@ class ForceBlock(ResidualBlock):
 def acceleration_continuity(form: Formulation, variable: str) -> LinearBlock:
     """p̈ from the left polynomial minus p̈ from the right one at every interior base knot (3 rows each)."""
     knots = form.knots
-    rows, cols, vals = [], [], []
-    for j in range(1, knots.size - 1):
-        left = hermite_weights([1.0], knots[j] - knots[j - 1], 2)[0]
-        right = hermite_weights([0.0], knots[j + 1] - knots[j], 2)[0]
-        c_left = [2 * (j - 1), 2 * (j - 1) + 1, 2 * j, 2 * j + 1]
-        c_right = [2 * j, 2 * j + 1, 2 * (j + 1), 2 * (j + 1) + 1]
-        rows += [j - 1] * 8
-        cols += c_left + c_right
-        vals += list(left) + list(-right)
-    m = sp.csr_matrix((vals, (rows, cols)), shape=(knots.size - 2, 2 * form.base.nodes))
+    inner = knots.size - 2
+    left = hermite_weights(np.ones(inner), np.diff(knots)[:-1], 2)  # end of segment j − 1
+    right = hermite_weights(np.zeros(inner), np.diff(knots)[1:], 2)  # start of segment j
+    first = 2 * np.arange(inner)[:, None]  # (p, v) of node j − 1, then of j and j + 1
+    cols = np.hstack([first + np.arange(4), first + 2 + np.arange(4)])
+    m = sp.csr_matrix((np.hstack([left, -right]).reshape(-1), (np.repeat(np.arange(inner), 8), cols.reshape(-1))),
+                      shape=(inner, 2 * form.base.nodes))
     return LinearBlock((variable,), [kron_dim(m)])
 
 

@@ -61,25 +61,22 @@ def integral_rows(spline: NodeSpline, axes: list[int], derivative: int, derivati
     """(L matrix over the flattened node array, offset) of eq. (1) on the Hermite segments of `spline`
     for the given axes: x = the `derivative`-th time derivative, its derivative weighted by ω_d.
 
-    `reference` gives one constant x_ref per segment (only for derivative 0)."""
-    rows, cols, vals, offset = [], [], [], []
-    row = 0
-    for k, seg in enumerate(spline.segments):
-        if seg.constant:
-            continue
-        L = _segment_factor(seg.t1 - seg.t0, derivative, derivative_weight)
-        ref = 0.0 if reference is None else reference[k]
-        c_ref = L @ np.array([ref, 0.0, ref, 0.0])
-        for axis in axes:
-            node_cols = [6 * seg.a + axis, 6 * seg.a + 3 + axis, 6 * seg.b + axis, 6 * seg.b + 3 + axis]
-            for i in range(4):
-                rows += [row] * 4
-                cols += node_cols
-                vals += list(L[i])
-                offset.append(c_ref[i])
-                row += 1
+    `reference` gives one constant x_ref per segment (only for derivative 0). Rows: segment after
+    segment, axis after axis, the 4 rows of L."""
+    segments = [(k, seg) for k, seg in enumerate(spline.segments) if not seg.constant]
+    count, axes = len(segments), np.asarray(axes)
+    L = np.array([_segment_factor(seg.t1 - seg.t0, derivative, derivative_weight) for _, seg in segments]).reshape(count, 4, 4)
+    ref = np.zeros(count) if reference is None else np.asarray(reference, float)[[k for k, _ in segments]]
+    c_ref = (L[:, :, 0] + L[:, :, 2]) * ref[:, None]  # L (ref, 0, ref, 0)
+    a, b = (6 * np.array([getattr(seg, end) for _, seg in segments], int).reshape(count, 1) for end in "ab")
+    node_cols = np.hstack([a, a + 3, b, b + 3])  # (p_a, v_a, p_b, v_b) of axis 0
+    shape = (count, axes.size, 4, 4)  # segment, axis, row of L, node column
+    cols = np.broadcast_to(node_cols[:, None, None, :] + axes[None, :, None, None], shape).reshape(-1)
+    vals = np.broadcast_to(L[:, None], shape).reshape(-1)
+    rows = np.repeat(np.arange(count * axes.size * 4), 4)
     n_cols = 6 * spline.nodes if columns is None else columns
-    return sp.csr_matrix((vals, (rows, cols)), shape=(row, n_cols)), np.array(offset)
+    return (sp.csr_matrix((vals, (rows, cols)), shape=(count * axes.size * 4, n_cols)),
+            np.broadcast_to(c_ref[:, None, :], shape[:3]).reshape(-1))
 
 
 @dataclass(frozen=True)

@@ -64,10 +64,13 @@ class LinearSolver(ABC):
     def set_matrix(self, H: sp.spmatrix | np.ndarray) -> None:
         """Take H for the following `refactor` calls (H must not be modified while in use)."""
 
-    def set_jacobian(self, J: sp.spmatrix) -> None:
-        """Take H = JᵀJ given J (m × n) for the following `refactor` calls (same contract as
-        `set_matrix`). This default forms JᵀJ; `CholmodSolver` factorises from J itself."""
+    def set_jacobian(self, J: sp.spmatrix, rows: np.ndarray | None = None) -> None:
+        """Take H = JᵀJ given J (m × n), or the product of its `rows` only, for the following
+        `refactor` calls (same contract as `set_matrix`). This default forms the product;
+        `CholmodSolver` factorises from J itself."""
         J = sp.csr_matrix(J)
+        if rows is not None:
+            J = J[rows]
         self.set_matrix(sp.csc_matrix(J.T @ J))
 
     @abstractmethod
@@ -96,11 +99,16 @@ class CholmodSolver(LinearSolver):
     def set_matrix(self, H):
         self._set(sp.csc_matrix(H), transposed_jacobian=False)
 
-    def set_jacobian(self, J):
+    def set_jacobian(self, J, rows=None):
         """CHOLMOD's AAᵀ factorisation with A = Jᵀ: JᵀJ + βI is factorised from J (its CSR arrays are
-        those of Jᵀ in CSC), never formed here; the ordering is analysed on the pattern of JᵀJ."""
+        those of Jᵀ in CSC), never formed here; the ordering is analysed on the pattern of JᵀJ. With
+        `rows`, A holds those rows only, on the analysis of the whole J's pattern: the product of any
+        subset of J's rows has a subset of its pattern, which CHOLMOD's numeric factorisation takes
+        (checked against dense solves in the tests), so the hinged LM's active sets share one analysis."""
         J = sp.csr_matrix(J)
-        self._set(sp.csc_matrix((J.data, J.indices, J.indptr), shape=J.shape[::-1]), transposed_jacobian=True)
+        self._set(_transposed(J), transposed_jacobian=True)
+        if rows is not None:
+            self._matrix = _transposed(J[rows])
 
     def _set(self, A: sp.csc_matrix, transposed_jacobian: bool) -> None:
         """Analyse once per pattern of A (H, or Jᵀ when `transposed_jacobian`), then keep A."""
@@ -136,6 +144,11 @@ class CholmodSolver(LinearSolver):
 
     def solve(self, rhs):
         return self._factor.solve_A(rhs)
+
+
+def _transposed(J: sp.csr_matrix) -> sp.csc_matrix:
+    """Jᵀ in CSC from J in CSR, sharing its arrays."""
+    return sp.csc_matrix((J.data, J.indices, J.indptr), shape=J.shape[::-1])
 
 
 def natural_order_suffices(H: sp.csc_matrix) -> bool:

@@ -85,7 +85,7 @@ def test_geodesic_acceleration_solves_the_damped_system_with_the_exact_curvature
     v, (J,) = _quadratic_rows(x)
     import scipy.sparse as sp
     J = sp.csr_matrix(J)
-    model = _HingeModel(J, v, np.zeros(3, bool), 2, None)
+    model = _HingeModel(J, v, np.zeros(3, bool), 2)
     solver = make_solver("cholmod")
     lam = 0.3
     d_scaled = model.step(solver, lam, 10, Timings())
@@ -156,7 +156,7 @@ def test_model_step_never_raises_the_model_and_reaches_its_minimum(seed):
     v = rng.normal(size=m) * 3.0
     hinged = rng.random(m) < 0.7
     lam = 1e-4
-    model = _HingeModel(J, v, hinged, n, None)
+    model = _HingeModel(J, v, hinged, n)
     Js = J.toarray() * model.scale
     start = _model_value(Js, v, hinged, lam, np.zeros(n))
     for passes in (1, 2, 3):

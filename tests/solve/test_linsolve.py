@@ -192,6 +192,26 @@ def test_set_jacobian_factorises_jtj_plus_beta(name):
                                    rtol=1e-9)
 
 
+@pytest.mark.parametrize("name", ["cholmod", "scipy", "dense"])
+@pytest.mark.parametrize("seed", range(6))
+def test_set_jacobian_rows_factorises_the_rows_product_on_one_analysis(name, seed):
+    """Any subset of J's rows (the hinged LM's plain and active rows): the product of those rows
+    only, and CHOLMOD keeps the one analysis of the whole J's pattern."""
+    rng = np.random.default_rng(seed)
+    J = sp.csr_matrix(sp.random(120, 40, density=0.08, random_state=rng))
+    b = rng.standard_normal(40)
+    solver = make_solver(name)
+    for fraction in (1.0, 0.7, 0.3, 0.0):
+        rows = np.flatnonzero(rng.random(120) < fraction)
+        solver.set_jacobian(J, rows)
+        Jr = J[rows].toarray()
+        for beta in (1e-4, 1.0):
+            solver.refactor(beta)
+            np.testing.assert_allclose(solver.solve(b), np.linalg.solve(Jr.T @ Jr + beta * np.eye(40), b), rtol=1e-8)
+    if name == "cholmod":
+        assert solver.analyses == 1
+
+
 def test_cholmod_analyses_the_jacobian_once_per_pattern_and_apart_from_h():
     J = sp.csr_matrix(sp.random(90, 30, density=0.1, random_state=np.random.default_rng(5)) + sp.eye(90, 30))
     solver = CholmodSolver()
