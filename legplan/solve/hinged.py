@@ -27,7 +27,9 @@ Every solve is a numeric refactorization by CHOLMOD of J_RᵀJ_R + λI from the 
 plain or active (its AAᵀ mode: no product formed in Python), on one symbolic analysis of the whole
 J's pattern per problem; a pass whose active set is the one last factorized reuses that
 factorization. Measured against forming JᵀJ of the plain rows per linearization and adding the
-active rows' product per pass: the same iterates, 6 Heuristic pallet tasks 14.8 → 13.2 CPU s.
+active rows' product per pass, with CHOLMOD's analyses cached by pattern (`linsolve.ANALYSES`) and
+the ordering not judged (below): the same iterates, and 20 held-out pallet tasks polished from a
+cycle-1 network took 16.2 CPU s instead of 20.4–20.7 (one core, two runs each, quiet machine).
 λ follows the gain ratio ρ = actual / model decrease (Nielsen: λ ← λ·max(⅓, 1 − (2ρ − 1)³) on
 success, λ ← λ·ν, ν ← 2ν on failure).
 
@@ -59,7 +61,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from legplan.solve.linsolve import NotPositiveDefiniteError, make_solver
+from legplan.solve.linsolve import CholmodSolver, NotPositiveDefiniteError
 from legplan.solve.lm import MARQUARDT_FLOOR, LMResult, Status, Timings
 from legplan.solve.problem import Problem
 
@@ -101,8 +103,8 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
     timings = Timings()
     theta = layout.initial() if theta0 is None else layout.project(np.array(theta0, float))
     solver = problem.structure_cache.get("cholmod")  # its symbolic analysis holds for the next solve too
-    if solver is None:
-        solver = problem.structure_cache["cholmod"] = make_solver("cholmod")
+    if solver is None:  # CHOLMOD's own ordering: deciding on the natural one costs a structural JᵀJ
+        solver = problem.structure_cache["cholmod"] = CholmodSolver(ordering_method="default")
     lam, nu = params.lambda_init, 2.0
     hist_h, hist_l = [], []
     accepted = rejected = 0

@@ -225,3 +225,23 @@ def test_cholmod_analyses_the_jacobian_once_per_pattern_and_apart_from_h():
     assert solver.analyses == 2
     b = np.ones(30)
     np.testing.assert_allclose(solver.solve(b), np.linalg.solve(H.toarray() + 0.5 * np.eye(30), b), rtol=1e-9)
+
+
+def test_solvers_of_one_pattern_share_its_analysis_but_not_their_factors(monkeypatch):
+    import legplan.solve.linsolve as linsolve
+
+    monkeypatch.setattr(linsolve, "ANALYSES", linsolve.AnalysisCache(size=2))
+    analysed = []
+    analyze = linsolve.CholmodSolver._analyze
+    monkeypatch.setattr(linsolve.CholmodSolver, "_analyze", lambda self, *a: analysed.append(1) or analyze(self, *a))
+    H, b = _spd(seed=3)
+    first, second = CholmodSolver(), CholmodSolver()
+    first.factorize(H, 1.0)
+    second.factorize(H * 3.0, 0.5)  # same pattern: the cached analysis, its own numeric factor
+    assert len(analysed) == 1
+    for solver, M, beta in ((first, H, 1.0), (second, H * 3.0, 0.5)):
+        np.testing.assert_allclose(solver.solve(b), np.linalg.solve(M.toarray() + beta * np.eye(40), b), rtol=1e-10)
+    for n in (41, 42):  # two other patterns push H's out of a cache of two
+        CholmodSolver().factorize(_spd(n, seed=4)[0], 1.0)
+    CholmodSolver().factorize(H, 1.0)
+    assert len(analysed) == 4
