@@ -160,6 +160,29 @@ def kron_dim(m: sp.spmatrix, dim: int = 3) -> sp.csr_matrix:
     return sp.kron(sp.csr_matrix(m), sp.identity(dim, format="csr"), format="csr")
 
 
+@functools.lru_cache(maxsize=512)
+def _jacobian_structure(rows: int, samples: int, columns: int, patterns: tuple) -> tuple:
+    """`SampledJacobian`'s structure for its sizes and the (indptr, indices) patterns of its matrices
+    (dtype and bytes each): the sample row of every matrix entry, the CSR slot of every product entry,
+    the CSR indices and indptr (read-only, shared). Cached by content: every problem built for a task
+    space samples its splines alike, and a stage's problem repeats the last one's, so most blocks of a
+    new problem find their structure here (it was a third of a problem's first Jacobian)."""
+    entry_rows, keys = [], []
+    for ptr_dtype, ptr, idx_dtype, idx in patterns:
+        indptr, indices = np.frombuffer(ptr, ptr_dtype), np.frombuffer(idx, idx_dtype)
+        entry_row = np.repeat(np.arange(samples), np.diff(indptr))
+        shape = (entry_row.size, rows, 3)
+        r = np.broadcast_to((rows * entry_row)[:, None, None] + np.arange(rows)[None, :, None], shape)
+        c = np.broadcast_to((3 * indices)[:, None, None] + np.arange(3)[None, None, :], shape)
+        keys.append((r.astype(np.int64) * columns + c).reshape(-1))
+        entry_rows.append(entry_row)
+    unique, slot = np.unique(np.concatenate(keys), return_inverse=True)
+    out = (entry_rows, slot, unique % columns, np.searchsorted(unique // columns, np.arange(samples * rows + 1)))
+    for a in [*entry_rows, *out[1:]]:
+        a.flags.writeable = False
+    return out
+
+
 class SampledJacobian:
     """Jacobian of `rows` residuals per sample, J[(i, a), (j, b)] = Σ_terms M[i, j] · G_i[a, b].
 
@@ -167,8 +190,8 @@ class SampledJacobian:
     each evaluation the call gives per-sample blocks G (samples, rows, 3) = ∂r_i/∂x_i, one per term.
     Terms over the same variable are summed. The pattern depends on the M's only (explicit zeros
     kept), so the entries' places, the merge of coinciding ones and the CSR order are worked out
-    once, at the first call (a block evaluated without Jacobians never pays for them); a call
-    multiplies, sums into those places and wraps the CSR arrays (no sorting).
+    once per pattern, at the first call (`_jacobian_structure`; a block evaluated without Jacobians
+    never pays for them); a call multiplies, sums into those places and wraps the CSR arrays.
     """
 
     def __init__(self, matrices, rows: int, samples: int, columns: int):
@@ -177,18 +200,11 @@ class SampledJacobian:
         self.slot = None
 
     def _structure(self) -> None:
-        rows, samples, columns = self.rows, self.samples, self.columns
-        self.entry_rows = [np.repeat(np.arange(samples), np.diff(m.indptr)) for m in self.matrices]
-        keys = []
-        for m, entry_row in zip(self.matrices, self.entry_rows):
-            shape = (entry_row.size, rows, 3)
-            r = np.broadcast_to((rows * entry_row)[:, None, None] + np.arange(rows)[None, :, None], shape)
-            c = np.broadcast_to((3 * m.indices)[:, None, None] + np.arange(3)[None, None, :], shape)
-            keys.append((r.astype(np.int64) * columns + c).reshape(-1))
-        unique, self.slot = np.unique(np.concatenate(keys), return_inverse=True)
-        self.shape = (samples * rows, columns)
-        self.indices = unique % columns
-        self.indptr = np.searchsorted(unique // columns, np.arange(samples * rows + 1))
+        patterns = tuple((m.indptr.dtype.str, m.indptr.tobytes(), m.indices.dtype.str, m.indices.tobytes())
+                         for m in self.matrices)
+        self.entry_rows, self.slot, self.indices, self.indptr = _jacobian_structure(
+            self.rows, self.samples, self.columns, patterns)
+        self.shape = (self.samples * self.rows, self.columns)
 
     def with_matrices(self, matrices) -> SampledJacobian:
         """This Jacobian for new matrices of the same sizes: itself, with their values, when every

@@ -27,6 +27,7 @@ it, with costs only once μ reached `mu_max`: an infeasible local minimum), or w
 
 from __future__ import annotations
 
+import functools
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
@@ -165,12 +166,12 @@ class _AugmentedRows(ResidualBlock):
 class _RowPicker:
     """diag(factor)·J[pick] of a Jacobian block J, sparsity pattern (explicit zeros) kept. A block's
     Jacobian keeps its pattern from call to call, so where its rows' entries go is worked out once
-    per pattern (a CSR row selection of the entry numbers) and each call is one gather and one
-    product: scipy's row indexing and row scaling per call were a third of the augmented
-    Lagrangian's Jacobian time on the centroidal problems."""
+    per pattern (`_picked_pattern`) and each call is one gather and one product: scipy's row
+    indexing and row scaling per call were a third of the augmented Lagrangian's Jacobian time on
+    the centroidal problems."""
 
     def __init__(self, pick: np.ndarray):
-        self.pick = pick
+        self.pick = np.asarray(pick, np.int64)
         self.pattern = None
 
     def __call__(self, jac, factor: np.ndarray):
@@ -180,12 +181,25 @@ class _RowPicker:
         if self.pattern is None or not (self.pattern[0] == jac.shape
                                         and np.array_equal(self.pattern[1], jac.indptr)
                                         and np.array_equal(self.pattern[2], jac.indices)):
-            numbers = sp.csr_matrix((np.arange(1.0, jac.nnz + 1.0), jac.indices, jac.indptr), shape=jac.shape)[self.pick]
-            source = numbers.data.astype(np.int64) - 1
-            self.pattern = (jac.shape, jac.indptr.copy(), jac.indices.copy(), source, numbers.indices, numbers.indptr,
-                            np.repeat(np.arange(self.pick.size), np.diff(numbers.indptr)))
+            self.pattern = (jac.shape, jac.indptr.copy(), jac.indices.copy(),
+                            *_picked_pattern(jac.shape, jac.indptr.dtype.str, jac.indptr.tobytes(),
+                                             jac.indices.dtype.str, jac.indices.tobytes(), self.pick.tobytes()))
         _, _, _, source, indices, indptr, row = self.pattern
         return sp.csr_matrix((jac.data[source] * factor[row], indices, indptr), shape=(self.pick.size, jac.shape[1]))
+
+
+@functools.lru_cache(maxsize=256)
+def _picked_pattern(shape, ptr_dtype, ptr, idx_dtype, idx, pick) -> tuple:
+    """For a CSR pattern (dtypes and bytes of indptr, indices) and the picked rows (int64 bytes): the
+    entry numbers of the picked rows' entries, their CSR indices and indptr, and their rows (read-only,
+    shared). Cached by content: the same constraints recur in every stage's problem and every task."""
+    indptr, indices, pick = np.frombuffer(ptr, ptr_dtype), np.frombuffer(idx, idx_dtype), np.frombuffer(pick, np.int64)
+    numbers = sp.csr_matrix((np.arange(1.0, indices.size + 1.0), indices, indptr), shape=shape)[pick]
+    out = (numbers.data.astype(np.int64) - 1, numbers.indices, numbers.indptr,
+           np.repeat(np.arange(pick.size), np.diff(numbers.indptr)))
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequence[tuple[str, ResidualBlock, float]],

@@ -121,7 +121,10 @@ class CholmodSolver(LinearSolver):
         Measured on a 1069-variable pallet problem: 0.03 ms a row against 3.5 ms a refactorisation,
         the solutions equal to 1e-12 (relative)."""
         J, rows = sp.csr_matrix(J), np.asarray(rows)
-        added, removed = np.setdiff1d(rows, self._rows), np.setdiff1d(self._rows, rows)
+        member = np.zeros(J.shape[0], np.int8)
+        member[self._rows] -= 1
+        member[rows] += 1  # 1: joins, −1: leaves
+        added, removed = np.flatnonzero(member > 0), np.flatnonzero(member < 0)
         self._matrix, self._rows = _transposed(J[rows]), rows
         if self.mode == "simplicial" and added.size + removed.size <= UPDATE_ROWS:
             if added.size:
