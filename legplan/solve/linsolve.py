@@ -26,6 +26,7 @@ without JᵀJ being formed in Python; the other solvers form JᵀJ.
 
 from __future__ import annotations
 
+import functools
 import warnings
 from abc import ABC, abstractmethod
 
@@ -137,17 +138,22 @@ class CholmodSolver(LinearSolver):
         self.refactor(self._beta)
 
     def _set(self, A: sp.csc_matrix, transposed_jacobian: bool) -> None:
-        """Take the analysis of A's pattern (H, or Jᵀ when `transposed_jacobian`) when it changes,
-        from `ANALYSES` or a new one, then keep A (its indices sorted in place, as CHOLMOD would)."""
+        """Take the analysis of A's pattern (H, or Jᵀ when `transposed_jacobian`) when it changes, then
+        keep A (its indices sorted in place, as CHOLMOD would). The analysis is that of the pattern's
+        canonical form (`_canonical`), from `ANALYSES` or new: the same whatever the cache holds, and
+        shared by the Jacobians that differ only by rows repeating another row's pattern (the tasks
+        of a task space, and their extra range-of-motion samples, on the pallet tasks)."""
         A.sort_indices()
         if self._pattern is None or not (self._pattern[0] == transposed_jacobian and A.shape == self._pattern[1]
                                          and np.array_equal(self._pattern[2], A.indptr)
                                          and np.array_equal(self._pattern[3], A.indices)):
             self._pattern = (transposed_jacobian, A.shape, A.indptr.copy(), A.indices.copy())
-            key = (self.mode, self.ordering_method) + self._pattern
+            canonical = _canonical(A) if transposed_jacobian else A
+            key = (self.mode, self.ordering_method, transposed_jacobian, canonical.shape,
+                   canonical.indptr.copy(), canonical.indices.copy())
             self._factor = ANALYSES.copy_of(key)
             if self._factor is None:
-                self._factor = self._analyze(A, transposed_jacobian)
+                self._factor = self._analyze(canonical, transposed_jacobian)
                 ANALYSES.add(key, self._factor.copy())
             self.analyses += 1
         self._matrix = A
@@ -208,6 +214,33 @@ class AnalysisCache:
 
 
 ANALYSES = AnalysisCache()
+
+
+def _canonical(A: sp.csc_matrix) -> sp.csc_matrix:
+    """Jᵀ (A, CSC) reduced to J's distinct row patterns, one row each, ordered by a hash of the pattern
+    (a fixed random weight per column, summed): JᵀJ has the same pattern, so CHOLMOD's AAᵀ analysis
+    of it holds for A. Every row is checked against its representative; if two patterns share a hash,
+    A itself."""
+    n, m = A.shape
+    hashes = np.zeros(m, np.uint64)
+    nonempty = np.diff(A.indptr) > 0
+    if A.nnz:
+        hashes[nonempty] = np.add.reduceat(_column_weights(n)[A.indices], A.indptr[:-1][nonempty])
+    _, first, inverse = np.unique(hashes, return_index=True, return_inverse=True)
+    J = sp.csr_matrix((np.ones(A.nnz), A.indices, A.indptr), shape=(m, n))
+    representative = J[first]
+    again = representative[inverse]
+    if not (np.array_equal(again.indptr, J.indptr) and np.array_equal(again.indices, J.indices)):
+        return A
+    return _transposed(representative)
+
+
+@functools.lru_cache(maxsize=16)
+def _column_weights(n: int) -> np.ndarray:
+    """Fixed random 64-bit weights of n columns for `_canonical`'s row hash (read-only)."""
+    weights = np.random.default_rng(n).integers(1, np.iinfo(np.int64).max, size=n, dtype=np.uint64)
+    weights.flags.writeable = False
+    return weights
 
 
 def _transposed(J: sp.csr_matrix) -> sp.csc_matrix:

@@ -270,3 +270,40 @@ def test_refactor_rows_updates_the_factor_as_rows_join_and_leave(seed):
         assert solver.updates == updates
         Jr = J[rows].toarray()
         np.testing.assert_allclose(solver.solve(b), np.linalg.solve(Jr.T @ Jr + beta * np.eye(40), b), rtol=1e-8)
+
+
+def test_jacobians_that_differ_by_repeated_row_patterns_share_one_analysis(monkeypatch):
+    """JᵀJ has the pattern of J's distinct row patterns: J with more rows repeating them (another
+    task's extra samples) takes the cached analysis, and solves its own system."""
+    import legplan.solve.linsolve as linsolve
+
+    monkeypatch.setattr(linsolve, "ANALYSES", linsolve.AnalysisCache())
+    rng = np.random.default_rng(7)
+    J = sp.csr_matrix(sp.random(150, 30, density=0.1, random_state=rng) + sp.eye(150, 30))
+    repeats = J[rng.integers(0, 150, 60)].copy()
+    repeats.data = rng.standard_normal(repeats.nnz)
+    longer = sp.csr_matrix(sp.vstack([repeats[:30], J, repeats[30:]]))
+    first, second = CholmodSolver(ordering_method="default"), CholmodSolver(ordering_method="default")
+    first.set_jacobian(J)
+    analysed = []
+    analyze = linsolve.CholmodSolver._analyze
+    monkeypatch.setattr(linsolve.CholmodSolver, "_analyze", lambda self, *a: analysed.append(1) or analyze(self, *a))
+    second.set_jacobian(longer)
+    assert analysed == []
+    b = rng.standard_normal(30)
+    second.refactor(1e-3)
+    np.testing.assert_allclose(second.solve(b), np.linalg.solve((longer.T @ longer).toarray() + 1e-3 * np.eye(30), b),
+                               rtol=1e-9)
+    other = sp.csr_matrix(sp.vstack([J, sp.csr_matrix(np.ones((1, 30)))]))  # a new row pattern: a new analysis
+    CholmodSolver(ordering_method="default").set_jacobian(other)
+    assert analysed == [1]
+
+
+def test_canonical_form_falls_back_to_the_whole_pattern_when_hashes_collide(monkeypatch):
+    import legplan.solve.linsolve as linsolve
+
+    J = sp.csr_matrix(sp.random(40, 12, density=0.2, random_state=np.random.default_rng(8)) + sp.eye(40, 12))
+    A = linsolve._transposed(J)
+    assert linsolve._canonical(A).shape[1] < A.shape[1]  # repeated patterns (the identity's empty rows)
+    monkeypatch.setattr(linsolve, "_column_weights", lambda n: np.zeros(n, np.uint64))  # every hash equal
+    assert linsolve._canonical(A) is A
