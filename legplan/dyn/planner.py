@@ -118,7 +118,8 @@ def direct(task: DynTask, model, terrain: TerrainModel, params: DynParams, initi
     iterations, against 8/12 and 13/24 when the constraints were solved first and the costs after.
     With `DynParams.warm_stage` "projection": the same sampling without the costs, by
     `DynParams.projection_solver` (stage "projection"); "polish": that, then `polish` when the
-    projected plan costs more than the initializer's `cost_bound` of the task. The range of motion
+    projected plan costs more than the initializer's `cost_bound` of the task (at
+    `DynParams.polish_tolerance` times the filter's threshold). The range of motion
     is sampled also where the guess's feet come within `GUESS_RANGE_NEAR` of their boxes between the
     regular samples: its solution leaves the box there, which cost a `refine_range` round after
     the stage (measured on the first 60 held-out single-pallet tasks, projection: 38 of 60 within
@@ -132,7 +133,7 @@ def direct(task: DynTask, model, terrain: TerrainModel, params: DynParams, initi
     stages = [("projection" if projection else "direct", budget.solve(problem, solver, callback))]
     if params.warm_stage == "polish" and params.costs.active and stages[0][1].success and not budget.spent:
         cost = sum(_cost_terms(problem, params, stages[0][1].values).values())
-        if cost > initializer.cost_bound(task):
+        if cost > initializer.cost_bound(task, params.polish_tolerance):
             problem, stages, seconds = polish(problem, stages[0][1], cost, params, budget, callback)
             setup += seconds
     return problem, stages, setup

@@ -94,6 +94,15 @@ class DynParams:
     against the same task's "costs" solve); "polish" 97 % / 5 / 1.86× (+4.4 %). One core, median CPU
     s to a converged plan (`bench/learn.py`'s 20 tasks; the first 100 by hand): "costs" 0.72,
     "projection" 0.29 (0.29–0.30), "polish" 0.30 (0.34–0.35)."""
+    polish_tolerance: float = 2.0
+    """"polish" optimizes the costs of a projected plan that costs more than ĝ(x) + this × the
+    threshold of the network's training filter (eq. (4), `learn.network.CostBound`; 1: the filter's
+    own bound). Chosen on 100 validation tasks (seed 2; neither training nor held-out) with the
+    n = 1000 cycle-3 network of the run at e31ada3 (tolerance: polished / converged / median
+    iterations / median CPU s / median cost / largest ÷ median): 1: 56 / 95 % / 13 / 0.56 / 3.32 / 2.53;
+    1.5: 41 / 95 % / 6.5 / 0.23 / 3.49 / 2.41; 2: 27 / 95 % / 4 / 0.21 / 3.59 / 2.34; 3: 16 / 95 % / 4 /
+    0.20 / 3.63 / 2.31. The projections of that network cost more than the filter's bound on most
+    tasks; at 2 the ones well beyond it are polished."""
     costs: CostWeights = CostWeights()
     swing_height_min: float | None = None
     base_clearance: float | None = None
@@ -120,6 +129,8 @@ class DynParams:
     def __post_init__(self):
         if self.warm_stage not in WARM_STAGES:
             raise ValueError(f"DynParams.warm_stage: one of {', '.join(WARM_STAGES)}, not {self.warm_stage!r}")
+        if not self.polish_tolerance >= 0:
+            raise ValueError(f"DynParams.polish_tolerance: ≥ 0, not {self.polish_tolerance!r}")
 
 
 WARM_STAGES = ("costs", "projection", "polish")

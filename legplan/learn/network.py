@@ -124,10 +124,10 @@ class CostBound:
         """Whether it bounds g − ĝ(x) (the conditional filter) rather than g."""
         return self.coef.size > 0
 
-    def __call__(self, x: np.ndarray) -> float:
-        """ĝ(x) + threshold for one task vector x."""
+    def __call__(self, x: np.ndarray, tolerance: float = 1.0) -> float:
+        """ĝ(x) + tolerance·threshold for one task vector x (tolerance 1: the filter's own bound)."""
         fit = float(quadratic_features(x, (self.mean, self.std))[0] @ self.coef) if self.coef.size else 0.0
-        return fit + self.threshold
+        return fit + tolerance * self.threshold
 
 
 def conditional_filter(features: np.ndarray, cost: np.ndarray, ok: np.ndarray, passes: int = 10
@@ -346,12 +346,12 @@ class LearnedInit:
         check_layout(self.layout, layout_of(Formulation(make_gait(task.gait, task.strides, task.duration), dt),
                                             phases=True), self.path)
 
-    def cost_bound(self, task) -> float:
-        """The largest cost of a `DynTask`'s plan that the training filter would keep (`CostBound`);
-        a one-line error for an init.h5 trained without it."""
+    def cost_bound(self, task, tolerance: float = 1.0) -> float:
+        """The largest cost of a `DynTask`'s plan that the training filter would keep (`CostBound`),
+        its threshold times `tolerance`; a one-line error for an init.h5 trained without it."""
         if self.bound is None:
             raise missing_filter(self.path)
-        return self.bound(task_vector(task.start, task.goal))
+        return self.bound(task_vector(task.start, task.goal), tolerance)
 
     def __call__(self, form, model, terrain, start, goal, start_feet) -> dict[str, np.ndarray]:
         check_layout(self.layout, layout_of(form, phases=True), self.path)

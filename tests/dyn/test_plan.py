@@ -127,14 +127,15 @@ def test_a_near_solution_guess_is_projected_onto_the_constraints_with_warm_stage
 
 
 class _Bounded(_Replay):
-    """A replayed guess with the training filter's bound on the cost, as a learned init.h5 has."""
+    """A replayed guess with the training filter's bound on the cost, as a learned init.h5 has: `bound`
+    at the filter's own threshold, each further unit of tolerance adding `threshold`."""
 
-    def __init__(self, values, bound):
+    def __init__(self, values, bound, threshold=0.0):
         super().__init__(values)
-        self.bound = bound
+        self.bound, self.threshold = bound, threshold
 
-    def cost_bound(self, task):
-        return self.bound
+    def cost_bound(self, task, tolerance=1.0):
+        return self.bound + (tolerance - 1.0) * self.threshold
 
 
 def test_warm_stage_polish_optimizes_the_costs_only_of_a_projection_above_the_bound(anymal, step):
@@ -151,6 +152,10 @@ def test_warm_stage_polish_optimizes_the_costs_only_of_a_projection_above_the_bo
     assert projected.success, projected.reason
     within = plan(task, anymal, step, replace(params, warm_stage="polish"), _Bounded(guess, projected.solve.cost))
     assert within.reason == projected.reason and within.solve.cost == projected.solve.cost
+    c = projected.solve.cost
+    lenient = plan(task, anymal, step, replace(params, warm_stage="polish", polish_tolerance=2.0),
+                   _Bounded(guess, 0.9 * c, 0.2 * c))  # above the filter's bound, within twice its threshold
+    assert lenient.reason == projected.reason
     budget = 40
     above = plan(task, anymal, step, replace(params, warm_stage="polish", iteration_budget=budget),
                  _Bounded(guess, 0.5 * projected.solve.cost))
@@ -176,6 +181,9 @@ def test_warm_stage_polish_optimizes_the_costs_only_of_a_projection_above_the_bo
 def test_warm_stage_is_costs_or_projection():
     with pytest.raises(ValueError, match="warm_stage"):
         DynParams(warm_stage="feasibility")
+    for bad in (-0.5, float("nan")):
+        with pytest.raises(ValueError, match="polish_tolerance"):
+            DynParams(polish_tolerance=bad)
 
 
 def _range_excess(result, anymal) -> float:

@@ -80,6 +80,7 @@ def test_cost_bound_is_the_filter_as_a_function_of_the_task(g_max, tmp_path):
     good, bound = filter_good(success, cost, g_max, "d.h5", x)
     limits = np.array([bound(row) for row in x])
     assert np.array_equal(good, success & (cost <= limits + 1e-12))
+    assert bound(x[0], 2.0) == pytest.approx(limits[0] + bound.threshold)  # the tolerance scales the threshold
     if bound.conditional:
         near, far = x[0].copy(), x[0].copy()
         near[0], far[0] = -1.05, -1.95
