@@ -88,12 +88,12 @@ class DynParams:
     constraints alone, by `projection_solver` (Gauss-Newton onto the constraints from the guess: the
     plan keeps the guess's shape and its cost is not optimized). "polish" — the projection, then
     where its cost exceeds what the network's training filter kept for the task (the initializer's
-    `cost_bound`, eq. (4)) the costs from it (`planner.polish`). Measured from the n = 1000 cycle-3
-    network on 200 held-out single-pallet tasks, converged / median iterations (all tasks) / largest
-    cost ÷ median: "costs" 95.5 % / 10 / 1.92×; "projection" 97 % / 4 / 2.45× (its costs +10 %
-    against the same task's "costs" solve); "polish" 97 % / 5 / 1.86× (+4.4 %). One core, median CPU
-    s to a converged plan (`bench/learn.py`'s 20 tasks; the first 100 by hand): "costs" 0.72,
-    "projection" 0.29 (0.29–0.30), "polish" 0.30 (0.34–0.35)."""
+    `cost_bound`, at `polish_tolerance`, eq. (4)) the costs from it (`planner.polish`). Measured from
+    the n = 1000 cycle-3 network on 200 held-out single-pallet tasks (`bench/learn.py` at 42a56b2),
+    converged / median iterations / largest cost ÷ median: "costs" 96 % / 11 / 1.95×; "projection"
+    98 % / 4 / 2.78× (its costs +11.7 % against the same task's "costs" solve); "polish" 97.5 % / 4 /
+    1.90× (+7.9 %). One core, median CPU s to a converged plan (the bench's 20 tasks; the first 100
+    by hand, twice): "costs" 0.68, "projection" 0.21 (0.21–0.24), "polish" 0.20 (0.22–0.23)."""
     polish_tolerance: float = 2.0
     """"polish" optimizes the costs of a projected plan that costs more than ĝ(x) + this × the
     threshold of the network's training filter (eq. (4), `learn.network.CostBound`; 1: the filter's
