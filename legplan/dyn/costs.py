@@ -65,7 +65,8 @@ def integral_rows(spline: NodeSpline, axes: list[int], derivative: int, derivati
     segment, axis after axis, the 4 rows of L."""
     segments = [(k, seg) for k, seg in enumerate(spline.segments) if not seg.constant]
     count, axes = len(segments), np.asarray(axes)
-    L = np.array([_segment_factor(seg.t1 - seg.t0, derivative, derivative_weight) for _, seg in segments]).reshape(count, 4, 4)
+    L = np.array([_segment_factor(seg.t1 - seg.t0, derivative, derivative_weight)
+                  for _, seg in segments]).reshape(count, 4, 4)
     ref = np.zeros(count) if reference is None else np.asarray(reference, float)[[k for k, _ in segments]]
     c_ref = (L[:, :, 0] + L[:, :, 2]) * ref[:, None]  # L (ref, 0, ref, 0)
     a, b = (6 * np.array([getattr(seg, end) for _, seg in segments], int).reshape(count, 1) for end in "ab")

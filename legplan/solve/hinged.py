@@ -23,17 +23,17 @@ double pallet walk 54 → 27, stairs 125 → 99, single pallet walk 9 → 10 (th
 fine feasibility stages then; with the paper's costs the double pallet walk's fine stage stalled, 0.39
 N off, until one stage at the full sampling replaced the pair: `legplan.dyn.planner.attempt`).
 
-Every solve is a numeric refactorization by CHOLMOD of J_RᵀJ_R + λI from the rows R of J that are
+Every solve is a numeric factorization by CHOLMOD of J_RᵀJ_R + λI from the rows R of J that are
 plain or active (its AAᵀ mode: no product formed in Python), on one symbolic analysis of the whole
-J's pattern per problem, at the first pass of a step; the later passes change a few rows, and
-the factor follows them by CHOLMOD's rank updates (`CholmodSolver.refactor_rows`), and a pass whose
-active set is the one last factorized reuses that factorization. Measured against forming JᵀJ of the plain rows per linearization and adding the
-active rows' product per pass, with CHOLMOD's analyses cached by pattern (`linsolve.ANALYSES`) and
-the ordering not judged (below): the same iterates, and 20 held-out pallet tasks polished from a
-cycle-1 network took 16.2 CPU s instead of 20.4–20.7 (one core, two runs each, quiet machine);
-with the rank updates, 12.7–13.1 against 18.8–19.7, the same iterations and costs.
-λ follows the gain ratio ρ = actual / model decrease (Nielsen: λ ← λ·max(⅓, 1 − (2ρ − 1)³) on
-success, λ ← λ·ν, ν ← 2ν on failure).
+J's pattern per problem, at the first pass of a step; the later passes change a few rows, which
+the factor follows by CHOLMOD's rank updates (`CholmodSolver.refactor_rows`), and a pass whose
+active set is the one last factorized reuses that factorization. Measured against forming JᵀJ of
+the plain rows per linearization and adding the active rows' product per pass, with CHOLMOD's
+analyses cached by pattern (`linsolve.ANALYSES`) and the ordering not judged (below): the same
+iterates, and 20 held-out pallet tasks polished from a cycle-1 network took 16.2 CPU s instead of
+20.4–20.7 (one core, two runs each, quiet machine); with the rank updates, 12.7–13.1 against
+18.8–19.7, the same iterations and costs. λ follows the gain ratio ρ = actual / model decrease
+(Nielsen: λ ← λ·max(⅓, 1 − (2ρ − 1)³) on success, λ ← λ·ν, ν ← 2ν on failure).
 
 Geodesic acceleration (Transtrum & Sethna, "Improvements to the Levenberg-Marquardt algorithm for
 nonlinear least-squares minimization", 2012, eq. (14)): the step d is a velocity along the model;
