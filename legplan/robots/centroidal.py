@@ -1,7 +1,8 @@
 """The `centroidal:` section of robot.yaml: the single-rigid-body model of a centroidal planner.
 
 The model of TOWR (Winkler et al. 2018) and of `legplan dyn`: the whole robot as one rigid body of
-mass m and inertia I about its CoM (the base origin), feet that push with forces bounded by
+mass m and inertia I about its CoM, which lies at `com_offset` in the base frame (zero when
+absent: TOWR's models put the CoM at the base origin), feet that push with forces bounded by
 `max_normal_force` inside a friction pyramid of coefficient `friction`, and a range-of-motion box
 (half extents `range_of_motion`) around each foot's nominal position in the base frame.
 
@@ -9,6 +10,7 @@ mass m and inertia I about its CoM (the base origin), feet that push with forces
 centroidal:
   mass: 29.5                                  # kg, must equal the URDF's total mass
   inertia: {ixx: .., iyy: .., izz: .., ixy: .., ixz: .., iyz: ..}   # kg m^2, tensor entries
+  com_offset: [0.0, 0.0, 0.0]                 # m, the CoM in the base frame (optional, default 0)
   nominal_feet: {lf: [0.34, 0.19, -0.42], ...}   # m, base frame, one per leg, below the base
   range_of_motion: [0.15, 0.10, 0.10]         # m
   max_normal_force: 1000.0                    # N
@@ -30,7 +32,8 @@ import numpy as np
 from legplan.specio import FieldReader
 
 INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
-SECTION_KEYS = ("mass", "inertia", "nominal_feet", "range_of_motion", "max_normal_force", "friction")
+SECTION_KEYS = ("mass", "inertia", "com_offset", "nominal_feet", "range_of_motion", "max_normal_force",
+                "friction")
 MASS_TOLERANCE = 1e-6  # relative, centroidal mass vs the URDF's total mass
 
 
@@ -40,7 +43,7 @@ class Centroidal:
 
     `inertia` (3, 3) in the base frame about the CoM; `nominal_feet` (n_legs, 3) in the base frame,
     row k for leg `legs[k]` (robot.yaml order); `range_of_motion` (3,) half extents of the box
-    around each nominal foot."""
+    around each nominal foot; `com_offset` (3,) the CoM's position in the base frame."""
 
     mass: float
     inertia: np.ndarray
@@ -49,12 +52,15 @@ class Centroidal:
     range_of_motion: np.ndarray
     max_normal_force: float
     friction: float
+    com_offset: np.ndarray = None
     leg_kinematics: object = None
     """The legs' closed-form kinematics (`legplan.robots.planar_legs.PlanarLegs`), set by `RobotModel`
     from the URDF; None for legs of another kind (the planner's leg clearance needs it)."""
 
     def __post_init__(self):
-        for array in (self.inertia, self.nominal_feet, self.range_of_motion):
+        if self.com_offset is None:
+            object.__setattr__(self, "com_offset", np.zeros(3))
+        for array in (self.inertia, self.nominal_feet, self.range_of_motion, self.com_offset):
             array.setflags(write=False)
 
     @property
@@ -78,8 +84,10 @@ def parse_centroidal(reader: FieldReader, data: dict, legs: tuple[str, ...], urd
                         "centroidal.range_of_motion", 3)
     for k, value in enumerate(rom):
         reader.positive(value, f"centroidal.range_of_motion[{k}]")
+    offset = section.get("com_offset")
+    com_offset = np.zeros(3) if offset is None else reader.vector(offset, "centroidal.com_offset", 3)
     return Centroidal(
-        mass=mass, inertia=_inertia(reader, section), legs=tuple(legs),
+        mass=mass, inertia=_inertia(reader, section), legs=tuple(legs), com_offset=com_offset,
         nominal_feet=_nominal_feet(reader, section, legs), range_of_motion=rom,
         max_normal_force=reader.positive(reader.get(section, "max_normal_force", "centroidal.max_normal_force"),
                                          "centroidal.max_normal_force"),
