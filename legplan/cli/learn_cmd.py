@@ -13,9 +13,11 @@ import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import (batch_opts, input_artefact, number, optimize_phases_opt, output_opt, overwrite_opt,
-                                  seed_opt, verbosity_opts, warm_stage_opt)
+from legplan.cli.options import (OutputPath, batch_opts, input_artefact, number, optimize_phases_opt, output_opt,
+                                 overwrite_opt, seed_opt, verbosity_opts, warm_stage_opt)
 from legplan.errors import LegplanError
+
+CYCLE_FILES = ("dataset_*.h5", "init_*.h5", "cycles.json")  # what `learn cycle` writes into its -o folder
 
 
 @click.group("learn")
@@ -159,7 +161,7 @@ def _filtered(report: dict) -> str:
 @click.option("--weights", "weights_path", type=click.Path(dir_okay=False), default=None,
               help="YAML of W per category, eq. (3).")
 @optimize_phases_opt
-@click.option("-o", "--output", required=True, type=click.Path(file_okay=False),
+@click.option("-o", "--output", required=True, type=OutputPath(file_okay=False, files=CYCLE_FILES),
               help="Directory of the cycle's artefacts: dataset_0.h5, init_1.h5, dataset_1.h5, ..., cycles.json.")
 @overwrite_opt
 @batch_opts

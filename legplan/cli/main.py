@@ -15,6 +15,7 @@ import click
 
 from legplan import __version__, interrupts
 from legplan.cli.console import set_verbosity, stderr_line, verbosity
+from legplan.cli.guard import guard_commands
 from legplan.cli.options import verbosity_opts
 from legplan.errors import LegplanError
 
@@ -100,3 +101,4 @@ def cli():
 
 for _name in COMMAND_MODULES:
     cli.add_command(importlib.import_module(f"legplan.cli.{_name}").command)
+guard_commands(cli)

@@ -130,7 +130,19 @@ def param_opt(help_text: str):
                         callback=_key_values, help=help_text)
 
 
-output_opt = click.option("-o", "--output", required=True, type=click.Path(dir_okay=False),
+class OutputPath(click.Path):
+    """The type of every output path option: a `click.Path` that `legplan.cli.guard` recognizes as
+    an output and keeps apart from the command's inputs (`legplan.outputs_apart`).
+    `whole_directory`: a directory the command replaces whole; `files`: the names it writes into
+    an output directory (then only those are compared with the inputs)."""
+
+    def __init__(self, *, whole_directory: bool = False, files: tuple[str, ...] = (), **kwargs):
+        super().__init__(**kwargs)
+        self.whole_directory = whole_directory
+        self.files = tuple(files)
+
+
+output_opt = click.option("-o", "--output", required=True, type=OutputPath(dir_okay=False),
                           help="Output artefact (HDF5) or image path.")
 overwrite_opt = click.option("--overwrite", is_flag=True, help="Replace an existing output.")
 jobs_opt = click.option("-j", "--jobs", type=click.IntRange(min=1), default=1, show_default=True,

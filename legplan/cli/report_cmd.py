@@ -5,12 +5,12 @@ from __future__ import annotations
 
 import click
 
-from legplan.cli.options import input_artefact, overwrite_opt, verbosity_opts
+from legplan.cli.options import OutputPath, input_artefact, overwrite_opt, verbosity_opts
 
 
 @click.command("report")
 @click.argument("artefacts", nargs=-1, required=True, type=input_artefact)
-@click.option("-o", "--output", required=True, type=click.Path(file_okay=False),
+@click.option("-o", "--output", required=True, type=OutputPath(file_okay=False, whole_directory=True),
               help="Report directory (index.html, PNGs, report.h5 with provenance).")
 @click.option("--title", default="legplan report", show_default=True, help="Page title.")
 @overwrite_opt

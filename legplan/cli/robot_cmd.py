@@ -7,7 +7,7 @@ import json
 
 import click
 
-from legplan.cli.options import json_opt, overwrite_opt, verbosity_opts
+from legplan.cli.options import OutputPath, json_opt, overwrite_opt, verbosity_opts
 
 
 @click.group("robot")
@@ -49,7 +49,7 @@ def list_command(as_json):
 
 @command.command("init")
 @click.argument("urdf", type=click.Path(dir_okay=False))
-@click.option("-o", "--output", "folder", required=True, type=click.Path(file_okay=False),
+@click.option("-o", "--output", "folder", required=True, type=OutputPath(file_okay=False, files=("robot.yaml",)),
               help="Robot folder to write robot.yaml into (created; e.g. robots/NAME/).")
 @click.option("--name", default=None, help="Robot name (default: the folder's name).")
 @overwrite_opt
@@ -125,7 +125,7 @@ def robot_summary(robot) -> dict:
 
 @command.command("show")
 @click.argument("robot")
-@click.option("--png", type=click.Path(dir_okay=False), help="Also draw the nominal stance to this PNG.")
+@click.option("--png", type=OutputPath(dir_okay=False), help="Also draw the nominal stance to this PNG.")
 @overwrite_opt
 @json_opt
 @verbosity_opts
