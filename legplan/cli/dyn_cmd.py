@@ -58,6 +58,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
 
     Exit 1 when any task failed (its reason is recorded)."""
     from legplan.artefacts import check_output
+    from legplan.artefacts.identity import check_same_map
     from legplan.batch import Task
     from legplan.cli.batching import run_stage
     from legplan.dyn.artefact import write_traj
@@ -83,6 +84,8 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     check_sizes(tasks, params, tasks_path)
     check_placements(tasks, model, TerrainModel(load_map(map_path)), tasks_path, map_path)
     if hasattr(init_fn, "check_task"):  # a learned initializer fits one variable layout: refuse others now
+        trained_on = {"path": init_fn.space.get("map"), "sha256": init_fn.space.get("map_sha256")}
+        check_same_map(init_fn.path, map_path, [trained_on], what="trained")
         for t in tasks:
             init_fn.check_task(t, params.dt)
         init = init_fn.path

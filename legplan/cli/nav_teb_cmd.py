@@ -40,6 +40,7 @@ def refine(ctx, map_path, nav_path, output, robot, outer, inner, omni, overwrite
 
     from legplan.artefacts import check_output, write_artefact, write_summary
     from legplan.robots.navigation import read_navigation
+    from legplan.artefacts.identity import check_same_map
     from legplan.nav.teb.artefact import refinable_queries, write_refinement
     from legplan.nav.teb.distance import DistanceField
     from legplan.nav.teb.params import TebParams
@@ -52,6 +53,7 @@ def refine(ctx, map_path, nav_path, output, robot, outer, inner, omni, overwrite
     field = DistanceField.from_terrain(terrain)
     params = TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni)
     queries = refinable_queries(nav_path)
+    check_same_map(nav_path, map_path, what="searched")
     rows = []
     with write_artefact(output, "nav", params={"teb": params.as_dict(), "robot": robot}, inputs=[map_path, nav_path],
                         overwrite=overwrite) as f, h5py.File(nav_path, "r") as source, \

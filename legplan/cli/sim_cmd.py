@@ -40,6 +40,7 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, output, overwrite, 
     import numpy as np
 
     from legplan.artefacts import check_output
+    from legplan.artefacts.identity import check_same_map
     from legplan.batch import Task
     from legplan.cli.batching import run_stage
     from legplan.dyn.artefact import check_executable, read_tasks
@@ -57,6 +58,7 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, output, overwrite, 
     if robot.centroidal is None:
         raise LegplanError(f"{traj_path}: robot {robot.name} has no centroidal section")
     terrain_map = load_map(map_path)
+    check_same_map(traj_path, map_path, what="planned")
     lo = np.array(terrain_map.grid.origin)
     hi = lo + terrain_map.grid.resolution * (np.array(terrain_map.grid.shape[::-1]) - 1)
     for task in tasks:

@@ -131,12 +131,14 @@ def show_cmd(steps_path, map_path, output, overwrite):
     """Top view PNG: footholds over the map, support polygons, CoM track."""
     from legplan.artefacts import check_output
     from legplan.robots import load_robot
+    from legplan.artefacts.identity import check_same_map
     from legplan.stepseq import read_steps
     from legplan.stepseq.plot import plot_steps
     from legplan.terrain import load_map
 
     check_output(output, overwrite)
     seq = read_steps(steps_path)
+    check_same_map(steps_path, map_path)
     robot = load_robot(seq.robot)
     plot_steps(seq, robot.com(seq.q), load_map(map_path), output, overwrite=overwrite)
     click.echo(f"{output}: written")
