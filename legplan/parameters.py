@@ -12,15 +12,59 @@ A range is an interval in the usual notation, "[0, inf)", "(0, 1]", whose bounds
 the names of other attributes of the same object ("[min_poses, inf)"), or a tuple of the allowed
 values ("velocity", "target"). A None value is not checked (a default filled in later, e.g. from
 the robot's size). `inherit` declares a field as another class's field (same default, range, doc).
+
+Physical ranges: a number a user gives (an option, a field of an input file, `--param`) is a
+physical quantity, and a finite but absurd value (a duration of 1e308 s, a resolution of 1e-320 m)
+overflows or underflows deep inside a stage. Every declared range is therefore finite: the named
+quantities below (`DURATION`, `COORDINATE`, `YAW`, ...) are the ranges that options
+(`legplan.cli.options.number`), file readers (`legplan.specio.FieldReader.number`'s `allowed`)
+and parameter fields (`param`) share, and `check_value` is the one check with the one error line
+"WHERE VALUE out of range (allowed RANGE)". Below any declared range, `MAGNITUDE` bounds every
+number read from text: 0 or between 1e-30 and 1e15 in magnitude.
 """
 
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from dataclasses import dataclass
 
 from legplan.errors import LegplanError
+
+MAGNITUDE = (1e-30, 1e15)
+"""Smallest and largest magnitude (besides 0) of any number read from text (`magnitude_problem`)."""
+
+COORDINATE = "[-1e4, 1e4]"
+"""m: a position on a map (x, y) or a height (10 km either way)."""
+YAW = "[-12.6, 12.6]"
+"""rad: a heading, up to two turns either way."""
+VELOCITY = "[-20, 20]"
+"""m/s: a planar velocity of a legged robot."""
+DURATION = "[0.01, 3600]"
+"""s: the duration of a motion (10 ms to an hour)."""
+WAIT = "[0, 600]"
+"""s: a pause (settling, dwelling) of up to ten minutes."""
+TIME_LIMIT = "(0, 86400]"
+"""s: a wall-clock or simulated-time limit (up to a day)."""
+RESOLUTION = "[1e-4, 100]"
+"""m: the cell side of a map."""
+LENGTH = "(0, 1000]"
+"""m: a positive size (a radius, a height, a tolerance)."""
+CLEARANCE = "[0, 10]"
+"""m: a clearance or margin."""
+FRICTION = "(0, 10]"
+"""a friction coefficient."""
+FRACTION = "[0, 1]"
+"""a share of something."""
+SCALE = "[-1e4, 1e4]"
+"""a dimensionless factor (a height scale)."""
+WEIGHT = "[0, 1e9]"
+"""a non-negative cost weight."""
+COST = "(0, 1e12]"
+"""a positive cost value or threshold."""
+TOLERANCE = "[0, 1e9]"
+"""an absolute or relative tolerance of a comparison."""
 
 _INTERVAL = re.compile(r"\s*([\[(])\s*([^,\s]+)\s*,\s*([^,\s]+)\s*([\])])\s*")
 
@@ -54,6 +98,55 @@ class Interval:
         """The interval as written, a named bound followed by its value in `params` if given."""
         low, high = (_describe_bound(b, params) for b in (self.low, self.high))
         return f"{'(' if self.low_open else '['}{low}, {high}{')' if self.high_open else ']'}"
+
+
+def magnitude_problem(value: float) -> str | None:
+    """Why a finite number read from text is no physical quantity (outside `MAGNITUDE`), or None."""
+    low, high = MAGNITUDE
+    size = abs(value)
+    if size > high:
+        return f"is too large (magnitude above {high:g})"
+    if 0 < size < low:
+        return f"is too small (magnitude below {low:g}; use 0 for nothing)"
+    return None
+
+
+def check_value(value, allowed: str | Interval | tuple, where: str, params=None) -> None:
+    """A `RangeError` "WHERE out of range: VALUE (allowed RANGE)" unless `value` lies in `allowed`
+    (an interval, its text, or a tuple of values; named bounds read from `params`), and, for a
+    finite float, within `MAGNITUDE` (an "inf" bound still means no absurd value). The one range
+    check of options, file fields and parameter fields."""
+    if isinstance(allowed, str):
+        allowed = _parsed(allowed)
+    if isinstance(value, float) and math.isfinite(value) and magnitude_problem(value):
+        raise RangeError(f"{where} {magnitude_problem(value)}: {value!r}", value, "")
+    inside = value in allowed if isinstance(allowed, tuple) else allowed.contains(value, params)
+    if not inside:
+        shown = ", ".join(map(repr, allowed)) if isinstance(allowed, tuple) else allowed.describe(params)
+        raise RangeError(f"{where} out of range: {value!r} (allowed {shown})", value, shown)
+
+
+class RangeError(LegplanError):
+    """A value outside its declared range; `value` and `allowed` (the range as text) for callers that
+    restate the error for their file and field."""
+
+    def __init__(self, message: str, value=None, allowed: str = ""):
+        super().__init__(message)
+        self.value, self.allowed = value, allowed
+
+
+_PARSED: dict[str, Interval] = {}
+
+
+def _parsed(text: str) -> Interval:
+    if text not in _PARSED:
+        _PARSED[text] = Interval.parse(text)
+    return _PARSED[text]
+
+
+def declared_range(cls, name: str):
+    """The declared range (an `Interval` or a tuple) of field `name` of parameter dataclass `cls`."""
+    return next(f for f in dataclasses.fields(cls) if f.name == name).metadata.get("range")
 
 
 def _describe_bound(bound: float | str, params) -> str:
@@ -97,10 +190,7 @@ def check_ranges(params, what: str) -> None:
         allowed, value = f.metadata.get("range"), getattr(params, f.name)
         if allowed is None or value is None:
             continue
-        inside = value in allowed if isinstance(allowed, tuple) else allowed.contains(value, params)
-        if not inside:
-            shown = ", ".join(map(repr, allowed)) if isinstance(allowed, tuple) else allowed.describe(params)
-            raise LegplanError(f"{what} parameter '{f.name}' out of range: {value!r} (allowed {shown})")
+        check_value(value, allowed, f"{what} parameter '{f.name}'", params)
 
 
 class Parameters:

@@ -17,6 +17,7 @@ import numpy as np
 import yaml
 
 from legplan.errors import SpecError
+from legplan.parameters import RangeError, check_value, magnitude_problem
 
 
 def read_text(path: str | os.PathLike, what: str = "file") -> str:
@@ -34,18 +35,22 @@ def read_text(path: str | os.PathLike, what: str = "file") -> str:
         raise SpecError(f"{path}: not UTF-8 text (byte {exc.start}); expected a {what}") from None
     if "\0" in text:
         raise SpecError(f"{path}: not a text file (NUL byte at {text.index(chr(0))}); expected a {what}")
+    text = text.removeprefix("\ufeff")  # a byte-order mark (spreadsheet exports) is no part of the text
     return text.replace("\r\n", "\n").replace("\r", "\n")
 
 
 def parse_number(text: str, where: str) -> float:
     """A finite float from command-line or file text, or a `SpecError` "WHERE: expected a finite
-    number, got 'TEXT'" (NaN and inf are refused like malformed text)."""
+    number, got 'TEXT'" (NaN and inf are refused like malformed text), or "WHERE is too large ..."
+    outside `legplan.parameters.MAGNITUDE`."""
     try:
         value = float(text)
     except (TypeError, ValueError):
         value = float("nan")
     if not np.isfinite(value):
         raise SpecError(f"{where}: expected a finite number, got {text!r}")
+    if magnitude_problem(value):
+        raise SpecError(f"{where} {magnitude_problem(value)}, got {text!r}")
     return value
 
 
@@ -58,7 +63,8 @@ def apply_overrides(base, overrides: dict[str, str] | None, source: str, what: s
     (start from its defaults) or an instance (start from its values). Each string is converted to
     the field's declared type (str as given; int and float finite numbers, an int whole; bool one of
     `BOOLEAN_WORDS`; a field declared `float | None` takes a float). Unknown keys and fields of other
-    types (tuples) are a one-line `SpecError` naming `source` and the `what` parameter."""
+    types (tuples) are a one-line `SpecError` naming `source` and the `what` parameter, and so is a
+    value outside the field's declared range (`legplan.parameters.check_ranges`)."""
     cls = base if isinstance(base, type) else type(base)
     hints = typing.get_type_hints(cls)
     names = [f.name for f in dataclasses.fields(cls)]
@@ -84,7 +90,10 @@ def apply_overrides(base, overrides: dict[str, str] | None, source: str, what: s
         if kind is int and not number.is_integer():
             raise SpecError(f"{source}: parameter '{key}' expects int, got {text!r}")
         values[key] = kind(number)
-    return cls(**values) if base is cls else dataclasses.replace(base, **values)
+    try:
+        return cls(**values) if base is cls else dataclasses.replace(base, **values)
+    except RangeError as exc:
+        raise SpecError(f"{source}: {exc}") from None
 
 
 def read_yaml(path: str | os.PathLike, what: str = "spec"):
@@ -158,32 +167,46 @@ class FieldReader:
             self.fail(field, f"must be {_kind_name(kind)}, got {value!r}")
         return value
 
-    def number(self, value, field: str) -> float:
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not np.isfinite(value):
+    def number(self, value, field: str, allowed: str | None = None) -> float:
+        """A finite number within `legplan.parameters.MAGNITUDE` and, when given, the range `allowed`
+        (interval text, e.g. `legplan.parameters.DURATION`)."""
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(field, f"must be a finite number, got {value!r}")
-        return float(value)
+        try:
+            number = float(value)
+        except OverflowError:  # an int beyond any float
+            number = float("inf")
+        if not np.isfinite(number):
+            self.fail(field, f"must be a finite number, got {value!r}")
+        try:
+            check_value(number, allowed or "(-inf, inf)", "")
+        except RangeError as exc:
+            self.fail(field, str(exc).strip())
+        return number
 
-    def vector(self, value, field: str, length: int | None = None) -> np.ndarray:
+    def vector(self, value, field: str, length: int | None = None, allowed: str | None = None) -> np.ndarray:
         if not isinstance(value, (list, tuple)) or (length is not None and len(value) != length):
             self.fail(field, f"must be a list of {length or 'some'} numbers, got {value!r}")
-        return np.array([self.number(v, f"{field}[{i}]") for i, v in enumerate(value)])
+        return np.array([self.number(v, f"{field}[{i}]", allowed) for i, v in enumerate(value)])
 
-    def positive(self, value, field: str) -> float:
-        number = self.number(value, field)
+    def positive(self, value, field: str, allowed: str | None = None) -> float:
+        number = self.number(value, field, allowed)
         if number <= 0:
             self.fail(field, f"must be > 0, got {value!r}")
         return number
 
-    def nonnegative(self, value, field: str) -> float:
-        number = self.number(value, field)
+    def nonnegative(self, value, field: str, allowed: str | None = None) -> float:
+        number = self.number(value, field, allowed)
         if number < 0:
             self.fail(field, f"must be >= 0, got {value!r}")
         return number
 
-    def count(self, value, field: str) -> int:
-        """A whole number >= 1."""
+    def count(self, value, field: str, maximum: int | None = None) -> int:
+        """A whole number >= 1 (and <= `maximum` when given)."""
         if isinstance(value, bool) or not isinstance(value, int) or value < 1:
             self.fail(field, f"must be a whole number >= 1, got {value!r}")
+        if maximum is not None and value > maximum:
+            self.fail(field, f"must be a whole number <= {maximum}, got {value!r}")
         return int(value)
 
     def choice(self, value, field: str, choices) -> str:

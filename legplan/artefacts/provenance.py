@@ -47,8 +47,14 @@ def file_kind(path: str | os.PathLike) -> str:
 
 
 def input_record(path: str | os.PathLike) -> dict:
-    """`{path, sha256, kind}` for one input file."""
-    return {"path": str(path), "sha256": sha256_file(path), "kind": file_kind(path)}
+    """`{path, sha256, kind}` for one input file; a map also its `terrain` digest
+    (`legplan.artefacts.identity.terrain_digest`), the identity later pairs are checked against."""
+    record = {"path": str(path), "sha256": sha256_file(path), "kind": file_kind(path)}
+    if record["kind"] == "map":
+        from legplan.artefacts.identity import terrain_digest
+
+        record["terrain"] = terrain_digest(path)
+    return record
 
 
 def created_timestamp() -> str:

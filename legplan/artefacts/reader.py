@@ -1,7 +1,12 @@
-"""Validating artefact reader: one error type (`ArtefactError`) whose message names the file."""
+"""Validating artefact reader: one error type (`ArtefactError`) whose message names the file.
+
+`open_artefact` is the one door of every reader: before a caller sees the file it checks the kind, the
+schema and that every float dataset holds finite values (but where `schema.NAN_MEANS_NONE` says NaN
+means "none"), so no command ever draws, reports, trains on or executes a NaN it did not write."""
 
 from __future__ import annotations
 
+import fnmatch
 import json
 import os
 from contextlib import contextmanager
@@ -10,7 +15,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from legplan.artefacts.schema import ROOT_ATTRS, SCHEMA_VERSIONS
+from legplan.artefacts.schema import NAN_MEANS_NONE, ROOT_ATTRS, SCHEMA_VERSIONS
 from legplan.errors import ArtefactError
 
 
@@ -30,6 +35,7 @@ def open_artefact(path: str | os.PathLike, kind: str | tuple[str, ...] | None = 
         raise ArtefactError(f"{path}: truncated or corrupt HDF5 file ({exc})") from exc
     with handle:
         _validate_root(path, handle, kind)
+        _validate_values(path, handle)
         yield handle
 
 
@@ -55,6 +61,38 @@ def _validate_root(path: Path, handle: h5py.File, kind) -> None:
     missing = [name for name in ROOT_ATTRS if name not in handle.attrs]
     if missing:
         raise ArtefactError(f"{path}: missing root attribute '{missing[0]}'")
+
+
+_CHECKED: set[tuple] = set()  # files whose values were checked, by identity and modification
+
+
+def _validate_values(path: Path, handle: h5py.File) -> None:
+    """An `ArtefactError` naming the first float dataset with a NaN or inf that its kind does not
+    allow (`schema.NAN_MEANS_NONE`); each file version is checked once per process."""
+    stat = path.stat()
+    key = (stat.st_dev, stat.st_ino, stat.st_size, stat.st_mtime_ns)
+    if key in _CHECKED:
+        return
+    excused = NAN_MEANS_NONE.get(str(handle.attrs["legplan_kind"]), {})
+    datasets = []
+    handle.visititems(lambda name, node: datasets.append(name)
+                      if isinstance(node, h5py.Dataset) and node.dtype.kind in "fc" else None)
+    for name in datasets:
+        rule = next((mask for pattern, mask in excused.items() if fnmatch.fnmatchcase(name, pattern)), ...)
+        if rule is None:
+            continue
+        dataset = handle[name]
+        where = f"{path}: dataset '/{name}'"
+        try:
+            values = np.asarray(dataset[()])
+        except (OSError, ValueError, TypeError) as exc:
+            raise ArtefactError(f"{where} cannot be read ({' '.join(str(exc).split())})") from None
+        if rule is not ...:  # excused in the rows where the mask is false
+            mask = np.asarray(require(handle, rule)[()], bool).reshape(-1)
+            if values.ndim and mask.size == len(values):
+                values = values[mask]
+        check_finite(where, values)
+    _CHECKED.add(key)
 
 
 def require(handle: h5py.File | h5py.Group, name: str):

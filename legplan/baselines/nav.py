@@ -53,13 +53,13 @@ class NavBaselineParams(Parameters):
     what = "nav baseline"
 
     planner: str = param("rrtconnect", NAV_PLANNERS)
-    time_budget: float = param(1.0, "(0, inf)", doc="s of OMPL solve() per query")
-    seed: int = param(0, "[0, inf)", doc="query i is planned with OMPL seed `seed + i`")
+    time_budget: float = param(1.0, "(0, 86400]", doc="s of OMPL solve() per query")
+    seed: int = param(0, "[0, 4294967295]", doc="query i is planned with OMPL seed `seed + i`")
     v_max: float = inherit(NavParams, "v_max")  # the nav search's limits (`NavParams.for_robot`)
     a_max: float = inherit(NavParams, "a_max")
-    simplify_time: float = param(0.2, "[0, inf)", doc="s of shortcutting of a geometric solution")
+    simplify_time: float = param(0.2, "[0, 86400]", doc="s of shortcutting of a geometric solution")
     goal_tolerance: float = param(0.25, "(0, inf)", doc="control planners: distance to the goal state (m, m/s mixed)")
-    max_control_steps: int = param(10, "[1, inf)", doc="control planners: a control lasts 1..this many steps")
+    max_control_steps: int = param(10, "[1, 10000]", doc="control planners: a control lasts 1..this many steps")
     projection_cell: float = param(0.5, "(0, inf)", doc="m, KPIECE1 grid cell of the position projection")
 
     @property

@@ -46,13 +46,13 @@ END_EXEMPTION = 1e-3  # m | rad, per coordinate of x (see `step_validity`)
 class StepBaselineParams(Parameters):
     what = "step baseline"
 
-    time_budget: float = param(10.0, "(0, inf)", doc="s of OMPL solve() per step")
+    time_budget: float = param(10.0, "(0, 86400]", doc="s of OMPL solve() per step")
     space: str = param("atlas", CONSTRAINED_SPACES)
-    seed: int = param(0, "[0, inf)", doc="step i is planned with OMPL seed `seed + i`")
+    seed: int = param(0, "[0, 4294967295]", doc="step i is planned with OMPL seed `seed + i`")
     tolerance: float = param(1e-4, "(0, inf)", doc="m, constraint tolerance of the projection (OMPL default)")
     delta: float = param(0.02, "(0, inf)", doc="constrained-space step in x units (m | rad)")
-    simplify_time: float = param(0.0, "[0, inf)", doc="s of path shortcutting after the first solution (0: none)")
-    waypoints: int = param(100, "[2, inf)",
+    simplify_time: float = param(0.0, "[0, 86400]", doc="s of path shortcutting after the first solution (0: none)")
+    waypoints: int = param(100, "[2, 1000000]",
                            doc="states asked of the interpolated solution (capped by the geodesic step `delta`)")
     position_margin: float = 0.1  # m, ambient bounds around the start/goal base positions
     rotation_margin: float = 0.5  # rad, ambient bounds around the start/goal rotation vectors

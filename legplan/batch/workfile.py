@@ -73,6 +73,7 @@ class WorkFile:
         self.path = path
         self.handle = handle
         self.items = handle.require_group("items")
+        self.inode = path.stat().st_ino
 
     @classmethod
     def open(cls, output, identity: Mapping, inputs: Sequence, items: Sequence, *, resume: bool,
@@ -97,7 +98,16 @@ class WorkFile:
         if path.exists() and not overwrite:
             raise LegplanError(f"{path}: work file of an interrupted run exists; --resume continues it, "
                                f"--overwrite starts over")
-        handle = h5py.File(path, "w", track_order=True)
+        # a new file, never the old one truncated: a concurrent run of the same output (--overwrite)
+        # keeps writing its own, now unlinked, work file and publishes after or before this one
+        for attempt in range(3):
+            path.unlink(missing_ok=True)
+            try:
+                handle = h5py.File(path, "x", track_order=True)
+                break
+            except FileExistsError:  # a concurrent run created it in between: replace that one
+                if attempt == 2:
+                    raise LegplanError(f"{path}: other runs of this output keep starting; run one at a time") from None
         handle.attrs.update(header)
         handle.flush()
         return cls(path, handle)
@@ -120,8 +130,13 @@ class WorkFile:
             self.handle.close()
 
     def remove(self) -> None:
+        """Close and delete the work file, unless another run has replaced it at the same path."""
         self.close()
-        self.path.unlink(missing_ok=True)
+        try:
+            if self.path.stat().st_ino == self.inode:
+                self.path.unlink()
+        except FileNotFoundError:
+            pass
 
 
 def _open_existing(path: Path) -> h5py.File:

@@ -16,6 +16,7 @@ from legplan.baselines.names import CONSTRAINED_SPACES, NAV_PLANNERS
 from legplan.cli.main import EXIT_ITEMS_FAILED
 from legplan.cli.nav_options import query_opts, resolve_queries
 from legplan.cli.options import batch_opts, input_artefact, number, output_opt, overwrite_opt, seed_opt, verbosity_opts
+from legplan.parameters import TIME_LIMIT
 
 
 @click.group("baseline")
@@ -30,7 +31,7 @@ def command():
               help="Robot whose navigation limits and inscribed radius are used.")
 @query_opts("; used by the control planners")
 @click.option("--planner", type=click.Choice(NAV_PLANNERS), default="rrtconnect", show_default=True)
-@click.option("--time-budget", type=number(min=0, min_open=True), default=1.0, show_default=True,
+@click.option("--time-budget", type=number(TIME_LIMIT), default=1.0, show_default=True,
               help="Seconds of OMPL solve() per query.")
 @seed_opt
 @output_opt
@@ -88,7 +89,7 @@ def nav_cmd(ctx, map_path, robot, start, start_vel, goal, goal_vel, queries_path
 @click.argument("map_path", metavar="MAP", type=input_artefact)
 @click.argument("steps_path", metavar="STEPS", type=input_artefact)
 @click.option("--steps", "step_range", default=None, help="Pairs to plan, 'a:b' (python slice) or 'i'.")
-@click.option("--time-budget", type=number(min=0, min_open=True), default=10.0, show_default=True,
+@click.option("--time-budget", type=number(TIME_LIMIT), default=10.0, show_default=True,
               help="Seconds of OMPL solve() per step.")
 @click.option("--space", type=click.Choice(CONSTRAINED_SPACES), default="atlas", show_default=True,
               help="OMPL constrained state space.")

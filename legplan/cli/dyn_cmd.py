@@ -18,9 +18,11 @@ from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
 from legplan.cli.options import (batch_opts, input_artefact, number, output_opt, overwrite_opt, verbosity_opts,
                                   optimize_phases_opt, warm_stage_opt)
+from legplan.cli.options import count, pose
+from legplan.parameters import DURATION
 from legplan.errors import LegplanError
 
-POSE = (number(), number(), number())
+POSE = pose()
 
 
 @click.group("dyn")
@@ -33,8 +35,8 @@ def command():
 @click.argument("map_path", metavar="MAP", type=input_artefact)
 @click.option("--robot", default="anymal", show_default=True, help="Robot with a `centroidal:` section.")
 @click.option("--gait", default=None, help="walk or trot [default: trot]; a tasks file's default.")
-@click.option("--strides", type=click.IntRange(min=1), default=None, help="Strides, >= 1 [default: 4]; a tasks file's default.")
-@click.option("--duration", type=number(min=0, min_open=True), default=None, help="Total duration (s) [default: 2.4]; a tasks file's default.")
+@click.option("--strides", type=count("strides"), default=None, help="Strides, >= 1 [default: 4]; a tasks file's default.")
+@click.option("--duration", type=number(DURATION), default=None, help="Total duration (s) [default: 2.4]; a tasks file's default.")
 @click.option("--start", type=POSE, default=None, metavar="X Y YAW", help="Start base pose (m, m, rad).")
 @click.option("--goal", type=POSE, default=None, metavar="X Y YAW", help="Goal base pose (m, m, rad).")
 @click.option("--tasks", "tasks_path", type=click.Path(dir_okay=False), default=None,
@@ -56,12 +58,13 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
 
     Exit 1 when any task failed (its reason is recorded)."""
     from legplan.artefacts import check_output
+    from legplan.artefacts.identity import check_same_map
     from legplan.batch import Task
     from legplan.cli.batching import run_stage
     from legplan.dyn.artefact import write_traj
     from legplan.dyn.items import DynWorker, failed_item, plan_item, task_items
     from legplan.dyn.settings import check_warm_stage, costs_file, dyn_params, initializer, settings_record
-    from legplan.dyn.tasks import centroidal_model, check_placements, command_line_task, read_tasks
+    from legplan.dyn.tasks import centroidal_model, check_placements, check_sizes, command_line_task, read_tasks
     from legplan.dyn.terrain import TerrainModel
     from legplan.robots import load_robot
     from legplan.terrain import load_map
@@ -78,8 +81,11 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     model = centroidal_model(loaded, params, costs)
     tasks = (read_tasks(tasks_path, gait, strides, duration) if tasks_path is not None
              else [command_line_task(start, goal, gait, strides, duration)])
+    check_sizes(tasks, params, tasks_path)
     check_placements(tasks, model, TerrainModel(load_map(map_path)), tasks_path, map_path)
     if hasattr(init_fn, "check_task"):  # a learned initializer fits one variable layout: refuse others now
+        trained_on = {"path": init_fn.space.get("map"), "sha256": init_fn.space.get("map_sha256")}
+        check_same_map(init_fn.path, map_path, [trained_on], what="trained")
         for t in tasks:
             init_fn.check_task(t, params.dt)
         init = init_fn.path
@@ -111,7 +117,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
 
 @command.command("show")
 @click.argument("paths", metavar="TRAJ [TRAJ2]", nargs=-1, required=True, type=input_artefact)
-@click.option("--task", "task_index", type=click.IntRange(min=0), default=0, show_default=True,
+@click.option("--task", "task_index", type=count("items", 0), default=0, show_default=True,
               help="Which task of each artefact to draw.")
 @output_opt
 @overwrite_opt

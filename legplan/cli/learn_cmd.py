@@ -15,6 +15,8 @@ from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
 from legplan.cli.options import (OutputPath, batch_opts, input_artefact, number, optimize_phases_opt, output_opt,
                                  overwrite_opt, seed_opt, verbosity_opts, warm_stage_opt)
+from legplan.cli.options import count as count_option
+from legplan.parameters import COST
 from legplan.errors import LegplanError
 
 CYCLE_FILES = ("dataset_*.h5", "init_*.h5", "cycles.json")  # what `learn cycle` writes into its -o folder
@@ -28,11 +30,11 @@ def command():
 
 @command.command("dataset")
 @click.argument("space_path", metavar="SPACE", type=click.Path(dir_okay=False))
-@click.option("--n", "count", type=click.IntRange(min=1), required=True, help="Tasks to sample and solve.")
+@click.option("--n", "count", type=count_option("items"), required=True, help="Tasks to sample and solve.")
 @seed_opt
 @click.option("--init", "init", default="heuristic", show_default=True, metavar="heuristic|INIT.h5",
               help="Initializer: the paper's Heuristic (A_h) or a trained init.h5 (A_θ).")
-@click.option("--iterations", type=click.IntRange(min=1), default=None,
+@click.option("--iterations", type=count_option("iterations"), default=None,
               help="LM iterations per task, all planner stages together (the paper's N_h = 100, N_θ = 25) [default: each stage's own cap].")
 @warm_stage_opt
 @optimize_phases_opt
@@ -54,11 +56,21 @@ def dataset_cmd(ctx, space_path, count, seed, init, iterations, warm_stage, opti
     check_output(output, overwrite)
     check_warm_stage(warm_stage, init)
     space = read_space(space_path)
+    _check_sizes(space, space_path, warm_stage, optimize_phases)
     check_init(init, space)
     records = _dataset(space, space_path, count, seed, init, iterations, output, overwrite=overwrite, jobs=jobs,
                        scheduler=scheduler, resume=resume, warm_stage=warm_stage, optimize_phases=optimize_phases)
     if any("y" not in r for r in records):
         ctx.exit(EXIT_ITEMS_FAILED)
+
+
+def _check_sizes(space, space_path, warm_stage, optimize_phases) -> None:
+    """The space's tasks within the size budget and, with --optimize-phases, long enough for their phases."""
+    from legplan.dyn.tasks import check_sizes
+    from legplan.learn.dataset import solver_params
+
+    params = solver_params(space.costs, None, warm_stage, optimize_phases)
+    check_sizes([space.task((0, 0, 0), (0, 0, 0))], params, space_path, rows=False)
 
 
 def _dataset(space, space_path, count, seed, init, iterations, output, *, overwrite, jobs, scheduler, resume,
@@ -92,7 +104,7 @@ def _dataset(space, space_path, count, seed, init, iterations, output, *, overwr
 def _g_max(ctx, param, value):
     if value == "auto":
         return value
-    return number(min=0, min_open=True).convert(value, param, ctx)  # finite and > 0, or exit 2
+    return number(COST).convert(value, param, ctx)  # finite and > 0, or exit 2
 
 
 def _hidden(ctx, param, value):
@@ -102,6 +114,10 @@ def _hidden(ctx, param, value):
         sizes = ()
     if not 2 <= len(sizes) <= 3 or min(sizes) < 1:
         raise click.BadParameter(f"expected 2 or 3 layer sizes >= 1 like 256,256, got {value!r}", ctx=ctx, param=param)
+    from legplan.budget import check_size
+    from legplan.learn.network import weight_count
+
+    check_size("weights", weight_count(1, sizes, 1), f"--hidden {value}")  # before any work; `fit` checks again
     return sizes
 
 
@@ -114,7 +130,7 @@ def _hidden(ctx, param, value):
               help="Hidden layer sizes (2 or 3 layers).")
 @click.option("--weights", "weights_path", type=click.Path(dir_okay=False), default=None,
               help="YAML of W per category (base_lin, base_ang, feet, forces, phases; > 0), eq. (3).")
-@click.option("--validation", type=number(0.0, 0.5), default=0.2, show_default=True,
+@click.option("--validation", type=number("[0, 0.5]"), default=0.2, show_default=True,
               help="Fraction of the filtered tasks held out for validation.")
 @seed_opt
 @output_opt
@@ -145,12 +161,12 @@ def _filtered(report: dict) -> str:
 
 @command.command("cycle")
 @click.argument("space_path", metavar="SPACE", type=click.Path(dir_okay=False))
-@click.option("--cycles", type=click.IntRange(min=1), default=3, show_default=True, help="Train-and-solve cycles K.")
-@click.option("--n", "count", type=click.IntRange(min=1), required=True, help="Tasks X (the same in every cycle).")
+@click.option("--cycles", type=count_option("iterations"), default=3, show_default=True, help="Train-and-solve cycles K.")
+@click.option("--n", "count", type=count_option("items"), required=True, help="Tasks X (the same in every cycle).")
 @seed_opt
-@click.option("--heuristic-iterations", type=click.IntRange(min=1), default=100, show_default=True,
+@click.option("--heuristic-iterations", type=count_option("iterations"), default=100, show_default=True,
               help="N_h: iterations per task (all planner stages) from the Heuristic.")
-@click.option("--learned-iterations", type=click.IntRange(min=1), default=25, show_default=True,
+@click.option("--learned-iterations", type=count_option("iterations"), default=25, show_default=True,
               help="N_θ: iterations per task (all planner stages) from the learned initializer.")
 @click.option("--g-max", "g_max", default="auto", show_default=True, callback=_g_max, metavar="auto|VALUE",
               help="Cost threshold of the filter, eq. (4), in every cycle.")
@@ -179,10 +195,12 @@ def cycle_cmd(space_path, cycles, count, seed, heuristic_iterations, learned_ite
 
     from legplan.artefacts import check_output
     from legplan.learn.cycle import cycle_paths, cycle_row, write_cycles
+    from legplan.learn.network import read_weights
     from legplan.learn.space import read_space
     from legplan.learn.train import train_initializer
 
     space = read_space(space_path)
+    _check_sizes(space, space_path, "costs", optimize_phases)
     paths = cycle_paths(Path(output), cycles)
     Path(output).mkdir(parents=True, exist_ok=True)
     if not resume:
@@ -190,6 +208,8 @@ def cycle_cmd(space_path, cycles, count, seed, heuristic_iterations, learned_ite
             check_output(path, overwrite)
     if weights_path is not None and not os.path.isfile(weights_path):
         raise LegplanError(f"--weights: '{weights_path}' is not a file")
+    read_weights(weights_path)  # a bad weights file fails now, not after the first dataset
+
     def done(path) -> bool:  # reused with --resume
         return resume and Path(path).exists()
 

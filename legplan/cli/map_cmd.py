@@ -6,6 +6,8 @@ import click
 
 from legplan.cli.console import progress_bar, status
 from legplan.cli.options import input_artefact, number, output_opt, overwrite_opt, verbosity_opts
+from legplan.cli.options import pose
+from legplan.parameters import LENGTH, RESOLUTION, SCALE
 
 
 @click.group("map")
@@ -35,13 +37,13 @@ def build(spec, output, overwrite):
 @click.argument("kind", type=click.Choice(["ros", "movingai", "heightmap"]))
 @click.argument("path", type=click.Path(dir_okay=False))
 @output_opt
-@click.option("--resolution", type=number(min=0, min_open=True), help="Cell size (m); required for movingai and heightmap "
+@click.option("--resolution", type=number(RESOLUTION), help="Cell size (m); required for movingai and heightmap "
                                                  "(ros maps carry their own).")
-@click.option("--origin", type=(number(), number()), default=(0.0, 0.0), show_default=True,
+@click.option("--origin", type=pose(2), default=(0.0, 0.0), show_default=True,
               help="movingai: lower-left corner of the grid; heightmap: centre of cell [0, 0] (m).")
-@click.option("--scale", type=number(), default=1.0, show_default=True,
+@click.option("--scale", type=number(SCALE), default=1.0, show_default=True,
               help="heightmap: metres per unit of the stored value (image grey levels are 0..1).")
-@click.option("--obstacle-height", type=number(min=0, min_open=True), default=1.0, show_default=True,
+@click.option("--obstacle-height", type=number(LENGTH), default=1.0, show_default=True,
               help="ros/movingai: height (m) of the columns that obstacle cells become.")
 @overwrite_opt
 @verbosity_opts

@@ -91,12 +91,14 @@ def show(nav_path, map_path, output, overwrite):
     """Draw NAV's paths and velocity arrows over the map's costmap (PNG)."""
     from legplan.artefacts import check_output, open_artefact
     from legplan.nav import NavGrid
+    from legplan.artefacts.identity import check_same_map
     from legplan.nav.artefact import read_queries
     from legplan.nav.plot import render_nav
 
     check_output(output, overwrite)
     with open_artefact(nav_path, kind="nav") as handle:
         queries = read_queries(handle)
+    check_same_map(nav_path, map_path, what="searched")
     render_nav(NavGrid.from_map(map_path), queries, output, overwrite=overwrite)
     status(f"wrote {output}")
 

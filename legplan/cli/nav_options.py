@@ -5,18 +5,21 @@ from __future__ import annotations
 import click
 
 from legplan.cli.options import number
+from legplan.cli.options import pose
+from legplan.parameters import VELOCITY
 
-PAIR = (number(), number())
+PAIR = pose(2)
+VELOCITY_PAIR = (number(VELOCITY), number(VELOCITY))
 
 
 def query_opts(velocity_help: str):
     """`--start X Y [--start-vel VX VY] --goal X Y [--goal-vel VX VY]` or `--queries FILE`."""
     options = (
         click.option("--start", type=PAIR, metavar="X Y", help="Start position (m)."),
-        click.option("--start-vel", type=PAIR, default=(0.0, 0.0), show_default=True,
+        click.option("--start-vel", type=VELOCITY_PAIR, default=(0.0, 0.0), show_default=True,
                      metavar="VX VY", help=f"Start velocity (m/s, world frame){velocity_help}."),
         click.option("--goal", type=PAIR, metavar="X Y", help="Goal position (m)."),
-        click.option("--goal-vel", type=PAIR, default=(0.0, 0.0), show_default=True,
+        click.option("--goal-vel", type=VELOCITY_PAIR, default=(0.0, 0.0), show_default=True,
                      metavar="VX VY", help=f"Goal velocity (m/s, world frame){velocity_help}."),
         click.option("--queries", "queries_path", type=click.Path(dir_okay=False),
                      help="Queries instead of --start/--goal: a CSV (start_x,start_y,start_vx,start_vy,"

@@ -10,12 +10,14 @@ import click
 from legplan.cli.console import progress_bar, status
 from legplan.cli.options import (NumbersOption, input_artefact, number, output_opt, overwrite_opt, param_opt,
                                  verbosity_opts)
+from legplan.cli.options import count
+from legplan.parameters import COORDINATE, LENGTH, TIME_LIMIT, WAIT, YAW
 
 robot_opt = click.option("--robot", default="jueying_mini", show_default=True,
                          help="Robot name or robot.yaml path (its navigation limits, Table I).")
-rounds_opt = click.option("--outer", type=click.IntRange(min=1), default=4, show_default=True,
+rounds_opt = click.option("--outer", type=count("iterations"), default=4, show_default=True,
                           help="TEB outer rounds (resize + LM).")
-inner_opt = click.option("--inner", type=click.IntRange(min=1), default=5, show_default=True,
+inner_opt = click.option("--inner", type=count("iterations"), default=5, show_default=True,
                          help="TEB inner iterations per round.")
 omni_opt = click.option("--omni/--non-omni", default=True, show_default=True,
                         help="Omnidirectional model, or differential drive (lateral velocity zero).")
@@ -38,6 +40,7 @@ def refine(ctx, map_path, nav_path, output, robot, outer, inner, omni, overwrite
 
     from legplan.artefacts import check_output, write_artefact, write_summary
     from legplan.robots.navigation import read_navigation
+    from legplan.artefacts.identity import check_same_map
     from legplan.nav.teb.artefact import refinable_queries, write_refinement
     from legplan.nav.teb.distance import DistanceField
     from legplan.nav.teb.params import TebParams
@@ -50,6 +53,7 @@ def refine(ctx, map_path, nav_path, output, robot, outer, inner, omni, overwrite
     field = DistanceField.from_terrain(terrain)
     params = TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni)
     queries = refinable_queries(nav_path)
+    check_same_map(nav_path, map_path, what="searched")
     rows = []
     with write_artefact(output, "nav", params={"teb": params.as_dict(), "robot": robot}, inputs=[map_path, nav_path],
                         overwrite=overwrite) as f, h5py.File(nav_path, "r") as source, \
@@ -90,17 +94,17 @@ def _summary(write_summary, handle, count, rows):
               help="Start pose (m, m, rad; yaw 0 when left out).")
 @click.option("--goal", cls=NumbersOption, counts=(2, 3), required=True, metavar="X Y [YAW]",
               help="Goal position and optional heading (m, m, rad).")
-@click.option("--via", cls=NumbersOption, counts=(2, 3, 4), multiple=True, metavar="X Y [YAW [DWELL]]",
+@click.option("--via", cls=NumbersOption, counts=(2, 3, 4), ranges=(COORDINATE, COORDINATE, YAW, WAIT), multiple=True, metavar="X Y [YAW [DWELL]]",
               help="Via point (m, m, rad, s); repeatable, in order.")
-@click.option("--face-target", cls=NumbersOption, counts=(2,), default=None, metavar="X Y",
+@click.option("--face-target", cls=NumbersOption, counts=(2,), ranges=(COORDINATE,), default=None, metavar="X Y",
               help="Hold the heading towards this point on the way (omnidirectional side-stepping, "
                    "Table III).")
 @click.option("--hidden-obstacles", type=click.Path(dir_okay=False), default=None,
               help="YAML with `obstacles: [map primitives]` missing from the initial map; sensed in range.")
 @click.option("--planner", type=click.Choice(["kinoastar", "astar"]), default="kinoastar", show_default=True,
               help="Global planner (astar: grid A* waypoints, the Table II baseline).")
-@click.option("--sensing-radius", type=number(min=0, min_open=True), default=4.0, show_default=True, help="m.")
-@click.option("--max-time", type=number(min=0, min_open=True), default=300.0, show_default=True, help="Simulated seconds.")
+@click.option("--sensing-radius", type=number(LENGTH), default=4.0, show_default=True, help="m.")
+@click.option("--max-time", type=number(TIME_LIMIT), default=300.0, show_default=True, help="Simulated seconds.")
 @click.option("--warm-start/--cold-start", default=True, show_default=True,
               help="Warm-start each cycle's band from the previous one, or re-initialize it every cycle.")
 @rounds_opt

@@ -4,10 +4,13 @@ Use them as decorators so every command spells the same option the same way:
 `@output_opt @overwrite_opt @jobs_opt @seed_opt @verbosity_opts`; a many-item stage takes
 `@batch_opts` (`--jobs`, `--scheduler`, `--resume`, see `legplan.cli.batching`).
 
-Every numeric option takes `number(...)` (a finite float, optionally in a range), `Numbers` through
-`NumbersOption` (space-separated finite numbers: `--start X Y [YAW]`) or a `click.IntRange`, never a
-bare `float`: NaN and inf are refused on the command line (exit 2, one line
-naming the option) before any work starts. `tests/cli/test_bad_input_options.py` checks every
+Every numeric option takes `number(RANGE)` (a finite float in a finite physical range, written as
+`legplan.parameters` declares ranges, mostly one of its named quantities: `number(DURATION)`), or
+`declared(Class, "field")` (the range of a parameter field), `Numbers` through `NumbersOption`
+(space-separated finite numbers, each position in its range: `--start X Y [YAW]`) or a
+`click.IntRange` with both bounds, never a bare `float`: NaN, inf and absurd finite values are
+refused on the command line (exit 2, one line naming the option) before any work starts.
+`tests/cli/test_bad_input_options.py` and `tests/cli/test_bad_input_ranges.py` check every
 command's options for it.
 """
 
@@ -18,10 +21,14 @@ import math
 import click
 
 from legplan.cli.console import set_verbosity, verbosity
+from legplan.parameters import COORDINATE, YAW, Interval, declared_range
+
+MAX_SEED = 2 ** 32 - 1
+"""The largest `--seed` (numpy's and HDF5's integer range)."""
 
 
 class FiniteFloat(click.FloatRange):
-    """A float option value that must be finite (no nan, inf) and within the optional bounds."""
+    """A float option value that must be finite (no nan, inf) and within the bounds."""
 
     name = "finite float"
 
@@ -32,10 +39,32 @@ class FiniteFloat(click.FloatRange):
         return number
 
 
-def number(min: float | None = None, max: float | None = None, *, min_open: bool = False,
-           max_open: bool = False) -> FiniteFloat:
-    """The type of a numeric option: finite, and within [min, max] (open ends with `*_open`)."""
-    return FiniteFloat(min=min, max=max, min_open=min_open, max_open=max_open)
+def number(allowed: str) -> FiniteFloat:
+    """The type of a numeric option: finite, and within the interval `allowed` ("(0, 3600]", or a
+    named quantity of `legplan.parameters`, e.g. `DURATION`), whose bounds must be finite numbers."""
+    interval = Interval.parse(allowed)
+    if not all(isinstance(b, float) and math.isfinite(b) for b in (interval.low, interval.high)):
+        raise ValueError(f"an option's range must have finite bounds, not {allowed!r}")
+    return FiniteFloat(min=interval.low, max=interval.high, min_open=interval.low_open,
+                       max_open=interval.high_open)
+
+
+def declared(cls, name: str) -> FiniteFloat:
+    """The type of an option that sets field `name` of parameter dataclass `cls`: its declared range."""
+    return number(declared_range(cls, name).describe())
+
+
+def count(quantity: str, minimum: int = 1) -> click.IntRange:
+    """The type of a count option: a whole number from `minimum` up to the size budget of `quantity`
+    (`legplan.budget.LIMITS`: "items", "iterations", "strides", "workers")."""
+    from legplan.budget import LIMITS
+
+    return click.IntRange(minimum, LIMITS[quantity])
+
+
+def pose(count: int = 3) -> tuple[FiniteFloat, ...]:
+    """The types of `X Y [YAW]` (`count` 2 or 3): coordinates and a heading in their physical ranges."""
+    return (number(COORDINATE), number(COORDINATE), number(YAW))[:count]
 
 
 class Numbers(click.ParamType):
@@ -44,8 +73,9 @@ class Numbers(click.ParamType):
 
     name = "numbers"
 
-    def __init__(self, counts: tuple[int, ...]):
+    def __init__(self, counts: tuple[int, ...], ranges: tuple[str, ...] = ()):
         self.counts = counts
+        self.ranges = tuple(number(text) for text in ranges)  # per position; the last repeats
 
     def convert(self, value, param, ctx):
         tokens = list(value) if isinstance(value, (list, tuple)) else str(value).split()
@@ -56,6 +86,9 @@ class Numbers(click.ParamType):
         if len(numbers) not in self.counts or not all(math.isfinite(v) for v in numbers):
             self.fail(f"expected {' or '.join(map(str, self.counts))} finite numbers, got "
                       f"{' '.join(map(str, tokens))!r}", param, ctx)
+        if self.ranges:
+            for i, text in enumerate(tokens):
+                self.ranges[min(i, len(self.ranges) - 1)].convert(text, param, ctx)
         return numbers
 
 
@@ -63,11 +96,13 @@ class NumbersOption(click.Option):
     """An option followed by a variable count of numbers, e.g. `--start X Y [YAW]` (`counts` (2, 3)):
     the numbers after the option are taken while they parse as numbers, up to the largest count,
     so `--start 1 -2 --goal 3 4` and `--start 1 -2 0.5 --goal 3 4` both work; with `multiple`,
-    once per occurrence. The one syntax of every pose option (`counts=(3,)` for a fixed pose)."""
+    once per occurrence. The one syntax of every pose option (`counts=(3,)` for a fixed pose); `ranges`
+the physical range of each position (default x, y, yaw; the last repeats)."""
 
-    def __init__(self, *args, counts: tuple[int, ...], **kwargs):
+    def __init__(self, *args, counts: tuple[int, ...], ranges: tuple[str, ...] = (COORDINATE, COORDINATE, YAW),
+                 **kwargs):
         self.counts = counts
-        super().__init__(*args, type=Numbers(counts), **kwargs)
+        super().__init__(*args, type=Numbers(counts, ranges), **kwargs)
 
     def add_to_parser(self, parser, ctx) -> None:
         super().add_to_parser(parser, ctx)
@@ -145,7 +180,7 @@ class OutputPath(click.Path):
 output_opt = click.option("-o", "--output", required=True, type=OutputPath(dir_okay=False),
                           help="Output artefact (HDF5) or image path.")
 overwrite_opt = click.option("--overwrite", is_flag=True, help="Replace an existing output.")
-jobs_opt = click.option("-j", "--jobs", type=click.IntRange(min=1), default=1, show_default=True,
+jobs_opt = click.option("-j", "--jobs", type=count("workers"), default=1, show_default=True,
                         help="Worker processes for independent items.")
 scheduler_opt = click.option(
     "--scheduler", metavar="local|tcp://HOST:PORT", default=None,
@@ -160,7 +195,7 @@ def batch_opts(func):
     return jobs_opt(scheduler_opt(resume_opt(func)))
 
 
-seed_opt = click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+seed_opt = click.option("--seed", type=click.IntRange(0, MAX_SEED), default=0, show_default=True,
                         help="Seed of every random choice; same inputs and seed, same artefact.")
 warm_stage_opt = click.option(
     "--warm-stage", type=click.Choice(["costs", "projection", "polish"]), default="costs", show_default=True,

@@ -16,15 +16,16 @@ import click
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
 from legplan.cli.options import batch_opts, input_artefact, number, output_opt, overwrite_opt, verbosity_opts
+from legplan.parameters import FRICTION, WAIT
 from legplan.errors import LegplanError
 
 
 @click.command("simulate")
 @click.argument("traj_path", metavar="TRAJ", type=input_artefact)
 @click.argument("map_path", metavar="MAP", type=input_artefact)
-@click.option("--settle", type=number(min=0), default=0.5, show_default=True,
+@click.option("--settle", type=number(WAIT), default=0.5, show_default=True,
               help="Seconds the final pose is held after the plan before the goal is judged.")
-@click.option("--friction", type=number(min=0, min_open=True), default=None,
+@click.option("--friction", type=number(FRICTION), default=None,
               help="Friction coefficient of the simulated contacts [default: the robot's, as planned].")
 @output_opt
 @overwrite_opt
@@ -39,6 +40,7 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, output, overwrite, 
     import numpy as np
 
     from legplan.artefacts import check_output
+    from legplan.artefacts.identity import check_same_map
     from legplan.batch import Task
     from legplan.cli.batching import run_stage
     from legplan.dyn.artefact import check_executable, read_tasks
@@ -56,6 +58,7 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, output, overwrite, 
     if robot.centroidal is None:
         raise LegplanError(f"{traj_path}: robot {robot.name} has no centroidal section")
     terrain_map = load_map(map_path)
+    check_same_map(traj_path, map_path, what="planned")
     lo = np.array(terrain_map.grid.origin)
     hi = lo + terrain_map.grid.resolution * (np.array(terrain_map.grid.shape[::-1]) - 1)
     for task in tasks:

@@ -18,11 +18,13 @@ def command():
 def read_step_pairs(map_path: str, steps_path: str, step_range: str | None):
     """The step sequence of STEPS and the indices of its consecutive pairs selected by `--steps`;
     MAP must read as a valid map artefact. Shared by `step plan` and `baseline step`."""
+    from legplan.artefacts.identity import check_same_map
     from legplan.stepseq.sequence import read_steps
     from legplan.terrain import load_map
 
     load_map(map_path)  # every layer checked (finite, shapes) before any work
     seq = read_steps(steps_path)
+    check_same_map(steps_path, map_path)
     if len(seq) < 2:
         raise LegplanError(f"{steps_path}: field 'q' needs at least 2 configurations, got {len(seq)}")
     return seq, _parse_range(step_range, len(seq) - 1, steps_path)
@@ -98,6 +100,7 @@ def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, scheduler, resu
 def show_cmd(motion_path, map_path, output, overwrite):
     """PNG of MOTION: foot and CoM tracks over the terrain (side view) and Fig. 4 time histograms."""
     from legplan.artefacts import check_output, open_artefact
+    from legplan.artefacts.identity import check_same_map
     from legplan.robots import load_robot
     from legplan.stepplan.batch import read_motion
     from legplan.stepplan.figures import plot_motion
@@ -109,4 +112,5 @@ def show_cmd(motion_path, map_path, output, overwrite):
     if not robot_name:
         raise LegplanError(f"{motion_path}: missing root attribute 'robot'")
     records = read_motion(motion_path)
+    check_same_map(motion_path, map_path, what="planned")
     plot_motion(output, load_robot(robot_name), load_map(map_path), records, overwrite=overwrite)

@@ -7,6 +7,8 @@ import click
 from legplan.cli.console import progress_bar, status, stderr_line
 from legplan.cli.options import (input_artefact, number, output_opt, overwrite_opt, param_opt, seed_opt,
                                  verbosity_opts)
+from legplan.cli.options import count, pose
+from legplan.parameters import LENGTH
 
 
 @click.group("steps")
@@ -30,7 +32,7 @@ def _load(robot_name, map_path):
 @click.option("--robot", "robot_name", required=True, help="Robot name (e.g. scarab2) or robot.yaml path.")
 @click.option("--map", "map_path", required=True, type=input_artefact, help="map.h5 of the terrain.")
 @click.option("--strict", is_flag=True, help="Treat warnings as errors.")
-@click.option("--foot-tolerance", type=number(min=0, min_open=True), default=1e-3, show_default=True,
+@click.option("--foot-tolerance", type=number(LENGTH), default=1e-3, show_default=True,
               help="Largest stance-foot distance to the terrain / its foothold [m].")
 @output_opt
 @overwrite_opt
@@ -64,9 +66,9 @@ def import_cmd(path, robot_name, map_path, strict, foot_tolerance, output, overw
 @command.command("generate")
 @click.argument("map_path", type=input_artefact)
 @click.option("--robot", "robot_name", required=True, help="Robot name (e.g. scarab2) or robot.yaml path.")
-@click.option("--start", nargs=3, type=number(), required=True, metavar="X Y YAW", help="Start body pose.")
-@click.option("--goal", nargs=3, type=number(), required=True, metavar="X Y YAW", help="Goal body pose.")
-@click.option("--max-moves", type=click.IntRange(min=1), default=200, show_default=True)
+@click.option("--start", type=pose(), required=True, metavar="X Y YAW", help="Start body pose.")
+@click.option("--goal", type=pose(), required=True, metavar="X Y YAW", help="Goal body pose.")
+@click.option("--max-moves", type=count("iterations"), default=200, show_default=True)
 @param_opt("Override a generator parameter (legplan.stepseq.GenerateParams: lift_height, clearance, "
            "com_margin, reach_slack, candidates, backtracks, ...; e.g. --param lift_height=0.08).")
 @output_opt
@@ -129,12 +131,14 @@ def show_cmd(steps_path, map_path, output, overwrite):
     """Top view PNG: footholds over the map, support polygons, CoM track."""
     from legplan.artefacts import check_output
     from legplan.robots import load_robot
+    from legplan.artefacts.identity import check_same_map
     from legplan.stepseq import read_steps
     from legplan.stepseq.plot import plot_steps
     from legplan.terrain import load_map
 
     check_output(output, overwrite)
     seq = read_steps(steps_path)
+    check_same_map(steps_path, map_path)
     robot = load_robot(seq.robot)
     plot_steps(seq, robot.com(seq.q), load_map(map_path), output, overwrite=overwrite)
     click.echo(f"{output}: written")

@@ -28,6 +28,7 @@ from legplan.dyn.costs import CostWeights
 from legplan.dyn.init import INITIALIZERS
 from legplan.dyn.problem import PAPER, DynParams
 from legplan.errors import LegplanError
+from legplan.parameters import CLEARANCE, WEIGHT
 from legplan.specio import FieldReader, read_yaml_mapping
 
 PRESETS = {"paper": PAPER, "none": DynParams()}
@@ -52,9 +53,9 @@ def dyn_params(costs: str) -> DynParams:
     weights = [f.name for f in fields(CostWeights)]
     reader.unknown(data, ("preset", *weights, *CONSTRAINT_FIELDS))
     base = PRESETS[reader.choice(data["preset"], "preset", tuple(PRESETS))] if "preset" in data else DynParams()
-    values = {name: (reader.positive if name in POSITIVE_WEIGHTS else reader.nonnegative)(data[name], name)
+    values = {name: (reader.positive if name in POSITIVE_WEIGHTS else reader.nonnegative)(data[name], name, WEIGHT)
               for name in weights if name in data}
-    limits = {name: None if data[name] is None else reader.nonnegative(data[name], name)
+    limits = {name: None if data[name] is None else reader.nonnegative(data[name], name, CLEARANCE)
               for name in CONSTRAINT_FIELDS if name in data}
     return replace(base, costs=replace(base.costs, **values), **limits)
 

@@ -11,7 +11,9 @@ command-line task is the same fields from `--start`, `--goal`, ... (checked as t
 "command line"). Every rule lives here, for both forms; a failure is a one-line `SpecError` naming
 the file, the row (0-based) and the field:
 
-* numbers finite; `strides` a whole number >= 1; `duration` > 0; `gait` one of `GAITS`; no unknown field;
+* numbers finite and in their physical ranges (`RANGES`: coordinates, yaws, the duration); `strides`
+  a whole number >= 1 (`legplan.budget` bounds what the strides and duration make); `gait` one of
+  `GAITS`; no unknown field;
 * start and goal placeable (`placement_problem`): the base and its nominal feet (the centroidal
   model's `nominal_feet` rotated by the yaw) inside the heightmap, and not in a wall: the terrain
   under the base and those feet may span at most the nominal base height (`Centroidal.base_height`,
@@ -27,26 +29,33 @@ from pathlib import Path
 
 import numpy as np
 
-from legplan.dyn.gait import GAITS
+from legplan.budget import check_size
+from legplan.dyn.gait import GAITS, make_gait
 from legplan.dyn.problem import DynTask
 from legplan.dyn.terrain import TerrainModel
 from legplan.errors import LegplanError, SpecError
+from legplan.parameters import COORDINATE, DURATION, YAW
 from legplan.specio import FieldReader, read_csv_table, read_yaml
 
 POSE_FIELDS = ("start_x", "start_y", "start_yaw", "goal_x", "goal_y", "goal_yaw")
 OPTIONAL_FIELDS = ("gait", "strides", "duration")
 FIELDS = POSE_FIELDS + OPTIONAL_FIELDS
 COMMAND_LINE = "command line"
+RANGES = {**{f"{end}_{axis}": COORDINATE for end in ("start", "goal") for axis in ("x", "y")},
+          "start_yaw": YAW, "goal_yaw": YAW, "duration": DURATION}
+"""The physical range of every numeric field (`legplan.parameters`' quantities; `--start`, `--goal`
+and `--duration` take the same)."""
 
 
 def task_from_fields(reader: FieldReader, fields: dict, defaults: DynTask = DynTask((0, 0, 0), (0, 0, 0))) -> DynTask:
     """The `DynTask` of one row of fields (missing optional fields from `defaults`), every field checked."""
     reader.unknown(fields, FIELDS)
-    start, goal = ([reader.number(reader.get(fields, f"{end}_{axis}", f"{end}_{axis}"), f"{end}_{axis}")
-                    for axis in ("x", "y", "yaw")] for end in ("start", "goal"))
+    start, goal = ([reader.number(reader.get(fields, f"{end}_{axis}", f"{end}_{axis}"), f"{end}_{axis}",
+                                  RANGES[f"{end}_{axis}"]) for axis in ("x", "y", "yaw")] for end in ("start", "goal"))
     gait = reader.choice(reader.get(fields, "gait", "gait", default=defaults.gait), "gait", GAITS)
     strides = reader.count(reader.get(fields, "strides", "strides", default=defaults.strides), "strides")
-    duration = reader.positive(reader.get(fields, "duration", "duration", default=defaults.duration), "duration")
+    duration = reader.number(reader.get(fields, "duration", "duration", default=defaults.duration), "duration",
+                             RANGES["duration"])
     return replace(defaults, start=tuple(start), goal=tuple(goal), gait=gait, strides=strides, duration=duration)
 
 
@@ -136,6 +145,25 @@ def check_placements(tasks: list[DynTask], model, terrain: TerrainModel, source:
             if problem is not None:
                 where = f"{source}: row {i}" if source is not None else COMMAND_LINE
                 raise SpecError(f"{where}: field '{end}' ({', '.join(f'{v:g}' for v in pose)}) {problem}")
+
+
+def check_sizes(tasks: list[DynTask], params, source: str | os.PathLike | None, rows: bool = True) -> None:
+    """Before anything is built: a `legplan.budget.SizeError` for the first task whose problem would
+    exceed the variable budget (the paper's N = 12T/dt + 20S + 120, Sec. III-A, with S at most 4
+    footsteps a stride), and a `SpecError` for one whose duration cannot hold its feet's phases of at
+    least `phase_min` when `params` (`DynParams`) optimizes them. `source` is the tasks file (rows
+    named unless `rows` is false: a task space's one template), None for the command line."""
+    for i, task in enumerate(tasks):
+        where = COMMAND_LINE if source is None else f"{source}: row {i}" if rows else str(source)
+        nodes, steps = 12 * task.duration / params.dt, 20 * 4 * task.strides
+        check_size("variables", nodes + steps + 120, f"{where}: field '{'strides' if steps > nodes else 'duration'}'")
+        if params.optimize_phases:
+            gait = make_gait(task.gait, task.strides, task.duration)
+            phases = max(len(gait.foot_phases(leg)) for leg in range(gait.stance.shape[1]))
+            if phases * params.phase_min > task.duration:
+                raise SpecError(f"{where}: field 'duration' {task.duration:g} s is too short to optimize the "
+                                f"phases: a foot has {phases} phases of at least {params.phase_min:g} s "
+                                f"(--optimize-phases needs {phases * params.phase_min:g} s)")
 
 
 def centroidal_model(robot, params=None, costs: str = "--costs"):

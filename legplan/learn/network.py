@@ -161,6 +161,12 @@ def read_weights(path: str | os.PathLike | None) -> dict[str, float]:
             for name in CATEGORIES}
 
 
+def weight_count(inputs: int, hidden: tuple[int, ...], outputs: int) -> int:
+    """Weights and biases of a fully connected network with these layer sizes."""
+    sizes = [int(inputs), *map(int, hidden), int(outputs)]
+    return sum((a + 1) * b for a, b in zip(sizes[:-1], sizes[1:]))
+
+
 @dataclass
 class Network:
     """A fully connected network with its normalization: y = out_scale·f(x_n) + out_offset,
@@ -201,6 +207,9 @@ def fit(x: np.ndarray, y: np.ndarray, layout: dict[str, int], weights: dict[str,
     from sklearn.neural_network import MLPRegressor
     from threadpoolctl import threadpool_limits
 
+    from legplan.budget import check_size
+
+    check_size("weights", weight_count(x.shape[1], hidden, y.shape[1]), "--hidden")
     rng = np.random.default_rng(seed)
     order = rng.permutation(len(x))
     n_val = int(round(validation * len(x))) if len(x) >= 5 else 0

@@ -34,6 +34,8 @@ from legplan.dyn.problem import DynTask
 from legplan.dyn.settings import PRESETS
 from legplan.errors import SpecError
 from legplan.geometry.angles import wrap_angle
+from legplan.budget import STRIDES
+from legplan.dyn.tasks import RANGES
 from legplan.specio import FieldReader, read_yaml_mapping
 
 FIELDS = ("name", "map", "robot", "gait", "strides", "duration", "costs", "start", "goal")
@@ -86,8 +88,8 @@ def read_space(path: str | os.PathLike) -> TaskSpace:
         reader.fail("map", f"must be a map spec (.yaml) or a map artefact (.h5), got '{map_path.name}'")
     robot = reader.get(data, "robot", "robot", str, default="anymal")
     gait = reader.choice(reader.get(data, "gait", "gait"), "gait", GAITS)
-    strides = reader.count(reader.get(data, "strides", "strides"), "strides")
-    duration = reader.positive(reader.get(data, "duration", "duration"), "duration")
+    strides = reader.count(reader.get(data, "strides", "strides"), "strides", STRIDES)
+    duration = reader.number(reader.get(data, "duration", "duration"), "duration", RANGES["duration"])
     costs = reader.get(data, "costs", "costs", str, default="paper")
     if costs not in PRESETS:
         costs_path = path.parent / costs
@@ -104,9 +106,9 @@ def _range(reader: FieldReader, ranges: dict, end: str, axis: str) -> tuple[floa
     field = f"{end}.{axis}"
     value = reader.get(ranges, axis, field)
     if isinstance(value, (int, float)) and not isinstance(value, bool):
-        number = reader.number(value, field)
+        number = reader.number(value, field, RANGES[f"start_{axis}"])
         return number, number
-    lo, hi = reader.vector(value, field, 2)
+    lo, hi = reader.vector(value, field, 2, RANGES[f"start_{axis}"])
     if lo > hi:
         reader.fail(field, f"must be [low, high] with low <= high, got {value!r}")
     return float(lo), float(hi)

@@ -41,8 +41,8 @@ class NavParams(Parameters):
 
     v_max: float = param(0.75, "(0, inf)", "v_max", "m/s per axis (Table I v_x max)")
     a_max: float = param(1.0, "(0, inf)", "u_max", "m/s² per axis (Table I a_x max)")
-    mu: int = param(2, "[1, inf)", "μ", "(2μ+1)² motion primitives")
-    tau: float = param(0.4, "(0, inf)", "τ", "s, primitive duration")
+    mu: int = param(2, "[1, 20]", "μ", "(2μ+1)² motion primitives")
+    tau: float = param(0.4, "(0, 3600]", "τ", "s, primitive duration")
     rho: float = param(1.0, "(0, inf)", "ρ", "time weight of eq. (5)")
     rho_c: float = param(0.01, "[0, inf)", "ρ_c", "collision-cost weight of eq. (19) (C_max = 100 → ρ_c·F ≤ 1)")
     weight: float = param(2.0, "[1, inf)",
@@ -55,7 +55,7 @@ class NavParams(Parameters):
     oneshot_radius: float = param(5.0, "[0, inf)", doc="m")
     goal_tolerance: float = param(0.0, "[0, inf)", doc="m")
     goal_vel_tolerance: float = param(0.0, "[0, inf)", doc="m/s")
-    max_expansions: int = param(0, "[0, inf)", doc="0: scale with the map (`expansion_budget`)")
+    max_expansions: int = param(0, "[0, 100000000]", doc="0: scale with the map (`expansion_budget`)")
 
     @classmethod
     def for_robot(cls, navigation) -> NavParams:

@@ -28,7 +28,9 @@ import numpy as np
 
 from legplan.artefacts import open_artefact, read_provenance, read_summary
 from legplan.errors import ArtefactError, LegplanError
+from legplan.parameters import TOLERANCE, check_value
 from legplan.report.items import read_items
+from legplan.specio import parse_number
 
 TIME_TOLERANCE = (0.05, 0.5)
 ITEM_CLOCK_TOLERANCE = (0.5, 1.0)
@@ -86,11 +88,12 @@ def parse_tolerances(items) -> dict[str, Tolerance]:
             if not sep or not name.strip():
                 raise ValueError
             value = value.strip()
-            number = float(value[:-1]) / 100 if value.endswith("%") else float(value)
-            if number < 0 or math.isnan(number):
-                raise ValueError
+            float(value.removesuffix("%"))
         except ValueError:
             raise LegplanError(f"--tol: expected NAME=NUMBER or NAME=PERCENT%, got {item!r}") from None
+        number = parse_number(value.removesuffix("%"), f"--tol {name.strip()}")  # finite, of a sane size
+        check_value(number, TOLERANCE, f"--tol {name.strip()}")
+        number = number / 100 if value.endswith("%") else number
         out[name.strip()] = Tolerance(0.0, number) if value.endswith("%") else Tolerance(number, 0.0)
     return out
 

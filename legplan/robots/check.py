@@ -4,7 +4,8 @@ Errors (the robot would mislead the planners):
 - a foot frame that is not at the distal end of its chain (nearer the leg's first joint than its
   last joint is, in the nominal stance);
 - a base height that is not positive, or a base not above every foot;
-- a foot off the ground in the nominal stance, or a non-foot collision sphere in the ground.
+- a foot off the ground in the nominal stance, or a non-foot collision sphere in the ground;
+- no mass: the URDF's links weigh nothing in all (no centre of mass, no dynamics to plan with).
 Warnings:
 - a foot frame more than `FOOT_FAR_END_TOLERANCE` of the last segment away from the far end of the
   last link's URDF geometry (where `robot init` would put it);
@@ -115,6 +116,10 @@ def _inertias(links) -> list[Finding]:
         else:
             continue
         findings.append(Finding("warning", f"link {name}", f"inertia is not physically consistent: {problem}"))
+    total = sum(max(inertial.mass, 0.0) for inertial in links.inertials.values() if inertial is not None)
+    if not total > 0:
+        findings.append(Finding("error", "robot", "the URDF's links have no mass in all (total 0 kg): "
+                                "no centre of mass or dynamics to plan with"))
     return findings
 
 

@@ -66,7 +66,8 @@ class KinematicsWorkspace:
         self.data = model.createData()
         bodies = AttachedPoints.of_body_coms(model)
         masses = np.array([model.inertias[int(j)].mass for j in bodies.joints])
-        self._weights = masses / masses.sum()
+        total = masses.sum()  # a massless URDF has no CoM (NaN); `robot check` reports it as an error
+        self._weights = masses / total if total > 0 else np.full_like(masses, np.nan)
         self._groups = (len(feet.joints), len(spheres.joints), len(bodies.joints))
         self._points = AttachedPoints(np.concatenate([feet.joints, spheres.joints, bodies.joints]),
                                       np.concatenate([feet.offsets, spheres.offsets, bodies.offsets]))

@@ -46,9 +46,9 @@ from legplan.specio import apply_overrides
 class StepPlanParams(Parameters):
     what = "step planner"
 
-    samples: int = param(100, "[2, inf)", "N", "eq. (10): constraints are sampled at t_i = i/N, i = 1..N-1")
-    max_degree: int = param(10, "[1, inf)", "d_max")
-    max_iterations: int = param(100, "[0, inf)", "MaxIt", "of SolveLM")
+    samples: int = param(100, "[2, 100000]", "N", "eq. (10): constraints are sampled at t_i = i/N, i = 1..N-1")
+    max_degree: int = param(10, "[1, 50]", "d_max")
+    max_iterations: int = param(100, "[1, 1000000]", "MaxIt", "of SolveLM")
     lambda_init: float = param(1.0, "(0, inf)", "λ_init")
     lambda_drop: float = param(0.1, "(0, 1)", "λ_drop")
     lambda_boost: float = param(1.5, "(1, inf)", "λ_boost")
@@ -60,10 +60,10 @@ class StepPlanParams(Parameters):
                                       doc="m·N: swing feet keep clearance + clearance_headroom / N at the samples")
     relax_radius: float = param(0.05, "(0, inf)", doc="m, swing-foot margin relaxation around its footholds")
     com_margin: float = param(0.0, doc="m, CoM distance to every support-polygon edge")
-    dense_samples: int = param(1000, "[2, inf)", doc="independent re-check of the finished path")
+    dense_samples: int = param(1000, "[2, 10000000]", doc="independent re-check of the finished path")
     judge_tolerance: float = param(1e-5, "[0, inf)",
                                    doc="m | rad, allowed dense miss of CoM margin, clearance, joint limits")
-    stall_window: int = param(0, "[0, inf)", doc="opt-in SolveLM stall stop (departure from Algorithm 1); 0 = off")
+    stall_window: int = param(0, "[0, 1000000]", doc="opt-in SolveLM stall stop (departure from Algorithm 1); 0 = off")
     linear_solver: str = "cholmod"
     assembly: str = "blocks"
 

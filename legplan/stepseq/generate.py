@@ -77,11 +77,11 @@ class GenerateParams(Parameters):
     min_progress: float = param(0.02, "[0, inf)", doc="a move must bring the foot this much closer along the path")
     foot_separation: float | None = param(None, "(0, inf)",
                                           doc="minimum distance between two footholds (4 foot radii)")
-    candidates: int = param(6, "[1, inf)", doc="footholds tried per leg")
+    candidates: int = param(6, "[1, 1000]", doc="footholds tried per leg")
     goal_tolerance: float = param(0.05, "(0, inf)", doc="body distance to the goal that ends the sequence")
-    max_moves: int = param(200, "[1, inf)")
-    backtracks: int = param(20, "[0, inf)", doc="moves taken back at dead ends (depth-first over each move's options)")
-    restarts: int = param(1, "[0, inf)", doc="IK retries from a seeded random perturbation")
+    max_moves: int = param(200, "[1, 1000000]")
+    backtracks: int = param(20, "[0, 1000000]", doc="moves taken back at dead ends (depth-first over each move's options)")
+    restarts: int = param(1, "[0, 1000]", doc="IK retries from a seeded random perturbation")
     restart_noise: float = param(0.05, "[0, inf)", doc="std of that perturbation (m, rad)")
     posture_weights: tuple[float, float, float, float] = (0.3, 1.0, 1.0, 0.05)  # xy, z, rot, joints
 

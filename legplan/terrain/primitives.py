@@ -28,6 +28,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from legplan.errors import SpecError
+from legplan.parameters import RangeError, check_value
 
 _EPS = 1e-9
 
@@ -53,7 +54,9 @@ class Fields:
     def fail(self, key: str, message: str):
         raise SpecError(f"{self.source}: field '{self.where}.{key}' {message}")
 
-    def number(self, key: str, default=None, *, positive=False, nonnegative=False) -> float:
+    def number(self, key: str, default=None, *, positive=False, nonnegative=False,
+               allowed: str | None = None) -> float:
+        """A finite number within `legplan.parameters.MAGNITUDE` and the range `allowed` if given."""
         if key not in self.entry:
             if default is None:
                 self.fail(key, "is required")
@@ -61,9 +64,16 @@ class Fields:
         value = self.entry[key]
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(key, f"must be a number, got {value!r}")
-        value = float(value)
+        try:
+            value = float(value)
+        except OverflowError:  # an int beyond any float
+            value = math.inf
         if not math.isfinite(value):
             self.fail(key, f"must be finite, got {value}")
+        try:
+            check_value(value, allowed or "(-inf, inf)", "")
+        except RangeError as exc:
+            self.fail(key, str(exc).strip())
         if positive and value <= 0:
             self.fail(key, f"must be > 0, got {value:g}")
         if nonnegative and value < 0:
@@ -76,7 +86,7 @@ class Fields:
             self.fail(key, f"must be an integer >= {minimum}, got {value!r}")
         return value
 
-    def vector(self, key: str, length: int, *, positive=False) -> np.ndarray:
+    def vector(self, key: str, length: int, *, positive=False, allowed: str | None = None) -> np.ndarray:
         value = self.entry.get(key)
         if value is None:
             self.fail(key, "is required")
@@ -88,6 +98,11 @@ class Fields:
             self.fail(key, f"must be a list of {length} numbers, got {value!r}")
         if not np.all(np.isfinite(array)):
             self.fail(key, f"must be finite, got {value!r}")
+        for v in array:
+            try:
+                check_value(float(v), allowed or "(-inf, inf)", "")
+            except RangeError as exc:
+                self.fail(key, str(exc).strip())
         if positive and np.any(array <= 0):
             self.fail(key, f"must be > 0, got {value!r}")
         return array

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from legplan.errors import SpecError
+from legplan.parameters import COORDINATE, RESOLUTION
 from legplan.specio import read_yaml_mapping
 from legplan.terrain.grid import Grid2D
 from legplan.terrain.layers import CostmapParams, FootholdParams
@@ -53,11 +54,9 @@ def section(data: dict, key: str, cls, source: str, none_ok: tuple[str, ...] = (
 def parse_grid(data: dict, source: str) -> Grid2D:
     """The grid from `resolution` and `extent` (outer edges); sizes rounded to whole cells."""
     top = Fields(data, "spec", source)
-    resolution = top.number("resolution")
-    if resolution <= 0:
-        raise SpecError(f"{source}: field 'resolution' must be > 0, got {resolution:g}")
+    resolution = top.number("resolution", allowed=RESOLUTION)
     extent = Fields(data.get("extent"), "extent", source)
-    xs, ys = extent.vector("x", 2), extent.vector("y", 2)
+    xs, ys = extent.vector("x", 2, allowed=COORDINATE), extent.vector("y", 2, allowed=COORDINATE)
     for name, (low, high) in (("x", xs), ("y", ys)):
         if not high > low:
             extent.fail(name, f"must be [min, max] with max > min, got {[low, high]}")
@@ -76,7 +75,7 @@ def build_map(spec_path: str | os.PathLike, progress: Progress | None = None) ->
         if key not in TOP_LEVEL:
             raise SpecError(f"{source}: field '{key}' is unknown (known: {', '.join(TOP_LEVEL)})")
     grid = parse_grid(data, source)
-    ground = Fields(data, "spec", source).number("ground", 0.0)
+    ground = Fields(data, "spec", source).number("ground", 0.0, allowed=COORDINATE)
     foothold = section(data, "foothold", FootholdParams, source)
     nav = section(data, "nav", CostmapParams, source)
     sdf = section(data, "sdf", SdfParams, source, none_ok=("z_min", "z_max"))

@@ -143,7 +143,7 @@ def test_non_finite_trajectory_is_refused_by_dyn_simulate(inputs, tmp_path, data
     bad = mutated(inputs["traj"], tmp_path / "bad_traj.h5", f"tasks/0000/{dataset}", with_value(1, float("nan")))
     out = tmp_path / "sim.h5"
     result = invoke(["dyn", "simulate", bad, inputs["map"], "-o", out])
-    assert_refused(result, "bad_traj.h5", f"task 0: dataset '{dataset}' holds NaN", output=out)
+    assert_refused(result, "bad_traj.h5", f"dataset '/tasks/0000/{dataset}' holds NaN", output=out)
 
 
 # Every other artefact argument (the map and steps ones are above): garbage, empty, truncated.

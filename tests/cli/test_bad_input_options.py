@@ -49,7 +49,7 @@ def _valid(kind) -> str:
     """A value `kind` accepts: inside its range, away from the bounds."""
     low, high = getattr(kind, "min", None), getattr(kind, "max", None)
     if low is not None and high is not None:
-        return str((low + high) / 2)
+        return str((low + high) // 2 if isinstance(kind, click.IntRange) else (low + high) / 2)
     if low is not None:
         return str(low + 1)
     return str(high - 1) if high is not None else "0.5"

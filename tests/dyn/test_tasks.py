@@ -35,7 +35,7 @@ def test_command_line_task_uses_the_planner_defaults():
 @pytest.mark.parametrize("gait, strides, duration, start, message", [
     ("run", None, None, (0, 0, 0), "field 'gait' must be one of walk, trot, got 'run'"),
     (None, 0, None, (0, 0, 0), "field 'strides' must be a whole number >= 1, got 0"),
-    (None, None, 0.0, (0, 0, 0), "field 'duration' must be > 0"),
+    (None, None, 0.0, (0, 0, 0), "field 'duration' out of range: 0.0"),
     (None, None, float("nan"), (0, 0, 0), "field 'duration' must be a finite number, got nan"),
     (None, None, None, (float("inf"), 0, 0), "field 'start_x' must be a finite number, got inf"),
 ])
@@ -57,7 +57,7 @@ def test_csv_and_yaml_tasks_with_defaults(tmp_path):
 
 @pytest.mark.parametrize("text, message", [
     (f"{HEADER}\n0,0,0,1,0,0\n0,0,0,1,0,abc\n", "row 1: field 'goal_yaw' must be a finite number, got 'abc'"),
-    (f"{HEADER},duration\n0,0,0,1,0,0,-2\n", "row 0: field 'duration' must be > 0, got -2"),
+    (f"{HEADER},duration\n0,0,0,1,0,0,-2\n", "row 0: field 'duration' out of range: -2.0"),
     (f"{HEADER},speed\n0,0,0,1,0,0,3\n", "row 0: field 'speed' is unknown"),
     (f"{HEADER}\n0,0,0,1,0\n", "row 0: has 5 fields, the header has 6"),
     (f"{HEADER}\n0,0,nan,1,0,0\n", "row 0: field 'start_yaw' must be a finite number, got nan"),
@@ -117,7 +117,7 @@ def test_costs_presets_and_files(tmp_path):
     params = dyn_params(str(good))
     assert params.costs.base_angular_velocity == 2.0 and params.costs.force_rate == 0.5 and params.costs.force == 0.0
     assert params.swing_height_min == 0.04 and params.base_clearance is None
-    for text, message in (("force: -1\n", "field 'force' must be >= 0"), ("stair_edge_sigma: 0\n", "field 'stair_edge_sigma' must be > 0"),
+    for text, message in (("force: -1\n", "field 'force' out of range: -1.0"), ("stair_edge_sigma: 0\n", "field 'stair_edge_sigma' must be > 0"),
                           ("speed: 1\n", "field 'speed' is unknown"), ("force: .nan\n", "field 'force' must be a finite number")):
         good.write_text(text)
         with pytest.raises(SpecError, match=f"^{good}: {message}"):
@@ -126,7 +126,7 @@ def test_costs_presets_and_files(tmp_path):
     params = dyn_params(str(good))  # the preset's fields unless given; null switches a constraint off
     assert params == replace(PAPER, costs=replace(PAPER.costs, force_rate=0.5), leg_clearance=0.06, base_clearance=None)
     for text, message in (("preset: towr\n", "field 'preset' must be one of paper, none"),
-                          ("preset: paper\nleg_clearance: -0.01\n", "field 'leg_clearance' must be >= 0")):
+                          ("preset: paper\nleg_clearance: -0.01\n", "field 'leg_clearance' out of range: -0.01")):
         good.write_text(text)
         with pytest.raises(SpecError, match=f"^{good}: {message}"):
             dyn_params(str(good))

@@ -25,14 +25,14 @@ class SimParams(Parameters):
     what = "simulation"
 
     rate: float = param(10.0, "(0, inf)", doc="Hz, TEB cycles")
-    substeps: int = param(10, "[1, inf)", doc="robot integration steps per cycle")
+    substeps: int = param(10, "[1, 10000]", doc="robot integration steps per cycle")
     window: float = param(5.0, "(0, inf)", doc="m of global path in the local band")
     sensing_radius: float = param(4.0, "[0, inf)", doc="m")
     goal_tolerance: float = param(0.1, "(0, inf)", doc="m")
     heading_tolerance: float = param(0.1, "(0, inf)", doc="rad")
     stop_speed: float = param(0.05, "(0, inf)", doc="m/s, \"at rest\" for arrival at a via point")
-    max_time: float = param(300.0, "(0, inf)", doc="s of simulated time before the run fails")
-    stall_time: float = param(20.0, "(0, inf)",
+    max_time: float = param(300.0, "(0, 86400]", doc="s of simulated time before the run fails")
+    stall_time: float = param(20.0, "(0, 86400]",
                               doc="s: the run fails when the robot moved less than `stall_distance` in this time")
     stall_distance: float = param(0.3, "[0, inf)", doc="m")
     max_wall_seconds: float = param(float("inf"), "(0, inf]", doc="wall-clock budget of the run")

@@ -30,14 +30,14 @@ class TebParams(Parameters):
     what = "teb"
 
     # band resolution and iteration counts (TEB defaults)
-    dt_ref: float = param(0.3, "(0, inf)", doc="s")
+    dt_ref: float = param(0.3, "(0, 3600]", doc="s")
     dt_hysteresis: float = param(0.1, "[0, dt_ref)", doc="s")
     dt_min: float = param(0.01, "(0, dt_merge_below)", doc="s, lower bound of every ΔT_i")
-    min_poses: int = param(3, "[2, inf)")
-    max_poses: int = param(500, "[min_poses, inf)")
-    outer_iterations: int = param(4, "[1, inf)")
-    inner_iterations: int = param(5, "[1, inf)")
-    tries_per_iteration: int = param(3, "[1, inf)", doc="LM iterations (accepted or rejected) per TEB inner iteration")
+    min_poses: int = param(3, "[2, 100000]")
+    max_poses: int = param(500, "[min_poses, 100000]")
+    outer_iterations: int = param(4, "[1, 1000000]")
+    inner_iterations: int = param(5, "[1, 1000000]")
+    tries_per_iteration: int = param(3, "[1, 1000]", doc="LM iterations (accepted or rejected) per TEB inner iteration")
     lambda_boost: float = param(3.0, "(1, inf)", doc="LM damping increase after a rejected step")
     round_tolerance: float = param(0.01, "[0, inf)",
                                    doc="stop the rounds once one lowers ‖h‖ by less than this fraction")
