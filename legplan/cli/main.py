@@ -2,12 +2,16 @@
 
 Exit codes: 0 success; 1 the command ran but some items failed (their reasons are in the artefact);
 2 bad input (usage error, unreadable or invalid input); 130 / 143 interrupted by SIGINT / SIGTERM
-(nothing published; a batch keeps its work file). User errors print one line, no traceback unless `-v`.
+(nothing published; a batch keeps its work file); 141 (128 + SIGPIPE) the reader of stdout or stderr
+closed its pipe (`legplan inspect motion.h5 | head`): the command stops without a message. User
+errors print one line, no traceback unless `-v`.
 """
 
 from __future__ import annotations
 
 import importlib
+import os
+import select
 import sys
 import traceback
 
@@ -21,6 +25,7 @@ from legplan.errors import LegplanError
 
 EXIT_ITEMS_FAILED = 1
 EXIT_BAD_INPUT = 2
+EXIT_PIPE_CLOSED = 141
 
 # One module per command group under legplan/cli/, each exposing `command`.
 COMMAND_MODULES = ("inspect_cmd", "step_cmd", "pipeline_cmd", "robot_cmd", "steps_cmd", "map_cmd", "report_cmd", "nav_cmd", "compare_cmd", "baseline_cmd", "dyn_cmd", "learn_cmd")
@@ -49,7 +54,10 @@ class LegplanGroup(click.Group):
     def main(self, *args, **kwargs):
         """Every invocation runs under `interrupts.handle_interrupts`, argument parsing included."""
         with interrupts.handle_interrupts():
-            return super().main(*args, **kwargs)
+            try:
+                return super().main(*args, **kwargs)
+            finally:
+                _flush_stdout()  # help text and short outputs meet a closed pipe only here
 
     def make_context(self, info_name, args, parent=None, **extra):
         if parent is None:
@@ -67,18 +75,62 @@ class LegplanGroup(click.Group):
         try:
             result = super().invoke(ctx)
             interrupts.raise_if_interrupted()  # a signal whose exception was swallowed on the way
+            sys.stdout.flush()  # a closed pipe shows here, not in the interpreter's last flush
             return result
         except click.exceptions.NoArgsIsHelpError:
             raise
         except click.UsageError as exc:
             raise OneLineUsageError.of(exc, ctx) from exc
+        except BrokenPipeError as exc:
+            if not _silence_closed_pipes():
+                _bad_input(ctx, exc)
+            ctx.exit(EXIT_PIPE_CLOSED)
         except (LegplanError, OSError) as exc:
-            if verbosity() > 0:
-                traceback.print_exc(file=sys.stderr)
-            stderr_line(" ".join(str(exc).split()), "Error:")
-            ctx.exit(EXIT_BAD_INPUT)
+            _bad_input(ctx, exc)
         except (KeyboardInterrupt, interrupts.Terminated) as exc:
             raise _stopped(exc) from None
+
+
+def _bad_input(ctx: click.Context, error: Exception):
+    """One line naming what was wrong (a traceback too with -v); exit 2."""
+    if verbosity() > 0:
+        traceback.print_exc(file=sys.stderr)
+    stderr_line(" ".join(str(error).split()), "Error:")
+    ctx.exit(EXIT_BAD_INPUT)
+
+
+def _closed_pipe(stream) -> bool:
+    """Whether `stream` is a pipe whose reader has gone (poll reports an error on its write end)."""
+    try:
+        fd = stream.fileno()
+    except (AttributeError, OSError, ValueError):  # not a file (e.g. a test runner's buffer)
+        return False
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT)
+    return any(events & select.POLLERR for _, events in poller.poll(0))
+
+
+def _flush_stdout() -> None:
+    """Flush stdout; a pipe its reader closed ends the process quietly with `EXIT_PIPE_CLOSED`."""
+    try:
+        sys.stdout.flush()
+    except BrokenPipeError:
+        if not _silence_closed_pipes():
+            raise
+        raise SystemExit(EXIT_PIPE_CLOSED) from None
+
+
+def _silence_closed_pipes() -> bool:
+    """When stdout or stderr is a pipe its reader closed (`| head`), point it at /dev/null so that
+    nothing more (and no flush at exit) fails on it; False if neither is, i.e. the broken pipe was
+    another one (a worker's) and is an error to report."""
+    closed = [stream for stream in (sys.stdout, sys.stderr) if _closed_pipe(stream)]
+    if closed:
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        for stream in closed:
+            os.dup2(devnull, stream.fileno())
+        os.close(devnull)
+    return bool(closed)
 
 
 def _stopped(error: BaseException) -> click.exceptions.Exit:

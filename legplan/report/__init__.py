@@ -2,7 +2,7 @@
 metric-by-metric comparison of two artefacts for regression runs.
 
     write_report(["map.h5", "motion.h5"], "report/")      # index.html + PNGs + report.h5
-    diff = compare_artefacts("old.h5", "new.h5", {"mean_time": 0.5})
+    diff = compare_artefacts("old.h5", "new.h5", parse_tolerances(["worst_*=1e-4"]))
 """
 
 from legplan.report.registry import Figure, figure, render_figures

@@ -7,14 +7,19 @@ trajectories and control points; arrays whose shapes differ are listed but not j
 attr that an item has in one artefact and not in the other (e.g. a step without `control_points`) is
 a difference.
 
-Tolerances: a value is within tolerance when |b - a| <= abs + rel * |a|. Defaults: times of the
-summary (units "s", or a name containing "time" or "seconds") abs 0.05 s + rel 50%; per-item wall-clock
-values (scalar item datasets in "s" such as `timings/ompl_solve`, item attrs named like a time) abs
-0.5 s + rel 100%, since one item's clock reading varies with the machine's load far more than a
-mean over items does; everything else (violations, counts, trajectories, arrays in seconds such as sample
-times) abs 1e-6 + rel 1e-6. Overrides `{pattern: "50%" | "0.01"}`: a glob matched
-against the metric name (summary row name, or item attr/dataset name); "N%" is relative, a plain
-number absolute; the last matching override wins. NaN equals NaN.
+Tolerances are symmetric: a value is within tolerance when |b - a| <= abs + rel * max(|a|, |b|),
+so swapping A and B never changes the verdict. Defaults: abs 1e-6 + rel 1e-6 for every computed
+value (violations, counts, trajectories, durations, sample times). NaN equals NaN.
+
+Clock values (`is_clock`: wall-clock readings such as `seconds`, `timings/*`, `*_seconds`,
+`mean_time`, `median_solve_time`, `max_planning_time`) vary with the machine's load, so they are
+listed but left out of the verdict unless `timings=True` (`--timings`); then a summary time must be
+within 0.05 s + 50 % and a per-item one (one item's reading varies far more than a mean over
+items) within 0.5 s + 50 %. An override that names a clock value judges it without `--timings`.
+
+Overrides `{pattern: "50%" | "0.01"}`: a glob matched against the metric name (summary row name,
+or item attr/dataset name); "N%" is relative, a plain number absolute; the last matching override
+wins.
 """
 
 from __future__ import annotations
@@ -33,8 +38,12 @@ from legplan.report.items import read_items
 from legplan.specio import parse_number
 
 TIME_TOLERANCE = (0.05, 0.5)
-ITEM_CLOCK_TOLERANCE = (0.5, 1.0)
+ITEM_CLOCK_TOLERANCE = (0.5, 0.5)
 TIGHT_TOLERANCE = (1e-6, 1e-6)
+CLOCK_PATTERNS = ("*seconds*", "timings/*", "*/timings/*", "mean_time*", "median_time*", "max_time*",
+                  "*planning_time*", "*solve_time*", "*iteration_time*", "*time_per_*")
+"""Globs of the metric names that are wall-clock readings (`is_clock`); durations of planned or
+simulated motions (`duration`, `total_time`, `running_time`, `t`, `dt`) are computed values."""
 
 
 @dataclass(frozen=True)
@@ -45,7 +54,13 @@ class Tolerance:
     def holds(self, a: float, b: float) -> bool:
         if math.isnan(a) or math.isnan(b):
             return math.isnan(a) and math.isnan(b)
-        return abs(b - a) <= self.abs + self.rel * abs(a)
+        return abs(b - a) <= self.abs + self.rel * max(abs(a), abs(b))
+
+    def holds_all(self, a: np.ndarray, b: np.ndarray) -> bool:
+        """`holds` elementwise on two arrays of one shape (NaN equals NaN)."""
+        a, b = np.asarray(a, float), np.asarray(b, float)
+        within = np.abs(b - a) <= self.abs + self.rel * np.maximum(np.abs(a), np.abs(b))
+        return bool(np.all(within | (np.isnan(a) & np.isnan(b))))
 
     def __str__(self) -> str:
         parts = ([f"{self.abs:g}"] if self.abs else []) + ([f"{self.rel * 100:g}%"] if self.rel else [])
@@ -61,6 +76,8 @@ class MetricDiff:
     tolerance: str = ""
     units: str = ""
     note: str = ""
+    judged: bool = True
+    """False for a clock value compared without `--timings`: shown, not in the verdict."""
 
 
 @dataclass
@@ -72,7 +89,7 @@ class Comparison:
 
     @property
     def ok(self) -> bool:
-        return all(row.ok for row in self.rows)
+        return all(row.ok for row in self.rows if row.judged)
 
     def as_dict(self) -> dict:
         return {"kind": self.kind, "a": self.a, "b": self.b, "ok": self.ok,
@@ -98,24 +115,46 @@ def parse_tolerances(items) -> dict[str, Tolerance]:
     return out
 
 
-def tolerance_for(name: str, units: str, overrides: dict[str, Tolerance], *, item: bool = False) -> Tolerance:
-    """The last override whose glob matches `name`, else the default for a time (summary or
-    per-`item` clock value) or any other metric."""
+def is_clock(name: str) -> bool:
+    """Whether metric `name` is a wall-clock reading (`CLOCK_PATTERNS`)."""
+    return any(fnmatch.fnmatchcase(name, pattern) for pattern in CLOCK_PATTERNS)
+
+
+def _override(name: str, overrides: dict[str, Tolerance]) -> Tolerance | None:
+    """The last override whose glob matches `name`."""
     chosen = None
     for pattern, tolerance in overrides.items():
         if fnmatch.fnmatchcase(name, pattern):
             chosen = tolerance
+    return chosen
+
+
+def tolerance_for(name: str, overrides: dict[str, Tolerance], *, item: bool = False) -> Tolerance:
+    """The last override whose glob matches `name`, else the default for a clock value (summary or
+    per-`item`) or any other metric."""
+    chosen = _override(name, overrides)
     if chosen is not None:
         return chosen
-    leaf = name.rsplit("/", 1)[-1]
-    if units == "s" or "time" in leaf or "seconds" in leaf:
+    if is_clock(name):
         return Tolerance(*(ITEM_CLOCK_TOLERANCE if item else TIME_TOLERANCE))
     return Tolerance(*TIGHT_TOLERANCE)
 
 
+def _judged(name: str, overrides: dict[str, Tolerance], timings: bool) -> bool:
+    """A clock value counts in the verdict only with `timings` or an override naming it."""
+    return timings or not is_clock(name) or _override(name, overrides) is not None
+
+
+def _row(name: str, a, b, tolerance: Tolerance, ok: bool, judged: bool, note: str = "", units: str = "") -> MetricDiff:
+    if not judged:
+        note = "; ".join(filter(None, ["clock value, not judged (--timings)", note]))
+    return MetricDiff(name, a, b, ok, str(tolerance), units=units, note=note, judged=judged)
+
+
 def compare_artefacts(path_a: str | os.PathLike, path_b: str | os.PathLike,
-                      tolerances: dict[str, Tolerance] | None = None) -> Comparison:
-    """Metric-by-metric comparison of two artefacts; `ArtefactError` when the kinds differ."""
+                      tolerances: dict[str, Tolerance] | None = None, *, timings: bool = False) -> Comparison:
+    """Metric-by-metric comparison of two artefacts; `ArtefactError` when the kinds differ. Clock
+    values count in the verdict only with `timings` (or an override naming them)."""
     overrides = tolerances or {}
     with open_artefact(path_a) as fa, open_artefact(path_b) as fb:
         kind_a, kind_b = read_provenance(fa)["kind"], read_provenance(fb)["kind"]
@@ -131,14 +170,15 @@ def compare_artefacts(path_a: str | os.PathLike, path_b: str | os.PathLike,
                                           False, note=f"only in {side}"))
             continue
         (a, units), (b, _) = summary_a[name], summary_b[name]
-        tolerance = tolerance_for(name, units, overrides)
-        result.rows.append(MetricDiff(name, a, b, tolerance.holds(a, b), str(tolerance), units=units))
+        tolerance = tolerance_for(name, overrides)
+        result.rows.append(_row(name, a, b, tolerance, tolerance.holds(a, b), _judged(name, overrides, timings),
+                                units=units))
     if items_a or items_b:
-        result.rows.extend(_item_rows(items_a, items_b, overrides))
+        result.rows.extend(_item_rows(items_a, items_b, overrides, timings))
     return result
 
 
-def _item_rows(items_a: dict, items_b: dict, overrides) -> list[MetricDiff]:
+def _item_rows(items_a: dict, items_b: dict, overrides, timings: bool) -> list[MetricDiff]:
     rows = []
     only = sorted(set(items_a) ^ set(items_b))
     common = [name for name in items_a if name in items_b]
@@ -158,27 +198,26 @@ def _item_rows(items_a: dict, items_b: dict, overrides) -> list[MetricDiff]:
     keys = sorted({key for name in common for key in items_a[name]
                    if key not in ("success", "reason", "arrays", "units") and key in items_b[name]})
     for key in keys:
-        tolerance = tolerance_for(key, _units(items_a, common, key), overrides, item=True)
+        tolerance = tolerance_for(key, overrides, item=True)
         pairs = [(name, items_a[name][key], items_b[name][key]) for name in common
                  if key in items_a[name] and key in items_b[name]]
         bad = [(name, a, b) for name, a, b in pairs if not tolerance.holds(a, b)]
         name, a, b = bad[0] if bad else max(pairs, key=lambda p: _gap(p[1], p[2]))
         note = f"{len(bad)} of {len(pairs)} items differ, first {name}" if bad else f"largest at {name}"
-        rows.append(MetricDiff(f"item {key}", a, b, not bad, str(tolerance), note=note))
+        rows.append(_row(f"item {key}", a, b, tolerance, not bad, _judged(key, overrides, timings), note))
     arrays = sorted({key for name in common for key in items_a[name]["arrays"] if key in items_b[name]["arrays"]})
     for key in arrays:
-        tolerance = tolerance_for(key, "", overrides)
+        tolerance = tolerance_for(key, overrides, item=True)
         same = [(name, items_a[name]["arrays"][key], items_b[name]["arrays"][key]) for name in common
                 if key in items_a[name]["arrays"] and key in items_b[name]["arrays"]]
         shaped = [(name, a, b) for name, a, b in same if a.shape == b.shape]
         gaps = [(float(np.max(np.abs(b.astype(float) - a.astype(float)), initial=0.0)), name) for name, a, b in shaped]
         worst, where = max(gaps, default=(0.0, ""))
-        within = all(np.all(np.abs(b - a) <= tolerance.abs + tolerance.rel * np.abs(a))
-                     for _, a, b in ((n, x.astype(float), y.astype(float)) for n, x, y in shaped))
+        within = all(tolerance.holds_all(a, b) for _, a, b in shaped)
         note = f"max |Δ| over {len(shaped)} items" + (f" at {where}" if where else "")
         if len(shaped) < len(same):
             note += f"; {len(same) - len(shaped)} with different shapes not compared"
-        rows.append(MetricDiff(f"item {key} (array)", 0.0, worst, bool(within), str(tolerance), note=note))
+        rows.append(_row(f"item {key} (array)", 0.0, worst, tolerance, within, _judged(key, overrides, timings), note))
     return rows
 
 
@@ -200,11 +239,6 @@ def _missing_rows(items_a: dict, items_b: dict, common: list[str]) -> list[Metri
 def _fields(item: dict) -> set[str]:
     """Names of an item's numeric attrs, scalar datasets and arrays."""
     return {key for key in item if key not in ("success", "reason", "arrays", "units")} | set(item["arrays"])
-
-
-def _units(items: dict, names: list[str], key: str) -> str:
-    """The `units` of dataset `key` in the first of `names` that has it ("" for attributes)."""
-    return next((items[name]["units"][key] for name in names if key in items[name]["units"]), "")
 
 
 def _gap(a: float, b: float) -> float:

@@ -330,14 +330,20 @@ class StepGenerator:
             log.info("move %d: %s leg %s (%d configurations)", move, action, self.robot.legs[leg].name,
                      len(configs))
             if progress is not None:
-                progress(min(max(self._progress(x[:2]), 0.0), 1.0), 1.0,
-                         f"move {move}: {action} {self.robot.legs[leg].name}")
+                progress(self._percent(x), 100, f"move {move}: {action} {self.robot.legs[leg].name}")
+        if progress is not None:
+            progress(100 if not reason else self._percent(x), 100,
+                     f"{len(moves)} moves, {'at the goal' if not reason else 'stopped'}")
         X = np.array([c[0] for c in configs])
         st = np.array([c[1] for c in configs])
         fh = np.array([c[2] for c in configs])
         fh[~st] = np.nan
         return GeneratedSequence(self.robot.from_vector(X), st, fh, success=not reason, reason=reason,
                                  moves=moves)
+
+    def _percent(self, x) -> int:
+        """Progress along the path in whole percent (the count the progress callback shows)."""
+        return int(100 * min(max(self._progress(x[:2]), 0.0), 1.0))
 
     def _at_goal(self, x, stance, footholds) -> bool:
         """Body within `goal_tolerance` of the goal, all legs down, none trailing its goal position."""

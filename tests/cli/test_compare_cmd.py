@@ -14,8 +14,16 @@ def test_within_tolerance_exit_0_and_table(tmp_path):
     assert result.exit_code == 0, result.output
     lines = result.stdout.splitlines()
     assert lines[0].startswith("motion: A = ")
-    assert any(line.startswith("ok  mean_time ") and " s " in line for line in lines)
+    assert any(line.startswith("clock  mean_time ") and " s " in line for line in lines)
+    assert any(line.startswith("ok     worst_violation ") for line in lines)
     assert lines[-1] == "within tolerance"
+
+
+def test_clock_values_judged_only_with_timings(tmp_path):
+    a, b = write_motion(tmp_path / "a.h5"), write_motion(tmp_path / "b.h5", times=(5.0, 15.0, 120.0))
+    assert CliRunner().invoke(cli, ["compare", str(a), str(b)]).exit_code == 0
+    result = CliRunner().invoke(cli, ["compare", str(a), str(b), "--timings"])
+    assert result.exit_code == 1 and result.stdout.splitlines()[-1] == "2 metric(s) out of tolerance"
 
 
 def test_out_of_tolerance_exit_1_and_tol_option(tmp_path):

@@ -211,6 +211,6 @@ def test_report_compare_and_inspect_know_traj(planned):
     assert "00-traj-trajectory.png" in html and "00-traj-tasks.png" in html
     result = invoke("compare", out, out)
     assert result.exit_code == 0 and "item samples/forces (array)" in result.output
-    result = invoke("inspect", out)
+    result = invoke("inspect", out, "--full")
     assert result.exit_code == 0 and "traj artefact" in result.output
     assert "/tasks/0000/samples/forces: 241x4x3 float64 [N]" in result.output
