@@ -60,9 +60,10 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     from legplan.cli.batching import run_stage
     from legplan.dyn.artefact import write_traj
     from legplan.dyn.items import DynWorker, failed_item, plan_item, task_items
-    from legplan.dyn.settings import check_warm_stage, costs_file, dyn_params, initializer, settings_record
+    from legplan.dyn.settings import costs_file, dyn_params, settings_record
     from legplan.dyn.tasks import centroidal_model, check_placements, command_line_task, read_tasks
     from legplan.dyn.terrain import TerrainModel
+    from legplan.learn.initializers import check_warm_stage, initializer
     from legplan.robots import load_robot
     from legplan.terrain import load_map
 
@@ -88,7 +89,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
                "start": start, "goal": goal}
     settings = {**settings_record(costs, init, params), **{k: v for k, v in options.items() if v is not None}}
     inputs = [path for path in (map_path, tasks_path, costs_file(costs)) if path is not None]
-    task = Task(plan_item, failed_item, DynWorker, (robot, os.path.abspath(map_path), params, init))
+    task = Task(plan_item, failed_item, DynWorker, (robot, os.path.abspath(map_path), params, init_fn))
     records, _ = run_stage(task, task_items(tasks), "dyn plan", output=output,
                            identity={"stage": "dyn plan", "params": settings}, inputs=inputs, jobs=jobs,
                            scheduler=scheduler, resume=resume, overwrite=overwrite,

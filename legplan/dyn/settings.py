@@ -1,4 +1,4 @@
-"""The planner settings of `legplan dyn plan`: `--costs` (a preset or a costs file) and `--init`.
+"""The planner settings of `legplan dyn plan`: `--costs` (a preset or a costs file).
 
 Presets: ``paper`` — `legplan.dyn.problem.PAPER`, the paper's costs with its swing-height and
 base-clearance constraints; ``none`` — TOWR's formulation alone, `DynParams()`. A costs file is a YAML mapping of `CostWeights` fields (each >= 0,
@@ -25,7 +25,6 @@ from dataclasses import asdict, fields, replace
 from pathlib import Path
 
 from legplan.dyn.costs import CostWeights
-from legplan.dyn.init import INITIALIZERS
 from legplan.dyn.problem import PAPER, DynParams
 from legplan.errors import LegplanError
 from legplan.specio import FieldReader, read_yaml_mapping
@@ -57,34 +56,6 @@ def dyn_params(costs: str) -> DynParams:
     limits = {name: None if data[name] is None else reader.nonnegative(data[name], name)
               for name in CONSTRAINT_FIELDS if name in data}
     return replace(base, costs=replace(base.costs, **values), **limits)
-
-
-def initializer(name: str):
-    """The initializer `--init` names: one of `legplan.dyn.init.INITIALIZERS`, or an init.h5 trained by
-    `legplan learn train` (the learned initializer, eq. (2) with A_θ)."""
-    if name.endswith(".h5"):
-        from legplan.learn.network import LearnedInit  # learn builds on dyn: imported where it is used
-        if not os.path.isfile(name):
-            raise LegplanError(f"--init: {name}: no such file")
-        return LearnedInit(os.path.abspath(name))
-    if name not in INITIALIZERS:
-        raise LegplanError(f"--init: unknown initializer '{name}' (known: {', '.join(INITIALIZERS)})")
-    return INITIALIZERS[name]
-
-
-def check_warm_stage(warm_stage: str, init: str) -> None:
-    """`--warm-stage projection` and `polish` project a learned guess: refused (one line) with any other
-    `--init`; `polish` also needs the training filter an init.h5 keeps (`learn.network.CostBound`)."""
-    if warm_stage == "costs":
-        return
-    if not str(init).endswith(".h5"):
-        raise LegplanError(f"--warm-stage {warm_stage}: needs a learned --init INIT.h5, not '{init}' "
-                           "(only a near-solution guess is projected; others are solved in stages)")
-    if warm_stage == "polish":
-        from legplan.learn.network import load_bound, missing_filter  # learn builds on dyn: imported where used
-
-        if os.path.isfile(init) and load_bound(init) is None:
-            raise missing_filter(init)
 
 
 def settings_record(costs: str, init: str, params: DynParams) -> dict:
