@@ -38,6 +38,7 @@ from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import invalid_timing
 from legplan.geometry.hermite import NodeSpline, SampledJacobian, hermite_gram
 from legplan.solve import ResidualBlock
+from legplan.solve.auglag import CostTerm
 from legplan.solve.blocks import LinearBlock
 
 GRAVITY = 9.81
@@ -105,31 +106,31 @@ def _embedded(matrix: sp.csr_matrix, offset_nodes: int, total_nodes: int) -> sp.
     return sp.csr_matrix((m.data, m.indices + 6 * offset_nodes, m.indptr), shape=(m.shape[0], 6 * total_nodes))
 
 
-def integral_costs(form: Formulation, w: CostWeights, mass: float, timing=None) -> list[tuple[str, ResidualBlock, float]]:
-    """The eq. (1) terms with a positive weight as (name, block, weight); with a `PhaseTiming` the
-    force terms are `TimedForceIntegralBlock`s."""
+def integral_costs(form: Formulation, w: CostWeights, mass: float, timing=None) -> list[CostTerm]:
+    """The eq. (1) terms with a positive weight as `CostTerm`s; with a `PhaseTiming` the force terms
+    are `TimedForceIntegralBlock`s."""
     if timing is not None:
         out = integral_costs(form, replace(w, force=0.0, force_rate=0.0, normal_force=0.0), mass)
         for name, weight, axes, derivative in (("force", w.force, [0, 1, 2], 0), ("force_rate", w.force_rate, [0, 1, 2], 1),
                                                ("normal_force", w.normal_force, [2], 0)):
             if weight > 0:
                 block = TimedForceIntegralBlock(timing, axes, derivative, w.derivative_weight, mass, name == "normal_force")
-                out.append((name, block, weight))
+                out.append(CostTerm(name, block, weight))
         return out
     out = []
     wd = w.derivative_weight
     if w.base_z_velocity > 0:
         m, b = integral_rows(form.base, [2], 1, wd)
-        out.append(("base_z_velocity", LinearBlock(("base_lin",), [m], b), w.base_z_velocity))
+        out.append(CostTerm("base_z_velocity", LinearBlock(("base_lin",), [m], b), w.base_z_velocity))
     if w.base_angular_velocity > 0:
         m, b = integral_rows(form.base, [0, 1, 2], 1, wd)
-        out.append(("base_angular_velocity", LinearBlock(("base_ang",), [m], b), w.base_angular_velocity))
+        out.append(CostTerm("base_angular_velocity", LinearBlock(("base_ang",), [m], b), w.base_angular_velocity))
     weight_force = mass * GRAVITY  # force terms are integrals of f / (m·g)
     for name, weight, derivative in (("force", w.force, 0), ("force_rate", w.force_rate, 1)):
         if weight > 0:
             parts = [_embedded(integral_rows(foot.force, [0, 1, 2], derivative, wd)[0], foot.force_offset,
                                form.force_nodes) for foot in form.feet]
-            out.append((name, LinearBlock(("forces",), [sp.vstack(parts).tocsr() / weight_force]), weight))
+            out.append(CostTerm(name, LinearBlock(("forces",), [sp.vstack(parts).tocsr() / weight_force]), weight))
     if w.normal_force > 0:
         mats, offsets = [], []
         for foot in form.feet:
@@ -137,8 +138,8 @@ def integral_costs(form: Formulation, w: CostWeights, mass: float, timing=None) 
             share = mass * GRAVITY / np.maximum(form.gait.contact(mids).sum(axis=1), 1)
             m, b = integral_rows(foot.force, [2], 0, wd, reference=list(share))
             mats.append(_embedded(m, foot.force_offset, form.force_nodes)), offsets.append(b)
-        out.append(("normal_force", LinearBlock(("forces",), [sp.vstack(mats).tocsr() / weight_force],
-                                                np.concatenate(offsets) / weight_force), w.normal_force))
+        out.append(CostTerm("normal_force", LinearBlock(("forces",), [sp.vstack(mats).tocsr() / weight_force],
+                                                        np.concatenate(offsets) / weight_force), w.normal_force))
     return out
 
 

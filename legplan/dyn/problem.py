@@ -22,7 +22,7 @@ from legplan.dyn.gait import make_gait
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import PHASES, PhaseTiming, TimedControlPoints, TimedSamples
 from legplan.solve import VariableBlock
-from legplan.solve.auglag import ALParams, Constraint
+from legplan.solve.auglag import ALParams, Constraint, CostTerm
 from legplan.solve.hinged import HingedParams
 
 
@@ -290,14 +290,14 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
 
 def cost_blocks(form: Formulation, terrain: TerrainModel, model, w: CostWeights, timing: PhaseTiming | None = None
                 ) -> list:
-    """The weighted cost blocks (name, block, weight) of the weights `w` with a positive weight."""
+    """The cost terms (`CostTerm`) of the weights `w` with a positive weight."""
     costs = integral_costs(form, w, model.mass, timing)
     if w.stair_edge > 0 and terrain.has_edges:
         nodes = [n for foot in form.feet for n in foot.stance_nodes]
-        costs.append(("stair_edge", StairEdgeBlock(terrain, form.node_selector(nodes, form.motion_nodes),
-                                                   w.stair_edge_sigma), w.stair_edge))
+        costs.append(CostTerm("stair_edge", StairEdgeBlock(terrain, form.node_selector(nodes, form.motion_nodes),
+                                                           w.stair_edge_sigma), w.stair_edge))
     if w.swing_height > 0 and form.footsteps:
-        costs.append(("swing_height", swing_height(form), w.swing_height))
+        costs.append(CostTerm("swing_height", swing_height(form), w.swing_height))
     return costs
 
 

@@ -244,9 +244,9 @@ def test_range_refinement_of_a_plan_with_costs_keeps_its_cost_terms(anymal, flat
     assert result.success, result.reason
     assert "range of motion at" in result.reason  # the last stage was a refinement
     assert _range_excess(result, anymal) <= 1e-9
-    expected = {name: 0.5 * w * float(np.sum(block.evaluate([result.solve.values[v] for v in block.variables],
-                                                            False)[0] ** 2))
-                for name, block, w in integral_costs(result.problem.form, PAPER_COSTS, anymal.mass)}
+    expected = {t.name: 0.5 * t.weight * float(np.sum(t.block.evaluate([result.solve.values[v] for v in t.block.variables],
+                                                                       False)[0] ** 2))
+                for t in integral_costs(result.problem.form, PAPER_COSTS, anymal.mass)}
     for name, value in expected.items():
         assert result.solve.cost_terms[name] == pytest.approx(value, rel=1e-9)
     assert result.solve.cost == pytest.approx(sum(result.solve.cost_terms.values()), rel=1e-12)
