@@ -10,14 +10,13 @@
 from __future__ import annotations
 
 import os
-from dataclasses import replace
 
 import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import (batch_opts, input_artefact, number, output_opt, overwrite_opt, verbosity_opts,
-                                  optimize_phases_opt, warm_stage_opt)
+from legplan.cli.options import (batch_opts, input_artefact, number, output_opt, overwrite_opt, param_opt,
+                                  verbosity_opts, optimize_phases_opt, warm_stage_opt)
 from legplan.errors import LegplanError
 
 POSE = (number(), number(), number())
@@ -42,6 +41,8 @@ def command():
                    "[,gait,strides,duration] (instead of --start/--goal).")
 @click.option("--costs", default="none", show_default=True, metavar="paper|none|FILE.yaml",
               help="The paper's costs and constraints, none (TOWR's formulation), or a costs file.")
+@param_opt("A planner parameter (legplan.dyn.settings.DynParams), nested ones by dotted name, applied after "
+           "--costs; e.g. --param dt=0.05 --param costs.force=0.5 --param solver.inner.max_iterations=30.")
 @optimize_phases_opt
 @click.option("--init", "init", default="heuristic", show_default=True, help="Initializer of the optimization.")
 @warm_stage_opt
@@ -50,7 +51,7 @@ def command():
 @batch_opts
 @verbosity_opts
 @click.pass_context
-def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_path, costs, optimize_phases,
+def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_path, costs, params, optimize_phases,
              init, warm_stage, output, overwrite, jobs, scheduler, resume):
     """Plan every task on MAP; write traj.h5, each task with its solver outcome and independent check.
 
@@ -73,7 +74,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     if tasks_path is None and (start is None or goal is None):
         raise LegplanError("dyn plan: --start and --goal are required (or --tasks FILE)")
     check_warm_stage(warm_stage, init)
-    params = replace(dyn_params(costs), warm_stage=warm_stage, optimize_phases=optimize_phases)
+    params = dyn_params(costs, {**params, "warm_stage": warm_stage, "optimize_phases": optimize_phases})
     init_fn = initializer(init)  # an unknown --init: exit 2 before any work
     loaded = load_robot(robot)
     model = centroidal_model(loaded, params, costs)

@@ -37,6 +37,7 @@ from legplan.dyn.formulation import Formulation
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import invalid_timing
 from legplan.geometry.hermite import NodeSpline, SampledJacobian, hermite_gram
+from legplan.parameters import Parameters, param
 from legplan.solve import ResidualBlock
 from legplan.solve.auglag import CostTerm
 from legplan.solve.blocks import LinearBlock
@@ -82,18 +83,20 @@ def integral_rows(spline: NodeSpline, axes: list[int], derivative: int, derivati
 
 
 @dataclass(frozen=True)
-class CostWeights:
-    """Weights ω_i of the paper's cost terms (0 = off) and their derivative weights ω_d."""
+class CostWeights(Parameters):
+    """Weights ω_i of the paper's cost terms (0 = off) and their derivative weight ω_d (module docstring)."""
 
-    base_z_velocity: float = 0.0
-    base_angular_velocity: float = 0.0
-    force: float = 0.0
-    force_rate: float = 0.0
-    normal_force: float = 0.0
-    derivative_weight: float = 0.0  # ω_d of eq. (1), shared by the integral terms
-    stair_edge: float = 0.0
-    stair_edge_sigma: float = 0.05  # m
-    swing_height: float = 0.0
+    what = "cost weight"
+
+    base_z_velocity: float = param(0.0, "[0, inf)", "ω", "∫ ż² + ω_d z̈² of the base (eq. (1))")
+    base_angular_velocity: float = param(0.0, "[0, inf)", "ω", "∫ ‖ė‖² + ω_d ‖ë‖² of the base's Euler rates (eq. (1))")
+    force: float = param(0.0, "[0, inf)", "ω", "∫ ‖f‖² + ω_d ‖ḟ‖² of every stance force, in m·g (eq. (1))")
+    force_rate: float = param(0.0, "[0, inf)", "ω", "∫ ‖ḟ‖² + ω_d ‖f̈‖², in m·g/s (eq. (1))")
+    normal_force: float = param(0.0, "[0, inf)", "ω", "∫ (f_z − m·g / stance feet)² + ω_d ḟ_z², in m·g (eq. (1))")
+    derivative_weight: float = param(0.0, "[0, inf)", "ω_d", "weight of the derivative in every integral term")
+    stair_edge: float = param(0.0, "[0, inf)", "ω", "Σ exp(−d²/2σ²) over the footholds, d to the nearest edge")
+    stair_edge_sigma: float = param(0.05, "(0, inf)", "σ", "m: the width of the stair-edge term")
+    swing_height: float = param(0.0, "[0, inf)", "ω", "swing apex z above each adjacent foothold, squared")
 
     @property
     def active(self) -> bool:

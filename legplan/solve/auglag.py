@@ -38,6 +38,7 @@ import numpy as np
 
 import scipy.sparse as sp
 
+from legplan.parameters import Parameters, param
 from legplan.solve.blocks import ResidualBlock
 from legplan.solve.hinged import HingedParams, solve_hinged_lm
 from legplan.solve.linsolve import make_solver
@@ -89,32 +90,33 @@ class Constraint:
 
 
 @dataclass(frozen=True)
-class ALParams:
-    """Augmented-Lagrangian parameters; `inner` are those of every subproblem (its max_iterations is
-    the per-subproblem cap; `max_iterations` here caps the LM iterations of the whole solve)."""
+class ALParams(Parameters):
+    """Augmented-Lagrangian parameters (module docstring); `inner` are those of every subproblem (its
+    max_iterations is the per-subproblem cap; `max_iterations` here caps the LM iterations of the
+    whole solve)."""
 
-    inner: HingedParams = HingedParams(max_iterations=60, tolerance=0.0, function_tolerance=1e-4)
-    violation_tolerance: float = 1e-3
-    cost_tolerance: float = 1e-3
-    mu_init: float = 1.0
-    mu_growth: float = 10.0
-    mu_max: float = 1e8
-    violation_decrease: float = 0.25
-    max_outer: int = 15
-    stall_decrease: float = 0.9  # an outer iteration whose violation exceeds this × the last one made no progress
-    stall_outer: int = 2  # stop as stalled (infeasible local minimum) after this many such in a row
-    max_iterations: int = 300
-    multipliers: str = "zero"  # initial multipliers: "zero" or "least_squares" (module docstring)
-    active_tolerance: float = 1e-4  # least_squares: a bound row within this (scaled) of its bound is active
-    exact_rows: bool = False
-    """Without costs: stop a subproblem once every row is within `violation_tolerance` (the exact test,
-    |h_i| ≤ √μ·tol·w_i). Default: the norm test ‖h‖ ≤ √μ·tol·min(w), which assumes the worst row
-    and so solves further; that precision warm-starts the next stage of a staged solve, while a last
-    stage gains nothing from it."""
+    what = "augmented Lagrangian"
 
-    def __post_init__(self):
-        if self.multipliers not in ("zero", "least_squares"):
-            raise ValueError(f"ALParams.multipliers: 'zero' or 'least_squares', not {self.multipliers!r}")
+    inner: HingedParams = param(HingedParams(max_iterations=60, tolerance=0.0, function_tolerance=1e-4),
+                                doc="the subproblems' hinged LM")
+    violation_tolerance: float = param(1e-3, "(0, inf)", doc="converged once every constraint row is within this")
+    cost_tolerance: float = param(1e-3, "[0, inf)", doc="and the cost changed by less, relative, over an outer iteration")
+    mu_init: float = param(1.0, "(0, inf)", "μ₀", "initial penalty")
+    mu_growth: float = param(10.0, "[1, inf)", doc="μ grows by this when the violation did not fall enough")
+    mu_max: float = param(1e8, "[mu_init, inf)", doc="largest penalty")
+    violation_decrease: float = param(0.25, "(0, 1]", doc="enough: the violation fell below this × the last one")
+    max_outer: int = param(15, "[1, inf)", doc="outer iterations (subproblems)")
+    stall_decrease: float = param(0.9, "(0, 1]", doc=(
+        "an outer iteration whose violation exceeds this × the last one made no progress"))
+    stall_outer: int = param(2, "[1, inf)", doc="stalled (infeasible local minimum) after this many such in a row")
+    max_iterations: int = param(300, "[0, inf)", doc="LM iterations of the whole solve")
+    multipliers: str = param("zero", ("zero", "least_squares"), doc="initial multipliers (module docstring)")
+    active_tolerance: float = param(1e-4, "[0, inf)", doc=(
+        "least_squares: a bound row within this (scaled) of its bound is active"))
+    exact_rows: bool = param(False, (False, True), doc=(
+        "without costs: stop a subproblem once every row is within violation_tolerance (|h_i| ≤ √μ·tol·w_i) "
+        "instead of the norm test ‖h‖ ≤ √μ·tol·min(w), which assumes the worst row and solves further: "
+        "that precision warm-starts a next stage, a last stage gains nothing from it"))
 
 
 @dataclass

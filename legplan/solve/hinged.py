@@ -46,6 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from legplan.parameters import Parameters, param
 from legplan.solve.linsolve import CholmodSolver, NotPositiveDefiniteError
 from legplan.solve.lm import MARQUARDT_FLOOR, LMResult, Status, Timings
 from legplan.solve.problem import Problem
@@ -54,21 +55,19 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class HingedParams:
-    """Parameters of `solve_hinged_lm` (see module docstring)."""
+class HingedParams(Parameters):
+    """Parameters of `solve_hinged_lm` (module docstring)."""
 
-    lambda_init: float = 1e-4
-    lambda_max: float = 1e12
-    max_iterations: int = 100
-    tolerance: float = 1e-10
-    function_tolerance: float = 0.0
-    gradient_tolerance: float = 1e-10
-    active_set_iterations: int = 10
-    geodesic_acceleration: float = 0.75  # α > 0: add ½a (module docstring) when 2‖a‖ ≤ α‖d‖; 0: off
+    what = "hinged LM"
 
-    def __post_init__(self):
-        if self.lambda_init <= 0 or self.max_iterations < 0 or self.active_set_iterations < 1:
-            raise ValueError("need lambda_init > 0, max_iterations ≥ 0, active_set_iterations ≥ 1")
+    lambda_init: float = param(1e-4, "(0, inf)", "λ₀", "initial damping")
+    lambda_max: float = param(1e12, "(0, inf)", doc="stalled once λ exceeds this")
+    max_iterations: int = param(100, "[0, inf)", doc="LM iterations (each one factorization)")
+    tolerance: float = param(1e-10, "[0, inf)", doc="converged once ‖h‖ < this")
+    function_tolerance: float = param(0.0, "[0, 1]", doc="converged once an accepted step lowers ‖h‖² by less, relative")
+    gradient_tolerance: float = param(1e-10, "[0, 1]", doc="converged once ‖Jᵀh‖∞ falls below this × its initial value")
+    active_set_iterations: int = param(10, "[1, inf)", doc="passes of the active-set loop per step")
+    geodesic_acceleration: float = param(0.75, "[0, inf)", "α", "add ½a when 2‖a‖ ≤ α‖d‖; 0: off")
 
 
 def hinged_norm(v: np.ndarray, hinged: np.ndarray) -> float:
