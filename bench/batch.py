@@ -138,6 +138,7 @@ def dyn_workload(tmp: Path, count: int):
     """`count` short `dyn plan` tasks (anymal trot, 2 strides in 1.2 s, goals 0.30 .. m ahead) on
     maps/flat.yaml: the task and its items."""
     from legplan.batch import Task
+    from legplan.dyn.init import heuristic
     from legplan.dyn.items import DynWorker, failed_item, task_items
     from legplan.dyn.settings import dyn_params
     from legplan.dyn.tasks import command_line_task
@@ -147,7 +148,7 @@ def dyn_workload(tmp: Path, count: int):
     map_path = tmp / "flat.h5"
     save_map(build_map(ROOT / "maps" / "flat.yaml"), map_path)
     tasks = [command_line_task((0.0, 0.0, 0.0), (0.30 + 0.01 * i, 0.0, 0.0), "trot", 2, 1.2) for i in range(count)]
-    return Task(timed_plan, failed_item, DynWorker, ("anymal", str(map_path), dyn_params("none"), "heuristic")), \
+    return Task(timed_plan, failed_item, DynWorker, ("anymal", str(map_path), dyn_params("none"), heuristic)), \
         task_items(tasks)
 
 

@@ -66,7 +66,7 @@ from legplan.dyn.problem import DynParams, DynTask, build_problem  # noqa: E402
 from legplan.dyn.terrain import TerrainModel  # noqa: E402
 from legplan.robots import load_robot  # noqa: E402
 from legplan.solve import VariableLayout  # noqa: E402
-from legplan.solve.auglag import solve_augmented_lagrangian  # noqa: E402
+from legplan.solve.auglag import evaluate_costs, solve_augmented_lagrangian  # noqa: E402
 from legplan.terrain import build_map  # noqa: E402
 
 try:
@@ -257,17 +257,14 @@ class IpoptNLP:
     def objective(self, x):
         self.evaluations["f"] += 1
         values = self.layout.values(x)
-        total = 0.0
-        for _, block, w in self.costs:
-            r = block.evaluate([values[v] for v in block.variables], False)[0]
-            total += 0.5 * w * float(np.dot(r, r))
-        return total
+        return sum(evaluate_costs(self.costs, values).values())
 
     def gradient(self, x):
         self.evaluations["grad"] += 1
         values = self.layout.values(x)
         g = np.zeros(self.n)
-        for _, block, w in self.costs:
+        for term in self.costs:
+            block, w = term.block, term.weight
             r, jacs = block.evaluate([values[v] for v in block.variables], True)
             for name, jac in zip(block.variables, jacs):
                 gv = w * np.asarray(jac.T @ r).reshape(-1)
@@ -355,12 +352,7 @@ def run_ipopt(case, model, terrain, params, repeats: int, max_cpu: float, scaled
 # --- costs vs no costs (Fig. 4) --------------------------------------------------------------------------
 def cost_terms_at(case, model, terrain, values) -> dict[str, float]:
     """The paper's cost terms (½·w·‖r‖² per name, PAPER_PARAMS weights) evaluated at `values`."""
-    problem = build_problem(task_of(case), model, terrain, PAPER_PARAMS, heuristic)
-    out: dict[str, float] = {}
-    for name, block, w in problem.costs:
-        r = block.evaluate([values[v] for v in block.variables], False)[0]
-        out[name] = out.get(name, 0.0) + 0.5 * w * float(np.dot(r, r))
-    return out
+    return evaluate_costs(build_problem(task_of(case), model, terrain, PAPER_PARAMS, heuristic).costs, values)
 
 
 def peaks(samples) -> dict[str, float]:

@@ -53,10 +53,10 @@ class Worker:
         self.initializers = {}
 
     def initializer(self, init: str):
-        from legplan.learn.dataset import initializer_of
+        from legplan.learn.initializers import initializer
 
         if init not in self.initializers:
-            self.initializers[init] = initializer_of(init)
+            self.initializers[init] = initializer(init)
         return self.initializers[init]
 
 

@@ -9,16 +9,20 @@ import pytest
 
 from legplan.baselines.nav import NavBaselineParams
 from legplan.baselines.step import StepBaselineParams
+from legplan.dyn.costs import CostWeights
+from legplan.dyn.settings import DynParams
 from legplan.errors import LegplanError
 from legplan.nav.params import NavParams
 from legplan.nav.simulate.mission import SimParams
 from legplan.nav.teb.params import TebParams
 from legplan.parameters import Interval, Parameters, inherit, param
+from legplan.solve.auglag import ALParams
+from legplan.solve.hinged import HingedParams
 from legplan.stepplan.params import StepPlanParams
 from legplan.stepseq.generate import GenerateParams
 
 PARAMETER_CLASSES = [GenerateParams, StepPlanParams, StepBaselineParams, NavParams, NavBaselineParams,
-                     TebParams, SimParams]
+                     TebParams, SimParams, DynParams, CostWeights, ALParams, HingedParams]
 
 
 @dataclass(frozen=True)

@@ -10,14 +10,13 @@
 from __future__ import annotations
 
 import os
-from dataclasses import replace
 
 import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import (batch_opts, input_artefact, number, output_opt, overwrite_opt, verbosity_opts,
-                                  optimize_phases_opt, warm_stage_opt)
+from legplan.cli.options import (batch_opts, input_artefact, number, output_opt, overwrite_opt, param_opt,
+                                  verbosity_opts, optimize_phases_opt, warm_stage_opt)
 from legplan.cli.options import count, pose
 from legplan.parameters import DURATION
 from legplan.errors import LegplanError
@@ -44,6 +43,8 @@ def command():
                    "[,gait,strides,duration] (instead of --start/--goal).")
 @click.option("--costs", default="none", show_default=True, metavar="paper|none|FILE.yaml",
               help="The paper's costs and constraints, none (TOWR's formulation), or a costs file.")
+@param_opt("A planner parameter (legplan.dyn.settings.DynParams), nested ones by dotted name, applied after "
+           "--costs; e.g. --param dt=0.05 --param costs.force=0.5 --param solver.inner.max_iterations=30.")
 @optimize_phases_opt
 @click.option("--init", "init", default="heuristic", show_default=True, help="Initializer of the optimization.")
 @warm_stage_opt
@@ -52,7 +53,7 @@ def command():
 @batch_opts
 @verbosity_opts
 @click.pass_context
-def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_path, costs, optimize_phases,
+def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_path, costs, params, optimize_phases,
              init, warm_stage, output, overwrite, jobs, scheduler, resume):
     """Plan every task on MAP; write traj.h5, each task with its solver outcome and independent check.
 
@@ -63,9 +64,10 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     from legplan.cli.batching import run_stage
     from legplan.dyn.artefact import write_traj
     from legplan.dyn.items import DynWorker, failed_item, plan_item, task_items
-    from legplan.dyn.settings import check_warm_stage, costs_file, dyn_params, initializer, settings_record
+    from legplan.dyn.settings import costs_file, dyn_params, settings_record
     from legplan.dyn.tasks import centroidal_model, check_placements, check_sizes, command_line_task, read_tasks
     from legplan.dyn.terrain import TerrainModel
+    from legplan.learn.initializers import check_warm_stage, initializer
     from legplan.robots import load_robot
     from legplan.terrain import load_map
 
@@ -75,7 +77,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     if tasks_path is None and (start is None or goal is None):
         raise LegplanError("dyn plan: --start and --goal are required (or --tasks FILE)")
     check_warm_stage(warm_stage, init)
-    params = replace(dyn_params(costs), warm_stage=warm_stage, optimize_phases=optimize_phases)
+    params = dyn_params(costs, {**params, "warm_stage": warm_stage, "optimize_phases": optimize_phases})
     init_fn = initializer(init)  # an unknown --init: exit 2 before any work
     loaded = load_robot(robot)
     model = centroidal_model(loaded, params, costs)
@@ -94,7 +96,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
                "start": start, "goal": goal}
     settings = {**settings_record(costs, init, params), **{k: v for k, v in options.items() if v is not None}}
     inputs = [path for path in (map_path, tasks_path, costs_file(costs)) if path is not None]
-    task = Task(plan_item, failed_item, DynWorker, (robot, os.path.abspath(map_path), params, init))
+    task = Task(plan_item, failed_item, DynWorker, (robot, os.path.abspath(map_path), params, init_fn))
     records, _ = run_stage(task, task_items(tasks), "dyn plan", output=output,
                            identity={"stage": "dyn plan", "params": settings}, inputs=inputs, jobs=jobs,
                            scheduler=scheduler, resume=resume, overwrite=overwrite,

@@ -49,56 +49,34 @@ def dataset_cmd(ctx, space_path, count, seed, init, iterations, warm_stage, opti
 
     A solve that does not converge is recorded (success false); exit 1 only when a task raised."""
     from legplan.artefacts import check_output
-    from legplan.dyn.settings import check_warm_stage
-    from legplan.learn.dataset import check_init
+    from legplan.learn.dataset import check_init, check_space_sizes, make_dataset
+    from legplan.learn.initializers import check_warm_stage
     from legplan.learn.space import read_space
 
     check_output(output, overwrite)
     check_warm_stage(warm_stage, init)
     space = read_space(space_path)
-    _check_sizes(space, space_path, warm_stage, optimize_phases)
+    check_space_sizes(space, space_path, warm_stage, optimize_phases)
     check_init(init, space)
-    records = _dataset(space, space_path, count, seed, init, iterations, output, overwrite=overwrite, jobs=jobs,
-                       scheduler=scheduler, resume=resume, warm_stage=warm_stage, optimize_phases=optimize_phases)
-    if any("y" not in r for r in records):
-        ctx.exit(EXIT_ITEMS_FAILED)
-
-
-def _check_sizes(space, space_path, warm_stage, optimize_phases) -> None:
-    """The space's tasks within the size budget and, with --optimize-phases, long enough for their phases."""
-    from legplan.dyn.tasks import check_sizes
-    from legplan.learn.dataset import solver_params
-
-    params = solver_params(space.costs, None, warm_stage, optimize_phases)
-    check_sizes([space.task((0, 0, 0), (0, 0, 0))], params, space_path, rows=False)
-
-
-def _dataset(space, space_path, count, seed, init, iterations, output, *, overwrite, jobs, scheduler, resume,
-             warm_stage="costs", optimize_phases=False):
-    """Sample, solve through `legplan.batch` and write one dataset.h5; returns the records."""
-    from legplan.batch import Task
-    from legplan.cli.batching import run_stage
-    from legplan.learn.dataset import DatasetWorker, dataset_items, failed_item, solve_item, write_dataset
-
-    items = dataset_items(space, count, seed)
-    learned = str(init).endswith(".h5")
-    init = os.fspath(init)
-    settings = {"space": space.record(), "n": count, "init": init, "iterations": iterations, "warm_stage": warm_stage,
-                "optimize_phases": optimize_phases}
-    inputs = [space_path, space.map] + ([init] if learned else [])
-    task = Task(solve_item, failed_item, DatasetWorker,
-                (space, os.path.abspath(init) if learned else init, iterations, warm_stage, optimize_phases))
-    records, _ = run_stage(task, items, f"learn dataset {os.path.basename(output)}", output=output,
-                           identity={"stage": "learn dataset", "seed": seed, **settings}, inputs=inputs, jobs=jobs,
-                           scheduler=scheduler, resume=resume, overwrite=overwrite,
-                           publish=lambda records: write_dataset(output, space, records, settings, seed, inputs,
-                                                                 overwrite))
+    records = make_dataset(space, space_path, count, seed, init, iterations, output, warm_stage=warm_stage,
+                           optimize_phases=optimize_phases, overwrite=overwrite,
+                           run=_runner(jobs, scheduler, resume, overwrite))
     converged = sum(bool(r["success"]) for r in records)
     status(f"wrote {output}: {converged}/{len(records)} tasks converged")
     for r in records:
         if "y" not in r:
             stderr_line(f"  task {r['index']}: failed: {r['reason']}")
-    return records
+    if any("y" not in r for r in records):
+        ctx.exit(EXIT_ITEMS_FAILED)
+
+
+def _runner(jobs, scheduler, resume, overwrite):
+    """The batch runner of the command's `--jobs`/`--scheduler`/`--resume` (progress bar, resume hint)."""
+    from functools import partial
+
+    from legplan.cli.batching import run_stage
+
+    return partial(run_stage, jobs=jobs, scheduler=scheduler, resume=resume, overwrite=overwrite)
 
 
 def _g_max(ctx, param, value):
@@ -191,45 +169,9 @@ def cycle_cmd(space_path, cycles, count, seed, heuristic_iterations, learned_ite
     and initializer in OUTPUT; cycles.json holds per cycle the success rate, median iterations and
     time of converged tasks and their cost quantiles. --resume reuses the
     artefacts already written and continues an interrupted dataset."""
-    from pathlib import Path
+    from legplan.learn.cycle import run_cycle
 
-    from legplan.artefacts import check_output
-    from legplan.learn.cycle import cycle_paths, cycle_row, write_cycles
-    from legplan.learn.network import read_weights
-    from legplan.learn.space import read_space
-    from legplan.learn.train import train_initializer
-
-    space = read_space(space_path)
-    _check_sizes(space, space_path, "costs", optimize_phases)
-    paths = cycle_paths(Path(output), cycles)
-    Path(output).mkdir(parents=True, exist_ok=True)
-    if not resume:
-        for path in paths:
-            check_output(path, overwrite)
-    if weights_path is not None and not os.path.isfile(weights_path):
-        raise LegplanError(f"--weights: '{weights_path}' is not a file")
-    read_weights(weights_path)  # a bad weights file fails now, not after the first dataset
-
-    def done(path) -> bool:  # reused with --resume
-        return resume and Path(path).exists()
-
-    rows = []
-    for k in range(cycles + 1):
-        dataset = paths[2 * k]
-        if k > 0:
-            init = paths[2 * k - 1]
-            if not done(init):
-                report = train_initializer(paths[0:2 * k - 1:2], init, g_max=g_max,
-                                           hidden=hidden if k == 1 else hidden_later, weights_path=weights_path,
-                                           seed=seed, overwrite=overwrite)
-                status(f"wrote {init}: {report['good']}/{report['tasks']} tasks with {_filtered(report)}, "
-                       f"validation loss {report['validation_loss']:.3g}")
-        if not done(dataset):
-            _dataset(space, space_path, count, seed, paths[2 * k - 1] if k else "heuristic",
-                     learned_iterations if k else heuristic_iterations, dataset, overwrite=overwrite, jobs=jobs,
-                     scheduler=scheduler, resume=resume, optimize_phases=optimize_phases)
-        rows.append(cycle_row(k, dataset))
-        status("cycle {cycle}: {init}, success {success_rate:.0%}, median iterations {median_iterations:g}, "
-               "cost median {cost_median:.4g} / p90 {cost_p90:.4g} / max {cost_max:.4g}".format(**rows[-1]))
-    write_cycles(Path(output) / "cycles.json", rows)
-    status(f"wrote {Path(output) / 'cycles.json'}")
+    run_cycle(space_path, output, count=count, cycles=cycles, seed=seed, heuristic_iterations=heuristic_iterations,
+              learned_iterations=learned_iterations, g_max=g_max, hidden=hidden, hidden_later=hidden_later,
+              weights_path=weights_path, optimize_phases=optimize_phases, overwrite=overwrite, resume=resume,
+              run=_runner(jobs, scheduler, resume, overwrite), report=status)

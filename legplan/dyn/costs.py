@@ -37,7 +37,9 @@ from legplan.dyn.formulation import Formulation
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import invalid_timing
 from legplan.geometry.hermite import NodeSpline, SampledJacobian, hermite_gram
+from legplan.parameters import Parameters, param
 from legplan.solve import ResidualBlock
+from legplan.solve.auglag import CostTerm
 from legplan.solve.blocks import LinearBlock
 
 GRAVITY = 9.81
@@ -81,18 +83,20 @@ def integral_rows(spline: NodeSpline, axes: list[int], derivative: int, derivati
 
 
 @dataclass(frozen=True)
-class CostWeights:
-    """Weights ω_i of the paper's cost terms (0 = off) and their derivative weights ω_d."""
+class CostWeights(Parameters):
+    """Weights ω_i of the paper's cost terms (0 = off) and their derivative weight ω_d (module docstring)."""
 
-    base_z_velocity: float = 0.0
-    base_angular_velocity: float = 0.0
-    force: float = 0.0
-    force_rate: float = 0.0
-    normal_force: float = 0.0
-    derivative_weight: float = 0.0  # ω_d of eq. (1), shared by the integral terms
-    stair_edge: float = 0.0
-    stair_edge_sigma: float = 0.05  # m
-    swing_height: float = 0.0
+    what = "cost weight"
+
+    base_z_velocity: float = param(0.0, "[0, inf)", "ω", "∫ ż² + ω_d z̈² of the base (eq. (1))")
+    base_angular_velocity: float = param(0.0, "[0, inf)", "ω", "∫ ‖ė‖² + ω_d ‖ë‖² of the base's Euler rates (eq. (1))")
+    force: float = param(0.0, "[0, inf)", "ω", "∫ ‖f‖² + ω_d ‖ḟ‖² of every stance force, in m·g (eq. (1))")
+    force_rate: float = param(0.0, "[0, inf)", "ω", "∫ ‖ḟ‖² + ω_d ‖f̈‖², in m·g/s (eq. (1))")
+    normal_force: float = param(0.0, "[0, inf)", "ω", "∫ (f_z − m·g / stance feet)² + ω_d ḟ_z², in m·g (eq. (1))")
+    derivative_weight: float = param(0.0, "[0, inf)", "ω_d", "weight of the derivative in every integral term")
+    stair_edge: float = param(0.0, "[0, inf)", "ω", "Σ exp(−d²/2σ²) over the footholds, d to the nearest edge")
+    stair_edge_sigma: float = param(0.05, "(0, inf)", "σ", "m: the width of the stair-edge term")
+    swing_height: float = param(0.0, "[0, inf)", "ω", "swing apex z above each adjacent foothold, squared")
 
     @property
     def active(self) -> bool:
@@ -105,31 +109,31 @@ def _embedded(matrix: sp.csr_matrix, offset_nodes: int, total_nodes: int) -> sp.
     return sp.csr_matrix((m.data, m.indices + 6 * offset_nodes, m.indptr), shape=(m.shape[0], 6 * total_nodes))
 
 
-def integral_costs(form: Formulation, w: CostWeights, mass: float, timing=None) -> list[tuple[str, ResidualBlock, float]]:
-    """The eq. (1) terms with a positive weight as (name, block, weight); with a `PhaseTiming` the
-    force terms are `TimedForceIntegralBlock`s."""
+def integral_costs(form: Formulation, w: CostWeights, mass: float, timing=None) -> list[CostTerm]:
+    """The eq. (1) terms with a positive weight as `CostTerm`s; with a `PhaseTiming` the force terms
+    are `TimedForceIntegralBlock`s."""
     if timing is not None:
         out = integral_costs(form, replace(w, force=0.0, force_rate=0.0, normal_force=0.0), mass)
         for name, weight, axes, derivative in (("force", w.force, [0, 1, 2], 0), ("force_rate", w.force_rate, [0, 1, 2], 1),
                                                ("normal_force", w.normal_force, [2], 0)):
             if weight > 0:
                 block = TimedForceIntegralBlock(timing, axes, derivative, w.derivative_weight, mass, name == "normal_force")
-                out.append((name, block, weight))
+                out.append(CostTerm(name, block, weight))
         return out
     out = []
     wd = w.derivative_weight
     if w.base_z_velocity > 0:
         m, b = integral_rows(form.base, [2], 1, wd)
-        out.append(("base_z_velocity", LinearBlock(("base_lin",), [m], b), w.base_z_velocity))
+        out.append(CostTerm("base_z_velocity", LinearBlock(("base_lin",), [m], b), w.base_z_velocity))
     if w.base_angular_velocity > 0:
         m, b = integral_rows(form.base, [0, 1, 2], 1, wd)
-        out.append(("base_angular_velocity", LinearBlock(("base_ang",), [m], b), w.base_angular_velocity))
+        out.append(CostTerm("base_angular_velocity", LinearBlock(("base_ang",), [m], b), w.base_angular_velocity))
     weight_force = mass * GRAVITY  # force terms are integrals of f / (m·g)
     for name, weight, derivative in (("force", w.force, 0), ("force_rate", w.force_rate, 1)):
         if weight > 0:
             parts = [_embedded(integral_rows(foot.force, [0, 1, 2], derivative, wd)[0], foot.force_offset,
                                form.force_nodes) for foot in form.feet]
-            out.append((name, LinearBlock(("forces",), [sp.vstack(parts).tocsr() / weight_force]), weight))
+            out.append(CostTerm(name, LinearBlock(("forces",), [sp.vstack(parts).tocsr() / weight_force]), weight))
     if w.normal_force > 0:
         mats, offsets = [], []
         for foot in form.feet:
@@ -137,8 +141,8 @@ def integral_costs(form: Formulation, w: CostWeights, mass: float, timing=None) 
             share = mass * GRAVITY / np.maximum(form.gait.contact(mids).sum(axis=1), 1)
             m, b = integral_rows(foot.force, [2], 0, wd, reference=list(share))
             mats.append(_embedded(m, foot.force_offset, form.force_nodes)), offsets.append(b)
-        out.append(("normal_force", LinearBlock(("forces",), [sp.vstack(mats).tocsr() / weight_force],
-                                                np.concatenate(offsets) / weight_force), w.normal_force))
+        out.append(CostTerm("normal_force", LinearBlock(("forces",), [sp.vstack(mats).tocsr() / weight_force],
+                                                        np.concatenate(offsets) / weight_force), w.normal_force))
     return out
 
 

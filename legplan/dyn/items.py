@@ -1,6 +1,6 @@
 """Per-task functions of `legplan dyn plan` for `legplan.batch`: a worker context and the task records.
 
-    task = Task(plan_item, failed_item, DynWorker, (robot_name, map_path, params, "heuristic"))
+    task = Task(plan_item, failed_item, DynWorker, (robot_name, map_path, params, heuristic))
     items = task_items(tasks)          # (index, DynTask) pairs
 
 Each item is planned (`legplan.dyn.planner.plan`), checked independently on its 10 ms samples
@@ -15,10 +15,10 @@ from legplan.dyn.problem import DynParams, DynTask
 
 class DynWorker:
     """What one worker loads once: the robot and its centroidal model, the map (as the check reads
-    it and as the optimizer's `TerrainModel`), the parameters and the initializer."""
+    it and as the optimizer's `TerrainModel`), the parameters; `initializer` is the object the command
+    resolved (picklable: a module-level function or `legplan.learn.network.LearnedInit`)."""
 
-    def __init__(self, robot_name: str, map_path: str, params: DynParams, init: str):
-        from legplan.dyn.settings import initializer
+    def __init__(self, robot_name: str, map_path: str, params: DynParams, initializer):
         from legplan.dyn.tasks import centroidal_model
         from legplan.dyn.terrain import TerrainModel
         from legplan.robots import load_robot
@@ -29,7 +29,7 @@ class DynWorker:
         self.terrain_map = load_map(map_path)
         self.terrain = TerrainModel(self.terrain_map)
         self.params = params
-        self.initializer = initializer(init)
+        self.initializer = initializer
 
     def plan(self, index: int, task: DynTask) -> dict:
         from legplan.dyn.planner import plan

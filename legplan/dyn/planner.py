@@ -1,91 +1,184 @@
-"""Plan one centroidal trajectory: build the problem, solve it, sample the solution every 10 ms.
+"""Plan one centroidal trajectory: build the problem, solve it in declared stages, sample it every 10 ms.
 
     result = plan(DynTask(start=(0, 0, 0), goal=(1, 0, 0), gait="trot", strides=4, duration=2.4),
                   model, TerrainModel(load_map("map.h5")), DynParams())
-    result.success, result.reason, result.samples["base_pos"]
+    result.status, [(s.name, s.status) for s in result.stages], result.samples["base_pos"]
 
-The solver is `legplan.solve.solve_augmented_lagrangian` (augmented Lagrangian over
-Levenberg-Marquardt/CHOLMOD; the module docstring there says why and when it stops).
+The solve is a schedule of `Stage`s, data (`schedule`): each says whether it solves the costs under
+the constraints or the constraints alone, which of `DynParams`' solver settings it uses
+(`legplan.solve.solve_augmented_lagrangian`, the augmented Lagrangian over the hinged LM), where it
+starts (the initializer's guess, or the last stage's solution), which extra range-of-motion samples
+it adds, and when it runs (`When`: after a success, after a failure, ...). `plan` is one loop over
+the schedule; `Budget` only counts the LM iterations of `DynParams.iteration_budget` (Algorithm 1's
+N). Every stage that ran is a `StageOutcome` with its `Status`; the plan's status is the last one's.
+
+The schedule (the paper's two initializers, Sec. IV):
+
+* From a guess that solves a nearby task (an initializer with ``near_solution`` true: the learned
+  one, A_θ), one stage from the guess: "direct" (the costs under the constraints, by `warm_solver`)
+  or with `DynParams.warm_stage` "projection" the constraints alone (`projection_solver`), with
+  range samples also where the guess's feet come within `GUESS_RANGE_NEAR` of their boxes. With
+  "polish", a projected plan that costs more than the initializer's training filter kept for the
+  task (eq. (4), at `polish_tolerance`) gets `POLISH_OUTER` outer iterations of the costs and a
+  projection back; the polished plan is kept only if it converged at a lower cost.
+* Otherwise, or when that failed: "feasibility", the constraints alone from the guess (TOWR's
+  problem with our between-node samples); with TOWR's swing constraint on and a failure, again
+  without it from there; with costs, "costs" from the feasible point (`cost_solver`), and if those
+  end short of the tolerance, "feasibility after costs" from there. If the attempt fails, the same
+  again from the guess with TOWR's swing constraint switched (`DynParams.towr_swing`).
+* A successful plan then gets up to `RANGE_ROUNDS` "range of motion" stages: while a foot leaves its
+  box between the constraint's samples (`range_excess_times`), those times become samples and the
+  constraints alone are solved again from the plan (an exchange method for the continuous
+  constraint; the costs stay out of it, so the plan moves by about the millimetres it is out).
+
+A stage that follows a failure needs budget left; the costs stage runs after a feasible stage even
+with the budget spent, so that a plan whose costs never ran is not reported as a solution.
 """
 
 from __future__ import annotations
 
+import enum
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from legplan.dyn.euler import world_rates
 from legplan.dyn.costs import CostWeights
+from legplan.dyn.euler import world_rates
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.init import heuristic
 from legplan.dyn.problem import DynParams, DynTask, Problem, build_problem, cost_blocks, range_excess_times
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import PHASES
 from legplan.solve.auglag import ALParams, ALResult, evaluate_costs, solve_augmented_lagrangian
-from legplan.solve.lm import Timings
+from legplan.solve.lm import Status, Timings
 
 SAMPLE_DT = 0.01  # s, the artefact's sampling of the solution
+POLISH_OUTER = 2  # outer iterations of the costs when polishing a projected plan
+POLISH_RESERVE = 3  # LM iterations of the budget the polishing costs leave for the projection after them
+RANGE_ROUNDS = 3  # "range of motion" stages after a successful plan, at most
+GUESS_RANGE_NEAR = 0.005
+"""m: a stage from a near-solution guess samples the range of motion also where the guess comes
+within this of a box between the regular samples (`range_excess_times`): its solution would likely
+leave the box there and need a "range of motion" stage."""
+
+
+class When(enum.Enum):
+    """When a stage of the schedule runs. START opens an attempt; the next four run only inside an
+    attempt that started."""
+
+    START = "start"  # first, or after a failed stage: a new attempt
+    FAILED = "failed"  # the schedule's previous stage ran and failed
+    SUCCEEDED = "succeeded"  # the last stage that ran succeeded
+    ABOVE_BOUND = "above_bound"  # the previous stage ran, succeeded and costs more than the guess's bound
+    AFTER = "after"  # the previous stage ran
+    PLAN_SUCCEEDED = "plan_succeeded"  # the last stage that ran succeeded, whichever attempt it ended
+
+
+class Start(enum.Enum):
+    """Where a stage starts and which extra range-of-motion samples it has."""
+
+    GUESS = "guess"  # the initializer's guess, the regular samples
+    NEAR_GUESS = "near_guess"  # the guess, also sampled where it comes near a box (`GUESS_RANGE_NEAR`)
+    PREVIOUS = "previous"  # the last stage's solution and samples
+    RANGE_EXCESS = "range_excess"  # that, also sampled where it leaves a box (skipped when it does not)
+
+
+@dataclass(frozen=True)
+class Stage:
+    """One solve of the schedule: `name`; with the `costs` or the constraints alone; `solver`, the
+    `DynParams` field of its `ALParams`, with its outer iterations capped at `max_outer` (None: the
+    solver's); `start`; TOWR's swing constraint on or off (`towr_swing`, None: as the stage it starts
+    from, or `DynParams.towr_swing` from the guess); when it runs (`when`) and whether it needs
+    iterations of the budget left (`needs_budget`, after another stage); `reserve`: iterations of the
+    budget it leaves to the stages after it; `keeps_better`: the plan it polishes stays unless this
+    stage converged at a lower cost."""
+
+    name: str
+    costs: bool
+    solver: str
+    when: When
+    start: Start = Start.PREVIOUS
+    towr_swing: bool | None = None
+    needs_budget: bool = True
+    max_outer: int | None = None
+    reserve: int = 0
+    keeps_better: bool = False
+
+
+def schedule(params: DynParams, near_solution: bool = False) -> list[Stage]:
+    """The stages `plan` runs for `params` and an initializer whose guesses are (`near_solution`) or
+    are not solutions of nearby tasks (module docstring)."""
+    stages = []
+    if near_solution and (params.costs.active or params.warm_stage != "costs"):
+        if params.warm_stage == "costs":
+            stages.append(Stage("direct", True, "warm_solver", When.START, Start.NEAR_GUESS))
+        else:
+            stages.append(Stage("projection", False, "projection_solver", When.START, Start.NEAR_GUESS))
+            if params.warm_stage == "polish" and params.costs.active:
+                stages += [Stage("costs", True, "warm_solver", When.ABOVE_BOUND, max_outer=POLISH_OUTER,
+                                 reserve=POLISH_RESERVE),
+                           Stage("projection after costs", False, "projection_solver", When.AFTER,
+                                 needs_budget=False, keeps_better=True)]
+    for swing in (params.towr_swing, not params.towr_swing):
+        label = "" if swing == params.towr_swing else f" ({'with' if swing else 'without'} TOWR's swing constraint)"
+        stages.append(Stage("feasibility" + label, False, "solver", When.START, Start.GUESS, towr_swing=swing))
+        if swing:
+            stages.append(Stage("without TOWR's swing constraint" + label, False, "solver", When.FAILED,
+                                towr_swing=False))
+        if params.costs.active:
+            stages += [Stage("costs" + label, True, "cost_solver", When.SUCCEEDED, needs_budget=False),
+                       Stage("feasibility after costs" + label, False, "solver", When.FAILED)]
+    stages += [Stage("range of motion", False, "solver", When.PLAN_SUCCEEDED, Start.RANGE_EXCESS)] * RANGE_ROUNDS
+    return stages
+
+
+@dataclass
+class StageOutcome:
+    """A stage that ran: its name, why its solver stopped, the solver's result, the problem it solved
+    (on the solution's timing) and the seconds spent building that problem."""
+
+    name: str
+    status: Status
+    result: ALResult
+    problem: Problem
+    setup_seconds: float = 0.0
+    towr_swing: bool = False
+
+    @property
+    def success(self) -> bool:
+        return self.status is Status.CONVERGED
 
 
 @dataclass
 class PlanResult:
-    """The problem, the solver's outcome and the solution sampled every `SAMPLE_DT`."""
+    """The stages that ran, the last one's problem, the combined solver outcome (the last stage's
+    solution, the effort of all) and the solution sampled every `SAMPLE_DT`."""
 
     problem: Problem
+    stages: list[StageOutcome]
     solve: ALResult
     samples: dict[str, np.ndarray]
     setup_seconds: float
 
     @property
+    def status(self) -> Status:
+        return self.stages[-1].status
+
+    @property
     def success(self) -> bool:
-        return self.solve.success
+        return self.status is Status.CONVERGED
 
     @property
     def reason(self) -> str:
-        return self.solve.reason
-
-
-def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynParams(), initializer=heuristic,
-         callback=None) -> PlanResult:
-    """Build, solve and sample one task.
-
-    From a guess that solves a nearby task (an initializer with ``near_solution`` true: the learned
-    one) `direct` solves the whole problem, costs included, from the guess in one stage (Algorithm
-    1's A_θ: few iterations when the guess is good), or with `DynParams.warm_stage` "projection"
-    the constraints alone. Otherwise, or when that fails,
-    `attempt` (the constraints, then the costs) from the initializer; if that fails too, `attempt`
-    once more with TOWR's swing constraint switched (`DynParams.towr_swing`): of the bench cases and the tests, some
-    stall only with it and some only without (measured). A successful plan then goes through
-    `refine_range` (feet inside their boxes between the constraint's samples too, by the constraints
-    alone); the cost terms reported are those of `params.costs` at the final plan.
-    `DynParams.iteration_budget` caps the LM iterations of all of it together. Effort adds up; the
-    reason names every stage that ran."""
-    budget = Budget(params.iteration_budget)
-    stages, setup = [], 0.0
-    if getattr(initializer, "near_solution", False) and (params.costs.active or params.warm_stage != "costs"):
-        problem, stages, setup = direct(task, model, terrain, params, initializer, budget, callback)
-    for switched in (False, True):
-        if stages and (stages[-1][1].success or budget.spent):
-            break
-        run = replace(params, towr_swing=not params.towr_swing) if switched else params
-        problem, more, seconds = attempt(task, model, terrain, run, initializer, callback, budget)
-        label = f" ({'with' if run.towr_swing else 'without'} TOWR's swing constraint)" if switched else ""
-        stages += [(name + label, r) for name, r in more]
-        setup += seconds
-        params = run
-    problem, more, seconds = refine_range(problem, stages[-1][1], params, budget, callback)
-    stages += more
-    setup += seconds
-    result = _combined(stages)
-    if params.costs.active and not problem.costs:  # the last stage solved the constraints alone
-        result.cost_terms = _cost_terms(problem, params, result.values)
-        result.cost = sum(result.cost_terms.values())
-    return PlanResult(problem, result, sample_solution(problem.form, result.values), setup)
+        """The solver's reason, prefixed by the stage's name for each stage when several ran."""
+        if len(self.stages) == 1:
+            return self.stages[0].result.reason
+        return "; ".join(f"{s.name}: {s.result.reason}" for s in self.stages)
 
 
 class Budget:
-    """What is left of `DynParams.iteration_budget` (None: unlimited) as stages spend it."""
+    """What is left of `DynParams.iteration_budget` (None: unlimited); it only counts."""
 
     def __init__(self, total: int | None):
         self.left = total
@@ -94,79 +187,117 @@ class Budget:
     def spent(self) -> bool:
         return self.left is not None and self.left <= 0
 
-    def solve(self, problem: Problem, solver: ALParams, callback) -> ALResult:
-        """`solve_augmented_lagrangian` on the problem with at most what is left (possibly 0
-        iterations: the stage then only reports where it stands)."""
+    def cap(self, solver: ALParams, reserve: int = 0) -> ALParams:
+        """`solver` with at most what is left (possibly 0 iterations: the stage then reports where it
+        stands), less `reserve` but at least 1 when a reserve is kept."""
+        if self.left is None:
+            return solver
+        cap = max(self.left, 0) if not reserve else min(max(self.left - reserve, 1), max(self.left, 0))
+        return replace(solver, max_iterations=min(solver.max_iterations, cap))
+
+    def spend(self, iterations: int) -> None:
         if self.left is not None:
-            solver = replace(solver, max_iterations=min(solver.max_iterations, max(self.left, 0)))
-        result = solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints, solver,
-                                            callback=callback)
-        if self.left is not None:
-            self.left -= result.iterations
-        if problem.timing is not None:  # what reads the solution reads it on its own timing
-            problem.form = problem.timing.formulation(result.values[PHASES])
-        elif problem.durations is not None:  # a fixed timing of the guess's: the next stage keeps it
-            result.values[PHASES] = problem.durations
-        return result
+            self.left -= iterations
 
 
-def direct(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer, budget: Budget,
-           callback=None):
-    """The whole problem (`params`' own sampling and costs) from the initializer's guess in one stage,
-    by `DynParams.warm_solver`; returns (problem, [(stage name, result), ...], setup seconds). Measured
-    on held-out pallet tasks from networks trained on 300: 11/12 and 17/24 converged within 25
-    iterations, against 8/12 and 13/24 when the constraints were solved first and the costs after.
-    With `DynParams.warm_stage` "projection": the same sampling without the costs, by
-    `DynParams.projection_solver` (stage "projection"); "polish": that, then `polish` when the
-    projected plan costs more than the initializer's `cost_bound` of the task (at
-    `DynParams.polish_tolerance` times the filter's threshold). The range of motion
-    is sampled also where the guess's feet come within `GUESS_RANGE_NEAR` of their boxes between the
-    regular samples: its solution leaves the box there, which cost a `refine_range` round after
-    the stage (measured on the first 60 held-out single-pallet tasks, projection: 38 of 60 within
-    5 iterations before, 51 after)."""
+def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynParams(), initializer=heuristic,
+         callback=None) -> PlanResult:
+    """Build, solve (the stages of `schedule`) and sample one task; `callback(iteration, violation,
+    cost)` follows every solve."""
+    budget = Budget(params.iteration_budget)
+    outcomes: list[StageOutcome] = []
+    attempt = ran_previous = False  # whether the last START stage ran; whether the previous stage ran
+    polishing: tuple[StageOutcome, float] | None = None  # the plan being polished and its cost
+    for stage in schedule(params, getattr(initializer, "near_solution", False)):
+        last = outcomes[-1] if outcomes else None
+        runs = _runs(stage, last, attempt, ran_previous, budget)
+        if stage.when is When.START:
+            attempt = runs
+        if not runs:
+            ran_previous = False
+            continue
+        if stage.when is When.ABOVE_BOUND:
+            cost = _plan_cost(last.problem, params, last.result.values)
+            if cost <= initializer.cost_bound(task, params.polish_tolerance):
+                ran_previous = False
+                continue
+            polishing = (last, cost)
+        outcome = _run_stage(stage, task, model, terrain, params, initializer, last, budget, callback)
+        ran_previous = outcome is not None
+        if outcome is None:  # nothing to refine
+            continue
+        outcomes.append(outcome)
+        if stage.keeps_better and polishing is not None:
+            kept, cost = polishing
+            if not (outcome.success and _plan_cost(outcome.problem, params, outcome.result.values) < cost):
+                effortless = replace(kept.result, iterations=0, outer_iterations=0, history=[], timings=Timings())
+                outcomes.append(replace(kept, name="projection kept", result=effortless, setup_seconds=0.0))
+    final = outcomes[-1]
+    solve = _combined(outcomes)
+    if params.costs.active and not final.problem.costs:  # the last stage solved the constraints alone
+        solve.cost_terms = _cost_terms(final.problem, params, solve.values)
+        solve.cost = sum(solve.cost_terms.values())
+    return PlanResult(final.problem, outcomes, solve, sample_solution(final.problem.form, solve.values),
+                      sum(s.setup_seconds for s in outcomes))
+
+
+def _runs(stage: Stage, last: StageOutcome | None, attempt: bool, ran_previous: bool, budget: Budget) -> bool:
+    """Whether `stage` runs after the outcomes so far (`When`, and the budget where it needs one)."""
+    if last is not None and stage.needs_budget and budget.spent:
+        return False
+    if stage.when is When.START:
+        return last is None or not last.success
+    if stage.when is When.PLAN_SUCCEEDED:
+        return last is not None and last.success
+    if not attempt:
+        return False
+    if stage.when is When.FAILED:
+        return ran_previous and not last.success
+    if stage.when is When.SUCCEEDED:
+        return last is not None and last.success
+    if stage.when is When.ABOVE_BOUND:
+        return ran_previous and last.success
+    return ran_previous  # When.AFTER
+
+
+def _run_stage(stage: Stage, task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer,
+               last: StageOutcome | None, budget: Budget, callback) -> StageOutcome | None:
+    """Build the stage's problem and solve it within the budget; None for a "range of motion" stage
+    that finds no foot outside its box at a time not yet sampled (an excess found only at sampled
+    times is within the solver's tolerance)."""
+    from_guess = stage.start in (Start.GUESS, Start.NEAR_GUESS)
+    swing = stage.towr_swing if stage.towr_swing is not None else (
+        params.towr_swing if from_guess else last.towr_swing)
+    stage_params = replace(params, costs=params.costs if stage.costs else CostWeights(), towr_swing=swing)
     t0 = time.perf_counter()
-    projection = params.warm_stage != "costs"
-    problem = build_problem(task, model, terrain, replace(params, costs=CostWeights()) if projection else params,
-                            initializer, near_range=GUESS_RANGE_NEAR)
+    if from_guess:
+        near = GUESS_RANGE_NEAR if stage.start is Start.NEAR_GUESS else None
+        problem = build_problem(task, model, terrain, stage_params, initializer, near_range=near)
+    else:
+        times = last.problem.range_times
+        if stage.start is Start.RANGE_EXCESS:
+            found = np.setdiff1d(range_excess_times(last.problem, last.result.values), times)
+            if not found.size:
+                return None
+            times = np.union1d(times, found)
+        values = last.result.values
+        problem = build_problem(task, model, terrain, stage_params, lambda *_: values, times)
     setup = time.perf_counter() - t0
-    solver = params.projection_solver if projection else params.warm_solver
-    stages = [("projection" if projection else "direct", budget.solve(problem, solver, callback))]
-    if params.warm_stage == "polish" and params.costs.active and stages[0][1].success and not budget.spent:
-        cost = sum(_cost_terms(problem, params, stages[0][1].values).values())
-        if cost > initializer.cost_bound(task, params.polish_tolerance):
-            problem, stages, seconds = polish(problem, stages[0][1], cost, params, budget, callback)
-            setup += seconds
-    return problem, stages, setup
+    solver = getattr(params, stage.solver)
+    if stage.max_outer is not None:
+        solver = replace(solver, max_outer=stage.max_outer)
+    result = solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints,
+                                        budget.cap(solver, stage.reserve), callback=callback)
+    budget.spend(result.iterations)
+    if problem.timing is not None:  # what reads the solution reads it on its own timing
+        problem = replace(problem, form=problem.timing.formulation(result.values[PHASES]))
+    elif problem.durations is not None:  # a fixed timing of the guess's: the next stage keeps it
+        result.values[PHASES] = problem.durations
+    return StageOutcome(stage.name, result.status, result, problem, setup, swing)
 
 
-POLISH_OUTER = 2  # outer iterations of the costs in `polish`
-POLISH_RESERVE = 3  # LM iterations of the budget `polish` keeps for its last projection
-
-
-def polish(problem: Problem, projected: ALResult, cost: float, params: DynParams, budget: Budget, callback=None):
-    """Lower the cost of a projected plan (`DynParams.warm_stage` "polish"): `POLISH_OUTER` outer
-    iterations of the costs by `DynParams.warm_solver` from it (where the cost settles: measured on
-    held-out pallet tasks, the later outer iterations only bring the violation from about 1e-2 to
-    1e-3, one LM iteration each), then the projection from there, within what is left of the
-    budget, of which the costs leave that projection `POLISH_RESERVE` iterations (when they took
-    it all, a long projection's plan was polished but could not be projected back, and its
-    projection was kept: held-out task 54 at cost 7.96, polished 4.82). The polished plan is kept if
-    it converged at a lower cost, else the projected one (the effort of both counted). Both keep
-    the projection's extra range samples. Returns (problem, stages, setup seconds)."""
-    solver = replace(params.warm_solver, max_outer=POLISH_OUTER)
-    if budget.left is not None:  # what the projection after the costs needs is kept for it
-        solver = replace(solver, max_iterations=max(budget.left - POLISH_RESERVE, 1))
-    _, lowered, setup = _stage(problem.task, problem.model, problem.terrain, params, projected, solver, callback,
-                               budget, problem.range_times)
-    constraints = replace(params, costs=CostWeights())
-    polished, result, seconds = _stage(problem.task, problem.model, problem.terrain, constraints, lowered,
-                                       params.projection_solver, callback, budget, problem.range_times)
-    setup += seconds
-    stages = [("projection", projected), ("costs", lowered), ("projection after costs", result)]
-    if result.success and sum(_cost_terms(polished, params, result.values).values()) < cost:
-        return polished, stages, setup
-    kept = replace(projected, iterations=0, outer_iterations=0, history=[], timings=Timings())  # its effort is counted
-    return problem, stages + [("the projection kept (the polished plan did not converge lower)", kept)], setup
+def _plan_cost(problem: Problem, params: DynParams, values: dict[str, np.ndarray]) -> float:
+    return sum(_cost_terms(problem, params, values).values())
 
 
 def _cost_terms(problem: Problem, params: DynParams, values: dict[str, np.ndarray]) -> dict[str, float]:
@@ -175,117 +306,20 @@ def _cost_terms(problem: Problem, params: DynParams, values: dict[str, np.ndarra
     return evaluate_costs(cost_blocks(problem.form, problem.terrain, problem.model, params.costs), values)
 
 
-def attempt(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer=heuristic, callback=None,
-            budget: Budget | None = None):
-    """Build and solve one task in stages (each warm-started from the one before); returns the last
-    stage's problem, the (name, `ALResult`) of every stage and the setup seconds:
-
-    1. feasibility — the constraints alone with the sampling and margin of `DynParams`, from the
-       initializer (TOWR's problem with our between-node samples). Before the hinged LM's line search
-       (`legplan.solve.hinged`) this took two stages, coarse sampling (swing every 0.05 s, range
-       every 0.08 s, no margin) then fine: the pallet cases stalled when started fine. With it, one
-       stage converges more often in fewer iterations (measured against the pair, both with the line
-       search: the Heuristic on 200 held-out single-pallet tasks, N = 100, 96.5 % → 99.5 % converged,
-       median 38 → 32 iterations, the same median cost; `bench/dyn.py` cases without costs 7 of 7
-       either way, 2–3× fewer iterations on most (double pallet walk 27 → 12, stairs 99 → 84);
-       with the paper's costs the double pallet walk converges again, 37 iterations);
-    2. only if 1 stalls with TOWR's swing constraint on: again without it (it can over-constrain a
-       tight gait, see `DynParams`), from where 1 stopped;
-    3. only with costs: the costs, by the augmented Lagrangian from the feasible point
-       (`DynParams.cost_solver`; measured: 3 of 3 pallet cases instead of 1 from the initializer);
-    4. only if 3 ends short of the tolerance (its penalty can stall a few cm or N away) with budget
-       left: feasibility again from there, which keeps most of the costs' effect and meets the
-       constraints. Once the budget is spent the plan has not converged: a feasible point whose costs
-       never ran (a budget spent before stage 3) or did not settle is not reported as a solution.
-    A stage that fails ends the sequence. Iterations and timings add up over the stages; the reason
-    names the stages that ran. `budget` (default: `DynParams.iteration_budget`) caps them together.
-    """
-    budget = Budget(params.iteration_budget) if budget is None else budget
-    t0 = time.perf_counter()
-    stage_params = replace(params, costs=CostWeights())
-    problem = build_problem(task, model, terrain, stage_params, initializer)
-    setup = time.perf_counter() - t0
-    result = budget.solve(problem, params.solver, callback)
-    stages = [("feasibility", result)]
-    if not result.success and params.towr_swing:
-        stage_params = replace(stage_params, towr_swing=False)
-        problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback, budget)
-        setup += seconds
-        stages.append(("without TOWR's swing constraint", result))
-    if result.success and params.costs.active:
-        stage_params = replace(stage_params, costs=params.costs)
-        problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.cost_solver, callback, budget)
-        setup += seconds
-        stages.append(("costs", result))
-        if not result.success and not budget.spent:  # near-feasible with lower costs: project it back
-            stage_params = replace(stage_params, costs=CostWeights())
-            problem, result, seconds = _stage(task, model, terrain, stage_params, result, params.solver, callback, budget)
-            setup += seconds
-            stages.append(("feasibility after costs", result))
-    return problem, stages, setup
-
-
-def refine_range(problem: Problem, result: ALResult, params: DynParams, budget: Budget, callback=None):
-    """Keep the feet inside their range-of-motion boxes between the constraint's samples, not only at
-    them (an exchange method for the continuous constraint): while a successful plan has a foot
-    outside its box on the `RANGE_CHECK_DT` grid (`range_excess_times`), add those times to the
-    constraint's samples and solve the constraints alone again from the plan (`DynParams.solver`),
-    at most `RANGE_ROUNDS` times. Measured: with samples every 0.04 s the flat walk left the box by
-    1.64 mm and the double pallet walk by 2.27 mm between samples (every 0.02 s: 0.19 and 0 mm,
-    at up to a third more CPU). The costs stay out of it: a Gauss-Newton projection moves the plan
-    by about the millimetres it is out, while the costs' augmented Lagrangian restarted from the plan
-    with fresh multipliers first traded the constraints for lower costs again (1 N off the dynamics)
-    and needed 7 or more iterations: from learned guesses with N_θ = 25, 3 of 12 held-out pallet
-    tasks ran out of budget in this stage; feasibility only, none. Starts from the problem's own
-    extra samples; an excess found only at times already sampled is within the solver's tolerance
-    and ends it. Returns (problem, [(stage name, result)], setup seconds)."""
-    stages, setup, times = [], 0.0, problem.range_times
-    params, solver = replace(params, costs=CostWeights()), params.solver
-    for _ in range(RANGE_ROUNDS):
-        if not result.success or budget.spent:
-            break
-        found = np.setdiff1d(range_excess_times(problem, result.values), times)  # at a sample: within tolerance
-        if not found.size:
-            break
-        times = np.union1d(times, found)
-        problem, result, seconds = _stage(problem.task, problem.model, problem.terrain, params, result, solver,
-                                          callback, budget, times)
-        setup += seconds
-        stages.append((f"range of motion at {times.size} more times", result))
-    return problem, stages, setup
-
-
-GUESS_RANGE_NEAR = 0.005
-"""m: `direct` samples the range of motion also where a near-solution guess comes within this of a
-box between the regular samples (`range_excess_times`), where its solution would likely leave the box
-and need a `refine_range` round. Measured (projections of the first 60 held-out single-pallet tasks,
-converged within 5 iterations): none 63 %, where the guess is outside (0 m) 72 %, 5, 10 or 20 mm 85 %."""
-RANGE_ROUNDS = 3
-
-
-def _stage(task, model, terrain, params: DynParams, previous: ALResult, solver, callback, budget: Budget,
-           range_times: np.ndarray = ()):
-    """Build the problem of one stage from the previous stage's values and solve it."""
-    t0 = time.perf_counter()
-    problem = build_problem(task, model, terrain, params, lambda *_: previous.values, range_times)
-    seconds = time.perf_counter() - t0
-    return problem, budget.solve(problem, solver, callback), seconds
-
-
-def _combined(stages: list[tuple[str, ALResult]]) -> ALResult:
-    """The last stage's result with the effort of all stages added and a reason naming them."""
-    last = stages[-1][1]
-    if len(stages) == 1:
-        return last
-    for _, earlier in stages[:-1]:
-        for name in ("evaluate", "assemble", "factorize", "solve", "total"):
-            setattr(last.timings, name, getattr(last.timings, name) + getattr(earlier.timings, name))
-        last.iterations += earlier.iterations
-        last.outer_iterations += earlier.outer_iterations
-    last.history = [dict(h, stage=name) for name, r in stages for h in r.history]
-    last.first_iteration_seconds = stages[0][1].first_iteration_seconds
-    last.reason = "; ".join(f"{name}: {r.reason}" for name, r in stages)
-    return last
+def _combined(outcomes: list[StageOutcome]) -> ALResult:
+    """The last stage's result with the effort of every stage added (iterations, timings, history
+    rows labelled by stage) and the first stage's first-iteration time."""
+    last = outcomes[-1].result
+    timings = Timings()
+    for name in ("evaluate", "assemble", "factorize", "solve", "total"):
+        setattr(timings, name, sum(getattr(s.result.timings, name) for s in outcomes))
+    return replace(last, values=dict(last.values), cost_terms=dict(last.cost_terms),
+                   iterations=sum(s.result.iterations for s in outcomes),
+                   outer_iterations=sum(s.result.outer_iterations for s in outcomes),
+                   history=[dict(h, stage=s.name) for s in outcomes for h in s.result.history], timings=timings,
+                   first_iteration_seconds=outcomes[0].result.first_iteration_seconds,
+                   reason="; ".join(f"{s.name}: {s.result.reason}" for s in outcomes)
+                   if len(outcomes) > 1 else last.reason)
 
 
 def sample_solution(form: Formulation, values: dict[str, np.ndarray], dt: float = SAMPLE_DT) -> dict[str, np.ndarray]:

@@ -19,11 +19,11 @@ from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock,
 from legplan.dyn.costs import CostWeights, StairEdgeBlock, integral_costs
 from legplan.dyn.formulation import Formulation, Pose
 from legplan.dyn.gait import make_gait
+from legplan.dyn.settings import PAPER, PAPER_COSTS, DynParams  # noqa: F401 (the planner's parameters, re-exported)
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import PHASES, PhaseTiming, TimedControlPoints, TimedSamples
 from legplan.solve import VariableBlock
-from legplan.solve.auglag import ALParams, Constraint
-from legplan.solve.hinged import HingedParams
+from legplan.solve.auglag import Constraint, CostTerm
 
 
 @dataclass(frozen=True)
@@ -37,119 +37,8 @@ class DynTask:
     duration: float = 2.4
 
 
-@dataclass(frozen=True)
-class DynParams:
-    """Discretization (TOWR's defaults but for `dt_range`: 0.04 s instead of 0.08 s, at which stance
-    feet left the range-of-motion box by up to 4 mm between points; the box is also shrunk by
-    `range_margin` for what remains between points), our between-node sampling, the paper's
-    additions, the solver.
-
-    Points every `swing_dt` (at most) inside each swing polynomial keep the foot above the terrain
-    between nodes (`swing_clearance` m above its column envelope) and inside its range of motion
-    (which TOWR checks every `dt_range` only: swing feet left the box by 1.3 cm in between). The force bounds and the friction pyramid hold at the
-    Bézier control points of every force polynomial, hence along all of it (the terrain normal is
-    that of the stance foothold, constant over the stance). `towr_swing` adds TOWR's swing constraint (apex x, y halfway
-    between the footholds, apex velocity = step / swing time); off by default: it is a regularizer,
-    not in the issue's constraint list, and it over-constrains tight gaits (measured on the bench
-    cases: with it the 2-stride trot and the stairs walk stall, without it they converge, and no
-    case needs it; `planner.plan` drops it when a solve with it stalls). `swing_height_min` (m above both adjacent footholds) and
-    `base_clearance` (base z minus foot z, m) are the paper's constraints, None = off.
-    `stance_slope_max` bounds `TerrainModel.stance_slope` (smoothed terrain slope) under every free
-    stance foothold, which keeps them about 4 cm off a pallet's edge (a foot's radius is 3 cm): on the
-    heightmap's one-cell edge ramp the terrain normal tilts by up to 86°, the friction pyramid cannot
-    carry the weight and the raw slope gives the solver no direction off the ramp (measured: the
-    double-pallet walk stalled there at 4 N; with the bound it converges, and the stairs walk's
-    stance foot no longer stands 8.4 mm inside a riser's column). None = off.
-    """
-
-    dt: float = 0.1
-    dt_range: float = 0.04
-    range_margin: float = 0.002
-    swing_dt: float = 0.01
-    swing_clearance: float = 0.0
-    stance_slope_max: float | None = 0.5
-    towr_swing: bool = False
-    cost_solver: ALParams = ALParams(mu_init=10.0, cost_tolerance=1e-2,
-                                     inner=HingedParams(max_iterations=20, tolerance=0.0, function_tolerance=1e-3))
-    """The cost stage (`planner.plan`) starts feasible; short subproblems let the multipliers follow
-    (31-90 iterations in all on the pallet cases instead of 120-130 with the feasibility stage's
-    settings). μ₀ = 10: with 100 or 1000 the single-pallet walk stalled 0.02 N short of feasible,
-    a local minimum that a feasibility stage from there could not leave either (measured)."""
-    warm_solver: ALParams = ALParams(mu_init=1e3, cost_tolerance=1e-2, multipliers="least_squares",
-                                     inner=HingedParams(max_iterations=5, tolerance=0.0, function_tolerance=1e-3))
-    """The one-stage solve from a guess that is itself a solution of a nearby task (the learned
-    initializer, `planner.direct`): multipliers estimated at the guess, a stiff penalty and short
-    subproblems keep the steps near the constraints (measured from a network trained on 21 pallet
-    tasks, after a feasibility stage: μ₀ = 100 with 20-iteration subproblems left the first one
-    17-64 N off the dynamics and spent the 25-iteration budget; 10³ with 5: 2 of 4 converged)."""
-    warm_stage: str = "costs"
-    """What `planner.direct` solves from a near-solution guess (the learned initializer): "costs" —
-    the whole problem, the costs under the constraints, by `warm_solver`; "projection" — the
-    constraints alone, by `projection_solver` (Gauss-Newton onto the constraints from the guess: the
-    plan keeps the guess's shape and its cost is not optimized). "polish" — the projection, then
-    where its cost exceeds what the network's training filter kept for the task (the initializer's
-    `cost_bound`, at `polish_tolerance`, eq. (4)) the costs from it (`planner.polish`). Measured from
-    the n = 1000 cycle-3 network on 200 held-out single-pallet tasks (`bench/learn.py` at 42a56b2),
-    converged / median iterations / largest cost ÷ median: "costs" 96 % / 11 / 1.95×; "projection"
-    98 % / 4 / 2.78× (its costs +11.7 % against the same task's "costs" solve); "polish" 97.5 % / 4 /
-    1.90× (+7.9 %). One core, median CPU s to a converged plan (the bench's 20 tasks; the first 100
-    by hand, twice): "costs" 0.68, "projection" 0.21 (0.21–0.24), "polish" 0.20 (0.22–0.23)."""
-    polish_tolerance: float = 2.0
-    """"polish" optimizes the costs of a projected plan that costs more than ĝ(x) + this × the
-    threshold of the network's training filter (eq. (4), `learn.network.CostBound`; 1: the filter's
-    own bound). Chosen on 100 validation tasks (seed 2; neither training nor held-out) with the
-    n = 1000 cycle-3 network of the run at e31ada3 (tolerance: polished / converged / median
-    iterations / median CPU s / median cost / largest ÷ median): 1: 56 / 95 % / 13 / 0.56 / 3.32 / 2.53;
-    1.5: 41 / 95 % / 6.5 / 0.23 / 3.49 / 2.41; 2: 27 / 95 % / 4 / 0.21 / 3.59 / 2.34; 3: 16 / 95 % / 4 /
-    0.20 / 3.63 / 2.31. The projections of that network cost more than the filter's bound on most
-    tasks; at 2 the ones well beyond it are polished."""
-    costs: CostWeights = CostWeights()
-    swing_height_min: float | None = None
-    base_clearance: float | None = None
-    leg_clearance: float | None = None
-    """m: the surfaces of the legs' thigh and shank spheres stay this far above the terrain's envelope
-    at the range-of-motion samples (`LegClearanceBlock`; needs the robot's closed-form legs,
-    `Centroidal.leg_kinematics`). None = off."""
-    solver: ALParams = ALParams()
-    projection_solver: ALParams = ALParams(exact_rows=True)
-    """The "projection" warm stage's: the constraints alone, stopped by the exact per-row test (a last
-    stage: no next stage profits from more precision, see `ALParams.exact_rows`)."""
-    optimize_phases: bool = False
-    """Optimize the phase durations too (`legplan.dyn.timing`: 2S more variables), from the gait's
-    timing or the guess's; the swing samples move with their swing, the other samples stay at their
-    times. TOWR's swing constraint (`towr_swing`) then keeps the swing durations of the timing it
-    was built at. A guess with durations (a previous stage's, or a network's that predicts them)
-    sets the timing either way: without this, the plan keeps it fixed (the paper's Fig. 8, dotted)."""
-    phase_min: float = 0.2
-    """s: the shortest phase of a foot when the durations are optimized (TOWR's lower bound)."""
-    iteration_budget: int | None = None
-    """LM iterations of the whole plan, all stages and both attempts (`planner.plan`) together: the
-    paper's N of Algorithm 1 (N_h = 100, N_θ = 25); None = only each stage's own cap."""
-
-    def __post_init__(self):
-        if self.warm_stage not in WARM_STAGES:
-            raise ValueError(f"DynParams.warm_stage: one of {', '.join(WARM_STAGES)}, not {self.warm_stage!r}")
-        if not self.polish_tolerance >= 0:
-            raise ValueError(f"DynParams.polish_tolerance: ≥ 0, not {self.polish_tolerance!r}")
-
-
-WARM_STAGES = ("costs", "projection", "polish")
-
-
 LENGTH = 0.1  # m: the row scale of geometric constraints (a violation of 10 cm weighs 1)
 LEVER = 0.056  # m: torques are scaled as forces at this lever arm: I/m of ANYmal, i.e. both rows in accelerations
-
-PAPER_COSTS = CostWeights(base_z_velocity=1.0, base_angular_velocity=1.0, force=1.0, force_rate=0.01,
-                          normal_force=1.0, derivative_weight=0.01, stair_edge=1.0, stair_edge_sigma=0.05,
-                          swing_height=1.0)
-"""Weights of the "paper" preset. The paper gives none; these were chosen on the single and double
-pallet (force terms in units of m·g, see `costs`): all lower the peak base roll/pitch rate, and the
-peak horizontal force, against no costs."""
-
-PAPER = DynParams(costs=PAPER_COSTS, swing_height_min=0.05, base_clearance=0.2)
-"""The paper's additions (Sec. III-A-1, III-A-2): its costs, swing apexes 5 cm above both adjacent
-footholds, the base 20 cm above every foot (0.3 m, nearer the nominal 0.42 m, conflicts with the
-range of motion when the base pitches on a climb: measured infeasible on both pallets)."""
 
 
 @dataclass
@@ -164,11 +53,11 @@ class Problem:
     goal: Pose
     start_feet: np.ndarray
     variables: list[VariableBlock]
-    costs: list = field(default_factory=list)
+    costs: list[CostTerm] = field(default_factory=list)
     constraints: list[Constraint] = field(default_factory=list)
     timing: PhaseTiming | None = None
     """Set when the phase durations are variables (`DynParams.optimize_phases`); `form` then has the
-    timing of the last solution (`planner.Budget.solve` moves it)."""
+    timing of its solution (the planner's stages move it there)."""
     durations: np.ndarray | None = None
     """The foot durations (``phases`` values) of a timing the guess set, None for the gait's: kept
     fixed when not optimized, and handed on with the solution so later stages keep it."""
@@ -290,14 +179,14 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
 
 def cost_blocks(form: Formulation, terrain: TerrainModel, model, w: CostWeights, timing: PhaseTiming | None = None
                 ) -> list:
-    """The weighted cost blocks (name, block, weight) of the weights `w` with a positive weight."""
+    """The cost terms (`CostTerm`) of the weights `w` with a positive weight."""
     costs = integral_costs(form, w, model.mass, timing)
     if w.stair_edge > 0 and terrain.has_edges:
         nodes = [n for foot in form.feet for n in foot.stance_nodes]
-        costs.append(("stair_edge", StairEdgeBlock(terrain, form.node_selector(nodes, form.motion_nodes),
-                                                   w.stair_edge_sigma), w.stair_edge))
+        costs.append(CostTerm("stair_edge", StairEdgeBlock(terrain, form.node_selector(nodes, form.motion_nodes),
+                                                           w.stair_edge_sigma), w.stair_edge))
     if w.swing_height > 0 and form.footsteps:
-        costs.append(("swing_height", swing_height(form), w.swing_height))
+        costs.append(CostTerm("swing_height", swing_height(form), w.swing_height))
     return costs
 
 

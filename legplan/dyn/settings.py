@@ -1,10 +1,11 @@
-"""The planner settings of `legplan dyn plan`: `--costs` (a preset or a costs file) and `--init`.
+"""The centroidal planner's parameters, `DynParams`, declared once with their ranges (`legplan.parameters`),
+the presets, and the one route that sets them: `dyn_params(costs, overrides)`.
 
-Presets: ``paper`` — `legplan.dyn.problem.PAPER`, the paper's costs with its swing-height and
-base-clearance constraints; ``none`` — TOWR's formulation alone, `DynParams()`. A costs file is a YAML mapping of `CostWeights` fields (each >= 0,
-`stair_edge_sigma` > 0; missing fields are 0 = off) plus optional `swing_height_min`,
-`base_clearance` and `leg_clearance` (m, >= 0; missing or null = off); with `preset: NAME` the
-missing fields are the preset's instead (null still switches a constraint off), e.g.
+Presets: ``paper`` — `PAPER`, the paper's costs with its swing-height and base-clearance
+constraints; ``none`` — TOWR's formulation alone, `DynParams()`. A costs file is one source of
+overrides: a YAML mapping of `CostWeights` fields (missing fields are 0 = off) plus optional
+`swing_height_min`, `base_clearance` and `leg_clearance` (m; missing or null = off); with
+`preset: NAME` the missing fields are the preset's instead (null still switches a constraint off), e.g.
 
     base_angular_velocity: 20.0
     force_rate: 1.0e-4
@@ -15,25 +16,114 @@ or the paper's settings with the legs kept 6 cm off the terrain:
     preset: paper
     leg_clearance: 0.06
 
-Unknown fields and bad values are one-line errors naming the file and the field.
+`--param KEY=VALUE` (repeatable) is the other: any field, nested ones by dotted name
+(`--param dt=0.05`, `--param costs.force=0.5`, `--param solver.inner.max_iterations=30`), the value
+read as a YAML scalar (`null` switches an optional constraint off). Both go through `override`:
+unknown fields, wrong types and values outside the declared range are one-line errors naming the
+file (or `--param`) and the field.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
-from dataclasses import asdict, fields, replace
+import types
+import typing
+from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
+import yaml
+
 from legplan.dyn.costs import CostWeights
-from legplan.dyn.init import INITIALIZERS
-from legplan.dyn.problem import PAPER, DynParams
-from legplan.errors import LegplanError
-from legplan.parameters import CLEARANCE, WEIGHT
+from legplan.errors import LegplanError, SpecError
+from legplan.parameters import Interval, Parameters, magnitude_problem, param
+from legplan.solve.auglag import ALParams
+from legplan.solve.hinged import HingedParams
 from legplan.specio import FieldReader, read_yaml_mapping
+
+WARM_STAGES = ("costs", "projection", "polish")
+
+
+@dataclass(frozen=True)
+class DynParams(Parameters):
+    """Discretization (TOWR's, with `dt_range` halved and the box shrunk by `range_margin` for what
+    remains between the samples), our between-node sampling, the paper's additions, the stages'
+    solvers (`legplan.dyn.planner`).
+
+    Points every `swing_dt` (at most) inside each swing polynomial keep the foot above the terrain
+    between nodes (`swing_clearance` above its column envelope) and inside its range of motion. The
+    force bounds and the friction pyramid hold at the Bézier control points of every force
+    polynomial, hence along all of it (the terrain normal is that of the stance foothold, constant
+    over the stance). `stance_slope_max` bounds `TerrainModel.stance_slope` (the smoothed terrain
+    slope) under every free stance foothold, which keeps footholds off the heightmap's edge ramps,
+    where the terrain normal tilts so far that the friction pyramid cannot carry the weight and the
+    raw slope gives the solver no direction off the ramp.
+    """
+
+    what = "dyn planner"
+
+    dt: float = param(0.1, "(0, inf)", "Δt", "s: spacing of the base spline's nodes (TOWR's)")
+    dt_range: float = param(0.04, "(0, inf)", doc="s: spacing of the range-of-motion samples")
+    range_margin: float = param(0.002, "[0, inf)", doc="m: the range-of-motion box shrunk by this at the samples")
+    swing_dt: float = param(0.01, "(0, inf)", doc="s: largest spacing of the samples inside a swing")
+    swing_clearance: float = param(0.0, "[0, inf)", doc="m: swing feet above the terrain's column envelope")
+    stance_slope_max: float | None = param(0.5, "(0, inf)",
+                                           doc="largest smoothed terrain slope under a free foothold; None = off")
+    towr_swing: bool = param(False, (False, True), doc=(
+        "TOWR's swing constraint (apex x, y halfway between the footholds, apex velocity = step / swing "
+        "time): a regularizer that can over-constrain a tight gait; the planner's second attempt "
+        "switches it"))
+    cost_solver: ALParams = param(
+        ALParams(mu_init=10.0, cost_tolerance=1e-2,
+                 inner=HingedParams(max_iterations=20, tolerance=0.0, function_tolerance=1e-3)),
+        doc="the costs stage from a feasible point: short subproblems let the multipliers follow, a "
+            "moderate μ₀ keeps the feasible start")
+    warm_solver: ALParams = param(
+        ALParams(mu_init=1e3, cost_tolerance=1e-2, multipliers="least_squares",
+                 inner=HingedParams(max_iterations=5, tolerance=0.0, function_tolerance=1e-3)),
+        doc="the costs from a near-solution guess: multipliers estimated at the guess, a stiff penalty "
+            "and short subproblems keep the steps near the constraints")
+    warm_stage: str = param("costs", WARM_STAGES, doc=(
+        "from a near-solution guess: 'costs' the whole problem by warm_solver; 'projection' the "
+        "constraints alone by projection_solver (the plan keeps the guess's shape); 'polish' the "
+        "projection, then the costs where it costs more than the initializer's training filter kept "
+        "(eq. (4))"))
+    polish_tolerance: float = param(2.0, "[0, inf)", doc=(
+        "'polish' optimizes the costs of a projected plan that costs more than ĝ(x) + this × the "
+        "threshold of the network's training filter (eq. (4); 1: the filter's own bound)"))
+    costs: CostWeights = param(CostWeights(), doc="the paper's cost weights (Sec. III-A-1, III-A-2)")
+    swing_height_min: float | None = param(None, "[0, inf)",
+                                           doc="m: swing apex above both adjacent footholds (paper); None = off")
+    base_clearance: float | None = param(None, "[0, inf)", doc="m: base z minus every foot's z (paper); None = off")
+    leg_clearance: float | None = param(None, "[0, inf)", doc=(
+        "m: the legs' thigh and shank spheres this far above the terrain's envelope at the range-of-"
+        "motion samples (needs the robot's closed-form legs); None = off"))
+    solver: ALParams = param(ALParams(), doc="the feasibility stages (the constraints alone)")
+    projection_solver: ALParams = param(ALParams(exact_rows=True), doc=(
+        "the 'projection' warm stage: the constraints alone, stopped by the exact per-row test (a "
+        "last stage: no next stage profits from more precision)"))
+    optimize_phases: bool = param(False, (False, True), doc=(
+        "optimize the phase durations too (2S more variables, `legplan.dyn.timing`); a guess with "
+        "durations sets the timing either way (kept fixed without this)"))
+    phase_min: float = param(0.2, "(0, inf)", doc="s: the shortest phase of a foot when the durations are optimized")
+    iteration_budget: int | None = param(None, "[0, inf)", "N", doc=(
+        "LM iterations of the whole plan, all stages together (Algorithm 1's N: N_h = 100, N_θ = 25); "
+        "None = each stage's own cap"))
+
+
+PAPER_COSTS = CostWeights(base_z_velocity=1.0, base_angular_velocity=1.0, force=1.0, force_rate=0.01,
+                          normal_force=1.0, derivative_weight=0.01, stair_edge=1.0, stair_edge_sigma=0.05,
+                          swing_height=1.0)
+"""Weights of the "paper" preset (the paper gives none; force terms in units of m·g, see
+`legplan.dyn.costs`)."""
+
+PAPER = DynParams(costs=PAPER_COSTS, swing_height_min=0.05, base_clearance=0.2)
+"""The paper's additions (Sec. III-A-1, III-A-2): its costs, swing apexes 5 cm above both adjacent
+footholds, the base 20 cm above every foot (below the nominal 0.42 m, so that the range of motion
+leaves room when the base pitches on a climb)."""
 
 PRESETS = {"paper": PAPER, "none": DynParams()}
 CONSTRAINT_FIELDS = ("swing_height_min", "base_clearance", "leg_clearance")
-POSITIVE_WEIGHTS = ("stair_edge_sigma",)
 
 
 def costs_file(costs: str) -> Path | None:
@@ -41,51 +131,107 @@ def costs_file(costs: str) -> Path | None:
     return None if costs in PRESETS else Path(costs)
 
 
-def dyn_params(costs: str) -> DynParams:
-    """The planner parameters of `--costs` (a preset name or a costs file, see module docstring)."""
+def dyn_params(costs: str, overrides: dict | None = None) -> DynParams:
+    """The planner parameters of `--costs` (a preset name or a costs file, see module docstring) with
+    `overrides` (`--param`: dotted field names, values as text or as Python values) applied."""
     path = costs_file(costs)
     if path is None:
-        return PRESETS[costs]
-    if not path.is_file():
+        params = PRESETS[costs]
+    elif not path.is_file():
         raise LegplanError(f"--costs: '{costs}' is neither a preset ({', '.join(PRESETS)}) nor a file")
+    else:
+        params = _read_costs_file(path)
+    if overrides:
+        params = override(params, {key: _scalar(value) for key, value in overrides.items()}, FieldReader("--param"))
+    return params
+
+
+def _read_costs_file(path: Path) -> DynParams:
     data = read_yaml_mapping(path, "costs file")
     reader = FieldReader(path)
     weights = [f.name for f in fields(CostWeights)]
     reader.unknown(data, ("preset", *weights, *CONSTRAINT_FIELDS))
     base = PRESETS[reader.choice(data["preset"], "preset", tuple(PRESETS))] if "preset" in data else DynParams()
-    values = {name: (reader.positive if name in POSITIVE_WEIGHTS else reader.nonnegative)(data[name], name, WEIGHT)
-              for name in weights if name in data}
-    limits = {name: None if data[name] is None else reader.nonnegative(data[name], name, CLEARANCE)
-              for name in CONSTRAINT_FIELDS if name in data}
-    return replace(base, costs=replace(base.costs, **values), **limits)
+    costs = override(base.costs, {name: data[name] for name in weights if name in data}, reader)
+    return override(dataclasses.replace(base, costs=costs), {name: data[name] for name in CONSTRAINT_FIELDS
+                                                            if name in data}, reader)
 
 
-def initializer(name: str):
-    """The initializer `--init` names: one of `legplan.dyn.init.INITIALIZERS`, or an init.h5 trained by
-    `legplan learn train` (the learned initializer, eq. (2) with A_θ)."""
-    if name.endswith(".h5"):
-        from legplan.learn.network import LearnedInit  # learn builds on dyn: imported where it is used
-        if not os.path.isfile(name):
-            raise LegplanError(f"--init: {name}: no such file")
-        return LearnedInit(os.path.abspath(name))
-    if name not in INITIALIZERS:
-        raise LegplanError(f"--init: unknown initializer '{name}' (known: {', '.join(INITIALIZERS)})")
-    return INITIALIZERS[name]
+def _scalar(value):
+    """A `--param` value as YAML reads it ("0.5" → 0.5, "true" → True, "null" → None); other
+    values as given."""
+    if not isinstance(value, str):
+        return value
+    try:
+        return yaml.safe_load(value)
+    except yaml.YAMLError:
+        return value
 
 
-def check_warm_stage(warm_stage: str, init: str) -> None:
-    """`--warm-stage projection` and `polish` project a learned guess: refused (one line) with any other
-    `--init`; `polish` also needs the training filter an init.h5 keeps (`learn.network.CostBound`)."""
-    if warm_stage == "costs":
-        return
-    if not str(init).endswith(".h5"):
-        raise LegplanError(f"--warm-stage {warm_stage}: needs a learned --init INIT.h5, not '{init}' "
-                           "(only a near-solution guess is projected; others are solved in stages)")
-    if warm_stage == "polish":
-        from legplan.learn.network import load_bound, missing_filter  # learn builds on dyn: imported where used
+def override(params, values: dict, reader: FieldReader, prefix: str = ""):
+    """A copy of the parameter dataclass `params` with `values` (field name, dotted for the fields of a
+    nested parameter dataclass → value) set, each checked against its declared type and range (the
+    `param` declaration) and reported as `reader`'s one-line error naming the field."""
+    cls = type(params)
+    declared = {f.name: f for f in fields(cls)}
+    hints = typing.get_type_hints(cls)
+    nested: dict[str, dict] = {}
+    changes = {}
+    for key, value in values.items():
+        head, _, rest = key.partition(".")
+        shown = f"{prefix}{key}"
+        if head not in declared:
+            reader.fail(f"{prefix}{head}", f"is unknown (known: {', '.join(declared)})")
+        if dataclasses.is_dataclass(hints[head]):
+            if not rest:
+                reader.fail(shown, "is a group of parameters: set its fields (NAME.FIELD)")
+            nested.setdefault(head, {})[rest] = value
+        elif rest:
+            reader.fail(f"{prefix}{head}", "has no fields")
+        else:
+            changes[head] = _leaf(declared[head], hints[head], value, params, reader, shown)
+    for head, inner in nested.items():
+        changes[head] = override(getattr(params, head), inner, reader, f"{prefix}{head}.")
+    try:
+        return dataclasses.replace(params, **changes)
+    except LegplanError as exc:  # a range that names another field (checked on the whole object)
+        raise SpecError(f"{reader.path}: {exc}") from None
 
-        if os.path.isfile(init) and load_bound(init) is None:
-            raise missing_filter(init)
+
+def _leaf(declared, kind, value, params, reader: FieldReader, shown: str):
+    """One field's value checked against its type and declared range."""
+    optional = isinstance(kind, types.UnionType) and type(None) in typing.get_args(kind)
+    if optional:
+        kind = next(arg for arg in typing.get_args(kind) if arg is not type(None))
+    if value is None:
+        if not optional:
+            reader.fail(shown, "must not be null")
+        return None
+    allowed, given = declared.metadata.get("range"), value
+    if kind is bool:
+        if not isinstance(value, bool):
+            reader.fail(shown, f"must be true or false, got {value!r}")
+    elif kind in (int, float):
+        number = reader.number(value, shown)
+        if kind is int and not number.is_integer():
+            reader.fail(shown, f"must be a whole number, got {value!r}")
+        value = kind(number)
+        if magnitude_problem(value):
+            reader.fail(shown, f"{magnitude_problem(value)}, got {given!r}")
+    elif isinstance(allowed, tuple):
+        reader.choice(value, shown, allowed)
+    elif not isinstance(value, kind):
+        reader.fail(shown, f"must be {getattr(kind, '__name__', kind)}, got {value!r}")
+    if isinstance(allowed, Interval) and not allowed.contains(value, params):
+        reader.fail(shown, f"must be {_condition(allowed, params)}, got {given!r}")
+    return value
+
+
+def _condition(interval: Interval, params) -> str:
+    """The declared interval as a condition: ">= 0", "> 0", "in (0, 1]"."""
+    if interval.high == float("inf") and not isinstance(interval.low, str):
+        return f"{'>' if interval.low_open else '>='} {interval.low:g}"
+    return f"in {interval.describe(params)}"
 
 
 def settings_record(costs: str, init: str, params: DynParams) -> dict:

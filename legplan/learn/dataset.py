@@ -4,6 +4,7 @@
     items = dataset_items(space, n=2000, seed=0)        # (index, DynTask, x)
     task = Task(solve_item, failed_item, DatasetWorker, (space, "heuristic", 100))
     ... run_batch / run_stage ... write_dataset("dataset.h5", space, records, settings)
+    records = make_dataset(space, "tasks/single_pallet_walk.yaml", 2000, 0, "heuristic", 100, "d0.h5")  # all of it
 
 Each task is solved by `legplan.dyn.planner.plan` from the initializer A (`heuristic`, A_h, or a
 learned init.h5, A_θ) with at most N LM iterations in all (`--iterations`, the planner's
@@ -22,11 +23,13 @@ or from a network that predicts them (then kept fixed at its values).
 from __future__ import annotations
 
 import json
+import os
 from dataclasses import replace
 
 import numpy as np
 
 from legplan.errors import LegplanError
+from legplan.learn.initializers import initializer, is_learned
 from legplan.learn.layout import CATEGORIES, join, layout_of, read_layout
 from legplan.learn.space import X_NAMES, TaskSpace, load_terrain_map, sample_tasks, task_vector
 
@@ -43,32 +46,22 @@ def solver_params(costs: str, iterations: int | None, warm_stage: str = "costs",
                    optimize_phases=optimize_phases)
 
 
-def initializer_of(init: str):
-    """The initializer `--init` names: ``heuristic`` (A_h) or a learned init.h5 (A_θ)."""
-    if init.endswith(".h5"):
-        from legplan.learn.network import LearnedInit
-
-        return LearnedInit(init)
-    from legplan.dyn.settings import initializer
-
-    return initializer(init)
-
-
 def check_init(init: str, space: TaskSpace) -> None:
     """Before any work: `--init` is known, and an init.h5 was trained for this space's map, gait,
     strides, duration and variable layout (one-line error otherwise)."""
     from legplan.dyn.problem import DynTask
     from legplan.learn.network import check_space
 
-    chosen = initializer_of(init)
-    if init.endswith(".h5"):
+    chosen = initializer(init)
+    if is_learned(init):
         check_space(init, chosen.space, space.record())
         chosen.check_task(DynTask((0, 0, 0), (0, 0, 0), space.gait, space.strides, space.duration),
                           solver_params(space.costs, None).dt)
 
 
 class DatasetWorker:
-    """What a worker loads once: the centroidal model, the space's terrain, parameters, initializer."""
+    """What a worker loads once: the centroidal model, the space's terrain, parameters, and the
+    initializer `init` names (`legplan.learn.initializers.initializer`)."""
 
     def __init__(self, space: TaskSpace, init: str, iterations: int | None, warm_stage: str = "costs",
                  optimize_phases: bool = False):
@@ -79,7 +72,7 @@ class DatasetWorker:
         self.model = centroidal_model(load_robot(space.robot))
         self.terrain = TerrainModel(load_terrain_map(space))
         self.params = solver_params(space.costs, iterations, warm_stage, optimize_phases)
-        self.initializer = initializer_of(init)
+        self.initializer = initializer(init)
 
 
 def dataset_items(space: TaskSpace, n: int, seed: int) -> list[tuple[int, object, np.ndarray]]:
@@ -92,6 +85,39 @@ def dataset_items(space: TaskSpace, n: int, seed: int) -> list[tuple[int, object
     model = centroidal_model(load_robot(space.robot), dyn_params(space.costs), space.costs)
     tasks = sample_tasks(space, n, np.random.default_rng(seed), model, TerrainModel(load_terrain_map(space)))
     return [(i, task, task_vector(task.start, task.goal)) for i, task in enumerate(tasks)]
+
+
+def run_in_process(task, items, description: str, *, output, identity, inputs, publish):
+    """The default batch runner of `make_dataset`: `legplan.batch.run_batch` in this process, no progress
+    bar; returns (records, what `publish` returned) as `legplan.cli.batching.run_stage` does."""
+    from legplan.batch import run_batch
+
+    with run_batch(task, items, output=output, identity=identity, inputs=inputs) as records:
+        return records, publish(records)
+
+
+def make_dataset(space: TaskSpace, space_path, count: int, seed: int, init, iterations: int | None, output, *,
+                 warm_stage: str = "costs", optimize_phases: bool = False, overwrite: bool = False,
+                 run=run_in_process) -> list[dict]:
+    """Sample `count` tasks of the space (`dataset_items`), solve each from the initializer `init` names
+    with at most `iterations` LM iterations, write dataset.h5 to `output`; returns the records.
+
+    `run(task, items, description, *, output, identity, inputs, publish)` runs the batch: in this
+    process by default, or the command's `run_stage` with its backend, progress bar and `--resume`."""
+    from legplan.batch import Task
+
+    items = dataset_items(space, count, seed)
+    learned = is_learned(init)
+    init = os.fspath(init)
+    settings = {"space": space.record(), "n": count, "init": init, "iterations": iterations, "warm_stage": warm_stage,
+                "optimize_phases": optimize_phases}
+    inputs = [space_path, space.map] + ([init] if learned else [])
+    task = Task(solve_item, failed_item, DatasetWorker,
+                (space, os.path.abspath(init) if learned else init, iterations, warm_stage, optimize_phases))
+    records, _ = run(task, items, f"learn dataset {os.path.basename(output)}", output=output,
+                     identity={"stage": "learn dataset", "seed": seed, **settings}, inputs=inputs,
+                     publish=lambda records: write_dataset(output, space, records, settings, seed, inputs, overwrite))
+    return records
 
 
 def solve_item(worker: DatasetWorker, item) -> dict:
@@ -196,3 +222,12 @@ def best_outcomes(paths) -> dict:
     merged = {name: np.stack([d[name] for d in datas])[source, rows]
               for name in ("y", "cost", "max_violation", "iterations", "seconds", "success")}
     return {**merged, "x": first["x"], "layout": first["layout"], "space": first["space"], "source": source}
+
+
+def check_space_sizes(space, space_path, warm_stage: str = "costs", optimize_phases: bool = False) -> None:
+    """The task space's tasks within the size budget and, with `optimize_phases`, long enough for
+    their phases (`legplan.dyn.tasks.check_sizes`), before any task is solved."""
+    from legplan.dyn.tasks import check_sizes
+
+    params = solver_params(space.costs, None, warm_stage, optimize_phases)
+    check_sizes([space.task((0, 0, 0), (0, 0, 0))], params, space_path, rows=False)

@@ -12,17 +12,19 @@ by `mu_growth` whenever the violation did not fall below `violation_decrease` ti
 (Nocedal & Wright, Alg. 17.4). They start at zero, or with `multipliers="least_squares"` at the
 first-order estimate of the start point (`least_squares_multipliers`): from a feasible start, zero
 multipliers let the first subproblem trade the constraints for the costs until the penalty alone
-balances them (measured on sampled pallet tasks: violation 0.5–3.9 after it, and some never
-recovered), while the estimate makes the start nearly stationary, so the steps follow the
+balances them, while the estimate makes the start nearly stationary, so the steps follow the
 constraints. Without costs every feasible point is a solution with zero
 multipliers: the subproblem is Gauss-Newton on the constraints themselves (a root of the residual is
 a feasible point), as TOWR's feasibility problem, and further outer iterations only continue it.
 
-Stopping rule (explicit): converged when the largest constraint violation is ≤ `violation_tolerance`
-and, if there are costs, the cost changed by less than `cost_tolerance` (relative) over the last
-outer iteration; failed when the iteration budget or `max_outer` is spent first, when the violation
-stops falling (`stall_outer` outer iterations in a row each keeping more than `stall_decrease` of
-it, with costs only once μ reached `mu_max`: an infeasible local minimum), or when LM fails numerically.
+The costs are typed terms (`CostTerm`: name, residual block, weight), each ½·weight·‖block‖².
+
+Stopping rule (`ALResult.status`, a `legplan.solve.lm.Status`): CONVERGED when the largest
+constraint violation is ≤ `violation_tolerance` and, if there are costs, the cost changed by less
+than `cost_tolerance` (relative) over the last outer iteration; MAX_ITERATIONS when the iteration
+budget or `max_outer` is spent first; STALLED when the violation stops falling (`stall_outer` outer
+iterations in a row each keeping more than `stall_decrease` of it, with costs only once μ reached
+`mu_max`: an infeasible local minimum); NUMERICAL_FAILURE when LM fails numerically.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ import numpy as np
 
 import scipy.sparse as sp
 
+from legplan.parameters import Parameters, param
 from legplan.solve.blocks import ResidualBlock
 from legplan.solve.hinged import HingedParams, solve_hinged_lm
 from legplan.solve.linsolve import make_solver
@@ -45,6 +48,15 @@ from legplan.solve.variables import VariableBlock
 
 
 MULTIPLIER_PASSES = 8  # active-set passes of `least_squares_multipliers`
+
+
+@dataclass(frozen=True)
+class CostTerm:
+    """One cost term: ½·`weight`·‖`block`(θ)‖², reported under `name` (terms of one name add up)."""
+
+    name: str
+    block: ResidualBlock
+    weight: float
 
 
 @dataclass
@@ -78,34 +90,33 @@ class Constraint:
 
 
 @dataclass(frozen=True)
-class ALParams:
-    """Augmented-Lagrangian parameters; `inner` are those of every subproblem (its max_iterations is
-    the per-subproblem cap; `max_iterations` here caps the LM iterations of the whole solve)."""
+class ALParams(Parameters):
+    """Augmented-Lagrangian parameters (module docstring); `inner` are those of every subproblem (its
+    max_iterations is the per-subproblem cap; `max_iterations` here caps the LM iterations of the
+    whole solve)."""
 
-    inner: HingedParams = HingedParams(max_iterations=60, tolerance=0.0, function_tolerance=1e-4)
-    violation_tolerance: float = 1e-3
-    cost_tolerance: float = 1e-3
-    mu_init: float = 1.0
-    mu_growth: float = 10.0
-    mu_max: float = 1e8
-    violation_decrease: float = 0.25
-    max_outer: int = 15
-    stall_decrease: float = 0.9  # an outer iteration whose violation exceeds this × the last one made no progress
-    stall_outer: int = 2  # stop as stalled (infeasible local minimum) after this many such in a row
-    max_iterations: int = 300
-    multipliers: str = "zero"  # initial multipliers: "zero" or "least_squares" (module docstring)
-    active_tolerance: float = 1e-4  # least_squares: a bound row within this (scaled) of its bound is active
-    exact_rows: bool = False
-    """Without costs: stop a subproblem once every row is within `violation_tolerance` (the exact test,
-    |h_i| ≤ √μ·tol·w_i). Default: the norm test ‖h‖ ≤ √μ·tol·min(w), which assumes the worst row
-    and so solves further; that precision warm-starts the next stage of a staged solve (measured:
-    the stairs walk took 158 iterations instead of 125 with the exact test in all its feasibility
-    stages), while a last stage gains nothing from it (learned projections: 4 iterations instead of 5
-    on 3 of 8 held-out pallet tasks)."""
+    what = "augmented Lagrangian"
 
-    def __post_init__(self):
-        if self.multipliers not in ("zero", "least_squares"):
-            raise ValueError(f"ALParams.multipliers: 'zero' or 'least_squares', not {self.multipliers!r}")
+    inner: HingedParams = param(HingedParams(max_iterations=60, tolerance=0.0, function_tolerance=1e-4),
+                                doc="the subproblems' hinged LM")
+    violation_tolerance: float = param(1e-3, "(0, inf)", doc="converged once every constraint row is within this")
+    cost_tolerance: float = param(1e-3, "[0, inf)", doc="and the cost changed by less, relative, over an outer iteration")
+    mu_init: float = param(1.0, "(0, inf)", "μ₀", "initial penalty")
+    mu_growth: float = param(10.0, "[1, inf)", doc="μ grows by this when the violation did not fall enough")
+    mu_max: float = param(1e8, "[mu_init, inf)", doc="largest penalty")
+    violation_decrease: float = param(0.25, "(0, 1]", doc="enough: the violation fell below this × the last one")
+    max_outer: int = param(15, "[1, inf)", doc="outer iterations (subproblems)")
+    stall_decrease: float = param(0.9, "(0, 1]", doc=(
+        "an outer iteration whose violation exceeds this × the last one made no progress"))
+    stall_outer: int = param(2, "[1, inf)", doc="stalled (infeasible local minimum) after this many such in a row")
+    max_iterations: int = param(300, "[0, inf)", doc="LM iterations of the whole solve")
+    multipliers: str = param("zero", ("zero", "least_squares"), doc="initial multipliers (module docstring)")
+    active_tolerance: float = param(1e-4, "[0, inf)", doc=(
+        "least_squares: a bound row within this (scaled) of its bound is active"))
+    exact_rows: bool = param(False, (False, True), doc=(
+        "without costs: stop a subproblem once every row is within violation_tolerance (|h_i| ≤ √μ·tol·w_i) "
+        "instead of the norm test ‖h‖ ≤ √μ·tol·min(w), which assumes the worst row and solves further: "
+        "that precision warm-starts a next stage, a last stage gains nothing from it"))
 
 
 @dataclass
@@ -113,7 +124,7 @@ class ALResult:
     """Outcome of the solve: values, why it stopped, the constraint and cost picture, the effort."""
 
     values: dict[str, np.ndarray]  # the problem's variables (slacks left out)
-    success: bool
+    status: Status
     reason: str
     iterations: int
     outer_iterations: int
@@ -124,6 +135,10 @@ class ALResult:
     history: list[dict] = field(default_factory=list)
     timings: Timings = field(default_factory=Timings)
     first_iteration_seconds: float = 0.0
+
+    @property
+    def success(self) -> bool:
+        return self.status is Status.CONVERGED
 
 
 class _AugmentedRows(ResidualBlock):
@@ -166,9 +181,8 @@ class _AugmentedRows(ResidualBlock):
 class _RowPicker:
     """diag(factor)·J[pick] of a Jacobian block J, sparsity pattern (explicit zeros) kept. A block's
     Jacobian keeps its pattern from call to call, so where its rows' entries go is worked out once
-    per pattern (`_picked_pattern`) and each call is one gather and one product: scipy's row
-    indexing and row scaling per call were a third of the augmented Lagrangian's Jacobian time on
-    the centroidal problems."""
+    per pattern (`_picked_pattern`) and each call is one gather and one product instead of scipy's
+    row indexing and row scaling."""
 
     def __init__(self, pick: np.ndarray):
         self.pick = np.asarray(pick, np.int64)
@@ -202,18 +216,17 @@ def _picked_pattern(shape, ptr_dtype, ptr, idx_dtype, idx, pick) -> tuple:
     return out
 
 
-def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequence[tuple[str, ResidualBlock, float]],
+def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequence[CostTerm],
                                constraints: Sequence[Constraint], params: ALParams = ALParams(),
                                callback: Callable[[int, float, float], None] | None = None) -> ALResult:
     """Solve min Σ w‖r‖² s.t. the constraints from the variables' current values (see module docstring).
 
-    `costs` are (name, block, weight) with ½·weight·‖block‖² each. `callback(iteration, violation,
-    cost)` is called after every subproblem.
+    `callback(iteration, violation, cost)` is called after every subproblem.
     """
     t_start = time.perf_counter()
     problem = Problem(list(variables))
-    for _, block, w in costs:
-        problem.add_residual(block, np.sqrt(w))
+    for term in costs:
+        problem.add_residual(term.block, np.sqrt(term.weight))
     rows = [problem.add_residual(_AugmentedRows(k)) for k in constraints]
     theta = problem.layout.initial()
     if costs and params.multipliers == "least_squares":
@@ -231,7 +244,7 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
     last_violation = np.inf
     stalled = 0
     last_cost = None
-    status, reason = False, ""
+    status, reason = Status.MAX_ITERATIONS, ""
     for outer in range(1, params.max_outer + 1):
         for r in rows:
             r.mu = mu
@@ -255,16 +268,17 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
         cost_terms = evaluate_costs(costs, values)
         cost = sum(cost_terms.values())
         history.append({"outer": outer, "iterations": result.iterations, "violation": violation, "cost": cost,
-                        "mu": mu, "lm": result.reason})
+                        "mu": mu, "lm": result.reason,
+                        "stopped_by": result.stopped_by})
         if callback is not None:
             callback(iterations, violation, cost)
         if result.status is Status.NUMERICAL_FAILURE:
-            status, reason = False, f"numerical failure: {result.reason}"
+            status, reason = Status.NUMERICAL_FAILURE, f"numerical failure: {result.reason}"
             break
         cost_settled = (not costs or (last_cost is not None and
                                       abs(last_cost - cost) <= params.cost_tolerance * max(abs(cost), 1e-12)))
         if violation <= params.violation_tolerance and cost_settled:
-            status = True
+            status = Status.CONVERGED
             reason = (f"max violation {violation:.2e} ≤ {params.violation_tolerance:.0e}"
                       + (f", cost change ≤ {params.cost_tolerance:.0e} relative" if costs else ""))
             break
@@ -274,6 +288,7 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
         no_progress = violation > params.stall_decrease * last_violation and (not costs or mu >= params.mu_max)
         stalled = stalled + 1 if no_progress else 0
         if stalled >= params.stall_outer:
+            status = Status.STALLED
             reason = (f"stalled infeasible: max violation {violation:.2e} fell by less than "
                       f"{1 - params.stall_decrease:.0%} over {params.stall_outer} outer iterations (local minimum)")
             break
@@ -304,8 +319,7 @@ def least_squares_multipliers(problem: Problem, rows: Sequence[_AugmentedRows], 
     the cost rows. The sign condition by an active-set loop: solve on A (CHOLMOD on J_A J_Aᵀ,
     regularized by 1e-10 of its largest diagonal entry, so redundant rows get the least-norm split),
     drop the bound rows whose y came out negative, repeat (at most `MULTIPLIER_PASSES` times; then
-    the remaining negatives are clipped). Clipping alone made the estimate worse than zero on the
-    pallet tasks (‖∇L‖ 32.6 against ‖∇f‖ 13.2; the loop: ≈ 0.6)."""
+    the remaining negatives are clipped; clipping alone can leave an estimate worse than zero)."""
     for r in rows:
         r.mu, r.y = 1.0, np.zeros(r.size)
     v, J = problem.jacobian(theta)
@@ -343,10 +357,10 @@ def least_squares_multipliers(problem: Problem, rows: Sequence[_AugmentedRows], 
         offset += r.size
 
 
-def evaluate_costs(costs, values) -> dict[str, float]:
-    """½·w·‖r‖² of every (name, block, weight) cost at the variable values (terms of one name summed)."""
+def evaluate_costs(costs: Sequence[CostTerm], values) -> dict[str, float]:
+    """½·w·‖r‖² of every `CostTerm` at the variable values (terms of one name summed)."""
     out: dict[str, float] = {}
-    for name, block, w in costs:
-        r = block.evaluate([values[v] for v in block.variables], False)[0]
-        out[name] = out.get(name, 0.0) + 0.5 * w * float(np.dot(r, r))
+    for term in costs:
+        r = term.block.evaluate([values[v] for v in term.block.variables], False)[0]
+        out[term.name] = out.get(term.name, 0.0) + 0.5 * term.weight * float(np.dot(r, r))
     return out

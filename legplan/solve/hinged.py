@@ -3,8 +3,7 @@
 Inequality constraints enter a least-squares problem as hinged rows (eq. (8b) of the Bézier paper,
 or the bound rows of an augmented Lagrangian). Plain LM linearizes max(0, v) at the current point
 only: a row inactive there is invisible to the step, which then overshoots it and is rejected, and
-λ cycles (measured on the centroidal problems: ~50 % rejected steps, hundreds of iterations). Here
-each step minimizes the piecewise-quadratic model of the hinges themselves,
+λ cycles. Here each step minimizes the piecewise-quadratic model of the hinges themselves,
 
     m(d) = ‖v_E + J_E d‖² + ‖max(0, v_H + J_H d)‖² + λ‖S⁻¹d‖²,   S = diag(JᵀJ)^(-1/2) (Marquardt),
 
@@ -12,46 +11,30 @@ by a primal active-set (semi-smooth Newton) loop: with A the hinged rows active 
 d, solve the damped normal equations of the rows E ∪ A for d⁺, move d to the minimizer of m on the
 segment [d, d⁺] (m is convex and piecewise quadratic along a line: `_model_line_search`, one sorted
 pass over the hinges' breakpoints), recompute A there, repeat until A is stable at a full move (at
-most `active_set_iterations`). Every pass lowers m, so a step never predicts an increase of ‖h‖.
-Without the line search the loop cycled when many hinges cross at once (the projection of a
-learned guess: underdetermined, λ about 1e-6) and ended on steps the model itself predicted to
-raise ‖h‖ by up to 10³, each a rejected iteration. Measured with and without it: learned guesses
-projected on 50 held-out pallet tasks, 3 → 2 not converged within 25 iterations, 199 → 161
-iterations on the tasks that took more than 5; the Heuristic on them (N = 100), median 50 → 36
-iterations, 49/50 converged either way; `bench/dyn.py` feasibility, single pallet trot 139 → 55,
-double pallet walk 54 → 27, stairs 125 → 99, single pallet walk 9 → 10 (the planner's coarse and
-fine feasibility stages then; with the paper's costs the double pallet walk's fine stage stalled, 0.39
-N off, until one stage at the full sampling replaced the pair: `legplan.dyn.planner.attempt`).
+most `active_set_iterations`). Every pass lowers m, so a step never predicts an increase of ‖h‖, and
+the loop cannot cycle when many hinges cross at once.
 
 Every solve is a numeric factorization by CHOLMOD of J_RᵀJ_R + λI from the rows R of J that are
 plain or active (its AAᵀ mode: no product formed in Python), on one symbolic analysis of the whole
 J's pattern per problem, at the first pass of a step; the later passes change a few rows, which
 the factor follows by CHOLMOD's rank updates (`CholmodSolver.refactor_rows`), and a pass whose
-active set is the one last factorized reuses that factorization. Measured against forming JᵀJ of
-the plain rows per linearization and adding the active rows' product per pass, with CHOLMOD's
-analyses cached by pattern (`linsolve.ANALYSES`) and the ordering not judged (below): the same
-iterates, and 20 held-out pallet tasks polished from a cycle-1 network took 16.2 CPU s instead of
-20.4–20.7 (one core, two runs each, quiet machine); with the rank updates, 12.7–13.1 against
-18.8–19.7, the same iterations and costs. λ follows the gain ratio ρ = actual / model decrease
-(Nielsen: λ ← λ·max(⅓, 1 − (2ρ − 1)³) on success, λ ← λ·ν, ν ← 2ν on failure).
+active set is the one last factorized reuses that factorization. λ follows the gain ratio
+ρ = actual / model decrease (Nielsen: λ ← λ·max(⅓, 1 − (2ρ − 1)³) on success, λ ← λ·ν, ν ← 2ν on
+failure).
 
 Geodesic acceleration (Transtrum & Sethna, "Improvements to the Levenberg-Marquardt algorithm for
 nonlinear least-squares minimization", 2012, eq. (14)): the step d is a velocity along the model;
 the residuals' curvature along it, r_vv ≈ (2/h)((r(θ + hd) − r(θ))/h − Jd) with h = 0.1 (one more
 residual evaluation), gives the acceleration a = −(JᵀJ + λI)⁻¹ Jᵀ r_vv from the step's own
 factorization (rows E ∪ A), and the trial point is θ + d + ½a when 2‖a‖ ≤ α‖d‖ (α =
-`geodesic_acceleration`, 0.75 as the paper recommends; 0 switches it off). Measured on the
-centroidal cases (`bench/dyn.py` tasks, no costs): single pallet trot 786 iterations, failed →
-139, converged; stairs walk 255 → 125; double pallet walk 56 → 49; the flat and single-walk cases
-unchanged (6–20). From learned guesses on 16 held-out pallet tasks: median 17 → 13 iterations.
+`geodesic_acceleration`, 0.75 as the paper recommends; 0 switches it off).
 
-Stops: ‖h‖ < `tolerance` or, given `row_tolerance`, every row within its own, |h_i| ≤ row_tolerance_i
-(converged: tested on the trial residual, so the point that meets it costs no Jacobian), an accepted
-step lowering ‖h‖² by less than
-`function_tolerance` relative or a gradient ‖Jᵀh‖∞ below `gradient_tolerance` times its initial
-value (converged:
-the minimum of a problem with costs), `max_iterations`,
-λ > `lambda_max` (stalled), or a non-finite residual (numerical failure).
+Stops (`_Stopping`, the result's `status` and `stopped_by`): ‖h‖ < `tolerance` or, given
+`row_tolerance`, every row within its own, |h_i| ≤ row_tolerance_i (converged: tested on the trial
+residual, so the point that meets it costs no Jacobian); an accepted step lowering ‖h‖² by less
+than `function_tolerance` relative, or a gradient ‖Jᵀh‖∞ below `gradient_tolerance` times its
+initial value (converged: the minimum of a problem with costs); `max_iterations`; λ > `lambda_max`
+(stalled); a non-finite residual or Jacobian (numerical failure).
 """
 
 from __future__ import annotations
@@ -63,6 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from legplan.parameters import Parameters, param
 from legplan.solve.linsolve import CholmodSolver, NotPositiveDefiniteError
 from legplan.solve.lm import MARQUARDT_FLOOR, LMResult, Status, Timings
 from legplan.solve.problem import Problem
@@ -71,21 +55,19 @@ log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
-class HingedParams:
-    """Parameters of `solve_hinged_lm` (see module docstring)."""
+class HingedParams(Parameters):
+    """Parameters of `solve_hinged_lm` (module docstring)."""
 
-    lambda_init: float = 1e-4
-    lambda_max: float = 1e12
-    max_iterations: int = 100
-    tolerance: float = 1e-10
-    function_tolerance: float = 0.0
-    gradient_tolerance: float = 1e-10
-    active_set_iterations: int = 10
-    geodesic_acceleration: float = 0.75  # α > 0: add ½a (module docstring) when 2‖a‖ ≤ α‖d‖; 0: off
+    what = "hinged LM"
 
-    def __post_init__(self):
-        if self.lambda_init <= 0 or self.max_iterations < 0 or self.active_set_iterations < 1:
-            raise ValueError("need lambda_init > 0, max_iterations ≥ 0, active_set_iterations ≥ 1")
+    lambda_init: float = param(1e-4, "(0, inf)", "λ₀", "initial damping")
+    lambda_max: float = param(1e12, "(0, inf)", doc="stalled once λ exceeds this")
+    max_iterations: int = param(100, "[0, inf)", doc="LM iterations (each one factorization)")
+    tolerance: float = param(1e-10, "[0, inf)", doc="converged once ‖h‖ < this")
+    function_tolerance: float = param(0.0, "[0, 1]", doc="converged once an accepted step lowers ‖h‖² by less, relative")
+    gradient_tolerance: float = param(1e-10, "[0, 1]", doc="converged once ‖Jᵀh‖∞ falls below this × its initial value")
+    active_set_iterations: int = param(10, "[1, inf)", doc="passes of the active-set loop per step")
+    geodesic_acceleration: float = param(0.75, "[0, inf)", "α", "add ½a when 2‖a‖ ≤ α‖d‖; 0: off")
 
 
 def hinged_norm(v: np.ndarray, hinged: np.ndarray) -> float:
@@ -111,37 +93,23 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
     hist_h, hist_l = [], []
     accepted = rejected = 0
 
-    def finish(status, reason, it, norm):
+    def finish(stop: tuple[Status, str, str], it: int, norm: float) -> LMResult:
+        status, test, reason = stop
         timings.total = time.perf_counter() - t_start
         log.info("hinged LM %s after %d iterations: ‖h‖=%.3e (%s)", status.value, it, norm, reason)
         return LMResult(theta, layout.values(theta), status, reason, it, norm, initial, hist_h, hist_l,
-                        accepted, rejected, timings)
+                        accepted, rejected, timings, test)
 
     t0 = time.perf_counter()
     v, J = problem.jacobian(theta)
     timings.evaluate += time.perf_counter() - t0
     norm = initial = hinged_norm(v, hinged)
     model = None
-    initial_gradient = None
+    stopping = _Stopping(params, hinged, row_tolerance)
     for it in range(params.max_iterations + 1):
-        if not np.isfinite(norm) or not np.all(np.isfinite(J.data)):
-            return finish(Status.NUMERICAL_FAILURE, "residual or Jacobian not finite at the current point", it, norm)
-        h = np.where(hinged, np.maximum(v, 0.0), v)
-        reason = _converged(norm, h, params.tolerance, row_tolerance)
-        if reason:
-            return finish(Status.CONVERGED, reason, it, norm)
-        gradient = float(np.abs(J.T @ h).max(initial=0.0))  # inactive hinged rows contribute nothing
-        if initial_gradient is None:
-            initial_gradient = gradient
-        if gradient <= params.gradient_tolerance * initial_gradient:
-            return finish(Status.CONVERGED, f"stationary: ‖Jᵀh‖∞ = {gradient:.1e} ≤ gradient_tolerance × its "
-                          f"initial value; ‖h‖ = {norm:.3e}", it, norm)
-        if it == params.max_iterations:
-            return finish(Status.MAX_ITERATIONS, f"reached {params.max_iterations} iterations with ‖h‖ = {norm:.3e}",
-                          it, norm)
-        if lam > params.lambda_max:
-            return finish(Status.STALLED, f"λ = {lam:.3e} exceeded lambda_max: no decrease of ‖h‖ = {norm:.3e} "
-                          "found (local minimum?)", it, norm)
+        stop = stopping.at_point(it, norm, v, J, lam)
+        if stop:
+            return finish(stop, it, norm)
         if model is None:
             t0 = time.perf_counter()
             model = _HingeModel(J, v, hinged, layout.n)
@@ -173,13 +141,9 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
             theta, norm = trial, trial_norm
             accepted += 1
             hist_h.append(norm), hist_l.append(lam)
-            reason = _converged(norm, np.where(hinged, np.maximum(trial_v, 0.0), trial_v), params.tolerance,
-                                row_tolerance)
-            if reason:
-                return finish(Status.CONVERGED, reason, it + 1, norm)
-            if decrease < params.function_tolerance:
-                return finish(Status.CONVERGED, f"step lowered ‖h‖² by {decrease:.1e} < function_tolerance = "
-                              f"{params.function_tolerance:.1e}; ‖h‖ = {norm:.3e}", it + 1, norm)
+            stop = stopping.after_step(norm, trial_v, decrease)
+            if stop:
+                return finish(stop, it + 1, norm)
             t0 = time.perf_counter()
             v, J = problem.jacobian(theta)
             model = None
@@ -191,13 +155,51 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
     raise AssertionError("unreachable: the loop returns at it == max_iterations")
 
 
-def _converged(norm: float, h: np.ndarray, tolerance: float, row_tolerance: np.ndarray | None) -> str:
-    """Why ‖h‖ or every row |h_i| is within tolerance ('' if neither)."""
-    if norm < tolerance:
-        return f"‖h‖ = {norm:.3e} < tolerance = {tolerance:.1e}"
-    if row_tolerance is not None and np.all(np.abs(h) <= row_tolerance):
-        return f"every row within its tolerance (‖h‖ = {norm:.3e})"
-    return ""
+class _Stopping:
+    """The stop tests of `solve_hinged_lm` (module docstring) as (status, parameter, reason), None to go
+    on: `at_point` before a step from the current point, `after_step` at an accepted trial point."""
+
+    def __init__(self, params: HingedParams, hinged: np.ndarray, row_tolerance: np.ndarray | None):
+        self.params, self.hinged, self.row_tolerance = params, hinged, row_tolerance
+        self.initial_gradient = None
+
+    def at_point(self, it: int, norm: float, v: np.ndarray, J, lam: float) -> tuple[Status, str, str] | None:
+        p = self.params
+        if not np.isfinite(norm) or not np.all(np.isfinite(J.data)):
+            return Status.NUMERICAL_FAILURE, "", "residual or Jacobian not finite at the current point"
+        h = np.where(self.hinged, np.maximum(v, 0.0), v)
+        stop = self._within_tolerance(norm, h)
+        if stop:
+            return stop
+        gradient = float(np.abs(J.T @ h).max(initial=0.0))  # inactive hinged rows contribute nothing
+        if self.initial_gradient is None:
+            self.initial_gradient = gradient
+        if gradient <= p.gradient_tolerance * self.initial_gradient:
+            return (Status.CONVERGED, "gradient_tolerance", f"stationary: ‖Jᵀh‖∞ = {gradient:.1e} ≤ "
+                    f"gradient_tolerance × its initial value; ‖h‖ = {norm:.3e}")
+        if it == p.max_iterations:
+            return Status.MAX_ITERATIONS, "max_iterations", f"reached {p.max_iterations} iterations with ‖h‖ = {norm:.3e}"
+        if lam > p.lambda_max:
+            return (Status.STALLED, "lambda_max", f"λ = {lam:.3e} exceeded lambda_max: no decrease of ‖h‖ = "
+                    f"{norm:.3e} found (local minimum?)")
+        return None
+
+    def after_step(self, norm: float, v: np.ndarray, decrease: float) -> tuple[Status, str, str] | None:
+        stop = self._within_tolerance(norm, np.where(self.hinged, np.maximum(v, 0.0), v))
+        if stop:
+            return stop
+        if decrease < self.params.function_tolerance:
+            return (Status.CONVERGED, "function_tolerance", f"step lowered ‖h‖² by {decrease:.1e} < "
+                    f"function_tolerance = {self.params.function_tolerance:.1e}; ‖h‖ = {norm:.3e}")
+        return None
+
+    def _within_tolerance(self, norm: float, h: np.ndarray) -> tuple[Status, str, str] | None:
+        """‖h‖ or every row |h_i| within tolerance."""
+        if norm < self.params.tolerance:
+            return Status.CONVERGED, "tolerance", f"‖h‖ = {norm:.3e} < tolerance = {self.params.tolerance:.1e}"
+        if self.row_tolerance is not None and np.all(np.abs(h) <= self.row_tolerance):
+            return Status.CONVERGED, "row_tolerance", f"every row within its tolerance (‖h‖ = {norm:.3e})"
+        return None
 
 
 GEODESIC_PROBE = 0.1  # h of the finite-difference second directional derivative (Transtrum & Sethna)

@@ -42,6 +42,8 @@ MARQUARDT_FLOOR = 1e-14  # relative: diagonal entries of JᵀJ below this times 
 
 
 class Status(enum.Enum):
+    """Why a solver stopped (`LMResult.status`, `legplan.solve.auglag.ALResult.status`)."""
+
     CONVERGED = "converged"
     MAX_ITERATIONS = "max_iterations"
     STALLED = "stalled"
@@ -108,6 +110,7 @@ class LMResult:
     accepted_steps: int = 0
     rejected_steps: int = 0
     timings: Timings = field(default_factory=Timings)
+    stopped_by: str = ""  # the parameter whose test stopped it ("tolerance", "max_iterations", ...), where known
 
     @property
     def success(self) -> bool:

@@ -69,13 +69,13 @@ def test_every_cost_block_matches_finite_differences(request, problem_name):
     """Every cost block's Jacobian (the phases' too when optimized) against finite differences."""
     problem = request.getfixturevalue(problem_name)
     values = _perturbed(problem, seed=1)
-    names = {name for name, _, _ in problem.costs}
+    names = {term.name for term in problem.costs}
     assert {"base_z_velocity", "base_angular_velocity", "force", "force_rate", "normal_force", "stair_edge",
             "swing_height"} <= names
-    for name, block, _ in problem.costs:
-        report = check_jacobian(block, {v: values[v] for v in block.variables})
-        assert report.ok(atol=1e-6, rtol=1e-5), (name, report)
-    reading = {name for name, block, _ in problem.costs if PHASES in block.variables}
+    for term in problem.costs:
+        report = check_jacobian(term.block, {v: values[v] for v in term.block.variables})
+        assert report.ok(atol=1e-6, rtol=1e-5), (term.name, report)
+    reading = {term.name for term in problem.costs if PHASES in term.block.variables}
     assert reading == (set() if problem.timing is None else TIMED_COSTS)
 
 
@@ -111,7 +111,8 @@ def test_integral_costs_equal_quadrature_of_eq_1(pallet_problem, anymal, term):
     form = pallet_problem.form
     wd = 0.3
     weights = CostWeights(**{term: 1.0, "derivative_weight": wd})
-    (name, block, _), = integral_costs(form, weights, anymal.mass)
+    (cost,) = integral_costs(form, weights, anymal.mass)
+    block = cost.block
     values = _perturbed(pallet_problem, seed=2)
     r = block.evaluate([values[v] for v in block.variables], False)[0]
     lin, ang = values["base_lin"].reshape(-1, 3), values["base_ang"].reshape(-1, 3)

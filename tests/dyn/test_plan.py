@@ -6,8 +6,10 @@ import numpy as np
 import pytest
 
 from legplan.dyn.constraints import GRAVITY
-from legplan.dyn.planner import POLISH_RESERVE, plan
+from legplan.dyn.planner import POLISH_RESERVE, Start, When, plan, schedule
 from legplan.dyn.problem import PAPER_COSTS, DynParams, DynTask, build_problem, range_excess_times
+from legplan.errors import LegplanError
+from legplan.solve import Status
 
 
 def _newton_euler_at_knots(result, anymal):
@@ -48,7 +50,7 @@ def test_step_climb_keeps_swing_feet_above_the_step(anymal, step):
 def test_infeasible_task_fails_with_a_reason(anymal, flat):
     # 1.5 m in 0.8 s with one stride: far beyond the range of motion
     r = plan(DynTask((0.0, 0.0, 0.0), (1.5, 0.0, 0.0), "walk", 1, 0.8), anymal, flat, DynParams())
-    assert not r.success
+    assert not r.success and r.status is not Status.CONVERGED and r.stages[-1].status is r.status
     assert r.solve.max_violation > 1e-3 and r.reason
 
 
@@ -59,7 +61,7 @@ def test_iteration_budget_caps_every_stage_together(anymal, flat):
     assert full.success and full.solve.iterations > 2, full.reason
     r = plan(task, anymal, flat, replace(params, iteration_budget=full.solve.iterations - 2))
     assert not r.success and r.solve.iterations <= full.solve.iterations - 2
-    assert "budget" in r.reason
+    assert r.status is Status.MAX_ITERATIONS
 
 
 def test_a_budget_spent_before_the_costs_settle_is_no_solution(anymal, flat):
@@ -69,13 +71,15 @@ def test_a_budget_spent_before_the_costs_settle_is_no_solution(anymal, flat):
     task = DynTask((0.0, 0.0, 0.0), (0.6, 0.1, 0.2), "trot", 3, 2.0)
     params = replace(DynParams(), costs=PAPER_COSTS)
     full = plan(task, anymal, flat, params)
-    assert full.success and "; costs:" in full.reason, full.reason
-    before_costs = sum(h["iterations"] for h in full.solve.history if "feasibility" in h["stage"])
+    assert full.success and [s.name for s in full.stages][:2] == ["feasibility", "costs"], full.reason
+    assert all(s.status is Status.CONVERGED for s in full.stages)
+    before_costs = full.stages[0].result.iterations
     for extra in (0, 1):  # the costs stage gets no iteration, or one (not enough to settle)
         r = plan(task, anymal, flat, replace(params, iteration_budget=before_costs + extra))
         assert not r.success, r.reason
         assert extra or r.solve.max_violation <= 1e-3  # feasible all the same
-        assert "costs: iteration budget" in r.reason and "feasibility after costs" not in r.reason
+        assert [(s.name, s.status) for s in r.stages] == [("feasibility", Status.CONVERGED),
+                                                          ("costs", Status.MAX_ITERATIONS)]
 
 
 class _Replay:
@@ -96,7 +100,7 @@ def test_a_near_solution_guess_is_solved_in_one_stage(anymal, step):
     first = plan(task, anymal, step, params)
     assert first.success, first.reason
     again = plan(task, anymal, step, params, _Replay(first.solve.values))
-    assert again.success and again.reason.startswith("max violation")  # one stage, no stage names
+    assert again.success and [(s.name, s.status) for s in again.stages] == [("direct", Status.CONVERGED)]
     assert again.solve.iterations <= 8 < first.solve.iterations
     assert again.solve.cost <= first.solve.cost * (1 + 1e-2)
 
@@ -114,7 +118,7 @@ def test_a_near_solution_guess_is_projected_onto_the_constraints_with_warm_stage
     projected = plan(task, anymal, step, replace(params, warm_stage="projection"), _Replay(guess))
     costs = plan(task, anymal, step, params, _Replay(guess))
     assert projected.success and costs.success, (projected.reason, costs.reason)
-    assert "cost change" not in projected.reason  # the constraints alone: no cost test
+    assert [s.name for s in projected.stages] == ["projection"] and not projected.problem.costs  # constraints alone
     assert projected.solve.iterations < costs.solve.iterations
     violations = [float(k.violation(np.asarray(k.block.evaluate([projected.solve.values[v] for v in k.block.variables],
                                                                 False)[0])).max(initial=0.0))
@@ -151,38 +155,62 @@ def test_warm_stage_polish_optimizes_the_costs_only_of_a_projection_above_the_bo
     projected = plan(task, anymal, step, replace(params, warm_stage="projection"), _Replay(guess))
     assert projected.success, projected.reason
     within = plan(task, anymal, step, replace(params, warm_stage="polish"), _Bounded(guess, projected.solve.cost))
-    assert within.reason == projected.reason and within.solve.cost == projected.solve.cost
+    assert [s.name for s in within.stages] == ["projection"] and within.solve.cost == projected.solve.cost
     c = projected.solve.cost
     lenient = plan(task, anymal, step, replace(params, warm_stage="polish", polish_tolerance=2.0),
                    _Bounded(guess, 0.9 * c, 0.2 * c))  # above the filter's bound, within twice its threshold
-    assert lenient.reason == projected.reason
+    assert [s.name for s in lenient.stages] == ["projection"]
     budget = 40
     above = plan(task, anymal, step, replace(params, warm_stage="polish", iteration_budget=budget),
                  _Bounded(guess, 0.5 * projected.solve.cost))
     assert above.success, above.reason
-    assert "projection after costs" in above.reason and "kept" not in above.reason
+    names = [s.name for s in above.stages]
+    assert names[:3] == ["projection", "costs", "projection after costs"] and "projection kept" not in names
     assert above.solve.cost < projected.solve.cost
     assert above.solve.iterations > projected.solve.iterations and above.solve.iterations <= budget
     assert sum(h["iterations"] for h in above.solve.history) == above.solve.iterations
     tight = plan(task, anymal, step, replace(params, warm_stage="polish",
                                              iteration_budget=projected.solve.iterations + 1),
                  _Bounded(guess, 0.5 * projected.solve.cost))  # one iteration of costs: not converged
-    assert tight.success and "projection kept" in tight.reason
+    assert tight.success and [s.name for s in tight.stages][:4] == ["projection", "costs", "projection after costs",
+                                                                   "projection kept"]
     assert tight.solve.cost == pytest.approx(projected.solve.cost)
     assert np.array_equal(tight.solve.values["base_lin"], projected.solve.values["base_lin"])
     assert tight.solve.iterations == projected.solve.iterations + 1
     reserved = replace(params, warm_stage="polish", iteration_budget=projected.solve.iterations + 2 + POLISH_RESERVE)
     kept = plan(task, anymal, step, reserved, _Bounded(guess, 0.5 * projected.solve.cost))
-    spent = {name: sum(h["iterations"] for h in kept.solve.history if h["stage"] == name)
+    spent = {name: sum(s.result.iterations for s in kept.stages if s.name == name)
              for name in ("costs", "projection after costs")}
     assert spent["costs"] <= 2 and spent["projection after costs"] >= 1  # the costs leave the last projection its share
 
 
+def test_the_schedule_is_declared_as_data():
+    """Without a near-solution guess: feasibility, then with costs the costs and a projection back,
+    the same with TOWR's swing constraint switched, then the range refinements; from one: a single
+    stage first (the costs, or the projection and with "polish" its polishing stages)."""
+    plain = schedule(DynParams())
+    assert [s.name for s in plain] == ["feasibility", "feasibility (with TOWR's swing constraint)",
+                                       "without TOWR's swing constraint (with TOWR's swing constraint)",
+                                       "range of motion", "range of motion", "range of motion"]
+    assert [s.when for s in plain[:3]] == [When.START, When.START, When.FAILED]
+    assert [s.towr_swing for s in plain[:3]] == [False, True, False] and plain[0].start is Start.GUESS
+    costs = replace(DynParams(), costs=PAPER_COSTS)
+    assert [(s.name, s.costs, s.solver) for s in schedule(costs)[:3]] == [
+        ("feasibility", False, "solver"), ("costs", True, "cost_solver"), ("feasibility after costs", False, "solver")]
+    assert schedule(costs, near_solution=True)[0] == schedule(costs)[0].__class__(
+        "direct", True, "warm_solver", When.START, Start.NEAR_GUESS)
+    polish = schedule(replace(costs, warm_stage="polish"), near_solution=True)
+    assert [(s.name, s.when) for s in polish[:3]] == [("projection", When.START), ("costs", When.ABOVE_BOUND),
+                                                      ("projection after costs", When.AFTER)]
+    assert polish[1].reserve == POLISH_RESERVE and polish[2].keeps_better
+    assert schedule(DynParams(), near_solution=True) == plain  # no costs, warm stage "costs": nothing to do first
+
+
 def test_warm_stage_is_costs_or_projection():
-    with pytest.raises(ValueError, match="warm_stage"):
+    with pytest.raises(LegplanError, match="warm_stage"):
         DynParams(warm_stage="feasibility")
     for bad in (-0.5, float("nan")):
-        with pytest.raises(ValueError, match="polish_tolerance"):
+        with pytest.raises(LegplanError, match="polish_tolerance"):
             DynParams(polish_tolerance=bad)
 
 
@@ -227,7 +255,7 @@ def test_a_near_solution_guess_is_sampled_where_it_comes_near_its_range_of_motio
     guess["forces"] *= 1.05
     params = replace(DynParams(), warm_stage="projection")
     projected = plan(task, anymal, flat, params, _Replay(guess))
-    assert projected.success and "range of motion at" not in projected.reason, projected.reason
+    assert projected.success and [s.name for s in projected.stages] == ["projection"], projected.reason
     assert projected.problem.range_times.size and _range_excess(projected, anymal) <= 1e-6
     near = range_excess_times(projected.problem, guess, -planner.GUESS_RANGE_NEAR)
     assert np.array_equal(projected.problem.range_times, near)
@@ -242,11 +270,11 @@ def test_range_refinement_of_a_plan_with_costs_keeps_its_cost_terms(anymal, flat
     task = DynTask((0.0, 0.0, 0.0), (1.5, 0.0, 0.0), "walk", 4, 3.5)
     result = plan(task, anymal, flat, replace(DynParams(), costs=PAPER_COSTS))
     assert result.success, result.reason
-    assert "range of motion at" in result.reason  # the last stage was a refinement
+    assert result.stages[-1].name == "range of motion"  # the last stage was a refinement
     assert _range_excess(result, anymal) <= 1e-9
-    expected = {name: 0.5 * w * float(np.sum(block.evaluate([result.solve.values[v] for v in block.variables],
-                                                            False)[0] ** 2))
-                for name, block, w in integral_costs(result.problem.form, PAPER_COSTS, anymal.mass)}
+    expected = {t.name: 0.5 * t.weight * float(np.sum(t.block.evaluate([result.solve.values[v] for v in t.block.variables],
+                                                                       False)[0] ** 2))
+                for t in integral_costs(result.problem.form, PAPER_COSTS, anymal.mass)}
     for name, value in expected.items():
         assert result.solve.cost_terms[name] == pytest.approx(value, rel=1e-9)
     assert result.solve.cost == pytest.approx(sum(result.solve.cost_terms.values()), rel=1e-12)

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from legplan.dyn.problem import PAPER, DynParams, DynTask
-from legplan.dyn.settings import dyn_params, initializer
+from legplan.dyn.settings import dyn_params
 from legplan.dyn.tasks import centroidal_model, check_placements, command_line_task, placement_problem, read_tasks
 from legplan.dyn.terrain import TerrainModel
 from legplan.errors import LegplanError, SpecError
@@ -132,5 +132,3 @@ def test_costs_presets_and_files(tmp_path):
             dyn_params(str(good))
     with pytest.raises(LegplanError, match="--costs: 'missing.yaml' is neither a preset"):
         dyn_params("missing.yaml")
-    with pytest.raises(LegplanError, match="--init: unknown initializer 'learned'"):
-        initializer("learned")

@@ -264,7 +264,8 @@ def test_an_invalid_timing_gives_nan_residuals_and_refuses_jacobians(timed_probl
         with pytest.raises(ValueError, match="phase durations"):
             k.block.evaluate(at(bad), True)
         np.testing.assert_array_equal(k.block.evaluate(at(values[PHASES]), False)[0], good)
-    for name, block, _ in timed_problem.costs:
+    for term in timed_problem.costs:
+        name, block = term.name, term.block
         if PHASES in block.variables:
             at = [bad if v == PHASES else values[v] for v in block.variables]
             r = block.evaluate(at, False)[0]

@@ -1,0 +1,49 @@
+"""The `--init` resolver: the initializer object a command hands the planner, y₀ = A(x) of eq. (2).
+
+    init = initializer("heuristic")      # A_h, `legplan.dyn.init.heuristic`
+    init = initializer("init_2.h5")      # A_θ, `legplan.learn.network.LearnedInit`
+    plan(task, model, terrain, params, init)
+
+The planner (`legplan.dyn`) takes any callable of the initializer signature and never resolves a
+name: the names and the learned initializer live here, above it. Every command that takes `--init`
+(`dyn plan`, `learn dataset`, `learn cycle`) resolves it through `initializer`, and
+`check_warm_stage` refuses a warm stage that needs a learned guess before any work.
+"""
+
+from __future__ import annotations
+
+import os
+
+from legplan.dyn.init import INITIALIZERS
+from legplan.errors import LegplanError
+from legplan.learn.network import LearnedInit, load_bound, missing_filter
+
+
+def is_learned(name) -> bool:
+    """Whether `--init` names a trained init.h5 (A_θ) rather than a built-in initializer."""
+    return os.fspath(name).endswith(".h5")
+
+
+def initializer(name) -> object:
+    """The initializer `--init` names: one of `legplan.dyn.init.INITIALIZERS`, or an init.h5 trained by
+    `legplan learn train` (the learned initializer, eq. (2) with A_θ); a one-line error otherwise."""
+    name = os.fspath(name)
+    if is_learned(name):
+        if not os.path.isfile(name):
+            raise LegplanError(f"--init: {name}: no such file")
+        return LearnedInit(os.path.abspath(name))
+    if name not in INITIALIZERS:
+        raise LegplanError(f"--init: unknown initializer '{name}' (known: {', '.join(INITIALIZERS)})")
+    return INITIALIZERS[name]
+
+
+def check_warm_stage(warm_stage: str, init) -> None:
+    """`--warm-stage projection` and `polish` project a learned guess: refused (one line) with any other
+    `--init`; `polish` also needs the training filter an init.h5 keeps (`learn.network.CostBound`)."""
+    if warm_stage == "costs":
+        return
+    if not is_learned(init):
+        raise LegplanError(f"--warm-stage {warm_stage}: needs a learned --init INIT.h5, not '{init}' "
+                           "(only a near-solution guess is projected; others are solved in stages)")
+    if warm_stage == "polish" and os.path.isfile(init) and load_bound(init) is None:
+        raise missing_filter(init)
