@@ -25,7 +25,8 @@ TIBIA = 0.138   # m, the hexapod's tibia cylinder length: its far end is the foo
 @pytest.fixture(scope="module")
 def drafted(tmp_path_factory):
     before = hashlib.sha256(HEXAPOD.read_bytes()).hexdigest()
-    path = write_draft(HEXAPOD, tmp_path_factory.mktemp("robots") / "phantom")
+    path, draft = write_draft(HEXAPOD, tmp_path_factory.mktemp("robots") / "phantom")
+    assert draft.warnings == ()
     assert hashlib.sha256(HEXAPOD.read_bytes()).hexdigest() == before      # the URDF is not edited
     return path
 
@@ -105,7 +106,7 @@ def test_check_errors_and_warnings_on_the_toy(tmp_path):
 
 def test_leg_names_and_spheres_of_primitives():
     assert leg_names([["coxa_lf", "femur_lf"], ["coxa_rf", "femur_rf"]]) == ["lf", "rf"]
-    assert leg_names([["LF_HAA", "LF_KFE"], ["RF_HAA", "RF_KFE"]]) == ["lf", "rf"]
+    assert leg_names([["LF_HAA", "LF_KFE"], ["RF_HAA", "RF_KFE"]]) == ["LF", "RF"]   # as the URDF writes them
     assert leg_names([["a", "b"], ["c", "d"]]) == ["leg0", "leg1"]
     box = Primitive("box", (0.3, 0.1, 0.04), pin.SE3(np.eye(3), np.array([0.1, 0, 0])))
     spheres = primitive_spheres(box)
