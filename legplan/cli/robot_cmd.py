@@ -106,25 +106,30 @@ def init_command(urdf, folder, name, feet, height, package_paths, friction, max_
 
 @command.command("check")
 @click.argument("robot")
+@click.option("--package-path", "package_paths", multiple=True, type=click.Path(file_okay=False),
+              help="A folder holding ROS packages (or a package itself) for package:// meshes. Repeatable.")
 @json_opt
 @verbosity_opts
 @click.pass_context
-def check_command(ctx, robot, as_json):
+def check_command(ctx, robot, package_paths, as_json):
     """Check ROBOT (a name or a path to a robot folder / robot.yaml): feet at the distal end of each
-    chain, base height, nominal stance on the ground with no sphere in it (errors: exit 1), link
-    inertias (warnings). legplan.robots.check lists the rules."""
+    chain, base height, nominal stance on the ground with no sphere in it, the centroidal section
+    against the URDF (mass, inertia, CoM, nominal feet, range of motion reachable by IK, force limit
+    against the joint efforts) and link inertias. One line per finding naming its field; errors
+    exit 1, warnings and notes do not. legplan.robots.check lists the rules."""
     from legplan.robots import load_robot
     from legplan.robots.check import check_robot
 
-    model = load_robot(robot)
-    findings = check_robot(model)
+    model = load_robot(robot, strict=False)
+    findings = check_robot(model, package_paths)
     errors = [f for f in findings if f.severity == "error"]
+    warnings = [f for f in findings if f.severity == "warning"]
     if as_json:
         click.echo(json.dumps([vars(f) for f in findings], indent=2))
     else:
         for finding in findings:
             click.echo(f"{finding.severity}: {finding}")
-        click.echo(f"{model.name}: {len(errors)} errors, {len(findings) - len(errors)} warnings")
+        click.echo(f"{model.name}: {len(errors)} errors, {len(warnings)} warnings")
     if errors:
         ctx.exit(1)
 

@@ -206,6 +206,21 @@ def lowest_point(model: pin.Model, data: pin.Data, links: UrdfLinks, link: str) 
     return placement.actInv(low)
 
 
+def contact_point(model: pin.Model, data: pin.Data, links: UrdfLinks, joint: int, urdf: Path) -> tuple[str, np.ndarray]:
+    """(link, offset in its frame) of the foot `robot init` drafts for the leg whose last joint is
+    `joint`, at the stance `data` holds: a foot link's lowest point (its origin when it has no
+    geometry), else the far end of the last link's primitives, or the lowest point of its meshes."""
+    frame = foot_link(model, joint)
+    if frame is not None:
+        name = model.frames[frame].name
+        low = lowest_point(model, data, links, name)
+        return name, np.zeros(3) if low is None else low
+    link, offset = foot_point(model, links, joint, urdf)
+    if not links.primitives.get(link):
+        offset = lowest_point(model, data, links, link)
+    return link, offset
+
+
 def primitive_spheres(shape: Primitive) -> list[tuple[np.ndarray, float]]:
     """(centre in the link frame, radius) of the spheres standing for one primitive."""
     if shape.kind == "sphere":
@@ -446,10 +461,15 @@ def draft_robot(urdf: str | Path, name: str, options: DraftOptions | None = None
     if any(refine for _, _, refine in chosen):        # the contact point: lowest in this stance
         data = model.createData()
         pin.framesForwardKinematics(model, data, q)
-        chosen = [(link, lowest_point(model, data, links, link), True) if refine else (link, offset, False)
-                  for link, offset, refine in chosen]
-        chosen = [(link, np.zeros(3) if offset is None else offset, refine) for link, offset, refine in chosen]
-        chosen = [(link, np.round(offset, 4), refine) for link, offset, refine in chosen]
+        refined = []
+        for leg, chain, (link, offset, refine) in zip(names, chains, chosen):
+            if leg not in options.feet:
+                link, offset = contact_point(model, data, links, chain[-1], urdf)
+            elif refine:
+                low = lowest_point(model, data, links, link)
+                offset = np.zeros(3) if low is None else low
+            refined.append((link, np.round(offset, 4), refine))
+        chosen = refined
         model, feet, q = stance(chosen)
     legs = [LegDraft(leg, tuple(model.names[j] for j in chain), link, np.round(offset, 4), frame)
             for leg, chain, (link, offset, _), frame in zip(names, chains, chosen, frames)]

@@ -68,9 +68,14 @@ def test_check_finds_a_foot_moved_off_the_far_end(drafted, tmp_path):
     spec["urdf"] = str(HEXAPOD)
     spec["legs"][1]["foot"]["offset"] = [TIBIA, 0.03, 0]   # 3 cm along the pitch axis: same height
     (tmp_path / "robot.yaml").write_text(yaml.safe_dump(spec))
+    with pytest.raises(LegplanError, match=r"field 'centroidal\.nominal_feet\.lm' is \(0\.000, 0\.228, -0\.143\) m but "
+                       r"the nominal stance puts the foot at \(-0\.030, 0\.228, -0\.143\) m \(30\.0 mm away\)"):
+        load_robot(tmp_path)                                # the centroidal section no longer matches
+    del spec["centroidal"]
+    (tmp_path / "robot.yaml").write_text(yaml.safe_dump(spec))
     findings = check_robot(load_robot(tmp_path))
     assert [(f.severity, f.subject) for f in findings] == [("warning", "leg lm")]
-    assert "30.0 mm from the far end of link 'tibia_lm''s geometry" in findings[0].message
+    assert "30.0 mm from where robot init puts the foot (link 'tibia_lm''s geometry" in findings[0].message
 
 
 def _toy_check(tmp_path, edit=None, urdf_edit=None):
