@@ -308,16 +308,19 @@ def _solve_leg(model, chain, foot, goal, height, centre, lower, upper, rng):
         return (knee[0] - (hip[0] + tip[0]) / 2) * np.sign(centre[0] - hip[0])
 
     seed_lo, seed_hi = np.maximum(lo, -math.pi), np.minimum(hi, math.pi)
-    seeds = [np.zeros(len(idx))]
-    for side in (1.0, -1.0):
+    seeds = []
+    for side in (1.0, -1.0):                      # both knee branches
         bent = np.zeros(len(idx))
         bent[-1] = side
         if len(idx) > 1:
             bent[-2] = -0.5 * side
         seeds.append(bent)
+    seeds.append(np.zeros(len(idx)))
     seeds += [rng.uniform(seed_lo, seed_hi) * 0.5 for _ in range(STANCE_STARTS - len(seeds))]
     found = []
-    for seed in seeds:
+    for k, seed in enumerate(seeds):
+        if found and goal.hanging and k >= 2:     # the two knee branches are the answers of a hanging leg
+            break
         fit = least_squares(residuals, np.clip(seed, lo + 1e-3, hi - 1e-3), jac=jacobian,
                             bounds=(lo + 1e-3, hi - 1e-3), xtol=1e-12)
         r = residuals(fit.x)

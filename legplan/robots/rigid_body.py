@@ -16,8 +16,8 @@ and the robot loader hold a written section against them.
   (`legplan.robots.legik`): per axis `REACH_FRACTION` of the shortest reach along ±axis,
   at most `NEIGHBOUR_FRACTION` of the distance to the nearest foot along that axis, shrunk until all
   corners are reached. The reach along a direction is the last of `REACH_STEPS` equal steps up to
-  the leg length reached (IK from the nominal stance) without a miss before it; the corners are
-  then checked with every start of the IK.
+  the leg length reached (IK from the nominal stance) without a miss before it. IK from the nominal
+  stance alone suffices: a corner it reaches is reachable, and one it misses only shrinks the box.
 """
 
 from __future__ import annotations
@@ -151,10 +151,10 @@ def box_corners(range_of_motion) -> np.ndarray:
     return signs * np.asarray(range_of_motion, float)
 
 
-def unreachable_corners(robot, feet, range_of_motion) -> np.ndarray:
+def unreachable_corners(robot, feet, range_of_motion, starts: int | None = None) -> np.ndarray:
     """(8, n_legs) True where a leg does not reach a corner of the box around its nominal foot
-    `feet` (n_legs, 3, base frame)."""
-    return ~_reached(robot, np.asarray(feet, float), box_corners(range_of_motion))
+    `feet` (n_legs, 3, base frame) by IK from `starts` starts (None: all of `leg_reach`'s)."""
+    return ~_reached(robot, np.asarray(feet, float), box_corners(range_of_motion), starts)
 
 
 def reach_box(robot, feet) -> np.ndarray:
@@ -174,7 +174,7 @@ def reach_box(robot, feet) -> np.ndarray:
         if len(gaps):
             box[axis] = min(box[axis], NEIGHBOUR_FRACTION * gaps.min())
     for _ in range(30):
-        if not unreachable_corners(robot, feet, box).any():
+        if not unreachable_corners(robot, feet, box, starts=1).any():   # reached: proven
             return np.floor(box * 1e3) / 1e3
         box *= SHRINK
     return np.zeros(3)
