@@ -85,9 +85,12 @@ def _foot_option(text: str) -> tuple[str, tuple[str, list[float] | None]]:
               help="centroidal.friction (default 0.5).")
 @click.option("--max-normal-force", type=click.FloatRange(min=0.0, min_open=True), default=None,
               help="centroidal.max_normal_force (N); default: from the joint efforts.")
+@click.option("--no-centroidal", "no_centroidal", is_flag=True,
+              help="Draft no centroidal section (legs that cannot move their feet in 3D, robots not for dyn).")
 @overwrite_opt
 @verbosity_opts
-def init_command(urdf, folder, name, feet, height, package_paths, friction, max_normal_force, overwrite):
+def init_command(urdf, folder, name, feet, height, package_paths, friction, max_normal_force, no_centroidal,
+                 overwrite):
     """Draft robot.yaml for URDF: leg chains, feet (the URDF's foot links, else the far end of each
     last link), collision spheres, joint limits, a nominal stance on the ground and the centroidal
     section (legplan.robots.draft; the URDF is not edited). Review it, then run `legplan robot check`."""
@@ -97,7 +100,7 @@ def init_command(urdf, folder, name, feet, height, package_paths, friction, max_
     options = DraftOptions(feet=dict(_foot_option(text) for text in feet), height=height,
                            package_paths=tuple(package_paths),
                            friction=DRAFT_FRICTION if friction is None else friction,
-                           max_normal_force=max_normal_force)
+                           max_normal_force=max_normal_force, centroidal=not no_centroidal)
     path, draft = write_draft(urdf, folder, name, overwrite, options)
     for warning in draft.warnings:
         stderr_line(warning, "warning:", "bold yellow")

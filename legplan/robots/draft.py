@@ -27,7 +27,10 @@
   respected) at `STANCE_DEPTH` of that drop below the hip, knee bent towards the body's centre
   unless the joint limits decide; a leg that spreads sideways puts its foot at half its horizontal
   reach, hip-to-foot distance `REACH_FRACTION` × chain length, knee highest. h is the legs' mean
-  (or `--height`); each leg is a least-squares IK inside the joint limits from several starts.
+  (or `--height`); each leg is a least-squares IK inside the joint limits from several starts. When
+  the contact point is the lowest point of the foot's geometry, the stance is solved twice: with
+  the foot link's origin, then with the contact point found there, at the same (x, y), the base
+  raised by the contact point's depth (the legs keep their bend).
 - Joint limits (`sanitized_limits`): the URDF's, except a revolute range of 2π or more (not a
   physical stop): the knee (a leg's last joint) from nearly stretched (`KNEE_MARGIN`) to folded
   (`KNEE_FOLD`) on its nominal side, other joints the nominal angle ± π/2; a warning names them.
@@ -42,7 +45,7 @@ from __future__ import annotations
 import math
 import os
 import tempfile
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 
 import numpy as np
@@ -71,13 +74,15 @@ SMALLEST_SPHERE = 0.02     # of the mean leg length: smaller spheres (markers, s
 class DraftOptions:
     """What the command line sets: `feet` leg name -> (link, offset or None for the lowest point of
     the link's geometry), the base `height` (m), `package_paths` searched for `package://`, and
-    the centroidal `friction` and `max_normal_force` (None: from the joint efforts)."""
+    the centroidal `friction` and `max_normal_force` (None: from the joint efforts); `centroidal`
+    False drafts no centroidal section."""
 
     feet: dict = field(default_factory=dict)
     height: float | None = None
     package_paths: tuple = ()
     friction: float = DRAFT_FRICTION
     max_normal_force: float | None = None
+    centroidal: bool = True
 
 
 @dataclass(frozen=True)
@@ -332,9 +337,13 @@ def _solve_leg(model, chain, foot, goal, height, centre, lower, upper, rng):
     return max((f for f in found if f[0] <= best_xy + 1e-3), key=lambda f: f[1])[2]
 
 
-def solve_stance(model: pin.Model, chains, feet, urdf: Path, height: float | None = None) -> np.ndarray:
-    """The nominal configuration q (nq,): level base, every foot on z = 0 near its goal."""
+def solve_stance(model: pin.Model, chains, feet, urdf: Path, height: float | None = None,
+                 targets=None) -> np.ndarray:
+    """The nominal configuration q (nq,): level base, every foot on z = 0 near its goal (at
+    `targets` (n_legs, 2) when given)."""
     goals, centre = _leg_goals(model, chains, feet)
+    if targets is not None:
+        goals = [replace(goal, target=np.asarray(target, float)) for goal, target in zip(goals, targets)]
     base = float(np.mean([g.depth for g in goals])) if height is None else height
     lower, upper = model.lowerPositionLimit[7:], model.upperPositionLimit[7:]
     rng = np.random.default_rng(0)
@@ -455,15 +464,16 @@ def draft_robot(urdf: str | Path, name: str, options: DraftOptions | None = None
     chosen = _choose_feet(base_model, links, chains, names, options, urdf)
     frames = [_foot_frame_name(base_model, leg) for leg in names]
 
-    def stance(points):
+    def stance(points, height=options.height, targets=None):
         model = pin.Model(base_model)
         feet = [add_foot_frame(model, link, offset, frame) for (link, offset, _), frame in zip(points, frames)]
-        return model, feet, solve_stance(model, chains, feet, urdf, options.height)
+        return model, feet, solve_stance(model, chains, feet, urdf, height, targets)
 
     model, feet, q = stance(chosen)
     if any(refine for _, _, refine in chosen):        # the contact point: lowest in this stance
         data = model.createData()
         pin.framesForwardKinematics(model, data, q)
+        targets = [data.oMf[f].translation[:2].copy() for f in feet]   # where the first stance put the feet
         refined = []
         for leg, chain, (link, offset, refine) in zip(names, chains, chosen):
             if leg not in options.feet:
@@ -472,8 +482,10 @@ def draft_robot(urdf: str | Path, name: str, options: DraftOptions | None = None
                 low = lowest_point(model, data, links, link)
                 offset = np.zeros(3) if low is None else low
             refined.append((link, np.round(offset, 4), refine))
+        below = np.mean([data.oMf[model.getFrameId(link, pin.FrameType.BODY)].act(offset)[2]
+                         for link, offset, _ in refined])
         chosen = refined
-        model, feet, q = stance(chosen)
+        model, feet, q = stance(chosen, options.height or float(q[2] - below), targets)
     legs = [LegDraft(leg, tuple(model.names[j] for j in chain), link, np.round(offset, 4), frame)
             for leg, chain, (link, offset, _), frame in zip(names, chains, chosen, frames)]
     limits, replaced = sanitized_limits(model, chains, feet, q)
@@ -599,8 +611,10 @@ def draft_centroidal(draft: RobotDraft, options: DraftOptions | None = None) -> 
     body = composite_body(robot.model, robot.q_nominal, [leg.foot_frame_id for leg in robot.legs])
     box = reach_box(robot, body.feet)
     if not np.all(box > 0):
-        raise LegplanError(f"{draft.urdf}: centroidal.range_of_motion: no box around the nominal feet is reachable "
-                           "inside the joint limits; write the centroidal section by hand")
+        stuck = "no box around the nominal feet" if not box.any() else \
+            f"the feet cannot move along {', '.join('xyz'[k] for k in np.flatnonzero(box <= 0))}"
+        raise LegplanError(f"{draft.urdf}: centroidal.range_of_motion: {stuck} inside the joint limits (a centroidal "
+                           "model needs a box with three positive extents); draft with --no-centroidal")
     forces = leg_forces(robot)
     warnings = list(draft.warnings)
     if options.max_normal_force is not None:
@@ -639,7 +653,10 @@ def write_draft(urdf: str | Path, folder: str | Path, name: str | None = None, o
     urdf_abs, folder_abs = Path(urdf).resolve(), folder.resolve()
     related = os.path.commonpath([urdf_abs, folder_abs]) != os.path.sep
     urdf_ref = os.path.relpath(urdf_abs, folder_abs) if related else str(urdf_abs)
-    draft = draft_centroidal(draft_robot(urdf, name or folder.resolve().name, options), options)
+    options = options or DraftOptions()
+    draft = draft_robot(urdf, name or folder.resolve().name, options)
+    if options.centroidal:
+        draft = draft_centroidal(draft, options)
     folder.mkdir(parents=True, exist_ok=True)
     with staged_output(target, overwrite=overwrite) as temp:
         Path(temp).write_text(draft_yaml(draft, urdf_ref))
