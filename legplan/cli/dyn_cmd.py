@@ -69,6 +69,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     from legplan.dyn.terrain import TerrainModel
     from legplan.learn.initializers import check_warm_stage, initializer
     from legplan.robots import load_robot
+    from legplan.stepseq.robotinfo import robot_reference
     from legplan.terrain import load_map
 
     check_output(output, overwrite)
@@ -97,10 +98,11 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     settings = {**settings_record(costs, init, params), **{k: v for k, v in options.items() if v is not None}}
     inputs = [path for path in (map_path, tasks_path, costs_file(costs)) if path is not None]
     task = Task(plan_item, failed_item, DynWorker, (robot, os.path.abspath(map_path), params, init_fn))
+    reference = robot_reference(loaded)   # the name, or the robot.yaml's path when given by path
     records, _ = run_stage(task, task_items(tasks), "dyn plan", output=output,
                            identity={"stage": "dyn plan", "params": settings}, inputs=inputs, jobs=jobs,
                            scheduler=scheduler, resume=resume, overwrite=overwrite,
-                           publish=lambda records: write_traj(output, records, settings, loaded.name, model.legs,
+                           publish=lambda records: write_traj(output, records, settings, reference, model.legs,
                                                               inputs=inputs, overwrite=overwrite))
     failed = [r for r in records if not r["success"]]
     status(f"wrote {output}: {len(records) - len(failed)}/{len(records)} tasks planned")

@@ -47,44 +47,92 @@ def list_command(as_json):
                    f"{row['mass']:.2f} kg{extras}")
 
 
+def _foot_option(text: str) -> tuple[str, tuple[str, list[float] | None]]:
+    """`LEG=LINK[:X,Y,Z]` -> (leg, (link, offset or None)); a `click.BadParameter` (exit 2) otherwise."""
+    from legplan.errors import SpecError
+    from legplan.specio import parse_number
+
+    leg, sep, rest = text.partition("=")
+    link, _, offset = rest.partition(":")
+    if not sep or not leg or not link:
+        raise click.BadParameter(f"{text!r}: expected LEG=LINK or LEG=LINK:X,Y,Z", param_hint="--foot")
+    if not offset:
+        return leg, (link, None)
+    parts = offset.split(",")
+    try:
+        values = [parse_number(v, f"--foot {leg}") for v in parts]
+    except SpecError as exc:
+        raise click.BadParameter(str(exc), param_hint="--foot") from None
+    if len(values) != 3:
+        raise click.BadParameter(f"{text!r}: the offset needs 3 numbers X,Y,Z (m)", param_hint="--foot")
+    return leg, (link, values)
+
+
 @command.command("init")
 @click.argument("urdf", type=click.Path(dir_okay=False))
 @click.option("-o", "--output", "folder", required=True, type=OutputPath(file_okay=False, files=("robot.yaml",)),
               help="Robot folder to write robot.yaml into (created; e.g. robots/NAME/).")
 @click.option("--name", default=None, help="Robot name (default: the folder's name).")
+@click.option("--foot", "feet", multiple=True, metavar="LEG=LINK[:X,Y,Z]",
+              help="A leg's foot: on LINK at offset X,Y,Z (m, link frame), or at the lowest point of LINK's "
+                   "geometry in the stance when no offset is given. Repeatable.")
+@click.option("--height", type=click.FloatRange(min=0.0, min_open=True), default=None,
+              help="Base height of the nominal stance (m); default: legs bent to 3/4 of their drop.")
+@click.option("--package-path", "package_paths", multiple=True, type=click.Path(file_okay=False),
+              help="A folder holding ROS packages (or a package itself) for package:// meshes; searched "
+                   "before the URDF's parent folders and ROS_PACKAGE_PATH. Repeatable.")
+@click.option("--friction", type=click.FloatRange(min=0.0, min_open=True), default=None,
+              help="centroidal.friction (default 0.5).")
+@click.option("--max-normal-force", type=click.FloatRange(min=0.0, min_open=True), default=None,
+              help="centroidal.max_normal_force (N); default: from the joint efforts.")
+@click.option("--no-centroidal", "no_centroidal", is_flag=True,
+              help="Draft no centroidal section (legs that cannot move their feet in 3D, robots not for dyn).")
 @overwrite_opt
 @verbosity_opts
-def init_command(urdf, folder, name, overwrite):
-    """Draft robot.yaml for URDF: leg chains, feet at the far end of each last link, collision
-    spheres, joint limits and a nominal stance on the ground (legplan.robots.draft; the URDF is
-    not edited). Review it, then run `legplan robot check`."""
-    from legplan.robots.draft import write_draft
+def init_command(urdf, folder, name, feet, height, package_paths, friction, max_normal_force, no_centroidal,
+                 overwrite):
+    """Draft robot.yaml for URDF: leg chains, feet (the URDF's foot links, else the far end of each
+    last link), collision spheres, joint limits, a nominal stance on the ground and the centroidal
+    section (legplan.robots.draft; the URDF is not edited). Review it, then run `legplan robot check`."""
+    from legplan.cli.console import stderr_line
+    from legplan.robots.draft import DRAFT_FRICTION, DraftOptions, write_draft
 
-    path = write_draft(urdf, folder, name, overwrite)
+    options = DraftOptions(feet=dict(_foot_option(text) for text in feet), height=height,
+                           package_paths=tuple(package_paths),
+                           friction=DRAFT_FRICTION if friction is None else friction,
+                           max_normal_force=max_normal_force, centroidal=not no_centroidal)
+    path, draft = write_draft(urdf, folder, name, overwrite, options)
+    for warning in draft.warnings:
+        stderr_line(warning, "warning:", "bold yellow")
     click.echo(f"{path}: drafted; next: legplan robot check {path.parent}")
 
 
 @command.command("check")
 @click.argument("robot")
+@click.option("--package-path", "package_paths", multiple=True, type=click.Path(file_okay=False),
+              help="A folder holding ROS packages (or a package itself) for package:// meshes. Repeatable.")
 @json_opt
 @verbosity_opts
 @click.pass_context
-def check_command(ctx, robot, as_json):
+def check_command(ctx, robot, package_paths, as_json):
     """Check ROBOT (a name or a path to a robot folder / robot.yaml): feet at the distal end of each
-    chain, base height, nominal stance on the ground with no sphere in it (errors: exit 1), link
-    inertias (warnings). legplan.robots.check lists the rules."""
+    chain, base height, nominal stance on the ground with no sphere in it, the centroidal section
+    against the URDF (mass, inertia, CoM, nominal feet, range of motion reachable by IK, force limit
+    against the joint efforts) and link inertias. One line per finding naming its field; errors
+    exit 1, warnings and notes do not. legplan.robots.check lists the rules."""
     from legplan.robots import load_robot
     from legplan.robots.check import check_robot
 
-    model = load_robot(robot)
-    findings = check_robot(model)
+    model = load_robot(robot, strict=False)
+    findings = check_robot(model, package_paths)
     errors = [f for f in findings if f.severity == "error"]
+    warnings = [f for f in findings if f.severity == "warning"]
     if as_json:
         click.echo(json.dumps([vars(f) for f in findings], indent=2))
     else:
         for finding in findings:
             click.echo(f"{finding.severity}: {finding}")
-        click.echo(f"{model.name}: {len(errors)} errors, {len(findings) - len(errors)} warnings")
+        click.echo(f"{model.name}: {len(errors)} errors, {len(warnings)} warnings")
     if errors:
         ctx.exit(1)
 

@@ -6,12 +6,20 @@ Errors (the robot would mislead the planners):
 - a base height that is not positive, or a base not above every foot;
 - a foot off the ground in the nominal stance, or a non-foot collision sphere in the ground;
 - no mass: the URDF's links weigh nothing in all (no centre of mass, no dynamics to plan with).
+- centroidal section: a field that contradicts the URDF at the nominal stance (com_offset, inertia,
+  nominal_feet: `legplan.robots.rigid_body.urdf_contradictions`, the rule the loader enforces); a
+  nominal foot or a corner of the range-of-motion box that its leg does not reach by IK inside the
+  planning joint limits; four legs not in the order the gaits take them (left front, right front,
+  left hind, right hind).
 Warnings:
-- a foot frame more than `FOOT_FAR_END_TOLERANCE` of the last segment away from the far end of the
-  last link's URDF geometry (where `robot init` would put it);
+- a foot frame more than `FOOT_FAR_END_TOLERANCE` of the last segment away from where `robot init`
+  would put it (`legplan.robots.draft.contact_point`);
 - a non-foot sphere closer to the ground than the size-scaled clearance (2 cm for SCARAB II);
 - a link inertia that is not physically consistent: mass <= 0, principal moments not positive or
-  breaking the triangle inequality (I1 + I2 >= I3 for every order).
+  breaking the triangle inequality (I1 + I2 >= I3 for every order); links lighter than
+  `FRAME_LINK_MASS` of the robot (frames, sensors) are not checked, one note lists them;
+- centroidal.max_normal_force above what the joint efforts allow at the nominal stance, or efforts
+  that are placeholders (`legplan.robots.rigid_body.leg_forces`).
 """
 
 from __future__ import annotations
@@ -22,30 +30,36 @@ import numpy as np
 import pinocchio as pin
 
 from legplan.errors import LegplanError
-from legplan.robots.draft import foot_point
+from legplan.robots.draft import contact_point, quadruped_order
+from legplan.robots.legik import leg_reach
+from legplan.robots.rigid_body import box_corners, leg_forces, unreachable_corners, urdf_contradictions
 from legplan.robots.sizing import size_scaled
 from legplan.robots.spec import FOOT_HEIGHT_TOLERANCE
 from legplan.robots.urdf import read_urdf_links
 
 FOOT_FAR_END_TOLERANCE = 0.1   # of the last segment's length
 INERTIA_TOLERANCE = 1e-9       # kg m^2, slack of the triangle inequality
+FRAME_LINK_MASS = 1e-3         # of the robot's mass: lighter links are frames, their inertia unchecked
+FORCE_SLACK = 0.05             # relative, max_normal_force above the effort-backed force before a warning
+SEVERITIES = ("error", "warning", "note")
 
 
 @dataclass(frozen=True)
 class Finding:
-    severity: str   # "error" | "warning"
-    subject: str    # leg, sphere, link or "nominal"
+    severity: str   # "error" | "warning" | "note"
+    subject: str    # leg, sphere, link, "nominal" or a robot.yaml field ("centroidal.inertia")
     message: str
 
     def __str__(self) -> str:
         return f"{self.subject}: {self.message}"
 
 
-def check_robot(robot) -> list[Finding]:
-    """Every finding of the checks above for a loaded `RobotModel`, errors first."""
-    links = read_urdf_links(robot.urdf_path)
-    findings = _feet(robot, links) + _stance(robot) + _inertias(links)
-    return sorted(findings, key=lambda f: f.severity != "error")
+def check_robot(robot, package_paths=()) -> list[Finding]:
+    """Every finding of the checks above for a loaded `RobotModel`, errors first, then warnings,
+    then notes. `package_paths`: where `package://` meshes are looked up first."""
+    links = read_urdf_links(robot.urdf_path, package_paths)
+    findings = _feet(robot, links) + _stance(robot) + _inertias(links) + _centroidal(robot)
+    return sorted(findings, key=lambda f: SEVERITIES.index(f.severity))
 
 
 def _feet(robot, links) -> list[Finding]:
@@ -62,16 +76,16 @@ def _feet(robot, links) -> list[Finding]:
                                     f"than joint '{leg.joint_names[-1]}')"))
             continue
         try:
-            link, offset = foot_point(model, links, joints[-1], robot.urdf_path)
-        except LegplanError:   # no primitive geometry on the last link: nothing to compare with
+            link, offset = contact_point(model, data, links, joints[-1], robot.urdf_path)
+        except LegplanError:   # no geometry and no foot link: nothing to compare with
             continue
-        far_end = model.frames[model.getFrameId(link)].placement.act(offset)
-        local_foot = model.frames[leg.foot_frame_id].placement.translation
-        segment = np.linalg.norm(local_foot)
-        gap = float(np.linalg.norm(far_end - local_foot))
+        drafted = data.oMf[model.getFrameId(link, pin.FrameType.BODY)].act(offset)
+        segment = np.linalg.norm(model.frames[leg.foot_frame_id].placement.translation)
+        gap = float(np.linalg.norm(drafted - foot))
         if gap > FOOT_FAR_END_TOLERANCE * max(segment, 1e-9):
             findings.append(Finding("warning", f"leg {leg.name}", f"foot frame '{leg.foot_frame}' is "
-                                    f"{gap * 1e3:.1f} mm from the far end of link '{link}''s geometry"))
+                                    f"{gap * 1e3:.1f} mm from where robot init puts the foot (link '{link}''s "
+                                    "geometry: a foot link's lowest point, else the far end)"))
     return findings
 
 
@@ -101,9 +115,13 @@ def _stance(robot) -> list[Finding]:
 
 
 def _inertias(links) -> list[Finding]:
-    findings = []
+    total = sum(inertial.mass for inertial in links.inertials.values() if inertial is not None)
+    findings, frames = [], []
     for name, inertial in links.inertials.items():
         if inertial is None:
+            continue
+        if 0 <= inertial.mass < FRAME_LINK_MASS * total:
+            frames.append(name)
             continue
         moments = np.linalg.eigvalsh(inertial.inertia)
         if inertial.mass <= 0:
@@ -120,8 +138,55 @@ def _inertias(links) -> list[Finding]:
     if not total > 0:
         findings.append(Finding("error", "robot", "the URDF's links have no mass in all (total 0 kg): "
                                 "no centre of mass or dynamics to plan with"))
+    if frames:
+        shown = ", ".join(frames[:6]) + (", ..." if len(frames) > 6 else "")
+        findings.append(Finding("note", "links", f"{len(frames)} links carry less than {FRAME_LINK_MASS:.1%} of the "
+                                f"mass (frames, sensors: {shown}); their inertias are not checked"))
+    return findings
+
+
+def _centroidal(robot) -> list[Finding]:
+    c = robot.centroidal
+    if c is None:
+        return []
+    findings = [Finding("error", field, message) for field, message in
+                urdf_contradictions(robot.model, robot.q_nominal, [leg.foot_frame_id for leg in robot.legs], c)]
+    reach = leg_reach(robot, np.zeros((1, 3)), np.eye(3)[None], c.nominal_feet[None])
+    for k in np.flatnonzero(~reach.reachable[0]):
+        findings.append(Finding("error", f"centroidal.nominal_feet.{c.legs[k]}", "is out of the leg's reach inside "
+                                f"the joint limits (the IK stops {reach.error[0, k] * 1e3:.1f} mm away)"))
+    missed = unreachable_corners(robot, c.nominal_feet, c.range_of_motion)
+    if missed.any():
+        corners = box_corners(c.range_of_motion)
+        legs = [f"{c.legs[k]} ({int(missed[:, k].sum())}/8, e.g. {_signed(corners[np.argmax(missed[:, k])])})"
+                for k in np.flatnonzero(missed.any(axis=0))]
+        findings.append(Finding("error", "centroidal.range_of_motion", f"{_signed(c.range_of_motion)} m: box "
+                                f"corners out of reach inside the joint limits for legs {', '.join(legs)}"))
+    forces = leg_forces(robot)
+    if forces.placeholder:
+        shown = ", ".join(forces.placeholder[:3]) + (", ..." if len(forces.placeholder) > 3 else "")
+        findings.append(Finding("warning", "centroidal.max_normal_force", f"{c.max_normal_force:g} N is not backed "
+                                f"by the URDF: the efforts of {shown} are placeholders (missing, or a leg would push "
+                                f"{forces.force.max():.0f} N, more than 10 robot weights)"))
+    elif c.max_normal_force > (1 + FORCE_SLACK) * forces.force.min():
+        k = int(np.argmin(forces.force))
+        findings.append(Finding("warning", "centroidal.max_normal_force", f"{c.max_normal_force:g} N is more than "
+                                f"the {forces.force[k]:.0f} N leg {robot.legs[k].name}'s joint efforts allow at the "
+                                f"nominal stance (limited by joint '{forces.joint[k]}')"))
+    if robot.n_legs == 4:
+        data = robot.model.createData()
+        pin.forwardKinematics(robot.model, data, robot.q_nominal)
+        hips = np.array([data.oMi[robot.model.getJointId(leg.joint_names[0])].translation for leg in robot.legs])
+        if quadruped_order(hips) != [0, 1, 2, 3]:
+            findings.append(Finding("error", "legs", "the centroidal planner's gaits take four legs as left front, "
+                                    "right front, left hind, right hind; robot.yaml lists "
+                                    f"{', '.join(leg.name for leg in robot.legs)} in another order"))
     return findings
 
 
 def _moments(moments) -> str:
     return "(" + ", ".join(f"{m:.3g}" for m in moments) + ")"
+
+
+def _signed(values) -> str:
+    return "(" + ", ".join(f"{v:+.3f}" for v in values) + ")"

@@ -56,9 +56,10 @@ class ReachResult:
 
 
 def leg_reach(robot, base_pos, base_rot, feet_world, tolerance: float = 1e-4,
-              max_iterations: int = 60) -> ReachResult:
+              max_iterations: int = 60, starts: int | None = None) -> ReachResult:
     """Can each leg put its foot on `feet_world` (n, n_legs, 3) with the base at `base_pos` (n, 3),
-    `base_rot` (n, 3, 3) (base-to-world rotations)? See the module docstring for the method."""
+    `base_rot` (n, 3, 3) (base-to-world rotations)? See the module docstring for the method;
+    `starts` limits the starts (1: the nominal stance only; None: all)."""
     base_pos = np.asarray(base_pos, float)
     base_rot = np.asarray(base_rot, float)
     feet_world = np.asarray(feet_world, float)
@@ -68,7 +69,7 @@ def leg_reach(robot, base_pos, base_rot, feet_world, tolerance: float = 1e-4,
                          f"(n, {n_legs}, 3); got {base_pos.shape}, {base_rot.shape}, {feet_world.shape}")
     targets = np.einsum("nji,nlj->nli", base_rot, feet_world - base_pos[:, None])
     cols = [np.array(leg.joint_idx) for leg in robot.legs]   # into the joint part of q and v
-    seeds = _seeds(robot)
+    seeds = _seeds(robot)[:starts]
     error, joints, iterations = _solve(robot, targets, np.tile(seeds[0], (n, 1)), cols, tolerance, max_iterations)
     for seed in seeds[1:]:
         retry = np.flatnonzero((error > tolerance).any(axis=1))

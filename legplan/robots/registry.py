@@ -112,9 +112,10 @@ def resolve_robot(robot: str | os.PathLike) -> Path:
     raise LegplanError(f"{robot}: no such robot folder or {SPEC_NAME}")
 
 
-def load_robot(robot: str | os.PathLike) -> RobotModel:
-    """Load and validate a robot by name ("scarab2"), folder or robot.yaml path."""
+def load_robot(robot: str | os.PathLike, strict: bool = True) -> RobotModel:
+    """Load and validate a robot by name ("scarab2"), folder or robot.yaml path (`strict`: see
+    `legplan.robots.spec.read_spec`)."""
     from legplan.robots.model import RobotModel  # pinocchio: imported when a robot is loaded
     from legplan.robots.spec import read_spec
 
-    return RobotModel(read_spec(resolve_robot(robot)))
+    return RobotModel(read_spec(resolve_robot(robot), strict))

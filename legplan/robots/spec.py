@@ -302,8 +302,20 @@ def _parse_nominal(reader: FieldReader, data: dict, model: pin.Model, legs, lowe
     return _frozen(q)
 
 
-def read_spec(yaml_path: str | Path) -> RobotSpec:
-    """Read and validate `robot.yaml` (and the URDF it names); raises `SpecError` on any problem."""
+def _check_centroidal(reader: FieldReader, model: pin.Model, q_nominal: np.ndarray, legs, centroidal) -> None:
+    """The first field of the centroidal section that contradicts the URDF at the nominal stance
+    (`legplan.robots.rigid_body.urdf_contradictions`), as a `SpecError`."""
+    from legplan.robots.rigid_body import urdf_contradictions
+
+    found = urdf_contradictions(model, q_nominal, [leg.foot_frame_id for leg in legs], centroidal)
+    if found:
+        reader.fail(*found[0])
+
+
+def read_spec(yaml_path: str | Path, strict: bool = True) -> RobotSpec:
+    """Read and validate `robot.yaml` (and the URDF it names); raises `SpecError` on any problem.
+    `strict=False` skips holding the centroidal section against the URDF (com_offset, inertia,
+    nominal feet), for `robot check`, which reports every such field."""
     path = Path(yaml_path)
     reader = FieldReader(path)
     data = read_yaml_mapping(path, "robot spec")
@@ -316,6 +328,8 @@ def read_spec(yaml_path: str | Path) -> RobotSpec:
     q_nominal = _parse_nominal(reader, data, model, legs, lower, upper)
     navigation = parse_navigation(reader, data)
     centroidal = parse_centroidal(reader, data, tuple(leg.name for leg in legs), pin.computeTotalMass(model))
+    if centroidal is not None and strict:
+        _check_centroidal(reader, model, q_nominal, legs, centroidal)
     return RobotSpec(name=name, description=description.strip(), yaml_path=path, urdf_path=urdf,
                      model=model, legs=legs, lower=_frozen(lower), upper=_frozen(upper),
                      spheres=spheres, q_nominal=q_nominal, navigation=navigation, centroidal=centroidal)

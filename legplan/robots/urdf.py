@@ -1,8 +1,10 @@
 """What pinocchio's kinematic model does not keep from a URDF: each link's own inertial and its
-primitive geometry (box, cylinder, sphere), read from the XML.
+geometry (box, cylinder, sphere, mesh), read from the XML.
 
 Used to draft a robot.yaml (`legplan.robots.draft`) and to check one (`legplan.robots.check`).
-Meshes are listed by link but not read (their extent would need the mesh files).
+Mesh files are found by `resolve_mesh` (`package://NAME/rest` the ROS way: a folder NAME among
+the URDF's ancestors or under a package path, then `ROS_PACKAGE_PATH`) and read with coal's mesh
+loader (assimp: STL, Collada, OBJ), which pinocchio brings; their vertices are read on first use.
 
 `build_free_flyer_model` is the one place a URDF is parsed by pinocchio: urdfdom prints its parse
 errors straight to file descriptor 2, so they are captured and folded into `UrdfParseError`.
@@ -10,11 +12,12 @@ errors straight to file descriptor 2, so they are captured and folded into `Urdf
 
 from __future__ import annotations
 
-import xml.etree.ElementTree as ET
-from dataclasses import dataclass
-from pathlib import Path
-
 import logging
+import os
+import xml.etree.ElementTree as ET
+from dataclasses import dataclass, field
+from functools import cached_property
+from pathlib import Path
 
 import numpy as np
 import pinocchio as pin
@@ -72,6 +75,45 @@ class Primitive:
 
 
 @dataclass(frozen=True)
+class MeshShape:
+    """A mesh file `path` (resolved), scaled by `scale` (3,), placed at `placement` in its link
+    frame; `source` is the filename as the URDF writes it."""
+
+    path: Path
+    scale: tuple[float, float, float]
+    placement: pin.SE3
+    source: str
+    urdf: Path = field(default=None, compare=False)
+
+    @cached_property
+    def vertices(self) -> np.ndarray:
+        """(k, 3) vertices in the link frame (one-line `SpecError` naming the URDF and the mesh when
+        the file is not a mesh coal can read)."""
+        import coal
+
+        try:
+            with captured_stderr():
+                mesh = coal.MeshLoader().load(str(self.path), np.array(self.scale, float))
+            local = np.array(mesh.vertices(), float).reshape(-1, 3)
+        except (RuntimeError, ValueError) as exc:
+            reason = " ".join(str(exc).split("message:")[-1].split())[:120]
+            raise SpecError(f"{self.urdf}: mesh '{self.source}' ({self.path}) cannot be read: {reason}") from None
+        if not len(local):
+            raise SpecError(f"{self.urdf}: mesh '{self.source}' ({self.path}) has no vertices")
+        return local @ self.placement.rotation.T + self.placement.translation
+
+    def extreme_points(self) -> np.ndarray:
+        """The vertices (k, 3) in the link frame (they bound the shape)."""
+        return self.vertices
+
+    def bounding_box(self) -> Primitive:
+        """The box around the vertices, axis-aligned in the link frame."""
+        low, high = self.vertices.min(axis=0), self.vertices.max(axis=0)
+        return Primitive("box", tuple(float(v) for v in np.maximum(high - low, 1e-6)),
+                         pin.SE3(np.eye(3), (low + high) / 2))
+
+
+@dataclass(frozen=True)
 class LinkInertial:
     """A link's mass (kg), centre of mass in the link frame and rotational inertia about it (3, 3)."""
 
@@ -82,12 +124,16 @@ class LinkInertial:
 
 @dataclass(frozen=True)
 class UrdfLinks:
-    """Per link name: its primitives (collision geometry, or the visual one when it has none), its
-    inertial (None when the URDF gives none) and whether it has mesh geometry."""
+    """Per link name: its primitives and meshes (collision geometry, or the visual one when it has
+    none) and its inertial (None when the URDF gives none)."""
 
     primitives: dict[str, tuple[Primitive, ...]]
     inertials: dict[str, LinkInertial | None]
-    meshes: frozenset[str]
+    meshes: dict[str, tuple[MeshShape, ...]]
+
+    def shapes(self, link: str) -> tuple:
+        """Every shape of `link`: primitives, then meshes."""
+        return self.primitives.get(link, ()) + self.meshes.get(link, ())
 
 
 def _origin(element) -> pin.SE3:
@@ -97,8 +143,39 @@ def _origin(element) -> pin.SE3:
     return pin.SE3(pin.rpy.rpyToMatrix(np.array(rpy)), np.array(xyz))
 
 
-def _primitives(link, tag: str) -> tuple[list[Primitive], bool]:
-    shapes, mesh = [], False
+def package_roots(urdf: Path, package_paths=()) -> list[Path]:
+    """Where `package://` names are looked up, in order: the given package paths, the URDF's
+    folder and its ancestors, then the folders of `ROS_PACKAGE_PATH`."""
+    ros = [Path(entry) for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if entry]
+    return [*map(Path, package_paths), *Path(urdf).resolve().parents, *ros]
+
+
+def resolve_mesh(filename: str, urdf: Path, roots, link: str) -> Path:
+    """The file a URDF mesh `filename` names: `package://NAME/rest` is `rest` inside the first
+    folder called NAME that is a root or lies directly under one (`roots`, see `package_roots`);
+    `file://` and plain paths are taken relative to the URDF's folder. One-line `SpecError` naming
+    the URDF, the link and the filename when there is no such file."""
+    where = f"{urdf}: link '{link}' mesh '{filename}'"
+    if filename.startswith("package://"):
+        package, _, rest = filename[len("package://"):].partition("/")
+        folders = [root if root.name == package else root / package for root in roots]
+        found = [folder / rest for folder in folders if folder.is_dir()]
+        if not found:
+            raise SpecError(f"{where}: package '{package}' not found (looked next to the URDF, in its parent "
+                            "folders and on ROS_PACKAGE_PATH; give --package-path)")
+        for path in found:
+            if path.is_file():
+                return path
+        raise SpecError(f"{where}: no such file in package '{package}' ({found[0]})")
+    path = Path(filename[len("file://"):] if filename.startswith("file://") else filename)
+    path = path if path.is_absolute() else Path(urdf).parent / path
+    if not path.is_file():
+        raise SpecError(f"{where}: no such file ({path})")
+    return path
+
+
+def _shapes(link, tag: str, urdf: Path, roots) -> tuple[list[Primitive], list[MeshShape]]:
+    shapes, meshes = [], []
     for element in link.findall(tag):
         geometry = element.find("geometry")
         if geometry is None:
@@ -113,8 +190,12 @@ def _primitives(link, tag: str) -> tuple[list[Primitive], bool]:
             elif shape.tag == "sphere":
                 shapes.append(Primitive("sphere", (float(shape.get("radius")),), placement))
             elif shape.tag == "mesh":
-                mesh = True
-    return shapes, mesh
+                source = shape.get("filename", "")
+                scale = [float(v) for v in shape.get("scale", "1 1 1").split()]
+                scale = scale * 3 if len(scale) == 1 else scale
+                path = resolve_mesh(source, urdf, roots, link.get("name"))
+                meshes.append(MeshShape(path, tuple(scale), placement, source, urdf))
+    return shapes, meshes
 
 
 def _inertial(link) -> LinkInertial | None:
@@ -131,22 +212,23 @@ def _inertial(link) -> LinkInertial | None:
                         inertia=origin.rotation @ inertia @ origin.rotation.T)
 
 
-def read_urdf_links(path: str | Path) -> UrdfLinks:
-    """Inertials and primitive geometry of every link of the URDF at `path` (one-line `SpecError`
-    naming the file when it is not a readable URDF)."""
+def read_urdf_links(path: str | Path, package_paths=()) -> UrdfLinks:
+    """Inertials and geometry of every link of the URDF at `path` (one-line `SpecError` naming the
+    file when it is not a readable URDF, or naming the link when a mesh file cannot be found;
+    `package_paths` are searched first for `package://` names)."""
+    path = Path(path)
+    roots = package_roots(path, package_paths)
     try:
         root = ET.fromstring(read_text(path, "URDF"))
-        primitives, inertials, meshes = {}, {}, set()
+        primitives, inertials, meshes = {}, {}, {}
         for link in root.iter("link"):
             name = link.get("name")
-            shapes, mesh = _primitives(link, "collision")
-            if not shapes:
-                shapes, mesh_visual = _primitives(link, "visual")
-                mesh = mesh or mesh_visual
+            shapes, mesh = _shapes(link, "collision", path, roots)
+            if not shapes and not mesh:
+                shapes, mesh = _shapes(link, "visual", path, roots)
             primitives[name] = tuple(shapes)
+            meshes[name] = tuple(mesh)
             inertials[name] = _inertial(link)
-            if mesh and not shapes:
-                meshes.add(name)
     except (ET.ParseError, TypeError, ValueError, AttributeError) as exc:
         raise SpecError(f"{path}: not a readable URDF ({exc})") from None
-    return UrdfLinks(primitives=primitives, inertials=inertials, meshes=frozenset(meshes))
+    return UrdfLinks(primitives=primitives, inertials=inertials, meshes=meshes)

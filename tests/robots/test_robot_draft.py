@@ -25,7 +25,8 @@ TIBIA = 0.138   # m, the hexapod's tibia cylinder length: its far end is the foo
 @pytest.fixture(scope="module")
 def drafted(tmp_path_factory):
     before = hashlib.sha256(HEXAPOD.read_bytes()).hexdigest()
-    path = write_draft(HEXAPOD, tmp_path_factory.mktemp("robots") / "phantom")
+    path, draft = write_draft(HEXAPOD, tmp_path_factory.mktemp("robots") / "phantom")
+    assert draft.warnings == ()
     assert hashlib.sha256(HEXAPOD.read_bytes()).hexdigest() == before      # the URDF is not edited
     return path
 
@@ -67,9 +68,14 @@ def test_check_finds_a_foot_moved_off_the_far_end(drafted, tmp_path):
     spec["urdf"] = str(HEXAPOD)
     spec["legs"][1]["foot"]["offset"] = [TIBIA, 0.03, 0]   # 3 cm along the pitch axis: same height
     (tmp_path / "robot.yaml").write_text(yaml.safe_dump(spec))
+    with pytest.raises(LegplanError, match=r"field 'centroidal\.nominal_feet\.lm' is \(0\.000, 0\.228, -0\.143\) m but "
+                       r"the nominal stance puts the foot at \(-0\.030, 0\.228, -0\.143\) m \(30\.0 mm away\)"):
+        load_robot(tmp_path)                                # the centroidal section no longer matches
+    del spec["centroidal"]
+    (tmp_path / "robot.yaml").write_text(yaml.safe_dump(spec))
     findings = check_robot(load_robot(tmp_path))
     assert [(f.severity, f.subject) for f in findings] == [("warning", "leg lm")]
-    assert "30.0 mm from the far end of link 'tibia_lm''s geometry" in findings[0].message
+    assert "30.0 mm from where robot init puts the foot (link 'tibia_lm''s geometry" in findings[0].message
 
 
 def _toy_check(tmp_path, edit=None, urdf_edit=None):
@@ -105,7 +111,7 @@ def test_check_errors_and_warnings_on_the_toy(tmp_path):
 
 def test_leg_names_and_spheres_of_primitives():
     assert leg_names([["coxa_lf", "femur_lf"], ["coxa_rf", "femur_rf"]]) == ["lf", "rf"]
-    assert leg_names([["LF_HAA", "LF_KFE"], ["RF_HAA", "RF_KFE"]]) == ["lf", "rf"]
+    assert leg_names([["LF_HAA", "LF_KFE"], ["RF_HAA", "RF_KFE"]]) == ["LF", "RF"]   # as the URDF writes them
     assert leg_names([["a", "b"], ["c", "d"]]) == ["leg0", "leg1"]
     box = Primitive("box", (0.3, 0.1, 0.04), pin.SE3(np.eye(3), np.array([0.1, 0, 0])))
     spheres = primitive_spheres(box)

@@ -1,0 +1,126 @@
+"""`robot init` -> `robot check` on published quadrupeds (example-robot-data, a test dependency):
+ANYmal B and C, HyQ, Go1 and Solo12, URDFs and meshes as shipped, no edits, no options."""
+
+import importlib.metadata
+import math
+from pathlib import Path
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from legplan.robots import load_robot
+from legplan.robots.check import check_robot
+from legplan.robots.draft import write_draft
+from legplan.robots.rigid_body import GRAVITY
+
+ROBOTS = {   # name: (URDF under robots/, leg names as the URDF writes them, a foot link)
+    "anymal_b": ("anymal_b_simple_description/robots/anymal.urdf", ("LF", "RF", "LH", "RH"), "LF_FOOT"),
+    "anymal_c": ("anymal_c_simple_description/urdf/anymal.urdf", ("LF", "RF", "LH", "RH"), "LF_FOOT"),
+    "hyq": ("hyq_description/robots/hyq_no_sensors.urdf", ("lf", "rf", "lh", "rh"), "lf_foot"),
+    "go1": ("go1_description/urdf/go1.urdf", ("FL", "FR", "RL", "RR"), "FL_foot"),
+    "solo12": ("solo_description/robots/solo12.urdf", ("FL", "FR", "HL", "HR"), "FL_FOOT"),
+}
+
+
+@pytest.fixture(scope="session")
+def published_robots() -> Path:
+    """example-robot-data's robots/ folder (one sub-folder per ROS package)."""
+    try:
+        dist = importlib.metadata.distribution("example-robot-data")
+    except importlib.metadata.PackageNotFoundError:
+        pytest.skip("example-robot-data is not installed (pip install -e '.[test]')")
+    marker = next(f for f in dist.files if str(f).endswith("go1_description/urdf/go1.urdf"))
+    return Path(dist.locate_file(marker)).resolve().parents[2]
+
+
+@pytest.fixture(scope="module")
+def drafted(published_robots, tmp_path_factory):
+    """name -> (drafted robot.yaml, warnings), drafted once per module."""
+    out = {}
+    for name, (urdf, _, _) in ROBOTS.items():
+        path, draft = write_draft(published_robots / urdf, tmp_path_factory.mktemp("robots") / name)
+        out[name] = (path, draft.warnings)
+    return out
+
+
+def _independent_body(model, q):
+    """Mass, CoM (world) and inertia about it (world) summed link by link (no ccrba)."""
+    data = model.createData()
+    pin.forwardKinematics(model, data, q)
+    masses, coms, inertias = [], [], []
+    for j in range(1, model.njoints):
+        inertia, placement = model.inertias[j], data.oMi[j]
+        masses.append(inertia.mass)
+        coms.append(placement.act(inertia.lever))
+        inertias.append(placement.rotation @ inertia.inertia @ placement.rotation.T)
+    masses, coms = np.array(masses), np.array(coms)
+    com = masses @ coms / masses.sum()
+    total = sum(i + m * ((r - com) @ (r - com) * np.eye(3) - np.outer(r - com, r - com))
+                for m, r, i in zip(masses, coms, inertias))
+    return masses.sum(), com, total
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_published_quadruped_drafts_and_checks_clean(name, drafted, published_robots):
+    path, warnings = drafted[name]
+    robot = load_robot(path)                        # strict: the centroidal section agrees with the URDF
+    findings = check_robot(robot)
+    assert [str(f) for f in findings if f.severity == "error"] == []
+    _, leg_names, foot_link = ROBOTS[name]
+    assert tuple(leg.name for leg in robot.legs) == leg_names
+    model = robot.model
+    first_foot = model.frames[robot.legs[0].foot_frame_id]
+    assert model.frames[first_foot.parentFrame].name == foot_link          # on the URDF's own foot link
+
+    # stance: base level, feet on the ground, knees bent, feet where the legs hang at zero (hip offsets)
+    q = robot.q_nominal
+    feet = robot.foot_positions(q)[0]
+    np.testing.assert_allclose(feet[:, 2], 0.0, atol=5e-4)
+    data = model.createData()
+    zero = pin.neutral(model)
+    zero[2] = q[2]
+    pin.framesForwardKinematics(model, data, zero)
+    hanging = np.array([data.oMf[leg.foot_frame_id].translation for leg in robot.legs])
+    np.testing.assert_allclose(feet[:, :2], hanging[:, :2], atol=0.01)
+    pin.framesForwardKinematics(model, data, q)
+    for leg, foot in zip(robot.legs, feet):
+        hip = data.oMi[model.getJointId(leg.joint_names[1])].translation
+        assert np.linalg.norm(foot - hip) < 0.9 * (hip[2] - hanging[0, 2] + q[2])   # not stretched
+    assert np.all(robot.upper - robot.lower < 2 * math.pi)                          # physical ranges only
+
+    # centroidal section: pinocchio link by link, not the drafting code's ccrba
+    c = robot.centroidal
+    mass, com, inertia = _independent_body(model, q)
+    assert c.mass == pytest.approx(mass, rel=1e-6)
+    np.testing.assert_allclose(c.com_offset, com - q[:3], atol=1e-4)
+    np.testing.assert_allclose(c.inertia, inertia, atol=1e-4 * np.abs(inertia).max() + 1e-6)
+    np.testing.assert_allclose(c.nominal_feet, feet - q[:3], atol=2e-4)
+    assert np.all(c.range_of_motion > 0.02 * robot.leg_length)
+    assert 0 < c.max_normal_force <= 4 * mass * GRAVITY + 1
+
+
+def test_solo12_placeholder_efforts_are_flagged_and_the_force_capped(drafted):
+    path, warnings = drafted["solo12"]
+    assert any("placeholders" in w and "max_normal_force" in w for w in warnings)
+    robot = load_robot(path)
+    assert robot.centroidal.max_normal_force == math.floor(4 * robot.mass * GRAVITY)
+    flagged = [f for f in check_robot(robot) if f.subject == "centroidal.max_normal_force"]
+    assert [f.severity for f in flagged] == ["warning"] and "placeholders" in flagged[0].message
+
+
+def test_anymal_b_limits_of_9_42_rad_are_replaced_with_a_warning(drafted):
+    path, warnings = drafted["anymal_b"]
+    assert any("12 revolute joints have ranges of 2π or more" in w for w in warnings)
+    robot = load_robot(path)
+    for leg in robot.legs:
+        knee = leg.joint_idx[-1]
+        nominal = robot.q_nominal[7 + knee]
+        # the knee keeps its nominal bend side: its range never reaches the stretched leg (0 here)
+        assert robot.lower[knee] * robot.upper[knee] > 0 and robot.lower[knee] <= nominal <= robot.upper[knee]
+
+
+def test_hyq_com_offset_is_drafted(drafted):
+    """HyQ's CoM lies centimetres from its base origin: the draft says where."""
+    c = load_robot(drafted["hyq"][0]).centroidal
+    assert np.linalg.norm(c.com_offset) > 0.03
