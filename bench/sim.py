@@ -10,7 +10,7 @@ tracking of planned trajectories with vs without the TOWR-costs paper's costs (i
   and the legs kept 6 cm off the terrain (`leg_clearance`, ours), then executed by `legplan.sim.simulate`
   (ANYmal at its URDF's 40 N m, μ = 0.5 as planned). Success, fall time, rms/max base position and
   orientation tracking errors, peak torque and torque saturation per run; a failed run is executed
-  again with twice the torque limits (`SimParams.effort_scale`), to tell torque-limited plans apart.
+  again with twice the torque limits (`ModelOptions.effort_scale`), to tell torque-limited plans apart.
 * QP solvers on the controller's QPs: every 4th tick's QP of the 1 m flat trot's run, rebuilt from
   its recorded states, solved cold by ProxQP (proxsuite, dense backend, eps_abs 1e-6: the
   controller's) and by OSQP (setup + solve, eps_abs = eps_rel = 1e-6, polished): median and max
@@ -41,7 +41,7 @@ from legplan.dyn.problem import PAPER, DynParams, DynTask
 from legplan.dyn.terrain import TerrainModel
 from legplan.robots import load_robot
 from legplan.sim.controller import WholeBodyController
-from legplan.sim.model import build_model
+from legplan.sim.model import ModelOptions, build_model
 from legplan.sim.reference import Reference
 from legplan.sim.run import SimParams, simulate
 from legplan.terrain.spec import build_map
@@ -68,7 +68,7 @@ def run_tasks(robot, terrain_map, tasks, gait, duration, labels):
             cpu = time.process_time() - cpu
             if not result.success:   # what-if: the same plan with twice the URDF's joint torque limits
                 row["success_at_2x_torque"] = simulate(planned.samples, robot, terrain_map,
-                                                       SimParams(effort_scale=2.0), goal=goal).success
+                                                       SimParams(model=ModelOptions(effort_scale=2.0)), goal=goal).success
             row.update({"success": result.success, "reason": result.reason, "fall_time": result.fall_time,
                         "rms_position_error": result.rms_position_error,
                         "max_position_error": result.max_position_error,
