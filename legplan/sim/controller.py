@@ -78,6 +78,26 @@ class Gains:
     w_contact: float = 1e4        # weight of the stance feet's zero acceleration in the relaxed QP
 
 
+QP_EPS_ABS = 1e-6
+"""ProxQP's absolute tolerance on the primal and dual residuals."""
+QP_EPS_PRIMAL_INF = 1e-9
+"""ProxQP's tolerance of its primal infeasibility certificate. Its default (1e-4) declares these QPs
+(forces in N next to accelerations, weights 1e-6 to 1e4) infeasible after two iterations when they
+are not: the same QPs, even the relaxed one that is feasible by construction, solve in a few
+iterations with residuals near 1e-11 at this tolerance."""
+
+
+def solve_qp(qp: QP):
+    """ProxQP (dense) on `qp`, cold started: (its x, its status)."""
+    solver = proxsuite.proxqp.dense.QP(len(qp.g), len(qp.b), len(qp.l))
+    solver.settings.eps_abs = QP_EPS_ABS
+    solver.settings.eps_primal_inf = QP_EPS_PRIMAL_INF
+    solver.settings.verbose = False
+    solver.init(qp.H, qp.g, qp.A, qp.b, qp.C, qp.l, qp.u)
+    solver.solve()
+    return solver.results.x, solver.results.info.status
+
+
 @dataclass
 class QP:
     """One tick's QP in proxsuite's dense form: min ½xᵀHx + gᵀx, A x = b, l <= C x <= u."""
@@ -210,14 +230,10 @@ class WholeBodyController:
         u = np.concatenate([u, vmax - vj])
         return QP(H, g, A, b, C, l, u)
 
-    def _solve(self, qp: QP):
-        solver = proxsuite.proxqp.dense.QP(len(qp.g), len(qp.b), len(qp.l))
-        solver.settings.eps_abs = 1e-6
-        solver.settings.verbose = False
-        solver.init(qp.H, qp.g, qp.A, qp.b, qp.C, qp.l, qp.u)
-        solver.solve()
-        solved = solver.results.info.status == proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED
-        return solver.results.x if solved else None
+    @staticmethod
+    def _solve(qp: QP):
+        x, status = solve_qp(qp)
+        return x if status == proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED else None
 
     def torques(self, q, v, ref, touching) -> np.ndarray:
         """Joint torques (n_joints,) for state (q, v) (pinocchio convention), `ref` and `touching`;
