@@ -9,7 +9,8 @@ Root attributes: the standard provenance (ARCHITECTURE.md), `params` (the `SimPa
     end, peak_torque (N m), saturation (fraction of 400 Hz ticks with a joint at its effort limit),
     qp_failures (ticks whose QP was not solved: the relaxed QP ran), qp_held (ticks whose relaxed
     QP failed too: the last torques held), peak_speed_ratio (largest |joint rate| / its velocity
-    limit), speed_limited_time (s with a joint at its velocity limit), impulse (N s, the pushes'
+    limit), speed_limited_time (s with a joint at its velocity limit), overspeed_time (s with a joint
+    more than 5 % over it), impulse (N s, the pushes'
     total), unplanned_contact_time (s),
     unplanned_contacts (comma-separated sphere names: shin, thigh or trunk touching the terrain),
     max/rms_position_error (m), max/rms_orientation_error (rad), simulated (s), wall (s) —
@@ -31,7 +32,8 @@ from legplan.sim.run import SERIES_UNITS
 
 NAN = float("nan")
 SCALARS = {"fall_time": "s", "goal_error": "m", "yaw_error": "rad", "peak_torque": "N m", "saturation": "",
-           "qp_failures": "", "qp_held": "", "peak_speed_ratio": "", "speed_limited_time": "s", "impulse": "N s",
+           "qp_failures": "", "qp_held": "", "peak_speed_ratio": "", "speed_limited_time": "s", "overspeed_time": "s",
+           "impulse": "N s",
            "unplanned_contact_time": "s", "max_position_error": "m",
            "rms_position_error": "m", "max_orientation_error": "rad", "rms_orientation_error": "rad",
            "simulated": "s", "wall": "s"}

@@ -50,6 +50,7 @@ from legplan.sim.model import ModelOptions, build_model
 from legplan.sim.reference import Reference
 
 CONTROL_DT = 0.0025   # s, 400 Hz (paper Sec. III-B)
+OVERSPEED = 1.05      # × a joint's velocity limit counted as over it (`SimResult.overspeed_time`)
 
 
 @dataclass(frozen=True)
@@ -88,7 +89,8 @@ class SimResult:
     joint at its limit), `qp_failures` (ticks whose QP was not solved), `qp_held` (ticks whose
     relaxed QP failed too: last torques held), `peak_speed_ratio` (largest |joint rate| / its
     velocity limit, NaN with no limits), `speed_limited_time` (s with a joint at or over its velocity
-    limit), `impulse` (N s, the pushes' total), `unplanned_contact_time` (s), `unplanned_contacts` (names of
+    limit), `overspeed_time` (s with a joint more than `OVERSPEED` × its limit at the end of a
+    tick: what the motors could not prevent, e.g. an impact back-driving a knee), `impulse` (N s, the pushes' total), `unplanned_contact_time` (s), `unplanned_contacts` (names of
     the spheres that touched), `max_position_error`, `max_orientation_error`, `rms_position_error`,
     `rms_orientation_error`, `simulated` (s), `wall` (s)."""
 
@@ -105,6 +107,7 @@ class SimResult:
     qp_held: int
     peak_speed_ratio: float
     speed_limited_time: float
+    overspeed_time: float
     impulse: float
     unplanned_contact_time: float
     unplanned_contacts: list
@@ -146,7 +149,7 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
 
     rows = {name: [] for name in SERIES_UNITS}
     peak, saturated, unplanned_ticks, touched = 0.0, 0, 0, set()
-    peak_speed, speed_ticks = 0.0, 0
+    peak_speed, speed_ticks, overspeed_ticks = 0.0, 0, 0
     fell, fall_time, reason = False, float("nan"), ""
     tau = np.zeros(robot.n_joints)
     for tick in range(ticks):
@@ -167,8 +170,9 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
             mujoco.mj_step(model, data)
         speed_ticks += at_limit
         if limited.any():
-            peak_speed = max(peak_speed, float(np.max(np.abs(data.qvel[sim.dof_index][limited])
-                                                      / sim.velocity_limit[limited])))
+            ratio = float(np.max(np.abs(data.qvel[sim.dof_index][limited]) / sim.velocity_limit[limited]))
+            peak_speed = max(peak_speed, ratio)
+            overspeed_ticks += ratio > OVERSPEED
         pairs = data.contact.geom[:data.ncon]
         hits = set(pairs[np.isin(pairs, sim.body_geoms)].tolist())
         unplanned_ticks += bool(hits)
@@ -207,7 +211,7 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
                      peak_torque=peak, saturation=saturated / max(tick + 1, 1),
                      qp_failures=controller.qp_failures, qp_held=controller.qp_held,
                      peak_speed_ratio=peak_speed if limited.any() else float("nan"),
-                     speed_limited_time=speed_ticks * CONTROL_DT,
+                     speed_limited_time=speed_ticks * CONTROL_DT, overspeed_time=overspeed_ticks * CONTROL_DT,
                      impulse=float(sum(np.hypot(p[1], p[2]) * p[3] for p in params.pushes)),
                      unplanned_contact_time=unplanned_ticks * CONTROL_DT,
                      unplanned_contacts=sorted(names[g] for g in touched),
