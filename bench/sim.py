@@ -10,14 +10,21 @@ tracking of planned trajectories with vs without the TOWR-costs paper's costs (i
   and the legs kept 6 cm off the terrain (`leg_clearance`, ours), then executed by `legplan.sim.simulate`
   (ANYmal at its URDF's 40 N m, μ = 0.5 as planned). Success, fall time, rms/max base position and
   orientation tracking errors, peak torque and torque saturation per run; a failed run is executed
-  again with twice the torque limits (`SimParams.effort_scale`), to tell torque-limited plans apart.
+  again with twice the torque limits (`ModelOptions.effort_scale`), to tell torque-limited plans apart.
 * QP solvers on the controller's QPs: every 4th tick's QP of the 1 m flat trot's run, rebuilt from
-  its recorded states, solved cold by ProxQP (proxsuite, dense backend, eps_abs 1e-6: the
-  controller's) and by OSQP (setup + solve, eps_abs = eps_rel = 1e-6, polished): median and max
+  its recorded states, solved cold by ProxQP (proxsuite, dense backend, the controller's
+  `solve_qp`) and by OSQP (setup + solve, eps_abs = eps_rel = 1e-6, polished): median and max
   wall time per QP, and the worst residual of the floating-base dynamics equality and of the torque
   limits at the answers. OSQP is a bench-only import: `.venv/bin/pip install osqp==1.1.3`.
 * Simulator speed: simulated seconds per CPU second of `simulate` over all runs (400 Hz control,
   0.5 ms physics; CPU rather than wall time: the machine is shared).
+* Robustness (`--push-only` runs just this part, kept in the JSON's `push` entry): the largest
+  lateral push survived (+y, on the trunk, `SimParams.pushes`) during the 1 m flat trot and the
+  (-1.0, 0.3, 0.3) single pallet walk, planned without and with the paper's costs, open loop (the
+  plan is not replanned; the controller tracks it as planned). The push lasts `PUSH_DURATION` and
+  starts at half the plan's duration; its impulse is bisected: doubled from `PUSH_START` until a
+  run fails, then halved until the bracket is narrower than the resolution. Survived = reached the
+  goal without falling. Every run's QP failures (relaxed-QP fallbacks) and held ticks are recorded.
 
 Writes bench/results/sim.json and replaces the `sim` section of BENCHMARKS.md.
 """
@@ -40,8 +47,8 @@ from legplan.dyn.planner import plan
 from legplan.dyn.problem import PAPER, DynParams, DynTask
 from legplan.dyn.terrain import TerrainModel
 from legplan.robots import load_robot
-from legplan.sim.controller import WholeBodyController
-from legplan.sim.model import build_model
+from legplan.sim.controller import WholeBodyController, solve_qp
+from legplan.sim.model import ModelOptions, build_model
 from legplan.sim.reference import Reference
 from legplan.sim.run import SimParams, simulate
 from legplan.terrain.spec import build_map
@@ -51,6 +58,52 @@ PALLET = [((-1.0, 0.3, 0.3), (0.6, 0, 0)), ((-0.8, -0.2, 0.0), (0.6, 0, 0))]
 
 
 SETTINGS = {"none": DynParams(), "paper": PAPER, "paper, legs 6 cm": replace(PAPER, leg_clearance=0.06)}
+PUSH_DURATION = 0.1        # s
+PUSH_START = 4.0           # N s, the first impulse tried
+PUSH_CASES = [("flat", "flat trot 1 m", FLAT[0], "trot", 2.4, 0.5), ("single_pallet", "single pallet walk", PALLET[0],
+                                                                    "walk", 5.5, 1.0)]
+"""(map, label, (start, goal), gait, duration s, resolution N s) of the push bisection."""
+
+
+def push_run(robot, terrain_map, samples, goal, at, impulse):
+    """One run with a lateral push of `impulse` N s at `at` s: its outcome and QP counts."""
+    pushes = ((at, 0.0, impulse / PUSH_DURATION, PUSH_DURATION),) if impulse > 0 else ()
+    result = simulate(samples, robot, terrain_map, SimParams(pushes=pushes), goal=goal)
+    print(f"  push {impulse:.2f} N s: {result.reason}; QP failures {result.qp_failures}, held {result.qp_held}",
+          file=sys.stderr)
+    return {"impulse": impulse, "success": result.success, "reason": result.reason,
+            "qp_failures": result.qp_failures, "qp_held": result.qp_held, "wall": result.wall}
+
+
+def largest_push(robot, terrain_map, samples, goal, at, resolution):
+    """Bisection of the module docstring: (largest survived impulse, smallest failed one, runs)."""
+    runs = [push_run(robot, terrain_map, samples, goal, at, 0.0)]
+    if not runs[0]["success"]:
+        return float("nan"), 0.0, runs
+    low, high = 0.0, PUSH_START
+    while True:
+        runs.append(push_run(robot, terrain_map, samples, goal, at, high))
+        if not runs[-1]["success"]:
+            break
+        low, high = high, 2 * high
+    while high - low > resolution:
+        middle = 0.5 * (low + high)
+        runs.append(push_run(robot, terrain_map, samples, goal, at, middle))
+        low, high = (middle, high) if runs[-1]["success"] else (low, middle)
+    return low, high, runs
+
+
+def push_bench(robot, maps):
+    rows = []
+    for map_name, label, (start, goal), gait, duration, resolution in PUSH_CASES:
+        terrain = TerrainModel(maps[map_name])
+        for costs in ("none", "paper"):
+            planned = plan(DynTask(start, goal, gait, 4, duration), robot.centroidal, terrain, SETTINGS[costs])
+            print(f"{label}, costs {costs}: plan {'ok' if planned.success else 'FAILED'}", file=sys.stderr)
+            low, high, runs = largest_push(robot, maps[map_name], planned.samples, goal, duration / 2, resolution)
+            rows.append({"case": label, "costs": costs, "planned": bool(planned.success), "push_at": duration / 2,
+                         "survived": low, "failed": high, "runs": runs})
+    return rows
 
 
 def run_tasks(robot, terrain_map, tasks, gait, duration, labels):
@@ -68,13 +121,14 @@ def run_tasks(robot, terrain_map, tasks, gait, duration, labels):
             cpu = time.process_time() - cpu
             if not result.success:   # what-if: the same plan with twice the URDF's joint torque limits
                 row["success_at_2x_torque"] = simulate(planned.samples, robot, terrain_map,
-                                                       SimParams(effort_scale=2.0), goal=goal).success
+                                                       SimParams(model=ModelOptions(effort_scale=2.0)), goal=goal).success
             row.update({"success": result.success, "reason": result.reason, "fall_time": result.fall_time,
                         "rms_position_error": result.rms_position_error,
                         "max_position_error": result.max_position_error,
                         "rms_orientation_error": result.rms_orientation_error,
                         "max_orientation_error": result.max_orientation_error,
                         "peak_torque": result.peak_torque, "saturation": result.saturation,
+                        "qp_failures": result.qp_failures, "qp_held": result.qp_held,
                         "simulated": result.simulated, "wall": result.wall, "cpu": cpu, "result": result,
                         "samples": planned.samples})
             print(f"{terrain_map.name} {start}->{goal} {label}: {result.reason}; rms {result.rms_position_error:.3f} m "
@@ -87,7 +141,8 @@ def collect_qps(robot, terrain_map, row, every=4):
     """The controller's QPs at the recorded states of one run (rows every 10 ms, every `every`-th)."""
     sim = build_model(robot, terrain_map, robot.centroidal.friction)
     reference = Reference(row["samples"], sim.foot_radius, TerrainModel(terrain_map))
-    controller = WholeBodyController(robot, sim.effort, robot.centroidal.friction)
+    controller = WholeBodyController(robot, sim.effort, robot.centroidal.friction, velocity_limit=sim.velocity_limit,
+                                     damping=sim.damping, armature=sim.armature)
     series = row["result"].series
     qps = []
     for k in range(0, len(series["t"]), every):
@@ -105,18 +160,12 @@ def judge(qp, x, n_joints):
 
 
 def time_proxqp(qps, n_joints):
-    import proxsuite
-
     times, worst = [], 0.0
     for qp in qps:
         t0 = time.perf_counter()
-        solver = proxsuite.proxqp.dense.QP(len(qp.g), len(qp.b), len(qp.l))
-        solver.settings.eps_abs = 1e-6
-        solver.settings.verbose = False
-        solver.init(qp.H, qp.g, qp.A, qp.b, qp.C, qp.l, qp.u)
-        solver.solve()
+        x, _ = solve_qp(qp)
         times.append(time.perf_counter() - t0)
-        worst = max(worst, judge(qp, solver.results.x, n_joints))
+        worst = max(worst, judge(qp, x, n_joints))
     return times, worst
 
 
@@ -141,6 +190,8 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--no-append", action="store_true", help="do not touch BENCHMARKS.md")
     parser.add_argument("--from-json", action="store_true", help="rewrite the section from bench/results/sim.json")
+    parser.add_argument("--push-only", action="store_true",
+                        help="run only the push bisection; keep the other results of bench/results/sim.json")
     args = parser.parse_args()
     if args.from_json:
         update_benchmarks("sim", markdown(json.loads((ROOT / "bench" / "results" / "sim.json").read_text())))
@@ -148,6 +199,17 @@ def main():
     robot = load_robot("anymal")
     load_start = load_average()
     maps = {name: build_map(ROOT / "maps" / f"{name}.yaml") for name in ("flat", "single_pallet")}
+    if args.push_only:
+        result = json.loads((ROOT / "bench" / "results" / "sim.json").read_text())
+        started = time.perf_counter()
+        rows = push_bench(robot, maps)
+        result["push"] = {"commit": code_version(), "date": str(datetime.date.today()), "load_start": load_start,
+                          "load_end": load_average(), "wall": time.perf_counter() - started, "rows": rows}
+        write_result("sim", result)
+        if not args.no_append:
+            update_benchmarks("sim", markdown(result))
+        print(markdown(result))
+        return
     rows = run_tasks(robot, maps["flat"], FLAT, "trot", 2.4, ("none", "paper")) + \
         run_tasks(robot, maps["single_pallet"], PALLET, "walk", 5.5, tuple(SETTINGS))
     qps = collect_qps(robot, maps["flat"], rows[0])
@@ -205,7 +267,28 @@ def markdown(result) -> str:
               f"{qp['proxqp_worst_residual']:.1e} |",
               f"| OSQP 1.1.3 (sparse ADMM, polished) | {qp['osqp_median_ms']:.3f} | {qp['osqp_max_ms']:.3f} | "
               f"{qp['osqp_worst_residual']:.1e} |"]
+    if "qp_failures" in result["runs"][0]:
+        lines += ["", "QP failures (ticks whose QP was not solved: the relaxed QP ran) / held ticks per run, in "
+                  "table order: " + ", ".join(f"{r['qp_failures']}/{r['qp_held']}" for r in result["runs"]) + "."]
+    if "push" in result:
+        lines += push_markdown(result["push"])
     return "\n".join(lines)
+
+
+def push_markdown(push) -> list[str]:
+    lines = ["", f"### Largest lateral push survived (open loop; {push['date']}, {push['commit']}, load "
+             f"{push['load_start']:.1f} → {push['load_end']:.1f}, {push['wall'] / 60:.0f} min wall)", "",
+             f"A +y force on the trunk for {PUSH_DURATION} s from half the plan's duration; its impulse bisected "
+             "(doubled from 4 N s until a run fails, then halved to the resolution); survived = goal reached "
+             "without a fall; the plan is not replanned. One run per impulse: MuJoCo and the controller are "
+             "deterministic, so the bracket does not depend on the machine's load.", "",
+             "| task | costs | plan ok | survived (N s) | failed (N s) | runs | QP failures / held (all runs) |",
+             "|---|---|---|---|---|---|---|"]
+    for r in push["rows"]:
+        lines.append(f"| {r['case']} | {r['costs']} | {r['planned']} | {r['survived']:.2f} | {r['failed']:.2f} | "
+                     f"{len(r['runs'])} | {sum(x['qp_failures'] for x in r['runs'])} / "
+                     f"{sum(x['qp_held'] for x in r['runs'])} |")
+    return lines
 
 
 if __name__ == "__main__":

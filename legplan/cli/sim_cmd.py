@@ -2,22 +2,51 @@
 
     legplan dyn simulate traj.h5 map.h5 -o sim.h5 --jobs 2
 
-Registered on the `dyn` group (`legplan.cli.dyn_cmd`). Every task of TRAJ with a sampled trajectory
-runs through `legplan.sim.simulate` (whole-body controller at 400 Hz, paper Sec. III-B/C); exit 1
-when any task fails (fell, missed the goal, or had nothing to execute), 2 on bad input.
+    legplan dyn simulate traj.h5 map.h5 -o sim.h5 --push 1.2 0 150 0.02 --friction-scale 0.8
+
+Registered on the `dyn` group (`legplan.cli.dyn_cmd`). Every task of TRAJ whose plan succeeded runs
+through `legplan.sim.simulate` (whole-body controller at 400 Hz, paper Sec. III-B/C); a task whose
+plan did not succeed is recorded as skipped, not executed. Exit 1 when any task fails (fell, missed
+the goal, skipped, or had nothing to execute), 2 on bad input — including a robot whose MuJoCo
+model cannot be built (an unresolvable `package://`, a missing mesh, an inertia that cannot be
+repaired, a joint without an effort limit): the model is built once before any task runs.
 """
 
 from __future__ import annotations
 
+import logging
+import math
 import os
 
 import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import batch_opts, input_artefact, number, output_opt, overwrite_opt, verbosity_opts
-from legplan.parameters import FRICTION, WAIT
+from legplan.cli.options import (NumbersOption, batch_opts, input_artefact, number, output_opt, overwrite_opt,
+                                 verbosity_opts)
 from legplan.errors import LegplanError
+from legplan.parameters import FACTOR, FRICTION, WAIT
+
+log = logging.getLogger("legplan.sim")
+
+
+class JointValue(click.ParamType):
+    """`PATTERN=VALUE`: a joint-name glob pattern and a positive finite number."""
+
+    name = "joint=value"
+
+    def convert(self, value, param, ctx):
+        if isinstance(value, tuple):
+            return value
+        pattern, _, number_text = str(value).rpartition("=")
+        try:
+            number_value = float(number_text)
+        except ValueError:
+            number_value = float("nan")
+        if not pattern or not (math.isfinite(number_value) and number_value > 0):
+            self.fail(f"{value!r} is not JOINT=VALUE with a joint name (or glob pattern) and a positive number",
+                      param, ctx)
+        return pattern, number_value
 
 
 @click.command("simulate")
@@ -26,13 +55,33 @@ from legplan.errors import LegplanError
 @click.option("--settle", type=number(WAIT), default=0.5, show_default=True,
               help="Seconds the final pose is held after the plan before the goal is judged.")
 @click.option("--friction", type=number(FRICTION), default=None,
-              help="Friction coefficient of the simulated contacts [default: the robot's, as planned].")
+              help="Friction coefficient of the simulated contacts and the controller [default: the robot's, "
+                   "as planned].")
+@click.option("--push", "pushes", cls=NumbersOption, counts=(4,), multiple=True, metavar="T FX FY DURATION",
+              help="A horizontal push on the trunk: force (FX, FY) N in the world frame from T s (the plan's "
+                   "clock) for DURATION s. Repeatable.")
+@click.option("--friction-scale", type=number(FACTOR), default=1.0, show_default=True,
+              help="Multiplies the simulated friction only (the controller keeps the planned μ).")
+@click.option("--mass-scale", type=number(FACTOR), default=1.0, show_default=True,
+              help="Multiplies every simulated mass and inertia (the controller keeps the URDF's).")
+@click.option("--urdf-collision/--no-urdf-collision", default=False, show_default=True,
+              help="Let the URDF's own collision geometry touch the terrain too (robot.yaml's spheres always do).")
+@click.option("--package-path", "package_paths", multiple=True,
+              type=click.Path(exists=True, file_okay=False, dir_okay=True),
+              help="A folder searched for the ROS packages of `package://` meshes, before ROS_PACKAGE_PATH and "
+                   "the folders above the URDF. Repeatable.")
+@click.option("--effort", "efforts", type=JointValue(), multiple=True, metavar="JOINT=N·M",
+              help="Joint torque limit replacing the URDF's (e.g. a placeholder 1000): a joint name or glob "
+                   "pattern, e.g. '*_KFE=2.7'. Repeatable; the last match wins.")
+@click.option("--velocity", "velocities", type=JointValue(), multiple=True, metavar="JOINT=RAD/S",
+              help="Joint velocity limit replacing the URDF's, as --effort. Repeatable.")
 @output_opt
 @overwrite_opt
 @batch_opts
 @verbosity_opts
 @click.pass_context
-def simulate_cmd(ctx, traj_path, map_path, settle, friction, output, overwrite, jobs, scheduler, resume):
+def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_scale, mass_scale, urdf_collision,
+                 package_paths, efforts, velocities, output, overwrite, jobs, scheduler, resume):
     """Execute every trajectory of TRAJ on MAP in MuJoCo under the whole-body controller; write sim.h5.
 
     Success: no fall (base below half its nominal height above the terrain, tilted > 0.8 rad, or the
@@ -47,6 +96,7 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, output, overwrite, 
     from legplan.robots import load_robot
     from legplan.sim.artefact import write_sim
     from legplan.sim.items import SimWorker, failed_item, sim_items, simulate_item
+    from legplan.sim.model import ModelOptions, build_model
     from legplan.sim.run import SimParams
     from legplan.terrain import load_map
 
@@ -67,19 +117,32 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, output, overwrite, 
             xy = np.concatenate([task["samples"]["base_pos"][:, :2], task["samples"]["feet_pos"][..., :2].reshape(-1, 2)])
             if np.any(xy < lo) or np.any(xy > hi):
                 raise LegplanError(f"{traj_path}: task {int(task['index'])}: trajectory leaves the map {map_path}")
-    params = SimParams(settle=settle, friction=friction)
-    settings = {"settle": settle, "friction": friction, "traj": str(traj_path)}
+    options = ModelOptions(urdf_collision=urdf_collision, package_paths=tuple(os.path.abspath(p) for p in package_paths),
+                           effort=tuple(efforts), velocity=tuple(velocities))
+    params = SimParams(settle=settle, friction=friction, friction_scale=friction_scale, mass_scale=mass_scale,
+                       pushes=tuple(tuple(p) for p in pushes), model=options)
+    model = build_model(robot, terrain_map, robot.centroidal.friction if friction is None else friction, options)
+    for warning in model.warnings:
+        log.warning(warning)
+    settings = {"settle": settle, "friction": friction, "friction_scale": friction_scale, "mass_scale": mass_scale,
+                "pushes": [list(p) for p in pushes], "urdf_collision": urdf_collision,
+                "package_paths": list(options.package_paths), "effort": [list(e) for e in efforts],
+                "velocity": [list(v) for v in velocities], "traj": str(traj_path)}
     task = Task(simulate_item, failed_item, SimWorker, (robot.name, os.path.abspath(map_path), params))
     records, _ = run_stage(task, sim_items(tasks), "dyn simulate", output=output,
                            identity={"stage": "dyn simulate", "params": settings}, inputs=[traj_path, map_path],
                            jobs=jobs, scheduler=scheduler, resume=resume, overwrite=overwrite,
                            publish=lambda records: write_sim(output, records, settings, robot,
-                                                             inputs=[traj_path, map_path], overwrite=overwrite))
+                                                             inputs=[traj_path, map_path], overwrite=overwrite,
+                                                             warnings=model.warnings))
     failed = [r for r in records if not r["success"]]
     status(f"wrote {output}: {len(records) - len(failed)}/{len(records)} tasks executed successfully")
     for r in records:
-        line = (f"  task {r['index']}: {r['reason']}; tracking rms {r['rms_position_error']:.3f} m, "
-                f"{r['rms_orientation_error']:.3f} rad; peak torque {r['peak_torque']:.0f} N m")
+        line = f"  task {r['index']}: {r['reason']}"
+        if not r["skipped"] and math.isfinite(r["simulated"]):
+            line += (f"; tracking rms {r['rms_position_error']:.3f} m, {r['rms_orientation_error']:.3f} rad; "
+                     f"peak torque {r['peak_torque']:.0f} N m; QP failures {r['qp_failures']:.0f} "
+                     f"(relaxed QP), {r['qp_held']:.0f} held")
         (status if r["success"] else stderr_line)(line)
     if failed:
         ctx.exit(EXIT_ITEMS_FAILED)

@@ -19,9 +19,20 @@ plan says so and it touches the terrain (the simulator's contact state, as a rob
 sensing); a foot planned in stance that has not touched down yet moves at rest towards a point
 `search_depth` below its planned foothold (late touchdown) instead of pushing on air. The torques are τ = M_j v̇ + h_j − J_c,jᵀ f at the optimum.
 
+Joint velocity limits v_max (URDF `velocity`): the joint rates one `velocity_horizon` ahead stay
+inside them, −v_max ≤ v_j + T v̇_j ≤ v_max (a joint already beyond its limit is braked back at
+(|v_j| − v_max)/T). Joint damping d (URDF `<dynamics damping>`) is compensated, τ += d v_j, and the
+joints' armature is on the diagonal of the model's mass matrix, as in the simulator.
+
 The QP is small (18 + 3 n_c unknowns) and dense, solved by proxsuite's ProxQP (dense backend), cold
-started each tick; BENCHMARKS.md (sim) compares it with OSQP on the same QPs. A tick whose QP is not
-solved keeps the last torques (counted in `qp_failures`).
+started each tick; BENCHMARKS.md (sim) compares it with OSQP on the same QPs.
+
+Fallback when the QP is not solved (infeasible: the torque limits cannot hold the stance feet still
+and meet the velocity limits; or out of iterations), counted in `qp_failures`: the relaxed QP, in
+which the stance feet's zero-acceleration equalities become tasks of weight `w_contact` and the
+velocity-limit rows are dropped. It is always feasible (zero joint torques with any force in the
+cones satisfy it), so it fails only numerically; then the last torques are held for the tick
+(counted in `qp_held`).
 """
 
 from __future__ import annotations
@@ -63,6 +74,28 @@ class Gains:
     f_min: float = 1.0            # N, smallest normal force of a stance foot
     f_max: float = 1000.0         # N, robot.yaml's max_normal_force
     search_depth: float = 0.03    # m, below the planned foothold a late foot reaches for
+    velocity_horizon: float = 0.01   # s, T of the joint velocity limit rows
+    w_contact: float = 1e4        # weight of the stance feet's zero acceleration in the relaxed QP
+
+
+QP_EPS_ABS = 1e-6
+"""ProxQP's absolute tolerance on the primal and dual residuals."""
+QP_EPS_PRIMAL_INF = 1e-9
+"""ProxQP's tolerance of its primal infeasibility certificate. Its default (1e-4) declares these QPs
+(forces in N next to accelerations, weights 1e-6 to 1e4) infeasible after two iterations when they
+are not: the same QPs, even the relaxed one that is feasible by construction, solve in a few
+iterations with residuals near 1e-11 at this tolerance."""
+
+
+def solve_qp(qp: QP):
+    """ProxQP (dense) on `qp`, cold started: (its x, its status)."""
+    solver = proxsuite.proxqp.dense.QP(len(qp.g), len(qp.b), len(qp.l))
+    solver.settings.eps_abs = QP_EPS_ABS
+    solver.settings.eps_primal_inf = QP_EPS_PRIMAL_INF
+    solver.settings.verbose = False
+    solver.init(qp.H, qp.g, qp.A, qp.b, qp.C, qp.l, qp.u)
+    solver.solve()
+    return solver.results.x, solver.results.info.status
 
 
 @dataclass
@@ -80,23 +113,32 @@ class QP:
 
 class WholeBodyController:
     """Task-space inverse dynamics of `robot` (a `RobotModel`) with joint torque limits `effort`
-    (n_joints,) and friction `mu`; `torques(q, v, ref)` gives the joint torques (pinocchio order)."""
+    (n_joints,) and friction `mu`; optional per joint `velocity_limit` (rad/s, inf: none), `damping`
+    (N m s/rad) and `armature` (kg m²). `torques(q, v, ref, touching)` gives the joint torques
+    (pinocchio order); `qp_failures` and `qp_held` count the fallbacks (module docstring)."""
 
-    def __init__(self, robot, effort, mu: float, gains: Gains = Gains()):
-        self.model = robot.model
+    def __init__(self, robot, effort, mu: float, gains: Gains = Gains(), velocity_limit=None, damping=None,
+                 armature=None):
+        self.model = pin.Model(robot.model)
+        n = self.model.nv - 6
+        if armature is not None:
+            self.model.armature[6:] = armature
         self.data = self.model.createData()
         self.base_frame = next(i for i, f in enumerate(self.model.frames)   # the root link's body frame
                                if f.parentJoint == 1 and f.type == pin.FrameType.BODY)
         self.feet = [leg.foot_frame_id for leg in robot.legs]
         self.effort = np.asarray(effort, float)
+        self.velocity_limit = np.full(n, np.inf) if velocity_limit is None else np.asarray(velocity_limit, float)
+        self.damping = np.zeros(n) if damping is None else np.asarray(damping, float)
         self.mu = float(mu) * np.cos(np.pi / len(FACETS))
         self.gains = gains
         self.qp_failures = 0
-        self._last = np.zeros(self.model.nv - 6)
+        self.qp_held = 0
+        self._last = np.zeros(n)
 
-    def build(self, q, v, ref, touching) -> QP:
+    def build(self, q, v, ref, touching, relaxed: bool = False) -> QP:
         """The QP of the module docstring at state (q, v), reference `ref` (a `RefPoint`) and the
-        feet that touch the terrain now, `touching` (n_legs,) bool."""
+        feet that touch the terrain now, `touching` (n_legs,) bool; `relaxed`: the fallback QP."""
         model, data, k = self.model, self.data, self.gains
         nv = model.nv
         pin.computeAllTerms(model, data, q, v)
@@ -127,6 +169,10 @@ class WholeBodyController:
             if leg in stance:
                 contact_J.append(Jf)
                 contact_rhs.append(-df - k.slip_kd * vf)
+                if relaxed:
+                    rows.append(Jf)
+                    targets.append(contact_rhs[-1])
+                    weights.append(np.full(3, k.w_contact))
             else:
                 p = data.oMf[frame].translation
                 if ref.contact[leg]:   # late touchdown: reach down for the terrain at rest
@@ -150,18 +196,25 @@ class WholeBodyController:
             g[nv:] = -k.w_force * ref.forces[stance].ravel()
         Jc = np.vstack(contact_J) if nf else np.zeros((0, nv))
 
-        A = np.zeros((6 + nf, n))
+        equalities = 0 if relaxed else nf
+        A = np.zeros((6 + equalities, n))
         A[:6, :nv] = M[:6]
         A[:6, nv:] = -Jc[:, :6].T
-        A[6:, :nv] = Jc
-        b = np.concatenate([-h[:6]] + contact_rhs)
+        A[6:, :nv] = Jc[:equalities]
+        b = np.concatenate([-h[:6]] + ([] if relaxed else contact_rhs))
 
+        joints = nv - 6
+        tau_bias = h[6:] + self.damping * v[6:]
+        limited = np.array([], int) if relaxed else np.flatnonzero(np.isfinite(self.velocity_limit))
+        speed_rows = np.zeros((len(limited), n))
+        speed_rows[np.arange(len(limited)), 6 + limited] = k.velocity_horizon
+        vmax, vj = self.velocity_limit[limited], v[6:][limited]
         facets = len(FACETS) + 1
-        C = np.zeros((nv - 6 + facets * len(stance), n))
-        C[:nv - 6, :nv] = M[6:]
-        C[:nv - 6, nv:] = -Jc[:, 6:].T
-        l = np.concatenate([-self.effort - h[6:], np.full(facets * len(stance), -np.inf)])
-        u = np.concatenate([self.effort - h[6:], np.zeros(facets * len(stance))])
+        C = np.zeros((joints + facets * len(stance), n))
+        C[:joints, :nv] = M[6:]
+        C[:joints, nv:] = -Jc[:, 6:].T
+        l = np.concatenate([-self.effort - tau_bias, np.full(facets * len(stance), -np.inf)])
+        u = np.concatenate([self.effort - tau_bias, np.zeros(facets * len(stance))])
         for i, leg in enumerate(stance):
             normal = ref.normal[leg]
             t1 = np.array([normal[2], 0.0, -normal[0]]) / np.hypot(normal[2], normal[0])   # ŷ × n
@@ -172,21 +225,29 @@ class WholeBodyController:
             l[r], u[r] = k.f_min, k.f_max
             for j, (ct, st) in enumerate(FACETS):
                 C[r + 1 + j, c:c + 3] = ct * t1 + st * t2 - self.mu * normal
+        C = np.vstack([C, speed_rows])
+        l = np.concatenate([l, -vmax - vj])
+        u = np.concatenate([u, vmax - vj])
         return QP(H, g, A, b, C, l, u)
 
+    @staticmethod
+    def _solve(qp: QP):
+        x, status = solve_qp(qp)
+        return x if status == proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED else None
+
     def torques(self, q, v, ref, touching) -> np.ndarray:
-        """Joint torques (n_joints,) for state (q, v) (pinocchio convention), `ref` and `touching`."""
+        """Joint torques (n_joints,) for state (q, v) (pinocchio convention), `ref` and `touching`;
+        the fallbacks of the module docstring when the QP is not solved."""
         qp = self.build(q, v, ref, touching)
-        solver = proxsuite.proxqp.dense.QP(len(qp.g), len(qp.b), len(qp.l))
-        solver.settings.eps_abs = 1e-6
-        solver.settings.verbose = False
-        solver.init(qp.H, qp.g, qp.A, qp.b, qp.C, qp.l, qp.u)
-        solver.solve()
-        if solver.results.info.status != proxsuite.proxqp.QPSolverOutput.PROXQP_SOLVED:
+        x = self._solve(qp)
+        if x is None:
             self.qp_failures += 1
-            return self._last
-        nv = self.model.nv
-        x = solver.results.x
-        tau = qp.C[:nv - 6] @ x + (self.data.nle[6:])
+            qp = self.build(q, v, ref, touching, relaxed=True)
+            x = self._solve(qp)
+            if x is None:
+                self.qp_held += 1
+                return self._last
+        joints = self.model.nv - 6
+        tau = qp.C[:joints] @ x + self.data.nle[6:] + self.damping * v[6:]
         self._last = np.clip(tau, -self.effort, self.effort)
         return self._last

@@ -1,7 +1,11 @@
 """Per-task functions of `legplan dyn simulate` for `legplan.batch`: a worker context and the records.
 
     task = Task(simulate_item, failed_item, SimWorker, (robot_name, map_path, params))
-    items = sim_items(traj_tasks)      # (index, planned, samples or None, goal) per traj task
+    items = sim_items(traj_tasks)      # (index, planned, samples or None, goal, plan's reason) per traj task
+
+A task whose plan did not succeed (its solver failed or its check did not pass) is not executed:
+it is recorded as skipped with the plan's reason, so that a simulated success always belongs to a
+plan that passed.
 """
 
 from __future__ import annotations
@@ -24,14 +28,16 @@ class SimWorker:
 
 def sim_items(tasks: list[dict]) -> list[tuple]:
     """The batch items of a traj artefact's task groups (`legplan.dyn.artefact.read_tasks`):
-    (index, the plan's success, its samples or None when it has none, its goal)."""
-    return [(int(t["index"]), bool(t["success"]), t.get("samples"), tuple(float(g) for g in t["goal"]))
-            for t in tasks]
+    (index, the plan's success, its samples or None when it has none, its goal, the plan's reason)."""
+    return [(int(t["index"]), bool(t["success"]), t.get("samples"), tuple(float(g) for g in t["goal"]),
+             str(t["reason"])) for t in tasks]
 
 
 def simulate_item(worker: SimWorker, item: tuple) -> dict:
     """Execute one traj task (`legplan.batch.Task`'s per-item function)."""
-    index, planned, samples, goal = item
+    index, planned, samples, goal, plan_reason = item
+    if not planned:
+        return failed_record(index, planned, f"skipped: the plan did not succeed ({plan_reason})", skipped=True)
     if samples is None:
         return failed_record(index, planned, "no trajectory to execute (the plan failed before sampling)")
     result = simulate(samples, worker.robot, worker.terrain_map, worker.params, goal=goal)

@@ -9,19 +9,27 @@ goal without falling. Here:
    (`legplan.robots.leg_reach`) putting the foot spheres on the planned footholds.
 2. Every 2.5 ms (400 Hz) the controller (`legplan.sim.controller`) computes torques from the
    simulated state and the plan's reference at that time; MuJoCo integrates 5 steps of 0.5 ms with
-   them held (torque motors clipped to the URDF effort limits).
+   them held, clipped to the effort limits. The motors respect the joints' velocity limits the way
+   a motor's torque–speed limit does, in its crudest form: at or beyond its limit a joint's motor
+   brakes but does not drive it faster (its torque in the direction of motion is cut to zero).
 3. After the plan's duration the controller holds the final pose for `settle` seconds.
 4. A fall ends the run: the base lower than `fall_height` × the nominal base height above the
    terrain under it, its z axis tilted more than `fall_tilt` from the vertical, or the trunk (a
-   collision sphere of the root link) touching the terrain.
+   robot geom on the root link or a link fixed to it) touching the terrain.
 5. Success: no fall, and at the end the base within `goal_distance` (horizontal) and `goal_yaw`
    (yaw) of the goal (default: the plan's last pose; the task's goal when given).
+
+Perturbations, so that robustness is measured: `pushes` (t, f_x, f_y, duration) — a horizontal
+world force (N) on the root link's centre of mass from t (s, the plan's clock) for `duration` (an
+impulse f × duration); `friction_scale` multiplies the simulated friction and `mass_scale` every
+body's mass and inertia while the controller keeps the plan's μ and the URDF's masses (model error).
 
 Recorded every `record_every` ticks (default 4: 100 Hz): time, base pose and velocity, joint
 positions/velocities/torques, contact forces on each foot (world, N), and the tracking errors of the
 base — position ‖p − p_plan‖ (m) and orientation ‖log(R_planᵀ R)‖ (rad) — as Fig. 4 (e)-(f).
-Per run: peak joint torque, torque saturation, QP failures, and unplanned contacts (robot spheres
-other than the feet touching the terrain: shin, thigh, trunk).
+Per run: peak joint torque, torque saturation, QP failures and ticks whose torques were held
+(`legplan.sim.controller`'s fallbacks), the peak joint speed over its limit and the time a joint
+spent at it, and unplanned contacts (robot geoms other than the feet touching the terrain).
 """
 
 from __future__ import annotations
@@ -34,28 +42,43 @@ import numpy as np
 import pinocchio as pin
 
 from legplan.dyn.terrain import TerrainModel
+from legplan.errors import LegplanError
+from legplan.parameters import Parameters, param
 from legplan.robots import leg_reach
 from legplan.sim.controller import Gains, WholeBodyController
-from legplan.sim.model import build_model
+from legplan.sim.model import ModelOptions, build_model
 from legplan.sim.reference import Reference
 
 CONTROL_DT = 0.0025   # s, 400 Hz (paper Sec. III-B)
+OVERSPEED = 1.05      # × a joint's velocity limit counted as over it (`SimResult.overspeed_time`)
 
 
 @dataclass(frozen=True)
-class SimParams:
+class SimParams(Parameters):
     """Settings of a simulated execution (module docstring); `friction` None = the robot's μ."""
 
-    settle: float = 0.5               # s held at the final pose after the plan
-    fall_height: float = 0.5          # × nominal base height, above the terrain under the base
-    fall_tilt: float = 0.8            # rad, base z axis from the vertical
-    goal_distance: float = 0.10       # m
-    goal_yaw: float = 0.20            # rad
-    record_every: int = 4             # control ticks per recorded row (100 Hz)
-    friction: float | None = None
+    what = "simulation"
+
+    settle: float = param(0.5, "[0, inf)", doc="s held at the final pose after the plan")
+    fall_height: float = param(0.5, "[0, inf)", doc="× nominal base height, above the terrain under the base")
+    fall_tilt: float = param(0.8, "(0, 3.1416]", doc="rad, base z axis from the vertical")
+    goal_distance: float = param(0.10, "(0, inf)", doc="m")
+    goal_yaw: float = param(0.20, "(0, inf)", doc="rad")
+    record_every: int = param(4, "[1, inf)", doc="control ticks per recorded row (4: 100 Hz)")
+    friction: float | None = param(None, "(0, inf)", "μ", "friction of the simulation and the controller")
+    friction_scale: float = param(1.0, "(0, inf)", doc="× the simulated friction only (the controller keeps μ)")
+    mass_scale: float = param(1.0, "(0, inf)", doc="× every simulated mass and inertia (the controller keeps the URDF's)")
+    pushes: tuple = ()                # ((t s, f_x N, f_y N, duration s), ...) on the root link
     zero_torque: bool = False         # apply no torques (a planted fall, for tests)
-    effort_scale: float = 1.0         # × the URDF effort limits (a what-if: which limits would a plan need)
+    model: ModelOptions = field(default_factory=ModelOptions)
     gains: Gains = field(default_factory=Gains)
+
+    def __post_init__(self):
+        super().__post_init__()
+        for push in self.pushes:
+            if len(push) != 4 or not np.all(np.isfinite(push)) or push[0] < 0 or push[3] <= 0:
+                raise LegplanError(f"simulation parameter 'pushes': {tuple(push)} is not (t >= 0, f_x, f_y, "
+                                   "duration > 0) with finite numbers")
 
 
 @dataclass
@@ -63,7 +86,11 @@ class SimResult:
     """One execution: `success`, `reason`, `fell`, `fall_time` (s, NaN), final `goal_error` (m) and
     `yaw_error` (rad); time series in `series` (name -> array, rows every `record_every` ticks, with
     units in `SERIES_UNITS`); scalars `peak_torque` (N m), `saturation` (fraction of ticks with a
-    joint at its limit), `qp_failures`, `unplanned_contact_time` (s), `unplanned_contacts` (names of
+    joint at its limit), `qp_failures` (ticks whose QP was not solved), `qp_held` (ticks whose
+    relaxed QP failed too: last torques held), `peak_speed_ratio` (largest |joint rate| / its
+    velocity limit, NaN with no limits), `speed_limited_time` (s with a joint at or over its velocity
+    limit), `overspeed_time` (s with a joint more than `OVERSPEED` × its limit at the end of a
+    tick: what the motors could not prevent, e.g. an impact back-driving a knee), `impulse` (N s, the pushes' total), `unplanned_contact_time` (s), `unplanned_contacts` (names of
     the spheres that touched), `max_position_error`, `max_orientation_error`, `rms_position_error`,
     `rms_orientation_error`, `simulated` (s), `wall` (s)."""
 
@@ -77,6 +104,11 @@ class SimResult:
     peak_torque: float
     saturation: float
     qp_failures: int
+    qp_held: int
+    peak_speed_ratio: float
+    speed_limited_time: float
+    overspeed_time: float
+    impulse: float
     unplanned_contact_time: float
     unplanned_contacts: list
     max_position_error: float
@@ -97,12 +129,14 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
     `centroidal` section) on `terrain_map`; `goal` (x, y, yaw) or None for the plan's last pose."""
     started = time.perf_counter()
     mu = robot.centroidal.friction if params.friction is None else params.friction
-    sim = build_model(robot, terrain_map, mu, params.effort_scale)
+    sim = build_model(robot, terrain_map, mu, params.model)
     terrain = TerrainModel(terrain_map)
     reference = Reference(samples, sim.foot_radius, terrain)
-    controller = WholeBodyController(robot, sim.effort, mu, params.gains)
+    controller = WholeBodyController(robot, sim.effort, mu, params.gains, velocity_limit=sim.velocity_limit,
+                                     damping=sim.damping, armature=sim.armature)
     model = sim.model
     data = mujoco.MjData(model)
+    perturb(sim, data, params)
     _initial_state(data, sim, robot, reference)
     if goal is None:
         end = reference.at(reference.t[-1])
@@ -111,9 +145,11 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
     ticks = int(np.ceil((reference.duration + params.settle) / CONTROL_DT))
     min_height = params.fall_height * robot.centroidal.base_height
     names = {int(g): model.geom(int(g)).name for g in sim.body_geoms}
+    limited = np.isfinite(sim.velocity_limit)
 
     rows = {name: [] for name in SERIES_UNITS}
     peak, saturated, unplanned_ticks, touched = 0.0, 0, 0, set()
+    peak_speed, speed_ticks, overspeed_ticks = 0.0, 0, 0
     fell, fall_time, reason = False, float("nan"), ""
     tau = np.zeros(robot.n_joints)
     for tick in range(ticks):
@@ -122,10 +158,21 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
         ref = reference.at(t)
         if not params.zero_torque:
             tau = controller.torques(q, v, ref, touching(data, sim))
-        data.ctrl[:] = tau
         peak = max(peak, float(np.abs(tau).max()))
         saturated += bool(np.any(np.abs(tau) >= sim.effort * (1 - 1e-6)))
-        mujoco.mj_step(model, data, substeps)
+        at_limit = False
+        for step in range(substeps):
+            data.xfrc_applied[sim.root_body, :3] = push_force(params.pushes, t + step * model.opt.timestep)
+            rates = data.qvel[sim.dof_index]
+            over = limited & (np.abs(rates) >= sim.velocity_limit)
+            at_limit |= bool(over.any())
+            data.ctrl[:] = np.where(over & (tau * rates > 0), 0.0, tau)
+            mujoco.mj_step(model, data)
+        speed_ticks += at_limit
+        if limited.any():
+            ratio = float(np.max(np.abs(data.qvel[sim.dof_index][limited]) / sim.velocity_limit[limited]))
+            peak_speed = max(peak_speed, ratio)
+            overspeed_ticks += ratio > OVERSPEED
         pairs = data.contact.geom[:data.ncon]
         hits = set(pairs[np.isin(pairs, sim.body_geoms)].tolist())
         unplanned_ticks += bool(hits)
@@ -162,12 +209,37 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
     return SimResult(success=not fell and reason == "reached the goal", reason=reason, fell=fell,
                      fall_time=fall_time, goal_error=goal_error, yaw_error=yaw_error, series=series,
                      peak_torque=peak, saturation=saturated / max(tick + 1, 1),
-                     qp_failures=controller.qp_failures, unplanned_contact_time=unplanned_ticks * CONTROL_DT,
+                     qp_failures=controller.qp_failures, qp_held=controller.qp_held,
+                     peak_speed_ratio=peak_speed if limited.any() else float("nan"),
+                     speed_limited_time=speed_ticks * CONTROL_DT, overspeed_time=overspeed_ticks * CONTROL_DT,
+                     impulse=float(sum(np.hypot(p[1], p[2]) * p[3] for p in params.pushes)),
+                     unplanned_contact_time=unplanned_ticks * CONTROL_DT,
                      unplanned_contacts=sorted(names[g] for g in touched),
                      max_position_error=float(pe.max()), max_orientation_error=float(oe.max()),
                      rms_position_error=float(np.sqrt(np.mean(pe ** 2))),
                      rms_orientation_error=float(np.sqrt(np.mean(oe ** 2))),
                      simulated=float(data.time), wall=time.perf_counter() - started)
+
+
+def perturb(sim, data, params: SimParams) -> None:
+    """Scale the simulated friction and masses (`params.friction_scale`, `mass_scale`); the model's
+    derived constants recomputed."""
+    model = sim.model
+    if params.friction_scale != 1.0:
+        model.geom_friction[:, 0] *= params.friction_scale
+    if params.mass_scale != 1.0:
+        model.body_mass[:] *= params.mass_scale
+        model.body_inertia[:] *= params.mass_scale
+        mujoco.mj_setConst(model, data)
+
+
+def push_force(pushes, t: float) -> np.ndarray:
+    """The pushes' total horizontal force (3,) (N, world) at time t (s, the plan's clock)."""
+    force = np.zeros(3)
+    for start, fx, fy, duration in pushes:
+        if start <= t < start + duration:
+            force[:2] += fx, fy
+    return force
 
 
 def _initial_state(data, sim, robot, reference: Reference) -> None:

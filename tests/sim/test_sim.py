@@ -7,6 +7,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 from click.testing import CliRunner
+from stance import standing
 
 from legplan.cli.main import cli
 from legplan.robots import load_robot
@@ -14,48 +15,9 @@ from legplan.sim.model import build_model
 from legplan.sim.run import SimParams, simulate
 from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
 
-TROT = ("--start", "0", "0", "0", "--goal", "1", "0", "0", "--gait", "trot", "--strides", "4", "--duration", "2.4")
-
 
 def invoke(*args):
     return CliRunner().invoke(cli, [str(a) for a in args])
-
-
-@pytest.fixture(scope="module")
-def robot():
-    return load_robot("anymal")
-
-
-@pytest.fixture(scope="module")
-def flat(tmp_path_factory):
-    """A flat 3 x 2 m map at 2 cm with a 10 cm block at x >= 1.2 (to check the height field)."""
-    grid = Grid2D(origin=(-1.0, -1.0), resolution=0.02, shape=(101, 151))
-    x, y = grid.centres()
-    terrain = terrain_from_heightmap(np.where(x >= 1.2, 0.1, 0.0), grid, name="flat_block")
-    path = tmp_path_factory.mktemp("sim") / "map.h5"
-    save_map(terrain, path)
-    return terrain, path
-
-
-@pytest.fixture(scope="module")
-def trot(flat, tmp_path_factory):
-    """A 1 m flat trot planned by `legplan dyn plan` (4 strides, 2.4 s)."""
-    traj = tmp_path_factory.mktemp("trot") / "traj.h5"
-    assert invoke("dyn", "plan", flat[1], *TROT, "-o", traj, "-q").exit_code == 0
-    return traj
-
-
-def standing(robot, seconds=1.0):
-    """Samples of the nominal stance held still: the weight split over the four feet."""
-    c = robot.centroidal
-    t = np.arange(0.0, seconds + 1e-9, 0.01)
-    n, zero = len(t), np.zeros((len(t), 3))
-    forces = np.zeros((n, 4, 3))
-    forces[..., 2] = c.mass * 9.81 / 4
-    return {"t": t, "base_pos": np.tile([0.0, 0.0, c.base_height], (n, 1)), "base_vel": zero, "base_acc": zero,
-            "base_euler": zero, "base_ang_vel": zero, "base_ang_acc": zero,
-            "feet_pos": np.tile(c.nominal_feet + [0.0, 0.0, c.base_height], (n, 1, 1)),
-            "feet_vel": np.zeros((n, 4, 3)), "forces": forces, "contact": np.ones((n, 4), bool)}
 
 
 def test_model_has_the_urdf_masses_inertias_joints_and_limits(robot, flat):
