@@ -106,10 +106,11 @@ class DynParams:
     costs: CostWeights = CostWeights()
     swing_height_min: float | None = None
     base_clearance: float | None = None
-    leg_clearance: float | None = None
-    """m: the surfaces of the legs' thigh and shank spheres stay this far above the terrain's envelope
-    at the range-of-motion samples (`LegClearanceBlock`; needs the robot's closed-form legs,
-    `Centroidal.leg_kinematics`). None = off."""
+    leg_clearance: float | None = 0.02
+    """m: the surfaces of the legs' collision spheres (all but the feet) stay this far above the
+    terrain's envelope at the range-of-motion samples (`LegClearanceBlock`): on by default, since the
+    independent check judges every leg sphere against the terrain, with a margin for the tracking
+    error of the executing controller. None = off."""
     solver: ALParams = ALParams()
     projection_solver: ALParams = ALParams(exact_rows=True)
     """The "projection" warm stage's: the constraints alone, stopped by the exact per-row test (a last
