@@ -9,7 +9,7 @@ paper, stated as constrained least squares for `legplan.solve.solve_augmented_la
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -63,6 +63,26 @@ class DynParams:
     """
 
     dt: float = 0.1
+    dynamics_points: int = 10
+    """Points per base interval (the knot that opens it included, equally spaced) at which the
+    Newton–Euler rows are constrained: to zero at the knots (TOWR's collocation), inside
+    ±`dynamics_band` at the others (1: TOWR's alone). Between the knots the base acceleration is
+    linear while the forces are cubics whose pieces start and end at the phase times, vanishing with
+    zero slope at every touchdown and lift-off: the residual cannot be zero along a whole interval
+    that holds a touchdown (a flying trot's flight needs m(p̈ + g) = 0 on part of a linear piece,
+    hence on all of it), and equality at several points per interval over-constrains the problem.
+    A band keeps what the executing controller must absorb bounded at the times it executes
+    (the 10 ms samples at 10 points per 0.1 s interval), where an integrated formulation (zero
+    impulse per interval) would let the residual swing both ways inside each interval. The rows
+    share the variables of their interval, so the normal equations keep their sparsity; only
+    evaluation and assembly grow, and hinged rows inside the band cost nothing in the step."""
+    dynamics_band: float = 0.04
+    """Share of m·g (force rows) and of m·g·ℓ (torque rows, ℓ the largest horizontal distance of a
+    nominal foot from the CoM) the Newton–Euler residual may reach between the knots; below the
+    independent check's bound (`CheckTolerances.between`) by a margin for the solver's tolerance."""
+    phase_knots: bool = False
+    """Base knots at the gait's phase boundaries too (`formulation.phase_knots`), not only evenly
+    spaced: the contact set is then constant on every base polynomial."""
     dt_range: float = 0.04
     range_margin: float = 0.002
     swing_dt: float = 0.01
@@ -132,6 +152,10 @@ class DynParams:
             raise ValueError(f"DynParams.warm_stage: one of {', '.join(WARM_STAGES)}, not {self.warm_stage!r}")
         if not self.polish_tolerance >= 0:
             raise ValueError(f"DynParams.polish_tolerance: ≥ 0, not {self.polish_tolerance!r}")
+        if not (isinstance(self.dynamics_points, int) and self.dynamics_points >= 1):
+            raise ValueError(f"DynParams.dynamics_points: an integer ≥ 1, not {self.dynamics_points!r}")
+        if not self.dynamics_band > 0:
+            raise ValueError(f"DynParams.dynamics_band: > 0, not {self.dynamics_band!r}")
 
 
 WARM_STAGES = ("costs", "projection", "polish")
@@ -175,6 +199,8 @@ class Problem:
     fixed when not optimized, and handed on with the solution so later stages keep it."""
     range_times: np.ndarray = field(default_factory=lambda: np.empty(0))
     """The extra range-of-motion sample times (s) it was built with (`build_problem`)."""
+    com_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    """The CoM in the base frame (m): the base spline is the CoM's, `model` is `about_com`'s."""
 
 
 RANGE_CHECK_DT = 0.001  # s: the grid on which `range_excess_times` looks for a foot outside its box
@@ -205,18 +231,37 @@ def start_feet(model, pose: Pose, terrain: TerrainModel) -> np.ndarray:
 
 
 def task_poses(task: DynTask, model, terrain: TerrainModel) -> tuple[Pose, Pose]:
-    """Start base at nominal height above the terrain under it; goal x, y, yaw (height initial guess)."""
+    """The CoM's start and goal poses of a task, whose x, y, yaw are the base's: the base at nominal
+    height above the terrain under it, the CoM at `Centroidal.com_offset` in the base frame (goal
+    height an initial guess)."""
+    offset = np.asarray(model.com_offset, float)
     poses = []
     for x, y, yaw in (task.start, task.goal):
         z = float(terrain.height(np.array([x]), np.array([y]))[0]) + model.base_height
-        poses.append(Pose(np.array([x, y, z]), np.array([0.0, 0.0, yaw])))
+        turn = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+        poses.append(Pose(np.array([x, y, z]) + turn @ offset, np.array([0.0, 0.0, yaw])))
     return poses[0], poses[1]
 
 
+def about_com(model):
+    """The centroidal model seen from its CoM: nominal feet relative to the CoM (`com_offset`
+    subtracted), CoM offset zero. The planner's base spline is the CoM's (the single rigid body's
+    dynamics hold about it, Winkler et al. 2018 eq. (1)); the range-of-motion box stays where it is
+    in the base frame, around p̄_i − o from the CoM."""
+    offset = np.asarray(model.com_offset, float)
+    if not offset.any():
+        return model
+    return replace(model, nominal_feet=model.nominal_feet - offset, com_offset=np.zeros(3))
+
+
 def sample_times(form: Formulation, params: DynParams) -> dict:
-    """Constraint sample times: dynamics at the base knots, range of motion every dt_range."""
+    """Constraint sample times: dynamics at the base knots and at `DynParams.dynamics_points` − 1
+    equally spaced points inside every base interval ("between"), range of motion every dt_range."""
     rom = np.unique(np.append(np.arange(0.0, form.duration, params.dt_range), form.duration))
-    return {"dynamics": form.knots.copy(), "range": rom}
+    start, width = form.knots[:-1], np.diff(form.knots)
+    inside = np.arange(1, params.dynamics_points) / params.dynamics_points
+    return {"dynamics": form.knots.copy(), "between": (start[:, None] + width[:, None] * inside).reshape(-1),
+            "range": rom}
 
 
 def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer,
@@ -225,8 +270,11 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     extra range-of-motion sample times (s), where the planner found a foot outside its box between
     the regular ones (`range_excess_times`); with `near_range` (m) also those where the
     initializer's guess comes within that of a box (`planner.GUESS_RANGE_NEAR`)."""
-    form = Formulation(make_gait(task.gait, task.strides, task.duration), params.dt)
+    form = Formulation(make_gait(task.gait, task.strides, task.duration), params.dt,
+                       aligned=params.phase_knots)
     start, goal = task_poses(task, model, terrain)
+    offset, legs = np.asarray(model.com_offset, float), model.leg_kinematics
+    model = about_com(model)
     feet0 = start_feet(model, start, terrain)
     guess = initializer(form, model, terrain, start, goal, feet0)
     durations = None
@@ -236,7 +284,8 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         form = gait_timing.formulation(durations)
     timing = PhaseTiming(form, params.phase_min) if params.optimize_phases else None
     problem = Problem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess),
-                      timing=timing, durations=durations, range_times=np.asarray(range_times, float))
+                      timing=timing, durations=durations, range_times=np.asarray(range_times, float),
+                      com_offset=offset)
     if near_range is not None:
         guess_values = {v.name: v.value for v in problem.variables}
         problem.range_times = np.union1d(problem.range_times, range_excess_times(problem, guess_values, -near_range))
@@ -248,6 +297,13 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     weight = model.mass * GRAVITY
     k.append(Constraint(DynamicsBlock(form, model.mass, model.inertia, times["dynamics"], timing), name="dynamics",
                         scale=np.tile(np.repeat([1.0 / weight, 1.0 / (weight * LEVER)], 3), times["dynamics"].size)))
+    if times["between"].size:
+        lever = float(np.linalg.norm(model.nominal_feet[:, :2], axis=1).max())
+        band = np.tile(np.repeat([params.dynamics_band * weight, params.dynamics_band * weight * lever], 3),
+                       times["between"].size)
+        k.append(Constraint(DynamicsBlock(form, model.mass, model.inertia, times["between"], timing), -band, band,
+                            name="dynamics_between",
+                            scale=np.tile(np.repeat([1.0 / weight, 1.0 / (weight * LEVER)], 3), times["between"].size)))
     for var in ("base_lin", "base_ang"):
         k.append(Constraint(acceleration_continuity(form, var), name="acceleration_continuity", scale=1.0 / GRAVITY))
     if params.towr_swing and form.footsteps:
@@ -275,9 +331,9 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
                                        form.node_selector(stance_node, form.motion_nodes)),
                             lower, upper, name="force", scale=1.0 / weight))
         if params.leg_clearance is not None:
-            if model.leg_kinematics is None:
-                raise ValueError("DynParams.leg_clearance needs the robot's closed-form legs (Centroidal.leg_kinematics)")
-            k.append(Constraint(LegClearanceBlock(form, leg, model.leg_kinematics, terrain, rom_t, timing),
+            if legs is None:
+                raise ValueError("DynParams.leg_clearance needs the robot's legs (Centroidal.leg_kinematics)")
+            k.append(Constraint(LegClearanceBlock(form, leg, legs, terrain, rom_t, timing, offset),
                                 params.leg_clearance, np.inf, name="leg_clearance", scale=1.0 / LENGTH))
     if params.swing_height_min is not None and form.footsteps:
         k.append(Constraint(swing_height(form), params.swing_height_min, np.inf, name="swing_height",
