@@ -3,7 +3,9 @@
 Root attributes: the standard provenance (ARCHITECTURE.md), `params` = `settings.settings_record`
 plus the task options; `robot`, `legs` (comma-separated, the order of every per-leg axis).
 `/tasks/NNNN` (one group per task, in input order), attributes:
-    success (bool), reason (why the solver stopped, or the error), index, gait, strides, duration (s),
+    success (bool: the solver converged and the independent check passed), solved (bool: the solver
+    converged), reason (why the solver stopped, or the error; "check: <failed metrics>; " before it
+    when the check failed), index, gait, strides, duration (s),
     iterations (LM, all stages), outer_iterations, solve_seconds (= timings/total),
     first_iteration_seconds, setup_seconds (building the problems), max_violation (the solver's, at
     its sampled rows), cost (final total), variables (free variables, ours),
@@ -14,7 +16,8 @@ plus the task options; `robot`, `legs` (comma-separated, the order of every per-
     violations/<constraint> — the solver's largest violation of each constraint, in its own units;
     costs/<term> — the final value of every cost term (as the solver reports it);
     check/<metric> — the independent check (`legplan.validate.centroidal`) of the 10 ms samples:
-        the worst value, attrs units, and for judged metrics tolerance and passed; group attr passed;
+        the worst value, attrs units, tolerance, bound ("upper": worst ≤ tolerance passes, "lower":
+        worst ≥ tolerance) and passed; group attr passed;
     phases/durations (P,) s, phases/stance (P, legs) — the gait's whole-body phases;
     nodes/<block>/{value, fixed, span} for base_lin, base_ang, feet, forces — the node values
         ((nodes, value|derivative, xyz) flattened), the fixed mask, and each node's [first, last]
@@ -28,7 +31,7 @@ A task whose planner raised has only the attributes and start/goal.
 `/summary`: tasks, succeeded, success_rate, median/max solve time, median first-iteration and setup
     time, median iterations, worst max_violation, median variables and paper_variables, peak force
     and roll/pitch rate, median of every cost term, and per check metric its worst over the
-    succeeded tasks (`check_<metric>`) with `check_passed` (succeeded tasks passing every check).
+    solved tasks (`check_<metric>`) with `check_passed` (solved tasks passing every check).
 """
 
 from __future__ import annotations
@@ -40,6 +43,7 @@ import numpy as np
 
 from legplan.artefacts import (check_finite, open_artefact, require, require_attrs, write_artefact, write_dataset,
                                write_summary)
+from legplan.validate.centroidal import MINIMA as CHECK_MINIMA
 
 NAN = float("nan")
 NODE_BLOCKS = ("base_lin", "base_ang", "feet", "forces")
@@ -51,9 +55,6 @@ NODE_LAYOUT = "(nodes, value|derivative, xyz) flattened"
 POSE_UNITS = "m, m, rad"
 SCALARS = ("iterations", "outer_iterations", "solve_seconds", "first_iteration_seconds", "setup_seconds",
            "max_violation", "cost", "variables", "paper_variables", "peak_force", "peak_roll_pitch_rate")
-CHECK_MINIMA = ("base_height", "base_above_feet", "joint_limit_margin")
-"""Check metrics that `legplan.validate.centroidal` reports as a minimum (smaller is worse); the rest
-are maxima of a violation or an error."""
 
 
 def task_fields(index: int, task) -> dict:
@@ -63,9 +64,14 @@ def task_fields(index: int, task) -> dict:
 
 
 def trajectory_record(index: int, task, result, check) -> dict:
-    """The record of a planned task: a `PlanResult` and its `CentroidalCheck` (layout above)."""
+    """The record of a planned task: a `PlanResult` and its `CentroidalCheck` (layout above). A plan
+    that converged but fails its check is no success: what is executed is what the check judged."""
     solve, form, samples = result.solve, result.problem.form, result.samples
-    return {**task_fields(index, task), "success": bool(result.success), "reason": str(result.reason),
+    reason = str(result.reason)
+    if result.success and not check.ok:
+        reason = f"check: {', '.join(check.failures())}; {reason}"
+    return {**task_fields(index, task), "success": bool(result.success and check.ok),
+            "solved": bool(result.success), "reason": reason,
             "iterations": int(solve.iterations), "outer_iterations": int(solve.outer_iterations),
             "solve_seconds": float(solve.timings.total),
             "first_iteration_seconds": float(solve.first_iteration_seconds),
@@ -91,7 +97,8 @@ def trajectory_record(index: int, task, result, check) -> dict:
 
 def failed_record(index: int, task, reason: str) -> dict:
     """The record of a task whose planning raised or whose worker died: no solution, NaN numbers."""
-    return {**task_fields(index, task), "success": False, "reason": reason, **dict.fromkeys(SCALARS, NAN)}
+    return {**task_fields(index, task), "success": False, "solved": False, "reason": reason,
+            **dict.fromkeys(SCALARS, NAN)}
 
 
 def _node_layout(form, block: str) -> dict[str, np.ndarray]:
@@ -142,7 +149,7 @@ def write_traj(path, records: list[dict], params: dict, robot: str, legs, *, inp
 
 
 def _write_task(group: h5py.Group, record: dict) -> None:
-    for key in ("success", "reason", "index", "gait", "strides", "duration", *SCALARS):
+    for key in ("success", "solved", "reason", "index", "gait", "strides", "duration", *SCALARS):
         group.attrs[key] = record[key]
     write_dataset(group, "start", record["start"], units=POSE_UNITS)
     write_dataset(group, "goal", record["goal"], units=POSE_UNITS)
@@ -163,8 +170,8 @@ def _write_task(group: h5py.Group, record: dict) -> None:
     checked.attrs["passed"] = bool(check["ok"])
     checked.attrs["description"] = "independent check of the 10 ms samples (legplan.validate.centroidal)"
     for name, value in check["worst"].items():
-        judged = {"tolerance": check["tolerance"][name], "passed": bool(check["passed"][name])} \
-            if name in check["passed"] else {}
+        judged = {"tolerance": check["tolerance"][name], "passed": bool(check["passed"][name]),
+                  "bound": "lower" if name in CHECK_MINIMA else "upper"} if name in check["passed"] else {}
         write_dataset(checked, name, value, units=str(check["units"].get(name, "")), **judged)
     write_dataset(group, "phases/durations", record["phases"]["durations"], units="s")
     write_dataset(group, "phases/stance", record["phases"]["stance"].astype(bool), units="")
@@ -205,7 +212,7 @@ def summary_rows(records: list[dict]) -> dict:
     terms = dict.fromkeys(name for r in ok for name in r["costs"])
     rows.update({f"cost_{name}": float(np.median([r["costs"][name] for r in ok if name in r["costs"]]))
                  for name in terms})
-    checked = [r["check"] for r in ok]
+    checked = [r["check"] for r in records if "check" in r]
     for name in dict.fromkeys(name for c in checked for name in c["worst"]):
         pick = min if name in CHECK_MINIMA else max
         units = next(c["units"].get(name, "") for c in checked if name in c["worst"])

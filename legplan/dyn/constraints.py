@@ -8,11 +8,11 @@ step (`euler.complex_step`, exact to round-off), the rest analytically.
 * `DynamicsBlock` — single-rigid-body Newton-Euler at every dynamics time (6 rows, N and N·m):
   m·p̈ + m·g·e_z − Σ f_i = 0 and I_W ω̇ + ω × I_W ω − Σ (p_i − p) × f_i = 0, I_W = R I_B Rᵀ.
 * `RangeOfMotionBlock` — Rᵀ(p_i − p) − p̄_i, bounded by the range-of-motion box.
-* `LegClearanceBlock` — the height of the thigh and shank spheres above the terrain's envelope.
+* `LegClearanceBlock` — the height of the legs' collision spheres above the terrain's envelope.
 * `TerrainHeightBlock` — z − h(x, y) of foot samples: = 0 for stance nodes, ≥ 0 along swings against
   the terrain's column envelope (ours, between nodes too: TOWR constrains the swing apex only).
-* `ForceBlock` — f·n ∈ [0, f_max] and the friction pyramid ±f·t_k − μ f·n ≤ 0 in stance, on the
-  Bézier control points of the force polynomials (so along the whole of them).
+* `ForceBlock` — f·n ∈ [0, f_max] and a friction pyramid inscribed in the Coulomb cone in stance, on
+  the Bézier control points of the force polynomials (so along the whole of them).
 * linear rows (`LinearBlock`): base acceleration continuity at the spline junctions, TOWR's swing
   constraint (apex x, y halfway, apex velocity = step / swing time), the paper's swing-height rows;
   `BaseAboveFeetBlock`, the paper's base-above-feet rows.
@@ -187,39 +187,70 @@ class RangeOfMotionBlock(ResidualBlock):
 
 
 class LegClearanceBlock(RangeOfMotionBlock):
-    """Per sample time, per collision sphere of leg `leg`'s thigh and shank: the height of its
-    surface above the column terrain within its radius, c_z − r − h̄_r(c_x, c_y), c = p + R s(Rᵀ(p_i − p))
-    with s the leg's closed-form kinematics (`legplan.robots.planar_legs`: the spheres in the base
-    frame given the foot in it) and h̄_r `TerrainModel.envelope_within`. Bounded below by the
-    clearance, it keeps the legs, not only the feet, off the terrain, the sides of steps included
-    (ours: the paper keeps the legs clear through the swing height only, Sec. III-A2)."""
+    """Per sample time, per collision sphere of leg `leg` (all but its foot): the height of its
+    surface above the column terrain within its radius, c_z − r − h̄_r(c_x, c_y), with the centre
+    c = p + R (s(b) − o), b = Rᵀ(p_i − p) + o the foot in the base frame (p the CoM, o its offset
+    in the base frame, `Centroidal.com_offset`), s the sphere's centre in the base frame given the
+    foot — by the robot's own kinematics (`legplan.dyn.legs.ChainLegs`: forward kinematics and leg
+    IK from the chain's joints) or by the closed form of planar legs
+    (`legplan.robots.planar_legs.PlanarLegs`) — and h̄_r `TerrainModel.envelope_within`. Bounded
+    below by the clearance, it keeps the legs, not only the feet, off the terrain, the sides of
+    steps included (ours: the paper keeps the legs clear through the swing height only, Sec. III-A2).
+    The Jacobian is the chain rule through ∂s/∂b (the legs' own), the rotation's and the envelope's
+    derivatives by complex step."""
 
     def __init__(self, form: Formulation, leg: int, legs, terrain: TerrainModel, times: np.ndarray,
-                 timing: PhaseTiming | None = None):
+                 timing: PhaseTiming | None = None, com_offset=(0.0, 0.0, 0.0)):
         super().__init__(form, leg, np.zeros(3), times, timing)
         self.leg, self.legs = leg, legs
+        self.offset = np.asarray(com_offset, float)
         self.radius = legs.sphere_radius[legs.spheres_of(leg)]
         self.envelopes = [terrain.envelope_within(float(r)) for r in self.radius]
         self.rows = self.radius.size
         self.size = self.rows * self.n
+        self.joints = legs.nominal(leg, self.n) if hasattr(legs, "nominal") else None  # IK warm start
         self.base_jacobian = SampledJacobian([self.base], self.rows, self.n, self.columns[0])
         self.foot_jacobian = SampledJacobian([self.foot], self.rows, self.n, self.columns[2])
 
-    def _clearance(self, p, e, q):
-        rot = rotation(e)
-        centres = p[:, None] + np.einsum("nij,nkj->nki", rot, self.legs.sphere_centres(self.leg, self._in_base(e, q - p)))
-        below = np.stack([envelope(centres[:, k, 0], centres[:, k, 1]) for k, envelope in enumerate(self.envelopes)],
-                         axis=1)
-        return centres[..., 2] - self.radius - below
+    def _spheres(self, b):
+        """Sphere centres s (n, k, 3) and ∂s/∂b (n, k, 3, 3) in the base frame for feet b (n, 3)."""
+        if self.joints is not None:
+            centres, jac, self.joints = self.legs.sphere_centres(self.leg, b, self.joints)
+            return centres, jac
+        centres, columns = complex_step(lambda x: self.legs.sphere_centres(self.leg, x).reshape(len(x), -1), (b,), (0,))
+        return centres.reshape(len(b), -1, 3), columns[0].reshape(len(b), -1, 3, 3)
+
+    def _heights(self, c):
+        """c_z − r − h̄_r(c_x, c_y) for centres c (n, k, 3), real or complex."""
+        below = np.stack([envelope(c[:, k, 0], c[:, k, 1]) for k, envelope in enumerate(self.envelopes)], axis=1)
+        return c[..., 2] - self.radius - below
 
     def evaluate(self, values, jacobians):
         sampled = self._sampled(values)
         if sampled is None:
             return invalid_timing(self, jacobians)
+        p, e, q = sampled
+        rot = rotation(e)
+        b = self._in_base(e, q - p) + self.offset
+        s, ds = self._spheres(b)
+        lever = s - self.offset
+        c = p[:, None] + np.einsum("nij,nkj->nki", rot, lever)
         if not jacobians:
-            return self._clearance(*sampled).reshape(-1), None
-        r, per_sample = complex_step(self._clearance, sampled, (0, 1, 2))
-        return r.reshape(-1), self._jacobians(*per_sample, values)
+            return self._heights(c).reshape(-1), None
+        k = self.rows
+        flat = c.reshape(-1, 3)
+        _, (dh,) = complex_step(lambda x: self._heights(x.reshape(-1, k, 3)).reshape(-1, 1), (flat,), (0,))
+        dh = dh.reshape(self.n, k, 3)  # ∂row/∂c
+        _, (db_de,) = complex_step(self._in_base, (e, q - p), (0,))  # (n, 3, 3)
+        rt = np.transpose(rot, (0, 2, 1))
+        rds = np.einsum("nij,nkjl->nkil", rot, ds)  # R ∂s/∂b
+        dc_dq = rds @ rt[:, None]
+        dc_dp = np.eye(3) - dc_dq
+        turned = lambda x: np.einsum("nij,nkj->nki", rotation(x), np.tile(lever, (len(x) // self.n, 1, 1))).reshape(len(x), -1)
+        _, (dr_de,) = complex_step(turned, (e,), (0,))  # ∂(R v)/∂e at v = s − o
+        dc_de = dr_de.reshape(self.n, k, 3, 3) + rds @ db_de[:, None]
+        row = lambda d: np.einsum("nki,nkij->nkj", dh, d)
+        return self._heights(c).reshape(-1), self._jacobians(row(dc_dp), row(dc_de), row(dc_dq), values)
 
 
 class FootTerrainBlock(ResidualBlock):
@@ -285,13 +316,25 @@ class StanceSlopeBlock(FootTerrainBlock):
         return self.terrain.stance_slope(q[:, 0], q[:, 1])
 
 
+FRICTION_FACES = 8
+"""Faces of the friction pyramid `ForceBlock` keeps forces in: the pyramid inscribed in the Coulomb
+cone |f_t| ≤ μ f·n (the simulator's elliptic cone) with this many faces."""
+
+
 class ForceBlock(ResidualBlock):
-    """Per force point of one foot (rows of `force`, e.g. Bézier control points): f·n, then ±f·t1 − μ f·n
-    and ±f·t2 − μ f·n (5 rows), with the terrain basis at the foot's stance position (`foot` selects
-    the stance node of each point). All rows are linear in f for a fixed foothold."""
+    """Per force point of one foot (rows of `force`, e.g. Bézier control points): f·n, then for each
+    of the `FRICTION_FACES` faces d_k·f − μ cos(π/K) f·n with d_k = cos θ_k t1 + sin θ_k t2, θ_k = 2πk/K
+    (1 + K rows), with the terrain basis at the foot's stance position (`foot` selects the stance
+    node of each point). Bounded above by 0, these keep f inside the pyramid inscribed in the
+    Coulomb cone, where TOWR's four rows ±f·t_j − μ f·n ≤ 0 admit tangential forces up to √2 μ f·n
+    along the diagonals, outside the cone the simulator's contact obeys. Eight faces keep cos(π/8)
+    of the cone's friction in every direction (the four-face inscribed pyramid, μ/√2, gives up 29 %
+    along the axes, where the walking forces lie). The rows are linear in f for a fixed foothold;
+    the cone is convex, so rows that hold at the control points hold along the polynomials."""
 
     variables = ("feet", "forces")
-    ROWS = 5
+    ROWS = 1 + FRICTION_FACES
+    ANGLES = 2 * np.pi * np.arange(FRICTION_FACES) / FRICTION_FACES
 
     def __init__(self, terrain: TerrainModel, friction: float, force: sp.csr_matrix | TimedControlPoints,
                  foot: sp.csr_matrix):
@@ -317,7 +360,9 @@ class ForceBlock(ResidualBlock):
         n, t1, t2 = self.terrain.basis(q[:, 0], q[:, 1])
         fn = np.sum(f * n, axis=1)
         a, b = np.sum(f * t1, axis=1), np.sum(f * t2, axis=1)
-        return np.stack([fn, a - self.mu * fn, -a - self.mu * fn, b - self.mu * fn, -b - self.mu * fn], axis=1)
+        faces = (np.cos(self.ANGLES) * a[:, None] + np.sin(self.ANGLES) * b[:, None]
+                 - self.mu * np.cos(np.pi / FRICTION_FACES) * fn[:, None])
+        return np.hstack([fn[:, None], faces])
 
     def evaluate(self, values, jacobians):
         if self.samples is not None and not self._retime(values[2]):
@@ -333,8 +378,9 @@ class ForceBlock(ResidualBlock):
 
     @staticmethod
     def bounds(n: int, max_normal_force: float) -> tuple[np.ndarray, np.ndarray]:
-        lower = np.tile([0.0, -np.inf, -np.inf, -np.inf, -np.inf], n)
-        upper = np.tile([max_normal_force, 0.0, 0.0, 0.0, 0.0], n)
+        faces = FRICTION_FACES
+        lower = np.tile([0.0] + [-np.inf] * faces, n)
+        upper = np.tile([max_normal_force] + [0.0] * faces, n)
         return lower, upper
 
 

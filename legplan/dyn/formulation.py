@@ -2,8 +2,9 @@
 
 Phase-based parametrization of Winkler et al. (2018), as summarized in the TOWR-costs paper:
 
-* base linear position and Euler angles: cubic Hermite node splines with nodes every ``dt`` (the
-  duration split into equal polynomials of at most ``dt``); variables ``base_lin`` and ``base_ang``,
+* base linear position and Euler angles: cubic Hermite node splines, the duration split into equal
+  polynomials of at most ``dt`` (TOWR's), or with `aligned` every whole-body phase of the gait so
+  (`phase_knots`); variables ``base_lin`` and ``base_ang``,
   each (nodes, value|derivative, xyz) flattened. The first node (start pose, zero velocity) is fixed;
   of the last node the goal fixes x, y, all three angles and every derivative, the height stays free.
 * per foot, one node per stance phase (the foot is constant in stance: derivative fixed to 0) and one
@@ -58,12 +59,15 @@ class FootNodes:
 class Formulation:
     """Splines and variable blocks of one problem: a gait over `duration`, `legs` feet."""
 
-    def __init__(self, gait: Gait, dt: float = 0.1):
+    def __init__(self, gait: Gait, dt: float = 0.1, knots: np.ndarray | None = None, aligned: bool = False):
         self.gait, self.dt = gait, dt
         self.duration = gait.duration
         self.legs = gait.stance.shape[1]
-        count = max(1, int(np.ceil(self.duration / dt - 1e-9)))
-        self.knots = np.linspace(0.0, self.duration, count + 1)
+        if knots is None:
+            count = max(1, int(np.ceil(self.duration / dt - 1e-9)))
+            knots = phase_knots(gait, dt) if aligned else np.linspace(0.0, self.duration, count + 1)
+        self.knots = np.asarray(knots, float)
+        count = self.knots.size - 1
         self.base = NodeSpline([Segment(a, b, k, k + 1) for k, (a, b) in
                                 enumerate(zip(self.knots[:-1], self.knots[1:]))], count + 1)
         self.feet: list[FootNodes] = []
@@ -151,8 +155,10 @@ class Formulation:
                     zero.append(nodes[0])
                 if phase.t1 < self.duration - 1e-9:
                     zero.append(nodes[-1])
-            fix_forces[zero] = True
-            forces[zero] = 0.0
+            fix_forces[zero, 0] = True  # touchdown and lift-off: zero force, its rate free
+            forces[zero, 0] = 0.0
+            fix_forces[foot.force_offset] = True  # the swing node: no rate either
+            forces[foot.force_offset] = 0.0
         return [VariableBlock("base_lin", lin.reshape(-1), fix_lin.reshape(-1)),
                 VariableBlock("base_ang", ang.reshape(-1), fix_ang.reshape(-1)),
                 VariableBlock("feet", feet.reshape(-1), fix_feet.reshape(-1)),
@@ -165,6 +171,20 @@ class Formulation:
     def paper_variable_count(self, dt: float = 0.1) -> int:
         """N = 12T/dt + 20S + 120 of the TOWR-costs paper (Sec. III-A), for comparison."""
         return int(round(12 * self.duration / dt + 20 * self.footsteps + 120))
+
+
+def phase_knots(gait: Gait, dt: float) -> np.ndarray:
+    """The base knots: every whole-body phase of the gait split into equal polynomials of at most
+    `dt`. The contact set is then constant on every base polynomial, whose acceleration is linear:
+    the summed forces can follow it between the knots (`DynParams.dynamics_points`), where knots
+    spaced evenly over the motion put touchdowns, lift-offs and flights inside a polynomial."""
+    knots, t = [0.0], 0.0
+    for d in gait.durations:
+        count = max(1, int(np.ceil(d / dt - 1e-9)))
+        knots += list(t + d * np.arange(1, count + 1) / count)
+        t += d
+    knots[-1] = gait.duration
+    return np.array(knots)
 
 
 def _foot_nodes(phases: list[FootPhase], motion_offset: int, force_offset: int) -> FootNodes:

@@ -33,11 +33,10 @@ class DynWorker:
 
     def plan(self, index: int, task: DynTask) -> dict:
         from legplan.dyn.planner import plan
-        from legplan.validate.centroidal import CheckTolerances, check_trajectory
+        from legplan.validate.centroidal import check_trajectory
 
         result = plan(task, self.model, self.terrain, self.params, self.initializer)
         check = check_trajectory(result.samples, self.model, self.terrain_map, self.robot,
-                                 CheckTolerances(legs=self.params.leg_clearance is not None),
                                  node_times=result.problem.form.knots)
         return trajectory_record(index, task, result, check)
 

@@ -44,7 +44,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from legplan.dyn.costs import CostWeights
-from legplan.dyn.euler import world_rates
+from legplan.dyn.euler import rotation, world_rates
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.init import heuristic
 from legplan.dyn.problem import DynParams, DynTask, Problem, build_problem, cost_blocks, range_excess_times
@@ -237,8 +237,8 @@ def plan(task: DynTask, model, terrain: TerrainModel, params: DynParams = DynPar
     if params.costs.active and not final.problem.costs:  # the last stage solved the constraints alone
         solve.cost_terms = _cost_terms(final.problem, params, solve.values)
         solve.cost = sum(solve.cost_terms.values())
-    return PlanResult(final.problem, outcomes, solve, sample_solution(final.problem.form, solve.values),
-                      sum(s.setup_seconds for s in outcomes))
+    samples = sample_solution(final.problem.form, solve.values, com_offset=final.problem.com_offset)
+    return PlanResult(final.problem, outcomes, solve, samples, sum(s.setup_seconds for s in outcomes))
 
 
 def _runs(stage: Stage, last: StageOutcome | None, attempt: bool, ran_previous: bool, budget: Budget) -> bool:
@@ -322,15 +322,21 @@ def _combined(outcomes: list[StageOutcome]) -> ALResult:
                    if len(outcomes) > 1 else last.reason)
 
 
-def sample_solution(form: Formulation, values: dict[str, np.ndarray], dt: float = SAMPLE_DT) -> dict[str, np.ndarray]:
+def sample_solution(form: Formulation, values: dict[str, np.ndarray], dt: float = SAMPLE_DT,
+                    com_offset=None) -> dict[str, np.ndarray]:
     """Base pose, velocities and accelerations (world ω, ω̇ from the Euler spline), feet, forces and
-    contact flags at t = 0, dt, ..., T."""
+    contact flags at t = 0, dt, ..., T. The spline is the CoM's; the base origin lies at
+    −`com_offset` (the CoM in the base frame) from it: p = c − R o, ṗ = ċ − ω × R o,
+    p̈ = c̈ − ω̇ × R o − ω × (ω × R o)."""
     t = np.append(np.arange(0.0, form.duration - 1e-9, dt), form.duration)
     lin = values["base_lin"].reshape(-1, 3)
     ang = values["base_ang"].reshape(-1, 3)
     p, v, a = (form.base_matrix(t, d) @ lin for d in range(3))
     e, ed, edd = (form.base_matrix(t, d) @ ang for d in range(3))
     w, wd = world_rates(e, ed, edd)
+    if com_offset is not None and np.any(com_offset):
+        arm = rotation(e) @ np.asarray(com_offset, float)
+        p, v, a = p - arm, v - np.cross(w, arm), a - np.cross(wd, arm) - np.cross(w, np.cross(w, arm))
     feet = values["feet"].reshape(-1, 3)
     forces = values["forces"].reshape(-1, 3)
     legs = range(form.legs)

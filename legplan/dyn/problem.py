@@ -9,7 +9,7 @@ paper, stated as constrained least squares for `legplan.solve.solve_augmented_la
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -63,6 +63,8 @@ class Problem:
     fixed when not optimized, and handed on with the solution so later stages keep it."""
     range_times: np.ndarray = field(default_factory=lambda: np.empty(0))
     """The extra range-of-motion sample times (s) it was built with (`build_problem`)."""
+    com_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    """The CoM in the base frame (m): the base spline is the CoM's, `model` is `about_com`'s."""
 
 
 RANGE_CHECK_DT = 0.001  # s: the grid on which `range_excess_times` looks for a foot outside its box
@@ -93,18 +95,37 @@ def start_feet(model, pose: Pose, terrain: TerrainModel) -> np.ndarray:
 
 
 def task_poses(task: DynTask, model, terrain: TerrainModel) -> tuple[Pose, Pose]:
-    """Start base at nominal height above the terrain under it; goal x, y, yaw (height initial guess)."""
+    """The CoM's start and goal poses of a task, whose x, y, yaw are the base's: the base at nominal
+    height above the terrain under it, the CoM at `Centroidal.com_offset` in the base frame (goal
+    height an initial guess)."""
+    offset = np.asarray(model.com_offset, float)
     poses = []
     for x, y, yaw in (task.start, task.goal):
         z = float(terrain.height(np.array([x]), np.array([y]))[0]) + model.base_height
-        poses.append(Pose(np.array([x, y, z]), np.array([0.0, 0.0, yaw])))
+        turn = np.array([[np.cos(yaw), -np.sin(yaw), 0.0], [np.sin(yaw), np.cos(yaw), 0.0], [0.0, 0.0, 1.0]])
+        poses.append(Pose(np.array([x, y, z]) + turn @ offset, np.array([0.0, 0.0, yaw])))
     return poses[0], poses[1]
 
 
+def about_com(model):
+    """The centroidal model seen from its CoM: nominal feet relative to the CoM (`com_offset`
+    subtracted), CoM offset zero. The planner's base spline is the CoM's (the single rigid body's
+    dynamics hold about it, Winkler et al. 2018 eq. (1)); the range-of-motion box stays where it is
+    in the base frame, around p̄_i − o from the CoM."""
+    offset = np.asarray(model.com_offset, float)
+    if not offset.any():
+        return model
+    return replace(model, nominal_feet=model.nominal_feet - offset, com_offset=np.zeros(3))
+
+
 def sample_times(form: Formulation, params: DynParams) -> dict:
-    """Constraint sample times: dynamics at the base knots, range of motion every dt_range."""
+    """Constraint sample times: dynamics at the base knots and at `DynParams.dynamics_points` − 1
+    equally spaced points inside every base interval ("between"), range of motion every dt_range."""
     rom = np.unique(np.append(np.arange(0.0, form.duration, params.dt_range), form.duration))
-    return {"dynamics": form.knots.copy(), "range": rom}
+    start, width = form.knots[:-1], np.diff(form.knots)
+    inside = np.arange(1, params.dynamics_points) / params.dynamics_points
+    return {"dynamics": form.knots.copy(), "between": (start[:, None] + width[:, None] * inside).reshape(-1),
+            "range": rom}
 
 
 def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer,
@@ -113,8 +134,11 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     extra range-of-motion sample times (s), where the planner found a foot outside its box between
     the regular ones (`range_excess_times`); with `near_range` (m) also those where the
     initializer's guess comes within that of a box (`planner.GUESS_RANGE_NEAR`)."""
-    form = Formulation(make_gait(task.gait, task.strides, task.duration), params.dt)
+    form = Formulation(make_gait(task.gait, task.strides, task.duration), params.dt,
+                       aligned=params.phase_knots)
     start, goal = task_poses(task, model, terrain)
+    offset, legs = np.asarray(model.com_offset, float), model.leg_kinematics
+    model = about_com(model)
     feet0 = start_feet(model, start, terrain)
     guess = initializer(form, model, terrain, start, goal, feet0)
     durations = None
@@ -124,7 +148,8 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         form = gait_timing.formulation(durations)
     timing = PhaseTiming(form, params.phase_min) if params.optimize_phases else None
     problem = Problem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess),
-                      timing=timing, durations=durations, range_times=np.asarray(range_times, float))
+                      timing=timing, durations=durations, range_times=np.asarray(range_times, float),
+                      com_offset=offset)
     if near_range is not None:
         guess_values = {v.name: v.value for v in problem.variables}
         problem.range_times = np.union1d(problem.range_times, range_excess_times(problem, guess_values, -near_range))
@@ -136,6 +161,13 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     weight = model.mass * GRAVITY
     k.append(Constraint(DynamicsBlock(form, model.mass, model.inertia, times["dynamics"], timing), name="dynamics",
                         scale=np.tile(np.repeat([1.0 / weight, 1.0 / (weight * LEVER)], 3), times["dynamics"].size)))
+    if times["between"].size:
+        lever = float(np.linalg.norm(model.nominal_feet[:, :2], axis=1).max())
+        band = np.tile(np.repeat([params.dynamics_band * weight, params.dynamics_band * weight * lever], 3),
+                       times["between"].size)
+        k.append(Constraint(DynamicsBlock(form, model.mass, model.inertia, times["between"], timing), -band, band,
+                            name="dynamics_between",
+                            scale=np.tile(np.repeat([1.0 / weight, 1.0 / (weight * LEVER)], 3), times["between"].size)))
     for var in ("base_lin", "base_ang"):
         k.append(Constraint(acceleration_continuity(form, var), name="acceleration_continuity", scale=1.0 / GRAVITY))
     if params.towr_swing and form.footsteps:
@@ -163,9 +195,9 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
                                        form.node_selector(stance_node, form.motion_nodes)),
                             lower, upper, name="force", scale=1.0 / weight))
         if params.leg_clearance is not None:
-            if model.leg_kinematics is None:
-                raise ValueError("DynParams.leg_clearance needs the robot's closed-form legs (Centroidal.leg_kinematics)")
-            k.append(Constraint(LegClearanceBlock(form, leg, model.leg_kinematics, terrain, rom_t, timing),
+            if legs is None:
+                raise ValueError("DynParams.leg_clearance needs the robot's legs (Centroidal.leg_kinematics)")
+            k.append(Constraint(LegClearanceBlock(form, leg, legs, terrain, rom_t, timing, offset),
                                 params.leg_clearance, np.inf, name="leg_clearance", scale=1.0 / LENGTH))
     if params.swing_height_min is not None and form.footsteps:
         k.append(Constraint(swing_height(form), params.swing_height_min, np.inf, name="swing_height",

@@ -63,6 +63,20 @@ class DynParams(Parameters):
     what = "dyn planner"
 
     dt: float = param(0.1, "(0, inf)", "Δt", "s: spacing of the base spline's nodes (TOWR's)")
+    dynamics_points: int = param(10, "[1, 1000]", doc=(
+        "points per base interval (the knot that opens it included, equally spaced) at which the "
+        "Newton–Euler rows are constrained: to zero at the knots (TOWR's collocation), inside "
+        "±dynamics_band at the others (1: TOWR's alone). Between the knots the base acceleration is "
+        "linear while the forces are cubics that vanish with zero slope at every touchdown and lift-off, "
+        "so equality along a whole interval over-constrains the problem; a band bounds what the "
+        "executing controller must absorb at the times it executes"))
+    dynamics_band: float = param(0.04, "(0, 1]", doc=(
+        "share of m·g (force rows) and of m·g·ℓ (torque rows, ℓ the largest horizontal distance of a "
+        "nominal foot from the CoM) the Newton–Euler residual may reach between the knots; below the "
+        "independent check's bound by a margin for the solver's tolerance"))
+    phase_knots: bool = param(False, (False, True), doc=(
+        "base knots at the gait's phase boundaries too (formulation.phase_knots), not only evenly "
+        "spaced: the contact set is then constant on every base polynomial"))
     dt_range: float = param(0.04, "(0, inf)", doc="s: spacing of the range-of-motion samples")
     range_margin: float = param(0.002, "[0, inf)", doc="m: the range-of-motion box shrunk by this at the samples")
     swing_dt: float = param(0.01, "(0, inf)", doc="s: largest spacing of the samples inside a swing")
@@ -95,9 +109,11 @@ class DynParams(Parameters):
     swing_height_min: float | None = param(None, "[0, inf)",
                                            doc="m: swing apex above both adjacent footholds (paper); None = off")
     base_clearance: float | None = param(None, "[0, inf)", doc="m: base z minus every foot's z (paper); None = off")
-    leg_clearance: float | None = param(None, "[0, inf)", doc=(
-        "m: the legs' thigh and shank spheres this far above the terrain's envelope at the range-of-"
-        "motion samples (needs the robot's closed-form legs); None = off"))
+    leg_clearance: float | None = param(0.02, "[0, inf)", doc=(
+        "m: the surfaces of the legs' collision spheres (all but the feet) stay this far above the "
+        "terrain's envelope at the range-of-motion samples (LegClearanceBlock): on by default, since the "
+        "independent check judges every leg sphere against the terrain, with a margin for the tracking "
+        "error of the executing controller; None = off"))
     solver: ALParams = param(ALParams(), doc="the feasibility stages (the constraints alone)")
     projection_solver: ALParams = param(ALParams(exact_rows=True), doc=(
         "the 'projection' warm stage: the constraints alone, stopped by the exact per-row test (a "

@@ -31,6 +31,7 @@ import numpy as np
 
 from legplan.budget import check_size
 from legplan.dyn.gait import GAITS, make_gait
+from legplan.dyn.legs import ChainLegs
 from legplan.dyn.problem import DynTask
 from legplan.dyn.terrain import TerrainModel
 from legplan.errors import LegplanError, SpecError
@@ -167,14 +168,15 @@ def check_sizes(tasks: list[DynTask], params, source: str | os.PathLike | None, 
 
 
 def centroidal_model(robot, params=None, costs: str = "--costs"):
-    """The `centroidal:` model of a loaded robot, or a one-line error naming its robot.yaml; with
-    `params` (`DynParams`) asking for leg clearance, one naming the `costs` source when the robot's
-    legs have no closed form."""
+    """The `centroidal:` model of a loaded robot with its legs' chains (`legplan.dyn.legs.ChainLegs`:
+    where the planner's leg clearance places the spheres), or a one-line error naming its
+    robot.yaml; with `params` (`DynParams`) asking for leg clearance, one naming the `costs` source
+    when the robot's legs are no chains the planner can follow."""
     if robot.centroidal is None:
         raise LegplanError(f"{robot.yaml_path}: field 'centroidal' is missing (the single-rigid-body model "
                            "that `legplan dyn` plans with, see legplan.robots.centroidal)")
-    if params is not None and params.leg_clearance is not None and robot.centroidal.leg_kinematics is None:
-        raise LegplanError(f"{costs}: field 'leg_clearance': {robot.yaml_path}'s legs are not hip-abduction (x), "
-                           "hip and knee flexion (y) chains, whose thigh and shank the planner can place "
-                           "(legplan.robots.planar_legs)")
-    return robot.centroidal
+    legs = ChainLegs.of_robot(robot)
+    if params is not None and params.leg_clearance is not None and legs is None:
+        raise LegplanError(f"{costs}: field 'leg_clearance': {robot.yaml_path}'s legs are not serial chains of "
+                           "revolute joints from the base, whose spheres the planner can place (legplan.dyn.legs)")
+    return replace(robot.centroidal, leg_kinematics=legs)

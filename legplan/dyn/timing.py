@@ -97,8 +97,9 @@ class PhaseTiming:
         return c0 + a0 @ dl, c1 + a1 @ dl
 
     def formulation(self, d: np.ndarray) -> Formulation:
-        """The formulation of the same gait and nodes with the foot durations d."""
-        return Formulation(self.gait(d), self.form.dt)
+        """The formulation of the same gait and nodes with the foot durations d (the base knots
+        stay where they were)."""
+        return Formulation(self.gait(d), self.form.dt, self.form.knots)
 
     def gait(self, d: np.ndarray) -> Gait:
         """The whole-body phase schedule of the foot durations d: a phase between every two

@@ -3,46 +3,50 @@
 The solution of `legplan dyn plan`, sampled every 10 ms (`t`, base pose and rates, feet, forces,
 contact flags), is checked against the model it claims to obey with code that did not produce it:
 nothing from `legplan.dyn` is used. The rotation R = Rz(yaw) Ry(pitch) Rx(roll) comes from scipy,
-the terrain from the map's own layers (`TerrainMap.height_at`, bilinear between cell centres, and
-the 3D SDF `TerrainMap.surface_distance`), leg kinematics from pinocchio (`legplan.robots`).
+the terrain from the map's own heightmap (`TerrainMap.height_at`, bilinear between cell centres, and
+the exact distance to its column solid, `legplan.terrain.columns.ColumnDistance`), leg kinematics
+from pinocchio (`legplan.robots`).
 
-Metrics (the worst value over all samples; units in `UNITS`; "pass" ones are judged by `CheckTolerances`):
+Metrics (the worst value over all samples; units in `UNITS`). Every metric is judged by a bound
+of `CheckTolerances`: the largest value ≤ it, or for those in `MINIMA` the smallest ≥ it:
 
-  newton_euler_force        recorded  max over samples of |m(p̈ + g e_z) − Σ f_i|∞ (N), the linear
-                                      row of the single-rigid-body dynamics (Winkler et al. 2018, eq. (1))
-  newton_euler_torque       recorded  max |I_W ω̇ + ω × I_W ω − Σ (p_i − p) × f_i|∞ (N·m),
-                                      I_W = R I_B Rᵀ (the angular row)
-  newton_euler_force_nodes  pass      the same at the node times, where the formulation enforces the
-  newton_euler_torque_nodes pass      dynamics: ≤ rel·m·g and ≤ rel·m·g·ℓ (ℓ: the largest horizontal
-                                      distance of a nominal foot from the CoM, i.e. a foot-force error
-                                      of rel·m·g). Between nodes the rows are not constrained, so the
-                                      all-sample values are recorded only.
-  angular_velocity          pass      |ω − ω(e, ė)| (rad/s): the sampled world ω against the one of
-                                      the sampled Euler angles and rates, ω = ψ̇ e_z + θ̇ Rz e_y + φ̇ Rz Ry e_x
-  normal_force              pass      violation of 0 ≤ f·n ≤ f_max, relative (see below), stance feet
-  friction_pyramid          pass      max(|f·t1|, |f·t2|) − μ f·n, relative, with TOWR's terrain basis
-                                      n ∝ (−h_x, −h_y, 1), t1 ∝ (1, 0, h_x), t2 ∝ (0, 1, h_y)
-  friction_cone             recorded  |f − (f·n) n| − μ f·n, relative (the pyramid admits up to √2 μ)
-  swing_force               pass      |f| of feet whose contact flag is false, relative
-  stance_slip               pass      largest distance of a stance foot from where its contact phase
-                                      began (m)
-  stance_height             pass      |z − h(x, y)| of stance feet (m), h the bilinear heightmap
-  stance_sdf                recorded  |SDF| of stance feet (m): the SDF is that of the column solid,
-                                      which on slopes stands up to half a cell proud of h
-  penetration_height        pass      max(h(x, y) − z, 0) of any foot (m)
-  penetration_sdf           pass      max(−SDF, 0) of any foot (m), tolerance + half a cell (column model)
-  base_height               recorded  min of base z − h(base x, y) (m)
-  base_above_feet           recorded  min of base z − the highest foot z (m)
-  trunk_penetration         pass      max over the trunk's collision spheres of radius − SDF(centre) (m):
-                                      how deep the trunk reaches into the terrain (< 0: clear by that much)
-  range_of_motion           pass      max(|Rᵀ(p_i − p) − p̄_i| − r, 0) over axes (m), the box of TOWR's
-                                      kinematic model
-  leg_reach                 pass      largest foot error (m) of per-foot IK inside the URDF's planning
-                                      joint limits (`legplan.robots.leg_reach`)
-  joint_limit_margin        recorded  smallest distance of an IK solution's joint to its limit (rad)
-  leg_penetration           recorded  max over the legs' thigh and shank collision spheres, at the IK
-                                      solution, of radius − SDF(centre) (m); judged (pass) with
-                                      `CheckTolerances.legs`, for a plan made with leg clearance
+  newton_euler_force        max over the 10 ms samples of |m(p̈ + g e_z) − Σ f_i|∞ (N), the linear
+                            row of the single-rigid-body dynamics (Winkler et al. 2018, eq. (1)),
+                            ≤ `between` · m·g: the dynamics where the robot executes the plan, between
+                            the points where the formulation enforces them too
+  newton_euler_torque       max |I_W ω̇ + ω × I_W ω − Σ (p_i − c) × f_i|∞ (N·m) about the CoM c (at
+                            `Centroidal.com_offset` in the base frame), I_W = R I_B Rᵀ (the angular
+                            row), ≤ `between` · m·g·ℓ (ℓ: the largest horizontal distance of a nominal
+                            foot from the base origin: a foot-force error of that share of m·g)
+  newton_euler_force_nodes  the same at the node times, where the formulation enforces the
+  newton_euler_torque_nodes dynamics: ≤ `newton_euler`·m·g and ≤ `newton_euler`·m·g·ℓ
+  angular_velocity          |ω − ω(e, ė)| (rad/s): the sampled world ω against the one of
+                            the sampled Euler angles and rates, ω = ψ̇ e_z + θ̇ Rz e_y + φ̇ Rz Ry e_x
+  normal_force              violation of 0 ≤ f·n ≤ f_max, relative (see below), stance feet
+  friction_cone             |f − (f·n) n| − μ f·n, relative: the Coulomb cone (the simulator's
+                            elliptic cone), with TOWR's terrain normal n ∝ (−h_x, −h_y, 1)
+  swing_force               |f| of feet whose contact flag is false, relative
+  stance_slip               largest distance of a stance foot from where its contact phase
+                            began (m)
+  stance_height             |z − h(x, y)| of stance feet (m), h the bilinear heightmap (the surface
+                            the planner stands feet on)
+  stance_column             |d| of stance feet (m), d the exact distance to the column solid of the
+                            heightmap (`legplan.terrain.columns.ColumnDistance`: the true terrain
+                            of the map, edges included), ≤ `penetration`
+  penetration_height        max(h(x, y) − z, 0) of any foot (m)
+  penetration_column        max(−d, 0) of any foot (m): how deep it reaches into the true terrain
+  base_height               min of base z − h(base x, y) (m), ≥ 0
+  base_above_feet           min of base z − the highest foot z (m), ≥ 0
+  trunk_penetration         max over the trunk's collision spheres of radius − d(centre) (m): how
+                            deep the trunk reaches into the terrain (< 0: clear by that much, down to
+                            −`SPHERE_REACH`, where the distance is no longer resolved)
+  range_of_motion           max(|Rᵀ(p_i − p) − p̄_i| − r, 0) over axes (m), the box of TOWR's
+                            kinematic model
+  leg_reach                 largest foot error (m) of per-foot IK inside the URDF's planning
+                            joint limits (`legplan.robots.leg_reach`)
+  joint_limit_margin        smallest distance of an IK solution's joint to its limit (rad), ≥ 0
+  leg_penetration           max over every leg's collision spheres but the feet, placed by pinocchio
+                            FK at the IK solution, of radius − d(centre) (m): the whole-body check
 
 "Relative" force violations are divided by max(f·n, m g / 4) (the force of one foot of four
 carrying the weight), so 1e-3 means a thousandth of a foot's share of the weight or of the force.
@@ -56,26 +60,34 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from legplan.robots import leg_reach
+from legplan.terrain.columns import ColumnDistance
 
 GRAVITY = 9.81
 HEIGHT_STEP = 1e-6  # m, central-difference step of the heightmap gradient
 
+SPHERE_REACH = 0.05  # m: distances of sphere surfaces are resolved this far out (`ColumnDistance` reach)
+
 UNITS = {"newton_euler_force": "N", "newton_euler_torque": "N m", "newton_euler_force_nodes": "N",
          "newton_euler_torque_nodes": "N m", "angular_velocity": "rad/s", "normal_force": "1",
-         "friction_pyramid": "1", "friction_cone": "1", "swing_force": "1", "stance_slip": "m",
-         "stance_height": "m", "stance_sdf": "m", "penetration_height": "m", "penetration_sdf": "m",
-         "base_height": "m", "base_above_feet": "m", "trunk_penetration": "m", "range_of_motion": "m",
-         "leg_reach": "m", "joint_limit_margin": "rad", "leg_penetration": "m"}
+         "friction_cone": "1", "swing_force": "1", "stance_slip": "m", "stance_height": "m", "stance_column": "m",
+         "penetration_height": "m", "penetration_column": "m", "base_height": "m", "base_above_feet": "m",
+         "trunk_penetration": "m", "range_of_motion": "m", "leg_reach": "m", "joint_limit_margin": "rad",
+         "leg_penetration": "m"}
+MINIMA = ("base_height", "base_above_feet", "joint_limit_margin")
+"""Metrics whose worst value is the smallest, judged by a lower bound; the rest by an upper one."""
 
 
 @dataclass(frozen=True)
 class CheckTolerances:
-    """Pass/fail bounds. `newton_euler` and `force` are relative (see the module docstring);
-    `penetration` is the issue's "no foot more than 5 mm below the terrain"; `leg_reach` is the IK
-    tolerance; `node_dt` (s) the largest node spacing of the dynamics (TOWR's and `legplan dyn`'s
-    0.1 s), used when the node times are not given."""
+    """Pass/fail bounds. `newton_euler`, `between` and `force` are relative (see the module
+    docstring); `penetration` is the issue's "no foot more than 5 mm below the terrain", also the
+    bound of the trunk's and the legs' spheres; `leg_reach` is the IK tolerance; `node_dt` (s) the
+    largest node spacing of the dynamics (TOWR's and `legplan dyn`'s 0.1 s), used when the node
+    times are not given."""
 
     newton_euler: float = 1e-3
+    between: float = 0.05
+    """Newton–Euler residual at every sample, a share of m·g (issue 34's bound)."""
     angular_velocity: float = 1e-6
     force: float = 1e-3
     slip: float = 1e-3
@@ -84,9 +96,6 @@ class CheckTolerances:
     range_of_motion: float = 1e-3
     leg_reach: float = 1e-4
     node_dt: float = 0.1
-    legs: bool = False
-    """Judge `leg_penetration` by `penetration` (a plan that claims its legs clear of the terrain:
-    `DynParams.leg_clearance`); otherwise it is recorded."""
 
 
 @dataclass
@@ -104,9 +113,15 @@ class CentroidalCheck:
         """Every pass/fail metric passed."""
         return all(self.passed.values())
 
+    def failures(self) -> list[str]:
+        """'metric worst > tolerance unit' for every judged metric that failed, in `UNITS` order."""
+        return [f"{name} {self.worst[name]:.4g} {'<' if name in MINIMA else '>'} {self.tolerance[name]:.4g} "
+                f"{self.units.get(name, '')}".rstrip()
+                for name in self.worst if name in self.passed and not self.passed[name]]
+
     def as_dict(self) -> dict[str, float | bool]:
         """Flat scalars for HDF5 attributes: `<metric>` (worst), `<metric>_tolerance` and
-        `<metric>_passed` for the judged ones, and `passed` overall."""
+        `<metric>_passed` for the judged ones (every one), and `passed` overall."""
         out: dict[str, float | bool] = {}
         for name, value in self.worst.items():
             out[name] = float(value)
@@ -129,7 +144,8 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
     feet, forces = s["feet_pos"].astype(float), s["forces"].astype(float)
     rot = Rotation.from_euler("xyz", s["base_euler"]).as_matrix()   # extrinsic x, y, z: Rz Ry Rx
     weight = model.mass * GRAVITY
-    lever = float(np.linalg.norm(model.nominal_feet[:, :2], axis=1).max())
+    offset = np.asarray(model.com_offset, float)
+    lever = float(np.linalg.norm((model.nominal_feet - offset)[:, :2], axis=1).max())
     rel = tolerances.newton_euler
 
     force_res, torque_res = _newton_euler(model, p, s["base_acc"], rot, s["base_ang_vel"], s["base_ang_acc"],
@@ -144,26 +160,29 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
              "newton_euler_torque_nodes": torque_res[nodes].max(initial=0.0),
              "angular_velocity": _max(np.linalg.norm(s["base_ang_vel"] - omega, axis=1))}
     worst.update(_forces(model, terrain_map, feet, forces, contact))
-    worst.update(_feet_on_terrain(terrain_map, feet, contact))
+    columns = _Columns(terrain_map)
+    worst.update(_feet_on_terrain(terrain_map, columns, feet, contact))
     worst.update(_base(terrain_map, p, feet))
     offset = np.abs(np.einsum("nji,nlj->nli", rot, feet - p[:, None]) - model.nominal_feet) - model.range_of_motion
     worst["range_of_motion"] = _max(np.maximum(offset, 0.0))
     reach, joints = _reach(robot, model, p, rot, feet, tolerances.leg_reach)
     worst.update(reach)
-    worst.update(_spheres(robot, terrain_map, p, rot, joints))
+    worst.update(_spheres(robot, columns, p, rot, joints))
 
-    half_cell = 0.5 * float(terrain_map.grid.resolution)
-    tolerance = {"newton_euler_force_nodes": rel * weight, "newton_euler_torque_nodes": rel * weight * lever,
+    between = tolerances.between
+    tolerance = {"newton_euler_force": between * weight, "newton_euler_torque": between * weight * lever,
+                 "newton_euler_force_nodes": rel * weight, "newton_euler_torque_nodes": rel * weight * lever,
                  "angular_velocity": tolerances.angular_velocity, "normal_force": tolerances.force,
-                 "friction_pyramid": tolerances.force, "swing_force": tolerances.force,
+                 "friction_cone": tolerances.force, "swing_force": tolerances.force,
                  "stance_slip": tolerances.slip, "stance_height": tolerances.stance_height,
-                 "penetration_height": tolerances.penetration,
-                 "penetration_sdf": tolerances.penetration + half_cell, "trunk_penetration": tolerances.penetration,
-                 "range_of_motion": tolerances.range_of_motion, "leg_reach": tolerances.leg_reach}
-    if tolerances.legs:
-        tolerance["leg_penetration"] = tolerances.penetration
+                 "stance_column": tolerances.penetration, "penetration_height": tolerances.penetration,
+                 "penetration_column": tolerances.penetration, "base_height": 0.0, "base_above_feet": 0.0,
+                 "trunk_penetration": tolerances.penetration, "range_of_motion": tolerances.range_of_motion,
+                 "leg_reach": tolerances.leg_reach, "joint_limit_margin": 0.0,
+                 "leg_penetration": tolerances.penetration}
     worst = {name: float(worst[name]) for name in UNITS}
-    passed = {name: bool(worst[name] <= bound) for name, bound in tolerance.items()}
+    passed = {name: bool(worst[name] >= bound if name in MINIMA else worst[name] <= bound)
+              for name, bound in tolerance.items()}
     return CentroidalCheck(worst=worst, tolerance=tolerance, passed=passed)
 
 
@@ -192,50 +211,71 @@ def _euler_world_rates(euler: np.ndarray, rates: np.ndarray) -> np.ndarray:
 
 
 def _newton_euler(model, p, acc, rot, omega, omega_dot, feet, forces):
-    """Largest component (n,) of the force residual m(p̈ + g e_z) − Σ f_i (N) and of the torque
-    residual I_W ω̇ + ω × I_W ω − Σ (p_i − p) × f_i (N·m) about the CoM, I_W = R I_B Rᵀ."""
-    linear = model.mass * (acc + [0.0, 0.0, GRAVITY]) - forces.sum(axis=1)
+    """Largest component (n,) of the force residual m(c̈ + g e_z) − Σ f_i (N) and of the torque
+    residual I_W ω̇ + ω × I_W ω − Σ (p_i − c) × f_i (N·m) about the CoM c = p + R o (o the
+    CoM in the base frame, `com_offset`), c̈ = p̈ + ω̇ × R o + ω × (ω × R o), I_W = R I_B Rᵀ."""
+    arm = rot @ np.asarray(model.com_offset, float)
+    com = p + arm
+    com_acc = acc + np.cross(omega_dot, arm) + np.cross(omega, np.cross(omega, arm))
+    linear = model.mass * (com_acc + [0.0, 0.0, GRAVITY]) - forces.sum(axis=1)
     inertia = rot @ model.inertia @ np.swapaxes(rot, 1, 2)
     angular = (np.einsum("nij,nj->ni", inertia, omega_dot)
                + np.cross(omega, np.einsum("nij,nj->ni", inertia, omega))
-               - np.cross(feet - p[:, None], forces).sum(axis=1))
+               - np.cross(feet - com[:, None], forces).sum(axis=1))
     return np.abs(linear).max(axis=1), np.abs(angular).max(axis=1)
 
 
-def _terrain_basis(terrain_map, xy: np.ndarray):
-    """Unit normal n and tangents t1, t2 (each (..., 3)) of the bilinear heightmap at xy (..., 2),
-    TOWR's basis n ∝ (−h_x, −h_y, 1), t1 ∝ (1, 0, h_x), t2 ∝ (0, 1, h_y), the gradient by central
-    differences of `height_at`."""
+def _terrain_normal(terrain_map, xy: np.ndarray) -> np.ndarray:
+    """Unit normal (..., 3) of the bilinear heightmap at xy (..., 2), TOWR's n ∝ (−h_x, −h_y, 1), the
+    gradient by central differences of `height_at`."""
     flat = xy.reshape(-1, 2)
     dx, dy = np.array([HEIGHT_STEP, 0.0]), np.array([0.0, HEIGHT_STEP])
     hx = (terrain_map.height_at(flat + dx) - terrain_map.height_at(flat - dx)) / (2 * HEIGHT_STEP)
     hy = (terrain_map.height_at(flat + dy) - terrain_map.height_at(flat - dy)) / (2 * HEIGHT_STEP)
-    one, zero = np.ones_like(hx), np.zeros_like(hx)
-    unit = lambda a: (a / np.linalg.norm(a, axis=1, keepdims=True)).reshape(xy.shape[:-1] + (3,))
-    return (unit(np.stack([-hx, -hy, one], axis=1)), unit(np.stack([one, zero, hx], axis=1)),
-            unit(np.stack([zero, one, hy], axis=1)))
+    n = np.stack([-hx, -hy, np.ones_like(hx)], axis=1)
+    return (n / np.linalg.norm(n, axis=1, keepdims=True)).reshape(xy.shape[:-1] + (3,))
 
 
 def _forces(model, terrain_map, feet, forces, contact) -> dict[str, float]:
-    """Force bounds, friction pyramid and cone of stance feet, and swing-foot forces, relative to
+    """Force bounds and the Coulomb cone of stance feet, and swing-foot forces, relative to
     max(f·n, m g / 4)."""
     share = model.mass * GRAVITY / 4.0
-    n, t1, t2 = _terrain_basis(terrain_map, feet[..., :2])
+    n = _terrain_normal(terrain_map, feet[..., :2])
     fn = np.sum(forces * n, axis=-1)
     scale = np.maximum(fn, share)
     tangential = forces - fn[..., None] * n
-    mu = model.friction
-    pyramid = np.maximum(np.abs(np.sum(forces * t1, axis=-1)), np.abs(np.sum(forces * t2, axis=-1))) - mu * fn
     bounds = np.maximum(-fn, fn - model.max_normal_force)
-    cone = np.linalg.norm(tangential, axis=-1) - mu * fn
+    cone = np.linalg.norm(tangential, axis=-1) - model.friction * fn
     return {"normal_force": _max(np.maximum(bounds[contact], 0.0) / scale[contact]),
-            "friction_pyramid": _max(np.maximum(pyramid[contact], 0.0) / scale[contact]),
             "friction_cone": _max(np.maximum(cone[contact], 0.0) / scale[contact]),
             "swing_force": _max(np.linalg.norm(forces[~contact], axis=-1) / share)}
 
 
-def _feet_on_terrain(terrain_map, feet, contact) -> dict[str, float]:
-    """Stance slip, stance feet on the terrain, and any foot's depth below it (height field and SDF)."""
+class _Columns:
+    """The exact distance to the map's column solid (`ColumnDistance`) near a set of points: the
+    heightmap cropped to the points' box grown by the reach (columns farther than the reach change
+    no distance up to it, so the values are those of the whole map), built per query set."""
+
+    def __init__(self, terrain_map):
+        self.map = terrain_map
+
+    def distance(self, points: np.ndarray, reach: float) -> np.ndarray:
+        """Signed distance (m) of points (n, 3), exact up to `reach`, saturated there."""
+        grid = self.map.grid
+        r, origin = float(grid.resolution), np.asarray(grid.origin, float)[:2]
+        ny, nx = np.shape(self.map.height)
+        if not len(points):
+            return np.zeros(0)
+        lo = np.floor((points[:, :2].min(axis=0) - reach - origin) / r).astype(int) - 1
+        hi = np.ceil((points[:, :2].max(axis=0) + reach - origin) / r).astype(int) + 1
+        lo, hi = np.clip(lo, 0, [nx - 1, ny - 1]), np.clip(hi, 0, [nx - 1, ny - 1])
+        height = np.asarray(self.map.height, float)[lo[1]:hi[1] + 1, lo[0]:hi[0] + 1]
+        return ColumnDistance(height, origin + r * lo, r, reach).values(points)
+
+
+def _feet_on_terrain(terrain_map, columns: _Columns, feet, contact) -> dict[str, float]:
+    """Stance slip, stance feet on the terrain, and any foot's depth below it (the bilinear height
+    field and the exact column solid)."""
     n, legs = contact.shape
     index = np.arange(n)[:, None]
     began = contact & ~np.vstack([np.zeros((1, legs), bool), contact[:-1]])
@@ -243,10 +283,10 @@ def _feet_on_terrain(terrain_map, feet, contact) -> dict[str, float]:
     slip = np.linalg.norm(feet - feet[first, np.arange(legs)], axis=-1)
     points = feet.reshape(-1, 3)
     gap = (points[:, 2] - terrain_map.height_at(points[:, :2])).reshape(n, legs)
-    sdf = terrain_map.surface_distance(points).reshape(n, legs)
+    exact = columns.distance(points, SPHERE_REACH).reshape(n, legs)
     return {"stance_slip": _max(slip[contact]), "stance_height": _max(np.abs(gap[contact])),
-            "stance_sdf": _max(np.abs(sdf[contact])), "penetration_height": _max(np.maximum(-gap, 0.0)),
-            "penetration_sdf": _max(np.maximum(-sdf, 0.0))}
+            "stance_column": _max(np.abs(exact[contact])), "penetration_height": _max(np.maximum(-gap, 0.0)),
+            "penetration_column": _max(np.maximum(-exact, 0.0))}
 
 
 def _base(terrain_map, p, feet) -> dict[str, float]:
@@ -263,15 +303,18 @@ def _reach(robot, model, p, rot, feet, tolerance: float) -> tuple[dict[str, floa
     return {"leg_reach": float(reach.error.max()), "joint_limit_margin": float(reach.limit_margin.min())}, reach.joints
 
 
-def _spheres(robot, terrain_map, p, rot, joints) -> dict[str, float]:
-    """How deep the trunk's and the legs' thigh and shank spheres reach into the terrain (radius −
-    SDF of the centre), the centres by one pinocchio FK of the base pose and the IK joints."""
+def _spheres(robot, columns: _Columns, p, rot, joints) -> dict[str, float]:
+    """How deep the trunk's and the legs' spheres (all but the feet) reach into the terrain (radius −
+    the exact column distance of the centre), the centres by one pinocchio FK of the base pose and
+    the IK joints."""
     Q = np.empty((len(p), robot.nq))
     Q[:, :3], Q[:, 3:7], Q[:, 7:] = p, Rotation.from_matrix(rot).as_quat(), joints   # (x, y, z, w) as pinocchio
     index, foot = np.asarray(robot.spheres.leg_index), np.asarray(robot.spheres.is_foot, bool)
     picked = np.flatnonzero(~foot)
     centres = robot.sphere_centres(Q)[:, picked]
-    depth = robot.spheres.radii[picked] - terrain_map.surface_distance(centres.reshape(-1, 3)).reshape(len(p), -1)
+    radii = np.asarray(robot.spheres.radii, float)[picked]
+    reach = float(radii.max(initial=0.0)) + SPHERE_REACH
+    depth = radii - columns.distance(centres.reshape(-1, 3), reach).reshape(len(p), -1)
     trunk = index[picked] == -1
     return {"trunk_penetration": float(depth[:, trunk].max(initial=-np.inf)),
             "leg_penetration": float(depth[:, ~trunk].max(initial=-np.inf))}

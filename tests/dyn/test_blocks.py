@@ -23,7 +23,7 @@ PALLET_TASK = DynTask((-0.3, 0.1, 0.2), (0.9, 0.0, 0.0), "walk", 2, 3.0)
 PALLET_PARAMS = DynParams(costs=PAPER_COSTS, swing_height_min=0.05, base_clearance=0.3, leg_clearance=0.05,
                           towr_swing=True)
 # the blocks that sample feet or forces in time, which read the phase durations when optimized
-TIMED_CONSTRAINTS = {"dynamics", "range_of_motion", "swing_above_terrain", "force", "base_clearance", "last_phase",
+TIMED_CONSTRAINTS = {"dynamics", "dynamics_between", "range_of_motion", "swing_above_terrain", "force", "base_clearance", "last_phase",
                      "leg_clearance"}
 TIMED_COSTS = {"force", "force_rate", "normal_force"}
 
@@ -53,7 +53,7 @@ def test_every_constraint_block_matches_finite_differences(request, problem_name
         report = check_jacobian(k.block, {v: values[v] for v in k.block.variables})
         assert report.ok(atol=1e-5, rtol=1e-4), (k.name, report)
         names.add(k.name)
-    assert {"dynamics", "range_of_motion", "stance_on_terrain", "swing_above_terrain", "force",
+    assert {"dynamics", "dynamics_between", "range_of_motion", "stance_on_terrain", "swing_above_terrain", "force",
             "acceleration_continuity", "swing", "swing_height", "base_clearance", "stance_off_edges",
             "leg_clearance"} <= names
     reading = {k.name for k in problem.constraints if PHASES in k.block.variables}

@@ -1,7 +1,6 @@
 """The checked inputs of `legplan dyn plan`: task fields, tasks files, placement on the map, costs files."""
 
 from dataclasses import replace
-from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -99,15 +98,18 @@ def test_placement_off_the_map_and_in_a_wall(anymal, pillar):
         check_placements(tasks, anymal, pillar, "tasks.csv", "m.h5")
 
 
-def test_leg_clearance_needs_legs_the_planner_can_place(tmp_path):
-    """A robot whose legs have no closed form (`Centroidal.leg_kinematics` None) is refused with one
-    line naming the costs source and the field; without leg clearance it plans as before."""
+def test_leg_clearance_needs_legs_the_planner_can_place(tmp_path, monkeypatch):
+    """The planner's model carries the robot's leg chains (`ChainLegs`); a robot whose legs are no
+    chains it can follow is refused with one line naming the costs source and the field when leg
+    clearance is asked for; without leg clearance it plans as before."""
+    from legplan.dyn.legs import ChainLegs
+
     robot = load_robot("anymal")
-    other = SimpleNamespace(centroidal=replace(robot.centroidal, leg_kinematics=None), yaml_path=robot.yaml_path)
-    assert centroidal_model(other, replace(PAPER, leg_clearance=None), "c.yaml") is other.centroidal
+    assert isinstance(centroidal_model(robot, replace(PAPER, leg_clearance=0.05)).leg_kinematics, ChainLegs)
+    monkeypatch.setattr(ChainLegs, "of_robot", classmethod(lambda cls, r: None))
+    assert centroidal_model(robot, replace(PAPER, leg_clearance=None), "c.yaml").leg_kinematics is None
     with pytest.raises(LegplanError, match=r"^c.yaml: field 'leg_clearance': .*robot.yaml's legs are not"):
-        centroidal_model(other, replace(PAPER, leg_clearance=0.05), "c.yaml")
-    assert centroidal_model(robot, replace(PAPER, leg_clearance=0.05)).leg_kinematics is not None
+        centroidal_model(robot, replace(PAPER, leg_clearance=0.05), "c.yaml")
 
 
 def test_costs_presets_and_files(tmp_path):

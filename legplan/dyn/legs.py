@@ -1,0 +1,182 @@
+"""Where a leg's collision spheres are, given its foot: the robot's own kinematics, for any leg chain.
+
+The centroidal model (`legplan.dyn`) plans the base and the feet, not the joints; to keep the legs
+themselves off the terrain (`constraints.LegClearanceBlock`) it needs each leg's collision spheres
+as a function of the foot's position b in the base frame, and that function's Jacobian. `ChainLegs`
+reads every leg's chain from the robot's pinocchio model once — per joint its placement in its
+parent joint's frame (`Model.jointPlacements`) and its rotation axis in its own frame; per sphere
+and per foot the joint that carries it and the offset in that joint's frame — and evaluates the
+chain for many samples at once:
+
+* forward kinematics: T_j = T_{j−1} M_j Rot(a_j, q_j) from the base, points x = T_j x_local;
+* inverse kinematics from the foot: damped Gauss–Newton on the joints, q ← q + Jᵀ(J Jᵀ + λI)⁻¹(b − x_foot(q)),
+  started from the previous solution of the same samples (the nominal joints at first), so the
+  knee keeps the side of the nominal stance;
+* derivative of a sphere centre s(q(b)) by the implicit function theorem: ∂s/∂b = J_s ∂q/∂b with
+  ∂q/∂b = J_fᵀ(J_f J_fᵀ)⁻¹ (J_f⁻¹ for a three-joint leg), J_s and J_f the point Jacobians
+  a_j × (x − p_j) of the joints up to the point's own.
+
+Revolute joints only (a prismatic or a non-serial leg: `of_robot` returns None). The planar closed
+form (`legplan.robots.planar_legs`) gives the same spheres for HAA/HFE/KFE legs; this serves every
+leg the URDF describes (hip offsets, tilted axes, more than three joints).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pinocchio as pin
+
+IK_ITERATIONS = 30
+IK_TOLERANCE = 1e-13  # m: foot position error at which the IK stops (Newton: one step more than 1e-10)
+IK_DAMPING = 1e-10  # λ of the damped steps (m²): only where the leg is stretched or folded flat
+
+
+@dataclass(frozen=True)
+class _Chain:
+    """One leg: per joint (root to tip) its placement in the parent joint (rotation, translation)
+    and its axis in its own frame; the foot's joint index and offset; per sphere its joint index,
+    offset and radius; the nominal joint angles."""
+
+    rotations: np.ndarray     # (J, 3, 3)
+    translations: np.ndarray  # (J, 3)
+    axes: np.ndarray          # (J, 3)
+    foot_joint: int
+    foot_offset: np.ndarray   # (3,)
+    sphere_joint: np.ndarray  # (K,)
+    sphere_offset: np.ndarray  # (K, 3)
+    sphere_radius: np.ndarray  # (K,)
+    nominal: np.ndarray       # (J,)
+
+    def kinematics(self, q: np.ndarray):
+        """Joint frames for joints q (n, J): origins (n, J, 3), rotations (n, J, 3, 3) in the base
+        frame, and the world axes (n, J, 3)."""
+        n, count = q.shape
+        origin, rot = np.zeros((n, count, 3)), np.zeros((n, count, 3, 3))
+        p, r = np.zeros((n, 3)), np.broadcast_to(np.eye(3), (n, 3, 3))
+        for j in range(count):
+            p = p + r @ self.translations[j]
+            r = r @ self.rotations[j] @ _axis_rotation(self.axes[j], q[:, j])
+            origin[:, j], rot[:, j] = p, r
+        return origin, rot, np.einsum("njab,jb->nja", rot, self.axes)
+
+    def point(self, frames, joint: int, offset: np.ndarray):
+        """A point fixed to `joint` at `offset` (its frame): position (n, 3) and Jacobian (n, 3, J)."""
+        origin, rot, axes = frames
+        x = origin[:, joint] + rot[:, joint] @ offset
+        jac = np.zeros(x.shape + (origin.shape[1],))
+        for j in range(joint + 1):
+            jac[:, :, j] = np.cross(axes[:, j], x - origin[:, j])
+        return x, jac
+
+    def solve(self, feet: np.ndarray, q: np.ndarray) -> np.ndarray:
+        """Joints (n, J) that put the foot at `feet` (n, 3, base frame), from q (n, J)."""
+        q = q.copy()
+        for _ in range(IK_ITERATIONS):
+            x, jac = self.point(self.kinematics(q), self.foot_joint, self.foot_offset)
+            error = feet - x
+            if np.abs(error).max(initial=0.0) < IK_TOLERANCE:
+                break
+            q += (_damped_pinv(jac) @ error[..., None])[..., 0]
+        return q
+
+
+class ChainLegs:
+    """Every leg's chain of a robot (module docstring); spheres numbered over all legs."""
+
+    def __init__(self, chains: list[_Chain]):
+        self.chains = chains
+        self.sphere_leg = np.concatenate([np.full(c.sphere_radius.size, k) for k, c in enumerate(chains)]).astype(int)
+        self.sphere_radius = np.concatenate([c.sphere_radius for c in chains])
+
+    @classmethod
+    def of_robot(cls, robot) -> ChainLegs | None:
+        """The chains of a `RobotModel` (legs in its order); None unless every leg is a serial
+        chain of revolute joints from the base carrying its foot."""
+        model = robot.model
+        data = model.createData()
+        spheres = robot.spheres
+        chains = []
+        for k, leg in enumerate(robot.legs):
+            ids = [model.getJointId(name) for name in leg.joint_names]
+            parents = [model.parents[i] for i in ids]
+            if parents[0] != 1 or any(p != i for p, i in zip(parents[1:], ids[:-1])):
+                return None
+            axes = [_local_axis(model, data, i) for i in ids]
+            if any(a is None for a in axes):
+                return None
+            foot = model.frames[leg.foot_frame_id]
+            if foot.parentJoint not in ids:
+                return None
+            picked = [s for s in np.flatnonzero(np.asarray(spheres.leg_index) == k)
+                      if not spheres.is_foot[s] and model.frames[int(spheres.frame_ids[s])].parentJoint in ids]
+            frames = [model.frames[int(spheres.frame_ids[s])] for s in picked]
+            chains.append(_Chain(
+                rotations=np.array([model.jointPlacements[i].rotation for i in ids]),
+                translations=np.array([model.jointPlacements[i].translation for i in ids]),
+                axes=np.array(axes), foot_joint=ids.index(foot.parentJoint),
+                foot_offset=np.array(foot.placement.translation),
+                sphere_joint=np.array([ids.index(f.parentJoint) for f in frames], int),
+                sphere_offset=np.array([f.placement.act(np.asarray(spheres.offsets[s], float))
+                                        for f, s in zip(frames, picked)]).reshape(-1, 3),
+                sphere_radius=np.asarray(spheres.radii, float)[picked],
+                nominal=np.array([robot.q_nominal[model.idx_qs[i]] for i in ids])))
+        return cls(chains)
+
+    def spheres_of(self, leg: int) -> np.ndarray:
+        """Indices (into `sphere_radius`) of the spheres of one leg."""
+        return np.flatnonzero(self.sphere_leg == leg)
+
+    def nominal(self, leg: int, n: int) -> np.ndarray:
+        """The nominal joints of a leg for n samples (an IK start)."""
+        return np.tile(self.chains[leg].nominal, (n, 1))
+
+    def sphere_centres(self, leg: int, feet: np.ndarray, q: np.ndarray):
+        """Centres (n, k, 3) of the leg's k spheres in the base frame with its foot at `feet` (n, 3,
+        base frame), their Jacobians ∂centre/∂foot (n, k, 3, 3), and the joints (n, J) of the IK
+        started from q (n, J)."""
+        chain = self.chains[leg]
+        q = chain.solve(np.asarray(feet, float), q)
+        frames = chain.kinematics(q)
+        _, foot_jac = chain.point(frames, chain.foot_joint, chain.foot_offset)
+        dq = _damped_pinv(foot_jac)  # (n, J, 3): ∂q/∂foot
+        centres, jacobians = [], []
+        for joint, offset in zip(chain.sphere_joint, chain.sphere_offset):
+            x, jac = chain.point(frames, int(joint), offset)
+            centres.append(x)
+            jacobians.append(jac @ dq)
+        n = len(q)
+        if not centres:
+            return np.zeros((n, 0, 3)), np.zeros((n, 0, 3, 3)), q
+        return np.stack(centres, axis=1), np.stack(jacobians, axis=1), q
+
+
+def _damped_pinv(jac: np.ndarray) -> np.ndarray:
+    """Jᵀ(J Jᵀ + λI)⁻¹ of Jacobians (n, 3, J)."""
+    jt = np.swapaxes(jac, 1, 2)
+    return jt @ np.linalg.inv(jac @ jt + IK_DAMPING * np.eye(3))
+
+
+def _axis_rotation(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
+    """Rotations (n, 3, 3) by `angle` (n,) about the unit `axis` (Rodrigues)."""
+    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
+    s, c = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
+    return np.eye(3) + s * k + (1.0 - c) * (k @ k)
+
+
+def _local_axis(model: pin.Model, data: pin.Data, joint: int) -> np.ndarray | None:
+    """The unit rotation axis of a one-degree-of-freedom revolute joint in its own frame (from the
+    motion of a small turn), None for any other joint."""
+    if model.nqs[joint] != 1 or model.nvs[joint] != 1:
+        return None
+    q = pin.neutral(model)
+    pin.forwardKinematics(model, data, q)
+    before = data.oMi[joint].copy()
+    q[model.idx_qs[joint]] += 1e-6
+    pin.forwardKinematics(model, data, q)
+    motion = pin.log6(before.inverse() * data.oMi[joint])
+    if np.linalg.norm(motion.linear) > 1e-9 * max(np.linalg.norm(motion.angular), 1e-300):
+        return None
+    axis = motion.angular
+    return axis / np.linalg.norm(axis)

@@ -1,0 +1,99 @@
+"""The legs' spheres placed by the robot's own kinematics (`legplan.dyn.legs.ChainLegs`) and the
+leg-clearance block on them, with the CoM away from the base origin: against pinocchio, the planar
+closed form and finite differences."""
+
+from dataclasses import replace
+
+import numpy as np
+import pinocchio as pin
+import pytest
+
+from legplan.dyn.constraints import LegClearanceBlock
+from legplan.dyn.init import heuristic
+from legplan.dyn.legs import ChainLegs
+from legplan.dyn.problem import DynParams, DynTask, build_problem
+from legplan.robots import load_robot
+from legplan.solve import check_jacobian
+
+
+@pytest.fixture(scope="module")
+def robot():
+    return load_robot("anymal")
+
+
+def _leg_joints(robot, leg, Q):
+    ids = [robot.model.getJointId(n) for n in leg.joint_names]
+    return Q[:, [robot.model.idx_qs[i] for i in ids]]
+
+
+def test_chain_spheres_and_ik_match_pinocchio(robot):
+    """Random joints: pinocchio's feet in the base frame, handed to the chain's IK from the nominal
+    joints, give back the joints, pinocchio's sphere centres, and ∂centre/∂foot equal to central
+    differences."""
+    legs = ChainLegs.of_robot(robot)
+    rng = np.random.default_rng(3)
+    Q = np.tile(robot.q_nominal, (6, 1))
+    Q[:, :7] = [0, 0, 0, 0, 0, 0, 1]
+    Q[:, 7:] += 0.15 * rng.standard_normal((6, Q.shape[1] - 7))
+    centres = robot.sphere_centres(Q)
+    data = robot.model.createData()
+    for k, leg in enumerate(robot.legs):
+        feet = []
+        for q in Q:
+            pin.framesForwardKinematics(robot.model, data, q)
+            feet.append(data.oMf[leg.foot_frame_id].translation.copy())
+        feet = np.array(feet)
+        c, jac, joints = legs.sphere_centres(k, feet, legs.nominal(k, len(Q)))
+        np.testing.assert_allclose(joints, _leg_joints(robot, leg, Q), atol=1e-8)
+        picked = [s for s in np.flatnonzero(np.asarray(robot.spheres.leg_index) == k) if not robot.spheres.is_foot[s]]
+        np.testing.assert_allclose(c, centres[:, picked], atol=1e-9)
+        np.testing.assert_allclose(legs.sphere_radius[legs.spheres_of(k)], robot.spheres.radii[picked])
+        h = 1e-6
+        numeric = np.stack([(legs.sphere_centres(k, feet + h * e, joints)[0]
+                             - legs.sphere_centres(k, feet - h * e, joints)[0]) / (2 * h) for e in np.eye(3)], axis=-1)
+        np.testing.assert_allclose(jac, numeric, atol=1e-7)
+
+
+def test_chain_legs_agree_with_the_planar_closed_form(robot):
+    """On the planar ANYmal legs the two kinematics place the spheres alike, for feet anywhere in
+    their range-of-motion boxes (all reachable, robots/anymal/robot.yaml)."""
+    chain, planar = ChainLegs.of_robot(robot), robot.centroidal.leg_kinematics
+    rng = np.random.default_rng(5)
+    box = robot.centroidal.range_of_motion
+    for k in range(4):
+        feet = robot.centroidal.nominal_feet[k] + box * rng.uniform(-1.0, 1.0, (50, 3))
+        centres, _, _ = chain.sphere_centres(k, feet, chain.nominal(k, len(feet)))
+        np.testing.assert_allclose(centres, planar.sphere_centres(k, feet), atol=1e-9)
+
+
+@pytest.mark.parametrize("offset", [(0.0, 0.0, 0.0), (0.04, -0.02, 0.03)])
+def test_leg_clearance_jacobian_with_chain_legs_and_com_offset(robot, step, offset):
+    """The leg-clearance block on the chain's kinematics, the CoM away from the base origin, against
+    finite differences at a perturbed point (base, Euler angles and feet all moved), the front feet
+    over the step's edge."""
+    model = replace(robot.centroidal, com_offset=np.array(offset), leg_kinematics=ChainLegs.of_robot(robot))
+    task = DynTask((0.15, 0.0, 0.1), (0.3, 0.0, 0.0), "walk", 2, 3.0)  # short steps: every foot within reach
+    problem = build_problem(task, model, step, DynParams(leg_clearance=0.02), heuristic)
+    rng = np.random.default_rng(1)
+    values = {b.name: b.value + 0.01 * rng.standard_normal(b.size) for b in problem.variables}
+    blocks = [k.block for k in problem.constraints if k.name == "leg_clearance"]
+    assert len(blocks) == 4 and all(isinstance(b.legs, ChainLegs) for b in blocks)
+    for block in blocks[:2]:
+        report = check_jacobian(block, {v: values[v] for v in block.variables})
+        assert report.ok(atol=1e-5, rtol=1e-4), report
+
+
+def test_com_offset_keeps_the_range_of_motion_in_the_base_frame(robot, flat):
+    """With the CoM 5 cm ahead of the base origin the base spline is the CoM's: the start CoM lies
+    5 cm ahead of the task's base pose, and the feet at the nominal stance sit at the centre of their
+    boxes (the box offsets are measured from the base origin)."""
+    model = replace(robot.centroidal, com_offset=np.array([0.05, 0.0, 0.0]))
+    task = DynTask((0.0, 0.0, np.pi / 2), (0.6, 0.0, np.pi / 2), "walk", 2, 3.0)
+    problem = build_problem(task, model, flat, DynParams(leg_clearance=None), heuristic)
+    np.testing.assert_allclose(problem.start.position[:2], [0.0, 0.05], atol=1e-12)
+    np.testing.assert_allclose(problem.com_offset, [0.05, 0.0, 0.0])
+    np.testing.assert_allclose(problem.start_feet[:, :2], (model.nominal_feet[:, :2] @ [[0, 1], [-1, 0]]), atol=1e-12)
+    block = next(k.block for k in problem.constraints if k.name == "range_of_motion")
+    values = {b.name: b.value for b in problem.variables}
+    offset = block.evaluate([values[v] for v in block.variables], False)[0].reshape(-1, 3)
+    np.testing.assert_allclose(offset[0], 0.0, atol=1e-12)  # t = 0: the nominal stance
