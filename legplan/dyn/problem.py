@@ -50,7 +50,7 @@ LEVER = 0.056  # m: torques are scaled as forces at this lever arm: I/m of ANYma
 
 
 @dataclass
-class Problem:
+class DynProblem:
     """Everything the solver needs, plus what the sampling and the checks need to read the solution."""
 
     task: DynTask
@@ -76,7 +76,7 @@ class Problem:
 RANGE_CHECK_DT = 0.001  # s: the grid on which `range_excess_times` looks for a foot outside its box
 
 
-def range_excess_times(problem: Problem, values: dict[str, np.ndarray], above: float = 0.0) -> np.ndarray:
+def range_excess_times(problem: DynProblem, values: dict[str, np.ndarray], above: float = 0.0) -> np.ndarray:
     """The times on the `RANGE_CHECK_DT` grid at which some foot's excess over its range-of-motion
     box (the model's box, not the planner's margin-reduced one) has a local maximum above `above`
     (m; 0: the foot is outside)."""
@@ -116,7 +116,7 @@ def sample_times(form: Formulation, params: DynParams) -> dict:
 
 
 def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer,
-                  range_times: np.ndarray = (), near_range: float | None = None) -> Problem:
+                  range_times: np.ndarray = (), near_range: float | None = None) -> DynProblem:
     """The constrained least-squares problem of one task (see module docstring); `range_times` are
     extra range-of-motion sample times (s), where the planner found a foot outside its box between
     the regular ones (`range_excess_times`); with `near_range` (m) also those where the
@@ -131,7 +131,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         durations = gait_timing.admissible(guess.get(PHASES, gait_timing.initial()))
         form = gait_timing.formulation(durations)
     timing = PhaseTiming(form, params.phase_min) if params.optimize_phases else None
-    problem = Problem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess),
+    problem = DynProblem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess),
                       timing=timing, durations=durations, range_times=np.asarray(range_times, float))
     if near_range is not None:
         guess_values = {v.name: v.value for v in problem.variables}
@@ -151,7 +151,7 @@ class BuildContext:
     also the leg, its foot, the sample times strictly inside its swings and its range-of-motion
     sample times (the regular ones, the swing ones and the problem's extra ones)."""
 
-    problem: Problem
+    problem: DynProblem
     params: DynParams
     times: dict
     leg: int | None = None
