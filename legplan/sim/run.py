@@ -34,6 +34,7 @@ import numpy as np
 import pinocchio as pin
 
 from legplan.dyn.terrain import TerrainModel
+from legplan.parameters import Parameters, param
 from legplan.robots import leg_reach
 from legplan.sim.controller import Gains, WholeBodyController
 from legplan.sim.model import build_model
@@ -43,19 +44,21 @@ CONTROL_DT = 0.0025   # s, 400 Hz (paper Sec. III-B)
 
 
 @dataclass(frozen=True)
-class SimParams:
+class SimParams(Parameters):
     """Settings of a simulated execution (module docstring); `friction` None = the robot's μ."""
 
-    settle: float = 0.5               # s held at the final pose after the plan
-    fall_height: float = 0.5          # × nominal base height, above the terrain under the base
-    fall_tilt: float = 0.8            # rad, base z axis from the vertical
-    goal_distance: float = 0.10       # m
-    goal_yaw: float = 0.20            # rad
-    record_every: int = 4             # control ticks per recorded row (100 Hz)
-    friction: float | None = None
-    zero_torque: bool = False         # apply no torques (a planted fall, for tests)
-    effort_scale: float = 1.0         # × the URDF effort limits (a what-if: which limits would a plan need)
-    gains: Gains = field(default_factory=Gains)
+    what = "simulation"
+
+    settle: float = param(0.5, "[0, inf)", doc="s held at the final pose after the plan")
+    fall_height: float = param(0.5, "[0, inf)", doc="× nominal base height, above the terrain under the base")
+    fall_tilt: float = param(0.8, "[0, 3.141592653589793]", doc="rad, base z axis from the vertical")
+    goal_distance: float = param(0.10, "[0, inf)", doc="m")
+    goal_yaw: float = param(0.20, "[0, 3.141592653589793]", doc="rad")
+    record_every: int = param(4, "[1, inf)", doc="control ticks per recorded row (100 Hz)")
+    friction: float | None = param(None, "(0, inf)", "μ", "None: the robot's")
+    zero_torque: bool = param(False, (False, True), doc="apply no torques (a planted fall, for tests)")
+    effort_scale: float = param(1.0, "(0, inf)", doc="× the URDF effort limits (which limits would a plan need)")
+    gains: Gains = field(default_factory=Gains, metadata={"range": None, "symbol": None, "doc": "controller gains"})
 
 
 @dataclass
