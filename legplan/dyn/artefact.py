@@ -13,7 +13,7 @@ plus the task options; `robot`, `legs` (comma-separated, the order of every per-
     timings/{evaluate,assemble,factorize,solve,total} (s) — the solve time split;
     violations/<constraint> — the solver's largest violation of each constraint, in its own units;
     costs/<term> — the final value of every cost term (as the solver reports it);
-    check/<metric> — the independent check (`legplan.validate.centroidal`) of the 10 ms samples:
+    check/<metric> — the independent check (`legplan.validate.trajectory`) of the 10 ms samples:
         the worst value, attrs units, and for judged metrics tolerance and passed; group attr passed;
     phases/durations (P,) s, phases/stance (P, legs) — the gait's whole-body phases;
     nodes/<block>/{value, fixed, span} for base_lin, base_ang, feet, forces — the node values
@@ -52,7 +52,7 @@ POSE_UNITS = "m, m, rad"
 SCALARS = ("iterations", "outer_iterations", "solve_seconds", "first_iteration_seconds", "setup_seconds",
            "max_violation", "cost", "variables", "paper_variables", "peak_force", "peak_roll_pitch_rate")
 CHECK_MINIMA = ("base_height", "base_above_feet", "joint_limit_margin")
-"""Check metrics that `legplan.validate.centroidal` reports as a minimum (smaller is worse); the rest
+"""Check metrics that `legplan.validate.trajectory` reports as a minimum (smaller is worse); the rest
 are maxima of a violation or an error."""
 
 
@@ -161,7 +161,7 @@ def _write_task(group: h5py.Group, record: dict) -> None:
     check = record["check"]
     checked = group.create_group("check")
     checked.attrs["passed"] = bool(check["ok"])
-    checked.attrs["description"] = "independent check of the 10 ms samples (legplan.validate.centroidal)"
+    checked.attrs["description"] = "independent check of the 10 ms samples (legplan.validate.trajectory)"
     for name, value in check["worst"].items():
         judged = {"tolerance": check["tolerance"][name], "passed": bool(check["passed"][name])} \
             if name in check["passed"] else {}
