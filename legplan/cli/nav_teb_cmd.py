@@ -99,7 +99,8 @@ def _summary(write_summary, handle, count, rows):
               help="YAML with `obstacles: [map primitives]` missing from the initial map; sensed in range.")
 @click.option("--planner", type=click.Choice(["kinoastar", "astar"]), default="kinoastar", show_default=True,
               help="Global planner (astar: grid A* waypoints, the Table II baseline).")
-@click.option("--sensing-radius", type=number(min=0, min_open=True), default=4.0, show_default=True, help="m.")
+@click.option("--sensing-radius", type=number(min=0), default=4.0, show_default=True,
+              help="m (NavRunParams.sensing_radius; 0: hidden obstacles are never sensed).")
 @click.option("--max-time", type=number(min=0, min_open=True), default=300.0, show_default=True, help="Simulated seconds.")
 @click.option("--warm-start/--cold-start", default=True, show_default=True,
               help="Warm-start each cycle's band from the previous one, or re-initialize it every cycle.")
