@@ -24,7 +24,7 @@ Side by side in one process, on TOWR's cases (issue 14's table) plus stairs:
 * TOWR's figures as measured on this machine (issue 14: C++, Ipopt 3.11.9 + MUMPS, same settings)
   as the external reference column, and the ratios ours/TOWR, ours/Ipopt.
 * Every answer (ours and Ipopt's) sampled every 10 ms and judged by the independent dense check
-  `legplan.validate.centroidal.check_trajectory` (skipped, and said so, when it is not importable).
+  `legplan.validate.trajectory.check_trajectory` (skipped, and said so, when it is not importable).
 * With the paper's costs (`legplan.dyn.problem.PAPER`, or the issue's DynParams(costs=PAPER_COSTS,
   swing_height_min=0.05, base_clearance=0.3) when that preset does not exist) vs without on the
   pallet cases: cost terms (the paper's blocks evaluated at both answers), peak forces and peak base
@@ -78,7 +78,7 @@ except ImportError:  # pragma: no cover - older trees
     PAPER_SOURCE = "DynParams(costs=PAPER_COSTS, swing_height_min=0.05, base_clearance=0.3)"
 
 try:
-    from legplan.validate.centroidal import check_trajectory
+    from legplan.validate.trajectory import check_trajectory
 except ImportError:  # not committed yet
     check_trajectory = None
 
@@ -506,7 +506,7 @@ def targets(result) -> list[str]:
                      + ("met on every case" if not miss else "missed on " + ", ".join(
                          f"{k} ({1e3 * c['penetration_m']:.1f} mm, {c['force_rel']:.1e})" for k, c in miss.items())))
     else:
-        lines.append("dense check: not available in this tree (legplan.validate.centroidal missing)")
+        lines.append("dense check: not available in this tree (legplan.validate.trajectory missing)")
     cmp_ = result.get("costs", {})
     if cmp_:
         def rate(d):
@@ -533,7 +533,7 @@ def markdown(result) -> str:
                "sampling) separately. Ours: `plan(task, model, terrain, DynParams())` from the heuristic, "
                "iterations = LM iterations over all stages. Ipopt: " + r["ipopt"]["description"] + " TOWR: the "
                "issue's measurement on this machine (C++, same Ipopt and settings, its own formulation). Dense "
-               "check: `legplan.validate.centroidal.check_trajectory` on the 10 ms samples — foot penetration "
+               "check: `legplan.validate.trajectory.check_trajectory` on the 10 ms samples — foot penetration "
                "(max of heightmap and SDF minus half a cell) / worst relative normal-force or friction-pyramid "
                "violation / Newton-Euler force residual at the nodes / leg IK error; ✓ = every metric of the "
                "check passed.")

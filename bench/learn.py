@@ -159,7 +159,7 @@ def one_core_times(init: Path, space, tasks: np.ndarray, warm_stage: str = "cost
 
 
 def main() -> None:
-    from legplan.dyn.problem import WARM_STAGES
+    from legplan.dyn.settings import WARM_STAGES
     from legplan.learn.space import read_space
 
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])

@@ -57,7 +57,7 @@ from legplan.nav import NavParams
 from legplan.nav.collision import NavGrid
 from legplan.nav.gridastar import plan_grid
 from legplan.nav.kinoastar import plan_kinodynamic
-from legplan.nav.simulate import Goal, SimParams, World, grid_planner, kinodynamic_planner, simulate
+from legplan.nav.simulate import Goal, NavRunParams, World, grid_planner, kinodynamic_planner, run_navigation
 from legplan.nav.teb.distance import DistanceField
 from legplan.nav.teb.params import TebParams
 from legplan.nav.teb.reference import GlobalPath
@@ -122,9 +122,9 @@ def run_table2(job):
     world = World(terrain.grid, terrain.occupancy, unknown, terrain.nav_params, NAV.circumscribed_radius)
     search = NavParams.for_robot(NAV)
     planner = kinodynamic_planner(search) if planner_name == "kinoastar" else grid_planner(search, NAV.limits.v_x_max)
-    sim = SimParams(max_time=30.0 + 3.0 * float(np.hypot(*(goal - start))) / NAV.limits.v_x_max,
+    sim = NavRunParams(max_time=30.0 + 3.0 * float(np.hypot(*(goal - start))) / NAV.limits.v_x_max,
                     max_wall_seconds=WALL_BUDGET)
-    r = simulate(world, planner, [*start, yaw], [Goal(tuple(goal))], NAV.limits, TebParams(), sim)
+    r = run_navigation(world, planner, [*start, yaw], [Goal(tuple(goal))], NAV.limits, TebParams(), sim)
     return {"planner": planner_name, "hidden": hidden, "start": list(start), "goal": list(goal), **outcome(r)}
 
 
@@ -146,8 +146,8 @@ def run_table3(name):
     world = World(grid, walls | objects, np.zeros_like(walls), CostmapParams(),
                   NAV.circumscribed_radius)
     goals = [Goal((4.0, y), 0.0, 2.0) for y in (2.5, 4.0, 5.5)]
-    sim = SimParams(max_time=150.0, yaw=yaw, heading=0.0, max_wall_seconds=WALL_BUDGET)
-    r = simulate(world, kinodynamic_planner(NavParams.for_robot(NAV)), [1.0, 1.0, 0.0], goals, NAV.limits,
+    sim = NavRunParams(max_time=150.0, yaw=yaw, heading=0.0, max_wall_seconds=WALL_BUDGET)
+    r = run_navigation(world, kinodynamic_planner(NavParams.for_robot(NAV)), [1.0, 1.0, 0.0], goals, NAV.limits,
                  TebParams(omnidirectional=omni), sim)
     arrivals = r.goal_times
     legs = [arrivals[0]] + [arrivals[k] - arrivals[k - 1] - 2.0 for k in range(1, len(arrivals))]
@@ -160,8 +160,8 @@ def run_cycle(warm):
     start, goal, yaw = sample_pairs(terrain, 1, np.random.default_rng(0))[0]
     world = World(terrain.grid, terrain.occupancy, np.zeros(terrain.grid.shape, bool), terrain.nav_params,
                   NAV.circumscribed_radius)
-    r = simulate(world, kinodynamic_planner(NavParams.for_robot(NAV)), [*start, yaw], [Goal(tuple(goal))],
-                 NAV.limits, TebParams(), SimParams(max_time=CYCLE_SIM_TIME, warm_start=warm))
+    r = run_navigation(world, kinodynamic_planner(NavParams.for_robot(NAV)), [*start, yaw], [Goal(tuple(goal))],
+                 NAV.limits, TebParams(), NavRunParams(max_time=CYCLE_SIM_TIME, warm_start=warm))
     return {"warm_start": warm, "cycles": len(r.commands), "median_ms": 1e3 * float(np.median(r.compute_seconds)),
             "p95_ms": 1e3 * float(np.percentile(r.compute_seconds, 95)),
             "median_iterations": float(np.median(r.band_iterations)), "median_poses": float(np.median(r.band_poses))}

@@ -13,16 +13,17 @@ from legplan.dyn.costs import CostWeights
 from legplan.dyn.settings import DynParams
 from legplan.errors import LegplanError
 from legplan.nav.params import NavParams
-from legplan.nav.simulate.mission import SimParams
+from legplan.nav.simulate.mission import NavRunParams
 from legplan.nav.teb.params import TebParams
 from legplan.parameters import Interval, Parameters, inherit, param
+from legplan.sim.run import SimParams
 from legplan.solve.auglag import ALParams
 from legplan.solve.hinged import HingedParams
 from legplan.stepplan.params import StepPlanParams
 from legplan.stepseq.generate import GenerateParams
 
 PARAMETER_CLASSES = [GenerateParams, StepPlanParams, StepBaselineParams, NavParams, NavBaselineParams,
-                     TebParams, SimParams, DynParams, CostWeights, ALParams, HingedParams]
+                     TebParams, NavRunParams, DynParams, CostWeights, ALParams, HingedParams, SimParams]
 
 
 @dataclass(frozen=True)

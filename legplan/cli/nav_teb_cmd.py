@@ -103,7 +103,8 @@ def _summary(write_summary, handle, count, rows):
               help="YAML with `obstacles: [map primitives]` missing from the initial map; sensed in range.")
 @click.option("--planner", type=click.Choice(["kinoastar", "astar"]), default="kinoastar", show_default=True,
               help="Global planner (astar: grid A* waypoints, the Table II baseline).")
-@click.option("--sensing-radius", type=number(LENGTH), default=4.0, show_default=True, help="m.")
+@click.option("--sensing-radius", type=number(LENGTH), default=4.0, show_default=True,
+              help="m (NavRunParams.sensing_radius).")
 @click.option("--max-time", type=number(TIME_LIMIT), default=300.0, show_default=True, help="Simulated seconds.")
 @click.option("--warm-start/--cold-start", default=True, show_default=True,
               help="Warm-start each cycle's band from the previous one, or re-initialize it every cycle.")
@@ -111,7 +112,7 @@ def _summary(write_summary, handle, count, rows):
 @inner_opt
 @omni_opt
 @param_opt("Override a parameter: search.KEY (legplan.nav.NavParams, e.g. search.weight=3), teb.KEY "
-           "(TebParams, e.g. teb.weight_obstacle=80) or sim.KEY (SimParams, e.g. sim.window=4).")
+           "(TebParams, e.g. teb.weight_obstacle=80) or sim.KEY (NavRunParams, e.g. sim.window=4).")
 @output_opt
 @overwrite_opt
 @verbosity_opts
@@ -125,8 +126,8 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
     from legplan.robots.navigation import read_navigation
     from legplan.errors import LegplanError
     from legplan.nav.params import NavParams
-    from legplan.nav.simulate import (Goal, SimParams, World, grid_planner, hidden_obstacles as load_hidden,
-                                      kinodynamic_planner, simulate as run)
+    from legplan.nav.simulate import (Goal, NavRunParams, World, grid_planner, hidden_obstacles as load_hidden,
+                                      kinodynamic_planner, run_navigation as run)
     from legplan.nav.teb.artefact import write_simulation
     from legplan.nav.teb.params import TebParams
     from legplan.specio import apply_overrides
@@ -153,7 +154,7 @@ def simulate(ctx, map_path, robot, start, goal, via, face_target, hidden_obstacl
             else grid_planner(search, navigation.limits.v_x_max))
     teb = apply_overrides(TebParams(outer_iterations=outer, inner_iterations=inner, omnidirectional=omni),
                           overrides["teb"], "--param", "teb")
-    sim = apply_overrides(SimParams(sensing_radius=sensing_radius, max_time=max_time, warm_start=warm_start,
+    sim = apply_overrides(NavRunParams(sensing_radius=sensing_radius, max_time=max_time, warm_start=warm_start,
                                     yaw="target" if target else "velocity", target=target),
                           overrides["sim"], "--param", "sim")
     pose = np.array([start[0], start[1], start[2] if len(start) > 2 else 0.0])

@@ -15,7 +15,7 @@ plus the task options; `robot`, `legs` (comma-separated, the order of every per-
     timings/{evaluate,assemble,factorize,solve,total} (s) — the solve time split;
     violations/<constraint> — the solver's largest violation of each constraint, in its own units;
     costs/<term> — the final value of every cost term (as the solver reports it);
-    check/<metric> — the independent check (`legplan.validate.centroidal`) of the 10 ms samples:
+    check/<metric> — the independent check (`legplan.validate.trajectory`) of the 10 ms samples:
         the worst value, attrs units, tolerance, bound ("upper": worst ≤ tolerance passes, "lower":
         worst ≥ tolerance) and passed; group attr passed;
     phases/durations (P,) s, phases/stance (P, legs) — the gait's whole-body phases;
@@ -43,7 +43,7 @@ import numpy as np
 
 from legplan.artefacts import (check_finite, open_artefact, require, require_attrs, write_artefact, write_dataset,
                                write_summary)
-from legplan.validate.centroidal import MINIMA as CHECK_MINIMA
+from legplan.validate.trajectory import MINIMA as CHECK_MINIMA
 
 NAN = float("nan")
 NODE_BLOCKS = ("base_lin", "base_ang", "feet", "forces")
@@ -168,7 +168,7 @@ def _write_task(group: h5py.Group, record: dict) -> None:
     check = record["check"]
     checked = group.create_group("check")
     checked.attrs["passed"] = bool(check["ok"])
-    checked.attrs["description"] = "independent check of the 10 ms samples (legplan.validate.centroidal)"
+    checked.attrs["description"] = "independent check of the 10 ms samples (legplan.validate.trajectory)"
     for name, value in check["worst"].items():
         judged = {"tolerance": check["tolerance"][name], "passed": bool(check["passed"][name]),
                   "bound": "lower" if name in CHECK_MINIMA else "upper"} if name in check["passed"] else {}

@@ -4,7 +4,7 @@
     items = task_items(tasks)          # (index, DynTask) pairs
 
 Each item is planned (`legplan.dyn.planner.plan`), checked independently on its 10 ms samples
-(`legplan.validate.centroidal.check_trajectory`) and returned as the record of `artefact`.
+(`legplan.validate.trajectory.check_trajectory`) and returned as the record of `artefact`.
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ class DynWorker:
 
     def plan(self, index: int, task: DynTask) -> dict:
         from legplan.dyn.planner import plan
-        from legplan.validate.centroidal import check_trajectory
+        from legplan.validate.trajectory import check_trajectory
 
         result = plan(task, self.model, self.terrain, self.params, self.initializer)
         check = check_trajectory(result.samples, self.model, self.terrain_map, self.robot,

@@ -47,7 +47,7 @@ from legplan.dyn.costs import CostWeights
 from legplan.dyn.euler import rotation, world_rates
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.init import heuristic
-from legplan.dyn.problem import DynParams, DynTask, Problem, build_problem, cost_blocks, range_excess_times
+from legplan.dyn.problem import DynParams, DynTask, DynProblem, build_problem, cost_blocks, range_excess_times
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import PHASES
 from legplan.solve.auglag import ALParams, ALResult, evaluate_costs, solve_augmented_lagrangian
@@ -141,7 +141,7 @@ class StageOutcome:
     name: str
     status: Status
     result: ALResult
-    problem: Problem
+    problem: DynProblem
     setup_seconds: float = 0.0
     towr_swing: bool = False
 
@@ -155,7 +155,7 @@ class PlanResult:
     """The stages that ran, the last one's problem, the combined solver outcome (the last stage's
     solution, the effort of all) and the solution sampled every `SAMPLE_DT`."""
 
-    problem: Problem
+    problem: DynProblem
     stages: list[StageOutcome]
     solve: ALResult
     samples: dict[str, np.ndarray]
@@ -296,11 +296,11 @@ def _run_stage(stage: Stage, task: DynTask, model, terrain: TerrainModel, params
     return StageOutcome(stage.name, result.status, result, problem, setup, swing)
 
 
-def _plan_cost(problem: Problem, params: DynParams, values: dict[str, np.ndarray]) -> float:
+def _plan_cost(problem: DynProblem, params: DynParams, values: dict[str, np.ndarray]) -> float:
     return sum(_cost_terms(problem, params, values).values())
 
 
-def _cost_terms(problem: Problem, params: DynParams, values: dict[str, np.ndarray]) -> dict[str, float]:
+def _cost_terms(problem: DynProblem, params: DynParams, values: dict[str, np.ndarray]) -> dict[str, float]:
     """The terms of `params.costs` at the values, on the problem's formulation (whether or not the
     problem's own blocks include the costs)."""
     return evaluate_costs(cost_blocks(problem.form, problem.terrain, problem.model, params.costs), values)

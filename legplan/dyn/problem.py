@@ -5,10 +5,18 @@ the variable blocks of a `Formulation` (initialized by an `Initializer`), the we
 `costs` and the bounded constraint blocks of `constraints` — the NLP of Sec. III-A of the TOWR-costs
 paper, stated as constrained least squares for `legplan.solve.solve_augmented_lagrangian`. With
 `DynParams.optimize_phases` the phase durations are variables too (`legplan.dyn.timing`).
+
+The problem is built from declared names, as TOWR's formulation is: every constraint has a builder
+declared under its name (`constraint`, the registry `CONSTRAINTS`, in build order; per leg or per
+problem), every cost term beyond eq. (1)'s integrals likewise (`cost`, `COSTS`). A builder reads
+`DynParams` and returns no block when its setting switches it off. Adding a constraint is writing
+its block (`legplan.dyn.constraints`) and declaring its builder.
 """
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -42,7 +50,7 @@ LEVER = 0.056  # m: torques are scaled as forces at this lever arm: I/m of ANYma
 
 
 @dataclass
-class Problem:
+class DynProblem:
     """Everything the solver needs, plus what the sampling and the checks need to read the solution."""
 
     task: DynTask
@@ -70,7 +78,7 @@ class Problem:
 RANGE_CHECK_DT = 0.001  # s: the grid on which `range_excess_times` looks for a foot outside its box
 
 
-def range_excess_times(problem: Problem, values: dict[str, np.ndarray], above: float = 0.0) -> np.ndarray:
+def range_excess_times(problem: DynProblem, values: dict[str, np.ndarray], above: float = 0.0) -> np.ndarray:
     """The times on the `RANGE_CHECK_DT` grid at which some foot's excess over its range-of-motion
     box (the model's box, not the planner's margin-reduced one) has a local maximum above `above`
     (m; 0: the foot is outside)."""
@@ -129,7 +137,7 @@ def sample_times(form: Formulation, params: DynParams) -> dict:
 
 
 def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer,
-                  range_times: np.ndarray = (), near_range: float | None = None) -> Problem:
+                  range_times: np.ndarray = (), near_range: float | None = None) -> DynProblem:
     """The constrained least-squares problem of one task (see module docstring); `range_times` are
     extra range-of-motion sample times (s), where the planner found a foot outside its box between
     the regular ones (`range_excess_times`); with `near_range` (m) also those where the
@@ -137,7 +145,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     form = Formulation(make_gait(task.gait, task.strides, task.duration), params.dt,
                        aligned=params.phase_knots)
     start, goal = task_poses(task, model, terrain)
-    offset, legs = np.asarray(model.com_offset, float), model.leg_kinematics
+    offset = np.asarray(model.com_offset, float)
     model = about_com(model)
     feet0 = start_feet(model, start, terrain)
     guess = initializer(form, model, terrain, start, goal, feet0)
@@ -147,79 +155,224 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         durations = gait_timing.admissible(guess.get(PHASES, gait_timing.initial()))
         form = gait_timing.formulation(durations)
     timing = PhaseTiming(form, params.phase_min) if params.optimize_phases else None
-    problem = Problem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess),
-                      timing=timing, durations=durations, range_times=np.asarray(range_times, float),
-                      com_offset=offset)
+    problem = DynProblem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess),
+                         timing=timing, durations=durations, range_times=np.asarray(range_times, float),
+                         com_offset=offset)
     if near_range is not None:
         guess_values = {v.name: v.value for v in problem.variables}
         problem.range_times = np.union1d(problem.range_times, range_excess_times(problem, guess_values, -near_range))
-    times = sample_times(form, params)
-    k = problem.constraints
     if timing is not None:
         problem.variables.append(timing.variable(durations))
-        k.append(Constraint(timing.last_phase_block(), params.phase_min, np.inf, name="last_phase", scale=1.0 / LENGTH))
-    weight = model.mass * GRAVITY
-    k.append(Constraint(DynamicsBlock(form, model.mass, model.inertia, times["dynamics"], timing), name="dynamics",
-                        scale=np.tile(np.repeat([1.0 / weight, 1.0 / (weight * LEVER)], 3), times["dynamics"].size)))
-    if times["between"].size:
-        lever = float(np.linalg.norm(model.nominal_feet[:, :2], axis=1).max())
-        band = np.tile(np.repeat([params.dynamics_band * weight, params.dynamics_band * weight * lever], 3),
-                       times["between"].size)
-        k.append(Constraint(DynamicsBlock(form, model.mass, model.inertia, times["between"], timing), -band, band,
-                            name="dynamics_between",
-                            scale=np.tile(np.repeat([1.0 / weight, 1.0 / (weight * LEVER)], 3), times["between"].size)))
-    for var in ("base_lin", "base_ang"):
-        k.append(Constraint(acceleration_continuity(form, var), name="acceleration_continuity", scale=1.0 / GRAVITY))
-    if params.towr_swing and form.footsteps:
-        k.append(Constraint(swing_constraint(form), name="swing", scale=np.tile([1.0 / LENGTH, 1.0], 2 * form.footsteps)))
-    for leg, foot in enumerate(form.feet):
-        swing_t = _swing_times(foot, params.swing_dt)
-        rom_t = np.union1d(np.union1d(times["range"], swing_t),  # swing feet move fastest: also between
-                           problem.range_times)  # the dt_range points
-        box = np.tile(model.range_of_motion - params.range_margin, rom_t.size)
-        k.append(Constraint(RangeOfMotionBlock(form, leg, model.nominal_feet[leg], rom_t, timing), -box, box,
-                            name="range_of_motion", scale=1.0 / LENGTH))
-        k.append(Constraint(TerrainHeightBlock(terrain, form.node_selector(foot.stance_nodes, form.motion_nodes)),
-                            name="stance_on_terrain", scale=1.0 / LENGTH))
-        if params.stance_slope_max is not None and len(foot.stance_nodes) > 1:  # the first is the start
-            k.append(Constraint(StanceSlopeBlock(terrain, form.node_selector(foot.stance_nodes[1:], form.motion_nodes)),
-                                -np.inf, params.stance_slope_max, name="stance_off_edges"))
-        if swing_t.size:
-            swing = form.foot_matrix(leg, swing_t) if timing is None else \
-                TimedSamples(timing, "motion", leg, swing_t, moving=True)  # they move with their swing
-            k.append(Constraint(TerrainHeightBlock(terrain, swing, envelope=True),
-                                params.swing_clearance, np.inf, name="swing_above_terrain", scale=1.0 / LENGTH))
-        points, stance_node = form.force_control_points(leg)
-        lower, upper = ForceBlock.bounds(points.shape[0], model.max_normal_force)
-        k.append(Constraint(ForceBlock(terrain, model.friction, points if timing is None else TimedControlPoints(timing, leg),
-                                       form.node_selector(stance_node, form.motion_nodes)),
-                            lower, upper, name="force", scale=1.0 / weight))
-        if params.leg_clearance is not None:
-            if legs is None:
-                raise ValueError("DynParams.leg_clearance needs the robot's legs (Centroidal.leg_kinematics)")
-            k.append(Constraint(LegClearanceBlock(form, leg, legs, terrain, rom_t, timing, offset),
-                                params.leg_clearance, np.inf, name="leg_clearance", scale=1.0 / LENGTH))
-    if params.swing_height_min is not None and form.footsteps:
-        k.append(Constraint(swing_height(form), params.swing_height_min, np.inf, name="swing_height",
-                            scale=1.0 / LENGTH))
-    if params.base_clearance is not None:
-        k.append(Constraint(BaseAboveFeetBlock(form, times["range"], timing), params.base_clearance, np.inf,
-                            name="base_clearance", scale=1.0 / LENGTH))
+    context = BuildContext(problem, params, sample_times(form, params))
+    problem.constraints = declared_constraints(context)
     problem.costs = cost_blocks(form, terrain, model, params.costs, timing)
     return problem
 
 
+@dataclass
+class BuildContext:
+    """What a constraint builder reads: the problem (formulation, terrain, model, timing, extra range
+    samples), the parameters and the regular sample times (`sample_times`); for a per-leg builder
+    also the leg, its foot, the sample times strictly inside its swings and its range-of-motion
+    sample times (the regular ones, the swing ones and the problem's extra ones)."""
+
+    problem: DynProblem
+    params: DynParams
+    times: dict
+    leg: int | None = None
+    foot: object = None
+    swing_times: np.ndarray | None = None
+    range_times: np.ndarray | None = None
+
+    def for_leg(self, leg: int) -> BuildContext:
+        foot = self.problem.form.feet[leg]
+        swing_t = _swing_times(foot, self.params.swing_dt)
+        rom_t = np.union1d(np.union1d(self.times["range"], swing_t),  # swing feet move fastest: also between
+                           self.problem.range_times)  # the dt_range points
+        return replace(self, leg=leg, foot=foot, swing_times=swing_t, range_times=rom_t)
+
+
+CONSTRAINTS: dict[str, tuple[bool, Callable[[BuildContext], list[Constraint]]]] = {}
+"""The declared constraints, in build order: name → (per leg, builder). A builder returns the
+constraint's blocks for the problem (or for one leg), none where its parameter switches it off;
+consecutive per-leg constraints are built leg by leg."""
+
+
+def constraint(name: str, per_leg: bool = False):
+    """Declare the builder of the constraint `name` (a decorator): adding a constraint to the
+    centroidal problem is writing its block and declaring its builder here."""
+    def declare(builder):
+        CONSTRAINTS[name] = (per_leg, builder)
+        return builder
+    return declare
+
+
+def declared_constraints(context: BuildContext) -> list[Constraint]:
+    """Every declared constraint's blocks for the problem of `context`, in declaration order."""
+    out = []
+    for per_leg, group in itertools.groupby(CONSTRAINTS.values(), key=lambda entry: entry[0]):
+        builders = [builder for _, builder in group]
+        for ctx in ([context.for_leg(leg) for leg in range(context.problem.form.legs)] if per_leg else [context]):
+            for builder in builders:
+                out += builder(ctx)
+    return out
+
+
+@constraint("last_phase")
+def _last_phase(c: BuildContext) -> list[Constraint]:
+    timing = c.problem.timing
+    if timing is None:
+        return []
+    return [Constraint(timing.last_phase_block(), c.params.phase_min, np.inf, name="last_phase", scale=1.0 / LENGTH)]
+
+
+@constraint("dynamics")
+def _dynamics(c: BuildContext) -> list[Constraint]:
+    p, model, t = c.problem, c.problem.model, c.times["dynamics"]
+    weight = model.mass * GRAVITY
+    return [Constraint(DynamicsBlock(p.form, model.mass, model.inertia, t, p.timing), name="dynamics",
+                       scale=np.tile(np.repeat([1.0 / weight, 1.0 / (weight * LEVER)], 3), t.size))]
+
+
+@constraint("dynamics_between")
+def _dynamics_between(c: BuildContext) -> list[Constraint]:
+    """Newton–Euler rows inside ±`DynParams.dynamics_band` between the knots."""
+    p, model, t = c.problem, c.problem.model, c.times["between"]
+    if not t.size:
+        return []
+    weight = model.mass * GRAVITY
+    lever = float(np.linalg.norm(model.nominal_feet[:, :2], axis=1).max())
+    band = np.tile(np.repeat([c.params.dynamics_band * weight, c.params.dynamics_band * weight * lever], 3), t.size)
+    return [Constraint(DynamicsBlock(p.form, model.mass, model.inertia, t, p.timing), -band, band,
+                       name="dynamics_between", scale=np.tile(np.repeat([1.0 / weight, 1.0 / (weight * LEVER)], 3), t.size))]
+
+
+@constraint("acceleration_continuity")
+def _acceleration_continuity(c: BuildContext) -> list[Constraint]:
+    return [Constraint(acceleration_continuity(c.problem.form, var), name="acceleration_continuity",
+                       scale=1.0 / GRAVITY) for var in ("base_lin", "base_ang")]
+
+
+@constraint("swing")
+def _towr_swing(c: BuildContext) -> list[Constraint]:
+    form = c.problem.form
+    if not (c.params.towr_swing and form.footsteps):
+        return []
+    return [Constraint(swing_constraint(form), name="swing", scale=np.tile([1.0 / LENGTH, 1.0], 2 * form.footsteps))]
+
+
+@constraint("range_of_motion", per_leg=True)
+def _range_of_motion(c: BuildContext) -> list[Constraint]:
+    p, model = c.problem, c.problem.model
+    box = np.tile(model.range_of_motion - c.params.range_margin, c.range_times.size)
+    return [Constraint(RangeOfMotionBlock(p.form, c.leg, model.nominal_feet[c.leg], c.range_times, p.timing), -box, box,
+                       name="range_of_motion", scale=1.0 / LENGTH)]
+
+
+@constraint("stance_on_terrain", per_leg=True)
+def _stance_on_terrain(c: BuildContext) -> list[Constraint]:
+    form = c.problem.form
+    return [Constraint(TerrainHeightBlock(c.problem.terrain, form.node_selector(c.foot.stance_nodes, form.motion_nodes)),
+                       name="stance_on_terrain", scale=1.0 / LENGTH)]
+
+
+@constraint("stance_off_edges", per_leg=True)
+def _stance_off_edges(c: BuildContext) -> list[Constraint]:
+    form, nodes = c.problem.form, c.foot.stance_nodes
+    if c.params.stance_slope_max is None or len(nodes) <= 1:  # the first is the start
+        return []
+    return [Constraint(StanceSlopeBlock(c.problem.terrain, form.node_selector(nodes[1:], form.motion_nodes)),
+                       -np.inf, c.params.stance_slope_max, name="stance_off_edges")]
+
+
+@constraint("swing_above_terrain", per_leg=True)
+def _swing_above_terrain(c: BuildContext) -> list[Constraint]:
+    p = c.problem
+    if not c.swing_times.size:
+        return []
+    swing = p.form.foot_matrix(c.leg, c.swing_times) if p.timing is None else \
+        TimedSamples(p.timing, "motion", c.leg, c.swing_times, moving=True)  # they move with their swing
+    return [Constraint(TerrainHeightBlock(p.terrain, swing, envelope=True), c.params.swing_clearance, np.inf,
+                       name="swing_above_terrain", scale=1.0 / LENGTH)]
+
+
+@constraint("force", per_leg=True)
+def _force(c: BuildContext) -> list[Constraint]:
+    p, model = c.problem, c.problem.model
+    points, stance_node = p.form.force_control_points(c.leg)
+    lower, upper = ForceBlock.bounds(points.shape[0], model.max_normal_force)
+    return [Constraint(ForceBlock(p.terrain, model.friction, points if p.timing is None else TimedControlPoints(p.timing, c.leg),
+                                  p.form.node_selector(stance_node, p.form.motion_nodes)),
+                       lower, upper, name="force", scale=1.0 / (model.mass * GRAVITY))]
+
+
+@constraint("leg_clearance", per_leg=True)
+def _leg_clearance(c: BuildContext) -> list[Constraint]:
+    """Left out on a level map, where no terrain rises to the legs (the check still judges them)."""
+    p, model = c.problem, c.problem.model
+    if c.params.leg_clearance is None or not np.ptp(p.terrain.height_grid) > 0:
+        return []
+    if model.leg_kinematics is None:
+        raise ValueError("DynParams.leg_clearance needs the robot's legs (Centroidal.leg_kinematics)")
+    return [Constraint(LegClearanceBlock(p.form, c.leg, model.leg_kinematics, p.terrain, c.range_times, p.timing,
+                                         p.com_offset),
+                       c.params.leg_clearance, np.inf, name="leg_clearance", scale=1.0 / LENGTH)]
+
+
+@constraint("swing_height")
+def _swing_height(c: BuildContext) -> list[Constraint]:
+    form = c.problem.form
+    if c.params.swing_height_min is None or not form.footsteps:
+        return []
+    return [Constraint(swing_height(form), c.params.swing_height_min, np.inf, name="swing_height", scale=1.0 / LENGTH)]
+
+
+@constraint("base_clearance")
+def _base_clearance(c: BuildContext) -> list[Constraint]:
+    if c.params.base_clearance is None:
+        return []
+    p = c.problem
+    return [Constraint(BaseAboveFeetBlock(p.form, c.times["range"], p.timing), c.params.base_clearance, np.inf,
+                       name="base_clearance", scale=1.0 / LENGTH)]
+
+
+COSTS: dict[str, Callable] = {}
+"""The declared cost terms beyond eq. (1)'s integral ones (`integral_costs`): name →
+builder(form, terrain, model, weights, timing) → `CostTerm`s (none at weight 0)."""
+
+
+def cost(name: str):
+    """Declare the builder of the cost term `name` (a decorator)."""
+    def declare(builder):
+        COSTS[name] = builder
+        return builder
+    return declare
+
+
 def cost_blocks(form: Formulation, terrain: TerrainModel, model, w: CostWeights, timing: PhaseTiming | None = None
-                ) -> list:
-    """The cost terms (`CostTerm`) of the weights `w` with a positive weight."""
+                ) -> list[CostTerm]:
+    """The cost terms (`CostTerm`) of the weights `w` with a positive weight: eq. (1)'s integral
+    terms, then every declared one (`COSTS`)."""
     costs = integral_costs(form, w, model.mass, timing)
-    if w.stair_edge > 0 and terrain.has_edges:
-        nodes = [n for foot in form.feet for n in foot.stance_nodes]
-        costs.append(CostTerm("stair_edge", StairEdgeBlock(terrain, form.node_selector(nodes, form.motion_nodes),
-                                                           w.stair_edge_sigma), w.stair_edge))
-    if w.swing_height > 0 and form.footsteps:
-        costs.append(CostTerm("swing_height", swing_height(form), w.swing_height))
+    for builder in COSTS.values():
+        costs += builder(form, terrain, model, w, timing)
     return costs
+
+
+@cost("stair_edge")
+def _stair_edge(form, terrain, model, w: CostWeights, timing) -> list[CostTerm]:
+    if not (w.stair_edge > 0 and terrain.has_edges):
+        return []
+    nodes = [n for foot in form.feet for n in foot.stance_nodes]
+    return [CostTerm("stair_edge", StairEdgeBlock(terrain, form.node_selector(nodes, form.motion_nodes),
+                                                  w.stair_edge_sigma), w.stair_edge)]
+
+
+@cost("swing_height")
+def _swing_height_cost(form, terrain, model, w: CostWeights, timing) -> list[CostTerm]:
+    if not (w.swing_height > 0 and form.footsteps):
+        return []
+    return [CostTerm("swing_height", swing_height(form), w.swing_height)]
 
 
 def _swing_times(foot, dt: float) -> np.ndarray:

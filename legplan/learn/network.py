@@ -10,17 +10,14 @@
   *given the task* (`conditional_filter`): the tail rule on g(y_i) − ĝ(x_i), ĝ a quadratic
   least-squares fit of the cost over x, refitted on the kept tasks. Deliberate change from a
   constant g_max: the cost grows with the distance to the goal, so a constant threshold cuts the far
-  tasks, not the poor local minima. Measured on the 1000 single-pallet training tasks: the
-  constant rule kept 616 of 905 converged Heuristic outcomes and 59 % of the tasks starting over
-  1.3 m behind the goal, the conditional one 867 and 95 % (ĝ explains R² = 0.64 of the cost).
+  tasks, not the poor local minima.
 * Fit, eq. (3): θ = argmin Σ ‖A_θ x − y‖²_W with W = diag(w_c / σ_c²) for an output of category c
   (`CATEGORIES`: base linear, base angular, feet, forces, phase durations when they were optimized):
   w_c > 0 its weight, σ_c the category's RMS standard deviation in D_good, so each category's error
-  is measured in its own units at a comparable scale. (Per-output σ_j made outputs that hardly vary
-  in the training tasks, e.g. near-fixed nodes, dominate the validation loss: 1e5 on 14 tasks.)
-  scikit-learn's `MLPRegressor` (squared loss, tanh, Adam; its L-BFGS stopped at iteration 0 with
-  "ABNORMAL" line searches on ~1400 outputs here) is fitted on standardized x and on
-  √w_c/σ_c-scaled centred y, which is exactly that loss. A random `validation` fraction is held out.
+  is weighed in its own units at a comparable scale (a per-output σ_j would let outputs that hardly
+  vary in the training tasks, e.g. near-fixed nodes, dominate the loss). scikit-learn's
+  `MLPRegressor` (squared loss, tanh, Adam: its L-BFGS line search fails on outputs of this size) is
+  fitted on standardized x and on √w_c/σ_c-scaled centred y, which is exactly that loss. A random `validation` fraction is held out.
 * init.h5 (kind "init"): the layers' weights and biases and the input/output normalization as plain
   HDF5 arrays (no pickle), the layout and the task space; `Network` evaluates it in numpy, so
   planning with it needs no training library. `LearnedInit` is an initializer (`legplan.dyn.init`).
@@ -112,7 +109,7 @@ class CostBound:
     ĝ the quadratic fit of `conditional_filter` (coefficients `coef` over `quadratic_features` by the
     training tasks' `mean` and `std`), or g ≤ g_max = `threshold` for a constant one (`coef` empty).
     A plan whose cost is above it would not have been kept to train on: the "polish" warm stage
-    optimizes its costs (`legplan.dyn.planner.direct`)."""
+    optimizes its costs (`legplan.dyn.planner`, the "polish" stages)."""
 
     mean: np.ndarray
     std: np.ndarray
@@ -223,9 +220,8 @@ def fit(x: np.ndarray, y: np.ndarray, layout: dict[str, int], weights: dict[str,
     out_scale = (sigma / np.sqrt([weights[c] for c in CATEGORIES]))[cats]
     model = MLPRegressor(hidden_layer_sizes=hidden, activation="tanh", solver="adam", max_iter=max_iter,
                          alpha=1e-4, random_state=int(seed), tol=1e-6, n_iter_no_change=20, batch_size=min(32, len(train)))
-    # one BLAS thread: a multi-threaded product sums in another order, and the fit's 500-odd epochs
-    # carry that rounding into the weights (measured: 1e-4 apart with 2 threads, so `learn train` and
-    # `learn cycle` wrote different networks from the same datasets and seed)
+    # one BLAS thread: a multi-threaded product sums in another order, and the fit's epochs carry that
+    # rounding into the weights, so the same datasets and seed would not always give the same network
     with warnings.catch_warnings(record=True) as caught, threadpool_limits(limits=1):
         warnings.simplefilter("always", ConvergenceWarning)
         model.fit((x[train] - in_offset) / in_scale, (y[train] - y_mean) / out_scale)

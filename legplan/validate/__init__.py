@@ -10,7 +10,7 @@ and of centroidal trajectories (issue 14; Newton-Euler, forces, terrain, range o
     check.worst, check.passed, check.as_dict()
 """
 
-from legplan.validate.centroidal import CentroidalCheck, CheckTolerances, check_trajectory
+from legplan.validate.trajectory import CentroidalCheck, CheckTolerances, check_trajectory
 from legplan.validate.checks import ConfigChecks, Validator
 from legplan.validate.surface import SurfaceMesh
 

@@ -9,7 +9,7 @@ from legplan.dyn.planner import plan
 from legplan.dyn.problem import DynParams, DynTask
 from legplan.robots import load_robot
 from legplan.terrain import Grid2D, terrain_from_heightmap
-from legplan.validate.centroidal import check_trajectory
+from legplan.validate.trajectory import check_trajectory
 
 
 def test_records_round_trip_and_summary(anymal, flat, tmp_path):

@@ -289,7 +289,7 @@ def test_optimized_phase_durations_give_a_checked_plan_on_their_own_timing(anyma
     from legplan.dyn.timing import PHASES
     from legplan.robots import load_robot
     from legplan.terrain import Grid2D, terrain_from_heightmap
-    from legplan.validate.centroidal import check_trajectory
+    from legplan.validate.trajectory import check_trajectory
 
     task = DynTask((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), "trot", 4, 2.4)
     params = replace(DynParams(), optimize_phases=True)
@@ -333,7 +333,7 @@ def test_leg_clearance_keeps_thigh_and_shank_off_the_step_by_an_independent_chec
     from legplan.dyn.terrain import TerrainModel
     from legplan.robots import load_robot
     from legplan.terrain import Grid2D, terrain_from_heightmap
-    from legplan.validate.centroidal import CheckTolerances, check_trajectory
+    from legplan.validate.trajectory import CheckTolerances, check_trajectory
 
     robot = load_robot("anymal")
     grid = Grid2D(origin=(-1.5, -1.0), resolution=0.02, shape=(101, 176))

@@ -56,3 +56,33 @@ def test_bad_param_overrides_are_one_line_naming_the_field(key, value, message):
         dyn_params("none", {key: value})
     text = str(raised.value)
     assert text.startswith(f"--param: {message}") and "\n" not in text
+
+
+def test_dyn_plan_takes_param_overrides_and_refuses_a_bad_one_with_one_line(tmp_path):
+    """`dyn plan --param`: a bad value is exit 2, one line naming --param and the field, nothing
+    written (refused before any planning); a good one is recorded in the artefact's settings."""
+    import json
+    from pathlib import Path
+
+    import h5py
+    from click.testing import CliRunner
+
+    from legplan.cli.main import cli
+
+    root = Path(__file__).resolve().parents[2]
+    flat = tmp_path / "flat.h5"
+    runner = CliRunner()
+    assert runner.invoke(cli, ["map", "build", str(root / "maps" / "flat.yaml"), "-o", str(flat), "-q"]).exit_code == 0
+    task = ["dyn", "plan", str(flat), "--gait", "trot", "--strides", "2", "--duration", "2.4",
+            "--start", "-0.3", "0", "0", "--goal", "0", "0", "0"]
+    out = tmp_path / "bad.h5"
+    result = runner.invoke(cli, [*task, "--param", "costs.force=-1", "-o", str(out)])
+    assert result.exit_code == 2 and not out.exists() and not (tmp_path / "bad.h5.work").exists()
+    lines = result.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--param: field 'costs.force' must be >= 0" in lines[0], result.stderr
+    good = tmp_path / "good.h5"
+    result = runner.invoke(cli, [*task, "--param", "solver.inner.max_iterations=40", "--param", "dt=0.1",
+                                 "-o", str(good), "-q"])
+    assert result.exit_code == 0, result.output + str(result.exception)
+    with h5py.File(good, "r") as f:
+        assert json.loads(f.attrs["params"])["dyn"]["solver"]["inner"]["max_iterations"] == 40

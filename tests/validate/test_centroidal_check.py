@@ -9,7 +9,7 @@ import pytest
 from legplan.robots import load_robot
 from legplan.terrain import Grid2D, terrain_from_heightmap
 from legplan.validate import CentroidalCheck, check_trajectory
-from legplan.validate.centroidal import GRAVITY, MINIMA, SPHERE_REACH, UNITS, CheckTolerances
+from legplan.validate.trajectory import GRAVITY, MINIMA, SPHERE_REACH, UNITS, CheckTolerances
 
 N = 21  # samples 0, 0.01, ..., 0.2 s: nodes at 0, 0.1, 0.2
 

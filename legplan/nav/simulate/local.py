@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from legplan.nav.simulate.mission import Goal, SimParams
+from legplan.nav.simulate.mission import Goal, NavRunParams
 from legplan.nav.simulate.robot import Robot
 from legplan.nav.simulate.world import World
 from legplan.nav.teb.band import Band
@@ -40,7 +40,7 @@ class LocalPlanner:
     the elapsed time (`shift_band`); it is re-initialized from the global path after a (re)plan,
     for a new goal, while holding at a goal, and when the shifted band is invalid."""
 
-    def __init__(self, limits: KinodynamicLimits, teb: TebParams, params: SimParams):
+    def __init__(self, limits: KinodynamicLimits, teb: TebParams, params: NavRunParams):
         self.limits, self.teb, self.params = limits, teb, params
         self.policy = YawPolicy(params.yaw, heading=params.heading, target=params.target or (0.0, 0.0))
         self.band: Band | None = None

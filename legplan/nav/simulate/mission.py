@@ -19,7 +19,7 @@ class Goal:
 
 
 @dataclass(frozen=True)
-class SimParams(Parameters):
+class NavRunParams(Parameters):
     """Settings of a run (`nav simulate --param sim.KEY=VALUE` for the numbers and flags)."""
 
     what = "simulation"

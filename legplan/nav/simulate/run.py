@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from legplan.nav.simulate.local import LocalPlanner
-from legplan.nav.simulate.mission import Goal, SimParams
+from legplan.nav.simulate.mission import Goal, NavRunParams
 from legplan.nav.simulate.planners import GlobalPlanner
 from legplan.nav.simulate.robot import Robot
 from legplan.nav.simulate.world import World
@@ -38,7 +38,7 @@ from legplan.robots.navigation import KinodynamicLimits
 
 
 @dataclass
-class SimResult:
+class NavRunResult:
     success: bool
     reason: str
     times: np.ndarray  # (k,) s, robot state samples (every substep)
@@ -68,8 +68,8 @@ class SimResult:
         return float(np.sum(np.sum(a * a, axis=1) * dt))
 
 
-def simulate(world: World, planner: GlobalPlanner, start_pose, goals: list[Goal], limits: KinodynamicLimits,
-             teb: TebParams = TebParams(), params: SimParams = SimParams(), progress=None) -> SimResult:
+def run_navigation(world: World, planner: GlobalPlanner, start_pose, goals: list[Goal], limits: KinodynamicLimits,
+             teb: TebParams = TebParams(), params: NavRunParams = NavRunParams(), progress=None) -> NavRunResult:
     """Drive from `start_pose` (x, y, θ) through `goals` (see module docstring); never raises for
     planning failures (they end the run with `success=False` and a reason). The TEB keeps the
     world's collision radius plus `params.clearance_margin` from obstacles (`min_obstacle_distance`
@@ -98,7 +98,7 @@ def simulate(world: World, planner: GlobalPlanner, start_pose, goals: list[Goal]
         return result
 
     def finish(success, reason):
-        return SimResult(success, reason, np.array(log_t), np.array(log_s), np.array(commands).reshape(-1, 3),
+        return NavRunResult(success, reason, np.array(log_t), np.array(log_s), np.array(commands).reshape(-1, 3),
                          np.array(cycle_t), np.array(compute), np.array(sizes), np.array(iterations),
                          local_planner.cold_starts, replans, replan_seconds, collisions, goal_times)
 
@@ -158,7 +158,7 @@ def simulate(world: World, planner: GlobalPlanner, start_pose, goals: list[Goal]
     return finish(True, "")
 
 
-def _arrived(robot: Robot, goal: Goal, params: SimParams, final: bool) -> bool:
+def _arrived(robot: Robot, goal: Goal, params: NavRunParams, final: bool) -> bool:
     close = np.hypot(*(robot.pose[:2] - goal.xy)) <= params.goal_tolerance
     heading_ok = not np.isfinite(goal.heading) or abs(wrap_angle(robot.pose[2] - goal.heading)) <= params.heading_tolerance
     resting = np.abs(robot.velocity[:2]).max() <= params.stop_speed or (not final and goal.dwell == 0)

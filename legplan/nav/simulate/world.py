@@ -5,7 +5,7 @@ Collision model (one for planning and judging): the robot is the disc of `collis
 robot's circumscribed radius, a disc that contains its footprint) around its position, and
 obstacles are occupied cells taken at their centres — the distance field's model. The planners
 plan on the known map with that radius as their lethal radius l1 (`nav_grid`) and the TEB keeps at
-least that distance (`simulate`); a pose is in collision when an occupied cell centre of the *true*
+least that distance (`run_navigation`); a pose is in collision when an occupied cell centre of the *true*
 map lies closer than the radius, or the disc leaves the map.
 """
 

@@ -70,7 +70,7 @@ def write_refinement(group: h5py.Group, refinement: Refinement) -> dict[str, flo
 
 
 def write_simulation(handle: h5py.File, result) -> dict[str, float]:
-    """Write `/simulation` for a `SimResult`; returns its scalar metrics."""
+    """Write `/simulation` for a `NavRunResult`; returns its scalar metrics."""
     group = handle.create_group("simulation")
     write_dataset(group, "t", result.times, units="s")
     write_dataset(group, "state", result.states, units="m,m,rad,m/s,m/s,rad/s")

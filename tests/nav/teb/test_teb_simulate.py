@@ -3,7 +3,7 @@
 import numpy as np
 
 from legplan.nav.params import NavParams
-from legplan.nav.simulate import Goal, Robot, SimParams, World, kinodynamic_planner, simulate
+from legplan.nav.simulate import Goal, Robot, NavRunParams, World, kinodynamic_planner, run_navigation
 from legplan.nav.teb.params import TebParams
 from legplan.terrain.grid import Grid2D
 from legplan.terrain.layers import CostmapParams
@@ -22,8 +22,8 @@ def small_world(hidden_box=True):
 def test_simulation_reaches_goal_around_hidden_obstacle_without_collision(table_i):
     world = small_world()
     # sensing radius 1.5 m: the box is unknown when the global plan is made straight through it
-    sim = SimParams(sensing_radius=1.5, max_time=40.0)
-    result = simulate(world, kinodynamic_planner(NavParams()), [1.0, 2.5, 0.0], [Goal((5.0, 2.5))], table_i,
+    sim = NavRunParams(sensing_radius=1.5, max_time=40.0)
+    result = run_navigation(world, kinodynamic_planner(NavParams()), [1.0, 2.5, 0.0], [Goal((5.0, 2.5))], table_i,
                       TebParams(outer_iterations=2), sim)
     assert result.success, result.reason
     assert result.collisions == 0
@@ -71,8 +71,8 @@ def test_a_run_with_a_collision_is_not_a_success(table_i):
     X, Y = grid.centres()
     walls = (X < 0.2) | (X > 5.8) | (Y < 0.2) | (Y > 4.8)
     world = Clumsy(grid, walls, np.zeros_like(walls), CostmapParams(), RADIUS)
-    result = simulate(world, kinodynamic_planner(NavParams()), [1.0, 2.5, 0.0], [Goal((3.0, 2.5))],
-                      table_i, TebParams(outer_iterations=2), SimParams(max_time=30.0))
+    result = run_navigation(world, kinodynamic_planner(NavParams()), [1.0, 2.5, 0.0], [Goal((3.0, 2.5))],
+                      table_i, TebParams(outer_iterations=2), NavRunParams(max_time=30.0))
     assert np.hypot(*(result.states[-1, :2] - [3.0, 2.5])) <= 0.1  # it got there ...
     assert result.collisions > 0 and not result.success  # ... but touched the obstacle
     assert result.reason.startswith(f"reached the goal with {result.collisions} substeps in collision")
