@@ -454,6 +454,10 @@ def draft_robot(urdf: str | Path, name: str, options: DraftOptions | None = None
         base_model = build_free_flyer_model(urdf)
     except UrdfParseError as exc:
         raise LegplanError(f"{urdf}: cannot be parsed by pinocchio ({exc})") from None
+    for joint in range(2, base_model.njoints):
+        if base_model.nqs[joint] != 1 or base_model.nvs[joint] != 1:
+            raise LegplanError(f"{urdf}: joint '{base_model.names[joint]}' is not a 1-DoF revolute or prismatic joint "
+                               f"(nq={base_model.nqs[joint]}); legs of such joints are not supported")
     links = read_urdf_links(urdf, options.package_paths)
     chains = leg_chains(base_model, urdf)
     if len(chains) == 4:
@@ -601,14 +605,16 @@ def draft_centroidal(draft: RobotDraft, options: DraftOptions | None = None) -> 
 
     from legplan.robots.model import RobotModel
     from legplan.robots.rigid_body import composite_body, drafted_force_limit, leg_forces, reach_box
-    from legplan.robots.spec import read_spec
 
     options = options or DraftOptions()
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "robot.yaml"
         path.write_text(draft_yaml(draft, str(draft.urdf.resolve())))
-        robot = RobotModel(read_spec(path))
+        robot = RobotModel(_loaded(path, draft.urdf))
     body = composite_body(robot.model, robot.q_nominal, [leg.foot_frame_id for leg in robot.legs])
+    if not body.mass > 0:
+        raise LegplanError(f"{draft.urdf}: centroidal.mass: the URDF's links have no mass; give them inertials or "
+                           "draft with --no-centroidal")
     box = reach_box(robot, body.feet)
     if not np.all(box > 0):
         stuck = "no box around the nominal feet" if not box.any() else \
@@ -646,7 +652,6 @@ def write_draft(urdf: str | Path, folder: str | Path, name: str | None = None, o
     the draft (its warnings)."""
     from legplan.artefacts.publish import staged_output
     from legplan.artefacts.writer import check_output
-    from legplan.robots.spec import read_spec
 
     folder = Path(folder)
     target = check_output(folder / "robot.yaml", overwrite)
@@ -657,8 +662,26 @@ def write_draft(urdf: str | Path, folder: str | Path, name: str | None = None, o
     draft = draft_robot(urdf, name or folder.resolve().name, options)
     if options.centroidal:
         draft = draft_centroidal(draft, options)
+    created = not folder.exists()
     folder.mkdir(parents=True, exist_ok=True)
-    with staged_output(target, overwrite=overwrite) as temp:
-        Path(temp).write_text(draft_yaml(draft, urdf_ref))
-        read_spec(temp)
+    try:
+        with staged_output(target, overwrite=overwrite) as temp:
+            Path(temp).write_text(draft_yaml(draft, urdf_ref))
+            _loaded(temp, Path(urdf))
+    except BaseException:
+        if created:
+            folder.rmdir()
+        raise
     return target, draft
+
+
+def _loaded(path: Path, urdf: Path):
+    """`read_spec` of a draft written to the temporary `path`; its errors name the URDF drafted from
+    (the temporary file is gone when the user reads them)."""
+    from legplan.robots.spec import read_spec
+
+    try:
+        return read_spec(path)
+    except LegplanError as exc:
+        reason = str(exc).split(f"{path}:", 1)[-1].strip()
+        raise LegplanError(f"{urdf}: the draft does not load: {reason}") from None

@@ -264,3 +264,30 @@ def test_check_reports_a_range_of_motion_out_of_reach(drafted_quad):
     assert checked.exit_code == 1
     lines = [line for line in checked.output.splitlines() if line.startswith("error: centroidal.range_of_motion:")]
     assert len(lines) == 1 and "out of reach inside the joint limits for legs LF (" in lines[0]
+
+
+def test_continuous_joints_and_massless_urdfs(tmp_path):
+    """A wheel-like continuous joint (nq = 2) and a URDF without inertials: one line each."""
+    urdf = tmp_path / "quad.urdf"
+    urdf.write_text(quadruped_urdf().replace('name="RH_KFE" type="revolute"', 'name="RH_KFE" type="continuous"'))
+    out = tmp_path / "out"
+    _one_line_exit_2(run("robot", "init", urdf, "-o", out), out, f"{urdf}: joint 'RH_KFE' is not a 1-DoF")
+    massless = quadruped_urdf()
+    for mass in ("5.0", "0.3", "0.01"):
+        massless = massless.replace(f'<mass value="{mass}"/>', '<mass value="0"/>')
+    urdf.write_text(massless)
+    _one_line_exit_2(run("robot", "init", urdf, "-o", out), out, f"{urdf}: centroidal.mass: the URDF's links have no mass")
+    assert not out.exists()
+
+
+def test_dyn_refuses_a_robot_that_is_not_a_quadruped(tmp_path):
+    hexapod = Path(__file__).parents[1] / "data" / "hexapod.urdf"
+    out = tmp_path / "hexapod"
+    assert run("robot", "init", hexapod, "-o", out).exit_code == 0
+    flat = tmp_path / "flat.h5"
+    assert run("map", "build", Path(__file__).parents[2] / "maps" / "flat.yaml", "-o", flat).exit_code == 0
+    planned = run("dyn", "plan", flat, "--robot", out, "--start", "0", "0", "0", "--goal", "0.1", "0", "0",
+                  "-o", tmp_path / "traj.h5")
+    assert planned.exit_code == 2 and len(planned.stderr.strip().splitlines()) == 1
+    assert f"{out / 'robot.yaml'}: field 'legs' lists 6 legs; `legplan dyn` plans quadrupeds" in planned.stderr
+    assert not (tmp_path / "traj.h5").exists()
