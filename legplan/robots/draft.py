@@ -281,28 +281,46 @@ def _leg_goals(model, chains, feet) -> tuple[list[_LegGoal], np.ndarray]:
     return goals, centre
 
 
+class LegStance:
+    """One leg's stance IK: joint angles x (k,) of `chain` with the base level at `height`; the
+    residuals put the foot frame `foot` on z = 0 (weight `Z_WEIGHT`) at the goal's (x, y), with a
+    small pull of the joints towards zero, and `jacobian` is their derivative (pinocchio's foot
+    Jacobian, LOCAL_WORLD_ALIGNED, the leg's columns)."""
+
+    Z_WEIGHT = 100.0
+    REGULARIZATION = 1e-3
+
+    def __init__(self, model: pin.Model, chain, foot: int, target, height: float):
+        self.model, self.data, self.foot = model, model.createData(), foot
+        self.idx = [int(model.idx_qs[j]) for j in chain]
+        self.columns = [int(model.idx_vs[j]) for j in chain]
+        self.target, self.height = np.asarray(target, float), height
+
+    def configuration(self, x) -> np.ndarray:
+        q = pin.neutral(self.model)
+        q[2] = self.height
+        q[self.idx] = x
+        return q
+
+    def residuals(self, x) -> np.ndarray:
+        pin.framesForwardKinematics(self.model, self.data, self.configuration(x))
+        p = self.data.oMf[self.foot].translation
+        return np.concatenate([[self.Z_WEIGHT * p[2]], p[:2] - self.target, self.REGULARIZATION * np.asarray(x)])
+
+    def jacobian(self, x) -> np.ndarray:
+        jac = pin.computeFrameJacobian(self.model, self.data, self.configuration(x), self.foot,
+                                       pin.LOCAL_WORLD_ALIGNED)[:3, self.columns]
+        return np.vstack([self.Z_WEIGHT * jac[2:3], jac[:2], self.REGULARIZATION * np.eye(len(self.idx))])
+
+
 def _solve_leg(model, chain, foot, goal, height, centre, lower, upper, rng):
     """Joint angles of one leg putting its foot on z = 0 at the goal with the base at `height`, or
     None when no start does."""
-    data = model.createData()
-    idx = [int(model.idx_qs[j]) - 7 for j in chain]
+    problem = LegStance(model, chain, foot, goal.target, height)
+    data = problem.data
+    idx = [i - 7 for i in problem.idx]
     lo, hi = lower[idx], upper[idx]
-
-    def configuration(x):
-        q = pin.neutral(model)
-        q[2] = height
-        q[[7 + i for i in idx]] = x
-        return q
-
-    def residuals(x):
-        pin.framesForwardKinematics(model, data, configuration(x))
-        p = data.oMf[foot].translation
-        return np.concatenate([[100.0 * p[2]], p[:2] - goal.target, 1e-3 * x])
-
-    def jacobian(x):
-        q = configuration(x)
-        jac = pin.computeFrameJacobian(model, data, q, foot, pin.LOCAL_WORLD_ALIGNED)[:3, [6 + i for i in idx]]
-        return np.vstack([100.0 * jac[2:3], jac[:2], 1e-3 * np.eye(len(idx))])
+    residuals, jacobian, configuration = problem.residuals, problem.jacobian, problem.configuration
 
     def score(x):
         pin.framesForwardKinematics(model, data, configuration(x))
@@ -329,7 +347,7 @@ def _solve_leg(model, chain, foot, goal, height, centre, lower, upper, rng):
         fit = least_squares(residuals, np.clip(seed, lo + 1e-3, hi - 1e-3), jac=jacobian,
                             bounds=(lo + 1e-3, hi - 1e-3), xtol=1e-12)
         r = residuals(fit.x)
-        if abs(r[0]) / 100.0 < 1e-4:
+        if abs(r[0]) / LegStance.Z_WEIGHT < 1e-4:
             found.append((float(np.linalg.norm(r[1:3])), score(fit.x), fit.x))
     if not found:
         return None
