@@ -18,7 +18,8 @@
   cylinder a row along its axis, at most `MAX_SPHERES_PER_SHAPE` along an edge; the radius is half
   the thickness (box: at least a quarter of the middle edge) or more, so the spheres touch along
   each edge; a sphere stays a sphere; a mesh-only link is covered as the box around its vertices;
-  spheres under `SMALLEST_SPHERE` of the leg length (sensor markers) are left out.
+  spheres under `SMALLEST_SPHERE` of the leg length (sensor markers) and spheres inside another
+  sphere moved by the same joint are left out.
   A foot sphere sits on each foot point (the foot link's sphere radius, else half the smallest
   sphere of the last link). Leg spheres closer to the ground than the size-scaled clearance in the
   nominal stance are dropped (the foot sphere covers the tip).
@@ -549,6 +550,7 @@ def _spheres(model, links, chains, feet, legs, q, clearance) -> tuple[list[Spher
                 if radius < smallest:
                     continue                     # a marker (camera, IMU), not a body part
                 spheres.append(SphereDraft(frame.name, centre, radius))
+    spheres = _uncovered(model, spheres)
     body = list(spheres)
     for leg, chain in zip(legs, chains):
         own = [s.size[0] for s in links.primitives.get(leg.foot_link, ()) if s.kind == "sphere"]
@@ -557,6 +559,23 @@ def _spheres(model, links, chains, feet, legs, q, clearance) -> tuple[list[Spher
         radius = min(own) if own else 0.5 * min(tip) if tip else 0.01
         spheres.append(SphereDraft(leg.foot_frame, np.zeros(3), max(radius, 0.002)))
     return spheres, mesh_links
+
+
+def _uncovered(model: pin.Model, spheres: list[SphereDraft]) -> list[SphereDraft]:
+    """The spheres not inside another sphere moved by the same joint (the earlier of two equal ones
+    stays)."""
+    placed = []
+    for sphere in spheres:
+        frame = model.frames[model.getFrameId(sphere.link, pin.FrameType.BODY)]
+        placed.append((frame.parentJoint, frame.placement.act(sphere.offset), sphere.radius))
+    keep = []
+    for i, (joint, centre, radius) in enumerate(placed):
+        inside = any(j != i and other_joint == joint and np.linalg.norm(centre - other) + radius <= other_radius + 1e-9
+                     and (radius < other_radius or j < i)
+                     for j, (other_joint, other, other_radius) in enumerate(placed))
+        if not inside:
+            keep.append(spheres[i])
+    return keep
 
 
 def _number(value: float) -> str:
