@@ -164,7 +164,7 @@ def robot_summary(robot) -> dict:
                                  "limits": vars(nav.limits)}
     c = robot.centroidal
     if c is not None:
-        summary["centroidal"] = {"mass": c.mass, "inertia": c.inertia.tolist(),
+        summary["centroidal"] = {"mass": c.mass, "inertia": c.inertia.tolist(), "com_offset": c.com_offset.tolist(),
                                  "nominal_feet": dict(zip(c.legs, c.nominal_feet.tolist())),
                                  "range_of_motion": c.range_of_motion.tolist(), "base_height": c.base_height,
                                  "max_normal_force": c.max_normal_force, "friction": c.friction}
@@ -228,6 +228,7 @@ def show_command(robot, png, overwrite, as_json):
                    f"{c['max_normal_force']:g} N, friction {c['friction']:g}, range of motion "
                    f"+-{c['range_of_motion']} m")
         click.echo(f"    inertia [kg m^2]: {c['inertia']}")
+        click.echo(f"    CoM in the base frame: {c['com_offset']} m")
         for leg, foot in c["nominal_feet"].items():
             click.echo(f"    nominal foot {leg}: {foot} m")
     if png:

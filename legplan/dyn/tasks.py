@@ -175,6 +175,9 @@ def centroidal_model(robot, params=None, costs: str = "--costs"):
     if robot.centroidal is None:
         raise LegplanError(f"{robot.yaml_path}: field 'centroidal' is missing (the single-rigid-body model "
                            "that `legplan dyn` plans with, see legplan.robots.centroidal)")
+    if robot.n_legs != 4:
+        raise LegplanError(f"{robot.yaml_path}: field 'legs' lists {robot.n_legs} legs; `legplan dyn` plans "
+                           "quadrupeds (four legs: left front, right front, left hind, right hind)")
     legs = ChainLegs.of_robot(robot)
     if params is not None and params.leg_clearance is not None and legs is None:
         raise LegplanError(f"{costs}: field 'leg_clearance': {robot.yaml_path}'s legs are not serial chains of "

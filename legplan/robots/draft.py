@@ -18,7 +18,8 @@
   cylinder a row along its axis, at most `MAX_SPHERES_PER_SHAPE` along an edge; the radius is half
   the thickness (box: at least a quarter of the middle edge) or more, so the spheres touch along
   each edge; a sphere stays a sphere; a mesh-only link is covered as the box around its vertices;
-  spheres under `SMALLEST_SPHERE` of the leg length (sensor markers) are left out.
+  spheres under `SMALLEST_SPHERE` of the leg length (sensor markers) and spheres inside another
+  sphere moved by the same joint are left out.
   A foot sphere sits on each foot point (the foot link's sphere radius, else half the smallest
   sphere of the last link). Leg spheres closer to the ground than the size-scaled clearance in the
   nominal stance are dropped (the foot sphere covers the tip).
@@ -281,28 +282,46 @@ def _leg_goals(model, chains, feet) -> tuple[list[_LegGoal], np.ndarray]:
     return goals, centre
 
 
+class LegStance:
+    """One leg's stance IK: joint angles x (k,) of `chain` with the base level at `height`; the
+    residuals put the foot frame `foot` on z = 0 (weight `Z_WEIGHT`) at the goal's (x, y), with a
+    small pull of the joints towards zero, and `jacobian` is their derivative (pinocchio's foot
+    Jacobian, LOCAL_WORLD_ALIGNED, the leg's columns)."""
+
+    Z_WEIGHT = 100.0
+    REGULARIZATION = 1e-3
+
+    def __init__(self, model: pin.Model, chain, foot: int, target, height: float):
+        self.model, self.data, self.foot = model, model.createData(), foot
+        self.idx = [int(model.idx_qs[j]) for j in chain]
+        self.columns = [int(model.idx_vs[j]) for j in chain]
+        self.target, self.height = np.asarray(target, float), height
+
+    def configuration(self, x) -> np.ndarray:
+        q = pin.neutral(self.model)
+        q[2] = self.height
+        q[self.idx] = x
+        return q
+
+    def residuals(self, x) -> np.ndarray:
+        pin.framesForwardKinematics(self.model, self.data, self.configuration(x))
+        p = self.data.oMf[self.foot].translation
+        return np.concatenate([[self.Z_WEIGHT * p[2]], p[:2] - self.target, self.REGULARIZATION * np.asarray(x)])
+
+    def jacobian(self, x) -> np.ndarray:
+        jac = pin.computeFrameJacobian(self.model, self.data, self.configuration(x), self.foot,
+                                       pin.LOCAL_WORLD_ALIGNED)[:3, self.columns]
+        return np.vstack([self.Z_WEIGHT * jac[2:3], jac[:2], self.REGULARIZATION * np.eye(len(self.idx))])
+
+
 def _solve_leg(model, chain, foot, goal, height, centre, lower, upper, rng):
     """Joint angles of one leg putting its foot on z = 0 at the goal with the base at `height`, or
     None when no start does."""
-    data = model.createData()
-    idx = [int(model.idx_qs[j]) - 7 for j in chain]
+    problem = LegStance(model, chain, foot, goal.target, height)
+    data = problem.data
+    idx = [i - 7 for i in problem.idx]
     lo, hi = lower[idx], upper[idx]
-
-    def configuration(x):
-        q = pin.neutral(model)
-        q[2] = height
-        q[[7 + i for i in idx]] = x
-        return q
-
-    def residuals(x):
-        pin.framesForwardKinematics(model, data, configuration(x))
-        p = data.oMf[foot].translation
-        return np.concatenate([[100.0 * p[2]], p[:2] - goal.target, 1e-3 * x])
-
-    def jacobian(x):
-        q = configuration(x)
-        jac = pin.computeFrameJacobian(model, data, q, foot, pin.LOCAL_WORLD_ALIGNED)[:3, [6 + i for i in idx]]
-        return np.vstack([100.0 * jac[2:3], jac[:2], 1e-3 * np.eye(len(idx))])
+    residuals, jacobian, configuration = problem.residuals, problem.jacobian, problem.configuration
 
     def score(x):
         pin.framesForwardKinematics(model, data, configuration(x))
@@ -329,7 +348,7 @@ def _solve_leg(model, chain, foot, goal, height, centre, lower, upper, rng):
         fit = least_squares(residuals, np.clip(seed, lo + 1e-3, hi - 1e-3), jac=jacobian,
                             bounds=(lo + 1e-3, hi - 1e-3), xtol=1e-12)
         r = residuals(fit.x)
-        if abs(r[0]) / 100.0 < 1e-4:
+        if abs(r[0]) / LegStance.Z_WEIGHT < 1e-4:
             found.append((float(np.linalg.norm(r[1:3])), score(fit.x), fit.x))
     if not found:
         return None
@@ -454,6 +473,10 @@ def draft_robot(urdf: str | Path, name: str, options: DraftOptions | None = None
         base_model = build_free_flyer_model(urdf)
     except UrdfParseError as exc:
         raise LegplanError(f"{urdf}: cannot be parsed by pinocchio ({exc})") from None
+    for joint in range(2, base_model.njoints):
+        if base_model.nqs[joint] != 1 or base_model.nvs[joint] != 1:
+            raise LegplanError(f"{urdf}: joint '{base_model.names[joint]}' is not a 1-DoF revolute or prismatic joint "
+                               f"(nq={base_model.nqs[joint]}); legs of such joints are not supported")
     links = read_urdf_links(urdf, options.package_paths)
     chains = leg_chains(base_model, urdf)
     if len(chains) == 4:
@@ -527,6 +550,7 @@ def _spheres(model, links, chains, feet, legs, q, clearance) -> tuple[list[Spher
                 if radius < smallest:
                     continue                     # a marker (camera, IMU), not a body part
                 spheres.append(SphereDraft(frame.name, centre, radius))
+    spheres = _uncovered(model, spheres)
     body = list(spheres)
     for leg, chain in zip(legs, chains):
         own = [s.size[0] for s in links.primitives.get(leg.foot_link, ()) if s.kind == "sphere"]
@@ -535,6 +559,23 @@ def _spheres(model, links, chains, feet, legs, q, clearance) -> tuple[list[Spher
         radius = min(own) if own else 0.5 * min(tip) if tip else 0.01
         spheres.append(SphereDraft(leg.foot_frame, np.zeros(3), max(radius, 0.002)))
     return spheres, mesh_links
+
+
+def _uncovered(model: pin.Model, spheres: list[SphereDraft]) -> list[SphereDraft]:
+    """The spheres not inside another sphere moved by the same joint (the earlier of two equal ones
+    stays)."""
+    placed = []
+    for sphere in spheres:
+        frame = model.frames[model.getFrameId(sphere.link, pin.FrameType.BODY)]
+        placed.append((frame.parentJoint, frame.placement.act(sphere.offset), sphere.radius))
+    keep = []
+    for i, (joint, centre, radius) in enumerate(placed):
+        inside = any(j != i and other_joint == joint and np.linalg.norm(centre - other) + radius <= other_radius + 1e-9
+                     and (radius < other_radius or j < i)
+                     for j, (other_joint, other, other_radius) in enumerate(placed))
+        if not inside:
+            keep.append(spheres[i])
+    return keep
 
 
 def _number(value: float) -> str:
@@ -601,14 +642,16 @@ def draft_centroidal(draft: RobotDraft, options: DraftOptions | None = None) -> 
 
     from legplan.robots.model import RobotModel
     from legplan.robots.rigid_body import composite_body, drafted_force_limit, leg_forces, reach_box
-    from legplan.robots.spec import read_spec
 
     options = options or DraftOptions()
     with tempfile.TemporaryDirectory() as folder:
         path = Path(folder) / "robot.yaml"
         path.write_text(draft_yaml(draft, str(draft.urdf.resolve())))
-        robot = RobotModel(read_spec(path))
+        robot = RobotModel(_loaded(path, draft.urdf))
     body = composite_body(robot.model, robot.q_nominal, [leg.foot_frame_id for leg in robot.legs])
+    if not body.mass > 0:
+        raise LegplanError(f"{draft.urdf}: centroidal.mass: the URDF's links have no mass; give them inertials or "
+                           "draft with --no-centroidal")
     box = reach_box(robot, body.feet)
     if not np.all(box > 0):
         stuck = "no box around the nominal feet" if not box.any() else \
@@ -646,7 +689,6 @@ def write_draft(urdf: str | Path, folder: str | Path, name: str | None = None, o
     the draft (its warnings)."""
     from legplan.artefacts.publish import staged_output
     from legplan.artefacts.writer import check_output
-    from legplan.robots.spec import read_spec
 
     folder = Path(folder)
     target = check_output(folder / "robot.yaml", overwrite)
@@ -657,8 +699,26 @@ def write_draft(urdf: str | Path, folder: str | Path, name: str | None = None, o
     draft = draft_robot(urdf, name or folder.resolve().name, options)
     if options.centroidal:
         draft = draft_centroidal(draft, options)
+    created = not folder.exists()
     folder.mkdir(parents=True, exist_ok=True)
-    with staged_output(target, overwrite=overwrite) as temp:
-        Path(temp).write_text(draft_yaml(draft, urdf_ref))
-        read_spec(temp)
+    try:
+        with staged_output(target, overwrite=overwrite) as temp:
+            Path(temp).write_text(draft_yaml(draft, urdf_ref))
+            _loaded(temp, Path(urdf))
+    except BaseException:
+        if created:
+            folder.rmdir()
+        raise
     return target, draft
+
+
+def _loaded(path: Path, urdf: Path):
+    """`read_spec` of a draft written to the temporary `path`; its errors name the URDF drafted from
+    (the temporary file is gone when the user reads them)."""
+    from legplan.robots.spec import read_spec
+
+    try:
+        return read_spec(path)
+    except LegplanError as exc:
+        reason = str(exc).split(f"{path}:", 1)[-1].strip()
+        raise LegplanError(f"{urdf}: the draft does not load: {reason}") from None

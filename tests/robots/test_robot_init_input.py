@@ -264,3 +264,66 @@ def test_check_reports_a_range_of_motion_out_of_reach(drafted_quad):
     assert checked.exit_code == 1
     lines = [line for line in checked.output.splitlines() if line.startswith("error: centroidal.range_of_motion:")]
     assert len(lines) == 1 and "out of reach inside the joint limits for legs LF (" in lines[0]
+
+
+def test_continuous_joints_and_massless_urdfs(tmp_path):
+    """A wheel-like continuous joint (nq = 2) and a URDF without inertials: one line each."""
+    urdf = tmp_path / "quad.urdf"
+    urdf.write_text(quadruped_urdf().replace('name="RH_KFE" type="revolute"', 'name="RH_KFE" type="continuous"'))
+    out = tmp_path / "out"
+    _one_line_exit_2(run("robot", "init", urdf, "-o", out), out, f"{urdf}: joint 'RH_KFE' is not a 1-DoF")
+    massless = quadruped_urdf()
+    for mass in ("5.0", "0.3", "0.01"):
+        massless = massless.replace(f'<mass value="{mass}"/>', '<mass value="0"/>')
+    urdf.write_text(massless)
+    _one_line_exit_2(run("robot", "init", urdf, "-o", out), out, f"{urdf}: centroidal.mass: the URDF's links have no mass")
+    assert not out.exists()
+
+
+def test_dyn_refuses_a_robot_that_is_not_a_quadruped(tmp_path):
+    hexapod = Path(__file__).parents[1] / "data" / "hexapod.urdf"
+    out = tmp_path / "hexapod"
+    assert run("robot", "init", hexapod, "-o", out).exit_code == 0
+    flat = tmp_path / "flat.h5"
+    assert run("map", "build", Path(__file__).parents[2] / "maps" / "flat.yaml", "-o", flat).exit_code == 0
+    planned = run("dyn", "plan", flat, "--robot", out, "--start", "0", "0", "0", "--goal", "0.1", "0", "0",
+                  "-o", tmp_path / "traj.h5")
+    assert planned.exit_code == 2 and len(planned.stderr.strip().splitlines()) == 1
+    assert f"{out / 'robot.yaml'}: field 'legs' lists 6 legs; `legplan dyn` plans quadrupeds" in planned.stderr
+    assert not (tmp_path / "traj.h5").exists()
+
+
+def test_leg_stance_jacobian_matches_finite_differences(tmp_path):
+    from legplan.robots.draft import LegStance
+
+    urdf = tmp_path / "quad.urdf"
+    urdf.write_text(quadruped_urdf())
+    model = pin.buildModelFromUrdf(str(urdf), pin.JointModelFreeFlyer())
+    chain = [model.getJointId(name) for name in ("LH_HAA", "LH_HFE", "LH_KFE")]
+    foot = model.getFrameId("LH_foot", pin.FrameType.BODY)
+    problem = LegStance(model, chain, foot, [-0.2, 0.15], 0.24)
+    x = np.array([0.1, -0.6, 1.1])
+    numeric = np.column_stack([(problem.residuals(x + h) - problem.residuals(x - h)) / 2e-6
+                               for h in np.eye(3) * 1e-6])
+    np.testing.assert_allclose(problem.jacobian(x), numeric, atol=1e-6)
+
+
+def test_leg_forces_equal_effort_over_lever(tmp_path):
+    """A vertical push f at the foot loads each pitch joint with f times the horizontal distance from
+    its axis to the foot, and the HAA joint with f times the lateral one: the weakest sets f."""
+    from legplan.robots.rigid_body import leg_forces
+
+    urdf = tmp_path / "quad.urdf"
+    urdf.write_text(quadruped_urdf())
+    out = tmp_path / "quad"
+    assert run("robot", "init", urdf, "-o", out).exit_code == 0
+    robot = load_robot(out)
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, robot.q_nominal)
+    forces = leg_forces(robot)
+    for k, leg in enumerate(robot.legs):
+        foot = data.oMf[leg.foot_frame_id].translation
+        axes = [data.oMi[robot.model.getJointId(name)].translation for name in leg.joint_names]
+        levers = [abs(foot[1] - axes[0][1]), abs(foot[0] - axes[1][0]), abs(foot[0] - axes[2][0])]
+        assert forces.force[k] == pytest.approx(20.0 / max(levers), rel=1e-6)      # every effort is 20 N m
+    assert forces.placeholder == ()

@@ -73,7 +73,8 @@ def test_published_quadruped_drafts_and_checks_clean(name, drafted, published_ro
     first_foot = model.frames[robot.legs[0].foot_frame_id]
     assert model.frames[first_foot.parentFrame].name == foot_link          # on the URDF's own foot link
 
-    # stance: base level, feet on the ground, knees bent, feet where the legs hang at zero (hip offsets)
+    # stance: base level, feet on the ground, knees bent, each contact point where its foot link
+    # hangs at the zero configuration (the hips' lateral offsets respected)
     q = robot.q_nominal
     feet = robot.foot_positions(q)[0]
     np.testing.assert_allclose(feet[:, 2], 0.0, atol=5e-4)
@@ -81,12 +82,14 @@ def test_published_quadruped_drafts_and_checks_clean(name, drafted, published_ro
     zero = pin.neutral(model)
     zero[2] = q[2]
     pin.framesForwardKinematics(model, data, zero)
-    hanging = np.array([data.oMf[leg.foot_frame_id].translation for leg in robot.legs])
+    hanging = np.array([data.oMf[model.frames[leg.foot_frame_id].parentFrame].translation for leg in robot.legs])
     np.testing.assert_allclose(feet[:, :2], hanging[:, :2], atol=0.01)
+    stretched = [np.linalg.norm(data.oMi[model.getJointId(leg.joint_names[1])].translation - foot)
+                 for leg, foot in zip(robot.legs, hanging)]                       # legs straight at zero
     pin.framesForwardKinematics(model, data, q)
-    for leg, foot in zip(robot.legs, feet):
+    for leg, foot, length in zip(robot.legs, feet, stretched):
         hip = data.oMi[model.getJointId(leg.joint_names[1])].translation
-        assert np.linalg.norm(foot - hip) < 0.9 * (hip[2] - hanging[0, 2] + q[2])   # not stretched
+        assert np.linalg.norm(foot - hip) < 0.9 * length                           # knees bent
     assert np.all(robot.upper - robot.lower < 2 * math.pi)                          # physical ranges only
 
     # centroidal section: pinocchio link by link, not the drafting code's ccrba
