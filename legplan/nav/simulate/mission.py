@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from legplan.parameters import Parameters, param
+from legplan.parameters import YAW, Parameters, param
 
 YAW_POLICIES = ("velocity", "target", "heading")
 
@@ -40,6 +40,6 @@ class SimParams(Parameters):
     yaw: str = param("velocity", YAW_POLICIES,
                      doc="yaw policy on the way: \"velocity\", \"target\" (face `target`) or \"heading\"")
     target: tuple[float, float] | None = None  # world point faced with yaw "target"
-    heading: float = 0.0  # rad, held with yaw "heading"
+    heading: float = param(0.0, YAW, doc="rad, held with yaw \"heading\"")
     clearance_margin: float = param(0.1, "[0, inf)", doc="m the TEB keeps beyond the collision radius "
                                     "(soft obstacle term, tracking lag)")
