@@ -67,6 +67,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     from legplan.dyn.tasks import centroidal_model, check_placements, check_sizes, command_line_task, read_tasks
     from legplan.dyn.terrain import TerrainModel
     from legplan.robots import load_robot
+    from legplan.stepseq.robotinfo import robot_sha256
     from legplan.terrain import load_map
 
     check_output(output, overwrite)
@@ -99,7 +100,8 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
                            identity={"stage": "dyn plan", "params": settings}, inputs=inputs, jobs=jobs,
                            scheduler=scheduler, resume=resume, overwrite=overwrite,
                            publish=lambda records: write_traj(output, records, settings, loaded.name, model.legs,
-                                                              inputs=inputs, overwrite=overwrite))
+                                                              inputs=inputs, overwrite=overwrite,
+                                                              robot_sha256=robot_sha256(loaded)))
     failed = [r for r in records if not r["success"]]
     status(f"wrote {output}: {len(records) - len(failed)}/{len(records)} tasks planned")
     for r in records:

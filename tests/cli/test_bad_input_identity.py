@@ -174,3 +174,24 @@ def test_robot_check_of_a_massless_urdf_is_an_error(tmp_path):
     assert result.exit_code == 1
     assert "error: robot: the URDF's links have no mass in all" in result.output
     assert "RuntimeWarning" not in result.stderr
+
+
+@pytest.mark.parametrize("robot, stage", [("scarab2", "step plan"), ("anymal", "dyn simulate")])
+def test_an_artefact_made_for_a_changed_robot_is_refused(inputs, tmp_path, monkeypatch, robot, stage):
+    robots = tmp_path / "robots"
+    shutil.copytree(ROOT / "robots" / robot, robots / robot)
+    monkeypatch.setenv("LEGPLAN_ROBOTS", str(robots))
+    made = tmp_path / "made.h5"
+    if stage == "step plan":
+        args = ["steps", "import", inputs["csv"], "--robot", robot, "--map", inputs["map"], "-o", made]
+        later = ["step", "plan", inputs["map"], made, "--steps", "0"]
+    else:
+        args = ["dyn", "plan", inputs["map"], "--robot", robot, "--start", "0", "0", "0", "--goal", "0.3", "0", "0",
+                "--strides", "2", "--duration", "1.6", "-o", made]
+        later = ["dyn", "simulate", made, inputs["map"]]
+    assert invoke([*args, "-q"]).exit_code == 0
+    spec = robots / robot / "robot.yaml"
+    spec.write_text(spec.read_text() + "\n# edited after the artefact was made\n")
+    out = tmp_path / "out.h5"
+    assert_refused(invoke([*later, "-o", out]), "made.h5", f"another version of robot '{robot}'", "robot_sha256",
+                   output=out)
