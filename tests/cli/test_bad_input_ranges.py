@@ -273,3 +273,27 @@ def test_compare_tolerance_of_an_absurd_size_is_refused(inputs):
     for tol, field in (("mean_time=1e400", "expected a finite number"), ("mean_time=1e300", "too large"),
                        ("x=-1", "out of range"), ("x=1e12%", "out of range")):
         assert_refused(invoke(["compare", inputs["map"], inputs["map"], "--tol", tol]), "--tol", field)
+
+
+ROBOT_FIELDS = {  # a line of anymal's robot.yaml, its number replaced, and the field it sets
+    "friction": ("friction: 0.5", "friction: {v}", "centroidal.friction"),
+    "max_normal_force": ("max_normal_force: 1000.0", "max_normal_force: {v}", "centroidal.max_normal_force"),
+    "sphere radius": ("radius: 0.13}", "radius: {v}}}", "spheres[0].radius"),
+}
+
+
+@few(12)
+@given(case=st.sampled_from(sorted(ROBOT_FIELDS)),
+       value=st.one_of(st.sampled_from([1e308, 1e20, 1e-320]), st.floats(min_value=1e7, max_value=1e300)))
+def test_an_absurd_number_in_a_robot_yaml_names_the_file_and_field(tmp_path_factory, case, value):
+    import shutil
+    from pathlib import Path
+
+    old, new, field = ROBOT_FIELDS[case]
+    folder = tmp_path_factory.mktemp("robot") / "anymal"
+    shutil.copytree(Path(__file__).parents[2] / "robots" / "anymal", folder)
+    spec = folder / "robot.yaml"
+    text = spec.read_text()
+    assert old in text
+    spec.write_text(text.replace(old, new.format(v=_yaml_number(value)), 1))
+    assert_refused(invoke(["robot", "show", spec, "--json"]), "robot.yaml", field)
