@@ -27,7 +27,7 @@ class SimParams(Parameters):
     rate: float = param(10.0, "(0, inf)", doc="Hz, TEB cycles")
     substeps: int = param(10, "[1, 10000]", doc="robot integration steps per cycle")
     window: float = param(5.0, "(0, inf)", doc="m of global path in the local band")
-    sensing_radius: float = param(4.0, "[0, inf)", doc="m")
+    sensing_radius: float = param(4.0, "[0, 1000]", doc="m")
     goal_tolerance: float = param(0.1, "(0, inf)", doc="m")
     heading_tolerance: float = param(0.1, "(0, inf)", doc="rad")
     stop_speed: float = param(0.05, "(0, inf)", doc="m/s, \"at rest\" for arrival at a via point")
