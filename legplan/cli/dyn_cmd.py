@@ -85,7 +85,8 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     check_sizes(tasks, params, tasks_path)
     check_placements(tasks, model, TerrainModel(load_map(map_path)), tasks_path, map_path)
     if hasattr(init_fn, "check_task"):  # a learned initializer fits one variable layout: refuse others now
-        trained_on = {"path": init_fn.space.get("map"), "sha256": init_fn.space.get("map_sha256")}
+        trained_on = {"path": init_fn.space.get("map"), "sha256": init_fn.space.get("map_sha256"),
+                      "terrain": init_fn.space.get("map_terrain")}
         check_same_map(init_fn.path, map_path, [trained_on], what="trained")
         for t in tasks:
             init_fn.check_task(t, params.dt)
