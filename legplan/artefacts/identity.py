@@ -28,7 +28,7 @@ def terrain_digest(path: str | os.PathLike) -> str:
     """sha256 of a map artefact's heights (float64, C order), origin and resolution."""
     from legplan.artefacts.reader import open_artefact, read_array
 
-    with open_artefact(path, "map") as handle:
+    with open_artefact(path, "map", values=False) as handle:  # the heights checked as they are read
         height = read_array(handle, "terrain/height", ndim=2)
         attrs = handle["terrain/height"].attrs
         grid = np.asarray([*np.ravel(attrs.get("origin", ())), attrs.get("resolution", 0.0)], float)
@@ -47,7 +47,7 @@ def map_identities(path: str | os.PathLike) -> set[str]:
     if Path(path).suffix.lower() in (".yaml", ".yml"):
         return {sha256_file(path)}
     identities = {terrain_digest(path), sha256_file(path)}  # the digest first: it validates the map
-    with open_artefact(path, "map") as handle:
+    with open_artefact(path, "map", values=False) as handle:  # attributes only
         identities |= {record["sha256"] for record in read_provenance(handle)["inputs"] if isinstance(record, dict)}
     return identities
 
