@@ -1,14 +1,15 @@
 """Size budgets: what one command may allocate, checked before it allocates.
 
-A count an input gives (strides, tasks, hidden units, samples, iterations) multiplies into memory
-and time long before a stage could notice; a stage therefore computes the size its input asks for
-(optimization variables, samples, network weights, batch items, grid cells) from the input alone
-and calls `check_size` first. The limits are far above any real use (a walk of thousands of
-footsteps, a network of millions of weights) and far below what exhausts a workstation; a refusal is
-one line naming the input and the field that asked for it:
+A count an input gives (strides, tasks, hidden units, iterations) multiplies into memory and time
+long before a stage could notice; a stage therefore computes the size its input asks for
+(optimization variables, network weights, batch items) from the input alone and calls `check_size`
+first. (A map's grid has its own estimate of bytes per cell and SDF layer,
+`legplan.terrain.terrain_map.check_memory`.) The limits are far above any real use (a walk of
+thousands of footsteps, a network of millions of weights) and far below what exhausts a
+workstation; a refusal is one line naming the input and the field that asked for it:
 
     check_size("variables", variables, f"{source}: row {i}: field 'strides'")
-    -> "tasks.csv: row 0: field 'strides' asks for 80000120 optimization variables, more than the
+    -> "tasks.csv: row 0: field 'strides' asks for 800120 optimization variables, more than the
        budget of 200000 (legplan.budget.VARIABLES)"
 
 `LIMITS` also bounds every count option of the command line (`legplan.cli.options.count`).
@@ -20,28 +21,24 @@ from legplan.errors import LegplanError
 
 VARIABLES = 200_000
 """Optimization variables of one problem (a centroidal plan, a step's Bézier curves)."""
-SAMPLES = 20_000_000
-"""Sampled values of one item (a trajectory at 10 ms, a path's dense check)."""
 WEIGHTS = 20_000_000
 """Weights of one network (160 MB of float64; the training keeps a few copies)."""
 ITEMS = 1_000_000
 """Items of one batch (tasks, queries, step pairs, dataset tasks)."""
 ITERATIONS = 1_000_000
 """Iterations, rounds, moves or restarts a user asks for."""
-CELLS = 400_000_000
-"""Cells of one grid."""
 STRIDES = 10_000
 """Strides of one motion."""
 WORKERS = 1024
 """Worker processes of one command."""
 
-LIMITS = {"variables": VARIABLES, "samples": SAMPLES, "weights": WEIGHTS, "items": ITEMS,
-          "iterations": ITERATIONS, "cells": CELLS, "strides": STRIDES, "workers": WORKERS}
-_NAMES = {"variables": "VARIABLES", "samples": "SAMPLES", "weights": "WEIGHTS", "items": "ITEMS",
-          "iterations": "ITERATIONS", "cells": "CELLS", "strides": "STRIDES",
+LIMITS = {"variables": VARIABLES, "weights": WEIGHTS, "items": ITEMS,
+          "iterations": ITERATIONS, "strides": STRIDES, "workers": WORKERS}
+_NAMES = {"variables": "VARIABLES", "weights": "WEIGHTS", "items": "ITEMS",
+          "iterations": "ITERATIONS", "strides": "STRIDES",
           "workers": "WORKERS"}
-_WHAT = {"variables": "optimization variables", "samples": "sampled values", "weights": "network weights",
-         "items": "items", "iterations": "iterations", "cells": "grid cells", "strides": "strides",
+_WHAT = {"variables": "optimization variables", "weights": "network weights",
+         "items": "items", "iterations": "iterations", "strides": "strides",
          "workers": "worker processes"}
 
 

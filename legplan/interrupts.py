@@ -3,8 +3,10 @@
 `handle_interrupts()` (the CLI entry point wraps every command in it) installs one handler for both
 signals: it records which signal arrived, then raises `KeyboardInterrupt` (SIGINT) or `Terminated`
 (SIGTERM) so that `finally` blocks and context managers remove temporary files. The record matters
-because an exception raised inside some C callbacks is swallowed (h5py prints "Exception ignored" and
-carries on writing): `raise_if_interrupted()` raises again from the record, and the one publish
+because an exception raised inside some C callbacks is swallowed (h5py hands it to
+`sys.unraisablehook` and carries on writing; within the block that hook stays silent about the
+signal's own exception, so no "Exception ignored" traceback reaches the terminal): `raise_if_interrupted()`
+raises again from the record, and the one publish
 function (`legplan.artefacts.publish`) calls it immediately before its rename, so nothing is published
 after a signal arrived. `exit_code()` is 130 for SIGINT and 143 for SIGTERM (128 + the signal).
 
@@ -17,6 +19,7 @@ from __future__ import annotations
 import ctypes
 import os
 import signal
+import sys
 import threading
 from contextlib import contextmanager
 
@@ -80,6 +83,13 @@ def handle_interrupts():
         yield
         return
     previous = {signum: signal.signal(signum, _on_signal) for signum in SIGNALS}
+    previous_hook = sys.unraisablehook
+
+    def unraisable(report) -> None:  # the signal's exception, swallowed in a C callback: re-raised later
+        if not (_received and isinstance(report.exc_value, (KeyboardInterrupt, Terminated))):
+            previous_hook(report)
+
+    sys.unraisablehook = unraisable
     _received.clear()
     _published.clear()
     try:
@@ -87,6 +97,7 @@ def handle_interrupts():
     finally:
         for signum, handler in previous.items():
             signal.signal(signum, handler)
+        sys.unraisablehook = previous_hook
         _received.clear()
 
 

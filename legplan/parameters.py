@@ -15,12 +15,13 @@ the robot's size). `inherit` declares a field as another class's field (same def
 
 Physical ranges: a number a user gives (an option, a field of an input file, `--param`) is a
 physical quantity, and a finite but absurd value (a duration of 1e308 s, a resolution of 1e-320 m)
-overflows or underflows deep inside a stage. Every declared range is therefore finite: the named
-quantities below (`DURATION`, `COORDINATE`, `YAW`, ...) are the ranges that options
-(`legplan.cli.options.number`), file readers (`legplan.specio.FieldReader.number`'s `allowed`)
-and parameter fields (`param`) share, and `check_value` is the one check with the one error line
-"WHERE VALUE out of range (allowed RANGE)". Below any declared range, `MAGNITUDE` bounds every
-number read from text: 0 or between 1e-30 and 1e15 in magnitude.
+overflows or underflows deep inside a stage. The named quantities below (`DURATION`, `COORDINATE`,
+`YAW`, ...) are the finite ranges that options (`legplan.cli.options.number`, or `declared` for an
+option that sets a parameter field), file readers (`legplan.specio.FieldReader.number`'s
+`allowed`) and parameter fields (`param`) share; a count field's range is finite too. `check_value`
+is the one check, with the one error line "WHERE out of range: VALUE (allowed RANGE)"; it also
+holds every finite float to `MAGNITUDE` (0, or between 1e-30 and 1e15 in magnitude), so a float
+field declared up to "inf" takes no absurd value either.
 """
 
 from __future__ import annotations
@@ -55,6 +56,8 @@ CLEARANCE = "[0, 10]"
 """m: a clearance or margin."""
 FRICTION = "(0, 10]"
 """a friction coefficient."""
+FORCE = "(0, 1e6]"
+"""N: a force bound of a legged robot's contact."""
 FRACTION = "[0, 1]"
 """a share of something."""
 SCALE = "[-1e4, 1e4]"
@@ -121,20 +124,15 @@ def check_value(value, allowed: str | Interval | tuple, where: str, params=None)
     if isinstance(allowed, str):
         allowed = _parsed(allowed)
     if isinstance(value, float) and math.isfinite(value) and magnitude_problem(value):
-        raise RangeError(f"{where} {magnitude_problem(value)}: {value!r}", value, "")
+        raise RangeError(f"{where} {magnitude_problem(value)}: {value!r}")
     inside = value in allowed if isinstance(allowed, tuple) else allowed.contains(value, params)
     if not inside:
         shown = ", ".join(map(repr, allowed)) if isinstance(allowed, tuple) else allowed.describe(params)
-        raise RangeError(f"{where} out of range: {value!r} (allowed {shown})", value, shown)
+        raise RangeError(f"{where} out of range: {value!r} (allowed {shown})")
 
 
 class RangeError(LegplanError):
-    """A value outside its declared range; `value` and `allowed` (the range as text) for callers that
-    restate the error for their file and field."""
-
-    def __init__(self, message: str, value=None, allowed: str = ""):
-        super().__init__(message)
-        self.value, self.allowed = value, allowed
+    """A value outside its declared range (callers restate it for their file and field)."""
 
 
 _PARSED: dict[str, Interval] = {}

@@ -190,16 +190,16 @@ class FieldReader:
         return np.array([self.number(v, f"{field}[{i}]", allowed) for i, v in enumerate(value)])
 
     def positive(self, value, field: str, allowed: str | None = None) -> float:
-        number = self.number(value, field, allowed)
+        number = self.number(value, field)
         if number <= 0:
             self.fail(field, f"must be > 0, got {value!r}")
-        return number
+        return self.number(value, field, allowed)
 
     def nonnegative(self, value, field: str, allowed: str | None = None) -> float:
-        number = self.number(value, field, allowed)
+        number = self.number(value, field)
         if number < 0:
             self.fail(field, f"must be >= 0, got {value!r}")
-        return number
+        return self.number(value, field, allowed)
 
     def count(self, value, field: str, maximum: int | None = None) -> int:
         """A whole number >= 1 (and <= `maximum` when given)."""

@@ -71,11 +71,12 @@ class BoxFiles:
 
     def sequence(self, order=(0, 1, 2)):
         """The configurations `order` as a `StepSequence`."""
+        from legplan.stepseq.robotinfo import robot_sha256
         from legplan.stepseq.sequence import StepSequence
 
         order = list(order)
         return StepSequence(q=self.q[order], stance=self.stance[order], footholds=self.footholds[order],
-                            robot=self.robot.name, robot_sha256="test", leg_names=[leg.name for leg in self.robot.legs],
+                            robot=self.robot.name, robot_sha256=robot_sha256(self.robot), leg_names=[leg.name for leg in self.robot.legs],
                             joint_names=self.robot.joint_names)
 
     def steps_file(self, order=(0, 1, 2)) -> Path:

@@ -8,6 +8,8 @@ built from (its spec), so a record made from the spec (a task space's `map_sha25
 
 `check_same_map(artefact, map)` is the one check of a pair: a trajectory executed on, a motion shown
 over, steps planned on, a network initializing a plan on a map other than its own is bad input.
+`check_same_robot` does the same for the robot an artefact names: its files' digest then
+(`legplan.stepseq.robotinfo.robot_sha256`, recorded as the root attribute `robot_sha256`) and now.
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ def terrain_digest(path: str | os.PathLike) -> str:
     """sha256 of a map artefact's heights (float64, C order), origin and resolution."""
     from legplan.artefacts.reader import open_artefact, read_array
 
-    with open_artefact(path, "map") as handle:
+    with open_artefact(path, "map", values=False) as handle:  # the heights checked as they are read
         height = read_array(handle, "terrain/height", ndim=2)
         attrs = handle["terrain/height"].attrs
         grid = np.asarray([*np.ravel(attrs.get("origin", ())), attrs.get("resolution", 0.0)], float)
@@ -45,7 +47,7 @@ def map_identities(path: str | os.PathLike) -> set[str]:
     if Path(path).suffix.lower() in (".yaml", ".yml"):
         return {sha256_file(path)}
     identities = {terrain_digest(path), sha256_file(path)}  # the digest first: it validates the map
-    with open_artefact(path, "map") as handle:
+    with open_artefact(path, "map", values=False) as handle:  # attributes only
         identities |= {record["sha256"] for record in read_provenance(handle)["inputs"] if isinstance(record, dict)}
     return identities
 
@@ -76,3 +78,13 @@ def check_same_map(path: str | os.PathLike, map_path: str | os.PathLike, recorde
         return
     raise ArtefactError(f"{path}: {what} on the map {Path(str(recorded[0].get('path', '?'))).name}, "
                         f"not on {map_path} (another terrain; give the map it was {what} on)")
+
+
+def check_same_robot(path: str | os.PathLike, recorded: str, robot, what: str = "made") -> None:
+    """An `ArtefactError` when the robot files an artefact was `what` for (their digest `recorded`)
+    are not those of the loaded `robot` now (its robot.yaml or URDF changed since)."""
+    from legplan.stepseq.robotinfo import robot_sha256
+
+    if recorded and recorded != robot_sha256(robot):
+        raise ArtefactError(f"{path}: {what} for another version of robot '{robot.name}' (root attribute "
+                            f"'robot_sha256' differs from {robot.yaml_path} and its URDF now); make it again")

@@ -50,7 +50,7 @@ def input_record(path: str | os.PathLike) -> dict:
     """`{path, sha256, kind}` for one input file; a map also its `terrain` digest
     (`legplan.artefacts.identity.terrain_digest`), the identity later pairs are checked against."""
     record = {"path": str(path), "sha256": sha256_file(path), "kind": file_kind(path)}
-    if record["kind"] == "map":
+    if record["kind"] == "map" and h5py.is_hdf5(path):  # a map artefact (a MovingAI .map is text)
         from legplan.artefacts.identity import terrain_digest
 
         record["terrain"] = terrain_digest(path)

@@ -118,8 +118,22 @@ def staged_output(target: str | os.PathLike, *, overwrite: bool, directory: bool
     try:
         yield temp
         publish(temp, Path(target), overwrite)
+    except OSError as exc:
+        raise _named_for_user(exc, temp, Path(target)) from None
     finally:
         discard(temp)
+
+
+def _named_for_user(error: OSError, temp: Path, target: Path) -> Exception:
+    """An OS error about our temporary as the user's output: an `ArtefactError` naming `target`
+    (the temporary's name is ours, not the user's); any other OS error unchanged."""
+    text = " ".join(str(error).split())
+    if temp.name not in text:
+        return error
+    reason = error.strerror or ""
+    if not reason or temp.name in reason:  # h5py puts the whole HDF5 message, temporary name included, there
+        reason = os.strerror(error.errno) if error.errno else text.replace(str(temp.parent), "").replace(temp.name, target.name)
+    return ArtefactError(f"{target}: cannot write the output in {target.parent} ({reason})")
 
 
 def save_figure(figure, path: str | os.PathLike, *, overwrite: bool = False, **options) -> None:

@@ -20,8 +20,11 @@ from legplan.errors import ArtefactError
 
 
 @contextmanager
-def open_artefact(path: str | os.PathLike, kind: str | tuple[str, ...] | None = None):
-    """Open an artefact read-only after checking it is a legplan file of `kind` and known schema."""
+def open_artefact(path: str | os.PathLike, kind: str | tuple[str, ...] | None = None, *, values: bool = True):
+    """Open an artefact read-only after checking it is a legplan file of `kind` and known schema and,
+    with `values`, that its float datasets are finite (module docstring). `values=False` is for a
+    reader that reads every dataset it uses through `read_array` (finite) anyway, or none: it saves
+    reading a large file twice."""
     path = Path(path)
     if not path.exists():
         raise ArtefactError(f"{path}: no such file")
@@ -35,7 +38,8 @@ def open_artefact(path: str | os.PathLike, kind: str | tuple[str, ...] | None = 
         raise ArtefactError(f"{path}: truncated or corrupt HDF5 file ({exc})") from exc
     with handle:
         _validate_root(path, handle, kind)
-        _validate_values(path, handle)
+        if values:
+            _validate_values(path, handle)
         yield handle
 
 

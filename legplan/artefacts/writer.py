@@ -35,6 +35,9 @@ def check_output(path: str | os.PathLike, overwrite: bool) -> Path:
         raise ArtefactError(f"{path}: output is a directory")
     if path.exists() and not overwrite:
         raise ArtefactError(f"{path}: output exists (use --overwrite to replace it)")
+    folder = path.parent if str(path.parent) else Path(".")
+    if folder.is_dir() and not os.access(folder, os.W_OK | os.X_OK):
+        raise ArtefactError(f"{path}: cannot write the output: folder {folder} is not writable")
     return path
 
 

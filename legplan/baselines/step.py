@@ -54,15 +54,15 @@ class StepBaselineParams(Parameters):
     simplify_time: float = param(0.0, "[0, 86400]", doc="s of path shortcutting after the first solution (0: none)")
     waypoints: int = param(100, "[2, 1000000]",
                            doc="states asked of the interpolated solution (capped by the geodesic step `delta`)")
-    position_margin: float = 0.1  # m, ambient bounds around the start/goal base positions
-    rotation_margin: float = 0.5  # rad, ambient bounds around the start/goal rotation vectors
+    position_margin: float = param(0.1, "[0, 100]", doc="m, ambient bounds around the start/goal base positions")
+    rotation_margin: float = param(0.5, "[0, 6.3]", doc="rad, ambient bounds around the start/goal rotation vectors")
     # the step planner's constraint settings, for the same problem:
     epsilon: float = inherit(StepPlanParams, "epsilon")
     slack_fraction: float = inherit(StepPlanParams, "slack_fraction")
     clearance: float = inherit(StepPlanParams, "clearance")
     relax_radius: float = inherit(StepPlanParams, "relax_radius")
     com_margin: float = inherit(StepPlanParams, "com_margin")
-    dense_samples: int = inherit(StepPlanParams, "dense_samples", range="[4, inf)")  # third differences
+    dense_samples: int = inherit(StepPlanParams, "dense_samples", range="[4, 10000000]")  # third differences
     judge_tolerance: float = inherit(StepPlanParams, "judge_tolerance")
 
     @property

@@ -108,6 +108,9 @@ class WorkFile:
             except FileExistsError:  # a concurrent run created it in between: replace that one
                 if attempt == 2:
                     raise LegplanError(f"{path}: other runs of this output keep starting; run one at a time") from None
+            except OSError as exc:  # e.g. a read-only folder: say so for the user's output
+                reason = os.strerror(exc.errno) if exc.errno else "cannot create it"
+                raise LegplanError(f"{output}: cannot write the output in {path.parent} ({reason})") from None
         handle.attrs.update(header)
         handle.flush()
         return cls(path, handle)

@@ -69,7 +69,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     from legplan.dyn.terrain import TerrainModel
     from legplan.learn.initializers import check_warm_stage, initializer
     from legplan.robots import load_robot
-    from legplan.stepseq.robotinfo import robot_reference
+    from legplan.stepseq.robotinfo import robot_reference, robot_sha256
     from legplan.terrain import load_map
 
     check_output(output, overwrite)
@@ -87,7 +87,8 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     check_sizes(tasks, params, tasks_path)
     check_placements(tasks, model, TerrainModel(load_map(map_path)), tasks_path, map_path)
     if hasattr(init_fn, "check_task"):  # a learned initializer fits one variable layout: refuse others now
-        trained_on = {"path": init_fn.space.get("map"), "sha256": init_fn.space.get("map_sha256")}
+        trained_on = {"path": init_fn.space.get("map"), "sha256": init_fn.space.get("map_sha256"),
+                      "terrain": init_fn.space.get("map_terrain")}
         check_same_map(init_fn.path, map_path, [trained_on], what="trained")
         for t in tasks:
             init_fn.check_task(t, params.dt)
@@ -103,7 +104,8 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
                            identity={"stage": "dyn plan", "params": settings}, inputs=inputs, jobs=jobs,
                            scheduler=scheduler, resume=resume, overwrite=overwrite,
                            publish=lambda records: write_traj(output, records, settings, reference, model.legs,
-                                                              inputs=inputs, overwrite=overwrite))
+                                                              inputs=inputs, overwrite=overwrite,
+                                                              robot_sha256=robot_sha256(loaded)))
     failed = [r for r in records if not r["success"]]
     status(f"wrote {output}: {len(records) - len(failed)}/{len(records)} tasks planned")
     for r in records:

@@ -89,7 +89,7 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_sc
     import numpy as np
 
     from legplan.artefacts import check_output
-    from legplan.artefacts.identity import check_same_map
+    from legplan.artefacts.identity import check_same_map, check_same_robot
     from legplan.batch import Task
     from legplan.cli.batching import run_stage
     from legplan.dyn.artefact import check_executable, read_tasks
@@ -105,6 +105,8 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_sc
     if not tasks:
         raise LegplanError(f"{traj_path}: no tasks")
     robot = load_robot(str(attrs["robot"]))
+    if "robot_sha256" in attrs:
+        check_same_robot(traj_path, str(attrs["robot_sha256"]), robot, what="planned")
     if robot.centroidal is None:
         raise LegplanError(f"{traj_path}: robot {robot.name} has no centroidal section")
     terrain_map = load_map(map_path)

@@ -18,13 +18,15 @@ def command():
 def read_step_pairs(map_path: str, steps_path: str, step_range: str | None):
     """The step sequence of STEPS and the indices of its consecutive pairs selected by `--steps`;
     MAP must read as a valid map artefact. Shared by `step plan` and `baseline step`."""
-    from legplan.artefacts.identity import check_same_map
+    from legplan.artefacts.identity import check_same_map, check_same_robot
+    from legplan.robots import load_robot
     from legplan.stepseq.sequence import read_steps
     from legplan.terrain import load_map
 
     load_map(map_path)  # every layer checked (finite, shapes) before any work
     seq = read_steps(steps_path)
     check_same_map(steps_path, map_path)
+    check_same_robot(steps_path, seq.robot_sha256, load_robot(seq.robot))
     if len(seq) < 2:
         raise LegplanError(f"{steps_path}: field 'q' needs at least 2 configurations, got {len(seq)}")
     return seq, _parse_range(step_range, len(seq) - 1, steps_path)

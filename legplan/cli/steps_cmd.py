@@ -49,14 +49,12 @@ def import_cmd(path, robot_name, map_path, strict, foot_tolerance, output, overw
     result = import_steps(path, robot, validator, urdf_order=urdf_joint_order(robot),
                           robot_sha256=robot_sha256(robot), limits=ImportLimits(foot_tolerance=foot_tolerance))
     errors = result.errors(strict)
+    if errors:  # bad input is one line: the first error and how many there are
+        more = (f" (and {len(errors) - 1} more errors, in {len({i.row for i in errors})} rows in all)"
+                if len(errors) > 1 else "")
+        raise SpecError(f"{path}: {errors[0]}{more}; nothing written")
     for issue in result.issues:
-        if issue not in errors:
-            stderr_line(f"{path}: {issue}", "Warning:", "yellow")
-    if errors:
-        for issue in errors[:-1]:
-            stderr_line(f"{path}: {issue}", "Error:")
-        more = f" ({len(errors)} errors in {len({i.row for i in errors})} rows)" if len(errors) > 1 else ""
-        raise SpecError(f"{path}: {errors[-1]}{more}; nothing written")
+        stderr_line(f"{path}: {issue}", "Warning:", "yellow")
     write_steps(output, result.sequence, result.checks,
                 params={"robot": robot_name, "strict": strict, "foot_tolerance": foot_tolerance},
                 inputs=[path, map_path], overwrite=overwrite)

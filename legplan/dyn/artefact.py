@@ -135,11 +135,14 @@ def _history_columns(history: list[dict]) -> dict[str, np.ndarray]:
 
 
 def write_traj(path, records: list[dict], params: dict, robot: str, legs, *, inputs=(),
-               overwrite: bool = False) -> dict:
-    """traj.h5 of one record per task (layout in the module docstring); returns the summary rows."""
+               overwrite: bool = False, robot_sha256: str | None = None) -> dict:
+    """traj.h5 of one record per task (layout in the module docstring; `robot_sha256`, the robot's
+    files' digest, as the root attribute of that name when given); returns the summary rows."""
     summary = summary_rows(records)
     with write_artefact(path, "traj", params=params, inputs=inputs, overwrite=overwrite) as handle:
         handle.attrs["robot"] = robot
+        if robot_sha256 is not None:
+            handle.attrs["robot_sha256"] = robot_sha256
         handle.attrs["legs"] = ",".join(legs)
         group = handle.create_group("tasks")
         for record in records:

@@ -64,10 +64,15 @@ class TaskSpace:
         """The JSON-able identity of the space (what a dataset and an initializer were made for)."""
         from legplan.artefacts import sha256_file
 
-        return {"name": self.name, "map": self.map, "map_sha256": sha256_file(self.map), "robot": self.robot,
-                "gait": self.gait,
-                "strides": self.strides, "duration": self.duration, "costs": self.costs,
-                "start": [list(r) for r in self.start], "goal": [list(r) for r in self.goal]}
+        record = {"name": self.name, "map": self.map, "map_sha256": sha256_file(self.map), "robot": self.robot,
+                  "gait": self.gait,
+                  "strides": self.strides, "duration": self.duration, "costs": self.costs,
+                  "start": [list(r) for r in self.start], "goal": [list(r) for r in self.goal]}
+        if self.map.endswith(".h5"):  # a map artefact: its terrain, which a rebuilt map shares
+            from legplan.artefacts.identity import terrain_digest
+
+            record["map_terrain"] = terrain_digest(self.map)
+        return record
 
     def task(self, start, goal) -> DynTask:
         return DynTask(start=tuple(map(float, start)), goal=tuple(map(float, goal)), gait=self.gait,

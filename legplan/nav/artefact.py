@@ -127,6 +127,9 @@ def read_queries(handle: h5py.File) -> list[dict]:
                  for key, value in require_attrs(item, QUERY_ATTRS).items()}
         entry["name"] = name
         entry["trajectory"] = _read_trajectory(item) if "segments" in item else None
+        if entry["trajectory"] is not None:  # a trajectory is stored with its dense samples: all of them
+            for key in ("t", "p", "v", "a"):
+                require(item, key)
         entry["waypoints"] = read_array(item, "waypoints", ndim=2) if "waypoints" in item else None
         entry["band"] = {"poses": read_array(item, "teb/poses", ndim=2), "t": read_array(item, "teb/t", ndim=1),
                          "total_time": float(item["teb"].attrs["total_time"]),

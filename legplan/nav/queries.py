@@ -18,7 +18,8 @@ import os
 import numpy as np
 
 from legplan.errors import SpecError
-from legplan.specio import read_csv_table
+from legplan.parameters import COORDINATE, VELOCITY
+from legplan.specio import FieldReader, read_csv_table
 
 QUERY_COLUMNS = ("start_x", "start_y", "start_vx", "start_vy", "goal_x", "goal_y", "goal_vx",
                  "goal_vy")
@@ -96,7 +97,7 @@ def read_queries_csv(path: str | os.PathLike) -> np.ndarray:
                                 f"got {cells[column]!r}") from None
             if not np.isfinite(value):
                 raise SpecError(f"{path}: row {i}: field '{name}' must be finite, got {cells[column]!r}")
-            values.append(value)
+            values.append(FieldReader(path, f"row {i}").number(value, name, VELOCITY if "_v" in name else COORDINATE))
         rows.append(values)
     if not rows:
         raise SpecError(f"{path}: no queries (the file has a header but no rows)")

@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from legplan.parameters import FORCE, FRICTION, LENGTH
 from legplan.specio import FieldReader
 
 INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
@@ -83,15 +84,15 @@ def parse_centroidal(reader: FieldReader, data: dict, legs: tuple[str, ...], urd
     rom = reader.vector(reader.get(section, "range_of_motion", "centroidal.range_of_motion"),
                         "centroidal.range_of_motion", 3)
     for k, value in enumerate(rom):
-        reader.positive(value, f"centroidal.range_of_motion[{k}]")
+        reader.positive(value, f"centroidal.range_of_motion[{k}]", LENGTH)
     offset = section.get("com_offset")
     com_offset = np.zeros(3) if offset is None else reader.vector(offset, "centroidal.com_offset", 3)
     return Centroidal(
         mass=mass, inertia=_inertia(reader, section), legs=tuple(legs), com_offset=com_offset,
         nominal_feet=_nominal_feet(reader, section, legs), range_of_motion=rom,
         max_normal_force=reader.positive(reader.get(section, "max_normal_force", "centroidal.max_normal_force"),
-                                         "centroidal.max_normal_force"),
-        friction=reader.positive(reader.get(section, "friction", "centroidal.friction"), "centroidal.friction"))
+                                         "centroidal.max_normal_force", FORCE),
+        friction=reader.positive(reader.get(section, "friction", "centroidal.friction"), "centroidal.friction", FRICTION))
 
 
 def _inertia(reader: FieldReader, section: dict) -> np.ndarray:

@@ -37,6 +37,10 @@ def shipped_robots_dir() -> Path:
 def robot_search_path() -> list[Path]:
     """The folders searched for robots by name, in order: `LEGPLAN_ROBOTS`'s, then the shipped one."""
     extra = [Path(entry) for entry in os.environ.get(ENV_ROBOTS, "").split(os.pathsep) if entry]
+    for folder in extra:  # a mistyped entry is bad input, not an empty folder
+        if not folder.is_dir():
+            raise LegplanError(f"{ENV_ROBOTS}: '{folder}' is not a folder"
+                               f"{' (no such path)' if not folder.exists() else ''}")
     return [*extra, shipped_robots_dir()]
 
 

@@ -39,6 +39,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from legplan.parameters import LENGTH
 from legplan.robots.centroidal import Centroidal, parse_centroidal
 from legplan.robots.navigation import Navigation, parse_navigation
 from legplan.robots.urdf import UrdfParseError, build_free_flyer_model
@@ -244,7 +245,7 @@ def _parse_spheres(reader: FieldReader, data: dict, model: pin.Model, legs) -> S
         link = reader.get(entry, "link", f"{field}.link", str)
         offset = reader.vector(reader.get(entry, "offset", f"{field}.offset", default=[0, 0, 0]),
                                f"{field}.offset", 3)
-        radius = reader.positive(reader.get(entry, "radius", f"{field}.radius"), f"{field}.radius")
+        radius = reader.positive(reader.get(entry, "radius", f"{field}.radius"), f"{field}.radius", LENGTH)
         foot_flag = reader.get(entry, "foot", f"{field}.foot", bool, None)
         for name in _expand(link, legs):
             fid = _frame_id(model, name)

@@ -55,11 +55,11 @@ class StepPlanParams(Parameters):
     epsilon: float = param(1e-3, "(0, inf)", "ε", "eq. (11b), m: allowed stance-foot deviation per foot")
     eps_num: float = param(1e-5, "(0, inf)", "ε_num", "of Algorithm 1")
     slack_fraction: float = param(0.95, "(0, 1]", doc="sample-level slack bound = slack_fraction·ε")
-    clearance: float = param(0.02, doc="m, sphere-terrain margin")
+    clearance: float = param(0.02, "[-1, 10]", doc="m, sphere-terrain margin")
     clearance_headroom: float = param(0.1, "[0, inf)",
                                       doc="m·N: swing feet keep clearance + clearance_headroom / N at the samples")
     relax_radius: float = param(0.05, "(0, inf)", doc="m, swing-foot margin relaxation around its footholds")
-    com_margin: float = param(0.0, doc="m, CoM distance to every support-polygon edge")
+    com_margin: float = param(0.0, "[-1, 10]", doc="m, CoM distance to every support-polygon edge")
     dense_samples: int = param(1000, "[2, 10000000]", doc="independent re-check of the finished path")
     judge_tolerance: float = param(1e-5, "[0, inf)",
                                    doc="m | rad, allowed dense miss of CoM margin, clearance, joint limits")

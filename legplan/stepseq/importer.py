@@ -19,6 +19,7 @@ import numpy as np
 import pinocchio as pin
 
 from legplan.errors import SpecError
+from legplan.parameters import magnitude_problem
 from legplan.stepseq.records import read_records
 from legplan.stepseq.robotinfo import robot_reference
 from legplan.stepseq.sequence import StepSequence
@@ -70,6 +71,9 @@ def _number(value, row: int, name: str, issues: list[Issue]) -> float:
         out = math.nan
     if not math.isfinite(out):
         issues.append(Issue(row, name, f"must be a finite number, got {value!r}"))
+        return math.nan
+    if magnitude_problem(out):
+        issues.append(Issue(row, name, f"{magnitude_problem(out)}, got {value!r}"))
         return math.nan
     return out
 

@@ -7,7 +7,7 @@ A record maps field names to values (see README, "Step-sequence files"):
   joints: [...] / j0, j1, ...  joint angles in URDF order
   stance_<leg>                 1/0, true/false
   foothold_<leg>_x/_y/_z       optional explicit foothold (m); empty/NaN for swing legs
-JSON/YAML files hold {"configurations": [record, ...]} (or a bare list); a record may also give
+JSON/YAML files hold {"configurations": [record, ...]} (a bare list is refused); a record may also give
 "footholds": {leg: [x, y, z]}. HDF5: a group /configurations with one 1-D dataset per field, or a
 legplan steps.h5 artefact.
 """
@@ -55,10 +55,12 @@ def read_records(path) -> list[dict]:
         data = json.loads(text) if fmt == "json" else yaml.safe_load(text)
     except (json.JSONDecodeError, yaml.YAMLError, ValueError, RecursionError) as exc:
         raise SpecError(f"{path}: not valid {fmt.upper()} ({exc})".replace("\n", " ")) from None
-    if isinstance(data, dict):
-        if "configurations" not in data:
-            raise SpecError(f"{path}: field 'configurations' is missing")
-        data = data["configurations"]
+    if not isinstance(data, dict):
+        raise SpecError(f"{path}: must be a mapping with the field 'configurations' (a list of mappings), "
+                        f"got a {'list' if isinstance(data, list) else type(data).__name__}")
+    if "configurations" not in data:
+        raise SpecError(f"{path}: field 'configurations' is missing")
+    data = data["configurations"]
     if not isinstance(data, list) or not all(isinstance(r, dict) for r in data):
         raise SpecError(f"{path}: field 'configurations' must be a list of mappings")
     return [_flatten_footholds(path, i, dict(r)) for i, r in enumerate(data)]

@@ -183,7 +183,7 @@ def load_map(path: str | os.PathLike) -> TerrainMap:
     Every layer is checked at the boundary (`read_array`: finite, 2-D or 3-D, the 2-D layers of the
     heightmap's shape) and the grids' origin and resolution finite: a map with a NaN cell or a bad
     layer is an `ArtefactError` naming the file and the dataset before any planner sees it."""
-    with open_artefact(path, kind="map") as f:
+    with open_artefact(path, kind="map", values=False) as f:  # every float layer read by `read_array`
         height = read_array(f, "terrain/height", ndim=2)
         origin, resolution = _grid_attrs(require(f, "terrain/height"), 2)
         grid = Grid2D(tuple(float(v) for v in origin), resolution, height.shape)

@@ -19,6 +19,7 @@ from click.testing import CliRunner
 from hypothesis import HealthCheck, settings
 
 from legplan.cli.main import cli
+from legplan.cli.options import Numbers
 from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
 
 EXAMPLE_STEPS = Path(__file__).parents[1] / "data" / "steps_example.csv"
@@ -109,3 +110,59 @@ def with_value(index, value):
         array.flat[index % array.size] = value
         return array
     return change
+
+
+# The numeric options of the whole click tree (the option tests enumerate them).
+def element_types(param) -> list:
+    return list(param.type.types) if isinstance(param.type, click.Tuple) else [param.type]
+
+
+def _is_float_option(param) -> bool:
+    return isinstance(param, click.Option) and any(
+        isinstance(t, (click.types.FloatParamType, Numbers)) for t in element_types(param))
+
+
+def _is_int_option(param) -> bool:
+    return (isinstance(param, click.Option) and not param.count
+            and any(isinstance(t, click.types.IntParamType) for t in element_types(param)))
+
+
+FLOAT_OPTIONS = [(path, command, param) for path, command in leaf_commands()
+                 for param in command.params if _is_float_option(param)]
+INT_OPTIONS = [(path, command, param) for path, command in leaf_commands()
+               for param in command.params if _is_int_option(param)]
+
+
+def option_ids(cases):
+    return [f"{' '.join(path)} {param.opts[-1]}" for path, _, param in cases]
+
+
+def count_of(param) -> int:
+    if isinstance(param.type, Numbers):
+        return min(param.type.counts)
+    return len(param.type.types) if isinstance(param.type, click.Tuple) else max(param.nargs, 1)
+
+
+def valid_value(kind) -> str:
+    """A value `kind` accepts: inside its range, away from the bounds."""
+    low, high = getattr(kind, "min", None), getattr(kind, "max", None)
+    if low is not None and high is not None:
+        return str((low + high) // 2 if isinstance(kind, click.IntRange) else (low + high) / 2)
+    if low is not None:
+        return str(low + 1)
+    return str(high - 1) if high is not None else "0.5"
+
+
+def command_line(path, command, param, values: list[str], tmp_path) -> list[str]:
+    """`path` with placeholders for every other required parameter and `param` given `values`."""
+    args = [*path]
+    for other in command.params:
+        if other is param or not other.required:
+            continue
+        kind = element_types(other)[0]
+        text = (kind.choices[0] if isinstance(kind, click.Choice)
+                else valid_value(kind) if isinstance(kind, (click.types.FloatParamType, click.types.IntParamType, Numbers))
+                else str(tmp_path / "placeholder.h5"))
+        filler = [text] * count_of(other)
+        args += filler if isinstance(other, click.Argument) else [other.opts[-1], *filler]
+    return [*args, param.opts[-1], *values]

@@ -8,66 +8,12 @@ import math
 
 import click
 import pytest
-from bad_input_support import assert_refused, few, invoke, leaf_commands
+from bad_input_support import (FLOAT_OPTIONS, INT_OPTIONS, assert_refused, command_line, count_of, element_types,
+                               few, invoke, option_ids, valid_value)
 from hypothesis import given
 from hypothesis import strategies as st
 
 from legplan.cli.options import FiniteFloat, Numbers
-
-
-def _element_types(param) -> list:
-    return list(param.type.types) if isinstance(param.type, click.Tuple) else [param.type]
-
-
-def _is_float_option(param) -> bool:
-    return isinstance(param, click.Option) and any(
-        isinstance(t, (click.types.FloatParamType, Numbers)) for t in _element_types(param))
-
-
-def _is_int_option(param) -> bool:
-    return (isinstance(param, click.Option) and not param.count
-            and any(isinstance(t, click.types.IntParamType) for t in _element_types(param)))
-
-
-FLOAT_OPTIONS = [(path, command, param) for path, command in leaf_commands()
-                 for param in command.params if _is_float_option(param)]
-INT_OPTIONS = [(path, command, param) for path, command in leaf_commands()
-               for param in command.params if _is_int_option(param)]
-
-
-def _ids(cases):
-    return [f"{' '.join(path)} {param.opts[-1]}" for path, _, param in cases]
-
-
-def _count(param) -> int:
-    if isinstance(param.type, Numbers):
-        return min(param.type.counts)
-    return len(param.type.types) if isinstance(param.type, click.Tuple) else max(param.nargs, 1)
-
-
-def _valid(kind) -> str:
-    """A value `kind` accepts: inside its range, away from the bounds."""
-    low, high = getattr(kind, "min", None), getattr(kind, "max", None)
-    if low is not None and high is not None:
-        return str((low + high) // 2 if isinstance(kind, click.IntRange) else (low + high) / 2)
-    if low is not None:
-        return str(low + 1)
-    return str(high - 1) if high is not None else "0.5"
-
-
-def _command_line(path, command, param, values: list[str], tmp_path) -> list[str]:
-    """`path` with placeholders for every other required parameter and `param` given `values`."""
-    args = [*path]
-    for other in command.params:
-        if other is param or not other.required:
-            continue
-        kind = _element_types(other)[0]
-        text = (kind.choices[0] if isinstance(kind, click.Choice)
-                else _valid(kind) if isinstance(kind, (click.types.FloatParamType, click.types.IntParamType, Numbers))
-                else str(tmp_path / "placeholder.h5"))
-        filler = [text] * _count(other)
-        args += filler if isinstance(other, click.Argument) else [other.opts[-1], *filler]
-    return [*args, param.opts[-1], *values]
 
 
 def _bad_floats(kind) -> list[str]:
@@ -82,36 +28,36 @@ def _bad_floats(kind) -> list[str]:
 def test_every_float_option_is_a_finite_type_and_every_int_option_bounded():
     assert len(FLOAT_OPTIONS) >= 20  # the enumeration itself found the numeric options
     for path, _, param in FLOAT_OPTIONS:
-        for kind in _element_types(param):
+        for kind in element_types(param):
             assert isinstance(kind, (FiniteFloat, Numbers)), f"{' '.join(path)} {param.opts[-1]}: {kind!r}"
     for path, _, param in INT_OPTIONS:
         kind = param.type
         assert isinstance(kind, click.IntRange) and kind.min is not None, f"{' '.join(path)} {param.opts[-1]}"
 
 
-@pytest.mark.parametrize("path, command, param", FLOAT_OPTIONS, ids=_ids(FLOAT_OPTIONS))
+@pytest.mark.parametrize("path, command, param", FLOAT_OPTIONS, ids=option_ids(FLOAT_OPTIONS))
 def test_bad_float_option_values_are_refused(tmp_path, path, command, param):
     out = tmp_path / "placeholder.h5"
-    count = _count(param)
+    count = count_of(param)
     for position in range(count):
-        kind = _element_types(param)[min(position, len(_element_types(param)) - 1)]
+        kind = element_types(param)[min(position, len(element_types(param)) - 1)]
         for bad in _bad_floats(kind):
-            values = [_valid(kind)] * count
+            values = [valid_value(kind)] * count
             values[position] = bad
-            result = invoke(_command_line(path, command, param, values, tmp_path))
+            result = invoke(command_line(path, command, param, values, tmp_path))
             assert_refused(result, f"'{param.opts[-1]}'", output=out)
 
 
-@pytest.mark.parametrize("path, command, param", INT_OPTIONS, ids=_ids(INT_OPTIONS))
+@pytest.mark.parametrize("path, command, param", INT_OPTIONS, ids=option_ids(INT_OPTIONS))
 def test_bad_int_option_values_are_refused(tmp_path, path, command, param):
     out = tmp_path / "placeholder.h5"
     for bad in ["nan", "inf", "1.5", "abc", "", str(param.type.min - 1)]:
-        result = invoke(_command_line(path, command, param, [bad], tmp_path))
+        result = invoke(command_line(path, command, param, [bad], tmp_path))
         assert_refused(result, f"'{param.opts[-1]}'", output=out)
 
 
 KINDS = sorted({(k.min, k.max, k.min_open, k.max_open) for _, _, p in FLOAT_OPTIONS
-                for k in _element_types(p) if isinstance(k, FiniteFloat)}, key=str)
+                for k in element_types(p) if isinstance(k, FiniteFloat)}, key=str)
 
 
 @few(30)
@@ -137,7 +83,7 @@ def test_finite_float_accepts_exactly_the_finite_values_in_range(bounds, value):
 def test_any_non_finite_spelling_is_refused_by_any_float_option(tmp_path_factory, case, bad):
     path, command, param = case
     tmp_path = tmp_path_factory.mktemp("opt")
-    values = [_valid(_element_types(param)[0])] * _count(param)
+    values = [valid_value(element_types(param)[0])] * count_of(param)
     values[-1] = bad
-    result = invoke(_command_line(path, command, param, values, tmp_path))
+    result = invoke(command_line(path, command, param, values, tmp_path))
     assert_refused(result, f"'{param.opts[-1]}'", output=tmp_path / "placeholder.h5")

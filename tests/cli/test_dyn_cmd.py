@@ -124,10 +124,10 @@ def test_tasks_file_records_an_infeasible_task_as_failed(planned, tmp_path):
 
 @pytest.mark.parametrize("args, message", [
     (["--gait", "gallop"], "command line: field 'gait' must be one of walk, trot, got 'gallop'"),
-    (["--duration", "-1"], "Invalid value for '--duration': -1.0 is not in the range x>0"),
-    (["--strides", "0"], "Invalid value for '--strides': 0 is not in the range x>=1"),
+    (["--duration", "-1"], "Invalid value for '--duration': -1.0 is not in the range 0.01<=x<=3600.0"),
+    (["--strides", "0"], "Invalid value for '--strides': 0 is not in the range 1<=x<=10000"),
     (["--start", "nan", "0", "0"], "Invalid value for '--start': 'nan' is not a finite number"),
-    (["--goal", "1", "inf", "0"], "Invalid value for '--goal': 'inf' is not a finite number"),
+    (["--goal", "1", "inf", "0"], "Invalid value for '--goal': inf is not in the range -10000.0<=x<=10000.0"),
     (["--goal", "3", "0", "0"], "command line: field 'goal' (3, 0, 0) puts the base at (3.000, 0.000) off the map"),
     (["--start", "1", "0.5", "0"], "command line: field 'start' (1, 0.5, 0) is in a wall of the map"),
     (["--robot", "scarab2"], "robots/scarab2/robot.yaml: field 'centroidal' is missing"),

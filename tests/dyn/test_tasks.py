@@ -119,7 +119,7 @@ def test_costs_presets_and_files(tmp_path):
     params = dyn_params(str(good))
     assert params.costs.base_angular_velocity == 2.0 and params.costs.force_rate == 0.5 and params.costs.force == 0.0
     assert params.swing_height_min == 0.04 and params.base_clearance is None
-    for text, message in (("force: -1\n", "field 'force' out of range: -1.0"), ("stair_edge_sigma: 0\n", "field 'stair_edge_sigma' must be > 0"),
+    for text, message in (("force: -1\n", "field 'force' must be >= 0"), ("stair_edge_sigma: 0\n", "field 'stair_edge_sigma' must be > 0"),
                           ("speed: 1\n", "field 'speed' is unknown"), ("force: .nan\n", "field 'force' must be a finite number")):
         good.write_text(text)
         with pytest.raises(SpecError, match=f"^{good}: {message}"):
@@ -128,7 +128,7 @@ def test_costs_presets_and_files(tmp_path):
     params = dyn_params(str(good))  # the preset's fields unless given; null switches a constraint off
     assert params == replace(PAPER, costs=replace(PAPER.costs, force_rate=0.5), leg_clearance=0.06, base_clearance=None)
     for text, message in (("preset: towr\n", "field 'preset' must be one of paper, none"),
-                          ("preset: paper\nleg_clearance: -0.01\n", "field 'leg_clearance' out of range: -0.01")):
+                          ("preset: paper\nleg_clearance: -0.01\n", "field 'leg_clearance' must be >= 0")):
         good.write_text(text)
         with pytest.raises(SpecError, match=f"^{good}: {message}"):
             dyn_params(str(good))

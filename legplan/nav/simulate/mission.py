@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from legplan.parameters import Parameters, param
+from legplan.parameters import YAW, Parameters, param
 
 YAW_POLICIES = ("velocity", "target", "heading")
 
@@ -27,7 +27,7 @@ class NavRunParams(Parameters):
     rate: float = param(10.0, "(0, inf)", doc="Hz, TEB cycles")
     substeps: int = param(10, "[1, 10000]", doc="robot integration steps per cycle")
     window: float = param(5.0, "(0, inf)", doc="m of global path in the local band")
-    sensing_radius: float = param(4.0, "[0, inf)", doc="m")
+    sensing_radius: float = param(4.0, "[0, 1000]", doc="m")
     goal_tolerance: float = param(0.1, "(0, inf)", doc="m")
     heading_tolerance: float = param(0.1, "(0, inf)", doc="rad")
     stop_speed: float = param(0.05, "(0, inf)", doc="m/s, \"at rest\" for arrival at a via point")
@@ -40,6 +40,6 @@ class NavRunParams(Parameters):
     yaw: str = param("velocity", YAW_POLICIES,
                      doc="yaw policy on the way: \"velocity\", \"target\" (face `target`) or \"heading\"")
     target: tuple[float, float] | None = None  # world point faced with yaw "target"
-    heading: float = 0.0  # rad, held with yaw "heading"
+    heading: float = param(0.0, YAW, doc="rad, held with yaw \"heading\"")
     clearance_margin: float = param(0.1, "[0, inf)", doc="m the TEB keeps beyond the collision radius "
                                     "(soft obstacle term, tracking lag)")
