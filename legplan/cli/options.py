@@ -85,6 +85,17 @@ class NumbersOption(click.Option):
             option.process = process
 
 
+def _pose(ctx, param, value):
+    return None if value is None else (*value, 0.0)[:3]
+
+
+def pose_opt(*names: str, help: str, required: bool = False):
+    """The one arity rule of a body pose: `X Y [YAW]` (m, m, rad), yaw 0 when left out; the
+    command gets `(x, y, yaw)` or None. (A position is `X Y`, `NumbersOption` with counts (2,).)"""
+    return click.option(*names, cls=NumbersOption, counts=(2, 3), required=required, default=None,
+                        metavar="X Y [YAW]", callback=_pose, help=f"{help} (m, m, rad; yaw 0 if left out).")
+
+
 def _is_number(text: str) -> bool:
     try:
         float(text)

@@ -6,7 +6,7 @@
       - name: map
         command: [map, build, "{maps}/gap_crossing.yaml"]
         inputs: ["{maps}/gap_crossing.yaml"]
-        output: map.h5                    # relative to --out; a directory when it ends in "/"
+        output: map.h5                    # relative to -o/--output; a directory when it ends in "/"
         params:                           # extra CLI options:
           seed: 3                         #   --seed 3
           start: [-0.6, 0.0, 0.0]         #   --start -0.6 0.0 0.0 (one option, several values)
@@ -150,9 +150,9 @@ def _parse_stage(path: Path, index: int, raw) -> StageSpec:
         raise SpecError(f"{path}: field '{where}.inputs' must be a list of paths")
     output = raw.get("output")
     if not isinstance(output, str) or not output.strip("/"):
-        raise SpecError(f"{path}: missing field '{where}.output' (a path relative to --out)")
+        raise SpecError(f"{path}: missing field '{where}.output' (a path relative to the output directory -o)")
     if Path(output).is_absolute() or ".." in Path(output).parts:
-        raise SpecError(f"{path}: field '{where}.output' must stay inside --out, got {output!r}")
+        raise SpecError(f"{path}: field '{where}.output' must stay inside the output directory (-o), got {output!r}")
     params = raw.get("params") or {}
     if not isinstance(params, dict):
         raise SpecError(f"{path}: field '{where}.params' must map option names to values")
