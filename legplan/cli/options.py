@@ -104,6 +104,25 @@ def _is_number(text: str) -> bool:
     return True
 
 
+class ShippedPath(click.ParamType):
+    """An input file that may also name a shipped scenario of `kind` ("maps", "pipelines", "tasks"):
+    `gap_crossing` or `maps/gap_crossing.yaml` from any directory (`legplan.shipped`)."""
+
+    name = "path"
+
+    def __init__(self, kind: str):
+        self.kind = kind
+
+    def convert(self, value, param, ctx):
+        from legplan.errors import LegplanError
+        from legplan.shipped import resolve_shipped
+
+        try:
+            return str(resolve_shipped(value, self.kind))
+        except LegplanError as exc:
+            self.fail(str(exc), param, ctx)
+
+
 def _set_verbose(ctx, param, value):
     if value:
         set_verbosity(max(verbosity(), 0) + value)

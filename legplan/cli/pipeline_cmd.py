@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from legplan.cli.options import jobs_opt, verbosity_opts
+from legplan.cli.options import ShippedPath, jobs_opt, verbosity_opts
 
 _STYLE = {"ran": "green", "items_failed": "yellow", "up_to_date": "dim", "failed": "bold red",
           "skipped": "red"}
@@ -46,7 +46,7 @@ def _out_dir(pipeline_file: str, out_dir: str | None, legacy_out: str | None) ->
 
 
 @command.command("run")
-@click.argument("pipeline_file", metavar="PIPELINE", type=click.Path(dir_okay=False))
+@click.argument("pipeline_file", metavar="PIPELINE", type=ShippedPath("pipelines"))
 @_output_opts
 @click.option("--overwrite", is_flag=True, help="Rerun every stage, replacing its output, even if up to date.")
 @click.option("--force", "legacy_force", is_flag=True, hidden=True, help="Deprecated spelling of --overwrite.")
@@ -56,6 +56,7 @@ def _out_dir(pipeline_file: str, out_dir: str | None, legacy_out: str | None) ->
 @click.pass_context
 def run_cmd(ctx, pipeline_file, out_dir, legacy_out, overwrite, legacy_force, dry_run, jobs):
     """Run PIPELINE's stages in dependency order (exit 1 if a stage failed, 2 on a bad pipeline file).
+    PIPELINE is a file or a shipped pipeline's name (gap_crossing, pallet_climb, ...).
 
     A stage is skipped when its output's recorded provenance (command, params, input sha256)
     matches what would run now; timestamps are never used.
@@ -102,7 +103,7 @@ def _check_commands(pipeline, out: Path) -> None:
 
 
 @command.command("show")
-@click.argument("pipeline_file", metavar="PIPELINE", type=click.Path(dir_okay=False))
+@click.argument("pipeline_file", metavar="PIPELINE", type=ShippedPath("pipelines"))
 @_output_opts
 @verbosity_opts
 def show_cmd(pipeline_file, out_dir, legacy_out):
