@@ -28,7 +28,7 @@ EXIT_BAD_INPUT = 2
 EXIT_PIPE_CLOSED = 141
 
 # One module per command group under legplan/cli/, each exposing `command`.
-COMMAND_MODULES = ("inspect_cmd", "step_cmd", "pipeline_cmd", "robot_cmd", "steps_cmd", "map_cmd", "report_cmd", "nav_cmd", "compare_cmd", "baseline_cmd", "dyn_cmd", "learn_cmd")
+COMMAND_MODULES = ("inspect_cmd", "step_cmd", "pipeline_cmd", "robot_cmd", "steps_cmd", "map_cmd", "report_cmd", "nav_cmd", "compare_cmd", "baseline_cmd", "dyn_cmd", "learn_cmd", "export_cmd")
 
 
 class OneLineUsageError(click.ClickException):
