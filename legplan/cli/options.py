@@ -106,7 +106,9 @@ def _is_number(text: str) -> bool:
 
 class ShippedPath(click.ParamType):
     """An input file that may also name a shipped scenario of `kind` ("maps", "pipelines", "tasks"):
-    `gap_crossing` or `maps/gap_crossing.yaml` from any directory (`legplan.shipped`)."""
+    `gap_crossing` or `maps/gap_crossing.yaml` from any directory (`legplan.shipped`). A bare name
+    that is neither is refused here with the closest shipped names; a missing path is left to the
+    command's reader, whose message names the file (and, in a pipeline, its field)."""
 
     name = "path"
 
@@ -120,6 +122,8 @@ class ShippedPath(click.ParamType):
         try:
             return str(resolve_shipped(value, self.kind))
         except LegplanError as exc:
+            if "/" in str(value):
+                return str(value)
             self.fail(str(exc), param, ctx)
 
 
