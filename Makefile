@@ -13,10 +13,10 @@ OUT ?= outputs
 
 run: install
 	$(VENV)/bin/legplan --version
-	$(VENV)/bin/legplan pipeline run pipelines/gap_crossing.yaml --out $(OUT)/gap_crossing
-	$(VENV)/bin/legplan pipeline run pipelines/nav_30m.yaml --out $(OUT)/nav_30m
-	$(VENV)/bin/legplan pipeline run pipelines/compare_baselines.yaml --out $(OUT)/compare_baselines
-	$(VENV)/bin/legplan pipeline run pipelines/pallet_climb.yaml --out $(OUT)/pallet_climb
+	$(VENV)/bin/legplan pipeline run pipelines/gap_crossing.yaml -o $(OUT)/gap_crossing
+	$(VENV)/bin/legplan pipeline run pipelines/nav_30m.yaml -o $(OUT)/nav_30m
+	$(VENV)/bin/legplan pipeline run pipelines/compare_baselines.yaml -o $(OUT)/compare_baselines
+	$(VENV)/bin/legplan pipeline run pipelines/pallet_climb.yaml -o $(OUT)/pallet_climb
 	@echo "reports: $(OUT)/{gap_crossing,nav_30m,compare_baselines,pallet_climb}/report/index.html"
 
 test: install test-system-packages

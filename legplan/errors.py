@@ -15,3 +15,15 @@ class ArtefactError(LegplanError):
 
 class SpecError(LegplanError):
     """A YAML/CSV/JSON input spec is invalid; the message names the file and the field."""
+
+
+def did_you_mean(word: str, choices, cutoff: float = 0.6) -> str:
+    """`" (did you mean 'x'?)"` naming the choices closest to `word` (case-insensitive, at most
+    two), or "" when none is close: the hint of every unknown name (robots, commands)."""
+    import difflib
+
+    by_lower = {}
+    for choice in choices:
+        by_lower.setdefault(str(choice).lower(), str(choice))
+    close = difflib.get_close_matches(str(word).lower(), list(by_lower), n=2, cutoff=cutoff)
+    return f" (did you mean {' or '.join(repr(by_lower[c]) for c in close)}?)" if close else ""

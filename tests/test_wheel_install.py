@@ -1,4 +1,5 @@
-"""A plain (non-editable) install works: the wheel carries the shipped robots as package data.
+"""A plain (non-editable) install works: the wheel carries the shipped robots and scenarios (maps,
+pipelines, task spaces) as package data.
 
 The wheel is built from a copy of the package sources, installed with --no-deps into a throwaway
 venv that sees the project venv's dependencies (a .pth file) but neither the repository nor the
@@ -23,13 +24,14 @@ primitives: []
 
 
 def _copy_sources(dest: Path) -> None:
-    """pyproject, README and the package with the robots folder its robot_models link points to."""
+    """pyproject, README and the package with the folders its robot_models and scenarios links point to."""
     dest.mkdir()
     for name in ("pyproject.toml", "README.md"):
         shutil.copy(ROOT / name, dest / name)
     ignore = shutil.ignore_patterns("__pycache__")
     shutil.copytree(ROOT / "legplan", dest / "legplan", symlinks=True, ignore=ignore)
-    shutil.copytree(ROOT / "robots", dest / "robots", ignore=ignore)
+    for folder in ("robots", "maps", "pipelines", "tasks"):
+        shutil.copytree(ROOT / folder, dest / folder, ignore=ignore)
 
 
 def _throwaway_venv(path: Path) -> Path:
@@ -70,6 +72,8 @@ def test_built_wheel_lists_robots_and_plans_outside_the_repository(tmp_path):
     assert f"robots in {(tmp_path / 'venv').resolve()}" in listing and "robot_models" in listing
     assert {"scarab2", "jueying_mini", "anymal"} <= {line.split()[0] for line in listing.splitlines()[1:]}
     assert "broken" not in listing
+    shown = legplan("pipeline", "show", "pallet_climb")  # a shipped pipeline by name, its map beside it
+    assert f"map build {(tmp_path / 'venv').resolve()}" in shown and "single_pallet.yaml" in shown
     (work / "flat.yaml").write_text(FLAT_MAP)
     legplan("map", "build", "flat.yaml", "-o", "map.h5", "-q")
     legplan("steps", "generate", "map.h5", "--robot", "scarab2", "--start", "-0.05", "0", "0",

@@ -14,6 +14,7 @@ SCHEMA_VERSIONS: dict[str, int] = {
     "dataset": 1,
     "init": 1,
     "report": 1,
+    "series": 1,
 }
 
 ROOT_ATTRS = ("legplan_kind", "schema_version", "legplan_version", "created", "command", "params",

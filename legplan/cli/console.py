@@ -139,7 +139,9 @@ class ProgressLines:
         self.written_state = self.state
 
 
-def _count(value: float) -> str:
+def _count(value: float | None) -> str:
+    if value is None:
+        return "?"
     return f"{value:g}" if isinstance(value, float) and not value.is_integer() else f"{int(value)}"
 
 

@@ -15,13 +15,12 @@ import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import (batch_opts, input_artefact, number, output_opt, overwrite_opt, param_opt,
-                                  verbosity_opts, optimize_phases_opt, warm_stage_opt)
-from legplan.cli.options import count, pose
-from legplan.parameters import DURATION
+from legplan.cli.options import (batch_opts, input_artefact, number, output_opt, overwrite_opt, param_opt, pose_opt,
+                                 verbosity_opts, optimize_phases_opt, warm_stage_opt)
+from legplan.cli.options import count
 from legplan.errors import LegplanError
+from legplan.parameters import DURATION
 
-POSE = pose()
 
 
 @click.group("dyn")
@@ -36,8 +35,8 @@ def command():
 @click.option("--gait", default=None, help="walk or trot [default: trot]; a tasks file's default.")
 @click.option("--strides", type=count("strides"), default=None, help="Strides, >= 1 [default: 4]; a tasks file's default.")
 @click.option("--duration", type=number(DURATION), default=None, help="Total duration (s) [default: 2.4]; a tasks file's default.")
-@click.option("--start", type=POSE, default=None, metavar="X Y YAW", help="Start base pose (m, m, rad).")
-@click.option("--goal", type=POSE, default=None, metavar="X Y YAW", help="Goal base pose (m, m, rad).")
+@pose_opt("--start", help="Start base pose")
+@pose_opt("--goal", help="Goal base pose")
 @click.option("--tasks", "tasks_path", type=click.Path(dir_okay=False), default=None,
               help="CSV or YAML tasks file, one task per row: start_x,start_y,start_yaw,goal_x,goal_y,goal_yaw "
                    "[,gait,strides,duration] (instead of --start/--goal).")

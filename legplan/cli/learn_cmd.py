@@ -13,8 +13,8 @@ import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import (OutputPath, batch_opts, input_artefact, number, optimize_phases_opt, output_opt,
-                                 overwrite_opt, seed_opt, verbosity_opts, warm_stage_opt)
+from legplan.cli.options import (OutputPath, ShippedPath, batch_opts, input_artefact, number, optimize_phases_opt,
+                                 output_opt, overwrite_opt, seed_opt, verbosity_opts, warm_stage_opt)
 from legplan.cli.options import count as count_option
 from legplan.parameters import COST
 from legplan.errors import LegplanError
@@ -29,7 +29,7 @@ def command():
 
 
 @command.command("dataset")
-@click.argument("space_path", metavar="SPACE", type=click.Path(dir_okay=False))
+@click.argument("space_path", metavar="SPACE", type=ShippedPath("tasks"))
 @click.option("--n", "count", type=count_option("items"), required=True, help="Tasks to sample and solve.")
 @seed_opt
 @click.option("--init", "init", default="heuristic", show_default=True, metavar="heuristic|INIT.h5",
@@ -138,7 +138,7 @@ def _filtered(report: dict) -> str:
 
 
 @command.command("cycle")
-@click.argument("space_path", metavar="SPACE", type=click.Path(dir_okay=False))
+@click.argument("space_path", metavar="SPACE", type=ShippedPath("tasks"))
 @click.option("--cycles", type=count_option("iterations"), default=3, show_default=True, help="Train-and-solve cycles K.")
 @click.option("--n", "count", type=count_option("items"), required=True, help="Tasks X (the same in every cycle).")
 @seed_opt

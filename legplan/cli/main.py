@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib
 import os
+import re
 import select
 import sys
 import traceback
@@ -21,14 +22,14 @@ from legplan import __version__, interrupts
 from legplan.cli.console import set_verbosity, stderr_line, verbosity
 from legplan.cli.guard import guard_commands
 from legplan.cli.options import verbosity_opts
-from legplan.errors import LegplanError
+from legplan.errors import LegplanError, did_you_mean
 
 EXIT_ITEMS_FAILED = 1
 EXIT_BAD_INPUT = 2
 EXIT_PIPE_CLOSED = 141
 
 # One module per command group under legplan/cli/, each exposing `command`.
-COMMAND_MODULES = ("inspect_cmd", "step_cmd", "pipeline_cmd", "robot_cmd", "steps_cmd", "map_cmd", "report_cmd", "nav_cmd", "compare_cmd", "baseline_cmd", "dyn_cmd", "learn_cmd")
+COMMAND_MODULES = ("inspect_cmd", "step_cmd", "pipeline_cmd", "robot_cmd", "steps_cmd", "map_cmd", "report_cmd", "nav_cmd", "compare_cmd", "baseline_cmd", "dyn_cmd", "learn_cmd", "export_cmd")
 
 
 class OneLineUsageError(click.ClickException):
@@ -41,7 +42,31 @@ class OneLineUsageError(click.ClickException):
     def of(cls, error: click.UsageError, ctx: click.Context | None) -> OneLineUsageError:
         context = error.ctx or ctx
         where = f"{context.command_path}: " if context is not None else ""
-        return cls(f"{where}{error.format_message()}")
+        return cls(f"{where}{error.format_message()}{_command_hint(error, context)}")
+
+
+def _command_hint(error: click.UsageError, context: click.Context | None) -> str:
+    """For an unknown command, the closest full command paths (`steps plan` -> 'step plan')."""
+    message = error.format_message()
+    unknown = re.match(r"No such command '(.+?)'\.", message)
+    if unknown is None or context is None or "did you mean" in message.lower():  # click's own hint
+        return ""
+    root = context.find_root()
+    typed = [*context.command_path.split()[1:], unknown.group(1)]
+    same_depth = [path for path in _command_paths(root.command, root) if len(path.split()) == len(typed)]
+    return did_you_mean(" ".join(typed), same_depth)
+
+
+def _command_paths(group: click.Group, ctx: click.Context, prefix: str = "") -> list[str]:
+    """Every command path under `group` ("map build", "step plan", ...), groups included."""
+    paths = []
+    for name in group.list_commands(ctx):
+        sub = group.get_command(ctx, name)
+        path = f"{prefix}{name}"
+        paths.append(path)
+        if isinstance(sub, click.Group):
+            paths.extend(_command_paths(sub, ctx, f"{path} "))
+    return paths
 
     def show(self, file=None) -> None:
         stderr_line(self.format_message(), "Error:")
@@ -151,6 +176,34 @@ def cli():
     """
 
 
+ABBREVIATIONS = ("Fig.", "Figs.", "Eq.", "eq.", "Eqs.", "Sec.", "Tab.", "No.", "e.g.", "i.e.", "cf.", "vs.", "etc.")
+"""Words whose period does not end a sentence (a command's one-line help runs past them)."""
+
+
+def short_help(command: click.Command, limit: int = 45) -> str:
+    """A command's line in its group's list: the first sentence of its help (not cut at "Fig. 3"
+    or "eq. 5" as click's rule cuts it), shortened to `limit` characters at a word."""
+    import textwrap
+
+    words = (command.help or "").partition("\n\n")[0].split()
+    for i, word in enumerate(words):
+        if (word.endswith(".") and word.lstrip("([") not in ABBREVIATIONS
+                and (i + 1 == len(words) or not words[i + 1][0].islower())):
+            words = words[:i + 1]
+            break
+    return textwrap.shorten(" ".join(words), max(limit, 10), placeholder="...", break_on_hyphens=False)
+
+
+def _use_short_help(group: click.Group) -> None:
+    """`short_help` for every command under `group` (one rule for every help listing)."""
+    for sub in group.commands.values():
+        if not sub.short_help:
+            sub.get_short_help_str = lambda limit=45, sub=sub: short_help(sub, limit)
+        if isinstance(sub, click.Group):
+            _use_short_help(sub)
+
+
 for _name in COMMAND_MODULES:
     cli.add_command(importlib.import_module(f"legplan.cli.{_name}").command)
+_use_short_help(cli)
 guard_commands(cli)

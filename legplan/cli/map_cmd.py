@@ -5,7 +5,7 @@ from __future__ import annotations
 import click
 
 from legplan.cli.console import progress_bar, status
-from legplan.cli.options import input_artefact, number, output_opt, overwrite_opt, verbosity_opts
+from legplan.cli.options import ShippedPath, input_artefact, number, output_opt, overwrite_opt, verbosity_opts
 from legplan.cli.options import pose
 from legplan.parameters import LENGTH, RESOLUTION, SCALE
 
@@ -17,12 +17,13 @@ def command():
 
 
 @command.command("build")
-@click.argument("spec", type=click.Path(dir_okay=False))
+@click.argument("spec", type=ShippedPath("maps"))
 @output_opt
 @overwrite_opt
 @verbosity_opts
 def build(spec, output, overwrite):
-    """Build a map from a YAML SPEC (maps/*.yaml): heightmap, SDF, footholds, occupancy, costmap."""
+    """Build a map from a YAML SPEC (a path, or a shipped map by name: gap_crossing, flat, ...):
+    heightmap, SDF, footholds, occupancy, costmap."""
     from legplan.artefacts import check_output
     from legplan.terrain import build_map, save_map
 
@@ -35,7 +36,7 @@ def build(spec, output, overwrite):
 
 @command.command("import")
 @click.argument("kind", type=click.Choice(["ros", "movingai", "heightmap"]))
-@click.argument("path", type=click.Path(dir_okay=False))
+@click.argument("path", type=ShippedPath("maps"))
 @output_opt
 @click.option("--resolution", type=number(RESOLUTION), help="Cell size (m); required for movingai and heightmap "
                                                  "(ros maps carry their own).")

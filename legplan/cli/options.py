@@ -120,12 +120,46 @@ the physical range of each position (default x, y, yaw; the last repeats)."""
             option.process = process
 
 
+def _pose(ctx, param, value):
+    return None if value is None else (*value, 0.0)[:3]
+
+
+def pose_opt(*names: str, help: str, required: bool = False):
+    """The one arity rule of a body pose: `X Y [YAW]` (m, m, rad), yaw 0 when left out; the
+    command gets `(x, y, yaw)` or None. (A position is `X Y`, `NumbersOption` with counts (2,).)"""
+    return click.option(*names, cls=NumbersOption, counts=(2, 3), required=required, default=None,
+                        metavar="X Y [YAW]", callback=_pose, help=f"{help} (m, m, rad; yaw 0 if left out).")
+
+
 def _is_number(text: str) -> bool:
     try:
         float(text)
     except ValueError:
         return False
     return True
+
+
+class ShippedPath(click.ParamType):
+    """An input file that may also name a shipped scenario of `kind` ("maps", "pipelines", "tasks"):
+    `gap_crossing` or `maps/gap_crossing.yaml` from any directory (`legplan.shipped`). A bare name
+    that is neither is refused here with the closest shipped names; a missing path is left to the
+    command's reader, whose message names the file (and, in a pipeline, its field)."""
+
+    name = "path"
+
+    def __init__(self, kind: str):
+        self.kind = kind
+
+    def convert(self, value, param, ctx):
+        from legplan.errors import LegplanError
+        from legplan.shipped import resolve_shipped
+
+        try:
+            return str(resolve_shipped(value, self.kind))
+        except LegplanError as exc:
+            if "/" in str(value):
+                return str(value)
+            self.fail(str(exc), param, ctx)
 
 
 def _set_verbose(ctx, param, value):

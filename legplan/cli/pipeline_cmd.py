@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from legplan.cli.options import jobs_opt, verbosity_opts
+from legplan.cli.options import ShippedPath, jobs_opt, verbosity_opts
 
 _STYLE = {"ran": "green", "items_failed": "yellow", "up_to_date": "dim", "failed": "bold red",
           "skipped": "red"}
@@ -22,17 +22,41 @@ def _default_out(pipeline_file: str) -> Path:
     return Path("outputs") / Path(pipeline_file).stem
 
 
+def _output_opts(func):
+    """`-o/--output DIR` of a pipeline's outputs, with `--out` kept as a hidden deprecated alias."""
+    func = click.option("--out", "legacy_out", type=click.Path(file_okay=False), default=None, hidden=True,
+                        help="Deprecated spelling of -o/--output.")(func)
+    return click.option("-o", "--output", "out_dir", type=click.Path(file_okay=False), default=None,
+                        help="Output directory (default: outputs/<pipeline file stem>).")(func)
+
+
+def _deprecated(old: str, new: str) -> None:
+    from legplan.cli.console import stderr_line
+
+    stderr_line(f"{old} is deprecated; use {new}", "Warning:", "yellow")
+
+
+def _out_dir(pipeline_file: str, out_dir: str | None, legacy_out: str | None) -> Path:
+    if legacy_out is not None:
+        _deprecated("--out", "-o/--output")
+        if out_dir is not None and out_dir != legacy_out:
+            raise click.UsageError("give the output directory once (-o/--output)")
+        out_dir = legacy_out
+    return Path(out_dir) if out_dir else _default_out(pipeline_file)
+
+
 @command.command("run")
-@click.argument("pipeline_file", metavar="PIPELINE", type=click.Path(dir_okay=False))
-@click.option("--out", "out_dir", type=click.Path(file_okay=False), default=None,
-              help="Output directory (default: outputs/<pipeline file stem>).")
-@click.option("--force", is_flag=True, help="Rerun every stage even if up to date.")
+@click.argument("pipeline_file", metavar="PIPELINE", type=ShippedPath("pipelines"))
+@_output_opts
+@click.option("--overwrite", is_flag=True, help="Rerun every stage, replacing its output, even if up to date.")
+@click.option("--force", "legacy_force", is_flag=True, hidden=True, help="Deprecated spelling of --overwrite.")
 @click.option("--dry-run", is_flag=True, help="List what would run and why; run nothing.")
 @jobs_opt
 @verbosity_opts
 @click.pass_context
-def run_cmd(ctx, pipeline_file, out_dir, force, dry_run, jobs):
+def run_cmd(ctx, pipeline_file, out_dir, legacy_out, overwrite, legacy_force, dry_run, jobs):
     """Run PIPELINE's stages in dependency order (exit 1 if a stage failed, 2 on a bad pipeline file).
+    PIPELINE is a file or a shipped pipeline's name (gap_crossing, pallet_climb, ...).
 
     A stage is skipped when its output's recorded provenance (command, params, input sha256)
     matches what would run now; timestamps are never used.
@@ -40,8 +64,11 @@ def run_cmd(ctx, pipeline_file, out_dir, force, dry_run, jobs):
     from legplan.cli.console import progress_bar, stderr_line
     from legplan.pipeline import load_pipeline, plan_run, run_pipeline
 
+    if legacy_force:
+        _deprecated("--force", "--overwrite")
+    force = overwrite or legacy_force
+    out = _out_dir(pipeline_file, out_dir, legacy_out)
     pipeline = load_pipeline(pipeline_file)
-    out = Path(out_dir) if out_dir else _default_out(pipeline_file)
     _check_commands(pipeline, out)
     if dry_run:
         for decision in plan_run(pipeline, out, force=force):
@@ -76,16 +103,15 @@ def _check_commands(pipeline, out: Path) -> None:
 
 
 @command.command("show")
-@click.argument("pipeline_file", metavar="PIPELINE", type=click.Path(dir_okay=False))
-@click.option("--out", "out_dir", type=click.Path(file_okay=False), default=None,
-              help="Output directory (default: outputs/<pipeline file stem>).")
+@click.argument("pipeline_file", metavar="PIPELINE", type=ShippedPath("pipelines"))
+@_output_opts
 @verbosity_opts
-def show_cmd(pipeline_file, out_dir):
+def show_cmd(pipeline_file, out_dir, legacy_out):
     """Print PIPELINE's stages in run order with their resolved commands and dependencies."""
     from legplan.pipeline import load_pipeline, resolve_stage
 
+    out = _out_dir(pipeline_file, out_dir, legacy_out)
     pipeline = load_pipeline(pipeline_file)
-    out = Path(out_dir) if out_dir else _default_out(pipeline_file)
     for spec in pipeline.stages:
         stage = resolve_stage(pipeline, spec, out)
         after = f" (after {', '.join(stage.depends_on)})" if stage.depends_on else ""

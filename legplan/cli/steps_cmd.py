@@ -5,9 +5,9 @@ from __future__ import annotations
 import click
 
 from legplan.cli.console import progress_bar, status, stderr_line
-from legplan.cli.options import (input_artefact, number, output_opt, overwrite_opt, param_opt, seed_opt,
+from legplan.cli.options import (input_artefact, number, output_opt, overwrite_opt, param_opt, pose_opt, seed_opt,
                                  verbosity_opts)
-from legplan.cli.options import count, pose
+from legplan.cli.options import count
 from legplan.parameters import LENGTH
 
 
@@ -64,8 +64,8 @@ def import_cmd(path, robot_name, map_path, strict, foot_tolerance, output, overw
 @command.command("generate")
 @click.argument("map_path", type=input_artefact)
 @click.option("--robot", "robot_name", required=True, help="Robot name (e.g. scarab2) or robot.yaml path.")
-@click.option("--start", type=pose(), required=True, metavar="X Y YAW", help="Start body pose.")
-@click.option("--goal", type=pose(), required=True, metavar="X Y YAW", help="Goal body pose.")
+@pose_opt("--start", required=True, help="Start body pose")
+@pose_opt("--goal", required=True, help="Goal body pose")
 @click.option("--max-moves", type=count("iterations"), default=200, show_default=True)
 @param_opt("Override a generator parameter (legplan.stepseq.GenerateParams: lift_height, clearance, "
            "com_margin, reach_slack, candidates, backtracks, ...; e.g. --param lift_height=0.08).")

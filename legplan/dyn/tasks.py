@@ -103,6 +103,10 @@ def _cell(text: str):
 
 def _yaml_rows(path: Path) -> list[dict]:
     data = read_yaml(path, "tasks file")
+    if isinstance(data, dict) and "tasks" not in data and {"start", "goal"} <= set(data):
+        raise SpecError(f"{path}: is a learn task space (fields 'start' and 'goal' as ranges, read by "
+                        f"`legplan learn dataset`), not a tasks file; --tasks takes one task per row with "
+                        f"fields {', '.join(POSE_FIELDS)} (or give --start X Y [YAW] --goal X Y [YAW])")
     if isinstance(data, dict):
         FieldReader(path).unknown(data, ("tasks",))
         data = data.get("tasks")

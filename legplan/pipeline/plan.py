@@ -44,17 +44,23 @@ class StageDecision:
 
 
 def stage_outputs(pipeline: Pipeline, out_dir: Path) -> dict[str, Path]:
-    """Absolute output path of every stage."""
-    return {stage.name: _norm(out_dir / stage.output) for stage in pipeline.stages}
+    """Absolute output path of every stage: relative to `out_dir`, or under the directory of the
+    `{var}` it starts with (an output shared with another pipeline, `legplan.pipeline.spec`)."""
+    variables = _variables(pipeline, out_dir)
+    return {stage.name: _norm(out_dir / _substitute(stage.output, variables, {})) for stage in pipeline.stages}
+
+
+def _variables(pipeline: Pipeline, out_dir: Path) -> dict[str, str]:
+    """`vars` with `{pipeline_dir}` and `{out}` filled in, and those two built-ins."""
+    builtins = {"pipeline_dir": str(_norm(pipeline.path.parent)), "out": str(_norm(out_dir))}
+    return {**{name: _substitute(value, builtins, {}) for name, value in pipeline.vars.items()}, **builtins}
 
 
 def resolve_stage(pipeline: Pipeline, stage: StageSpec, out_dir: str | os.PathLike) -> ResolvedStage:
     """Substitute `{var}` and `{stages.X.output}`; render params as options; make paths absolute."""
     out_dir = _norm(Path(out_dir))
     outputs = stage_outputs(pipeline, out_dir)
-    builtins = {"pipeline_dir": str(_norm(pipeline.path.parent)), "out": str(out_dir)}
-    variables = {name: _substitute(value, builtins, {}) for name, value in pipeline.vars.items()}
-    variables.update(builtins)
+    variables = _variables(pipeline, out_dir)
 
     def fill(text: str) -> str:
         filled = _substitute(text, variables, outputs)

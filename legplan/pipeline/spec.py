@@ -6,7 +6,7 @@
       - name: map
         command: [map, build, "{maps}/gap_crossing.yaml"]
         inputs: ["{maps}/gap_crossing.yaml"]
-        output: map.h5                    # relative to --out; a directory when it ends in "/"
+        output: map.h5                    # relative to -o/--output; a directory when it ends in "/"
         params:                           # extra CLI options:
           seed: 3                         #   --seed 3
           start: [-0.6, 0.0, 0.0]         #   --start -0.6 0.0 0.0 (one option, several values)
@@ -20,6 +20,11 @@
 
 Placeholders: `{VAR}` for an entry of `vars` (or the built-ins `pipeline_dir`, `out`) and
 `{stages.NAME.output}` for another stage's output, which also makes that stage a dependency.
+
+An `output` may start with a `{VAR}` naming a directory shared with another pipeline, e.g.
+`vars: {gap: "{out}/../gap_crossing"}` and `output: "{gap}/steps.h5"`: a stage written exactly as
+that pipeline's (same command, params, inputs) is then up to date after either pipeline ran it, so
+pipelines run side by side (`make run`) compute it once.
 Every path is made absolute, so recorded provenance and argv do not depend on the working directory.
 """
 
@@ -150,9 +155,9 @@ def _parse_stage(path: Path, index: int, raw) -> StageSpec:
         raise SpecError(f"{path}: field '{where}.inputs' must be a list of paths")
     output = raw.get("output")
     if not isinstance(output, str) or not output.strip("/"):
-        raise SpecError(f"{path}: missing field '{where}.output' (a path relative to --out)")
+        raise SpecError(f"{path}: missing field '{where}.output' (a path relative to the output directory -o)")
     if Path(output).is_absolute() or ".." in Path(output).parts:
-        raise SpecError(f"{path}: field '{where}.output' must stay inside --out, got {output!r}")
+        raise SpecError(f"{path}: field '{where}.output' must stay inside the output directory (-o), got {output!r}")
     params = raw.get("params") or {}
     if not isinstance(params, dict):
         raise SpecError(f"{path}: field '{where}.params' must map option names to values")
@@ -184,6 +189,12 @@ def _param_texts(params: dict):
 def _check_placeholders(path: Path, stage: StageSpec, variables: set[str], stages: set[str]) -> None:
     fields = [("command", t) for t in stage.command] + [("inputs", t) for t in stage.inputs]
     fields += [("params", t) for t in _param_texts(stage.params)]
+    shared = _PLACEHOLDER.match(stage.output)
+    if shared is not None and _STAGE_REF.fullmatch(shared.group(1)):
+        raise SpecError(f"{path}: field 'stages.{stage.name}.output' may start with a variable, not a stage's output")
+    if [m.start() for m in _PLACEHOLDER.finditer(stage.output)] not in ([], [0]):
+        raise SpecError(f"{path}: field 'stages.{stage.name}.output' may use a variable only at its start")
+    fields += [("output", stage.output)] if shared is not None else []
     for field_name, text in fields:
         for match in _PLACEHOLDER.finditer(text):
             key = match.group(1)

@@ -48,9 +48,17 @@ class ReportResult:
         return sum(len(s.failures) for s in self.sections)
 
 
+FILE_SUFFIXES = (".html", ".htm", ".h5", ".hdf5", ".png", ".pdf", ".json")
+"""Suffixes of a file path given as a report's output directory (refused)."""
+
+
 def check_report_dir(directory: str | os.PathLike, overwrite: bool) -> Path:
-    """Fail early when `directory` exists and may not be replaced."""
+    """Fail early when `directory` exists and may not be replaced, or names a file (`report.html`):
+    a report is a directory (index.html, its figures, report.h5)."""
     directory = Path(directory)
+    if directory.suffix.lower() in FILE_SUFFIXES:
+        raise ArtefactError(f"{directory}: a report is a directory holding index.html and its figures; "
+                            f"give a directory (-o {directory.with_suffix('')}/)")
     if directory.exists():
         if not directory.is_dir():
             raise ArtefactError(f"{directory}: report output exists and is not a directory")

@@ -19,7 +19,7 @@ from pathlib import Path
 
 from typing import TYPE_CHECKING
 
-from legplan.errors import LegplanError
+from legplan.errors import LegplanError, did_you_mean
 
 if TYPE_CHECKING:
     from legplan.robots.model import RobotModel
@@ -105,14 +105,19 @@ def resolve_robot(robot: str | os.PathLike) -> Path:
     if path.is_file():
         return path
     if isinstance(robot, str) and os.sep not in robot and not robot.endswith((".yaml", ".yml")):
-        folder = _candidate_folders().get(robot)
+        candidates = _candidate_folders()
+        folder = candidates.get(robot)
+        if folder is None:  # names are matched case-insensitively when that leaves one robot
+            same = [f for name, f in candidates.items() if name.lower() == robot.lower()]
+            folder = same[0] if len(same) == 1 else None
         if folder is not None:
             if not (folder / SPEC_NAME).is_file():
                 raise LegplanError(_missing_spec(folder))
             return folder / SPEC_NAME
         searched = os.pathsep.join(str(root) for root in robot_search_path())
         known = ", ".join(list_robots()) or "none"
-        raise LegplanError(f"{robot}: unknown robot (searched {searched}; known: {known})")
+        hint = did_you_mean(robot, list_robots())
+        raise LegplanError(f"{robot}: unknown robot{hint} (searched {searched}; known: {known})")
     raise LegplanError(f"{robot}: no such robot folder or {SPEC_NAME}")
 
 

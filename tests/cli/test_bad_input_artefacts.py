@@ -152,6 +152,7 @@ OTHER_ARTEFACT_ARGUMENTS = {  # (command, parameter): (valid kind to truncate, c
     (("compare",), "path_b"): ("steps", ["{steps}", "{bad}"]),
     (("dyn", "show"), "paths"): ("traj", ["{bad}", "-o", "{out}.png"]),
     (("dyn", "simulate"), "traj_path"): ("traj", ["{bad}", "{map}", "-o", "{out}.h5"]),
+    (("export",), "path"): ("traj", ["{bad}", "-o", "{out}.csv"]),
     (("inspect",), "path"): ("nav", ["{bad}"]),
     (("learn", "train"), "dataset_paths"): ("map", ["{bad}", "-o", "{out}.h5"]),
     (("nav", "refine"), "nav_path"): ("nav", ["{map}", "{bad}", "-o", "{out}.h5"]),

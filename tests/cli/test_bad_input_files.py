@@ -24,7 +24,7 @@ TEXT_READERS = {
     ("steps import", ".csv"): ["steps", "import", "{file}", "--robot", "scarab2", "--map", "{map}", "-o", "{out}"],
     ("steps import", ".json"): ["steps", "import", "{file}", "--robot", "scarab2", "--map", "{map}", "-o", "{out}"],
     ("steps import", ".yaml"): ["steps", "import", "{file}", "--robot", "scarab2", "--map", "{map}", "-o", "{out}"],
-    ("pipeline run", ".yaml"): ["pipeline", "run", "{file}", "--out", "{out}"],
+    ("pipeline run", ".yaml"): ["pipeline", "run", "{file}", "-o", "{out}"],
     ("pipeline show", ".yaml"): ["pipeline", "show", "{file}"],
     ("nav search --queries", ".csv"): ["nav", "search", "{map}", "--queries", "{file}", "-o", "{out}"],
     ("baseline nav --queries", ".csv"): ["baseline", "nav", "{map}", "--queries", "{file}", "-o", "{out}"],

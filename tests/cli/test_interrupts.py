@@ -224,7 +224,7 @@ def test_pipeline_interrupted_or_killed_takes_its_stage_along(tmp_path, signum, 
     out = tmp_path / "out"
     out.mkdir()
     (out / "map.h5").write_bytes(OLDER)
-    run = Command("pipeline", "run", tmp_path / "pipe.yaml", "--out", out, pause=30, log=out / "logs" / "map.log")
+    run = Command("pipeline", "run", tmp_path / "pipe.yaml", "-o", out, pause=30, log=out / "logs" / "map.log")
     run.wait_for("building 20x20 cells" if moment == "compute" else PAUSING)
     code, family = run.signal(signum)
     assert code == EXIT[signum], run.text()
@@ -236,7 +236,7 @@ def test_pipeline_interrupted_or_killed_takes_its_stage_along(tmp_path, signum, 
         assert "Interrupted: stopped; nothing published" in run.text()
     if signum == signal.SIGKILL:
         assert len(temporaries(out)) == 1
-        assert Command("pipeline", "run", tmp_path / "pipe.yaml", "--out", out, "-q").finish() == 0
+        assert Command("pipeline", "run", tmp_path / "pipe.yaml", "-o", out, "-q").finish() == 0
         with open_artefact(out / "map.h5", kind="map"):
             pass
     assert temporaries(out) == []

@@ -25,7 +25,7 @@ def test_dry_run_lists_what_would_run_and_why(tmp_path):
     path = write(tmp_path, [
         {"name": "a", "command": ["map", "show", str(spec)], "inputs": [str(spec)], "output": "a.h5"},
         {"name": "b", "command": ["map", "show", "{stages.a.output}"], "output": "b.h5"}])
-    result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "--out", str(tmp_path / "o"),
+    result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "-o", str(tmp_path / "o"),
                                       "--dry-run"])
     assert result.exit_code == 0, result.output
     lines = result.stdout.splitlines()
@@ -44,7 +44,7 @@ def test_dry_run_reports_up_to_date_and_changed_input(tmp_path):
         write_summary(f, {"n": 1})
     path = write(tmp_path, [{"name": "a", "command": ["map", "show", str(src)], "inputs": [str(src)],
                              "output": "a.h5"}])
-    dry = ["pipeline", "run", str(path), "--out", str(out), "--dry-run"]
+    dry = ["pipeline", "run", str(path), "-o", str(out), "--dry-run"]
     assert CliRunner().invoke(cli, dry).stdout.splitlines()[0] == "skip a: up to date"
     src.write_text("y")
     assert CliRunner().invoke(cli, dry).stdout.splitlines()[0] == f"run  a: input changed: {src}"
@@ -54,7 +54,7 @@ def test_failed_stage_exit_1_names_stage_and_reason(tmp_path):
     path = write(tmp_path, [
         {"name": "a", "command": ["map", "show", str(tmp_path / "nothing.h5")], "output": "a.png"},
         {"name": "b", "command": ["map", "show", "{stages.a.output}"], "output": "b.png"}])
-    result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "--out", str(tmp_path / "o"), "-q"])
+    result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "-o", str(tmp_path / "o"), "-q"])
     assert result.exit_code == 1
     assert "stage 'a' failed" in result.stderr
     assert "exit 2" in result.stderr
@@ -77,7 +77,7 @@ def test_stage_the_command_refuses_is_exit_2_before_any_stage_runs(tmp_path, sta
     spec.write_text("resolution: 0.1\nextent: {x: [0, 1], y: [0, 1]}\n")
     path = write(tmp_path, [{"name": "a", "command": ["map", "build", str(spec)], "output": "a.h5"},
                             {"name": "b", "output": "b.png", **stage}])
-    result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "--out", str(tmp_path / "o")])
+    result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "-o", str(tmp_path / "o")])
     assert result.exit_code == 2, result.output
     line, = result.stderr.strip().splitlines()
     assert f"{path}: stage 'b': " in line and problem in line, line
@@ -96,7 +96,7 @@ def test_bad_pipeline_file_exit_2_one_line(tmp_path):
 def test_missing_declared_input_exit_2(tmp_path):
     path = write(tmp_path, [{"name": "a", "command": ["map", "build", str(tmp_path / "no.yaml")],
                              "inputs": [str(tmp_path / "no.yaml")], "output": "a.h5"}])
-    result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "--out", str(tmp_path / "o")])
+    result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "-o", str(tmp_path / "o")])
     assert result.exit_code == 2
     assert "field 'stages.a.inputs'" in result.stderr and "no.yaml does not exist" in result.stderr
 
@@ -105,7 +105,7 @@ def test_show_prints_resolved_commands(tmp_path):
     path = write(tmp_path, [
         {"name": "b", "command": ["inspect", "{stages.a.output}"], "output": "b.h5"},
         {"name": "a", "command": ["inspect", "x"], "output": "a.h5", "params": {"json": True}}])
-    result = CliRunner().invoke(cli, ["pipeline", "show", str(path), "--out", "o"])
+    result = CliRunner().invoke(cli, ["pipeline", "show", str(path), "-o", "o"])
     assert result.exit_code == 0
     first, second = result.stdout.splitlines()
     assert first.startswith("a: legplan inspect x --json -o ") and second.startswith("b (after a): ")
@@ -120,7 +120,7 @@ def test_real_stages_publish_linked_artefacts_then_are_up_to_date(tmp_path):
         {"name": "report", "command": ["report", "{stages.map.output}"], "inputs": ["{stages.map.output}"],
          "output": "report/", "provenance": "report/report.h5", "params": {"title": "flat ground"}}])
     out = tmp_path / "o"
-    result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "--out", str(out)])
+    result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "-o", str(out)])
     assert result.exit_code == 0, result.output
     assert "ran map (no output yet)" in result.stderr and "ran report (no output yet)" in result.stderr
     with open_artefact(out / "map.h5", kind="map") as f:
@@ -131,7 +131,7 @@ def test_real_stages_publish_linked_artefacts_then_are_up_to_date(tmp_path):
         assert read_summary(f)["figures"][0] == 1 and read_summary(f)["figure_failures"][0] == 0
     assert "<title>flat ground</title>" in (out / "report" / "index.html").read_text()
     before = {p: p.read_bytes() for p in (out / "map.h5", out / "report" / "report.h5")}
-    again = CliRunner().invoke(cli, ["pipeline", "run", str(path), "--out", str(out)])
+    again = CliRunner().invoke(cli, ["pipeline", "run", str(path), "-o", str(out)])
     assert again.exit_code == 0, again.output
     assert "map: up to date" in again.stderr and "report: up to date" in again.stderr
     assert {p: p.read_bytes() for p in before} == before

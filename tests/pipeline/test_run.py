@@ -128,3 +128,31 @@ def test_an_interrupt_starts_nothing_more_and_names_what_was_published(tmp_path,
             run(chain, out, jobs=1, on_result=interrupt)
         assert interrupts.interrupted_message() == f"stopped after publishing {out / 'a.h5'}"
     assert sorted(p.name for p in out.iterdir()) == ["a.h5", "logs"]
+
+
+def test_a_stage_shared_through_a_variable_runs_once_for_two_pipelines(tmp_path, write_pipeline):
+    """Pipeline `second` writes its stage `a` to `first`'s output directory (`{shared}/a.h5`) with
+    the same command: after `first` ran, `second` finds `a` up to date and runs only `b`."""
+    (tmp_path / "src.txt").write_text("x\n")
+    stage_a = {"name": "a", "command": ["fake", "make", "{pipeline_dir}/src.txt"], "inputs": ["{pipeline_dir}/src.txt"],
+               "output": "a.h5"}
+    first = write_pipeline({"name": "first", "stages": [stage_a]}, "first.yaml")
+    second = write_pipeline({"name": "second", "vars": {"shared": "{out}/../first"}, "stages": [
+        {**stage_a, "output": "{shared}/a.h5"},
+        {"name": "b", "command": ["fake", "make", "{stages.a.output}"], "inputs": ["{stages.a.output}"],
+         "output": "b.h5"}]}, "second.yaml")
+    assert statuses(run(first, tmp_path / "out" / "first")) == {"a": "ran"}
+    result = run(second, tmp_path / "out" / "second")
+    assert statuses(result) == {"a": "up_to_date", "b": "ran"}
+    assert (tmp_path / "out" / "second" / "b.h5").is_file() and not (tmp_path / "out" / "second" / "a.h5").exists()
+
+
+def test_an_output_may_start_with_a_variable_only(tmp_path, write_pipeline):
+    from legplan.errors import SpecError
+
+    for output, message in (("x/{shared}.h5", "only at its start"), ("{stages.a.output}/b.h5", "not a stage")):
+        path = write_pipeline({"name": "p", "vars": {"shared": "{out}/../o"}, "stages": [
+            {"name": "a", "command": ["fake", "make"], "output": "a.h5"},
+            {"name": "b", "command": ["fake", "make"], "output": output}]})
+        with pytest.raises(SpecError, match=message):
+            load_pipeline(path)

@@ -23,7 +23,7 @@ def stage(name, command=("fake", "make"), **extra):
     ([stage("a", colour="red")], "unknown field 'stages.a.colour'"),
     ([{"name": "r", "command": ["report"], "output": "report/"}], "field 'stages.r.provenance' is required"),
     ([stage("a", params={"x": {"nested": [1]}})], "field 'stages.a.params.x' must be a scalar"),
-    ([{"name": "a", "command": ["x"], "output": "../escape.h5"}], "must stay inside --out"),
+    ([{"name": "a", "command": ["x"], "output": "../escape.h5"}], "must stay inside the output directory"),
 ])
 def test_spec_errors_name_file_and_field(write_pipeline, stages, message):
     path = write_pipeline({"stages": stages})
