@@ -5,14 +5,15 @@ from __future__ import annotations
 import click
 
 from legplan.cli.options import input_artefact, number, output_opt, overwrite_opt, verbosity_opts
+from legplan.parameters import DURATION, RATE
 
 
 @click.command("export")
 @click.argument("path", metavar="ARTEFACT", type=input_artefact)
 @output_opt
-@click.option("--rate", type=number(min=0, min_open=True, max=10000), default=100.0, show_default=True,
+@click.option("--rate", type=number(RATE), default=100.0, show_default=True,
               help="Samples per second.")
-@click.option("--step-duration", type=number(min=0, min_open=True), default=1.0, show_default=True,
+@click.option("--step-duration", type=number(DURATION), default=1.0, show_default=True,
               help="Seconds given to each step of a motion.h5 (its curves are geometric, uniform in s).")
 @overwrite_opt
 @verbosity_opts
