@@ -84,7 +84,11 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_sc
     """Execute every trajectory of TRAJ on MAP in MuJoCo under the whole-body controller; write sim.h5.
 
     Success: no fall (base below half its nominal height above the terrain, tilted > 0.8 rad, or the
-    trunk on the terrain) and the base within 10 cm and 0.2 rad (yaw) of the task's goal after the plan and --settle."""
+    trunk on the terrain) and the base within 10 cm and 0.2 rad (yaw) of the task's goal after the plan and --settle.
+    A task whose plan did not succeed is recorded as skipped, not executed. Contacts: robot.yaml's
+    collision spheres (and the URDF's collision geometry with --urdf-collision). Joint velocity limits
+    are enforced by the motors and the controller; a QP the controller cannot solve falls back to a
+    relaxed QP (counted per task)."""
     import numpy as np
 
     from legplan.artefacts import check_output
