@@ -81,6 +81,23 @@ def test_a_failed_qp_falls_back_to_the_relaxed_qp(robot, flat):
     assert np.abs(tau).max() > 0.5   # the relaxed QP's torques, not zeros
 
 
+def test_joint_damping_is_compensated(robot, flat):
+    """With damping d on the joints the controller's torques are those without, plus d v_j (the same
+    QP optimum, its torque limits shifted by the damping torque)."""
+    sim = build_model(robot, flat[0], 0.5)
+    reference = Reference(standing(robot, 0.2), sim.foot_radius, TerrainModel(flat[0]))
+    data = mujoco.MjData(sim.model)
+    _initial_state(data, sim, robot, reference)
+    q, v = _pinocchio_state(data, sim)
+    v[6:] = np.linspace(-0.5, 0.5, robot.n_joints)
+    ref, feet = reference.at(0.0), touching(data, sim)
+    damping = np.full(robot.n_joints, 2.0)
+    plain = WholeBodyController(robot, sim.effort, 0.5).torques(q, v, ref, feet)
+    damped = WholeBodyController(robot, sim.effort, 0.5, damping=damping).torques(q, v, ref, feet)
+    assert np.abs(plain).max() < 0.8 * sim.effort.min()       # no torque limit active
+    np.testing.assert_allclose(damped - plain, damping * v[6:], atol=1e-5)
+
+
 def test_a_lateral_push_moves_the_robot_and_a_large_one_knocks_it_over(robot, flat):
     still = simulate(standing(robot, 1.5), robot, flat[0], SimParams(settle=0.0))
     small = simulate(standing(robot, 1.5), robot, flat[0], SimParams(settle=0.0, pushes=((0.3, 0.0, 100.0, 0.05),)))
