@@ -67,8 +67,8 @@ class JointValue(click.ParamType):
               help="Let the URDF's own collision geometry touch the terrain too (robot.yaml's spheres always do).")
 @click.option("--package-path", "package_paths", multiple=True,
               type=click.Path(exists=True, file_okay=False, dir_okay=True),
-              help="A folder searched for the ROS packages of `package://` meshes, before ROS_PACKAGE_PATH and "
-                   "the folders above the URDF. Repeatable.")
+              help="A folder searched for the ROS packages of `package://` meshes, before the folders above the "
+                   "URDF and ROS_PACKAGE_PATH. Repeatable.")
 @click.option("--effort", "efforts", type=JointValue(), multiple=True, metavar="JOINT=N·M",
               help="Joint torque limit replacing the URDF's (e.g. a placeholder 1000): a joint name or glob "
                    "pattern, e.g. '*_KFE=2.7'. Repeatable; the last match wins.")
