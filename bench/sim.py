@@ -148,8 +148,8 @@ def run_tasks(robot, terrain_map, tasks, gait, duration, labels):
             result = simulate(planned.samples, robot, terrain_map, SimParams(), goal=goal)
             cpu = time.process_time() - cpu
             if not result.success:   # what-if: the same plan with twice the URDF's joint torque limits
-                row["success_at_2x_torque"] = simulate(planned.samples, robot, terrain_map,
-                                                       SimParams(model=ModelOptions(effort_scale=2.0)), goal=goal).success
+                twice = SimParams(model=ModelOptions(effort_scale=2.0))
+                row["success_at_2x_torque"] = simulate(planned.samples, robot, terrain_map, twice, goal=goal).success
             row.update({"success": result.success, "reason": result.reason, "fall_time": result.fall_time,
                         "rms_position_error": result.rms_position_error,
                         "max_position_error": result.max_position_error,

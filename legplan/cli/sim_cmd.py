@@ -118,7 +118,8 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_sc
             xy = np.concatenate([task["samples"]["base_pos"][:, :2], task["samples"]["feet_pos"][..., :2].reshape(-1, 2)])
             if np.any(xy < lo) or np.any(xy > hi):
                 raise LegplanError(f"{traj_path}: task {int(task['index'])}: trajectory leaves the map {map_path}")
-    options = ModelOptions(urdf_collision=urdf_collision, package_paths=tuple(os.path.abspath(p) for p in package_paths),
+    options = ModelOptions(urdf_collision=urdf_collision,
+                           package_paths=tuple(os.path.abspath(p) for p in package_paths),
                            effort=tuple(efforts), velocity=tuple(velocities))
     params = SimParams(settle=settle, friction=friction, friction_scale=friction_scale, mass_scale=mass_scale,
                        pushes=tuple(tuple(p) for p in pushes), model=options)

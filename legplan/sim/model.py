@@ -82,10 +82,10 @@ class SimModel:
     `model` (mujoco.MjModel); `foot_geoms` (n_legs,) geom ids of the foot spheres in leg order;
     `foot_radius` (n_legs,) m; `body_geoms` geom ids of the other robot geoms (spheres, and the
     URDF's collision geometry when enabled), `trunk_geoms` those of them on the root link or links
-    fixed to it;
-    `terrain_geom`; `root_body` (the URDF's root link); per joint in `robot.joint_names` order: `effort` (N m, the motors' limits),
-    `velocity_limit` (rad/s, inf: none), `damping` (N m s/rad), `armature` (kg m²); `friction` μ;
-    `warnings` (one line each: what was repaired or is not enforced).
+    fixed to it; `terrain_geom`; `root_body` (the URDF's root link); per joint in `robot.joint_names`
+    order: `effort` (N m, the motors' limits), `velocity_limit` (rad/s, inf: none), `damping`
+    (N m s/rad), `armature` (kg m²); `friction` μ; `warnings` (one line each: what was repaired or
+    is not enforced).
     Pinocchio and MuJoCo order the URDF's joints differently: `qpos_index`, `dof_index` (n_joints,)
     are MuJoCo's qpos / qvel addresses of `robot.joint_names`; the motors are in pinocchio's order
     (`data.ctrl` = pinocchio's joint torques)."""

@@ -170,8 +170,8 @@ def anymal_copy(tmp_path_factory):
     traj = folder.parent / "traj.h5"
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("LEGPLAN_ROBOTS", str(folder.parent))
-        result = invoke("dyn", "plan", maps, "--robot", "anymal_mesh", "--start", 0, 0, 0, "--goal", 0.2, 0, 0, "--strides", 2,
-                        "--duration", 1.2, "-o", traj, "-q")
+        result = invoke("dyn", "plan", maps, "--robot", "anymal_mesh", "--start", 0, 0, 0, "--goal", 0.2, 0, 0,
+                        "--strides", 2, "--duration", 1.2, "-o", traj, "-q")
     assert result.exit_code == 0, result.output
     return traj, maps
 
