@@ -26,6 +26,12 @@ tracking of planned trajectories with vs without the TOWR-costs paper's costs (i
   run fails, then halved until the bracket is narrower than the resolution. Survived = reached the
   goal without falling. Every run's QP failures (relaxed-QP fallbacks) and held ticks are recorded.
 
+* Limits and model error (`--limits-only`, the JSON's `limits` entry): the double pallet walk
+  (-1, 0, 0) → (1, 0, 0) in 5.5 s executed under the URDF's 8 rad/s joint velocity limit (peak joint
+  speed over the limit at any 400 Hz tick, time at the limit, time more than 5 % over it), and the
+  1 m flat trot with the simulated friction × 0.6 and the masses × 1.2 (the controller keeps the
+  plan's μ and the URDF's masses), each without and with the paper's costs.
+
 Writes bench/results/sim.json and replaces the `sim` section of BENCHMARKS.md.
 """
 
@@ -60,9 +66,9 @@ PALLET = [((-1.0, 0.3, 0.3), (0.6, 0, 0)), ((-0.8, -0.2, 0.0), (0.6, 0, 0))]
 SETTINGS = {"none": DynParams(), "paper": PAPER, "paper, legs 6 cm": replace(PAPER, leg_clearance=0.06)}
 PUSH_DURATION = 0.1        # s
 PUSH_START = 4.0           # N s, the first impulse tried
-PUSH_CASES = [("flat", "flat trot 1 m", FLAT[0], "trot", 2.4, 0.5), ("single_pallet", "single pallet walk", PALLET[0],
-                                                                    "walk", 5.5, 1.0)]
-"""(map, label, (start, goal), gait, duration s, resolution N s) of the push bisection."""
+PUSH_CASES = [("flat", "flat trot 1 m", FLAT[0], "trot", 2.4, 0.5, ("none", "paper")),
+              ("single_pallet", "single pallet walk", PALLET[0], "walk", 5.5, 1.0, tuple(SETTINGS))]
+"""(map, label, (start, goal), gait, duration s, resolution N s, cost settings) of the push bisection."""
 
 
 def push_run(robot, terrain_map, samples, goal, at, impulse):
@@ -93,11 +99,33 @@ def largest_push(robot, terrain_map, samples, goal, at, resolution):
     return low, high, runs
 
 
-def push_bench(robot, maps):
+LIMIT_CASES = [("double_pallet", "double pallet walk", ((-1.0, 0.0, 0.0), (1.0, 0.0, 0.0)), "walk", 5.5, {}),
+               ("flat", "flat trot 1 m, friction × 0.6", FLAT[0], "trot", 2.4, {"friction_scale": 0.6}),
+               ("flat", "flat trot 1 m, masses × 1.2", FLAT[0], "trot", 2.4, {"mass_scale": 1.2})]
+
+
+def limits_bench(robot, maps):
     rows = []
-    for map_name, label, (start, goal), gait, duration, resolution in PUSH_CASES:
+    for map_name, label, (start, goal), gait, duration, perturbation in LIMIT_CASES:
         terrain = TerrainModel(maps[map_name])
         for costs in ("none", "paper"):
+            planned = plan(DynTask(start, goal, gait, 4, duration), robot.centroidal, terrain, SETTINGS[costs])
+            result = simulate(planned.samples, robot, maps[map_name], SimParams(**perturbation), goal=goal)
+            print(f"{label}, costs {costs}: {result.reason}; speed × {result.peak_speed_ratio:.2f} of the limit",
+                  file=sys.stderr)
+            rows.append({"case": label, "costs": costs, "planned": bool(planned.success), "success": result.success,
+                         "reason": result.reason, "peak_speed_ratio": result.peak_speed_ratio,
+                         "speed_limited_time": result.speed_limited_time, "overspeed_time": result.overspeed_time,
+                         "qp_failures": result.qp_failures, "qp_held": result.qp_held,
+                         "rms_position_error": result.rms_position_error})
+    return rows
+
+
+def push_bench(robot, maps):
+    rows = []
+    for map_name, label, (start, goal), gait, duration, resolution, settings in PUSH_CASES:
+        terrain = TerrainModel(maps[map_name])
+        for costs in settings:
             planned = plan(DynTask(start, goal, gait, 4, duration), robot.centroidal, terrain, SETTINGS[costs])
             print(f"{label}, costs {costs}: plan {'ok' if planned.success else 'FAILED'}", file=sys.stderr)
             low, high, runs = largest_push(robot, maps[map_name], planned.samples, goal, duration / 2, resolution)
@@ -120,8 +148,8 @@ def run_tasks(robot, terrain_map, tasks, gait, duration, labels):
             result = simulate(planned.samples, robot, terrain_map, SimParams(), goal=goal)
             cpu = time.process_time() - cpu
             if not result.success:   # what-if: the same plan with twice the URDF's joint torque limits
-                row["success_at_2x_torque"] = simulate(planned.samples, robot, terrain_map,
-                                                       SimParams(model=ModelOptions(effort_scale=2.0)), goal=goal).success
+                twice = SimParams(model=ModelOptions(effort_scale=2.0))
+                row["success_at_2x_torque"] = simulate(planned.samples, robot, terrain_map, twice, goal=goal).success
             row.update({"success": result.success, "reason": result.reason, "fall_time": result.fall_time,
                         "rms_position_error": result.rms_position_error,
                         "max_position_error": result.max_position_error,
@@ -192,19 +220,22 @@ def main():
     parser.add_argument("--from-json", action="store_true", help="rewrite the section from bench/results/sim.json")
     parser.add_argument("--push-only", action="store_true",
                         help="run only the push bisection; keep the other results of bench/results/sim.json")
+    parser.add_argument("--limits-only", action="store_true",
+                        help="run only the limits / model-error runs; keep the other results of bench/results/sim.json")
     args = parser.parse_args()
     if args.from_json:
         update_benchmarks("sim", markdown(json.loads((ROOT / "bench" / "results" / "sim.json").read_text())))
         return
     robot = load_robot("anymal")
     load_start = load_average()
-    maps = {name: build_map(ROOT / "maps" / f"{name}.yaml") for name in ("flat", "single_pallet")}
-    if args.push_only:
+    maps = {name: build_map(ROOT / "maps" / f"{name}.yaml") for name in ("flat", "single_pallet", "double_pallet")}
+    if args.push_only or args.limits_only:
         result = json.loads((ROOT / "bench" / "results" / "sim.json").read_text())
         started = time.perf_counter()
-        rows = push_bench(robot, maps)
-        result["push"] = {"commit": code_version(), "date": str(datetime.date.today()), "load_start": load_start,
-                          "load_end": load_average(), "wall": time.perf_counter() - started, "rows": rows}
+        rows = push_bench(robot, maps) if args.push_only else limits_bench(robot, maps)
+        result["push" if args.push_only else "limits"] = {
+            "commit": code_version(), "date": str(datetime.date.today()), "load_start": load_start,
+            "load_end": load_average(), "wall": time.perf_counter() - started, "rows": rows}
         write_result("sim", result)
         if not args.no_append:
             update_benchmarks("sim", markdown(result))
@@ -225,6 +256,10 @@ def main():
                      "proxqp_max_ms": 1e3 * max(prox_times), "proxqp_worst_residual": prox_worst,
                      "osqp_median_ms": 1e3 * np.median(osqp_times), "osqp_max_ms": 1e3 * max(osqp_times),
                      "osqp_worst_residual": osqp_worst}}
+    previous = ROOT / "bench" / "results" / "sim.json"
+    for part in ("push", "limits"):   # measured apart (--push-only, --limits-only)
+        if previous.exists() and part in json.loads(previous.read_text()):
+            result[part] = json.loads(previous.read_text())[part]
     write_result("sim", result)
     if not args.no_append:
         update_benchmarks("sim", markdown(result))
@@ -272,7 +307,26 @@ def markdown(result) -> str:
                   "table order: " + ", ".join(f"{r['qp_failures']}/{r['qp_held']}" for r in result["runs"]) + "."]
     if "push" in result:
         lines += push_markdown(result["push"])
+    if "limits" in result:
+        lines += limits_markdown(result["limits"])
     return "\n".join(lines)
+
+
+def limits_markdown(limits) -> list[str]:
+    lines = ["", f"### Joint velocity limits and model error ({limits['date']}, {limits['commit']}, load "
+             f"{limits['load_start']:.1f} → {limits['load_end']:.1f})", "",
+             "ANYmal's URDF limit 8 rad/s on every joint, enforced by the motors (no driving torque at the limit) "
+             "and the controller (rates one 10 ms horizon ahead inside the limit); 'peak speed' is the largest "
+             "|joint rate| / limit at any 400 Hz tick; 'over 5 %' is the time a joint spent more than 5 % over its "
+             "limit (impacts back-driving a joint).", "",
+             "| run | costs | plan ok | sim | rms pos (m) | peak speed / limit | at limit (s) | over 5 % (s) | "
+             "QP failures / held |", "|---|---|---|---|---|---|---|---|---|"]
+    for r in limits["rows"]:
+        outcome = "success" if r["success"] else r["reason"].split(":")[0]
+        lines.append(f"| {r['case']} | {r['costs']} | {r['planned']} | {outcome} | {r['rms_position_error']:.3f} | "
+                     f"{r['peak_speed_ratio']:.2f} | {r['speed_limited_time']:.3f} | {r['overspeed_time']:.3f} | "
+                     f"{r['qp_failures']} / {r['qp_held']} |")
+    return lines
 
 
 def push_markdown(push) -> list[str]:
@@ -285,7 +339,8 @@ def push_markdown(push) -> list[str]:
              "| task | costs | plan ok | survived (N s) | failed (N s) | runs | QP failures / held (all runs) |",
              "|---|---|---|---|---|---|---|"]
     for r in push["rows"]:
-        lines.append(f"| {r['case']} | {r['costs']} | {r['planned']} | {r['survived']:.2f} | {r['failed']:.2f} | "
+        survived = f"{r['survived']:.2f}" if np.isfinite(r["survived"]) else "— (falls unpushed)"
+        lines.append(f"| {r['case']} | {r['costs']} | {r['planned']} | {survived} | {r['failed']:.2f} | "
                      f"{len(r['runs'])} | {sum(x['qp_failures'] for x in r['runs'])} / "
                      f"{sum(x['qp_held'] for x in r['runs'])} |")
     return lines

@@ -68,8 +68,8 @@ class JointValue(click.ParamType):
               help="Let the URDF's own collision geometry touch the terrain too (robot.yaml's spheres always do).")
 @click.option("--package-path", "package_paths", multiple=True,
               type=click.Path(exists=True, file_okay=False, dir_okay=True),
-              help="A folder searched for the ROS packages of `package://` meshes, before ROS_PACKAGE_PATH and "
-                   "the folders above the URDF. Repeatable.")
+              help="A folder searched for the ROS packages of `package://` meshes, before the folders above the "
+                   "URDF and ROS_PACKAGE_PATH. Repeatable.")
 @click.option("--effort", "efforts", type=JointValue(), multiple=True, metavar="JOINT=N·M",
               help="Joint torque limit replacing the URDF's (e.g. a placeholder 1000): a joint name or glob "
                    "pattern, e.g. '*_KFE=2.7'. Repeatable; the last match wins.")
@@ -85,7 +85,11 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_sc
     """Execute every trajectory of TRAJ on MAP in MuJoCo under the whole-body controller; write sim.h5.
 
     Success: no fall (base below half its nominal height above the terrain, tilted > 0.8 rad, or the
-    trunk on the terrain) and the base within 10 cm and 0.2 rad (yaw) of the task's goal after the plan and --settle."""
+    trunk on the terrain) and the base within 10 cm and 0.2 rad (yaw) of the task's goal after the plan and --settle.
+    A task whose plan did not succeed is recorded as skipped, not executed. Contacts: robot.yaml's
+    collision spheres (and the URDF's collision geometry with --urdf-collision). Joint velocity limits
+    are enforced by the motors and the controller; a QP the controller cannot solve falls back to a
+    relaxed QP (counted per task)."""
     import numpy as np
 
     from legplan.artefacts import check_output
@@ -119,7 +123,8 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_sc
             xy = np.concatenate([task["samples"]["base_pos"][:, :2], task["samples"]["feet_pos"][..., :2].reshape(-1, 2)])
             if np.any(xy < lo) or np.any(xy > hi):
                 raise LegplanError(f"{traj_path}: task {int(task['index'])}: trajectory leaves the map {map_path}")
-    options = ModelOptions(urdf_collision=urdf_collision, package_paths=tuple(os.path.abspath(p) for p in package_paths),
+    options = ModelOptions(urdf_collision=urdf_collision,
+                           package_paths=tuple(os.path.abspath(p) for p in package_paths),
                            effort=tuple(efforts), velocity=tuple(velocities))
     params = SimParams(settle=settle, friction=friction, friction_scale=friction_scale, mass_scale=mass_scale,
                        pushes=tuple(tuple(p) for p in pushes), model=options)

@@ -22,7 +22,9 @@ sensing); a foot planned in stance that has not touched down yet moves at rest t
 Joint velocity limits v_max (URDF `velocity`): the joint rates one `velocity_horizon` ahead stay
 inside them, −v_max ≤ v_j + T v̇_j ≤ v_max (a joint already beyond its limit is braked back at
 (|v_j| − v_max)/T). Joint damping d (URDF `<dynamics damping>`) is compensated, τ += d v_j, and the
-joints' armature is on the diagonal of the model's mass matrix, as in the simulator.
+joints' armature is on the diagonal of the model's mass matrix, as in the simulator. The joints'
+Coulomb friction (URDF `<dynamics friction>`, MuJoCo's friction loss) is not compensated: its sign
+flips with the joint rate, and it acts on the controller as a disturbance.
 
 The QP is small (18 + 3 n_c unknowns) and dense, solved by proxsuite's ProxQP (dense backend), cold
 started each tick; BENCHMARKS.md (sim) compares it with OSQP on the same QPs.

@@ -82,10 +82,10 @@ class SimModel:
     `model` (mujoco.MjModel); `foot_geoms` (n_legs,) geom ids of the foot spheres in leg order;
     `foot_radius` (n_legs,) m; `body_geoms` geom ids of the other robot geoms (spheres, and the
     URDF's collision geometry when enabled), `trunk_geoms` those of them on the root link or links
-    fixed to it;
-    `terrain_geom`; `root_body` (the URDF's root link); per joint in `robot.joint_names` order: `effort` (N m, the motors' limits),
-    `velocity_limit` (rad/s, inf: none), `damping` (N m s/rad), `armature` (kg m²); `friction` μ;
-    `warnings` (one line each: what was repaired or is not enforced).
+    fixed to it; `terrain_geom`; `root_body` (the URDF's root link); per joint in `robot.joint_names`
+    order: `effort` (N m, the motors' limits), `velocity_limit` (rad/s, inf: none), `damping`
+    (N m s/rad), `armature` (kg m²); `friction` μ; `warnings` (one line each: what was repaired or
+    is not enforced).
     Pinocchio and MuJoCo order the URDF's joints differently: `qpos_index`, `dof_index` (n_joints,)
     are MuJoCo's qpos / qvel addresses of `robot.joint_names`; the motors are in pinocchio's order
     (`data.ctrl` = pinocchio's joint torques)."""
@@ -108,16 +108,18 @@ class SimModel:
 
 
 def _sphere_body(robot, bodies, k):
-    """The MuJoCo body holding collision sphere k and the sphere's centre in it: the sphere's URDF
-    link, or for a frame robot.yaml added (a foot given as `{link, offset}`) the link it sits on."""
+    """The MuJoCo body holding collision sphere k and the sphere's centre in it: the sphere's frame
+    if it is a URDF link, else (a frame robot.yaml added, a fixed joint's frame) the nearest link
+    above it in pinocchio's frame tree, which moves with the same joint."""
     spheres, model = robot.spheres, robot.model
     frame = model.frames[int(spheres.frame_ids[k])]
-    if frame.name in bodies:
-        return bodies[frame.name], np.asarray(spheres.offsets[k], float)
-    link = model.frames[frame.parentFrame]
-    if frame.type == pin.FrameType.OP_FRAME and link.name in bodies:
-        return bodies[link.name], link.placement.actInv(frame.placement.act(np.asarray(spheres.offsets[k], float)))
-    raise LegplanError(f"{robot.yaml_path}: collision sphere frame {frame.name!r} is not a URDF link")
+    centre = frame.placement.act(np.asarray(spheres.offsets[k], float))   # in the frame's joint
+    link = frame
+    while not (link.type == pin.FrameType.BODY and link.name in bodies):
+        if link.parentFrame == 0 or link.parentJoint != frame.parentJoint:
+            raise LegplanError(f"{robot.yaml_path}: collision sphere frame {frame.name!r} is on no URDF link")
+        link = model.frames[link.parentFrame]
+    return bodies[link.name], link.placement.actInv(centre)
 
 
 def _load_meshes(spec, urdf_path) -> None:

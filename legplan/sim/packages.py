@@ -2,15 +2,12 @@
 
 ROS URDFs name their meshes `package://PKG/rest`, a path relative to the ROS package PKG, or
 `file:///abs/path`, or a path relative to the URDF's own folder. A ROS package is found as ROS does
-it, without a ROS installation:
-
-1. under each folder of `package_paths` (the command line's `--package-path`, in order), then of the
-   `ROS_PACKAGE_PATH` environment variable (`os.pathsep`-separated): the folder itself when its name
-   is PKG or its `package.xml` names PKG, else its child folder PKG;
-2. next to the URDF: the URDF's folder and each folder above it, by the same test (a package's
-   URDF usually lies inside the package, e.g. `PKG/urdf/robot.urdf`, or beside it).
-
-The first existing file wins. `UnresolvedUri` says which folders were searched.
+it, without a ROS installation, in these folders in order: `package_paths` (the command line's
+`--package-path`), the URDF's folder and each folder above it (a package's URDF usually lies inside
+the package, e.g. `PKG/urdf/robot.urdf`), then the `ROS_PACKAGE_PATH` environment variable's
+(`os.pathsep`-separated) — the order `robot init` uses. A folder is the package when its name is
+PKG or its `package.xml` names PKG; else its child folder PKG is tried. The first existing file
+wins. `UnresolvedUri` says which folders were searched.
 """
 
 from __future__ import annotations
@@ -45,10 +42,9 @@ def _candidates(package: str, root: Path):
 
 def search_roots(urdf_path: Path, package_paths=()) -> list[Path]:
     """The folders searched for a package, in order (module docstring)."""
-    roots = [Path(p) for p in package_paths]
-    roots += [Path(p) for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
+    ros = [Path(p) for p in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if p]
     here = Path(urdf_path).resolve().parent
-    return roots + [here, *here.parents]
+    return [*map(Path, package_paths), here, *here.parents, *ros]
 
 
 def resolve_uri(uri: str, urdf_path, package_paths=()) -> Path:
@@ -64,7 +60,7 @@ def resolve_uri(uri: str, urdf_path, package_paths=()) -> Path:
                 if (folder / rest).is_file():
                     return (folder / rest).resolve()
         raise UnresolvedUri(f"{uri!r}: no package {package!r} holding {rest!r} under the --package-path "
-                            f"folders, ROS_PACKAGE_PATH or the folders above the URDF")
+                            f"folders, the folders above the URDF or ROS_PACKAGE_PATH")
     path = Path(uri[len("file://"):]) if uri.startswith("file://") else Path(uri)
     if not path.is_absolute():
         path = urdf_path.resolve().parent / path

@@ -67,7 +67,8 @@ class SimParams(Parameters):
     record_every: int = param(4, "[1, inf)", doc="control ticks per recorded row (4: 100 Hz)")
     friction: float | None = param(None, "(0, inf)", "μ", "friction of the simulation and the controller")
     friction_scale: float = param(1.0, "(0, inf)", doc="× the simulated friction only (the controller keeps μ)")
-    mass_scale: float = param(1.0, "(0, inf)", doc="× every simulated mass and inertia (the controller keeps the URDF's)")
+    mass_scale: float = param(1.0, "(0, inf)",
+                              doc="× every simulated mass and inertia (the controller keeps the URDF's)")
     pushes: tuple = ()                # ((t s, f_x N, f_y N, duration s), ...) on the root link
     zero_torque: bool = False         # apply no torques (a planted fall, for tests)
     model: ModelOptions = field(default_factory=ModelOptions)
@@ -90,8 +91,9 @@ class SimResult:
     relaxed QP failed too: last torques held), `peak_speed_ratio` (largest |joint rate| / its
     velocity limit, NaN with no limits), `speed_limited_time` (s with a joint at or over its velocity
     limit), `overspeed_time` (s with a joint more than `OVERSPEED` × its limit at the end of a
-    tick: what the motors could not prevent, e.g. an impact back-driving a knee), `impulse` (N s, the pushes' total), `unplanned_contact_time` (s), `unplanned_contacts` (names of
-    the spheres that touched), `max_position_error`, `max_orientation_error`, `rms_position_error`,
+    tick: what the motors could not prevent, e.g. an impact back-driving a knee), `impulse` (N s,
+    the pushes' total), `unplanned_contact_time` (s), `unplanned_contacts` (names of the robot geoms
+    other than the feet that touched), `max_position_error`, `max_orientation_error`, `rms_position_error`,
     `rms_orientation_error`, `simulated` (s), `wall` (s)."""
 
     success: bool

@@ -65,7 +65,8 @@ def draft(name: str, folder: Path) -> Path:
     spec = {
         "name": name, "urdf": str(urdf),
         "legs": [{"name": leg.upper(), "joints": [fmt(joint_fmt, leg, j) for j in joints],
-                  "foot": {"link": link, "offset": [0.0, 0.0, -radius], "frame": f"{leg.upper()}_contact"}} for leg, link in zip(legs, feet_links)],
+                  "foot": {"link": link, "offset": [0.0, 0.0, -radius], "frame": f"{leg.upper()}_contact"}}
+                 for leg, link in zip(legs, feet_links)],
         "collision_spheres": [{"link": trunk, "offset": [x, 0.0, 0.0], "radius": trunk_r} for x in (-half, 0.0, half)]
         + [{"link": f"{leg.upper()}_contact", "offset": [0.0, 0.0, 0.0], "radius": radius} for leg in legs],
         "nominal": {"base_height": height,

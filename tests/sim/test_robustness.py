@@ -2,22 +2,22 @@
 the QP fallback, pushes, friction and mass scale."""
 
 import h5py
+import mujoco
 import numpy as np
 import pytest
 from click.testing import CliRunner
 from stance import standing
 
+from legplan.artefacts.reader import read_summary
 from legplan.cli.main import cli
 from legplan.dyn.artefact import read_tasks
+from legplan.dyn.terrain import TerrainModel
 from legplan.sim.controller import WholeBodyController
 from legplan.sim.items import SimWorker, sim_items, simulate_item
 from legplan.sim.model import ModelOptions, build_model
 from legplan.sim.reference import Reference
 from legplan.sim.run import (CONTROL_DT, OVERSPEED, SimParams, _initial_state, _pinocchio_state, perturb, simulate,
                              touching)
-from legplan.dyn.terrain import TerrainModel
-
-import mujoco
 
 
 def invoke(*args):
@@ -34,7 +34,8 @@ def test_an_unsolved_plan_is_skipped_not_executed(flat, two_tasks, tmp_path):
         assert not unsolved.attrs["planned"] and unsolved.attrs["skipped"] and not unsolved.attrs["success"]
         assert unsolved.attrs["reason"].startswith("skipped: the plan did not succeed (")
         assert np.isnan(unsolved.attrs["simulated"]) and "series" not in unsolved   # never executed
-        assert handle["summary"].attrs["skipped"] == 1 if "skipped" in handle["summary"].attrs else True
+        summary = read_summary(handle)
+        assert summary["skipped"][0] == 1 and summary["succeeded"][0] == 1 and summary["qp_failures"][0] == 0
     # the unsolved task has samples: skipping is the rule, not a missing trajectory
     _, tasks = read_tasks(two_tasks)
     assert not tasks[1]["success"] and "samples" in tasks[1]
@@ -79,6 +80,23 @@ def test_a_failed_qp_falls_back_to_the_relaxed_qp(robot, flat):
         assert controller.qp_failures == failures and controller.qp_held == 0
         assert np.abs(tau).max() <= effort.max() + 1e-9
     assert np.abs(tau).max() > 0.5   # the relaxed QP's torques, not zeros
+
+
+def test_joint_damping_is_compensated(robot, flat):
+    """With damping d on the joints the controller's torques are those without, plus d v_j (the same
+    QP optimum, its torque limits shifted by the damping torque)."""
+    sim = build_model(robot, flat[0], 0.5)
+    reference = Reference(standing(robot, 0.2), sim.foot_radius, TerrainModel(flat[0]))
+    data = mujoco.MjData(sim.model)
+    _initial_state(data, sim, robot, reference)
+    q, v = _pinocchio_state(data, sim)
+    v[6:] = np.linspace(-0.5, 0.5, robot.n_joints)
+    ref, feet = reference.at(0.0), touching(data, sim)
+    damping = np.full(robot.n_joints, 2.0)
+    plain = WholeBodyController(robot, sim.effort, 0.5).torques(q, v, ref, feet)
+    damped = WholeBodyController(robot, sim.effort, 0.5, damping=damping).torques(q, v, ref, feet)
+    assert np.abs(plain).max() < 0.8 * sim.effort.min()       # no torque limit active
+    np.testing.assert_allclose(damped - plain, damping * v[6:], atol=1e-5)
 
 
 def test_a_lateral_push_moves_the_robot_and_a_large_one_knocks_it_over(robot, flat):

@@ -170,8 +170,8 @@ def anymal_copy(tmp_path_factory):
     traj = folder.parent / "traj.h5"
     with pytest.MonkeyPatch.context() as patch:
         patch.setenv("LEGPLAN_ROBOTS", str(folder.parent))
-        result = invoke("dyn", "plan", maps, "--robot", "anymal_mesh", "--start", 0, 0, 0, "--goal", 0.2, 0, 0, "--strides", 2,
-                        "--duration", 1.2, "-o", traj, "-q")
+        result = invoke("dyn", "plan", maps, "--robot", "anymal_mesh", "--start", 0, 0, 0, "--goal", 0.2, 0, 0,
+                        "--strides", 2, "--duration", 1.2, "-o", traj, "-q")
     assert result.exit_code == 0, result.output
     return traj, maps
 
@@ -193,3 +193,32 @@ def test_a_model_that_cannot_be_built_is_one_bad_input_line(anymal_copy, tmp_pat
         assert "robot.urdf: link 'base_link': collision mesh 'package://no_such_pkg/meshes/base.stl'" in result.output
     if case == "effort_pattern":
         assert "--effort nothing_*=3: the pattern matches no joint" in result.output
+
+
+def test_drake_rotor_inertia_becomes_armature_in_mujoco_and_the_controller(tmp_path):
+    """URDF has no armature; Drake's transmission extension gives rotor inertia × gear ratio²."""
+    from robot_helpers import write_toy_robot
+
+    from legplan.sim.controller import WholeBodyController
+
+    folder = tmp_path / "toy"
+    write_toy_robot(folder)
+    urdf = (folder / "robot.urdf").read_text()
+    urdf = urdf.replace('<robot name="toy">', '<robot name="toy" xmlns:drake="http://drake.mit.edu">')
+    urdf = urdf.replace("</robot>", '<transmission name="t"><type>transmission_interface/SimpleTransmission</type>'
+                        '<joint name="hip_a"/><actuator name="m"><drake:rotor_inertia value="1e-4"/>'
+                        '<drake:gear_ratio value="10"/></actuator></transmission></robot>')
+    (folder / "robot.urdf").write_text(urdf)
+    robot = load_robot(folder / "robot.yaml")
+    sim = build_model(robot, FLAT, 0.5)
+    hip = robot.joint_names.index("hip_a")
+    expected = np.zeros(robot.n_joints)
+    expected[hip] = 1e-4 * 10 ** 2
+    np.testing.assert_allclose(sim.armature, expected)
+    np.testing.assert_allclose(sim.model.dof_armature[sim.dof_index], expected)
+    controller = WholeBodyController(robot, sim.effort, 0.5, armature=sim.armature)
+    q = robot.q_nominal
+    M = pin.crba(controller.model, controller.model.createData(), q)
+    M0 = pin.crba(robot.model, robot.model.createData(), q)
+    assert M[6 + hip, 6 + hip] - M0[6 + hip, 6 + hip] == pytest.approx(0.01)
+    assert np.allclose(np.delete(np.diag(M - M0), 6 + hip), 0.0)
