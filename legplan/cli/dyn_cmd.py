@@ -78,7 +78,9 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     model = centroidal_model(loaded, params, costs)
     tasks = (read_tasks(tasks_path, gait, strides, duration) if tasks_path is not None
              else [command_line_task(start, goal, gait, strides, duration)])
-    check_placements(tasks, model, TerrainModel(load_map(map_path)), tasks_path, map_path)
+    terrain_map = load_map(map_path)
+    terrain = TerrainModel(terrain_map)
+    check_placements(tasks, model, terrain, tasks_path, map_path)
     if hasattr(init_fn, "check_task"):  # a learned initializer fits one variable layout: refuse others now
         for t in tasks:
             init_fn.check_task(t, params.dt)
@@ -89,6 +91,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     settings = {**settings_record(costs, init, params), **{k: v for k, v in options.items() if v is not None}}
     inputs = [path for path in (map_path, tasks_path, costs_file(costs)) if path is not None]
     task = Task(plan_item, failed_item, DynWorker, (robot, os.path.abspath(map_path), params, init))
+    task.provide(DynWorker.of(loaded, model, terrain_map, terrain, params, init_fn))  # --jobs 1: loaded once
     records, _ = run_stage(task, task_items(tasks), "dyn plan", output=output,
                            identity={"stage": "dyn plan", "params": settings}, inputs=inputs, jobs=jobs,
                            scheduler=scheduler, resume=resume, overwrite=overwrite,
