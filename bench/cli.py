@@ -1,6 +1,8 @@
 """Benchmark of the one-shot command: process CPU of `legplan dyn plan` on bench/dyn.py's cases (issue 38).
 
     .venv/bin/python bench/cli.py [--repeats 3] [--cases KEY,KEY] [--before PATH] [--no-append]
+                                  [--jobs-steps 60:80] [--jobs-repeats 3] [--skip-dyn] [--skip-jobs]
+                                  [--step-map map.h5 --step-sequence steps.h5]
 
 For every case of bench/dyn.py (`CASES`: TOWR's cases and stairs) the whole command
 `legplan dyn plan MAP --gait --strides --duration --start --goal -o traj.h5 -q` (run as the
@@ -19,6 +21,15 @@ the same run. With --before PATH, the legplan tree at PATH (e.g. a checkout of t
 the same commands in alternation with this tree (run i of both back to back), so both see the same
 load; its column is the reference measured side by side.
 
+`--jobs 2` against `--jobs 1`: the whole command `legplan step plan MAP STEPS --steps A:B` on the
+gap-crossing scenario (bench/step_plan.py's `scenario`: maps/gap_crossing.yaml, scarab2, the
+generated sequence) in two variants: the pairs as generated (issue 38's measurement: mostly
+millisecond steps) and whole swings (bench/step_plan.py's `merge_swings`: every item a full swing,
+the ≥ 0.2 s items of the target). Wall time and process CPU of each, --jobs 1 and --jobs 2 in
+alternation, median of --jobs-repeats runs; the speed-up is the ratio of the median wall times.
+On a machine whose two cores are busy with other work no pool can approach 2×: the load average
+is recorded with it.
+
 TOWR's figures are the issue's (TOWR rebuilt on this machine, process CPU, another — idle — day):
 TOWR cannot run here, so they are context for the reader, not a ratio taken in one run.
 
@@ -36,6 +47,7 @@ import statistics
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result
@@ -104,10 +116,16 @@ if hasattr(legplan.cli.main, "main"):
 
 def child_cpu(argv, env) -> tuple[float, subprocess.CompletedProcess]:
     """CPU seconds (user + system) of running `argv` to its end, its children included."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    cpu, _, done = child_run(argv, env)
+    return cpu, done
+
+
+def child_run(argv, env) -> tuple[float, float, subprocess.CompletedProcess]:
+    """(CPU seconds, wall seconds, result) of running `argv` to its end, its children included."""
+    before, wall = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
     done = subprocess.run(argv, env=env, capture_output=True, text=True)
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), done
+    after, wall = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter() - wall
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), wall, done
 
 
 def environment(tree: Path, **extra) -> dict:
@@ -144,6 +162,64 @@ def medians(runs: list[dict]) -> dict:
             "runs_whole": [r["whole"] for r in runs], "exit": [r["exit"] for r in runs]}
 
 
+def jobs_comparison(work: Path, step_range: str, repeats: int, map_path=None, steps_path=None) -> dict:
+    """`legplan step plan --steps step_range` with --jobs 1 and --jobs 2 in alternation, on the pairs
+    as generated and on whole swings (see the module docstring)."""
+    from step_plan import merge_swings, scenario
+
+    from legplan.robots import load_robot
+    from legplan.stepseq.sequence import read_steps, write_steps
+    from legplan.terrain import load_map
+    from legplan.validate.checks import Validator
+
+    if map_path is None or steps_path is None:
+        map_path, steps_path = scenario(work, "scarab2", (-0.6, 0.0, 0.0), (0.6, 0.0, 0.0))
+    swings = merge_swings(read_steps(steps_path))
+    swings_path = work / "swings.h5"
+    checks = Validator(load_robot(swings.robot), load_map(map_path)).check(swings.q, swings.stance, swings.footholds)
+    write_steps(swings_path, swings, checks)
+    out = {"steps": step_range, "variants": {}}
+    for variant, path in (("as generated", steps_path), ("whole swings", swings_path)):
+        runs = {1: [], 2: []}
+        for i in range(repeats):
+            for jobs in ((1, 2) if i % 2 == 0 else (2, 1)):
+                argv = [sys.executable, "-c", ENTRY, "step", "plan", str(map_path), str(path), "--steps", step_range,
+                        "--jobs", str(jobs), "-o", str(work / f"motion{jobs}.h5"), "--overwrite", "-q"]
+                cpu, wall, done = child_run(argv, environment(ROOT))
+                runs[jobs].append({"cpu": cpu, "wall": wall, "exit": done.returncode,
+                                   "load": load_average()})
+        import h5py
+        with h5py.File(work / "motion1.h5", "r") as f:
+            seconds = [float(f["steps"][k].attrs["seconds"]) for k in sorted(f["steps"])]
+        entry = {str(jobs): {"wall": statistics.median(r["wall"] for r in rs), "cpu": statistics.median(r["cpu"] for r in rs),
+                             "runs": rs} for jobs, rs in runs.items()}
+        entry["speedup"] = entry["1"]["wall"] / entry["2"]["wall"]
+        entry["item_seconds_jobs1_last_run"] = seconds
+        out["variants"][variant] = entry
+        print(f"step plan --steps {step_range} {variant}: --jobs 1 wall {entry['1']['wall']:.2f} s cpu "
+              f"{entry['1']['cpu']:.2f} s; --jobs 2 wall {entry['2']['wall']:.2f} s cpu {entry['2']['cpu']:.2f} s; "
+              f"speed-up {entry['speedup']:.2f}x", flush=True)
+    return out
+
+
+def jobs_markdown(result: dict) -> list[str]:
+    jobs = result["jobs"]
+    lines = ["", f"### `legplan step plan --steps {jobs['steps']}`: --jobs 2 against --jobs 1 (same run)", "",
+             "Gap-crossing scenario (scarab2, maps/gap_crossing.yaml, generated sequence), the whole command, "
+             "--jobs 1 and --jobs 2 in alternation, median of "
+             f"{len(next(iter(jobs['variants'].values()))['1']['runs'])} runs; load average during the runs in the "
+             "last column (2 cores shared with other sessions: with both busy, no pool can approach 2×).", "",
+             "| variant | median item [s] (--jobs 1, wall) | --jobs 1 wall [s] | --jobs 1 CPU [s] | --jobs 2 wall [s] | "
+             "--jobs 2 CPU [s] | speed-up (wall) | load |",
+             "|---|---|---|---|---|---|---|---|"]
+    for variant, e in jobs["variants"].items():
+        loads = [r["load"] for rs in (e["1"]["runs"], e["2"]["runs"]) for r in rs]
+        lines.append(f"| {variant} | {statistics.median(e['item_seconds_jobs1_last_run']):.3f} | {e['1']['wall']:.2f} | "
+                     f"{e['1']['cpu']:.2f} | {e['2']['wall']:.2f} | {e['2']['cpu']:.2f} | {e['speedup']:.2f}× | "
+                     f"{min(loads):.1f}–{max(loads):.1f} |")
+    return lines
+
+
 def markdown(result: dict) -> str:
     sides = ["this tree"] + (["before"] if result["before"] else [])
     head = (f"## cli — whole `legplan dyn plan` process CPU, bench/dyn.py's cases ({result['date']}, "
@@ -177,6 +253,8 @@ def markdown(result: dict) -> str:
     lines.append("")
     lines.append("Exit 1 means the command ran and recorded a failed task (its reason is in traj.h5); the "
                  "CPU time is still the whole command's.")
+    if result.get("jobs"):
+        lines += jobs_markdown(result)
     return "\n".join(lines)
 
 
@@ -186,6 +264,12 @@ def main(argv=None) -> int:
     ap.add_argument("--cases", default="", help="comma-separated case keys of bench/dyn.py (default: all)")
     ap.add_argument("--before", type=Path, help="another legplan tree to run side by side (reference)")
     ap.add_argument("--no-append", action="store_true", help="do not update BENCHMARKS.md")
+    ap.add_argument("--jobs-steps", default="60:80", help="pairs of the --jobs comparison (a:b)")
+    ap.add_argument("--jobs-repeats", type=int, default=3)
+    ap.add_argument("--step-map", type=Path, help="map.h5 of the gap-crossing scenario (built if not given)")
+    ap.add_argument("--step-sequence", type=Path, help="its generated steps.h5 (generated if not given)")
+    ap.add_argument("--skip-dyn", action="store_true", help="only the --jobs comparison")
+    ap.add_argument("--skip-jobs", action="store_true", help="only the dyn plan cases")
     args = ap.parse_args(argv)
     repeats = max(3, args.repeats)
 
@@ -194,7 +278,7 @@ def main(argv=None) -> int:
 
     from legplan.terrain import build_map, save_map
 
-    wanted = [c for c in CASES if not args.cases or c["key"] in args.cases.split(",")]
+    wanted = [] if args.skip_dyn else [c for c in CASES if not args.cases or c["key"] in args.cases.split(",")]
     trees = {"this tree": ROOT}
     if args.before is not None:
         trees["before"] = args.before.resolve()
@@ -238,6 +322,9 @@ def main(argv=None) -> int:
                 f"{side} whole {entry[side]['whole']:.3f} start-up {entry[side]['startup']:.3f} solve "
                 f"{entry[side]['solve']:.3f} rest {entry[side]['rest']:.3f} exit {entry[side]['exit']}" for side in trees),
                 flush=True)
+        if not args.skip_jobs:
+            result["jobs"] = jobs_comparison(work, args.jobs_steps, max(1, args.jobs_repeats), args.step_map,
+                                             args.step_sequence)
     result["load_end"] = load_average()
     write_result("cli", result)
     if not args.no_append:

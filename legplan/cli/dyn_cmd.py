@@ -55,6 +55,10 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     """Plan every task on MAP; write traj.h5, each task with its solver outcome and independent check.
 
     Exit 1 when any task failed (its reason is recorded)."""
+    from legplan.batch import prestart
+
+    prestart(jobs, scheduler, ("legplan.dyn.items", "legplan.dyn.planner", "legplan.robots.model",
+                               "legplan.validate.centroidal"))
     from legplan.artefacts import check_output
     from legplan.batch import Task
     from legplan.cli.batching import run_stage
