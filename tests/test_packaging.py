@@ -106,4 +106,4 @@ def test_runtime_dependencies_are_pinned():
     names = {re.split("==", dep)[0].lower() for dep in project["dependencies"]}
     assert {"numpy", "scipy", "scikit-sparse", "pin", "python-fcl", "click", "h5py", "ompl"} <= names
     assert all("==" in dep for dep in project["dependencies"])
-    assert project["scripts"]["legplan"] == "legplan.cli.main:cli"
+    assert project["scripts"]["legplan"] == "legplan.cli.main:main"

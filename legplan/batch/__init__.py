@@ -26,6 +26,9 @@ Contract of the task (`Task`):
 * Same items in the same order, same records in the same order, whatever the backend or `--jobs`
   (records are ordered by item position, never by completion); only clock values may differ.
 
+A command with `--jobs N` calls `prestart(jobs, scheduler, modules)` before it reads its inputs: the
+pool's worker processes boot and import `modules` meanwhile, and `run_batch` takes them over.
+
 Backends (`Backend(jobs, scheduler)`, the CLI's `--jobs`, `--scheduler`): `jobs` 1 in-process;
 `jobs` N a pool of N spawned processes; `scheduler="local"` a dask LocalCluster of `jobs` one-thread
 workers on 127.0.0.1; `scheduler="tcp://host:port"` a running dask scheduler (its workers need
@@ -38,9 +41,9 @@ refused with the reason); without it an existing work file is an error unless `o
 exception or interrupt (KeyboardInterrupt) in or under `run_batch` keeps the work file.
 """
 
-from legplan.batch.backends import Backend
+from legplan.batch.backends import Backend, prestart
 from legplan.batch.run import run_batch
 from legplan.batch.task import Task
 from legplan.batch.workfile import work_path
 
-__all__ = ["Backend", "Task", "run_batch", "work_path"]
+__all__ = ["Backend", "Task", "prestart", "run_batch", "work_path"]

@@ -9,13 +9,15 @@ runs in this process and `jobs` N in N spawned worker processes.
 
 from __future__ import annotations
 
+import atexit
+import importlib
 import logging
 import multiprocessing
 import os
 import signal
 import uuid
 from collections import Counter, deque
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
@@ -40,12 +42,54 @@ class InProcess:
         pass
 
 
-def _init_pool_worker(parent: int) -> None:
+def _init_pool_worker(parent: int, modules: Sequence[str] = ()) -> None:
     """In each pool process: one BLAS/OpenMP thread, Ctrl-C left to the parent (which stops the
-    pool), and death with the parent (Linux), so a killed batch leaves no orphaned workers."""
+    pool), and death with the parent (Linux), so a killed batch leaves no orphaned workers; then
+    the `modules` the items will need are imported (see `prestart`)."""
     one_thread_environment()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     die_with_parent(parent)
+    for name in modules:
+        importlib.import_module(name)
+
+
+def _started() -> None:
+    """The no-op item that makes a pool spawn a worker process."""
+
+
+def _new_pool(jobs: int, modules: Sequence[str] = ()) -> ProcessPoolExecutor:
+    return ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"),
+                               initializer=_init_pool_worker, initargs=(os.getpid(), tuple(modules)))
+
+
+_prestarted: dict[int, ProcessPoolExecutor] = {}
+
+
+def prestart(jobs: int, scheduler: str | None, modules: Sequence[str]) -> None:
+    """Start the `jobs` worker processes of `--jobs N` (N > 1, no scheduler) now and have each import
+    `modules`: a command calls this before it reads its inputs, so the workers boot (interpreter,
+    imports) while it reads; the next `ProcessPool` of as many workers takes them over. Unused
+    workers are stopped when the process exits."""
+    if jobs < 2 or scheduler is not None or jobs in _prestarted:
+        return
+    pool = _new_pool(jobs, modules)
+    for _ in range(jobs):
+        pool.submit(_started)  # a pool spawns its processes as items arrive
+    _prestarted[jobs] = pool
+
+
+@atexit.register
+def _stop_prestarted() -> None:
+    while _prestarted:
+        _, pool = _prestarted.popitem()
+        _stop(pool)
+
+
+def _stop(pool: ProcessPoolExecutor) -> None:
+    """Stop `pool` at once: its items in flight are not waited for."""
+    for process in list((getattr(pool, "_processes", None) or {}).values()):  # no public API in 3.11
+        process.terminate()
+    pool.shutdown(wait=True, cancel_futures=True)
 
 
 class ProcessPool:
@@ -78,8 +122,8 @@ class ProcessPool:
     def _round(self, task, source: deque, limit: int):
         """Run `source` on a fresh pool with at most `limit` items in flight; yields finished
         items, returns the items in flight when the pool broke (empty when all finished)."""
-        pool = ProcessPoolExecutor(min(limit, self.jobs), mp_context=multiprocessing.get_context("spawn"),
-                                   initializer=_init_pool_worker, initargs=(os.getpid(),))
+        workers = min(limit, self.jobs)
+        pool = _prestarted.pop(workers, None) or _new_pool(workers)
         running: dict = {}
         try:
             while source or running:
@@ -100,9 +144,9 @@ class ProcessPool:
             return []
         finally:
             if running:  # interrupted: stop the workers now instead of waiting for their items
-                for process in list(getattr(pool, "_processes", {}).values()):  # no public API in 3.11
-                    process.terminate()
-            pool.shutdown(wait=True, cancel_futures=True)
+                _stop(pool)
+            else:
+                pool.shutdown(wait=True, cancel_futures=True)
 
     def close(self) -> None:
         pass

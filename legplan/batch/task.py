@@ -65,6 +65,13 @@ class Task:
             _limit_loaded_libraries()
         return _local.value
 
+    def provide(self, context) -> None:
+        """Make `context` this task's context in the calling thread, as if `setup(*args)` had built it:
+        a caller that has already loaded what `setup` loads (to check its inputs) hands it over, so
+        `--jobs 1` does not load it twice. Pool and dask workers still build their own."""
+        _local.key, _local.value = (self.setup, self.args), context
+        _limit_loaded_libraries()
+
     def __call__(self, item) -> dict:
         try:
             return self.run(self.context(), item)

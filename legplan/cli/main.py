@@ -9,11 +9,13 @@ errors print one line, no traceback unless `-v`.
 
 from __future__ import annotations
 
+import atexit
 import importlib
 import os
 import re
 import select
 import sys
+import threading
 import traceback
 
 import click
@@ -28,8 +30,10 @@ EXIT_ITEMS_FAILED = 1
 EXIT_BAD_INPUT = 2
 EXIT_PIPE_CLOSED = 141
 
-# One module per command group under legplan/cli/, each exposing `command`.
-COMMAND_MODULES = ("inspect_cmd", "step_cmd", "pipeline_cmd", "robot_cmd", "steps_cmd", "map_cmd", "report_cmd", "nav_cmd", "compare_cmd", "baseline_cmd", "dyn_cmd", "learn_cmd", "export_cmd")
+# One module per command group under legplan/cli/, each exposing `command` named as the module
+# without its "_cmd" suffix; a module is imported only when its command is used (or listed by --help).
+COMMAND_MODULES = ("inspect_cmd", "step_cmd", "pipeline_cmd", "robot_cmd", "steps_cmd", "map_cmd", "report_cmd",
+                   "nav_cmd", "compare_cmd", "baseline_cmd", "dyn_cmd", "learn_cmd", "export_cmd")
 
 
 class OneLineUsageError(click.ClickException):
@@ -74,7 +78,16 @@ def _command_paths(group: click.Group, ctx: click.Context, prefix: str = "") -> 
 
 class LegplanGroup(click.Group):
     """Turns `LegplanError` (and OS errors on inputs) into a one-line message and exit code 2, and
-    SIGINT / SIGTERM into exit 130 / 143 after cleanup."""
+    SIGINT / SIGTERM into exit 130 / 143 after cleanup. Subcommands of `COMMAND_MODULES` are imported
+    when first looked up, so a command starts without importing every other command's libraries."""
+
+    def list_commands(self, ctx: click.Context) -> list[str]:
+        return sorted({*super().list_commands(ctx), *(name.removesuffix("_cmd") for name in COMMAND_MODULES)})
+
+    def get_command(self, ctx: click.Context, cmd_name: str) -> click.Command | None:
+        if cmd_name not in self.commands and f"{cmd_name}_cmd" in COMMAND_MODULES:
+            self.add_command(prepare_command(importlib.import_module(f"legplan.cli.{cmd_name}_cmd").command))
+        return super().get_command(ctx, cmd_name)
 
     def main(self, *args, **kwargs):
         """Every invocation runs under `interrupts.handle_interrupts`, argument parsing included."""
@@ -203,7 +216,36 @@ def _use_short_help(group: click.Group) -> None:
             _use_short_help(sub)
 
 
-for _name in COMMAND_MODULES:
-    cli.add_command(importlib.import_module(f"legplan.cli.{_name}").command)
-_use_short_help(cli)
-guard_commands(cli)
+def prepare_command(command: click.Command) -> click.Command:
+    """What every command gets when it is loaded: the short-help rule for its listings and the rules
+    checked before it starts (`legplan.cli.guard`)."""
+    if not command.short_help:
+        command.get_short_help_str = lambda limit=45, command=command: short_help(command, limit)
+    if isinstance(command, click.Group):
+        _use_short_help(command)
+    guard_commands(command)
+    return command
+
+
+def main() -> None:
+    """The `legplan` console script: `cli`, then a quick exit. Once the command has finished, its
+    output flushed and the `atexit` handlers run (logging, multiprocessing, h5py), the process ends
+    without the interpreter's teardown of every imported module, which only frees memory and costs
+    a short command a noticeable share of its CPU time. Other threads still running get the normal exit."""
+    try:
+        cli(prog_name="legplan")
+        code = 0
+    except SystemExit as exc:
+        code = exc.code
+    if threading.active_count() > 1:
+        sys.exit(code)
+    if code is not None and not isinstance(code, int):
+        print(code, file=sys.stderr)
+        code = 1
+    atexit._run_exitfuncs()
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (OSError, ValueError):  # a closed or broken pipe: nothing more can be said
+            pass
+    os._exit(code or 0)

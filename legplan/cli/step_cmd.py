@@ -66,6 +66,9 @@ def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, scheduler, resu
 
     Each worker plans on one core (one BLAS thread); use --jobs or --scheduler for parallelism.
     """
+    from legplan.batch import prestart
+
+    prestart(jobs, scheduler, ("legplan.stepplan.batch", "legplan.robots.model", "legplan.validate.checks"))
     from legplan.artefacts import check_output
     from legplan.batch import Task
     from legplan.cli.batching import run_stage

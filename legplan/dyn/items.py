@@ -31,6 +31,14 @@ class DynWorker:
         self.params = params
         self.initializer = initializer
 
+    @classmethod
+    def of(cls, robot, model, terrain_map, terrain, params: DynParams, initializer) -> DynWorker:
+        """A worker holding what the caller has already loaded (what `__init__` would load)."""
+        worker = cls.__new__(cls)
+        worker.robot, worker.model, worker.terrain_map, worker.terrain = robot, model, terrain_map, terrain
+        worker.params, worker.initializer = params, initializer
+        return worker
+
     def plan(self, index: int, task: DynTask) -> dict:
         from legplan.dyn.planner import plan
         from legplan.validate.trajectory import check_trajectory

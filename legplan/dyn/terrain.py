@@ -19,9 +19,8 @@ with a gradient that points away from them, where the raw heightmap's one-cell r
 from __future__ import annotations
 
 import numpy as np
-from scipy import ndimage
 
-from legplan.terrain import TerrainMap
+from legplan.terrain import TerrainMap, filters
 
 EDGE_STEP = 0.02  # m: a height jump between neighbouring cells that makes both an edge
 SLOPE_SMOOTHING = 0.02  # m: σ of the Gaussian under `stance_slope`
@@ -46,11 +45,15 @@ class TerrainModel:
         edge[1:, :] |= jump_y
         edge[:-1, :] |= jump_y
         self.has_edges = bool(edge.any())
-        smooth = ndimage.gaussian_filter(h, SLOPE_SMOOTHING / self.resolution, mode="nearest")
+        smooth = filters.gaussian_filter(h, SLOPE_SMOOTHING / self.resolution)
         gy, gx = np.gradient(smooth, self.resolution)
         self.slope_grid = np.hypot(gx, gy)
-        self.edge_distance_grid = (ndimage.distance_transform_edt(~edge) * self.resolution if self.has_edges
-                                   else np.full(h.shape, np.inf))
+        if self.has_edges:
+            from scipy.ndimage import distance_transform_edt  # maps with edges only (start-up time)
+
+            self.edge_distance_grid = distance_transform_edt(~edge) * self.resolution
+        else:
+            self.edge_distance_grid = np.full(h.shape, np.inf)
 
     def contains(self, xy) -> np.ndarray:
         """Whether points (n, 2) lie inside the map's cell-centre rectangle."""
@@ -92,7 +95,7 @@ class TerrainModel:
             span = int(np.floor(reach + 0.5))
             i, j = np.abs(np.mgrid[-span:span + 1, -span:span + 1])
             footprint = np.hypot(np.maximum(i - 0.5, 0.0), np.maximum(j - 0.5, 0.0)) <= reach
-            grids[radius] = ndimage.maximum_filter(self.height_grid, footprint=footprint, mode="nearest")
+            grids[radius] = filters.maximum_filter(self.height_grid, footprint)
         grid = grids[radius]
         return lambda x, y: self._bilinear(grid, x, y)
 

@@ -13,7 +13,6 @@ Quaternions are in pinocchio's configuration order (x, y, z, w).
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 
 def skew(w: np.ndarray) -> np.ndarray:
@@ -28,16 +27,22 @@ def skew(w: np.ndarray) -> np.ndarray:
 
 def quat_to_rotvec(quat: np.ndarray) -> np.ndarray:
     """Unit quaternions (n, 4) (x, y, z, w) -> rotation vectors (n, 3) with angle in [0, π]."""
+    from scipy.spatial.transform import Rotation  # scipy.spatial on first use (start-up time)
+
     return Rotation.from_quat(np.array(quat, float)).as_rotvec()
 
 
 def rotvec_to_quat(omega: np.ndarray) -> np.ndarray:
     """Rotation vectors (n, 3) -> unit quaternions (n, 4) (x, y, z, w)."""
+    from scipy.spatial.transform import Rotation  # scipy.spatial on first use (start-up time)
+
     return Rotation.from_rotvec(np.array(omega, float)).as_quat()
 
 
 def rotvec_to_matrix(omega: np.ndarray) -> np.ndarray:
     """Rotation vectors (n, 3) -> rotation matrices (n, 3, 3) (= pin.exp3)."""
+    from scipy.spatial.transform import Rotation  # scipy.spatial on first use (start-up time)
+
     return Rotation.from_rotvec(np.array(omega, float)).as_matrix()
 
 

@@ -31,9 +31,7 @@ import warnings
 from abc import ABC, abstractmethod
 
 import numpy as np
-import scipy.linalg
 import scipy.sparse as sp
-import scipy.sparse.linalg
 
 try:
     from sksparse import cholmod
@@ -279,6 +277,8 @@ class ScipySolver(LinearSolver):
         self._matrix = sp.csc_matrix(H)
 
     def refactor(self, beta):
+        import scipy.sparse.linalg  # this fallback only: not imported with the default solver
+
         n = self._matrix.shape[0]
         A = sp.csc_matrix(self._matrix + beta * sp.identity(n, format="csc"))
         try:
@@ -302,6 +302,8 @@ class DenseSolver(LinearSolver):
         self._matrix = H.toarray() if sp.issparse(H) else np.asarray(H, float)
 
     def refactor(self, beta):
+        import scipy.linalg  # the dense solver only: not imported with the default solver
+
         A = self._matrix.copy()
         A[np.diag_indices_from(A)] += beta
         try:
@@ -310,6 +312,8 @@ class DenseSolver(LinearSolver):
             raise NotPositiveDefiniteError(str(exc)) from exc
 
     def solve(self, rhs):
+        import scipy.linalg
+
         return scipy.linalg.cho_solve(self._cho, rhs, check_finite=False)
 
 

@@ -2,7 +2,7 @@
 
 The solution of `legplan dyn plan`, sampled every 10 ms (`t`, base pose and rates, feet, forces,
 contact flags), is checked against the model it claims to obey with code that did not produce it:
-nothing from `legplan.dyn` is used. The rotation R = Rz(yaw) Ry(pitch) Rx(roll) comes from scipy,
+nothing from `legplan.dyn` is used. The rotation R = Rz(yaw) Ry(pitch) Rx(roll) comes from pinocchio,
 the terrain from the map's own heightmap (`TerrainMap.height_at`, bilinear between cell centres, and
 the exact distance to its column solid, `legplan.terrain.columns.ColumnDistance`), leg kinematics
 from pinocchio (`legplan.robots`).
@@ -57,7 +57,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy.spatial.transform import Rotation
+import pinocchio as pin
 
 from legplan.robots import leg_reach
 from legplan.terrain.columns import ColumnDistance
@@ -142,7 +142,7 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
     s = {k: np.asarray(v) for k, v in samples.items()}
     t, p, contact = s["t"].astype(float), s["base_pos"].astype(float), s["contact"].astype(bool)
     feet, forces = s["feet_pos"].astype(float), s["forces"].astype(float)
-    rot = Rotation.from_euler("xyz", s["base_euler"]).as_matrix()   # extrinsic x, y, z: Rz Ry Rx
+    rot = np.array([pin.rpy.rpyToMatrix(e) for e in s["base_euler"].astype(float)]).reshape(-1, 3, 3)  # Rz Ry Rx
     weight = model.mass * GRAVITY
     offset = np.asarray(model.com_offset, float)
     lever = float(np.linalg.norm((model.nominal_feet - offset)[:, :2], axis=1).max())
@@ -308,7 +308,7 @@ def _spheres(robot, columns: _Columns, p, rot, joints) -> dict[str, float]:
     the exact column distance of the centre), the centres by one pinocchio FK of the base pose and
     the IK joints."""
     Q = np.empty((len(p), robot.nq))
-    Q[:, :3], Q[:, 3:7], Q[:, 7:] = p, Rotation.from_matrix(rot).as_quat(), joints   # (x, y, z, w) as pinocchio
+    Q[:, :3], Q[:, 3:7], Q[:, 7:] = p, [pin.Quaternion(r).coeffs() for r in rot], joints   # (x, y, z, w)
     index, foot = np.asarray(robot.spheres.leg_index), np.asarray(robot.spheres.is_foot, bool)
     picked = np.flatnonzero(~foot)
     centres = robot.sphere_centres(Q)[:, picked]

@@ -45,6 +45,31 @@ def test_in_process_records_in_item_order_failures_recorded_work_file_removed(tm
     assert sorted(computed(tmp_path / "calls.log")) == ITEMS
 
 
+def test_a_provided_context_serves_in_process_items(tmp_path):
+    """`Task.provide`: in-process items use the caller's context; `setup` is not called again."""
+    provided = task(tmp_path)
+    provided.provide(Context(str(tmp_path / "provided.log")))
+    records = run(tmp_path, task=provided)
+    assert [int(r["index"]) for r in records] == ITEMS
+    assert sorted(computed(tmp_path / "provided.log")) == ITEMS and computed(tmp_path / "calls.log") == []
+
+
+def test_prestarted_workers_are_taken_over_by_the_pool(tmp_path):
+    """`prestart`: the workers started (and importing) before the batch run its items, with the
+    in-process records; none are left waiting afterwards."""
+    from legplan.batch import backends, prestart
+
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    reference = run(tmp_path / "a")
+    prestart(2, None, ("toytasks",))
+    pool = backends._prestarted[2]
+    records = run(tmp_path / "b", backend=Backend(jobs=2))
+    assert_same_records(reference, records)
+    assert 2 not in backends._prestarted and pool._shutdown_thread
+    prestart(1, None, ("toytasks",)), prestart(2, "local", ("toytasks",))
+    assert not backends._prestarted  # in-process and dask batches start no pool
+
+
 def test_pool_gives_the_in_process_records_and_survives_a_dying_worker(tmp_path):
     (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
     reference = run(tmp_path / "a")

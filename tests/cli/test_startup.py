@@ -1,5 +1,6 @@
-"""Start-up (issue 19): `legplan --help` and a navigation search do not import the heavy libraries
-that only other commands need (measured times: BENCHMARKS.md, nav_search section)."""
+"""Start-up (issues 19, 38): `legplan --help`, `--version`, a navigation search and a centroidal plan
+do not import the libraries that only other commands need (measured times: BENCHMARKS.md, nav_search
+and cli sections)."""
 
 import subprocess
 import sys
@@ -7,9 +8,11 @@ import sys
 HEAVY = ("pinocchio", "matplotlib", "mujoco", "dask", "sklearn", "ompl", "fcl", "proxsuite")
 
 
-def imported_after(code: str) -> set[str]:
-    """Top-level packages in sys.modules after running `code` in a fresh interpreter."""
-    probe = f"{code}\nimport sys\nprint(' '.join(sorted({{m.split('.')[0] for m in sys.modules}})))"
+def imported_after(code: str, packages: bool = True) -> set[str]:
+    """Top-level packages (or, `packages` False, every module) in sys.modules after running `code` in
+    a fresh interpreter."""
+    names = "{m.split('.')[0] for m in sys.modules}" if packages else "set(sys.modules)"
+    probe = f"{code}\nimport sys\nprint(' '.join(sorted({names})))"
     out = subprocess.run([sys.executable, "-c", probe], check=True, capture_output=True, text=True)
     return set(out.stdout.split())
 
@@ -34,3 +37,55 @@ assert result.exit_code == 0, result.output
 """
     loaded = imported_after(code)
     assert "h5py" in loaded and not loaded & set(HEAVY), loaded & set(HEAVY)
+
+
+def test_version_imports_no_command_module():
+    code = """
+from click.testing import CliRunner
+from legplan.cli.main import cli
+assert CliRunner().invoke(cli, ["--version"]).exit_code == 0
+"""
+    loaded = imported_after(code, packages=False)
+    assert not {m for m in loaded if m.startswith("legplan.cli.") and m.endswith("_cmd")}, loaded
+
+
+# What `dyn plan` has no use for on a map without edges: other commands' libraries, scipy subpackages
+# whose imports build array-API wrappers (filters and rotations come from legplan.terrain.filters and
+# pinocchio), and the numpy submodules scipy's numpy namespace would import (legplan._lazy_numpy_clone;
+# numpy.ma is not among them: numpy's own `np.unique` imports it).
+NOT_FOR_DYN_PLAN = ("matplotlib", "mujoco", "dask", "distributed", "sklearn", "ompl", "proxsuite", "scipy.ndimage", "scipy.spatial", "scipy.special", "scipy.linalg",
+                    "scipy.optimize", "numpy.f2py", "numpy.testing", "unittest")
+
+
+def test_dyn_plan_imports_only_what_it_uses(tmp_path):
+    import numpy as np
+
+    from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
+
+    grid = Grid2D(origin=(-1.0, -1.0), resolution=0.02, shape=(101, 151))
+    save_map(terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat"), tmp_path / "map.h5")
+    code = f"""
+from click.testing import CliRunner
+from legplan.cli.main import cli
+result = CliRunner().invoke(cli, ["dyn", "plan", {str(tmp_path / 'map.h5')!r}, "--start", "0", "0", "0",
+                                  "--goal", "1", "0", "0", "-o", {str(tmp_path / 'traj.h5')!r}, "-q"])
+assert result.exit_code == 0, result.output
+"""
+    loaded = imported_after(code, packages=False)
+    assert {"pinocchio", "h5py", "sksparse.cholmod", "legplan.validate.centroidal"} <= loaded  # it did plan and check
+    assert not loaded & set(NOT_FOR_DYN_PLAN), loaded & set(NOT_FOR_DYN_PLAN)
+
+
+def test_scipy_numpy_namespace_stays_complete():
+    """legplan._lazy_numpy_clone defers numpy's submodules in scipy's numpy namespace without
+    removing them: they come on first access, and numpy itself is left as it was."""
+    code = """
+import numpy
+before = (list(numpy.__all__), sorted(dir(numpy)))
+import legplan, scipy.sparse, sys
+assert "numpy.f2py" not in sys.modules and "numpy.testing" not in sys.modules
+from scipy._lib.array_api_compat import numpy as xp
+assert xp.testing is numpy.testing and xp.f2py is numpy.f2py and xp.sum is numpy.sum
+assert (list(numpy.__all__), sorted(dir(numpy))) == before
+"""
+    imported_after(code)

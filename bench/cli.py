@@ -1,0 +1,336 @@
+"""Benchmark of the one-shot command: process CPU of `legplan dyn plan` on bench/dyn.py's cases (issue 38).
+
+    .venv/bin/python bench/cli.py [--repeats 3] [--cases KEY,KEY] [--before PATH] [--no-append]
+                                  [--jobs-steps 60:80] [--jobs-repeats 3] [--skip-dyn] [--skip-jobs]
+                                  [--step-map map.h5 --step-sequence steps.h5]
+
+For every case of bench/dyn.py (`CASES`: TOWR's cases and stairs) the whole command
+`legplan dyn plan MAP --gait --strides --duration --start --goal -o traj.h5 -q` (run as the
+`legplan` console script runs it, TOWR's formulation: `--costs none`, heuristic initializer,
+independent check on) runs in a fresh process with one BLAS thread; its CPU time (user + system, of
+the process and anything it started: `resource.getrusage(RUSAGE_CHILDREN)` around the run) is the
+figure, start-up included. Each run is split into
+  * start-up: a fresh process that imports exactly the modules that case's command imported (in the
+    same order) and ends as the command does: interpreter, imports and exit;
+  * solve: CPU inside `legplan.dyn.planner.solve_augmented_lagrangian` (all stages), measured in the
+    same run by a wrapper the probe installs (`PROBE`);
+  * the rest: whole − start-up − solve (reading the robot and the map, building the problem,
+    sampling, the independent check, the work file, writing traj.h5).
+Median of --repeats runs each (3 at least). `legplan --version` (interpreter + click) is measured in
+the same run. With --before PATH, the legplan tree at PATH (e.g. a checkout of the main branch) runs
+the same commands in alternation with this tree (run i of both back to back), so both see the same
+load; its column is the reference measured side by side.
+
+`--jobs 2` against `--jobs 1`: the whole command `legplan step plan MAP STEPS --steps A:B` on the
+gap-crossing scenario (bench/step_plan.py's `scenario`: maps/gap_crossing.yaml, scarab2, the
+generated sequence) in two variants: the pairs as generated (issue 38's measurement: mostly
+millisecond steps) and whole swings (bench/step_plan.py's `merge_swings`: every item a full swing,
+the ≥ 0.2 s items of the target). Wall time and process CPU of each, --jobs 1 and --jobs 2 in
+alternation, median of --jobs-repeats runs; the speed-up is the ratio of the median wall times.
+On a machine whose two cores are busy with other work no pool can approach 2×: the load average
+is recorded with it.
+
+TOWR's figures are the issue's (TOWR rebuilt on this machine, process CPU, another — idle — day):
+TOWR cannot run here, so they are context for the reader, not a ratio taken in one run.
+
+Writes bench/results/cli.json and replaces the `cli` section of BENCHMARKS.md (not with --no-append).
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result
+
+# Issue 38: TOWR's whole-process CPU (s) on this machine's idle day, same cases (another day's figures).
+TOWR_PROCESS_CPU = {"flat_trot": 0.80, "flat_walk": 1.87, "single_walk": 2.58, "single_trot": 6.92,
+                    "double_walk": 3.99, "flat_trot_2": None}
+TOWR_NOTES = {"flat_trot_2": "TOWR fails after 40 s"}
+THREADS = {name: "1" for name in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")}
+
+# Runs `legplan` as the console script does (legplan.cli.main:main), with the solve's CPU written
+# to $LEGPLAN_BENCH_SOLVE by an atexit handler (main runs atexit handlers before it ends).
+PROBE = r"""
+import atexit, os, time
+import legplan.dyn.planner as planner
+spent = [0.0]
+original = planner.solve_augmented_lagrangian
+def timed(*args, **kwargs):
+    t0 = time.process_time()
+    try:
+        return original(*args, **kwargs)
+    finally:
+        spent[0] += time.process_time() - t0
+planner.solve_augmented_lagrangian = timed
+atexit.register(lambda: open(os.environ["LEGPLAN_BENCH_SOLVE"], "w").write(repr(spent[0])))
+"""
+# The `legplan` console script of the tree (`main`, or `cli` in trees before it had `main`).
+ENTRY = r"""
+import sys
+sys.argv[0] = "legplan"
+try:
+    from legplan.cli.main import main
+except ImportError:
+    from legplan.cli.main import cli as main
+main()
+"""
+
+# Prints the modules a command leaves in sys.modules, in import order (not timed).
+MODULES = r"""
+import json, os, sys
+before = set(sys.modules)
+from legplan.cli.main import cli
+try:
+    cli(sys.argv[1:], prog_name="legplan")
+except SystemExit:
+    pass
+open(os.environ["LEGPLAN_BENCH_MODULES"], "w").write(json.dumps([m for m in sys.modules if m not in before]))
+"""
+
+# Imports the given modules in order, then ends as that tree's console script does (`main`: atexit
+# handlers, no module teardown; a tree without `main`: the interpreter's normal exit).
+STARTUP = r"""
+import atexit, importlib, json, os, sys
+for name in json.load(open(sys.argv[1])):
+    try:
+        importlib.import_module(name)
+    except Exception:
+        pass  # a module that only exists inside another's import (e.g. Cython's runtime)
+import legplan.cli.main
+if hasattr(legplan.cli.main, "main"):
+    atexit._run_exitfuncs()
+    sys.stdout.flush()
+    os._exit(0)
+"""
+
+
+def child_cpu(argv, env) -> tuple[float, subprocess.CompletedProcess]:
+    """CPU seconds (user + system) of running `argv` to its end, its children included."""
+    cpu, _, done = child_run(argv, env)
+    return cpu, done
+
+
+def child_run(argv, env) -> tuple[float, float, subprocess.CompletedProcess]:
+    """(CPU seconds, wall seconds, result) of running `argv` to its end, its children included."""
+    before, wall = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
+    done = subprocess.run(argv, env=env, capture_output=True, text=True)
+    after, wall = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter() - wall
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), wall, done
+
+
+def environment(tree: Path, **extra) -> dict:
+    return {**os.environ, **THREADS, "PYTHONPATH": str(tree), **extra}
+
+
+def command(case, map_path: Path, out: Path) -> list[str]:
+    args = ["dyn", "plan", str(map_path), "--gait", case["gait"], "--strides", str(case["strides"]),
+            "--duration", str(case["duration"]), "--start", *map(str, case["start"]), "--goal",
+            *map(str, case["goal"]), "-o", str(out), "--overwrite", "-q"]
+    return args
+
+
+def run_once(tree: Path, args: list[str], work: Path, modules: Path) -> dict:
+    """One whole command and its split (see the module docstring)."""
+    solve_file = work / "solve.txt"
+    solve_file.unlink(missing_ok=True)
+    whole, done = child_cpu([sys.executable, "-c", PROBE + ENTRY, *args], environment(tree, LEGPLAN_BENCH_SOLVE=str(solve_file)))
+    startup, _ = child_cpu([sys.executable, "-c", STARTUP, str(modules)], environment(tree))
+    solve = float(solve_file.read_text()) if solve_file.exists() else float("nan")
+    return {"whole": whole, "startup": startup, "solve": solve, "rest": whole - startup - solve,
+            "exit": done.returncode, "stderr": done.stderr.strip()[-300:]}
+
+
+def module_list(tree: Path, args: list[str], path: Path) -> int:
+    subprocess.run([sys.executable, "-c", MODULES, *args], env=environment(tree, LEGPLAN_BENCH_MODULES=str(path)),
+                   check=False, capture_output=True)
+    return len(json.loads(path.read_text())) if path.exists() else 0
+
+
+def medians(runs: list[dict]) -> dict:
+    keys = ("whole", "startup", "solve", "rest")
+    return {**{key: statistics.median(r[key] for r in runs) for key in keys},
+            "runs_whole": [r["whole"] for r in runs], "exit": [r["exit"] for r in runs]}
+
+
+def jobs_comparison(work: Path, step_range: str, repeats: int, map_path=None, steps_path=None) -> dict:
+    """`legplan step plan --steps step_range` with --jobs 1 and --jobs 2 in alternation, on the pairs
+    as generated and on whole swings (see the module docstring)."""
+    from step_plan import merge_swings, scenario
+
+    from legplan.robots import load_robot
+    from legplan.stepseq.sequence import read_steps, write_steps
+    from legplan.terrain import load_map
+    from legplan.validate.checks import Validator
+
+    if map_path is None or steps_path is None:
+        map_path, steps_path = scenario(work, "scarab2", (-0.6, 0.0, 0.0), (0.6, 0.0, 0.0))
+    swings = merge_swings(read_steps(steps_path))
+    swings_path = work / "swings.h5"
+    checks = Validator(load_robot(swings.robot), load_map(map_path)).check(swings.q, swings.stance, swings.footholds)
+    write_steps(swings_path, swings, checks)
+    out = {"steps": step_range, "variants": {}}
+    for variant, path in (("as generated", steps_path), ("whole swings", swings_path)):
+        runs = {1: [], 2: []}
+        for i in range(repeats):
+            for jobs in ((1, 2) if i % 2 == 0 else (2, 1)):
+                argv = [sys.executable, "-c", ENTRY, "step", "plan", str(map_path), str(path), "--steps", step_range,
+                        "--jobs", str(jobs), "-o", str(work / f"motion{jobs}.h5"), "--overwrite", "-q"]
+                cpu, wall, done = child_run(argv, environment(ROOT))
+                runs[jobs].append({"cpu": cpu, "wall": wall, "exit": done.returncode,
+                                   "load": load_average()})
+        import h5py
+        with h5py.File(work / "motion1.h5", "r") as f:
+            seconds = [float(f["steps"][k].attrs["seconds"]) for k in sorted(f["steps"])]
+        entry = {str(jobs): {"wall": statistics.median(r["wall"] for r in rs), "cpu": statistics.median(r["cpu"] for r in rs),
+                             "runs": rs} for jobs, rs in runs.items()}
+        entry["speedup"] = entry["1"]["wall"] / entry["2"]["wall"]
+        entry["item_seconds_jobs1_last_run"] = seconds
+        out["variants"][variant] = entry
+        print(f"step plan --steps {step_range} {variant}: --jobs 1 wall {entry['1']['wall']:.2f} s cpu "
+              f"{entry['1']['cpu']:.2f} s; --jobs 2 wall {entry['2']['wall']:.2f} s cpu {entry['2']['cpu']:.2f} s; "
+              f"speed-up {entry['speedup']:.2f}x", flush=True)
+    return out
+
+
+def jobs_markdown(result: dict) -> list[str]:
+    jobs = result["jobs"]
+    lines = ["", f"### `legplan step plan --steps {jobs['steps']}`: --jobs 2 against --jobs 1 (same run)", "",
+             "Gap-crossing scenario (scarab2, maps/gap_crossing.yaml, generated sequence), the whole command, "
+             "--jobs 1 and --jobs 2 in alternation, median of "
+             f"{len(next(iter(jobs['variants'].values()))['1']['runs'])} runs; load average during the runs in the "
+             "last column (2 cores shared with other sessions: with both busy, no pool can approach 2×).", "",
+             "| variant | median item [s] (--jobs 1, wall) | --jobs 1 wall [s] | --jobs 1 CPU [s] | --jobs 2 wall [s] | "
+             "--jobs 2 CPU [s] | speed-up (wall) | load |",
+             "|---|---|---|---|---|---|---|---|"]
+    for variant, e in jobs["variants"].items():
+        loads = [r["load"] for rs in (e["1"]["runs"], e["2"]["runs"]) for r in rs]
+        lines.append(f"| {variant} | {statistics.median(e['item_seconds_jobs1_last_run']):.3f} | {e['1']['wall']:.2f} | "
+                     f"{e['1']['cpu']:.2f} | {e['2']['wall']:.2f} | {e['2']['cpu']:.2f} | {e['speedup']:.2f}× | "
+                     f"{min(loads):.1f}–{max(loads):.1f} |")
+    return lines
+
+
+def markdown(result: dict) -> str:
+    sides = ["this tree"] + (["before"] if result["before"] else [])
+    head = (f"## cli — whole `legplan dyn plan` process CPU, bench/dyn.py's cases ({result['date']}, "
+            f"{result['code']})\n")
+    lines = [head,
+             f"Machine: {result['machine']}, shared with other sessions: load average {result['load_start']:.1f} at the "
+             f"start, {result['load_end']:.1f} at the end (CPU times on a loaded machine are noisy and "
+             f"higher than idle). `legplan dyn plan MAP ... -o traj.h5 -q` (as the console script runs it, "
+             f"`--costs none`, heuristic initializer, independent check on), one BLAS thread, process CPU "
+             f"(user + system, `getrusage` of the child), median of {result['repeats']} runs"
+             + (f"; 'before' is {result['before']} ({result['before_code']}), run in alternation with this tree "
+                "in the same session" if result["before"] else "") + ". Start-up: a process importing exactly "
+             "the modules the command imported and ending as it does; solve: CPU inside "
+             "`solve_augmented_lagrangian`; rest: whole − start-up − solve (robot, map, problem, sampling, "
+             f"check, work file, traj.h5). `legplan --version`: {result['version_cpu']:.3f} s"
+             + (f" (before: {result['version_cpu_before']:.3f} s)" if result["before"] else "") + ".",
+             "",
+             "TOWR column: the issue's figures, TOWR's whole process on this machine on another (idle) day. "
+             "TOWR cannot be built and run here, so it was not measured in this run: it is context, and no "
+             "ratio to it is taken.",
+             "",
+             "| case | code | whole [s] | start-up [s] | solve [s] | rest [s] | exit | TOWR process, another day [s] |",
+             "|---|---|---|---|---|---|---|---|"]
+    for key, case in result["cases"].items():
+        towr = TOWR_PROCESS_CPU.get(key)
+        towr_text = f"{towr:.2f}" if towr is not None else TOWR_NOTES.get(key, "—")
+        for side in sides:
+            m = case[side]
+            lines.append(f"| {case['label']} | {side} | {m['whole']:.3f} | {m['startup']:.3f} | {m['solve']:.3f} | "
+                         f"{m['rest']:.3f} | {','.join(map(str, sorted(set(m['exit']))))} | {towr_text} |")
+    lines.append("")
+    lines.append("Exit 1 means the command ran and recorded a failed task (its reason is in traj.h5); the "
+                 "CPU time is still the whole command's.")
+    if result.get("jobs"):
+        lines += jobs_markdown(result)
+    return "\n".join(lines)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--repeats", type=int, default=3)
+    ap.add_argument("--cases", default="", help="comma-separated case keys of bench/dyn.py (default: all)")
+    ap.add_argument("--before", type=Path, help="another legplan tree to run side by side (reference)")
+    ap.add_argument("--no-append", action="store_true", help="do not update BENCHMARKS.md")
+    ap.add_argument("--jobs-steps", default="60:80", help="pairs of the --jobs comparison (a:b)")
+    ap.add_argument("--jobs-repeats", type=int, default=3)
+    ap.add_argument("--step-map", type=Path, help="map.h5 of the gap-crossing scenario (built if not given)")
+    ap.add_argument("--step-sequence", type=Path, help="its generated steps.h5 (generated if not given)")
+    ap.add_argument("--skip-dyn", action="store_true", help="only the --jobs comparison")
+    ap.add_argument("--skip-jobs", action="store_true", help="only the dyn plan cases")
+    args = ap.parse_args(argv)
+    repeats = max(3, args.repeats)
+
+    sys.path.insert(0, str(ROOT / "bench"))
+    from dyn import CASES  # noqa: E402  (the cases, one list for both benchmarks)
+
+    from legplan.terrain import build_map, save_map
+
+    wanted = [] if args.skip_dyn else [c for c in CASES if not args.cases or c["key"] in args.cases.split(",")]
+    trees = {"this tree": ROOT}
+    if args.before is not None:
+        trees["before"] = args.before.resolve()
+    result = {"date": datetime.date.today().isoformat(), "machine": machine(), "code": code_version(),
+              "before": str(args.before) if args.before else None, "repeats": repeats,
+              "load_start": load_average(), "towr_process_cpu_issue_38": TOWR_PROCESS_CPU, "cases": {}}
+    if args.before is not None:
+        result["before_code"] = subprocess.run(["git", "-C", str(args.before), "rev-parse", "--short", "HEAD"],
+                                               capture_output=True, text=True).stdout.strip()
+    with tempfile.TemporaryDirectory() as tmp:
+        work = Path(tmp)
+        version = {side: [] for side in trees}
+        for _ in range(repeats):
+            for side, tree in trees.items():
+                cpu, _ = child_cpu([sys.executable, "-c", ENTRY, "--version"], environment(tree))
+                version[side].append(cpu)
+        result["version_cpu"] = statistics.median(version["this tree"])
+        if args.before is not None:
+            result["version_cpu_before"] = statistics.median(version["before"])
+        maps = {}
+        for case in wanted:
+            if case["map"] not in maps:
+                maps[case["map"]] = work / f"{case['map']}.h5"
+                save_map(build_map(ROOT / "maps" / f"{case['map']}.yaml"), maps[case["map"]])
+            cmd = command(case, maps[case["map"]], work / "traj.h5")
+            lists = {side: work / f"modules-{case['key']}-{i}.json" for i, side in enumerate(trees)}
+            for side, tree in trees.items():
+                module_list(tree, cmd, lists[side])
+            runs = {side: [] for side in trees}
+            for i in range(repeats):
+                order = list(trees) if i % 2 == 0 else list(trees)[::-1]
+                for side in order:
+                    runs[side].append(run_once(trees[side], cmd, work, lists[side]))
+            entry = {"label": case["label"], "command": ["legplan", *cmd[:2], f"{case['map']}.h5", *cmd[3:]]}
+            for side in trees:
+                entry[side] = medians(runs[side])
+                if runs[side][-1]["exit"] not in (0, 1):
+                    entry[side]["stderr"] = runs[side][-1]["stderr"]
+            result["cases"][case["key"]] = entry
+            print(f"{case['key']}: " + "; ".join(
+                f"{side} whole {entry[side]['whole']:.3f} start-up {entry[side]['startup']:.3f} solve "
+                f"{entry[side]['solve']:.3f} rest {entry[side]['rest']:.3f} exit {entry[side]['exit']}" for side in trees),
+                flush=True)
+        if not args.skip_jobs:
+            result["jobs"] = jobs_comparison(work, args.jobs_steps, max(1, args.jobs_repeats), args.step_map,
+                                             args.step_sequence)
+    result["load_end"] = load_average()
+    write_result("cli", result)
+    if not args.no_append:
+        update_benchmarks("cli", markdown(result))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,5 @@
+"""`python -m legplan ...`: the `legplan` command."""
+
+from legplan.cli.main import main
+
+main()
