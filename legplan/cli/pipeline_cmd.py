@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from legplan.cli.options import ShippedPath, jobs_opt, verbosity_opts
+from legplan.cli.options import OutputPath, ShippedPath, jobs_opt, verbosity_opts
 
 _STYLE = {"ran": "green", "items_failed": "yellow", "up_to_date": "dim", "failed": "bold red",
           "skipped": "red"}
@@ -24,9 +24,9 @@ def _default_out(pipeline_file: str) -> Path:
 
 def _output_opts(func):
     """`-o/--output DIR` of a pipeline's outputs, with `--out` kept as a hidden deprecated alias."""
-    func = click.option("--out", "legacy_out", type=click.Path(file_okay=False), default=None, hidden=True,
+    func = click.option("--out", "legacy_out", type=OutputPath(file_okay=False), default=None, hidden=True,
                         help="Deprecated spelling of -o/--output.")(func)
-    return click.option("-o", "--output", "out_dir", type=click.Path(file_okay=False), default=None,
+    return click.option("-o", "--output", "out_dir", type=OutputPath(file_okay=False), default=None,
                         help="Output directory (default: outputs/<pipeline file stem>).")(func)
 
 

@@ -7,7 +7,8 @@ import json
 
 import click
 
-from legplan.cli.options import OutputPath, json_opt, overwrite_opt, verbosity_opts
+from legplan.cli.options import OutputPath, json_opt, number, overwrite_opt, verbosity_opts
+from legplan.parameters import FORCE, FRICTION, LENGTH
 
 
 @click.group("robot")
@@ -76,14 +77,14 @@ def _foot_option(text: str) -> tuple[str, tuple[str, list[float] | None]]:
 @click.option("--foot", "feet", multiple=True, metavar="LEG=LINK[:X,Y,Z]",
               help="A leg's foot: on LINK at offset X,Y,Z (m, link frame), or at the lowest point of LINK's "
                    "geometry in the stance when no offset is given. Repeatable.")
-@click.option("--height", type=click.FloatRange(min=0.0, min_open=True), default=None,
+@click.option("--height", type=number(LENGTH), default=None,
               help="Base height of the nominal stance (m); default: legs bent to 3/4 of their drop.")
 @click.option("--package-path", "package_paths", multiple=True, type=click.Path(file_okay=False),
               help="A folder holding ROS packages (or a package itself) for package:// meshes; searched "
                    "before the URDF's parent folders and ROS_PACKAGE_PATH. Repeatable.")
-@click.option("--friction", type=click.FloatRange(min=0.0, min_open=True), default=None,
+@click.option("--friction", type=number(FRICTION), default=None,
               help="centroidal.friction (default 0.5).")
-@click.option("--max-normal-force", type=click.FloatRange(min=0.0, min_open=True), default=None,
+@click.option("--max-normal-force", type=number(FORCE), default=None,
               help="centroidal.max_normal_force (N); default: from the joint efforts.")
 @click.option("--no-centroidal", "no_centroidal", is_flag=True,
               help="Draft no centroidal section (legs that cannot move their feet in 3D, robots not for dyn).")

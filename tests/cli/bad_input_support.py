@@ -59,8 +59,10 @@ def assert_refused(result, *names: str, output: Path | None = None, before: byte
 
 
 def leaf_commands(group: click.Group = cli, path: tuple[str, ...] = ()):
-    """(path, command) of every runnable command of the click tree."""
-    for name, command in sorted(group.commands.items()):
+    """(path, command) of every runnable command of the click tree (each loaded, as on first use)."""
+    ctx = click.Context(group)
+    for name in sorted(group.list_commands(ctx)):
+        command = group.get_command(ctx, name)
         if isinstance(command, click.Group):
             yield from leaf_commands(command, (*path, name))
         else:

@@ -4,6 +4,7 @@ one-line help not cut at abbreviations, `dyn plan --tasks` given a learn task sp
 
 from pathlib import Path
 
+import click
 import pytest
 import yaml
 from click.testing import CliRunner
@@ -73,12 +74,14 @@ def test_a_report_output_named_like_a_file_is_refused(tmp_path):
 
 def test_one_line_help_runs_past_abbreviations():
     def commands(group, path=()):
-        for name, sub in group.commands.items():
+        ctx = click.Context(group)
+        for name in group.list_commands(ctx):
+            sub = group.get_command(ctx, name)
             yield (*path, name), sub
             if hasattr(sub, "commands"):
                 yield from commands(sub, (*path, name))
 
-    dyn_show = cli.commands["dyn"].commands["show"]
+    dyn_show = cli.get_command(click.Context(cli), "dyn").commands["show"]
     assert short_help(dyn_show, 200).startswith("PNG of TRAJ: base, feet and forces over time (Fig. 3);")
     for path, sub in commands(cli):
         line = sub.get_short_help_str(200)

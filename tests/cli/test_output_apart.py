@@ -28,7 +28,8 @@ def _outputs(command) -> list[click.Parameter]:
 
 
 def _inputs(command) -> list[click.Parameter]:
-    return [p for p in command.params if isinstance(p.type, click.Path) and not isinstance(p.type, OutputPath)]
+    return [p for p in command.params
+            if isinstance(p.type, click.Path) and p.type.file_okay and not isinstance(p.type, OutputPath)]
 
 
 WRITERS = [(path, command) for path, command in leaf_commands() if _outputs(command)]
