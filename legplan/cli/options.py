@@ -53,9 +53,12 @@ class Numbers(click.ParamType):
             numbers = [float(text) for text in tokens]
         except (TypeError, ValueError):
             numbers = []
-        if len(numbers) not in self.counts or not all(math.isfinite(v) for v in numbers):
+        if len(numbers) not in self.counts:
             self.fail(f"expected {' or '.join(map(str, self.counts))} finite numbers, got "
                       f"{' '.join(map(str, tokens))!r}", param, ctx)
+        for text, v in zip(tokens, numbers):
+            if not math.isfinite(v):
+                self.fail(f"{str(text)!r} is not a finite number", param, ctx)
         return numbers
 
 
