@@ -83,9 +83,12 @@ class Numbers(click.ParamType):
             numbers = [float(text) for text in tokens]
         except (TypeError, ValueError):
             numbers = []
-        if len(numbers) not in self.counts or not all(math.isfinite(v) for v in numbers):
+        if len(numbers) not in self.counts:
             self.fail(f"expected {' or '.join(map(str, self.counts))} finite numbers, got "
                       f"{' '.join(map(str, tokens))!r}", param, ctx)
+        for text, v in zip(tokens, numbers):
+            if not math.isfinite(v):
+                self.fail(f"{str(text)!r} is not a finite number", param, ctx)
         if self.ranges:
             for i, text in enumerate(tokens):
                 self.ranges[min(i, len(self.ranges) - 1)].convert(text, param, ctx)
@@ -97,7 +100,7 @@ class NumbersOption(click.Option):
     the numbers after the option are taken while they parse as numbers, up to the largest count,
     so `--start 1 -2 --goal 3 4` and `--start 1 -2 0.5 --goal 3 4` both work; with `multiple`,
     once per occurrence. The one syntax of every pose option (`counts=(3,)` for a fixed pose); `ranges`
-the physical range of each position (default x, y, yaw; the last repeats)."""
+    the physical range of each position (default x, y, yaw; the last repeats)."""
 
     def __init__(self, *args, counts: tuple[int, ...], ranges: tuple[str, ...] = (COORDINATE, COORDINATE, YAW),
                  **kwargs):
