@@ -210,7 +210,8 @@ def read_motion(path) -> list[dict]:
             raise ArtefactError(f"{path}: group '/steps' holds no steps")
         for name, g in steps.items():
             r = require_attrs(g, ("index", "success", "reason", "seconds"))
-            for key in ("q_start", "q_end", "footholds", "stance", *(("control_points",) if r["success"] else ())):
+            planned = r["success"] and "waypoints" not in g  # a baseline's step is its waypoints
+            for key in ("q_start", "q_end", "footholds", "stance", *(("control_points",) if planned else ())):
                 require(g, key)  # what every step has, and a planned step's curve
             for key in ("q_start", "q_end", "footholds", "stance", "control_points", "waypoints"):
                 if key in g:
