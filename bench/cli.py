@@ -121,9 +121,10 @@ def child_cpu(argv, env) -> tuple[float, subprocess.CompletedProcess]:
 
 
 def child_run(argv, env) -> tuple[float, float, subprocess.CompletedProcess]:
-    """(CPU seconds, wall seconds, result) of running `argv` to its end, its children included."""
+    """(CPU seconds, wall seconds, result) of running `argv` to its end, its children included. It
+    runs in the tree of `env`'s PYTHONPATH: `python -c` puts the working directory first on sys.path."""
     before, wall = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
-    done = subprocess.run(argv, env=env, capture_output=True, text=True)
+    done = subprocess.run(argv, env=env, cwd=env["PYTHONPATH"], capture_output=True, text=True)
     after, wall = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter() - wall
     return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), wall, done
 
@@ -152,7 +153,7 @@ def run_once(tree: Path, args: list[str], work: Path, modules: Path) -> dict:
 
 def module_list(tree: Path, args: list[str], path: Path) -> int:
     subprocess.run([sys.executable, "-c", MODULES, *args], env=environment(tree, LEGPLAN_BENCH_MODULES=str(path)),
-                   check=False, capture_output=True)
+                   cwd=tree, check=False, capture_output=True)
     return len(json.loads(path.read_text())) if path.exists() else 0
 
 
