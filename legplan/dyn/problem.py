@@ -46,7 +46,7 @@ class DynParams:
 
     Points every `swing_dt` (at most) inside each swing polynomial keep the foot above the terrain
     between nodes (`swing_clearance` m above its column envelope) and inside its range of motion
-    (which TOWR checks every `dt_range` only: swing feet left the box by 1.3 cm in between). The force bounds and the friction pyramid hold at the
+    (which TOWR checks every `dt_range` only: swing feet left the box by 1.3 cm in between). The force bounds and the friction pyramid (inscribed in the Coulomb cone, `ForceBlock`) hold at the
     Bézier control points of every force polynomial, hence along all of it (the terrain normal is
     that of the stance foothold, constant over the stance). `towr_swing` adds TOWR's swing constraint (apex x, y halfway
     between the footholds, apex velocity = step / swing time); off by default: it is a regularizer,
@@ -130,7 +130,8 @@ class DynParams:
     """m: the surfaces of the legs' collision spheres (all but the feet) stay this far above the
     terrain's envelope at the range-of-motion samples (`LegClearanceBlock`): on by default, since the
     independent check judges every leg sphere against the terrain, with a margin for the tracking
-    error of the executing controller. None = off."""
+    error of the executing controller. Left out on a level map, where no terrain rises to the legs
+    (the check still judges them). None = off."""
     solver: ALParams = ALParams()
     projection_solver: ALParams = ALParams(exact_rows=True)
     """The "projection" warm stage's: the constraints alone, stopped by the exact per-row test (a last
@@ -308,6 +309,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         k.append(Constraint(acceleration_continuity(form, var), name="acceleration_continuity", scale=1.0 / GRAVITY))
     if params.towr_swing and form.footsteps:
         k.append(Constraint(swing_constraint(form), name="swing", scale=np.tile([1.0 / LENGTH, 1.0], 2 * form.footsteps)))
+    relief = bool(np.ptp(terrain.height_grid) > 0)  # on a level map the legs stand above the feet
     for leg, foot in enumerate(form.feet):
         swing_t = _swing_times(foot, params.swing_dt)
         rom_t = np.union1d(np.union1d(times["range"], swing_t),  # swing feet move fastest: also between
@@ -330,7 +332,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         k.append(Constraint(ForceBlock(terrain, model.friction, points if timing is None else TimedControlPoints(timing, leg),
                                        form.node_selector(stance_node, form.motion_nodes)),
                             lower, upper, name="force", scale=1.0 / weight))
-        if params.leg_clearance is not None:
+        if params.leg_clearance is not None and relief:
             if legs is None:
                 raise ValueError("DynParams.leg_clearance needs the robot's legs (Centroidal.leg_kinematics)")
             k.append(Constraint(LegClearanceBlock(form, leg, legs, terrain, rom_t, timing, offset),

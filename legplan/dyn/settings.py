@@ -1,9 +1,10 @@
 """The planner settings of `legplan dyn plan`: `--costs` (a preset or a costs file) and `--init`.
 
 Presets: ``paper`` — `legplan.dyn.problem.PAPER`, the paper's costs with its swing-height and
-base-clearance constraints; ``none`` — TOWR's formulation alone, `DynParams()`. A costs file is a YAML mapping of `CostWeights` fields (each >= 0,
+base-clearance constraints; ``none`` — TOWR's formulation with our defaults, `DynParams()` (leg clearance
+and the between-knot dynamics on). A costs file is a YAML mapping of `CostWeights` fields (each >= 0,
 `stair_edge_sigma` > 0; missing fields are 0 = off) plus optional `swing_height_min`,
-`base_clearance` and `leg_clearance` (m, >= 0; missing or null = off); with `preset: NAME` the
+`base_clearance` and `leg_clearance` (m, >= 0; null = off; missing = `DynParams()`'s); with `preset: NAME` the
 missing fields are the preset's instead (null still switches a constraint off), e.g.
 
     base_angular_velocity: 20.0
