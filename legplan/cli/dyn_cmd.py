@@ -76,6 +76,8 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     init_fn = initializer(init)  # an unknown --init: exit 2 before any work
     loaded = load_robot(robot)
     model = centroidal_model(loaded, params, costs)
+    if any(model.com_offset):
+        status(f"{robot}: CoM at {', '.join(f'{v:g}' for v in model.com_offset)} m in the base frame: planned about the CoM")
     tasks = (read_tasks(tasks_path, gait, strides, duration) if tasks_path is not None
              else [command_line_task(start, goal, gait, strides, duration)])
     check_placements(tasks, model, TerrainModel(load_map(map_path)), tasks_path, map_path)

@@ -42,7 +42,7 @@ def test_plan_writes_the_traj_artefact(planned):
         assert f.attrs["legplan_kind"] == "traj" and f.attrs["robot"] == "anymal"
         assert f.attrs["legs"] == "lf,rf,lh,rh"
         params = json.loads(f.attrs["params"])
-        assert params["costs"] == "none" and params["gait"] == "trot" and params["dyn"]["dt"] == 0.1
+        assert params["costs"] == "none" and params["gait"] == "walk" and params["dyn"]["dt"] == 0.1
         assert json.loads(f.attrs["inputs"])[0]["kind"] == "map"
         task = f["tasks/0000"]
         assert task.attrs["success"] and "max violation" in task.attrs["reason"]
@@ -231,4 +231,4 @@ def test_report_compare_and_inspect_know_traj(planned):
     assert result.exit_code == 0 and "item samples/forces (array)" in result.output
     result = invoke("inspect", out)
     assert result.exit_code == 0 and "traj artefact" in result.output
-    assert "/tasks/0000/samples/forces: 241x4x3 float64 [N]" in result.output
+    assert "/tasks/0000/samples/forces: 301x4x3 float64 [N]" in result.output

@@ -25,6 +25,7 @@ def test_records_round_trip_and_summary(anymal, flat, tmp_path):
     planned, raised = tasks
     assert check.ok, check.failures()
     assert planned["success"] and planned["solved"] and planned["iterations"] == result.solve.iterations
+    np.testing.assert_array_equal(planned["com_offset"], np.zeros(3))
     with open_artefact(tmp_path / "traj.h5", kind="traj") as handle:
         judged = handle["tasks/0000/check"]
         assert judged["base_height"].attrs["bound"] == "lower" and judged["leg_penetration"].attrs["bound"] == "upper"
