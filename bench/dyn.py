@@ -192,12 +192,13 @@ def dense_check(samples, model, terrain_map, robot, node_times):
     except Exception as exc:  # noqa: BLE001 - a crash of the check is a result to report, not a bench crash
         return {"error": f"{type(exc).__name__}: {exc}"}
     worst = {k: float(v) for k, v in c.worst.items()}
-    half_cell = 0.5 * float(terrain_map.grid.resolution)
+    penetration = max(worst["penetration_height"], worst["penetration_column"])
+    force = max(worst["normal_force"], worst["friction_cone"])
+    weight = model.mass * 9.81
     return {"ok": bool(c.ok), "failed": sorted(k for k, p in c.passed.items() if not p), "worst": worst,
-            "penetration_m": max(worst["penetration_height"], worst["penetration_sdf"] - half_cell),
-            "force_rel": max(worst["normal_force"], worst["friction_pyramid"]),
-            "target_met": bool(max(worst["penetration_height"], worst["penetration_sdf"] - half_cell) <= PENETRATION_TOL
-                               and max(worst["normal_force"], worst["friction_pyramid"]) <= FORCE_TOL)}
+            "penetration_m": penetration, "force_rel": force,
+            "newton_euler_force_rel": worst["newton_euler_force"] / weight,
+            "target_met": bool(penetration <= PENETRATION_TOL and force <= FORCE_TOL)}
 
 
 # --- Ipopt on our formulation ------------------------------------------------------------------------
@@ -465,8 +466,10 @@ def check_cells(check):
     if "error" in check:
         return f"error: {check['error']}"
     w = check["worst"]
+    between = check.get("newton_euler_force_rel")
     text = (f"{1e3 * check['penetration_m']:.2f} mm / {check['force_rel']:.1e} / "
-            f"{w['newton_euler_force_nodes']:.1e} N / {w['leg_reach']:.1e} m")
+            f"{w['newton_euler_force_nodes']:.1e} N" + (f" (10 ms: {100 * between:.1f} % m·g)" if between is not None else "")
+            + f" / {w['leg_reach']:.1e} m")
     return text + (" ✓" if check["ok"] else f" ✗ ({', '.join(check['failed'])})")
 
 

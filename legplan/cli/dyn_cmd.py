@@ -60,7 +60,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     from legplan.batch import prestart
 
     prestart(jobs, scheduler, ("legplan.dyn.items", "legplan.dyn.planner", "legplan.robots.model",
-                               "legplan.validate.centroidal"))
+                               "legplan.validate.trajectory"))
     from legplan.artefacts import check_output
     from legplan.artefacts.identity import check_same_map
     from legplan.batch import Task
@@ -85,6 +85,8 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     init_fn = initializer(init)  # an unknown --init: exit 2 before any work
     loaded = load_robot(robot)
     model = centroidal_model(loaded, params, costs)
+    if any(model.com_offset):
+        status(f"{robot}: CoM at {', '.join(f'{v:g}' for v in model.com_offset)} m in the base frame: planned about the CoM")
     tasks = (read_tasks(tasks_path, gait, strides, duration) if tasks_path is not None
              else [command_line_task(start, goal, gait, strides, duration)])
     check_sizes(tasks, params, tasks_path)

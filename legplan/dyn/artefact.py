@@ -11,7 +11,8 @@ plus the task options; `robot`, `legs` (comma-separated, the order of every per-
     its sampled rows), cost (final total), variables (free variables, ours),
     paper_variables (the paper's N = 12T/dt + 20S + 120), peak_force (largest |f| of a foot, N),
     peak_roll_pitch_rate (largest |ω_x|, |ω_y| of the base, rad/s) — NaN when the planner raised.
-  datasets: start, goal (x m, y m, yaw rad);
+  datasets: start, goal (x m, y m, yaw rad); com_offset (m: the CoM in the base frame, about which the
+    plan's dynamics hold; the samples are the base origin's);
     timings/{evaluate,assemble,factorize,solve,total} (s) — the solve time split;
     violations/<constraint> — the solver's largest violation of each constraint, in its own units;
     costs/<term> — the final value of every cost term (as the solver reports it);
@@ -81,6 +82,7 @@ def trajectory_record(index: int, task, result, check) -> dict:
             "paper_variables": int(form.paper_variable_count()),
             "peak_force": float(np.linalg.norm(samples["forces"], axis=-1).max()),
             "peak_roll_pitch_rate": float(np.abs(samples["base_ang_vel"][:, :2]).max()),
+            "com_offset": np.asarray(result.problem.com_offset, float),
             "timings": {name: float(value) for name, value in asdict(solve.timings).items()},
             "violations": {name: float(value) for name, value in solve.violations.items()},
             "costs": {name: float(value) for name, value in solve.cost_terms.items()},
@@ -158,6 +160,7 @@ def _write_task(group: h5py.Group, record: dict) -> None:
     write_dataset(group, "goal", record["goal"], units=POSE_UNITS)
     if "samples" not in record:
         return
+    write_dataset(group, "com_offset", record["com_offset"], units="m")
     for name, value in record["timings"].items():
         write_dataset(group, f"timings/{name}", value, units="s")
     violations = group.create_group("violations")

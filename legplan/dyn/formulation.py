@@ -12,11 +12,14 @@ Phase-based parametrization of Winkler et al. (2018), as summarized in the TOWR-
   joined by two Hermite polynomials per swing. The first stance node's x, y are fixed to the start.
   Variable ``feet``: the nodes of all feet, foot after foot.
 * per foot, forces as three Hermite polynomials per stance phase (4 nodes) and zero in swing (one
-  fixed zero node); stance nodes next to a swing are fixed to zero value and derivative (force and
-  its rate vanish at touchdown and lift-off). Variable ``forces``.
+  fixed zero node); stance nodes next to a swing are fixed to zero value (the force vanishes at
+  touchdown and lift-off) with the rate free, where TOWR fixes the rate to zero too: the force then
+  can rise linearly after a touchdown, as m(p̈ + g) does on a base polynomial, where a zero rate
+  makes it rise quadratically and leaves the Newton–Euler residual between the knots no way to
+  vanish (`DynParams.dynamics_points`). Variable ``forces``.
 
-Free variables: 12·T/dt + 20·S + c (S footsteps), the count of the paper's N = 12T/dt + 20S + 120 less
-the entries TOWR bounds but we fix (see `Formulation.variable_count`).
+Free variables: 12·T/dt + 26·S + c (S footsteps: 3 rates at each touchdown and lift-off more than
+TOWR's), against the paper's N = 12T/dt + 20S + 120 (`Formulation.paper_variable_count`).
 """
 
 from __future__ import annotations

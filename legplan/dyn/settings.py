@@ -2,10 +2,11 @@
 the presets, and the one route that sets them: `dyn_params(costs, overrides)`.
 
 Presets: ``paper`` — `PAPER`, the paper's costs with its swing-height and base-clearance
-constraints; ``none`` — TOWR's formulation alone, `DynParams()`. A costs file is one source of
-overrides: a YAML mapping of `CostWeights` fields (missing fields are 0 = off) plus optional
-`swing_height_min`, `base_clearance` and `leg_clearance` (m; missing or null = off); with
-`preset: NAME` the missing fields are the preset's instead (null still switches a constraint off), e.g.
+constraints; ``none`` — TOWR's formulation with our defaults, `DynParams()` (leg clearance and the
+between-knot dynamics on). A costs file is one source of overrides: a YAML mapping of `CostWeights`
+fields (missing fields are 0 = off) plus optional `swing_height_min`, `base_clearance` and
+`leg_clearance` (m; null = off; missing = `DynParams()`'s); with `preset: NAME` the missing fields are
+the preset's instead (null still switches a constraint off), e.g.
 
     base_angular_velocity: 20.0
     force_rate: 1.0e-4

@@ -72,7 +72,7 @@ result = CliRunner().invoke(cli, ["dyn", "plan", {str(tmp_path / 'map.h5')!r}, "
 assert result.exit_code == 0, result.output
 """
     loaded = imported_after(code, packages=False)
-    assert {"pinocchio", "h5py", "sksparse.cholmod", "legplan.validate.centroidal"} <= loaded  # it did plan and check
+    assert {"pinocchio", "h5py", "sksparse.cholmod", "legplan.validate.trajectory"} <= loaded  # it did plan and check
     assert not loaded & set(NOT_FOR_DYN_PLAN), loaded & set(NOT_FOR_DYN_PLAN)
 
 

@@ -13,7 +13,7 @@ from legplan.validate.trajectory import check_trajectory
 
 
 def test_records_round_trip_and_summary(anymal, flat, tmp_path):
-    task = DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "trot", 3, 2.0)
+    task = DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "walk", 2, 3.0)
     result = plan(task, anymal, flat, DynParams())
     grid = Grid2D(origin=(-1.5, -1.0), resolution=0.02, shape=(101, 176))
     terrain_map = terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat")
@@ -23,7 +23,13 @@ def test_records_round_trip_and_summary(anymal, flat, tmp_path):
     attrs, tasks = read_tasks(tmp_path / "traj.h5")
     assert attrs["legs"] == "lf,rf,lh,rh" and len(tasks) == 2
     planned, raised = tasks
-    assert planned["success"] and planned["iterations"] == result.solve.iterations
+    assert check.ok, check.failures()
+    assert planned["success"] and planned["solved"] and planned["iterations"] == result.solve.iterations
+    np.testing.assert_array_equal(planned["com_offset"], np.zeros(3))
+    with open_artefact(tmp_path / "traj.h5", kind="traj") as handle:
+        judged = handle["tasks/0000/check"]
+        assert judged["base_height"].attrs["bound"] == "lower" and judged["leg_penetration"].attrs["bound"] == "upper"
+        assert all("tolerance" in judged[name].attrs for name in judged)
     np.testing.assert_array_equal(planned["samples"]["forces"], result.samples["forces"])
     np.testing.assert_array_equal(planned["nodes"]["feet"]["value"], result.solve.values["feet"])
     spans = planned["nodes"]["base_lin"]["span"]
@@ -37,3 +43,24 @@ def test_records_round_trip_and_summary(anymal, flat, tmp_path):
     assert summary["check_base_height"][0] == pytest.approx(check.worst["base_height"])
     with open_artefact(tmp_path / "traj.h5", kind="traj") as handle:
         assert read_summary(handle)["check_passed"][0] == int(check.ok)
+
+
+def test_a_plan_that_fails_its_check_is_a_failed_task(anymal, flat):
+    """A converged plan whose independent check fails is recorded as no success, its reason naming
+    the failed metrics with their worst values and bounds before the solver's reason."""
+    import dataclasses
+
+    task = DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "walk", 2, 3.0)
+    result = plan(task, anymal, flat, DynParams())
+    assert result.success
+    grid = Grid2D(origin=(-1.5, -1.0), resolution=0.02, shape=(101, 176))
+    x, _ = grid.centres()
+    ridge = terrain_from_heightmap(np.where(np.abs(x - 0.3) < 0.05, 0.3, 0.0), grid, name="ridge")  # under the trunk
+    check = check_trajectory(result.samples, anymal, ridge, load_robot("anymal"), node_times=result.problem.form.knots)
+    assert not check.ok
+    record = trajectory_record(0, task, result, check)
+    assert not record["success"] and record["solved"]
+    assert record["reason"].startswith("check: ") and record["reason"].endswith(result.reason)
+    assert all(f in record["reason"] for f in check.failures()) and "trunk_penetration" in record["reason"]
+    passing = dataclasses.replace(check, passed=dict.fromkeys(check.passed, True))
+    assert trajectory_record(0, task, result, passing)["success"]

@@ -97,3 +97,29 @@ def test_com_offset_keeps_the_range_of_motion_in_the_base_frame(robot, flat):
     values = {b.name: b.value for b in problem.variables}
     offset = block.evaluate([values[v] for v in block.variables], False)[0].reshape(-1, 3)
     np.testing.assert_allclose(offset[0], 0.0, atol=1e-12)  # t = 0: the nominal stance
+
+
+def test_a_plan_about_an_offset_com_passes_the_independent_check(robot):
+    """A walk of a robot whose CoM lies 4 cm ahead of and 2 cm above its base origin: the plan's
+    samples (the base origin's) pass the independent check of the same model, whose Newton–Euler
+    residual is taken about the CoM from them — and fail it when the check is told the CoM is at the
+    origin (the plan is not one of the origin-centred model)."""
+    import dataclasses
+
+    from legplan.dyn.planner import plan
+    from legplan.dyn.terrain import TerrainModel
+    from legplan.terrain import Grid2D, terrain_from_heightmap
+    from legplan.validate.trajectory import check_trajectory
+
+    model = replace(robot.centroidal, com_offset=np.array([0.04, 0.0, 0.02]))
+    grid = Grid2D(origin=(-1.0, -1.0), resolution=0.02, shape=(101, 151))
+    terrain = terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat")
+    result = plan(DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "walk", 2, 3.0), model, TerrainModel(terrain), DynParams())
+    assert result.success, result.reason
+    assert result.samples["base_pos"][0] == pytest.approx([0.0, 0.0, model.base_height], abs=1e-9)
+    assert result.samples["base_pos"][-1, :2] == pytest.approx([0.6, 0.0], abs=1e-9)
+    check = check_trajectory(result.samples, model, terrain, robot, node_times=result.problem.form.knots)
+    assert check.ok, check.failures()
+    origin = dataclasses.replace(model, com_offset=np.zeros(3))
+    wrong = check_trajectory(result.samples, origin, terrain, robot, node_times=result.problem.form.knots)
+    assert "newton_euler_torque_nodes" in {f.split()[0] for f in wrong.failures()}

@@ -2,6 +2,8 @@
 
 from dataclasses import replace
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 
@@ -105,7 +107,11 @@ def test_leg_clearance_needs_legs_the_planner_can_place(tmp_path, monkeypatch):
     from legplan.dyn.legs import ChainLegs
 
     robot = load_robot("anymal")
-    assert isinstance(centroidal_model(robot, replace(PAPER, leg_clearance=0.05)).leg_kinematics, ChainLegs)
+    assert centroidal_model(robot, replace(PAPER, leg_clearance=0.05)).leg_kinematics is robot.centroidal.leg_kinematics
+    other = SimpleNamespace(**{k: getattr(robot, k) for k in ("model", "legs", "spheres", "q_nominal", "yaml_path")},
+                            centroidal=replace(robot.centroidal, leg_kinematics=None))  # no closed form
+    assert isinstance(centroidal_model(other, replace(PAPER, leg_clearance=0.05)).leg_kinematics, ChainLegs)
+    robot = other
     monkeypatch.setattr(ChainLegs, "of_robot", classmethod(lambda cls, r: None))
     assert centroidal_model(robot, replace(PAPER, leg_clearance=None), "c.yaml").leg_kinematics is None
     with pytest.raises(LegplanError, match=r"^c.yaml: field 'leg_clearance': .*robot.yaml's legs are not"):

@@ -320,17 +320,18 @@ def test_as_dict_is_flat_scalars(model, flat_terrain, anymal):
     assert all(isinstance(v, (float, bool)) for v in d.values())
 
 
-def test_real_flat_trot_passes(anymal):
-    """A real solve (legplan.dyn only produces the input): every pass/fail metric holds."""
+def test_real_flat_walk_passes(anymal):
+    """A real solve with the planner's defaults (legplan.dyn only produces the input): every metric
+    holds, the Newton–Euler residual at every 10 ms sample included."""
     from legplan.dyn.planner import plan
     from legplan.dyn.problem import DynParams, DynTask
     from legplan.dyn.terrain import TerrainModel
 
     grid = Grid2D(origin=(-1.0, -1.0), resolution=0.02, shape=(101, 151))
     terrain = terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat")
-    result = plan(DynTask((0, 0, 0), (1, 0, 0), "trot", 4, 2.4), anymal.centroidal, TerrainModel(terrain), DynParams())
+    result = plan(DynTask((0, 0, 0), (1.5, 0, 0), "walk", 4, 3.5), anymal.centroidal, TerrainModel(terrain), DynParams())
     assert result.success, result.reason
-    assert result.samples["t"].size == 241
+    assert result.samples["t"].size == 351
     check = check_trajectory(result.samples, anymal.centroidal, terrain, anymal,
                              node_times=result.problem.form.knots)
     assert check.ok and not _failed(check), check.worst
