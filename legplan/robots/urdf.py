@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import pinocchio as pin
 
+from legplan.robots.packages import UnresolvedUri, resolve_uri, search_roots
 from legplan.errors import SpecError
 from legplan.native_stderr import captured_stderr
 from legplan.specio import read_text
@@ -144,34 +145,19 @@ def _origin(element) -> pin.SE3:
 
 
 def package_roots(urdf: Path, package_paths=()) -> list[Path]:
-    """Where `package://` names are looked up, in order: the given package paths, the URDF's
-    folder and its ancestors, then the folders of `ROS_PACKAGE_PATH`."""
-    ros = [Path(entry) for entry in os.environ.get("ROS_PACKAGE_PATH", "").split(os.pathsep) if entry]
-    return [*map(Path, package_paths), *Path(urdf).resolve().parents, *ros]
+    """Where `package://` names are looked up, in order (`legplan.robots.packages.search_roots`)."""
+    return search_roots(Path(urdf), package_paths)
 
 
 def resolve_mesh(filename: str, urdf: Path, roots, link: str) -> Path:
-    """The file a URDF mesh `filename` names: `package://NAME/rest` is `rest` inside the first
-    folder called NAME that is a root or lies directly under one (`roots`, see `package_roots`);
-    `file://` and plain paths are taken relative to the URDF's folder. One-line `SpecError` naming
-    the URDF, the link and the filename when there is no such file."""
-    where = f"{urdf}: link '{link}' mesh '{filename}'"
-    if filename.startswith("package://"):
-        package, _, rest = filename[len("package://"):].partition("/")
-        folders = [root if root.name == package else root / package for root in roots]
-        found = [folder / rest for folder in folders if folder.is_dir()]
-        if not found:
-            raise SpecError(f"{where}: package '{package}' not found (looked next to the URDF, in its parent "
-                            "folders and on ROS_PACKAGE_PATH; give --package-path)")
-        for path in found:
-            if path.is_file():
-                return path
-        raise SpecError(f"{where}: no such file in package '{package}' ({found[0]})")
-    path = Path(filename[len("file://"):] if filename.startswith("file://") else filename)
-    path = path if path.is_absolute() else Path(urdf).parent / path
-    if not path.is_file():
-        raise SpecError(f"{where}: no such file ({path})")
-    return path
+    """The file a URDF mesh `filename` names (`legplan.robots.packages.resolve_uri` over `roots`,
+    see `package_roots`); one-line `SpecError` naming the URDF, the link and the filename when there
+    is no such file."""
+    try:
+        return resolve_uri(filename, urdf, roots=roots)
+    except UnresolvedUri as exc:
+        reason = str(exc).removeprefix(f"{filename!r}: ")
+        raise SpecError(f"{urdf}: link '{link}' mesh '{filename}': {reason}; give --package-path") from None
 
 
 def _shapes(link, tag: str, urdf: Path, roots) -> tuple[list[Primitive], list[MeshShape]]:

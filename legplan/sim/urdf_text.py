@@ -7,7 +7,7 @@ never edited; the text handed to `mujoco.MjSpec.from_string` is, by these rules:
 
 - Contact policy: robot.yaml's collision spheres are the robot's contacts (`legplan.sim.model`).
   The URDF's `<visual>` geometry is dropped; its `<collision>` geometry too unless `urdf_collision`
-  (then its meshes are resolved by `legplan.sim.packages.resolve_uri` and must exist).
+  (then its meshes are resolved by `legplan.robots.packages.resolve_uri` and must exist).
 - Inertia: MuJoCo needs each massive body's principal moments positive and satisfying the triangle
   inequality (A + B ≥ C). A link whose `<inertial>` breaks that gets the nearest such moments on the
   same principal axes: the smaller two raised to half the largest, a zero tensor replaced by a solid
@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from legplan.errors import LegplanError
-from legplan.sim.packages import UnresolvedUri, resolve_uri
+from legplan.robots.packages import UnresolvedUri, resolve_uri
 from legplan.specio import read_text
 
 INERTIA_RADIUS = 0.01   # m, the sphere whose inertia replaces a zero tensor of a massive link

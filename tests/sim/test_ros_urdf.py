@@ -18,7 +18,7 @@ from legplan.cli.main import cli
 from legplan.errors import LegplanError
 from legplan.robots import load_robot
 from legplan.sim.model import ModelOptions, build_model
-from legplan.sim.packages import UnresolvedUri, resolve_uri
+from legplan.robots.packages import UnresolvedUri, resolve_uri
 from legplan.sim.run import SimParams, simulate
 from legplan.sim.urdf_text import prepare_urdf
 from legplan.terrain import Grid2D, save_map, terrain_from_heightmap

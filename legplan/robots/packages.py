@@ -47,23 +47,24 @@ def search_roots(urdf_path: Path, package_paths=()) -> list[Path]:
     return [*map(Path, package_paths), here, *here.parents, *ros]
 
 
-def resolve_uri(uri: str, urdf_path, package_paths=()) -> Path:
-    """The file a URDF's `filename` attribute names (module docstring); `UnresolvedUri` if none exists."""
+def resolve_uri(uri: str, urdf_path, package_paths=(), roots=None) -> Path:
+    """The file a URDF's `filename` attribute names (module docstring); `UnresolvedUri` if none
+    exists. `roots` replaces the folders `search_roots` would search."""
     urdf_path = Path(urdf_path)
     if uri.startswith("package://"):
         package, _, rest = uri[len("package://"):].partition("/")
         if not package or not rest:
             raise UnresolvedUri(f"{uri!r} does not name a package and a path in it")
-        roots = search_roots(urdf_path, package_paths)
+        roots = search_roots(urdf_path, package_paths) if roots is None else list(roots)
         for root in roots:
             for folder in _candidates(package, root):
                 if (folder / rest).is_file():
                     return (folder / rest).resolve()
-        raise UnresolvedUri(f"{uri!r}: no package {package!r} holding {rest!r} under the --package-path "
-                            f"folders, the folders above the URDF or ROS_PACKAGE_PATH")
+        raise UnresolvedUri(f"{uri!r}: package '{package}' not found holding {rest!r} (looked in the --package-path "
+                            f"folders, next to the URDF, in its parent folders and on ROS_PACKAGE_PATH)")
     path = Path(uri[len("file://"):]) if uri.startswith("file://") else Path(uri)
     if not path.is_absolute():
         path = urdf_path.resolve().parent / path
     if not path.is_file():
-        raise UnresolvedUri(f"{uri!r}: no file {path}")
+        raise UnresolvedUri(f"{uri!r}: no such file ({path})")
     return path.resolve()
