@@ -7,15 +7,17 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 LAYERS = {
     "errors": 0, "interrupts": 0, "native_stderr": 0, "parameters": 0, "specio": 0, "geometry": 0,
+    "budget": 0, "outputs_apart": 0, "shipped": 0, "_lazy_numpy_clone": 0,
     "solve": 1, "artefacts": 1,
     "terrain": 2, "robots": 2, "contact": 2, "batch": 2, "pipeline": 2,
     "validate": 3,
     "dyn": 4, "nav": 4, "stepplan": 4, "stepseq": 4,
     "learn": 5, "sim": 5, "baselines": 5,
-    "report": 6,
-    "cli": 7,
+    "report": 6, "export": 6,
+    "cli": 7, "__main__": 7,
 }
-SAME_LAYER = {("parameters", "errors"), ("specio", "errors")}
+SAME_LAYER = {("parameters", "errors"), ("specio", "errors"), ("budget", "errors"), ("outputs_apart", "errors"),
+              ("shipped", "errors"), ("specio", "parameters"), ("__main__", "cli")}
 
 
 def _imports(path: Path):

@@ -8,8 +8,7 @@ built from (its spec), so a record made from the spec (a task space's `map_sha25
 
 `check_same_map(artefact, map)` is the one check of a pair: a trajectory executed on, a motion shown
 over, steps planned on, a network initializing a plan on a map other than its own is bad input.
-`check_same_robot` does the same for the robot an artefact names: its files' digest then
-(`legplan.stepseq.robotinfo.robot_sha256`, recorded as the root attribute `robot_sha256`) and now.
+(`legplan.robots.identity.check_same_robot` does the same for the robot an artefact names.)
 """
 
 from __future__ import annotations
@@ -78,13 +77,3 @@ def check_same_map(path: str | os.PathLike, map_path: str | os.PathLike, recorde
         return
     raise ArtefactError(f"{path}: {what} on the map {Path(str(recorded[0].get('path', '?'))).name}, "
                         f"not on {map_path} (another terrain; give the map it was {what} on)")
-
-
-def check_same_robot(path: str | os.PathLike, recorded: str, robot, what: str = "made") -> None:
-    """An `ArtefactError` when the robot files an artefact was `what` for (their digest `recorded`)
-    are not those of the loaded `robot` now (its robot.yaml or URDF changed since)."""
-    from legplan.stepseq.robotinfo import robot_sha256
-
-    if recorded and recorded != robot_sha256(robot):
-        raise ArtefactError(f"{path}: {what} for another version of robot '{robot.name}' (root attribute "
-                            f"'robot_sha256' differs from {robot.yaml_path} and its URDF now); make it again")

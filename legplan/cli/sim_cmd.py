@@ -93,7 +93,8 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_sc
     import numpy as np
 
     from legplan.artefacts import check_output
-    from legplan.artefacts.identity import check_same_map, check_same_robot
+    from legplan.artefacts.identity import check_same_map
+    from legplan.robots.identity import check_same_robot
     from legplan.batch import Task
     from legplan.cli.batching import run_stage
     from legplan.dyn.artefact import check_executable, read_tasks

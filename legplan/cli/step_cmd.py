@@ -18,7 +18,8 @@ def command():
 def read_step_pairs(map_path: str, steps_path: str, step_range: str | None):
     """The step sequence of STEPS and the indices of its consecutive pairs selected by `--steps`;
     MAP must read as a valid map artefact. Shared by `step plan` and `baseline step`."""
-    from legplan.artefacts.identity import check_same_map, check_same_robot
+    from legplan.artefacts.identity import check_same_map
+    from legplan.robots.identity import check_same_robot
     from legplan.robots import load_robot
     from legplan.stepseq.sequence import read_steps
     from legplan.terrain import load_map

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-import hashlib
 import xml.etree.ElementTree as ET
 
-from legplan.errors import LegplanError, SpecError
+from legplan.errors import SpecError
+from legplan.robots.identity import robot_reference, robot_sha256  # noqa: F401 (where sequences name them)
 
 
 def urdf_joint_order(robot) -> tuple[str, ...]:
@@ -19,25 +19,3 @@ def urdf_joint_order(robot) -> tuple[str, ...]:
     if len(order) != len(actuated):
         raise SpecError(f"{robot.urdf_path}: URDF joints do not match the model's {len(actuated)} joints")
     return order
-
-
-def robot_sha256(robot) -> str:
-    """sha256 of robot.yaml followed by robot.urdf: identifies the robot a sequence was made for."""
-    digest = hashlib.sha256()
-    for path in (robot.yaml_path, robot.urdf_path):
-        digest.update(path.read_bytes())
-    return digest.hexdigest()
-
-
-def robot_reference(robot) -> str:
-    """How a sequence names its robot so later stages load the same one: the robot's name when that
-    name finds this robot.yaml on the search path (`legplan.robots.resolve_robot`), else the absolute
-    path of its robot.yaml (a robot folder given by path, e.g. one just drafted by `robot init`)."""
-    from legplan.robots import resolve_robot
-
-    try:
-        if resolve_robot(robot.name).resolve() == robot.yaml_path.resolve():
-            return robot.name
-    except LegplanError:
-        pass
-    return str(robot.yaml_path.resolve())
