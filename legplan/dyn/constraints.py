@@ -38,6 +38,7 @@ from legplan.solve import ResidualBlock
 from legplan.solve.blocks import LinearBlock
 
 GRAVITY = 9.81
+COLUMN_REACH = 0.1  # m beyond a leg sphere's radius up to which its distance to the terrain is resolved
 
 
 def _nodes(v: np.ndarray) -> np.ndarray:
@@ -187,17 +188,21 @@ class RangeOfMotionBlock(ResidualBlock):
 
 
 class LegClearanceBlock(RangeOfMotionBlock):
-    """Per sample time, per collision sphere of leg `leg` (all but its foot): the height of its
-    surface above the column terrain within its radius, c_z − r − h̄_r(c_x, c_y), with the centre
+    """Per sample time, per collision sphere of leg `leg` (all but its foot): the distance of its
+    surface from the terrain, d(c) − r with d the exact distance to the heightmap's column solid
+    (`legplan.terrain.columns.ColumnDistance`, the true edges, as the independent check measures
+    it; exact up to the sphere's radius plus `COLUMN_REACH`, beyond which the row is satisfied and
+    flat), with the centre
     c = p + R (s(b) − o), b = Rᵀ(p_i − p) + o the foot in the base frame (p the CoM, o its offset
     in the base frame, `Centroidal.com_offset`), s the sphere's centre in the base frame given the
     foot — by the robot's own kinematics (`legplan.dyn.legs.ChainLegs`: forward kinematics and leg
     IK from the chain's joints) or by the closed form of planar legs
-    (`legplan.robots.planar_legs.PlanarLegs`) — and h̄_r `TerrainModel.envelope_within`. Bounded
-    below by the clearance, it keeps the legs, not only the feet, off the terrain, the sides of
-    steps included (ours: the paper keeps the legs clear through the swing height only, Sec. III-A2).
-    The Jacobian is the chain rule through ∂s/∂b (the legs' own), the rotation's and the envelope's
-    derivatives by complex step."""
+    (`legplan.robots.planar_legs.PlanarLegs`). Bounded below by the clearance, it keeps the legs,
+    not only the feet, off the terrain, the sides of steps included (ours: the paper keeps the legs
+    clear through the swing height only, Sec. III-A2). The exact distance, rather than a bound of
+    the columns near the sphere, lets a shank pass beside an edge it clears. The Jacobian is the
+    chain rule through ∂s/∂b (the legs' own), the rotation's derivative by complex step and the
+    distance's gradient (the unit vector from the nearest terrain point)."""
 
     def __init__(self, form: Formulation, leg: int, legs, terrain: TerrainModel, times: np.ndarray,
                  timing: PhaseTiming | None = None, com_offset=(0.0, 0.0, 0.0)):
@@ -205,7 +210,7 @@ class LegClearanceBlock(RangeOfMotionBlock):
         self.leg, self.legs = leg, legs
         self.offset = np.asarray(com_offset, float)
         self.radius = legs.sphere_radius[legs.spheres_of(leg)]
-        self.envelopes = [terrain.envelope_within(float(r)) for r in self.radius]
+        self.distance = terrain.column_distance(float(self.radius.max(initial=0.0)) + COLUMN_REACH)
         self.rows = self.radius.size
         self.size = self.rows * self.n
         self.joints = legs.nominal(leg, self.n) if hasattr(legs, "nominal") else None  # IK warm start
@@ -220,10 +225,11 @@ class LegClearanceBlock(RangeOfMotionBlock):
         centres, columns = complex_step(lambda x: self.legs.sphere_centres(self.leg, x).reshape(len(x), -1), (b,), (0,))
         return centres.reshape(len(b), -1, 3), columns[0].reshape(len(b), -1, 3, 3)
 
-    def _heights(self, c):
-        """c_z − r − h̄_r(c_x, c_y) for centres c (n, k, 3), real or complex."""
-        below = np.stack([envelope(c[:, k, 0], c[:, k, 1]) for k, envelope in enumerate(self.envelopes)], axis=1)
-        return c[..., 2] - self.radius - below
+    def _clearance(self, c):
+        """d(c) − r for centres c (n, k, 3) and its gradient (n, k, 3): the exact distance to the
+        terrain's columns (`TerrainModel.column_distance`) less the radius."""
+        d, grad = self.distance.value_and_gradient(c.reshape(-1, 3))
+        return (d.reshape(c.shape[:2]) - self.radius), grad.reshape(c.shape)
 
     def evaluate(self, values, jacobians):
         sampled = self._sampled(values)
@@ -235,12 +241,10 @@ class LegClearanceBlock(RangeOfMotionBlock):
         s, ds = self._spheres(b)
         lever = s - self.offset
         c = p[:, None] + np.einsum("nij,nkj->nki", rot, lever)
+        value, dh = self._clearance(c)  # and ∂row/∂c
         if not jacobians:
-            return self._heights(c).reshape(-1), None
+            return value.reshape(-1), None
         k = self.rows
-        flat = c.reshape(-1, 3)
-        _, (dh,) = complex_step(lambda x: self._heights(x.reshape(-1, k, 3)).reshape(-1, 1), (flat,), (0,))
-        dh = dh.reshape(self.n, k, 3)  # ∂row/∂c
         _, (db_de,) = complex_step(self._in_base, (e, q - p), (0,))  # (n, 3, 3)
         rt = np.transpose(rot, (0, 2, 1))
         rds = np.einsum("nij,nkjl->nkil", rot, ds)  # R ∂s/∂b
@@ -250,7 +254,7 @@ class LegClearanceBlock(RangeOfMotionBlock):
         _, (dr_de,) = complex_step(turned, (e,), (0,))  # ∂(R v)/∂e at v = s − o
         dc_de = dr_de.reshape(self.n, k, 3, 3) + rds @ db_de[:, None]
         row = lambda d: np.einsum("nki,nkij->nkj", dh, d)
-        return self._heights(c).reshape(-1), self._jacobians(row(dc_dp), row(dc_de), row(dc_dq), values)
+        return value.reshape(-1), self._jacobians(row(dc_dp), row(dc_de), row(dc_dq), values)
 
 
 class FootTerrainBlock(ResidualBlock):

@@ -99,6 +99,16 @@ class TerrainModel:
         grid = grids[radius]
         return lambda x, y: self._bilinear(grid, x, y)
 
+    def column_distance(self, reach: float):
+        """The exact signed distance to the column solid of the heightmap, exact up to `reach` (m)
+        (`legplan.terrain.columns.ColumnDistance`: value and gradient), built once per reach."""
+        from legplan.terrain.columns import ColumnDistance
+
+        built = self.__dict__.setdefault("_columns", {})
+        if reach not in built:
+            built[reach] = ColumnDistance(self.height_grid, self.origin, self.resolution, reach)
+        return built[reach]
+
     def height_gradient(self, x, y):
         """(h, ∂h/∂x, ∂h/∂y) at (x, y), real or complex."""
         return self._bilinear(self.height_grid, x, y, gradient=True)
