@@ -16,8 +16,7 @@ the robot's size). `inherit` declares a field as another class's field (same def
 Physical ranges: a number a user gives (an option, a field of an input file, `--param`) is a
 physical quantity, and a finite but absurd value (a duration of 1e308 s, a resolution of 1e-320 m)
 overflows or underflows deep inside a stage. The named quantities below (`DURATION`, `COORDINATE`,
-`YAW`, ...) are the finite ranges that options (`legplan.cli.options.number`, or `declared` for an
-option that sets a parameter field), file readers (`legplan.specio.FieldReader.number`'s
+`YAW`, ...) are the finite ranges that options (`legplan.cli.options.number`), file readers (`legplan.specio.FieldReader.number`'s
 `allowed`) and parameter fields (`param`) share; a count field's range is finite too. `check_value`
 is the one check, with the one error line "WHERE out of range: VALUE (allowed RANGE)"; it also
 holds every finite float to `MAGNITUDE` (0, or between 1e-30 and 1e15 in magnitude), so a float
@@ -54,6 +53,8 @@ RESOLUTION = "[1e-4, 100]"
 """m: the cell side of a map."""
 LENGTH = "(0, 1000]"
 """m: a positive size (a radius, a height, a tolerance)."""
+SENSING_RADIUS = "[0, 1000]"
+"""m: how far a robot senses obstacles."""
 CLEARANCE = "[0, 10]"
 """m: a clearance or margin."""
 FORCE = "(0, 1e6]"
@@ -146,11 +147,6 @@ def _parsed(text: str) -> Interval:
     if text not in _PARSED:
         _PARSED[text] = Interval.parse(text)
     return _PARSED[text]
-
-
-def declared_range(cls, name: str):
-    """The declared range (an `Interval` or a tuple) of field `name` of parameter dataclass `cls`."""
-    return next(f for f in dataclasses.fields(cls) if f.name == name).metadata.get("range")
 
 
 def _describe_bound(bound: float | str, params) -> str:

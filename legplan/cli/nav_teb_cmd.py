@@ -10,9 +10,8 @@ import click
 from legplan.cli.console import progress_bar, status
 from legplan.cli.options import (NumbersOption, input_artefact, output_opt, overwrite_opt, param_opt,
                                  verbosity_opts)
-from legplan.cli.options import count, declared
-from legplan.nav.simulate.mission import NavRunParams
-from legplan.parameters import COORDINATE, WAIT, YAW
+from legplan.cli.options import count, number
+from legplan.parameters import COORDINATE, SENSING_RADIUS, TIME_LIMIT, WAIT, YAW  # SimParams' ranges too
 
 robot_opt = click.option("--robot", default="jueying_mini", show_default=True,
                          help="Robot name or robot.yaml path (its navigation limits, Table I).")
@@ -104,10 +103,8 @@ def _summary(write_summary, handle, count, rows):
               help="YAML with `obstacles: [map primitives]` missing from the initial map; sensed in range.")
 @click.option("--planner", type=click.Choice(["kinoastar", "astar"]), default="kinoastar", show_default=True,
               help="Global planner (astar: grid A* waypoints, the Table II baseline).")
-@click.option("--sensing-radius", type=declared(NavRunParams, "sensing_radius"), default=4.0, show_default=True,
-              help="m (NavRunParams.sensing_radius).")
-@click.option("--max-time", type=declared(NavRunParams, "max_time"), default=300.0, show_default=True,
-              help="Simulated seconds.")
+@click.option("--sensing-radius", type=number(SENSING_RADIUS), default=4.0, show_default=True, help="m.")
+@click.option("--max-time", type=number(TIME_LIMIT), default=300.0, show_default=True, help="Simulated seconds.")
 @click.option("--warm-start/--cold-start", default=True, show_default=True,
               help="Warm-start each cycle's band from the previous one, or re-initialize it every cycle.")
 @rounds_opt

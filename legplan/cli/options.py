@@ -5,10 +5,11 @@ Use them as decorators so every command spells the same option the same way:
 `@batch_opts` (`--jobs`, `--scheduler`, `--resume`, see `legplan.cli.batching`).
 
 Every numeric option takes `number(RANGE)` (a finite float in a finite physical range, written as
-`legplan.parameters` declares ranges, mostly one of its named quantities: `number(DURATION)`), or
-`declared(Class, "field")` (the range of a parameter field), `Numbers` through `NumbersOption`
+`legplan.parameters` declares ranges, mostly one of its named quantities, the one its parameter
+field declares too: `number(DURATION)`), `Numbers` through `NumbersOption`
 (space-separated finite numbers, each position in its range: `--start X Y [YAW]`) or a
-`click.IntRange` with both bounds, never a bare `float`: NaN, inf and absurd finite values are
+`count(QUANTITY)` (a whole number up to its `legplan.budget` limit), never a bare `float` or an
+unbounded int: NaN, inf and absurd finite values are
 refused on the command line (exit 2, one line naming the option) before any work starts.
 `tests/cli/test_bad_input_options.py` and `tests/cli/test_bad_input_ranges.py` check every
 command's options for it.
@@ -21,7 +22,7 @@ import math
 import click
 
 from legplan.cli.console import set_verbosity, verbosity
-from legplan.parameters import COORDINATE, YAW, Interval, declared_range
+from legplan.parameters import COORDINATE, YAW, Interval
 
 MAX_SEED = 2 ** 32 - 1
 """The largest `--seed` (numpy's and HDF5's integer range)."""
@@ -47,11 +48,6 @@ def number(allowed: str) -> FiniteFloat:
         raise ValueError(f"an option's range must have finite bounds, not {allowed!r}")
     return FiniteFloat(min=interval.low, max=interval.high, min_open=interval.low_open,
                        max_open=interval.high_open)
-
-
-def declared(cls, name: str) -> FiniteFloat:
-    """The type of an option that sets field `name` of parameter dataclass `cls`: its declared range."""
-    return number(declared_range(cls, name).describe())
 
 
 def count(quantity: str, minimum: int = 1) -> click.IntRange:

@@ -52,7 +52,7 @@ class Fields:
         self.entry, self.where, self.source = entry, where, source
 
     def fail(self, key: str, message: str):
-        raise SpecError(f"{self.source}: field '{self.where}.{key}' {message}")
+        raise SpecError(f"{self.source}: field '{f'{self.where}.{key}' if self.where else key}' {message}")
 
     def number(self, key: str, default=None, *, positive=False, nonnegative=False,
                allowed: str | None = None) -> float:

@@ -53,7 +53,7 @@ def section(data: dict, key: str, cls, source: str, none_ok: tuple[str, ...] = (
 
 def parse_grid(data: dict, source: str) -> Grid2D:
     """The grid from `resolution` and `extent` (outer edges); sizes rounded to whole cells."""
-    top = Fields(data, "spec", source)
+    top = Fields(data, "", source)  # top-level fields are named as they are
     resolution = top.number("resolution", allowed=RESOLUTION)
     extent = Fields(data.get("extent"), "extent", source)
     xs, ys = extent.vector("x", 2, allowed=COORDINATE), extent.vector("y", 2, allowed=COORDINATE)

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from legplan.parameters import YAW, Parameters, param
+from legplan.parameters import SENSING_RADIUS, TIME_LIMIT, YAW, Parameters, param
 
 YAW_POLICIES = ("velocity", "target", "heading")
 
@@ -27,11 +27,11 @@ class NavRunParams(Parameters):
     rate: float = param(10.0, "(0, inf)", doc="Hz, TEB cycles")
     substeps: int = param(10, "[1, 10000]", doc="robot integration steps per cycle")
     window: float = param(5.0, "(0, inf)", doc="m of global path in the local band")
-    sensing_radius: float = param(4.0, "[0, 1000]", doc="m")
+    sensing_radius: float = param(4.0, SENSING_RADIUS, doc="m")
     goal_tolerance: float = param(0.1, "(0, inf)", doc="m")
     heading_tolerance: float = param(0.1, "(0, inf)", doc="rad")
     stop_speed: float = param(0.05, "(0, inf)", doc="m/s, \"at rest\" for arrival at a via point")
-    max_time: float = param(300.0, "(0, 86400]", doc="s of simulated time before the run fails")
+    max_time: float = param(300.0, TIME_LIMIT, doc="s of simulated time before the run fails")
     stall_time: float = param(20.0, "(0, 86400]",
                               doc="s: the run fails when the robot moved less than `stall_distance` in this time")
     stall_distance: float = param(0.3, "[0, inf)", doc="m")
