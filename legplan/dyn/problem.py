@@ -236,15 +236,36 @@ def _dynamics(c: BuildContext) -> list[Constraint]:
 
 @constraint("dynamics_between")
 def _dynamics_between(c: BuildContext) -> list[Constraint]:
-    """Newton–Euler rows inside ±`DynParams.dynamics_band` between the knots."""
+    """Newton–Euler rows inside ±`DynParams.dynamics_band` between the knots (±`dynamics_band_dynamic`
+    in the base intervals with fewer than three feet in contact throughout, `dynamic_intervals`)."""
     p, model, t = c.problem, c.problem.model, c.times["between"]
     if not t.size:
         return []
     weight = model.mass * GRAVITY
     lever = float(np.linalg.norm(model.nominal_feet[:, :2], axis=1).max())
-    band = np.tile(np.repeat([c.params.dynamics_band * weight, c.params.dynamics_band * weight * lever], 3), t.size)
+    interval = np.clip(np.searchsorted(p.form.knots, t, side="right") - 1, 0, len(p.form.knots) - 2)
+    share = np.where(dynamic_intervals(p.form)[interval], c.params.dynamics_band_dynamic, c.params.dynamics_band)
+    band = (share[:, None] * np.repeat([weight, weight * lever], 3)[None]).reshape(-1)
     return [Constraint(DynamicsBlock(p.form, model.mass, model.inertia, t, p.timing), -band, band,
                        name="dynamics_between", scale=np.tile(np.repeat([1.0 / weight, 1.0 / (weight * LEVER)], 3), t.size))]
+
+
+def dynamic_intervals(form: Formulation, dt: float = 1e-3) -> np.ndarray:
+    """Per base interval (between consecutive knots): whether fewer than three feet stay in contact
+    throughout it (on a `dt` grid, the interval's ends excluded): the robot rests on a line or a
+    point or flies (a trot's support pairs, their exchange, a flight) instead of a support polygon."""
+    flags = []
+    for t0, t1 in zip(form.knots[:-1], form.knots[1:]):
+        times = np.arange(t0 + dt, t1 - 0.5 * dt, dt)
+        held = 0
+        for foot in form.feet:
+            in_contact = np.zeros(times.size, bool)
+            for phase in foot.phases:
+                if phase.stance:
+                    in_contact |= (times >= phase.t0) & (times <= phase.t0 + phase.duration)
+            held += bool(times.size) and bool(in_contact.all())
+        flags.append(held < 3)
+    return np.array(flags, bool)
 
 
 @constraint("acceleration_continuity")

@@ -75,6 +75,12 @@ class DynParams(Parameters):
         "share of m·g (force rows) and of m·g·ℓ (torque rows, ℓ the largest horizontal distance of a "
         "nominal foot from the CoM) the Newton–Euler residual may reach between the knots; below the "
         "independent check's bound by a margin for the solver's tolerance"))
+    dynamics_band_dynamic: float = param(0.25, "(0, 1]", doc=(
+        "dynamics_band in a base interval with fewer than three feet in contact throughout (a trot's "
+        "support pair, its exchange, a flight): the weight then passes through two feet or none, "
+        "whose forces, cubics that vanish with zero slope at lift-off and touchdown, cannot follow the "
+        "base's linear acceleration within dynamics_band; the independent check judges these samples "
+        "by its own bound for them"))
     phase_knots: bool = param(False, (False, True), doc=(
         "base knots at the gait's phase boundaries too (formulation.phase_knots), not only evenly "
         "spaced: the contact set is then constant on every base polynomial"))
