@@ -103,7 +103,8 @@ class KinematicsWorkspace:
                 J[i] = data.J
             else:
                 pin.forwardKinematics(model, data, q)
-            placements[i] = [oMi[j].homogeneous for j in used]
+            joints = oMi.tolist()  # one conversion of the vector: faster than indexing it per joint
+            placements[i] = [joints[j].homogeneous for j in used]
         H = placements[:, self._slot]                                     # (n, p, 4, 4)
         points = np.einsum("npij,pj->npi", H[..., :3, :3], self._points.offsets) + H[..., :3, 3]
         jac = None
