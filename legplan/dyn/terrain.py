@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from legplan.terrain import TerrainMap, filters
+from legplan.terrain import TerrainMap
 
 EDGE_STEP = 0.02  # m: a height jump between neighbouring cells that makes both an edge
 SLOPE_SMOOTHING = 0.02  # m: σ of the Gaussian under `stance_slope`
@@ -45,7 +45,9 @@ class TerrainModel:
         edge[1:, :] |= jump_y
         edge[:-1, :] |= jump_y
         self.has_edges = bool(edge.any())
-        smooth = filters.gaussian_filter(h, SLOPE_SMOOTHING / self.resolution)
+        from scipy import ndimage  # imported where a terrain model is built (start-up time)
+
+        smooth = ndimage.gaussian_filter(h, SLOPE_SMOOTHING / self.resolution, mode="nearest")
         gy, gx = np.gradient(smooth, self.resolution)
         self.slope_grid = np.hypot(gx, gy)
         if self.has_edges:
@@ -95,7 +97,9 @@ class TerrainModel:
             span = int(np.floor(reach + 0.5))
             i, j = np.abs(np.mgrid[-span:span + 1, -span:span + 1])
             footprint = np.hypot(np.maximum(i - 0.5, 0.0), np.maximum(j - 0.5, 0.0)) <= reach
-            grids[radius] = filters.maximum_filter(self.height_grid, footprint)
+            from scipy import ndimage
+
+            grids[radius] = ndimage.maximum_filter(self.height_grid, footprint=footprint, mode="nearest")
         grid = grids[radius]
         return lambda x, y: self._bilinear(grid, x, y)
 

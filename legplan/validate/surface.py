@@ -21,7 +21,6 @@ import math
 import fcl
 import numpy as np
 
-from legplan.terrain.filters import square_maximum_filter
 
 _POINT_RADIUS = 1e-9
 
@@ -47,7 +46,9 @@ class SurfaceMesh:
         half = int(math.ceil(window / self.resolution)) + 1
         self.window = (half - 1) * self.resolution
         size = 2 * half + 1
-        self._hmax = square_maximum_filter(self.height, size)
+        from scipy import ndimage  # imported where a surface is built (start-up time)
+
+        self._hmax = ndimage.maximum_filter(self.height, size=size, mode="nearest")
         # flat radius: horizontal distance from anywhere in a cell to the nearest column face
         # (a face lies half a cell beyond a cell whose height differs from a 4-neighbour's)
         h = self.height

@@ -49,11 +49,10 @@ assert CliRunner().invoke(cli, ["--version"]).exit_code == 0
     assert not {m for m in loaded if m.startswith("legplan.cli.") and m.endswith("_cmd")}, loaded
 
 
-# What `dyn plan` has no use for on a map without edges: other commands' libraries, scipy subpackages
-# whose imports build array-API wrappers (filters and rotations come from legplan.terrain.filters and
-# pinocchio), and the numpy submodules scipy's numpy namespace would import (legplan._lazy_numpy_clone;
+# What `dyn plan` has no use for: other commands' libraries, scipy subpackages it does not call
+# (rotations come from pinocchio; scipy.ndimage, with the scipy.special it imports, serves the terrain model), and the numpy submodules scipy's numpy namespace would import (legplan._lazy_numpy_clone;
 # numpy.ma is not among them: numpy's own `np.unique` imports it).
-NOT_FOR_DYN_PLAN = ("matplotlib", "mujoco", "dask", "distributed", "sklearn", "ompl", "proxsuite", "scipy.ndimage", "scipy.spatial", "scipy.special", "scipy.linalg",
+NOT_FOR_DYN_PLAN = ("matplotlib", "mujoco", "dask", "distributed", "sklearn", "ompl", "proxsuite", "scipy.spatial", "scipy.linalg",
                     "scipy.optimize", "numpy.f2py", "numpy.testing", "unittest")
 
 
