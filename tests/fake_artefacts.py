@@ -26,6 +26,9 @@ def write_motion(path, times=(0.5, 1.5, 12.0), slips=(1e-7, 2e-7, 3e-3), success
             g.attrs["reason"] = "" if ok else "slip too large"
             g.attrs["seconds"] = t
             write_dataset(g, "control_points", np.arange(12.0).reshape(4, 3) + shift, units="m|rad")
+            for name, value in (("q_start", np.zeros(3)), ("q_end", np.zeros(3)), ("footholds", np.zeros((1, 3))),
+                                ("stance", np.ones(1, bool))):
+                write_dataset(g, name, value)
             write_dataset(g.create_group("dense"), "foot_slip", slip, units="m")
         write_summary(f, {"steps_planned": len(times), "steps_succeeded": sum(success),
                           "worst_violation": (max(slips), "m"), "mean_time": (float(np.mean(times)), "s")})
@@ -48,6 +51,8 @@ def write_robot_motion(path, map_path, steps=3):
             points = np.repeat(x0[None], 4, axis=0)
             points[:, 0] += 0.04 * (i + np.linspace(0.0, 1.0, 4))
             write_dataset(g, "control_points", points)
+            write_dataset(g, "q_start", robot.from_vector(points[:1])[0])
+            write_dataset(g, "q_end", robot.from_vector(points[-1:])[0])
             write_dataset(g, "stance", np.ones(len(feet), bool))
             write_dataset(g, "footholds", feet)
         write_summary(f, {"steps_planned": steps, "steps_succeeded": steps - 1, "worst_violation": (4e-4, "m"),

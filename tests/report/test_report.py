@@ -216,3 +216,4 @@ def test_page_and_3d_views_render_in_headless_chromium(tmp_path, robot_motion):
     assert near((221, 0, 0)) > 20                      # CoM dots (#d00)
     assert near((230, 0, 126)) > 20                    # force arrows (#e6007e)
     assert near((34, 34, 34)) > 5                      # scarab2's feet (#222)
+    assert near((43, 29, 143)) > 50                    # the legs' skeleton lines (links.SKELETON_COLOUR)
