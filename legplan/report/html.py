@@ -44,7 +44,7 @@ class ArtefactSection:
 def render_page(title: str, sections: list[ArtefactSection], directory: str | os.PathLike) -> str:
     """index.html text; absolute paths in provenance are shown relative to `directory`."""
     scenes = [(s.anchor, s.scene) for s in sections if s.scene is not None]
-    views = f"<h2>Planned motions</h2>{viewer_html(scenes)}" if scenes else ""
+    views = f"<h2>Planned and executed motions</h2>{viewer_html(scenes)}" if scenes else ""
     body = "".join(_section(s, os.path.abspath(directory)) for s in sections)
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{escape(title)}</title>'
             f"<style>{_STYLE}</style></head><body><h1>{escape(title)}</h1>{_verdict_table(sections)}"

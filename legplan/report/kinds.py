@@ -158,3 +158,10 @@ def init_fit(path: Path, png: Path) -> str:
     from legplan.learn.figures import init_figure
 
     return init_figure(path, png)
+
+
+@figure("sim", "execution")
+def sim_execution(path: Path, png: Path) -> str | None:
+    from legplan.report.execution import execution_figure
+
+    return execution_figure(path, png)

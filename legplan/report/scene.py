@@ -55,9 +55,9 @@ def motion_scene(path: str | os.PathLike) -> dict | None:
         q = robot.from_vector(x)
         links = links_frames(robot, q)
         spheres, com = robot.sphere_centres(q), robot.com(q)
-        polygon = _polygon(np.asarray(r["footholds"])[np.asarray(r["stance"], bool)])
+        support = polygon(np.asarray(r["footholds"])[np.asarray(r["stance"], bool)])
         label = f"step {int(r['index'])}" + ("" if r["success"] else f" (failed: {r['reason']})")
-        frames += [{"label": label, "s": mm(spheres[k]), "c": mm(com[k]), "p": polygon, **links[k]}
+        frames += [{"label": label, "s": mm(spheres[k]), "c": mm(com[k]), "p": support, **links[k]}
                    for k in range(per_step)]
     spheres = robot.spheres
     colours = ["#222" if foot else "#999" if leg < 0 else LEG_COLOURS[leg % len(LEG_COLOURS)]
@@ -66,7 +66,7 @@ def motion_scene(path: str | os.PathLike) -> dict | None:
     shown = len(frames) // per_step
     steps = f"{shown} steps" if shown == len(records) else f"the first {shown} of {len(records)} steps"
     return {"title": f"{Path(path).name}: {steps} of {robot_name}",
-            "dt": 1.0 / per_step, "terrain": _terrain(load_map(terrain_path), points),
+            "dt": 1.0 / per_step, "terrain": terrain_patch(load_map(terrain_path), points),
             "radii": mm(spheres.radii), "colours": colours, "links": links_static(robot), "frames": frames}
 
 
@@ -89,29 +89,39 @@ def traj_scene(path: str | os.PathLike) -> dict | None:
     pick = np.unique(np.linspace(0, len(s["t"]) - 1, min(len(s["t"]), MAX_FRAMES)).astype(int))
     feet, forces, contact = s["feet_pos"][pick], s["forces"][pick], np.asarray(s["contact"], bool)[pick]
     robot = load_robot(str(attrs["robot"]))
-    centroidal = robot.centroidal
     base_pos, base_quat, joints, _ = traj_configurations(robot, s, np.asarray(s["t"], float)[pick])
     links = links_frames(robot, np.concatenate([base_pos, base_quat, joints], axis=1))
-    half = np.array([*np.abs(centroidal.nominal_feet[:, :2]).max(axis=0), 0.08])
-    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
-    boxes = s["base_pos"][pick, None, :] + np.einsum("nij,kj->nki", rotation(s["base_euler"][pick]), corners)
+    boxes = base_box(robot, s["base_pos"][pick], rotation(s["base_euler"][pick]))
     frames = []
     for k in range(len(pick)):
         arrows = [[*feet[k, leg], *(feet[k, leg] + FORCE_SCALE * forces[k, leg])]
                   for leg in np.flatnonzero(contact[k]) if np.linalg.norm(forces[k, leg]) > 1.0]
         frames.append({"label": f"task {shown}, t = {s['t'][pick[k]]:.2f} s", "s": mm(feet[k]),
-                       "c": mm(s["base_pos"][pick[k]]), "p": _polygon(feet[k, contact[k]]),
+                       "c": mm(s["base_pos"][pick[k]]), "p": polygon(feet[k, contact[k]]),
                        "b": mm(boxes[k]), "a": mm(np.array(arrows).reshape(-1)), **links[k]})
     terrain_path = recorded_input(path, "map")
     points = np.concatenate([feet.reshape(-1, 3), boxes.reshape(-1, 3)])
     legs = feet.shape[1]
     return {"title": f"{Path(path).name}: task {shown} of {len(tasks)} (forces: 1 m = {1 / FORCE_SCALE:g} N)",
             "dt": float(np.mean(np.diff(s["t"][pick]))) if len(pick) > 1 else 0.01,
-            "terrain": _terrain(load_map(terrain_path), points) if terrain_path else None,
+            "terrain": terrain_patch(load_map(terrain_path), points) if terrain_path else None,
             "radii": [30] * legs, "colours": LEG_COLOURS[:legs], "links": links_static(robot), "frames": frames}
 
 
-def _polygon(points: np.ndarray) -> list[int]:
+def base_box(robot, positions: np.ndarray, rotations: np.ndarray) -> np.ndarray:
+    """(n, 8, 3) corners of the base drawn as a box spanning the nominal feet in x and y, 0.16 m
+    high, at `positions` (n, 3) turned by `rotations` (n, 3, 3) or unit quaternions (n, 4) (x, y, z, w)."""
+    from scipy.spatial.transform import Rotation
+
+    rotations = np.asarray(rotations, float)
+    if rotations.ndim == 2:
+        rotations = Rotation.from_quat(rotations).as_matrix()
+    half = np.array([*np.abs(robot.centroidal.nominal_feet[:, :2]).max(axis=0), 0.08])
+    corners = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)]) * half
+    return np.asarray(positions, float)[:, None, :] + np.einsum("nij,kj->nki", rotations, corners)
+
+
+def polygon(points: np.ndarray) -> list[int]:
     """Stance points ordered around their centroid (the support polygon of a convex stance)."""
     points = np.asarray(points, float).reshape(-1, 3)
     if len(points) < 3:
@@ -121,7 +131,7 @@ def _polygon(points: np.ndarray) -> list[int]:
     return mm(points[order])
 
 
-def _terrain(terrain, points: np.ndarray, margin: float = 0.3) -> dict:
+def terrain_patch(terrain, points: np.ndarray, margin: float = 0.3) -> dict:
     """The heightmap around `points` (m), subsampled to at most `TERRAIN_CELLS` along a side."""
     height = np.asarray(terrain.height, float)
     x0, y0 = np.asarray(terrain.grid.origin, float)[:2]

@@ -28,6 +28,7 @@ from legplan.artefacts.publish import discard, make_temp, publish
 from legplan.errors import ArtefactError
 from legplan.report.html import ArtefactSection, render_page
 from legplan.report.registry import FigureFailure, render_figures
+from legplan.report.execution import execution_scene
 from legplan.report.scene import motion_scene, traj_scene
 from legplan.report.verdict import verdict
 from legplan.report.wellformed import check_artefact
@@ -35,7 +36,7 @@ from legplan.report.wellformed import check_artefact
 log = logging.getLogger(__name__)
 
 PROVENANCE_FILE = "report.h5"
-SCENES = {"motion": motion_scene, "traj": traj_scene}
+SCENES = {"motion": motion_scene, "traj": traj_scene, "sim": execution_scene}
 
 
 @dataclass(frozen=True)

@@ -182,7 +182,7 @@ def test_page_and_3d_views_render_in_headless_chromium(tmp_path, robot_motion):
     not asserted: headless chromium fires requestAnimationFrame within the virtual-time budget in
     some runs only (measured here: both viewers still at frame 0 in 3 of 10 runs, with budgets of
     2.5 and 8 s and 12 s motions alike)."""
-    from fake_artefacts import write_traj
+    from fake_artefacts import write_sim_run, write_traj
     from PIL import Image
 
     from legplan.report.viewer import BACKGROUND
@@ -190,7 +190,8 @@ def test_page_and_3d_views_render_in_headless_chromium(tmp_path, robot_motion):
     assert CHROMIUM, "chromium is not installed (packaging/apt-packages-test.txt)"
     map_path, motion_path = robot_motion
     out = tmp_path / "rep"
-    write_report([motion_path, write_traj(tmp_path / "traj.h5", map_path, samples=300, duration=3.0)], out)
+    traj = write_traj(tmp_path / "traj.h5", map_path, samples=300, duration=3.0)
+    write_report([motion_path, traj, write_sim_run(tmp_path / "sim.h5", traj, map_path, fall_time=2.0)], out)
     shot = tmp_path / "shot.png"
     run = subprocess.run(
         [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -202,7 +203,7 @@ def test_page_and_3d_views_render_in_headless_chromium(tmp_path, robot_motion):
     console = [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
     assert console == []                               # an uncaught error would be logged here
     frames = [int(v) for v in re.findall(r'data-frame="(\d+)"', run.stdout)]
-    assert len(frames) == 2                            # both viewers drew (draw() sets data-frame)
+    assert len(frames) == 3                            # every viewer drew (draw() sets data-frame)
     pixels = np.asarray(Image.open(shot).convert("RGB")).astype(int)
     background = np.array([int(BACKGROUND[k:k + 2], 16) for k in (1, 3, 5)])
     rows, cols = np.nonzero((pixels == background).all(axis=2))
