@@ -41,13 +41,16 @@ class ArtefactSection:
     scene: dict | None = None  # the 3D view's data (`legplan.report.scene`)
 
 
-def render_page(title: str, sections: list[ArtefactSection], directory: str | os.PathLike) -> str:
-    """index.html text; absolute paths in provenance are shown relative to `directory`."""
+def render_page(title: str, sections: list[ArtefactSection], directory: str | os.PathLike,
+                overlays=()) -> str:
+    """index.html text; absolute paths in provenance are shown relative to `directory`; `overlays`
+    (`legplan.report.overlay.Overlay`) follow the verdict table."""
     scenes = [(s.anchor, s.scene) for s in sections if s.scene is not None]
     views = f"<h2>Planned and executed motions</h2>{viewer_html(scenes)}" if scenes else ""
     body = "".join(_section(s, os.path.abspath(directory)) for s in sections)
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{escape(title)}</title>'
             f"<style>{_STYLE}</style></head><body><h1>{escape(title)}</h1>{_verdict_table(sections)}"
+            f"{''.join(_overlay(o) for o in overlays)}"
             f"{views}{body}</body></html>\n")
 
 
@@ -79,6 +82,18 @@ def _verdict_table(sections: list[ArtefactSection]) -> str:
                     f'<td class="failure">{"<br>".join(escape(p) for p in problems)}</td></tr>')
     return ('<table class="verdict"><tr><th>artefact</th><th>kind</th><th>outcome</th><th>headline numbers</th>'
             f'<th>failures</th></tr>{"".join(rows)}</table>')
+
+
+def _overlay(overlay) -> str:
+    """One comparison of artefacts of a kind: its table and its figure."""
+    head = "".join(f"<th>{escape(h)}</th>" for h in overlay.header)
+    rows = "".join("<tr>" + "".join(f'<td{"" if k == 0 else " class=num"}>{escape(v)}</td>' for k, v in enumerate(row))
+                   + "</tr>" for row in overlay.rows)
+    figure = "" if overlay.figure is None else (
+        f'<figure><img src="{escape(overlay.figure[0])}" alt="{escape(overlay.figure[1])}">'
+        f"<figcaption>{escape(overlay.figure[1])}</figcaption></figure>")
+    return (f'<section id="compare-{overlay.kind}"><h2>Compared: {escape(" / ".join(overlay.labels))}</h2>'
+            f'<table class="overlay"><tr>{head}</tr>{rows}</table>{figure}</section>')
 
 
 def _section(section: ArtefactSection, directory: str) -> str:
