@@ -26,6 +26,7 @@ from pathlib import Path
 from legplan.artefacts import open_artefact, read_provenance, read_summary, write_artefact, write_summary
 from legplan.artefacts.publish import discard, make_temp, publish
 from legplan.errors import ArtefactError
+from legplan.report.checks import check_rows, check_table
 from legplan.report.html import ArtefactSection, render_page
 from legplan.report.overlay import Overlay, overlay, overlay_groups
 from legplan.report.registry import FigureFailure, render_figures
@@ -96,7 +97,8 @@ def write_report(artefacts: list[str | os.PathLike], directory: str | os.PathLik
             figures, failures = render_figures(path, kind, staging, stem)
             scene = _scene(path, kind, failures)
             shown = os.path.relpath(path.absolute(), directory.absolute())
-            sections.append(ArtefactSection(shown, provenance, summary, figures, failures, stem, outcome, scene))
+            sections.append(ArtefactSection(shown, provenance, summary, figures, failures, stem, outcome, scene,
+                                            check_table(check_rows(path))))
             if progress:
                 progress(index + 1, len(paths), str(path))
         overlays = _overlays(paths, kinds, sections, staging)

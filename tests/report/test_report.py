@@ -120,7 +120,8 @@ def test_report_from_another_directory_finds_recorded_inputs(tmp_path, robot_mot
     result = write_report([map_path, motion_path], "rep")
     assert result.failures == 0
     motion = result.sections[1]
-    assert [f.filename for f in motion.figures] == ["01-motion-steps.png", "01-motion-tracks.png"]
+    # no slip recorded and the time histograms are the tracks figure's Fig. 4: no "steps" figure
+    assert [f.filename for f in motion.figures] == ["01-motion-tracks.png"]
     assert motion.scene["title"] == "motion.h5: 3 steps of scarab2"
     assert motion.verdict.outcome == "2/3 steps succeeded" and motion.verdict.failures == ["1 × clearance"]
     with open_artefact(elsewhere / "rep" / PROVENANCE_FILE) as f:
