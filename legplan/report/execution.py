@@ -26,9 +26,10 @@ from legplan.report.scene import LEG_COLOURS
 REPLAY_RATE = 100.0  # Hz of the executed series used for figures and replay (decimated to MAX_FRAMES)
 
 
-def executed_task(path: str | os.PathLike):
+def executed_task(path: str | os.PathLike, with_plan: bool = True):
     """(robot, executed Series, task attrs, planned samples or None, traj path or None) of the first
-    executed task; None when no task was executed."""
+    executed task; None when no task was executed. The plan is looked up (`recorded_input`, an
+    `ArtefactError` when recorded but not found) only `with_plan`."""
     from legplan.artefacts import open_artefact
     from legplan.dyn.artefact import read_tasks
     from legplan.export import export_series, foot_radii
@@ -44,7 +45,7 @@ def executed_task(path: str | os.PathLike):
         robot = load_robot(str(handle.attrs["robot"]))
     series = next(s for s in export_series(path, REPLAY_RATE) if s.item == f"tasks/{executed[0]}")
     series.columns["feet_pos"] = series.columns["feet_pos"] - foot_radii(robot)[None, :, None] * [0.0, 0.0, 1.0]
-    traj = recorded_input(path, "traj")
+    traj = recorded_input(path, "traj") if with_plan else None
     planned = None
     if traj is not None:
         _, plans = read_tasks(traj)
@@ -141,7 +142,7 @@ def execution_scene(path: str | os.PathLike) -> dict | None:
     from legplan.report.scene import MAX_FRAMES, base_box, mm, polygon, terrain_patch
     from legplan.terrain import load_map
 
-    found = executed_task(path)
+    found = executed_task(path, with_plan=False)  # the replay needs no plan
     if found is None:
         return None
     robot, series, attrs, _, _ = found

@@ -59,3 +59,34 @@ def test_contact_intervals():
     t = np.array([0.0, 0.1, 0.2, 0.3, 0.4])
     assert _intervals(t, np.array([1, 1, 0, 1, 1], bool)) == [(0.0, pytest.approx(0.2)), (0.3, pytest.approx(0.1))]
     assert _intervals(t, np.zeros(5, bool)) == []
+
+
+@pytest.mark.parametrize("damage", ["drop joint_pos", "nan base_pos", "short t", "no joints attr"])
+def test_malformed_sim_is_bad_input_and_nothing_is_written(tmp_path, plan, damage):
+    """Each class of damage to what the sim section reads: one ArtefactError naming the file and
+    the field, before anything is written (the CLI's exit 2)."""
+    import h5py
+
+    from legplan.errors import ArtefactError
+
+    flat, traj = plan
+    sim = write_sim_run(tmp_path / "sim.h5", traj, flat)
+    with h5py.File(sim, "a") as f:
+        series = f["tasks/0000/series"]
+        if damage == "drop joint_pos":
+            del series["joint_pos"]
+            field = "joint_pos"
+        elif damage == "nan base_pos":
+            series["base_pos"][3, 2] = np.nan
+            field = "base_pos"
+        elif damage == "short t":
+            t = series["t"][()]
+            del series["t"]
+            series["t"] = t[:-2]
+            field = "series"
+        else:
+            del f.attrs["joints"]
+            field = "joints"
+    with pytest.raises(ArtefactError, match=f"sim.h5.*{field}"):
+        write_report([sim], tmp_path / "rep")
+    assert not (tmp_path / "rep").exists()
