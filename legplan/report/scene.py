@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-MAX_FRAMES = 600           # frames of one scene (with the links' placements the page stays below ~1 MB)
+MAX_FRAMES = 400           # frames of one scene (with the links' placements a view stays well below 1 MB)
 TERRAIN_CELLS = 72         # terrain samples along the longer side
 FORCE_SCALE = 1e-3         # m of arrow per N
 LEG_COLOURS = ["#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#17becf"]
