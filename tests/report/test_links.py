@@ -54,3 +54,30 @@ def test_dyn_scene_legs_reach_the_planned_feet(tmp_path, flat_terrain):
         feet = np.array(frame["s"]).reshape(-1, 3) / 1000
         drawn = (np.array(frame["k"]).reshape(-1, 3) / 1000)[ends]
         assert np.abs(drawn - feet - foot_radii(robot)[:, None] * [0, 0, 1]).max() < 3e-3
+
+
+def test_published_robot_links_carry_their_urdf_shapes(tmp_path):
+    """anymal_b (example-robot-data) has collision geometry: every link with a shape is sent once
+    with its polyhedra, and each frame places it where pinocchio's FK puts its link frame."""
+    import importlib.util
+    from pathlib import Path
+
+    spec = importlib.util.spec_from_file_location("published_robots", Path(__file__).parents[1] / "sim" / "published_robots.py")
+    published = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(published)
+    robot = load_robot(published.draft("anymal_b", tmp_path / "anymal_b"), strict=False)
+    static = links_static(robot)
+    assert len(static["shapes"]) >= 8 and all(("f" in s) != ("r" in s) for s in static["shapes"])
+    assert len(set(static["colours"])) == 5                   # the base's grey and one colour per leg
+    q = np.array(robot.q_nominal, float)
+    q[7:] += 0.2
+    placements = np.array(links_frames(robot, q[None])[0]["l"]).reshape(-1, 7)
+    data = robot.model.createData()
+    pin.framesForwardKinematics(robot.model, data, q)
+    shank = robot.model.getFrameId("LF_SHANK")
+    from legplan.report.links import _link_shapes
+
+    index = list(_link_shapes(robot)[0]).index(shank)
+    assert np.allclose(placements[index, :3] / 1000, data.oMf[shank].translation, atol=1e-3)
+    quat = placements[index, 3:] / 1e4
+    assert np.allclose(pin.Quaternion(quat[3], *quat[:3]).normalized().matrix(), data.oMf[shank].rotation, atol=1e-3)
