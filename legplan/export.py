@@ -181,13 +181,25 @@ def joints_by_ik(robot, base_pos, base_quat, feet_targets) -> tuple[np.ndarray, 
     return joints, errors
 
 
-def _traj_series(path, robot, rate: float) -> list[Series]:
+def traj_configurations(robot, samples: dict, t: np.ndarray) -> tuple[np.ndarray, ...]:
+    """(base_pos, base_quat (x, y, z, w), joints, ik_error) of a traj task's `samples` at times `t`
+    (the samples' own clock): interpolated base and feet, joints by `joints_by_ik` (module docstring)."""
     from scipy.spatial.transform import Rotation
 
+    t_plan = np.asarray(samples["t"], float)
+    lift = foot_radii(robot)[None, :, None] * np.array([0.0, 0.0, 1.0])
+    base_pos = _interpolate(t, t_plan, np.asarray(samples["base_pos"], float))
+    euler = _interpolate(t, t_plan, np.asarray(samples["base_euler"], float))
+    base_quat = Rotation.from_euler("ZYX", euler[:, ::-1]).as_quat()  # R = Rz(yaw) Ry(pitch) Rx(roll)
+    feet = _interpolate(t, t_plan, np.asarray(samples["feet_pos"], float)) + lift
+    joints, errors = joints_by_ik(robot, base_pos, base_quat, feet)
+    return base_pos, base_quat, joints, errors
+
+
+def _traj_series(path, robot, rate: float) -> list[Series]:
     from legplan.dyn.artefact import read_tasks
 
     _, tasks = read_tasks(path)
-    lift = foot_radii(robot)[None, :, None] * np.array([0.0, 0.0, 1.0])
     out = []
     for index, task in enumerate(tasks):
         samples = task.get("samples")
@@ -195,11 +207,7 @@ def _traj_series(path, robot, rate: float) -> list[Series]:
             continue  # the planner raised: nothing to export (its reason is in traj.h5)
         t_plan = np.asarray(samples["t"], float)
         t = sample_times(float(t_plan[-1] - t_plan[0]), rate) + t_plan[0]
-        base_pos = _interpolate(t, t_plan, np.asarray(samples["base_pos"], float))
-        euler = _interpolate(t, t_plan, np.asarray(samples["base_euler"], float))
-        base_quat = Rotation.from_euler("ZYX", euler[:, ::-1]).as_quat()  # R = Rz(yaw) Ry(pitch) Rx(roll)
-        feet = _interpolate(t, t_plan, np.asarray(samples["feet_pos"], float)) + lift
-        joints, errors = joints_by_ik(robot, base_pos, base_quat, feet)
+        base_pos, base_quat, joints, errors = traj_configurations(robot, samples, t)
         contact = _held(t, t_plan, np.asarray(samples["contact"], bool))
         out.append(_series(f"tasks/{int(task.get('index', index)):04d}", robot, t - t_plan[0], base_pos, base_quat,
                            joints, contact, ik_error=errors))

@@ -26,6 +26,9 @@ def write_motion(path, times=(0.5, 1.5, 12.0), slips=(1e-7, 2e-7, 3e-3), success
             g.attrs["reason"] = "" if ok else "slip too large"
             g.attrs["seconds"] = t
             write_dataset(g, "control_points", np.arange(12.0).reshape(4, 3) + shift, units="m|rad")
+            for name, value in (("q_start", np.zeros(3)), ("q_end", np.zeros(3)), ("footholds", np.zeros((1, 3))),
+                                ("stance", np.ones(1, bool))):
+                write_dataset(g, name, value)
             write_dataset(g.create_group("dense"), "foot_slip", slip, units="m")
         write_summary(f, {"steps_planned": len(times), "steps_succeeded": sum(success),
                           "worst_violation": (max(slips), "m"), "mean_time": (float(np.mean(times)), "s")})
@@ -48,6 +51,8 @@ def write_robot_motion(path, map_path, steps=3):
             points = np.repeat(x0[None], 4, axis=0)
             points[:, 0] += 0.04 * (i + np.linspace(0.0, 1.0, 4))
             write_dataset(g, "control_points", points)
+            write_dataset(g, "q_start", robot.from_vector(points[:1])[0])
+            write_dataset(g, "q_end", robot.from_vector(points[-1:])[0])
             write_dataset(g, "stance", np.ones(len(feet), bool))
             write_dataset(g, "footholds", feet)
         write_summary(f, {"steps_planned": steps, "steps_succeeded": steps - 1, "worst_violation": (4e-4, "m"),
@@ -89,4 +94,37 @@ def write_traj(path, map_path, samples=120, duration=1.2):
             if legs is not None:
                 write_dataset(g, f"nodes/{block}/leg", legs)
         write_summary(f, {"tasks": 1, "succeeded": 1, "max_violation": 2e-4})
+    return path
+
+
+def write_sim_run(path, traj_path, map_path, fall_time=None):
+    """A sim of anymal executing task 0 of `traj_path` (written by `write_traj`): the planned base and
+    the joints by leg IK, sampled every 20 ms; with `fall_time`, the base drops 0.25 m after it and
+    the feet lose their forces."""
+    from legplan.dyn.artefact import read_tasks
+    from legplan.export import traj_configurations
+    from legplan.robots import load_robot
+    from legplan.sim.artefact import SCALARS, write_sim
+
+    robot = load_robot("anymal")
+    samples = read_tasks(traj_path)[1][0]["samples"]
+    t = np.arange(0.0, float(samples["t"][-1]) + 1e-9, 0.02)
+    base_pos, base_quat, joints, _ = traj_configurations(robot, samples, t)
+    forces = np.zeros((len(t), robot.n_legs, 3))
+    forces[:, :, 2] = 29.5 * 9.81 / robot.n_legs
+    fell = fall_time is not None
+    if fell:
+        after = t >= fall_time
+        base_pos[after, 2] -= 0.25
+        forces[after] = 0.0
+    zeros = np.zeros((len(t), 3))
+    series = {"t": t, "base_pos": base_pos, "base_quat": base_quat, "base_vel": zeros, "base_ang_vel": zeros,
+              "joint_pos": joints, "joint_vel": np.zeros_like(joints), "torque": np.zeros_like(joints),
+              "foot_forces": forces, "position_error": np.zeros(len(t)), "orientation_error": np.zeros(len(t))}
+    scalars = dict.fromkeys(SCALARS, 0.0)
+    scalars["fall_time"] = float(fall_time) if fell else float("nan")
+    record = {"index": 0, "planned": True, "skipped": False, "success": not fell,
+              "reason": "fell" if fell else "reached the goal", "fell": fell, "unplanned_contacts": "",
+              **scalars, "series": series}
+    write_sim(path, [record], {"fake": True}, robot, inputs=[traj_path, map_path])
     return path

@@ -5,6 +5,7 @@ motions, then one section per artefact. Paths are shown relative to the report d
 from __future__ import annotations
 
 import json
+import math
 import os
 import shlex
 from dataclasses import dataclass, field
@@ -39,15 +40,19 @@ class ArtefactSection:
     anchor: str = ""
     verdict: Verdict | None = None
     scene: dict | None = None  # the 3D view's data (`legplan.report.scene`)
+    checks: str = ""           # the independent check's table with its tolerances (`legplan.report.checks`)
 
 
-def render_page(title: str, sections: list[ArtefactSection], directory: str | os.PathLike) -> str:
-    """index.html text; absolute paths in provenance are shown relative to `directory`."""
+def render_page(title: str, sections: list[ArtefactSection], directory: str | os.PathLike,
+                overlays=()) -> str:
+    """index.html text; absolute paths in provenance are shown relative to `directory`; `overlays`
+    (`legplan.report.overlay.Overlay`) follow the verdict table."""
     scenes = [(s.anchor, s.scene) for s in sections if s.scene is not None]
-    views = f"<h2>Planned motions</h2>{viewer_html(scenes)}" if scenes else ""
+    views = f"<h2>Planned and executed motions</h2>{viewer_html(scenes)}" if scenes else ""
     body = "".join(_section(s, os.path.abspath(directory)) for s in sections)
     return (f'<!DOCTYPE html>\n<html lang="en"><head><meta charset="utf-8"><title>{escape(title)}</title>'
             f"<style>{_STYLE}</style></head><body><h1>{escape(title)}</h1>{_verdict_table(sections)}"
+            f"{''.join(_overlay(o) for o in overlays)}"
             f"{views}{body}</body></html>\n")
 
 
@@ -81,6 +86,26 @@ def _verdict_table(sections: list[ArtefactSection]) -> str:
             f'<th>failures</th></tr>{"".join(rows)}</table>')
 
 
+UNDEFINED = "n/a"
+
+
+def _value(value: float) -> str:
+    """A summary value; NaN (nothing to take a mean or worst over) as `UNDEFINED`."""
+    return f"{value:.6g}" if math.isfinite(value) else UNDEFINED if math.isnan(value) else str(value)
+
+
+def _overlay(overlay) -> str:
+    """One comparison of artefacts of a kind: its table and its figure."""
+    head = "".join(f"<th>{escape(h)}</th>" for h in overlay.header)
+    rows = "".join("<tr>" + "".join(f'<td{"" if k == 0 else " class=num"}>{escape(v)}</td>' for k, v in enumerate(row))
+                   + "</tr>" for row in overlay.rows)
+    figure = "" if overlay.figure is None else (
+        f'<figure><img src="{escape(overlay.figure[0])}" alt="{escape(overlay.figure[1])}">'
+        f"<figcaption>{escape(overlay.figure[1])}</figcaption></figure>")
+    return (f'<section id="compare-{overlay.kind}"><h2>Compared: {escape(" / ".join(overlay.labels))}</h2>'
+            f'<table class="overlay"><tr>{head}</tr>{rows}</table>{figure}</section>')
+
+
 def _section(section: ArtefactSection, directory: str) -> str:
     p = section.provenance
     command = shlex.join(relative(token, directory) for token in p["command"])
@@ -91,14 +116,18 @@ def _section(section: ArtefactSection, directory: str) -> str:
              for r in p["inputs"]]
     provenance = "".join(f"<tr><th>{escape(k)}</th><td><code>{escape(str(v))}</code></td></tr>"
                          for k, v in rows)
-    summary = "".join(f'<tr><td>{escape(name)}</td><td class="num">{value:.6g}</td><td>{escape(units)}</td></tr>'
+    summary = "".join(f'<tr><td>{escape(name)}</td><td class="num">{_value(value)}</td><td>{escape(units)}</td></tr>'
                       for name, (value, units) in section.summary.items())
+    undefined = any(not math.isfinite(value) for value, _ in section.summary.values())
     summary_table = (f'<table class="summary"><tr><th>metric</th><th>value</th><th>units</th></tr>{summary}</table>'
+                     + (f"<p class=\"note\">{UNDEFINED}: not defined (no item to take it over, e.g. no step "
+                        "in the time range the metric names).</p>" if undefined else "")
                      if summary else "<p>No <code>/summary</code> table.</p>")
+    checks = f"<h3>Independent check</h3>{section.checks}" if section.checks else ""
     figures = "".join(f'<figure><img src="{escape(f.filename)}" alt="{escape(f.caption)}">'
                       f"<figcaption>{escape(f.caption)}</figcaption></figure>" for f in section.figures)
     failures = "".join(f'<p class="failure">Figure {escape(f.name)} failed: {escape(f.message)}</p>'
                        for f in section.failures)
     return (f'<section id="{section.anchor}"><h2>{escape(section.path)}</h2>'
-            f'<h3>Summary</h3>{summary_table}<h3>Figures</h3>{figures}{failures}'
+            f'<h3>Summary</h3>{summary_table}{checks}<h3>Figures</h3>{figures}{failures}'
             f'<h3>Provenance</h3><table class="provenance">{provenance}</table></section>')

@@ -9,6 +9,7 @@ import numpy as np
 
 from legplan.artefacts import open_artefact, require
 from legplan.report.inputs import recorded_input
+from legplan.report.items import read_items
 from legplan.report.plots import datasets_figure, grid_extent, grid_figure, items_figure, new_figure
 from legplan.report.registry import figure
 
@@ -28,7 +29,18 @@ def map_layers(path: Path, png: Path) -> str | None:
 
 @figure("motion", "steps")
 def motion_steps(path: Path, png: Path) -> str | None:
-    return items_figure(path, png, "seconds", "dense/foot_slip", "m", "step")
+    """Foot slip per step; the time histogram only when `motion_tracks` cannot draw its Fig. 4."""
+    return items_figure(path, png, "seconds", "dense/foot_slip", "m", "step", histogram=not _tracks_drawable(path))
+
+
+def _tracks_drawable(path: Path) -> bool:
+    """The motion records its robot and a map input, so `motion_tracks` draws the Fig. 4 histograms."""
+    from legplan.artefacts import read_provenance
+
+    with open_artefact(path, kind="motion") as handle:
+        robot = str(handle.attrs.get("robot", ""))
+        maps = [r for r in read_provenance(handle)["inputs"] if r["kind"] == "map"]
+    return bool(robot and maps)
 
 
 @figure("motion", "tracks")
@@ -66,7 +78,22 @@ def steps_top(path: Path, png: Path) -> str | None:
 
 @figure("nav", "queries")
 def nav_queries(path: Path, png: Path) -> str | None:
-    return items_figure(path, png, "planning_time", "min_clearance", "m", "query")
+    """Per query: the search's planning time and clearance or, for a refined artefact (`nav refine`:
+    queries with `teb/`), the refinement's own (its `seconds` and `min_clearance`), the numbers its
+    summary reports."""
+    with open_artefact(path, kind="nav") as handle:
+        queries = handle["queries"] if "queries" in handle else {}
+        refined = {name: dict(queries[name]["teb"].attrs) for name in queries if "teb" in queries[name]}
+        items = read_items(handle)
+    if not refined:
+        return items_figure(path, png, "planning_time", "min_clearance", "m", "query")
+    teb = {}
+    for name, item in items.items():
+        attrs = refined.get(name.split("/")[-1])
+        if attrs is not None:
+            teb[name] = {"success": item["success"], "seconds": float(attrs["seconds"]),
+                         "min_clearance": float(attrs["min_clearance"])}
+    return items_figure(path, png, "seconds", "min_clearance", "m", "query", items=teb, what="TEB refinement")
 
 
 @figure("nav", "paths")
@@ -158,3 +185,10 @@ def init_fit(path: Path, png: Path) -> str:
     from legplan.learn.figures import init_figure
 
     return init_figure(path, png)
+
+
+@figure("sim", "execution")
+def sim_execution(path: Path, png: Path) -> str | None:
+    from legplan.report.execution import execution_figure
+
+    return execution_figure(path, png)

@@ -46,11 +46,14 @@ def grid_figure(path: Path, png: Path, layers: list[tuple[str, str, str]]) -> st
 
 
 def items_figure(path: Path, png: Path, time_key: str, violation_key: str | None, unit: str,
-                 noun: str) -> str | None:
-    """Per-item planning-time histogram (succeeded / failed stacked, as the Bézier paper's Fig. 4)
-    and, when `violation_key` is present, the violation of every item."""
-    with open_artefact(path) as handle:
-        items = read_items(handle)
+                 noun: str, *, histogram: bool = True, items: dict | None = None, what: str = "") -> str | None:
+    """Per-item planning-time histogram (succeeded / failed stacked, as the Bézier paper's Fig. 4;
+    left out with `histogram=False` where another figure of the artefact draws it) and, when
+    `violation_key` is present, the violation of every item. `items`: the artefact's items when the
+    caller reads other numbers than `read_items` (e.g. a refinement's), `what` names them."""
+    if items is None:
+        with open_artefact(path) as handle:
+            items = read_items(handle)
     rows = [item for item in items.values() if time_key in item]
     if not rows:
         return None
@@ -58,26 +61,33 @@ def items_figure(path: Path, png: Path, time_key: str, violation_key: str | None
     times = np.array([item[time_key] for item in rows])
     ok = np.array([item["success"] for item in rows])
     violations = np.array([item.get(violation_key, np.nan) for item in rows]) if violation_key else None
-    panels = 2 if violations is not None and np.isfinite(violations).any() else 1
+    drawn_violations = violations is not None and np.isfinite(violations).any()
+    panels = int(histogram) + int(drawn_violations)
+    if not panels:
+        return None
     fig = new_figure(5.5 * panels, 3.8)
-    axes = fig.subplots(1, panels, squeeze=False)[0]
-    top = max(float(np.nanmax(times)), 1e-6)
-    axes[0].hist([times[ok], times[~ok]], bins=np.linspace(0.0, top * 1.0001, 21), stacked=True,
-                 color=["tab:blue", "tab:red"], label=["succeeded", "failed"])
-    axes[0].set_xlabel("planning time [s]")
-    axes[0].set_ylabel(nouns)
-    axes[0].set_title(f"Planning time per {noun}")
-    axes[0].legend(fontsize=8)
-    if panels == 2:
+    axes = list(fig.subplots(1, panels, squeeze=False)[0])
+    if histogram:
+        ax = axes.pop(0)
+        top = max(float(np.nanmax(times)), 1e-6)
+        ax.hist([times[ok], times[~ok]], bins=np.linspace(0.0, top * 1.0001, 21), stacked=True,
+                color=["tab:blue", "tab:red"], label=["succeeded", "failed"])
+        ax.set_xlabel(f"{what + ' ' if what else ''}time [s]" if what else "planning time [s]")
+        ax.set_ylabel(nouns)
+        ax.set_title(f"{what.capitalize() or 'Planning'} time per {noun}")
+        ax.legend(fontsize=8)
+    if drawn_violations:
+        ax = axes.pop(0)
         index = np.arange(len(rows))
-        axes[1].bar(index, violations, color=np.where(ok, "tab:blue", "tab:red"))
-        axes[1].set_xlabel(f"{noun} index")
-        axes[1].set_ylabel(f"{violation_key} [{unit}]")
-        axes[1].set_title(f"{violation_key} per {noun} (red: failed)")
+        ax.bar(index, violations, color=np.where(ok, "tab:blue", "tab:red"))
+        ax.set_xlabel(f"{noun} index")
+        ax.set_ylabel(f"{violation_key} [{unit}]")
+        ax.set_title(f"{what + ' ' if what else ''}{violation_key} per {noun} (red: failed)")
     fig.savefig(png, dpi=100)
+    shown = [f"{what + ' ' if what else 'planning '}time ('{time_key}') histogram"] if histogram else []
+    shown += [f"{what + ' ' if what else ''}'{violation_key}' per {noun}"] if drawn_violations else []
     return (f"{len(rows)} {noun if len(rows) == 1 else nouns}, {int(ok.sum())} succeeded; "
-            f"planning time ('{time_key}') histogram"
-            + (f" and '{violation_key}' per {noun}." if panels == 2 else "."))
+            + " and ".join(shown) + ".")
 
 
 def datasets_figure(path: Path, png: Path) -> str:

@@ -2,8 +2,8 @@
 network) of the scenes built by `legplan.report.scene`, embedded in the page as JSON.
 
 Perspective projection of a camera orbiting the scene's centre (drag to orbit, wheel to zoom),
-painter's order (terrain quads far to near, then support polygon, base box, spheres far to near,
-CoM and force arrows), play/pause and a frame slider. Each viewer keeps its current frame in the
+painter's order (terrain quads far to near, then support polygon, base box, the links' shape
+faces far to near and the legs' skeleton lines, spheres far to near, CoM and force arrows), play/pause and a frame slider. Each viewer keeps its current frame in the
 `data-frame` attribute of its element.
 """
 
@@ -22,6 +22,11 @@ VIEWER_JS = """
   function cross(a, b) { return [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]; }
   function unit(a) { var n = Math.sqrt(dot(a, a)) || 1; return [a[0] / n, a[1] / n, a[2] / n]; }
   function points(flat) { var out = []; for (var i = 0; i + 2 < flat.length; i += 3) out.push([flat[i] / 1000, flat[i + 1] / 1000, flat[i + 2] / 1000]); return out; }
+  function rotate(q, v) {  // unit quaternion (x, y, z, w) applied to v
+    var t = [2 * (q[1] * v[2] - q[2] * v[1]), 2 * (q[2] * v[0] - q[0] * v[2]), 2 * (q[0] * v[1] - q[1] * v[0])];
+    return [v[0] + q[3] * t[0] + q[1] * t[2] - q[2] * t[1], v[1] + q[3] * t[1] + q[2] * t[0] - q[0] * t[2],
+            v[2] + q[3] * t[2] + q[0] * t[1] - q[1] * t[0]];
+  }
   function ramp(t) {  // low blue-grey to high sand
     t = Math.max(0, Math.min(1, t));
     return [90 + 130 * t, 110 + 90 * t, 140 + 20 * t];
@@ -48,7 +53,7 @@ VIEWER_JS = """
     var quads = terrainQuads(scene.terrain), frames = scene.frames, frame = 0, playing = true, last = null;
     var lo = [Infinity, Infinity, Infinity], hi = [-Infinity, -Infinity, -Infinity];
     function extend(p) { for (var k = 0; k < 3; k++) { lo[k] = Math.min(lo[k], p[k]); hi[k] = Math.max(hi[k], p[k]); } }
-    frames.forEach(function (f) { points(f.s).forEach(extend); points(f.b || []).forEach(extend); });
+    frames.forEach(function (f) { points(f.s).forEach(extend); points(f.b || []).forEach(extend); points(f.k || []).forEach(extend); });
     quads.forEach(function (q) { q.c.forEach(extend); });
     var centre = [(lo[0] + hi[0]) / 2, (lo[1] + hi[1]) / 2, (lo[2] + hi[2]) / 2];
     var camera = {yaw: -2.2, pitch: 0.55, dist: 1.6 * Math.max(hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], 0.2)};
@@ -72,6 +77,38 @@ VIEWER_JS = """
       list.forEach(function (p, k) { var s = project(p); if (k) ctx.lineTo(s[0], s[1]); else ctx.moveTo(s[0], s[1]); });
       if (close) ctx.closePath();
     }
+    function drawLinks(f, links) {  // link shapes placed by the frame's "l", far to near, then the skeleton
+      var place = f.l || [], faces = [], balls = [];
+      links.shapes.forEach(function (shape) {
+        var o = shape.k * 7;
+        if (o + 6 >= place.length) return;
+        var at = [place[o] / 1000, place[o + 1] / 1000, place[o + 2] / 1000];
+        var q = [place[o + 3] / 1e4, place[o + 4] / 1e4, place[o + 5] / 1e4, place[o + 6] / 1e4];
+        var v = points(shape.v).map(function (x) { var r = rotate(q, x); return [r[0] + at[0], r[1] + at[1], r[2] + at[2]]; });
+        var fill = links.colours[shape.k];
+        if (shape.r !== undefined) { balls.push({c: v[0], r: shape.r / 1000, fill: fill}); return; }
+        shape.f.forEach(function (face) {
+          var c = face.map(function (k) { return v[k]; });
+          faces.push({c: c, fill: fill, d: c.reduce(function (s, p) { return s + project(p)[2]; }, 0) / c.length});
+        });
+      });
+      faces.sort(function (a, b) { return b.d - a.d; }).forEach(function (e) {
+        path(e.c, true); ctx.globalAlpha = 0.8; ctx.fillStyle = e.fill; ctx.fill(); ctx.globalAlpha = 1;
+        ctx.strokeStyle = "rgba(0,0,0,0.35)"; ctx.lineWidth = 0.6; ctx.stroke();
+      });
+      balls.forEach(function (b) {
+        var s = project(b.c); ctx.beginPath(); ctx.arc(s[0], s[1], Math.max(1.5, b.r * s[3]), 0, 2 * Math.PI);
+        ctx.fillStyle = b.fill; ctx.fill();
+      });
+      var skeleton = points(f.k || []), start = 0;
+      links.legs.forEach(function (n) {
+        if (start + n <= skeleton.length) {
+          path(skeleton.slice(start, start + n), false);
+          ctx.strokeStyle = links.line; ctx.lineWidth = 3; ctx.lineJoin = "round"; ctx.stroke();
+        }
+        start += n;
+      });
+    }
     function draw() {
       var f = frames[frame];
       look();
@@ -92,6 +129,7 @@ VIEWER_JS = """
           ctx.fillStyle = "rgba(120,120,130,0.35)"; ctx.fill(); ctx.strokeStyle = "#333"; ctx.lineWidth = 1; ctx.stroke();
         });
       }
+      if (scene.links) drawLinks(f, scene.links);
       points(f.s).map(function (p, k) { return {s: project(p), k: k}; })
         .sort(function (a, b) { return b.s[2] - a.s[2]; })
         .forEach(function (e) {

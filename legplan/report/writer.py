@@ -26,8 +26,11 @@ from pathlib import Path
 from legplan.artefacts import open_artefact, read_provenance, read_summary, write_artefact, write_summary
 from legplan.artefacts.publish import discard, make_temp, publish
 from legplan.errors import ArtefactError
+from legplan.report.checks import check_rows, check_table
 from legplan.report.html import ArtefactSection, render_page
+from legplan.report.overlay import Overlay, overlay, overlay_groups
 from legplan.report.registry import FigureFailure, render_figures
+from legplan.report.execution import execution_scene
 from legplan.report.scene import motion_scene, traj_scene
 from legplan.report.verdict import verdict
 from legplan.report.wellformed import check_artefact
@@ -35,7 +38,7 @@ from legplan.report.wellformed import check_artefact
 log = logging.getLogger(__name__)
 
 PROVENANCE_FILE = "report.h5"
-SCENES = {"motion": motion_scene, "traj": traj_scene}
+SCENES = {"motion": motion_scene, "traj": traj_scene, "sim": execution_scene}
 
 
 @dataclass(frozen=True)
@@ -94,14 +97,16 @@ def write_report(artefacts: list[str | os.PathLike], directory: str | os.PathLik
             figures, failures = render_figures(path, kind, staging, stem)
             scene = _scene(path, kind, failures)
             shown = os.path.relpath(path.absolute(), directory.absolute())
-            sections.append(ArtefactSection(shown, provenance, summary, figures, failures, stem, outcome, scene))
+            sections.append(ArtefactSection(shown, provenance, summary, figures, failures, stem, outcome, scene,
+                                            check_table(check_rows(path))))
             if progress:
                 progress(index + 1, len(paths), str(path))
-        (staging / "index.html").write_text(render_page(title, sections, directory))
+        overlays = _overlays(paths, kinds, sections, staging)
+        (staging / "index.html").write_text(render_page(title, sections, directory, overlays))
         with write_artefact(staging / PROVENANCE_FILE, "report", params={"title": title},
                             inputs=paths) as handle:
             write_summary(handle, {"artefacts": len(sections),
-                                   "figures": sum(len(s.figures) for s in sections),
+                                   "figures": sum(len(s.figures) for s in sections) + len(overlays),
                                    "figure_failures": sum(len(s.failures) for s in sections)})
         check_report_dir(directory, overwrite)  # again: another writer may have been faster
         publish(staging, directory, overwrite)
@@ -121,3 +126,17 @@ def _scene(path: Path, kind: str, failures: list[FigureFailure]) -> dict | None:
         log.warning("%s: 3D view failed: %s", path, exc, exc_info=True)
         failures.append(FigureFailure("3d-view", f"{type(exc).__name__}: {exc}"))
         return None
+
+
+def _overlays(paths: list[Path], kinds: list[str], sections: list[ArtefactSection], staging: Path) -> list[Overlay]:
+    """Ours and OMPL overlaid (`legplan.report.overlay`) for each kind given more than once; a
+    comparison that cannot be drawn is a figure failure of the first artefact of its kind."""
+    out = []
+    for kind, group in overlay_groups(paths, kinds).items():
+        shown = [sections[paths.index(path)].path for path in group]
+        try:
+            out.append(overlay(kind, group, shown, staging, f"compare-{kind}"))
+        except Exception as exc:  # a broken comparison must not lose the rest of the report
+            log.warning("comparison of %s failed: %s", kind, exc, exc_info=True)
+            sections[paths.index(group[0])].failures.append(FigureFailure(f"compare-{kind}", f"{type(exc).__name__}: {exc}"))
+    return out

@@ -62,6 +62,12 @@ def plot_motion(path, robot, terrain, records, *, overwrite: bool = False) -> No
     ok = np.array([bool(r["success"]) for r in records])
     for ax, limit, title in ((fig.add_subplot(grid[1, 0]), None, "(a) all steps"),
                              (fig.add_subplot(grid[1, 1]), 10.0, "(b) steps under 10 s")):
+        if limit is not None and not (times >= limit).any():  # (b) would repeat (a)
+            ax.text(0.5, 0.5, f"every step under {limit:g} s:\n(b) is (a)", ha="center", va="center",
+                    transform=ax.transAxes)
+            ax.set_title(f"Fig. 4{title}")
+            ax.set_axis_off()
+            continue
         sel = times if limit is None else times[times < limit]
         top = max(float(sel.max()) if len(sel) else 1.0, 1e-3)
         bins = np.linspace(0.0, top * 1.0001, 21)

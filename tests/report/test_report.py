@@ -120,7 +120,8 @@ def test_report_from_another_directory_finds_recorded_inputs(tmp_path, robot_mot
     result = write_report([map_path, motion_path], "rep")
     assert result.failures == 0
     motion = result.sections[1]
-    assert [f.filename for f in motion.figures] == ["01-motion-steps.png", "01-motion-tracks.png"]
+    # no slip recorded and the time histograms are the tracks figure's Fig. 4: no "steps" figure
+    assert [f.filename for f in motion.figures] == ["01-motion-tracks.png"]
     assert motion.scene["title"] == "motion.h5: 3 steps of scarab2"
     assert motion.verdict.outcome == "2/3 steps succeeded" and motion.verdict.failures == ["1 × clearance"]
     with open_artefact(elsewhere / "rep" / PROVENANCE_FILE) as f:
@@ -182,7 +183,7 @@ def test_page_and_3d_views_render_in_headless_chromium(tmp_path, robot_motion):
     not asserted: headless chromium fires requestAnimationFrame within the virtual-time budget in
     some runs only (measured here: both viewers still at frame 0 in 3 of 10 runs, with budgets of
     2.5 and 8 s and 12 s motions alike)."""
-    from fake_artefacts import write_traj
+    from fake_artefacts import write_sim_run, write_traj
     from PIL import Image
 
     from legplan.report.viewer import BACKGROUND
@@ -190,7 +191,8 @@ def test_page_and_3d_views_render_in_headless_chromium(tmp_path, robot_motion):
     assert CHROMIUM, "chromium is not installed (packaging/apt-packages-test.txt)"
     map_path, motion_path = robot_motion
     out = tmp_path / "rep"
-    write_report([motion_path, write_traj(tmp_path / "traj.h5", map_path, samples=300, duration=3.0)], out)
+    traj = write_traj(tmp_path / "traj.h5", map_path, samples=300, duration=3.0)
+    write_report([motion_path, traj, write_sim_run(tmp_path / "sim.h5", traj, map_path, fall_time=2.0)], out)
     shot = tmp_path / "shot.png"
     run = subprocess.run(
         [CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
@@ -202,7 +204,7 @@ def test_page_and_3d_views_render_in_headless_chromium(tmp_path, robot_motion):
     console = [line for line in run.stderr.splitlines() if ":CONSOLE" in line]
     assert console == []                               # an uncaught error would be logged here
     frames = [int(v) for v in re.findall(r'data-frame="(\d+)"', run.stdout)]
-    assert len(frames) == 2                            # both viewers drew (draw() sets data-frame)
+    assert len(frames) == 3                            # every viewer drew (draw() sets data-frame)
     pixels = np.asarray(Image.open(shot).convert("RGB")).astype(int)
     background = np.array([int(BACKGROUND[k:k + 2], 16) for k in (1, 3, 5)])
     rows, cols = np.nonzero((pixels == background).all(axis=2))
@@ -216,3 +218,4 @@ def test_page_and_3d_views_render_in_headless_chromium(tmp_path, robot_motion):
     assert near((221, 0, 0)) > 20                      # CoM dots (#d00)
     assert near((230, 0, 126)) > 20                    # force arrows (#e6007e)
     assert near((34, 34, 34)) > 5                      # scarab2's feet (#222)
+    assert near((43, 29, 143)) > 50                    # the legs' skeleton lines (links.SKELETON_COLOUR)
