@@ -136,7 +136,7 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_sc
                 "pushes": [list(p) for p in pushes], "urdf_collision": urdf_collision,
                 "package_paths": list(options.package_paths), "effort": [list(e) for e in efforts],
                 "velocity": [list(v) for v in velocities], "traj": str(traj_path)}
-    task = Task(simulate_item, failed_item, SimWorker, (robot.name, os.path.abspath(map_path), params))
+    task = Task(simulate_item, failed_item, SimWorker, (str(attrs["robot"]), os.path.abspath(map_path), params))
     records, _ = run_stage(task, sim_items(tasks), "dyn simulate", output=output,
                            identity={"stage": "dyn simulate", "params": settings}, inputs=[traj_path, map_path],
                            jobs=jobs, scheduler=scheduler, resume=resume, overwrite=overwrite,

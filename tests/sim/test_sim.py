@@ -140,3 +140,25 @@ def test_feet_given_as_link_and_offset_sit_on_their_link(robot, flat, tmp_path):
     np.testing.assert_allclose(positions[1], positions[0], atol=1e-12)
     np.testing.assert_allclose(positions[1][:, :2], robot.foot_positions(pin.neutral(robot.model))[0][:, :2],
                                atol=1e-9)
+
+
+def test_a_robot_given_by_path_is_simulated_from_its_folder(flat, tmp_path):
+    """A robot folder that is on no search path (one `robot init` just drafted, say): `dyn plan`
+    records its robot.yaml's path and `dyn simulate` loads that robot, not one found by name."""
+    import shutil
+
+    folder = tmp_path / "my_quadruped"
+    shutil.copytree(load_robot("anymal").yaml_path.parent, folder)
+    spec = folder / "robot.yaml"
+    spec.write_text(spec.read_text().replace("name: anymal\n", "name: my_quadruped\n"))
+    traj, out = tmp_path / "traj.h5", tmp_path / "sim.h5"
+    planned = CliRunner().invoke(cli, ["dyn", "plan", str(flat[1]), "--robot", str(folder), "--start", "0", "0", "0",
+                                       "--goal", "0.5", "0", "0", "--strides", "2", "--duration", "1.6", "-o",
+                                       str(traj), "-q"])
+    assert planned.exit_code == 0, planned.output
+    with h5py.File(traj) as handle:
+        assert handle.attrs["robot"] == str(spec.resolve())
+    result = CliRunner().invoke(cli, ["dyn", "simulate", str(traj), str(flat[1]), "-o", str(out), "-q"])
+    assert result.exit_code == 0, result.output
+    with h5py.File(out) as handle:
+        assert handle["tasks/0000"].attrs["success"]
