@@ -303,5 +303,9 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
     gait_rest, airborne = remaining_gait(previous.form.gait, state.t)
     task = ReplanTask(previous, state, gait_rest, airborne)
     cpu, wall = time.process_time(), time.perf_counter()
-    result = plan(task, model, terrain, replace(params, optimize_phases=False, warm_stage=warm_stage), ShiftedInit(previous, state.t))
+    result = plan(task, model, terrain, replace(params, optimize_phases=False, warm_stage=warm_stage),
+                  ShiftedInit(previous, state.t))
+    if airborne.any():  # the hold of a foot in the air is no contact (zero force, off the terrain)
+        hold = result.samples["t"] < gait_rest.durations[0] - 1e-9
+        result.samples["contact"][np.ix_(hold, airborne)] = False
     return ReplanResult(state, result, time.process_time() - cpu, time.perf_counter() - wall)
