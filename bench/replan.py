@@ -122,8 +122,31 @@ base velocity, warm-started from the plan shifted to t ("projection" warm stage)
 | converged | {r['converged'] * 100:.0f} % | | |
 
 Per run median/p95 (ms): {per_run}. Target {met}; the first plan took
-{r['plan_cpu_seconds'] / max(r['plan_iterations'], 1) * 1e3:.0f} ms CPU per LM iteration. The push part (largest lateral push survived open
-vs closed loop) is not part of this script.
+{r['plan_cpu_seconds'] / max(r['plan_iterations'], 1) * 1e3:.0f} ms CPU per LM iteration.
+{push_section()}"""
+
+
+def push_section() -> str:
+    """The rows of bench/replan_push.py's JSON, when it exists."""
+    import json
+
+    path = ROOT / "bench" / "results" / "replan_push.json"
+    if not path.exists():
+        return ""
+    r = json.loads(path.read_text())
+    rows = "\n".join(f"| {x['impulse']:.1f} | {x['loop']} | {'yes' if x['success'] else 'no: ' + x['reason'][:40]} | "
+                     f"{x['replans_converged']}/{x['replans']} |" for x in r["rows"])
+    best = r["largest_survived_impulse"]
+    return f"""
+Push, open vs closed loop (`bench/replan_push.py`, {r['date']}, code {r['code']}, load {r['load_start']:.1f} → {r['load_end']:.1f}):
+flat 2-stride walk (3 s, no costs), +y push at 1.5 s for {r['duration']} s, closed loop replanning every {r['period']} s.
+The simulation waits for each replan (no latency modelled). One run per level.
+
+| impulse (N s) | loop | survived | replans converged |
+|---|---|---|---|
+{rows}
+
+Largest survived impulse among the levels: open loop {best['open']:.1f} N s, closed loop {best['closed']:.1f} N s.
 """
 
 
