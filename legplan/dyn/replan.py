@@ -39,8 +39,8 @@ AIRBORNE_HOLD = 0.02
 """s: the stance a foot in the air at the replan time holds at its measured position before the rest
 of its swing (at most half of what is left of the current phase)."""
 SHORT_FIRST = 0.3  # share of dt: a shorter first base polynomial of a replan is merged into the next
-PHASE_END = 1e-3
-NODE_INSIDE = 1e-9  # share of a segment: where a node's value and rate are read from the previous splines  # s: a phase with less than this left at the replan time is taken as over
+PHASE_END = 1e-3  # s: a phase with less than this left at the replan time is taken as over
+NODE_INSIDE = 1e-9  # share of a segment: where a node's value and rate are read from the previous splines
 
 
 @dataclass(frozen=True)
@@ -230,7 +230,8 @@ class ShiftedInit:
                     (foot.motion, foot.motion_offset, feet, prev.form.foot_matrix, prev.values["feet"]),
                     (foot.force, foot.force_offset, forces, prev.form.force_matrix, prev.values["forces"])):
                 nodes, times = _node_times(spline)
-                out[offset + nodes] = _sample(lambda tt, d: matrix(leg, tt, d), values, self._at(times)).reshape(-1, 2, 3)
+                out[offset + nodes] = _sample(lambda tt, d: matrix(leg, tt, d), values,
+                                              self._at(times)).reshape(-1, 2, 3)
         guess["feet"], guess["forces"] = feet.reshape(-1), forces.reshape(-1)
         return guess
 
