@@ -156,3 +156,63 @@ def show_cmd(paths, task_index, output, overwrite):
 from legplan.cli.sim_cmd import simulate_cmd  # noqa: E402  (legplan dyn simulate: physics execution, issue 17)
 
 command.add_command(simulate_cmd)
+
+
+@command.command("replan")
+@click.argument("traj_path", metavar="TRAJ", type=input_artefact)
+@click.argument("state_path", metavar="STATE", type=click.Path(dir_okay=False))
+@click.option("--map", "map_path", required=True, type=input_artefact, help="The map TRAJ was planned on.")
+@click.option("--warm-stage", "warm_stage", type=click.Choice(["projection", "costs"]), default="projection",
+              show_default=True, help="From the shifted plan: the constraints alone, or the costs under them.")
+@output_opt
+@overwrite_opt
+@verbosity_opts
+@click.pass_context
+def replan_cmd(ctx, traj_path, state_path, map_path, warm_stage, output, overwrite):
+    """Plan the rest of a task of TRAJ from the measured state in STATE (YAML/JSON: t, task, base_pos,
+    base_euler, base_vel, base_ang_vel, feet_pos; legplan.dyn.replan_io), warm-started from TRAJ's
+    solution shifted to t; write a traj.h5 of the rest (time 0 = t), checked like `dyn plan`'s.
+
+    Exit 1 when the replan failed (its reason is recorded)."""
+    import json
+
+    from legplan.artefacts import check_output
+    from legplan.artefacts.identity import check_same_map
+    from legplan.dyn.artefact import read_tasks, trajectory_record, write_traj
+    from legplan.dyn.replan import replan
+    from legplan.dyn.replan_io import check_state_time, previous_of, read_state, recorded_params, traj_task
+    from legplan.dyn.tasks import centroidal_model
+    from legplan.dyn.terrain import TerrainModel
+    from legplan.robots import load_robot
+    from legplan.terrain import load_map
+    from legplan.validate.trajectory import check_trajectory
+
+    check_output(output, overwrite)
+    attrs, tasks = read_tasks(traj_path)
+    legs = str(attrs["legs"]).split(",")
+    index, state = read_state(state_path, len(legs))
+    task = traj_task(traj_path, tasks, index, state_path)
+    check_state_time(state_path, state, float(task["duration"]))
+    settings = json.loads(attrs.get("params", "{}"))
+    params = recorded_params(settings)
+    robot = load_robot(str(attrs["robot"]))
+    model = centroidal_model(robot, params)
+    terrain_map = load_map(map_path)
+    check_same_map(traj_path, map_path, what="planned")
+    terrain = TerrainModel(terrain_map)
+    out = replan(previous_of(task, model, params), state, model, terrain, params, warm_stage=warm_stage)
+    check = check_trajectory(out.plan.samples, model, terrain_map, robot, node_times=out.plan.problem.form.knots)
+    rest = out.plan.problem.task
+    record = trajectory_record(0, rest, out.plan, check)
+    replanned = {"traj": os.fspath(traj_path), "state": os.fspath(state_path), "task": index, "warm_stage": warm_stage,
+                 **{k: (v.tolist() if hasattr(v, "tolist") else v) for k, v in state.record().items()}}
+    write_traj(output, [record], {**settings, "replan": replanned}, str(attrs["robot"]), legs,
+               inputs=[traj_path, state_path, map_path], overwrite=overwrite,
+               robot_sha256=attrs.get("robot_sha256"))
+    line = (f"wrote {output}: replan from t = {state.t:g} s {'succeeded' if record['success'] else 'failed'}: "
+            f"{out.iterations} iterations, {out.cpu_seconds:.3f} s CPU")
+    if record["success"]:
+        status(line)
+    else:
+        stderr_line(f"{line}: {record['reason']}")
+        ctx.exit(EXIT_ITEMS_FAILED)

@@ -25,7 +25,7 @@ from legplan.cli.main import EXIT_ITEMS_FAILED
 from legplan.cli.options import (NumbersOption, batch_opts, input_artefact, number, output_opt, overwrite_opt,
                                  verbosity_opts)
 from legplan.errors import LegplanError
-from legplan.parameters import FACTOR, FRICTION, WAIT
+from legplan.parameters import DURATION, FACTOR, FRICTION, WAIT
 
 log = logging.getLogger("legplan.sim")
 
@@ -75,13 +75,16 @@ class JointValue(click.ParamType):
                    "pattern, e.g. '*_KFE=2.7'. Repeatable; the last match wins.")
 @click.option("--velocity", "velocities", type=JointValue(), multiple=True, metavar="JOINT=RAD/S",
               help="Joint velocity limit replacing the URDF's, as --effort. Repeatable.")
+@click.option("--replan", "replan_period", type=number(DURATION), default=None, metavar="PERIOD",
+              help="Closed loop: replan the rest of the motion from the simulated state every PERIOD s "
+                   "(legplan.dyn.replan) and track the new plan; every replan recorded in sim.h5's replans/.")
 @output_opt
 @overwrite_opt
 @batch_opts
 @verbosity_opts
 @click.pass_context
 def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_scale, mass_scale, urdf_collision,
-                 package_paths, efforts, velocities, output, overwrite, jobs, scheduler, resume):
+                 package_paths, efforts, velocities, replan_period, output, overwrite, jobs, scheduler, resume):
     """Execute every trajectory of TRAJ on MAP in MuJoCo under the whole-body controller; write sim.h5.
 
     Success: no fall (base below half its nominal height above the terrain, tilted > 0.8 rad, or the
@@ -136,7 +139,15 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_sc
                 "pushes": [list(p) for p in pushes], "urdf_collision": urdf_collision,
                 "package_paths": list(options.package_paths), "effort": [list(e) for e in efforts],
                 "velocity": [list(v) for v in velocities], "traj": str(traj_path)}
-    task = Task(simulate_item, failed_item, SimWorker, (str(attrs["robot"]), os.path.abspath(map_path), params))
+    replan = None
+    if replan_period is not None:
+        import json
+
+        from legplan.dyn.replan_io import recorded_params
+
+        replan = (replan_period, recorded_params(json.loads(attrs.get("params", "{}"))))
+        settings["replan"] = replan_period
+    task = Task(simulate_item, failed_item, SimWorker, (str(attrs["robot"]), os.path.abspath(map_path), params, replan))
     records, _ = run_stage(task, sim_items(tasks), "dyn simulate", output=output,
                            identity={"stage": "dyn simulate", "params": settings}, inputs=[traj_path, map_path],
                            jobs=jobs, scheduler=scheduler, resume=resume, overwrite=overwrite,

@@ -142,12 +142,16 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     extra range-of-motion sample times (s), where the planner found a foot outside its box between
     the regular ones (`range_excess_times`); with `near_range` (m) also those where the
     initializer's guess comes within that of a box (`planner.GUESS_RANGE_NEAR`)."""
-    form = Formulation(make_gait(task.gait, task.strides, task.duration), params.dt,
-                       aligned=params.phase_knots)
-    start, goal = task_poses(task, model, terrain)
     offset = np.asarray(model.com_offset, float)
-    model = about_com(model)
-    feet0 = start_feet(model, start, terrain)
+    if hasattr(task, "setup"):  # a task that states its own gait, start state and feet (`legplan.dyn.replan`)
+        form, start, goal, feet0 = task.setup(model, terrain, params)
+        model = about_com(model)
+    else:
+        form = Formulation(make_gait(task.gait, task.strides, task.duration), params.dt,
+                           aligned=params.phase_knots)
+        start, goal = task_poses(task, model, terrain)
+        model = about_com(model)
+        feet0 = start_feet(model, start, terrain)
     guess = initializer(form, model, terrain, start, goal, feet0)
     durations = None
     if PHASES in guess or params.optimize_phases:  # a previous stage's or a network's timing, optimized
@@ -166,6 +170,8 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     context = BuildContext(problem, params, sample_times(form, params))
     problem.constraints = declared_constraints(context)
     problem.costs = cost_blocks(form, terrain, model, params.costs, timing)
+    if hasattr(task, "constrain"):  # its measured start state beyond what `Formulation.variables` fixes
+        task.constrain(problem)
     return problem
 
 

@@ -18,6 +18,9 @@ Root attributes: the standard provenance (ARCHITECTURE.md), `params` (the `SimPa
   datasets: series/<name> every `record_every` ticks (`legplan.sim.run.SERIES_UNITS`): t, base_pos,
     base_quat, base_vel, base_ang_vel, joint_pos, joint_vel, torque, foot_forces, position_error,
     orientation_error (the base tracking errors of the paper's Fig. 4 (e)-(f)).
+    With `dyn simulate --replan`: replans/<name>, one row per replan (`legplan.sim.run.REPLAN_UNITS`):
+    t, the measured base_pos, base_euler, base_vel, base_ang_vel, feet_pos, iterations, cpu_seconds,
+    success.
 `/summary`: tasks, succeeded, success_rate, skipped, falls, median rms position/orientation error,
     worst max errors, peak torque, median saturation, QP failures and held ticks (totals), worst
     joint speed ratio, tasks with unplanned contacts, simulated seconds per wall second.
@@ -28,7 +31,7 @@ from __future__ import annotations
 import numpy as np
 
 from legplan.artefacts import write_artefact, write_dataset, write_summary
-from legplan.sim.run import SERIES_UNITS
+from legplan.sim.run import REPLAN_UNITS, SERIES_UNITS
 
 NAN = float("nan")
 SCALARS = {"fall_time": "s", "goal_error": "m", "yaw_error": "rad", "peak_torque": "N m", "saturation": "",
@@ -45,7 +48,8 @@ def sim_record(index: int, planned: bool, result) -> dict:
             "reason": str(result.reason), "fell": bool(result.fell),
             "unplanned_contacts": ",".join(result.unplanned_contacts),
             **{name: float(getattr(result, name)) for name in SCALARS},
-            "series": {name: np.asarray(value) for name, value in result.series.items()}}
+            "series": {name: np.asarray(value) for name, value in result.series.items()},
+            "replans": dict(result.replans)}
 
 
 def failed_record(index: int, planned: bool, reason: str, skipped: bool = False) -> dict:
@@ -73,6 +77,8 @@ def write_sim(path, records: list[dict], params: dict, robot, *, inputs=(), over
                 group.attrs[key] = record[key]
             for name, value in record.get("series", {}).items():
                 write_dataset(group, f"series/{name}", value, units=SERIES_UNITS[name])
+            for name, value in record.get("replans", {}).items():
+                write_dataset(group, f"replans/{name}", value, units=REPLAN_UNITS[name])
         write_summary(handle, summary)
     return summary
 

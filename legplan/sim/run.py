@@ -119,16 +119,24 @@ class SimResult:
     rms_orientation_error: float
     simulated: float
     wall: float
+    replans: dict = field(default_factory=dict)  # `REPLAN_UNITS` columns
 
 
 SERIES_UNITS = {"t": "s", "base_pos": "m", "base_quat": "(x, y, z, w)", "base_vel": "m/s (world)",
                 "base_ang_vel": "rad/s (world)", "joint_pos": "rad", "joint_vel": "rad/s", "torque": "N m",
                 "foot_forces": "N (world, on the foot)", "position_error": "m", "orientation_error": "rad"}
+REPLAN_UNITS = {"t": "s", "base_pos": "m", "base_euler": "rad", "base_vel": "m/s (world)",
+                "base_ang_vel": "rad/s (world)", "feet_pos": "m", "iterations": "", "cpu_seconds": "s",
+                "success": ""}
+"""The columns of `SimResult.replans`, one row per replan (`legplan.sim.replanning.Replanner`): the
+measured state it started from, LM iterations, CPU seconds, whether it converged."""
 
 
-def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(), goal=None) -> SimResult:
+def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(), goal=None,
+             replanner=None) -> SimResult:
     """Run the plan `samples` (traj.h5 `samples/` of one task) with `robot` (a `RobotModel` with a
-    `centroidal` section) on `terrain_map`; `goal` (x, y, yaw) or None for the plan's last pose."""
+    `centroidal` section) on `terrain_map`; `goal` (x, y, yaw) or None for the plan's last pose;
+    with a `legplan.sim.replanning.Replanner`, closed loop: its new plans become the reference."""
     started = time.perf_counter()
     mu = robot.centroidal.friction if params.friction is None else params.friction
     sim = build_model(robot, terrain_map, mu, params.model)
@@ -154,9 +162,12 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
     peak_speed, speed_ticks, overspeed_ticks = 0.0, 0, 0
     fell, fall_time, reason = False, float("nan"), ""
     tau = np.zeros(robot.n_joints)
+    start = reference.t[0]
     for tick in range(ticks):
-        t = reference.t[0] + tick * CONTROL_DT
+        t = start + tick * CONTROL_DT
         q, v = _pinocchio_state(data, sim)
+        if replanner is not None and replanner.due(t):
+            reference = _replanned(replanner, t, data, sim, q, v, terrain) or reference
         ref = reference.at(t)
         if not params.zero_torque:
             tau = controller.torques(q, v, ref, touching(data, sim))
@@ -220,7 +231,19 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
                      max_position_error=float(pe.max()), max_orientation_error=float(oe.max()),
                      rms_position_error=float(np.sqrt(np.mean(pe ** 2))),
                      rms_orientation_error=float(np.sqrt(np.mean(oe ** 2))),
-                     simulated=float(data.time), wall=time.perf_counter() - started)
+                     simulated=float(data.time), wall=time.perf_counter() - started,
+                     replans=replanner.columns() if replanner is not None else {})
+
+
+def _replanned(replanner, t: float, data, sim, q, v, terrain: TerrainModel):
+    """The `Reference` of a replan from the simulated state at t (the feet as the contact points
+    under the foot spheres), or None when it failed."""
+    rot = pin.Quaternion(q[3:7]).normalized().matrix()
+    centres = data.geom_xpos[sim.foot_geoms]
+    normal = terrain.basis(centres[:, 0], centres[:, 1])[0]
+    feet = centres - np.asarray(sim.foot_radius, float)[:, None] * normal
+    samples = replanner(t, q[:3], rot, data.qvel[:3], rot @ v[3:6], feet)
+    return None if samples is None else Reference(samples, sim.foot_radius, terrain)
 
 
 def perturb(sim, data, params: SimParams) -> None:

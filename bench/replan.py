@@ -1,0 +1,154 @@
+"""Benchmark of warm replanning (`legplan.dyn.replan`, issue 39 item 3): CPU time of a replan of the
+rest of a 16-footstep pallet plan from a measured state, against the issue's target (median ≤ 50 ms,
+p95 ≤ 100 ms, one core).
+
+    OMP_NUM_THREADS=1 .venv/bin/python bench/replan.py [--runs 3] [--times 6] [--no-append] [--from-json]
+
+* The plan: the Single Pallet walk (4 strides, 16 footsteps, 5.5 s) from (-1.0, 0, 0) to (0.6, 0, 0)
+  with the paper's costs (`PAPER`), planned once by `legplan.dyn.planner.plan` (its CPU time reported).
+* Replans: from the plan's own state at `--times` instants spread over [0.3 s, T − 0.5 s], once as it
+  is (unperturbed) and once with 0.1 m/s added to the lateral base velocity (a push), each warm-started
+  from the plan shifted to t (the default "projection" warm stage). CPU seconds are the process time
+  of `replan` (building and solving), BLAS and CHOLMOD held to one thread.
+* `--runs` repeats the whole set; per run the median and p95 over its replans, reported: the median
+  over runs of each. Also the LM iterations and the share that converged.
+
+Writes bench/results/replan.json and replaces the `replan` section of BENCHMARKS.md.
+"""
+
+from __future__ import annotations
+
+import os
+
+for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
+
+import argparse  # noqa: E402
+import datetime  # noqa: E402
+import time  # noqa: E402
+
+import numpy as np  # noqa: E402
+
+from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result  # noqa: E402
+
+TASK = ((-1.0, 0.0, 0.0), (0.6, 0.0, 0.0))
+PUSH_VELOCITY = 0.1  # m/s added to the lateral base velocity of the perturbed states
+TARGET_MEDIAN, TARGET_P95 = 0.050, 0.100  # s
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--runs", type=int, default=3)
+    parser.add_argument("--times", type=int, default=6)
+    parser.add_argument("--no-append", action="store_true", help="do not touch BENCHMARKS.md")
+    parser.add_argument("--from-json", action="store_true",
+                        help="rewrite the BENCHMARKS.md section from bench/results/replan.json, no runs")
+    args = parser.parse_args()
+    if args.from_json:
+        import json
+
+        result = json.loads((ROOT / "bench" / "results" / "replan.json").read_text())
+        args.runs, args.times = len(result["runs"]), len(result["runs"][0]["rows"]) // 2
+        update_benchmarks("replan", markdown(result, args))
+        return
+
+    from legplan.dyn.planner import plan
+    from legplan.dyn.problem import DynTask
+    from legplan.dyn.replan import MeasuredState, replan
+    from legplan.dyn.settings import PAPER
+    from legplan.dyn.tasks import centroidal_model
+    from legplan.dyn.terrain import TerrainModel
+    from legplan.robots import load_robot
+    from legplan.terrain.spec import build_map
+
+    load_start = load_average()
+    model = centroidal_model(load_robot("anymal"), PAPER, "paper")
+    terrain = TerrainModel(build_map(ROOT / "maps" / "single_pallet.yaml"))
+    task = DynTask(*TASK, "walk", 4, 5.5)
+    cpu = time.process_time()
+    planned = plan(task, model, terrain, PAPER)
+    plan_cpu = time.process_time() - cpu
+    footsteps = planned.problem.form.footsteps
+    print(f"plan: {planned.status.name}, {planned.solve.iterations} iterations, {plan_cpu:.2f} s CPU, "
+          f"{footsteps} footsteps", flush=True)
+    times = np.linspace(0.3, task.duration - 0.5, args.times)
+    runs = []
+    for run in range(args.runs):
+        rows = []
+        for t in times:
+            state = MeasuredState.from_samples(planned.samples, t)
+            pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + [0, PUSH_VELOCITY, 0],
+                                   state.base_ang_vel, state.feet_pos)
+            for kind, measured in (("unperturbed", state), ("pushed", pushed)):
+                out = replan(planned, measured, model, terrain, PAPER)
+                rows.append({"t": float(state.t), "kind": kind, "cpu_seconds": out.cpu_seconds,
+                             "iterations": out.iterations, "success": out.success})
+                print(f"run {run}: t = {state.t:.2f} s {kind}: {out.status.name}, {out.iterations} iterations, "
+                      f"{out.cpu_seconds * 1e3:.0f} ms CPU", flush=True)
+        cpu_s = np.array([r["cpu_seconds"] for r in rows])
+        runs.append({"rows": rows, "median": float(np.median(cpu_s)), "p95": float(np.percentile(cpu_s, 95)),
+                     "median_iterations": float(np.median([r["iterations"] for r in rows])),
+                     "converged": float(np.mean([r["success"] for r in rows]))})
+    result = {"date": datetime.date.today().isoformat(), "machine": machine(), "code": code_version(),
+              "load_start": load_start, "load_end": load_average(), "plan_status": planned.status.name,
+              "plan_iterations": int(planned.solve.iterations), "plan_cpu_seconds": plan_cpu,
+              "footsteps": int(footsteps), "task": TASK, "push_velocity": PUSH_VELOCITY, "runs": runs,
+              "median": float(np.median([r["median"] for r in runs])),
+              "p95": float(np.median([r["p95"] for r in runs])),
+              "median_iterations": float(np.median([r["median_iterations"] for r in runs])),
+              "converged": float(np.median([r["converged"] for r in runs]))}
+    path = write_result("replan", result)
+    print(f"wrote {path}: median {result['median'] * 1e3:.0f} ms, p95 {result['p95'] * 1e3:.0f} ms CPU")
+    if not args.no_append:
+        update_benchmarks("replan", markdown(result, args))
+
+
+def markdown(r: dict, args) -> str:
+    met = "met" if r["median"] <= TARGET_MEDIAN and r["p95"] <= TARGET_P95 else "not met"
+    per_run = ", ".join(f"{x['median'] * 1e3:.0f}/{x['p95'] * 1e3:.0f}" for x in r["runs"])
+    return f"""## replan — warm replanning of a 16-footstep pallet plan (`bench/replan.py`, {r['date']}, {r['machine']}, code {r['code']}; load average {r['load_start']:.1f} at start, {r['load_end']:.1f} at end: shared machine, other engineers' jobs running, timings noisy)
+
+Single Pallet walk {r['task'][0]} → {r['task'][1]}, 4 strides, {r['footsteps']} footsteps, 5.5 s, the paper's costs;
+first plan {r['plan_status']}, {r['plan_iterations']} iterations, {r['plan_cpu_seconds']:.1f} s CPU. Replans from the
+plan's own state at {args.times} instants in [0.3, 5.0] s, unperturbed and with +{r['push_velocity']} m/s lateral
+base velocity, warm-started from the plan shifted to t ("projection" warm stage); CPU = process time of
+`legplan.dyn.replan.replan` (build + solve), one thread. {args.runs} runs; median over runs:
+
+| metric | measured | target (issue 39) | ratio |
+|---|---|---|---|
+| median CPU per replan | {r['median'] * 1e3:.0f} ms | ≤ {TARGET_MEDIAN * 1e3:.0f} ms | {r['median'] / TARGET_MEDIAN:.1f}× |
+| p95 CPU per replan | {r['p95'] * 1e3:.0f} ms | ≤ {TARGET_P95 * 1e3:.0f} ms | {r['p95'] / TARGET_P95:.1f}× |
+| median LM iterations | {r['median_iterations']:.0f} | | |
+| converged | {r['converged'] * 100:.0f} % | | |
+
+Per run median/p95 (ms): {per_run}. Target {met}; the first plan took
+{r['plan_cpu_seconds'] / max(r['plan_iterations'], 1) * 1e3:.0f} ms CPU per LM iteration.
+{push_section()}"""
+
+
+def push_section() -> str:
+    """The rows of bench/replan_push.py's JSON, when it exists."""
+    import json
+
+    path = ROOT / "bench" / "results" / "replan_push.json"
+    if not path.exists():
+        return ""
+    r = json.loads(path.read_text())
+    rows = "\n".join(f"| {x['impulse']:.1f} | {x['loop']} | {'yes' if x['success'] else 'no: ' + x['reason'][:40]} | "
+                     f"{x['replans_converged']}/{x['replans']} |" for x in r["rows"])
+    best = r["largest_survived_impulse"]
+    return f"""
+Push, open vs closed loop (`bench/replan_push.py`, {r['date']}, code {r['code']}, load {r['load_start']:.1f} → {r['load_end']:.1f}):
+flat 2-stride walk (3 s, no costs), +y push at 1.5 s for {r['duration']} s, closed loop replanning every {r['period']} s.
+The simulation waits for each replan (no latency modelled). One run per level.
+
+| impulse (N s) | loop | survived | replans converged |
+|---|---|---|---|
+{rows}
+
+Largest survived impulse among the levels: open loop {best['open']:.1f} N s, closed loop {best['closed']:.1f} N s.
+"""
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,312 @@
+"""Online replanning: the rest of a centroidal plan, from a measured state at time t (issue 39 item 3).
+
+    previous = Previous.from_plan(result)                  # or Previous.from_record(traj task group)
+    state = MeasuredState(t=1.2, base_pos=..., base_euler=..., base_vel=..., base_ang_vel=..., feet_pos=...)
+    out = replan(previous, state, model, terrain, params)
+    out.success, out.iterations, out.cpu_seconds, out.plan.samples   # samples on the new time axis, 0 = t
+
+The rest of the motion is the previous plan's problem on [t, T] (model predictive control, as the
+TOWR-costs paper motivates its fast solves with, Sec. I): the gait's remaining phases with their
+durations (the phase holding t shortened to what is left of it), the remaining footholds in their
+order, the same goal. Its first node is the measured state: the CoM's pose and velocity (the base
+spline is the CoM's, `problem.about_com`: c = p + R o, ċ = ṗ + ω × R o), every foot in stance fixed
+where it stands. A foot in the air at t starts the new problem with a short stance at its measured
+position (`AIRBORNE_HOLD`, zero force, off the terrain constraint), then the rest of its swing: the
+formulation's feet start in stance.
+
+The guess is the previous solution shifted in time (`ShiftedInit`): every node of the new splines
+takes the previous splines' value and rate at its own time t + τ. It solves a nearby problem, so the
+planner solves from it in one stage (`near_solution`, `legplan.dyn.planner.schedule`), then the range
+of motion stages a converged plan gets.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from legplan.dyn.euler import rotation, world_rates
+from legplan.dyn.formulation import Formulation, Pose
+from legplan.dyn.gait import Gait
+from legplan.dyn.planner import PlanResult, plan
+from legplan.dyn.settings import DynParams
+from legplan.solve.auglag import Constraint
+from legplan.solve.lm import Status
+
+AIRBORNE_HOLD = 0.02
+"""s: the stance a foot in the air at the replan time holds at its measured position before the rest
+of its swing (at most half of what is left of the current phase)."""
+SHORT_FIRST = 0.3  # share of dt: a shorter first base polynomial of a replan is merged into the next
+PHASE_END = 1e-3  # s: a phase with less than this left at the replan time is taken as over
+NODE_INSIDE = 1e-9  # share of a segment: where a node's value and rate are read from the previous splines
+
+
+@dataclass(frozen=True)
+class MeasuredState:
+    """The robot at time `t` (s, on the previous plan's time axis): base origin `base_pos` (m),
+    `base_euler` (roll, pitch, yaw, rad), `base_vel` (m/s), world angular velocity `base_ang_vel`
+    (rad/s) and the feet `feet_pos` (legs, 3) (m), in the previous plan's leg order."""
+
+    t: float
+    base_pos: np.ndarray
+    base_euler: np.ndarray
+    base_vel: np.ndarray
+    base_ang_vel: np.ndarray
+    feet_pos: np.ndarray
+
+    def __post_init__(self):
+        for name in ("base_pos", "base_euler", "base_vel", "base_ang_vel"):
+            object.__setattr__(self, name, np.asarray(getattr(self, name), float).reshape(3))
+        object.__setattr__(self, "feet_pos", np.asarray(self.feet_pos, float).reshape(-1, 3))
+        object.__setattr__(self, "t", float(self.t))
+
+    @classmethod
+    def from_samples(cls, samples: dict[str, np.ndarray], t: float) -> MeasuredState:
+        """The state a plan's samples (`planner.sample_solution`) hold at their sample nearest t."""
+        k = int(np.argmin(np.abs(samples["t"] - t)))
+        return cls(float(samples["t"][k]), samples["base_pos"][k], samples["base_euler"][k], samples["base_vel"][k],
+                   samples["base_ang_vel"][k], samples["feet_pos"][k])
+
+    def record(self) -> dict[str, np.ndarray | float]:
+        return {"t": self.t, "base_pos": self.base_pos, "base_euler": self.base_euler, "base_vel": self.base_vel,
+                "base_ang_vel": self.base_ang_vel, "feet_pos": self.feet_pos}
+
+
+@dataclass(frozen=True)
+class Previous:
+    """A plan to replan: its formulation (gait, timing, knots), its node values, its goal (x, y, yaw)
+    and the CoM in the base frame it was planned with."""
+
+    form: Formulation
+    values: dict[str, np.ndarray]
+    goal: tuple[float, float, float]
+    com_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+
+    @classmethod
+    def from_plan(cls, result: PlanResult) -> Previous:
+        p = result.problem
+        return cls(p.form, {k: np.asarray(v, float) for k, v in result.solve.values.items()},
+                   tuple(float(v) for v in p.task.goal), np.asarray(p.com_offset, float))
+
+    @classmethod
+    def from_record(cls, task: dict, com_offset, dt: float = 0.1) -> Previous:
+        """From a traj.h5 task group read by `artefact.read_tasks`: the gait's phases, the base knots
+        (each base node's first time) and the node values."""
+        gait = Gait(str(task["gait"]), np.asarray(task["phases"]["durations"], float),
+                    np.asarray(task["phases"]["stance"], bool))
+        knots = np.asarray(task["nodes"]["base_lin"]["span"], float)[:, 0]
+        form = Formulation(gait, dt, knots)
+        values = {name: np.asarray(task["nodes"][name]["value"], float)
+                  for name in ("base_lin", "base_ang", "feet", "forces")}
+        return cls(form, values, tuple(float(v) for v in task["goal"]), np.asarray(com_offset, float))
+
+    def goal_pose(self) -> Pose:
+        """The CoM's goal pose of the previous solution (its last base node)."""
+        lin = self.values["base_lin"].reshape(-1, 2, 3)
+        ang = self.values["base_ang"].reshape(-1, 2, 3)
+        return Pose(lin[-1, 0].copy(), ang[-1, 0].copy())
+
+
+def remaining_gait(gait: Gait, t: float, hold: float = AIRBORNE_HOLD) -> tuple[Gait, np.ndarray]:
+    """The phases of `gait` after t on a time axis starting at t, and which feet are in the air at t
+    (those get a first stance of `hold`, at most half of what is left of the current phase)."""
+    ends = np.cumsum(gait.durations)
+    if not 0.0 <= t < ends[-1] - PHASE_END:
+        raise ValueError(f"replan time {t:g} s outside the plan [0, {ends[-1]:g}) s")
+    k = int(np.searchsorted(ends, t + PHASE_END, side="right"))
+    durations = np.concatenate([[ends[k] - t], gait.durations[k + 1:]])
+    stance = gait.stance[k:].copy()
+    airborne = ~stance[0]
+    if airborne.any():
+        first = min(hold, 0.5 * durations[0])
+        durations = np.concatenate([[first, durations[0] - first], durations[1:]])
+        stance = np.vstack([np.ones((1, stance.shape[1]), bool), stance])
+    return Gait(gait.name, durations, stance), airborne
+
+
+@dataclass
+class ReplanTask:
+    """The rest of a plan from a measured state, as `problem.build_problem` reads a task (`setup`,
+    `constrain`); `start`, `goal`, `gait`, `strides`, `duration` name it like a `DynTask`."""
+
+    previous: Previous
+    state: MeasuredState
+    gait_rest: Gait
+    airborne: np.ndarray
+    strides: int = 0
+
+    @property
+    def gait(self) -> str:
+        return self.gait_rest.name
+
+    @property
+    def duration(self) -> float:
+        return self.gait_rest.duration
+
+    @property
+    def start(self) -> tuple[float, float, float]:
+        return (*self.state.base_pos[:2], self.state.base_euler[2])
+
+    @property
+    def goal(self) -> tuple[float, float, float]:
+        return self.previous.goal
+
+    def com_state(self) -> tuple[Pose, np.ndarray, np.ndarray]:
+        """The CoM's pose, velocity and Euler rates at the measured state."""
+        s = self.state
+        arm = rotation(s.base_euler[None])[0] @ self.previous.com_offset
+        return (Pose(s.base_pos + arm, s.base_euler.copy()), s.base_vel + np.cross(s.base_ang_vel, arm),
+                euler_rates(s.base_euler, s.base_ang_vel))
+
+    def setup(self, model, terrain, params: DynParams):
+        form = Formulation(self.gait_rest, params.dt, self.knots(params))
+        start, _, _ = self.com_state()
+        return form, start, self.previous.goal_pose(), self.state.feet_pos.copy()
+
+    def knots(self, params: DynParams) -> np.ndarray | None:
+        """The previous plan's base knots after t, shifted to start at 0 (a first polynomial shorter
+        than `SHORT_FIRST` of `dt` merged into the next): the shifted guess is then the previous base
+        spline itself after its first polynomial. None (the formulation's own) with `phase_knots`."""
+        if params.phase_knots:
+            return None
+        later = self.previous.form.knots[self.previous.form.knots > self.state.t] - self.state.t
+        if later.size > 1 and later[0] < SHORT_FIRST * params.dt:
+            later = later[1:]
+        later[-1] = self.gait_rest.duration
+        return np.concatenate([[0.0], later])
+
+    def constrain(self, problem) -> None:
+        """The measured velocities on the first base node; a foot in the air held where it is, with
+        zero force, and its first stance node off the terrain constraint."""
+        _, velocity, rates = self.com_state()
+        blocks = {v.name: v for v in problem.variables}
+        blocks["base_lin"].value.reshape(-1, 2, 3)[0, 1] = velocity
+        blocks["base_ang"].value.reshape(-1, 2, 3)[0, 1] = rates
+        feet = blocks["feet"]
+        forces = blocks["forces"]
+        for leg in np.flatnonzero(self.airborne):
+            foot = problem.form.feet[leg]
+            node = foot.stance_nodes[0]
+            feet.value.reshape(-1, 2, 3)[node, 0] = self.state.feet_pos[leg]
+            feet.fixed.reshape(-1, 2, 3)[node] = True
+            ids = foot.force_nodes[0]
+            forces.value.reshape(-1, 2, 3)[ids] = 0.0
+            forces.fixed.reshape(-1, 2, 3)[ids] = True
+        on_terrain = [i for i, c in enumerate(problem.constraints) if c.name == "stance_on_terrain"]
+        for leg in np.flatnonzero(self.airborne):
+            c = problem.constraints[on_terrain[leg]]
+            lower, upper = c.lower.copy(), c.upper.copy()
+            lower[0], upper[0] = -np.inf, np.inf  # the first stance node, in the air
+            problem.constraints[on_terrain[leg]] = Constraint(c.block, lower, upper, c.name, c.scale)
+
+
+def euler_rates(euler: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    """ė of a world angular velocity ω at Euler angles e (`euler.world_rates` is linear in ė)."""
+    m = np.column_stack([world_rates(euler[None], np.eye(3)[k][None])[0] for k in range(3)])
+    return np.linalg.solve(m, omega)
+
+
+class ShiftedInit:
+    """The previous solution shifted in time as an initializer (`legplan.dyn.init` signature): every
+    node of the new splines takes the previous splines' value and rate at its time t + τ (clipped to
+    the previous plan's end). Its guesses solve a nearby problem (`near_solution`)."""
+
+    near_solution = True
+
+    def __init__(self, previous: Previous, t: float):
+        self.previous, self.t = previous, float(t)
+
+    def __call__(self, form: Formulation, model, terrain, start, goal, start_feet) -> dict[str, np.ndarray]:
+        prev = self.previous
+        base_t = form.knots
+        guess = {name: _sample(lambda times, d: prev.form.base_matrix(times, d), prev.values[name], self._at(base_t))
+                 for name in ("base_lin", "base_ang")}
+        feet = np.zeros((form.motion_nodes, 2, 3))
+        forces = np.zeros((form.force_nodes, 2, 3))
+        for leg, foot in enumerate(form.feet):
+            for spline, offset, out, matrix, values in (
+                    (foot.motion, foot.motion_offset, feet, prev.form.foot_matrix, prev.values["feet"]),
+                    (foot.force, foot.force_offset, forces, prev.form.force_matrix, prev.values["forces"])):
+                nodes, times = _node_times(spline)
+                out[offset + nodes] = _sample(lambda tt, d: matrix(leg, tt, d), values,
+                                              self._at(times)).reshape(-1, 2, 3)
+        guess["feet"], guess["forces"] = feet.reshape(-1), forces.reshape(-1)
+        return guess
+
+    def _at(self, times: np.ndarray) -> np.ndarray:
+        return np.clip(self.t + np.asarray(times, float), 0.0, self.previous.form.duration)
+
+
+def _sample(matrix, values: np.ndarray, times: np.ndarray) -> np.ndarray:
+    """(n, value|rate, xyz) flattened: a spline's value and first derivative at `times`."""
+    nodes = values.reshape(-1, 3)
+    return np.stack([matrix(times, 0) @ nodes, matrix(times, 1) @ nodes], axis=1).reshape(-1)
+
+
+def _node_times(spline) -> tuple[np.ndarray, np.ndarray]:
+    """Each node of a spline and the time it stands for: the middle of a constant segment (a stance
+    foot, a swing's zero force), else the end of a segment it is (first end met wins), read from
+    just inside that segment (a force node at a lift-off is the stance's end, not the swing's)."""
+    times: dict[int, float] = {}
+    for seg in spline.segments:
+        if seg.constant:
+            times.setdefault(seg.a, 0.5 * (seg.t0 + seg.t1))
+    for seg in spline.segments:  # just inside the segment: a node's rate is its own segment's
+        if not seg.constant:
+            inside = NODE_INSIDE * (seg.t1 - seg.t0)
+            times.setdefault(seg.a, seg.t0 + inside)
+            times.setdefault(seg.b, seg.t1 - inside)
+    nodes = np.array(sorted(times), int)
+    return nodes, np.array([times[n] for n in nodes])
+
+
+@dataclass
+class ReplanResult:
+    """One replan: the measured state it started from, the plan of the rest (time 0 = `state.t`),
+    LM iterations, CPU seconds (process time: building and solving), success and status."""
+
+    state: MeasuredState
+    plan: PlanResult
+    cpu_seconds: float
+    wall_seconds: float
+
+    @property
+    def success(self) -> bool:
+        return self.plan.success
+
+    @property
+    def status(self) -> Status:
+        return self.plan.status
+
+    @property
+    def iterations(self) -> int:
+        return int(self.plan.solve.iterations)
+
+    def record(self) -> dict:
+        return {**{f"state_{k}": v for k, v in self.state.record().items()}, "iterations": self.iterations,
+                "cpu_seconds": self.cpu_seconds, "wall_seconds": self.wall_seconds, "success": self.success,
+                "status": self.status.name.lower()}
+
+
+def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain, params: DynParams = DynParams(),
+           warm_stage: str = "projection") -> ReplanResult:
+    """Plan the rest of `previous` from `state` (module docstring), warm-started from `previous`
+    shifted to `state.t`. The remaining phases keep their durations (`optimize_phases` is off).
+    `warm_stage` is `DynParams.warm_stage` for the shifted guess: "projection" (default) solves the
+    constraints alone from it — the shifted solution already minimizes the costs, the measured state
+    only needs it made feasible again; "costs" solves the costs under the constraints too."""
+    if isinstance(previous, PlanResult):
+        previous = Previous.from_plan(previous)
+    if state.feet_pos.shape[0] != previous.form.legs:
+        raise ValueError(f"measured state: {state.feet_pos.shape[0]} feet, the plan has {previous.form.legs}")
+    gait_rest, airborne = remaining_gait(previous.form.gait, state.t)
+    task = ReplanTask(previous, state, gait_rest, airborne)
+    cpu, wall = time.process_time(), time.perf_counter()
+    result = plan(task, model, terrain, replace(params, optimize_phases=False, warm_stage=warm_stage),
+                  ShiftedInit(previous, state.t))
+    if airborne.any():  # the hold of a foot in the air is no contact (zero force, off the terrain)
+        hold = result.samples["t"] < gait_rest.durations[0] - 1e-9
+        result.samples["contact"][np.ix_(hold, airborne)] = False
+    return ReplanResult(state, result, time.process_time() - cpu, time.perf_counter() - wall)

@@ -1,0 +1,94 @@
+"""legplan.dyn.replan: the rest of a plan from a measured state (issue 39 item 3)."""
+
+import numpy as np
+import pytest
+
+from legplan.dyn.euler import world_rates
+from legplan.dyn.gait import make_gait
+from legplan.dyn.planner import plan
+from legplan.dyn.problem import DynParams, DynTask
+from legplan.dyn.replan import MeasuredState, Previous, ShiftedInit, euler_rates, remaining_gait, replan
+
+TASK = DynTask((0.0, 0.0, 0.0), (0.5, 0.1, 0.1), "walk", 2, 3.0)
+
+
+@pytest.fixture(scope="module")
+def planned(anymal, flat):
+    result = plan(TASK, anymal, flat, DynParams())
+    assert result.success
+    return result
+
+
+def _previous_at(planned, replanned, t):
+    """The previous plan's samples at the replan's sample times, shifted by t."""
+    k = np.rint((replanned.samples["t"] + t) / 0.01).astype(int)
+    return {name: value[np.clip(k, 0, len(value) - 1)] for name, value in planned.samples.items()}
+
+
+def test_remaining_gait_keeps_the_phases_after_t():
+    gait = make_gait("walk", 2, 3.0)
+    ends = np.cumsum(gait.durations)
+    t = 0.5 * (ends[2] + ends[3])  # inside phase 3, where a foot swings
+    rest, airborne = remaining_gait(gait, t, hold=0.02)
+    assert rest.duration == pytest.approx(gait.duration - t)
+    assert np.array_equal(airborne, ~gait.stance[3])
+    assert airborne.any()
+    assert rest.stance[0].all() and np.array_equal(rest.stance[1:], gait.stance[3:])
+    assert rest.durations[0] == pytest.approx(0.02)
+    assert np.allclose(rest.durations[2:], gait.durations[4:])
+    with pytest.raises(ValueError, match="outside"):
+        remaining_gait(gait, gait.duration)
+
+
+def test_euler_rates_invert_world_rates():
+    rng = np.random.default_rng(0)
+    for _ in range(5):
+        e, ed = rng.uniform(-0.5, 0.5, 3), rng.normal(size=3)
+        assert np.allclose(euler_rates(e, world_rates(e[None], ed[None])[0]), ed)
+
+
+def test_shifted_guess_is_the_previous_spline(planned, anymal, flat):
+    """Every node of the shifted guess lies on the previous splines at its own time t + τ."""
+    previous = Previous.from_plan(planned)
+    t = 1.0
+    rest, _ = remaining_gait(previous.form.gait, t)
+    from legplan.dyn.formulation import Formulation
+    form = Formulation(rest, 0.1)
+    guess = ShiftedInit(previous, t)(form, anymal, flat, None, None, None)
+    lin = guess["base_lin"].reshape(-1, 2, 3)
+    old = previous.values["base_lin"].reshape(-1, 3)
+    assert np.allclose(lin[:, 0], previous.form.base_matrix(form.knots + t) @ old)
+    assert np.allclose(lin[:, 1], previous.form.base_matrix(form.knots + t, 1) @ old)
+
+
+@pytest.mark.parametrize("phase", [2, 5])
+def test_unperturbed_replan_reproduces_the_rest(planned, anymal, flat, phase):
+    """From the plan's own state inside a phase with a foot in the air."""
+    gait = planned.problem.form.gait
+    ends = np.cumsum(gait.durations)
+    state = MeasuredState.from_samples(planned.samples, 0.5 * (ends[phase - 1] + ends[phase]))
+    assert remaining_gait(gait, state.t)[1].any()
+    out = replan(planned, state, anymal, flat, DynParams())
+    assert out.success, out.plan.reason
+    assert out.iterations < planned.solve.iterations
+    before = _previous_at(planned, out.plan, state.t)
+    assert np.abs(out.plan.samples["base_pos"] - before["base_pos"]).max() < 0.02
+    stance = out.plan.samples["contact"] & before["contact"]
+    assert np.abs(out.plan.samples["feet_pos"] - before["feet_pos"])[stance].max() < 0.02
+
+
+def test_perturbed_replan_converges_from_the_measured_state(planned, anymal, flat):
+    state = MeasuredState.from_samples(planned.samples, 1.0)
+    pushed = MeasuredState(state.t, state.base_pos + [0.0, 0.02, 0.0], state.base_euler,
+                           state.base_vel + [0.0, 0.3, 0.0], state.base_ang_vel, state.feet_pos)
+    out = replan(planned, pushed, anymal, flat, DynParams())
+    assert out.success, out.plan.reason
+    s = out.plan.samples
+    assert np.allclose(s["base_pos"][0], pushed.base_pos, atol=1e-9)
+    assert np.allclose(s["base_vel"][0], pushed.base_vel, atol=1e-9)
+    stance = s["contact"][0]
+    assert np.allclose(s["feet_pos"][0][stance][:, :2], pushed.feet_pos[stance][:, :2], atol=1e-9)
+    assert s["t"][-1] == pytest.approx(TASK.duration - pushed.t)
+    assert np.allclose(s["base_pos"][-1, :2], planned.samples["base_pos"][-1, :2], atol=1e-6)
+    record = out.record()
+    assert record["success"] and record["cpu_seconds"] > 0 and record["iterations"] == out.iterations
