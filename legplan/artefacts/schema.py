@@ -23,9 +23,10 @@ ROOT_ATTRS = ("legplan_kind", "schema_version", "legplan_version", "created", "c
 NAN_MEANS_NONE: dict[str, dict[str, str | None]] = {
     "steps": {"footholds": None, "checks/*": None},
     "dataset": {"y": "success", "cost": "success", "max_violation": "success", "seconds": "success"},
+    "traj": {"tasks/*/nodes/*/span": None},
 }
 """The float datasets of a kind (glob patterns on the path without the leading '/') in which NaN means
 "none" rather than corruption: the swing legs' footholds of a steps file, the outcomes of a dataset's
-tasks that did not converge. A pattern mapped to the name of a boolean dataset is excused only in the
+tasks that did not converge, the time span of a node that ends no polynomial in a traj. A pattern mapped to the name of a boolean dataset is excused only in the
 rows where that dataset is false. Every other float dataset of every kind holds finite values only
 (`legplan.artefacts.reader.open_artefact` checks it for every reader)."""
