@@ -94,7 +94,7 @@ class CheckTolerances:
     """Newton–Euler residual at every sample, a share of m·g."""
     between_dynamic: float = 0.3
     """The same at the samples of a base interval (between consecutive node times) with fewer than
-    three feet in contact throughout (a trot's support pair, its exchange, a flight): the
+    three feet in contact at all its samples (a trot's support pair, its exchange, a flight): the
     formulation's forces cannot follow the base acceleration there within `between`
     (`DynParams.dynamics_band_dynamic` is the planner's band there)."""
     angular_velocity: float = 1e-6
@@ -208,15 +208,16 @@ def _max(values) -> float:
 
 def _dynamic_samples(t: np.ndarray, node_times: np.ndarray, contact: np.ndarray) -> np.ndarray:
     """Per sample: whether it lies in a base interval (between consecutive node times) with fewer
-    than three feet in contact at all its samples strictly between the node times (a support line,
-    a point or a flight instead of a support polygon)."""
+    than three feet in contact at all its samples, both node times included (a foot that lifts off
+    or touches down inside the interval is out of contact at some sample up to its end): a support
+    line, a point or a flight instead of a support polygon."""
     count = max(len(node_times) - 1, 1)
     interval = np.clip(np.searchsorted(node_times, t, side="right") - 1, 0, count - 1)
-    inside = np.ones(len(t), bool)
-    inside[_node_samples(t, node_times)] = False
-    held = np.ones((count, contact.shape[1]), bool)
-    np.logical_and.at(held, interval[inside], contact[inside])
-    return (held.sum(axis=1) < 3)[interval]
+    dynamic = np.empty(count, bool)
+    for k in range(count):
+        inside = (t >= node_times[k] - 1e-6) & (t <= node_times[min(k + 1, len(node_times) - 1)] + 1e-6)
+        dynamic[k] = contact[inside].all(axis=0).sum() < 3
+    return dynamic[interval]
 
 
 def _node_samples(t: np.ndarray, node_times: np.ndarray) -> np.ndarray:
