@@ -129,7 +129,7 @@ class DynParams(Parameters):
         "optimize the phase durations too (2S more variables, `legplan.dyn.timing`); a guess with "
         "durations sets the timing either way (kept fixed without this)"))
     phase_min: float = param(0.2, "(0, inf)", doc="s: the shortest phase of a foot when the durations are optimized")
-    iteration_budget: int | None = param(None, "[0, inf)", "N", doc=(
+    iteration_budget: int | None = param(None, "[0, 100000]", "N", doc=(
         "LM iterations of the whole plan, all stages together (Algorithm 1's N: N_h = 100, N_θ = 25); "
         "None = each stage's own cap"))
 

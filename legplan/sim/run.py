@@ -64,7 +64,7 @@ class SimParams(Parameters):
     fall_tilt: float = param(0.8, "(0, 3.1416]", doc="rad, base z axis from the vertical")
     goal_distance: float = param(0.10, "(0, inf)", doc="m")
     goal_yaw: float = param(0.20, "(0, inf)", doc="rad")
-    record_every: int = param(4, "[1, inf)", doc="control ticks per recorded row (4: 100 Hz)")
+    record_every: int = param(4, "[1, 1000]", doc="control ticks per recorded row (4: 100 Hz)")
     friction: float | None = param(None, "(0, inf)", "μ", "friction of the simulation and the controller")
     friction_scale: float = param(1.0, "(0, inf)", doc="× the simulated friction only (the controller keeps μ)")
     mass_scale: float = param(1.0, "(0, inf)",

@@ -105,11 +105,11 @@ class ALParams(Parameters):
     mu_growth: float = param(10.0, "[1, inf)", doc="μ grows by this when the violation did not fall enough")
     mu_max: float = param(1e8, "[mu_init, inf)", doc="largest penalty")
     violation_decrease: float = param(0.25, "(0, 1]", doc="enough: the violation fell below this × the last one")
-    max_outer: int = param(15, "[1, inf)", doc="outer iterations (subproblems)")
+    max_outer: int = param(15, "[1, 1000]", doc="outer iterations (subproblems)")
     stall_decrease: float = param(0.9, "(0, 1]", doc=(
         "an outer iteration whose violation exceeds this × the last one made no progress"))
-    stall_outer: int = param(2, "[1, inf)", doc="stalled (infeasible local minimum) after this many such in a row")
-    max_iterations: int = param(300, "[0, inf)", doc="LM iterations of the whole solve")
+    stall_outer: int = param(2, "[1, 1000]", doc="stalled (infeasible local minimum) after this many such in a row")
+    max_iterations: int = param(300, "[0, 100000]", doc="LM iterations of the whole solve")
     multipliers: str = param("zero", ("zero", "least_squares"), doc="initial multipliers (module docstring)")
     active_tolerance: float = param(1e-4, "[0, inf)", doc=(
         "least_squares: a bound row within this (scaled) of its bound is active"))

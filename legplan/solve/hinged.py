@@ -62,11 +62,11 @@ class HingedParams(Parameters):
 
     lambda_init: float = param(1e-4, "(0, inf)", "λ₀", "initial damping")
     lambda_max: float = param(1e12, "(0, inf)", doc="stalled once λ exceeds this")
-    max_iterations: int = param(100, "[0, inf)", doc="LM iterations (each one factorization)")
+    max_iterations: int = param(100, "[0, 100000]", doc="LM iterations (each one factorization)")
     tolerance: float = param(1e-10, "[0, inf)", doc="converged once ‖h‖ < this")
     function_tolerance: float = param(0.0, "[0, 1]", doc="converged once an accepted step lowers ‖h‖² by less, relative")
     gradient_tolerance: float = param(1e-10, "[0, 1]", doc="converged once ‖Jᵀh‖∞ falls below this × its initial value")
-    active_set_iterations: int = param(10, "[1, inf)", doc="passes of the active-set loop per step")
+    active_set_iterations: int = param(10, "[1, 1000]", doc="passes of the active-set loop per step")
     geodesic_acceleration: float = param(0.75, "[0, inf)", "α", "add ½a when 2‖a‖ ≤ α‖d‖; 0: off")
 
 
