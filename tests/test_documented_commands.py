@@ -9,9 +9,12 @@ shipped scenario, or a file an earlier command of the block wrote (its -o) or th
 copied from tests/data.
 """
 
+import os
 import re
 import shlex
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 
 import click
@@ -47,8 +50,9 @@ def shell_blocks(path: Path) -> list[list[list[str]]]:
 def _leaf(words: list[str]) -> tuple[tuple[str, ...], click.Command, list[str]]:
     """The command path, the leaf click command and its arguments of `legplan WORDS...`."""
     command, path, args = cli, [], list(words)
-    while isinstance(command, click.Group) and args and args[0] in command.commands:
-        command = command.commands[args[0]]
+    while (isinstance(command, click.Group) and args
+           and command.get_command(click.Context(command), args[0]) is not None):  # loaded on first use
+        command = command.get_command(click.Context(command), args[0])
         path.append(args.pop(0))
     return tuple(path), command, args
 
@@ -65,6 +69,13 @@ def test_documented_commands_run_from_outside_the_repository(document, tmp_path,
             name, _, value = words[1].partition("=")
             monkeypatch.setenv(name, value.replace("$PWD", str(tmp_path)))
             continue
+        if re.fullmatch(r"[A-Z_]+=\$\(python", words[0]):  # NAME=$(python -c "...") sets a shell variable
+            name = words[0].split("=", 1)[0]
+            code = " ".join(words[2:])[:-1]  # the last ")" closes the "$("
+            done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
+            monkeypatch.setenv(name, done.stdout.strip())
+            continue
+        words = [os.path.expandvars(word) for word in words]
         if words[0] == "printf" and words[-2] == ">":
             Path(words[-1]).write_text(words[1].encode().decode("unicode_escape"))
             continue

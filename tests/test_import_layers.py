@@ -13,7 +13,8 @@ LAYERS = {
     "validate": 3,
     "dyn": 4, "nav": 4, "stepplan": 4, "stepseq": 4,
     "learn": 5, "sim": 5, "baselines": 5,
-    "report": 6, "export": 6,
+    "export": 5,
+    "report": 6,
     "cli": 7, "__main__": 7,
 }
 SAME_LAYER = {("parameters", "errors"), ("specio", "errors"), ("budget", "errors"), ("outputs_apart", "errors"),

@@ -35,7 +35,7 @@ def more(inputs, tmp_path_factory):
     paths = {"space": space, "sim": tmp / "sim.h5", "dataset": tmp / "dataset.h5", "init": tmp / "init.h5",
              "other": tmp / "other.h5", "flat": tmp / "flat.h5"}
     for args in (["dyn", "simulate", inputs["traj"], inputs["map"], "-o", paths["sim"]],
-                 ["learn", "dataset", space, "--n", "3", "--iterations", "5", "-o", paths["dataset"]],
+                 ["learn", "dataset", space, "--n", "3", "--iterations", "10", "-o", paths["dataset"]],
                  ["learn", "train", paths["dataset"], "--hidden", "4,4", "-o", paths["init"]],
                  ["map", "build", other, "-o", paths["other"]],
                  ["map", "build", ROOT / "maps" / "flat.yaml", "-o", paths["flat"]]):

@@ -37,7 +37,7 @@ def make(inputs, output, overwrite, value, fail, items_failed):
     if fail:
         click.echo("fake failure: the planner blew up", err=True)
         sys.exit(2)
-    with write_artefact(output, "map", params={"value": value}, inputs=list(inputs),
+    with write_artefact(output, "series", params={"value": value}, inputs=list(inputs),
                         overwrite=overwrite) as f:
         write_summary(f, {"value": (value, "m"), "inputs": len(inputs)})
     if items_failed:
