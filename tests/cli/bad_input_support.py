@@ -10,6 +10,7 @@ can break exactly one input and leave the others valid.
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import click
@@ -88,6 +89,15 @@ def valid_inputs(directory: Path) -> dict[str, Path]:
         assert result.exit_code == 0, result.stderr
     paths["csv"] = directory / "steps.csv"
     paths["csv"].write_bytes(EXAMPLE_STEPS.read_bytes())
+    paths["state"] = directory / "state.yaml"  # the traj's own state at its middle sample, for `dyn replan`
+    with h5py.File(paths["traj"], "r") as handle:
+        samples = {name: handle[f"tasks/0000/samples/{name}"][()] for name in
+                   ("t", "base_pos", "base_euler", "base_vel", "base_ang_vel", "feet_pos")}
+    k = len(samples["t"]) // 2
+    state = {"t": float(samples["t"][k]), "task": 0,
+             **{name: samples[name][k].tolist() for name in ("base_pos", "base_euler", "base_vel", "base_ang_vel",
+                                                              "feet_pos")}}
+    paths["state"].write_text(json.dumps(state))
     return paths
 
 

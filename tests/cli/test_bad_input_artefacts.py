@@ -29,6 +29,7 @@ MAP_COMMANDS = {
     ("dyn", "plan"): ["{map}", "--robot", "anymal", "--start", "-0.2", "0", "0", "--goal", "0.2", "0", "0",
                       "-o", "{out}.h5"],
     ("dyn", "simulate"): ["{traj}", "{map}", "-o", "{out}.h5"],
+    ("dyn", "replan"): ["{traj}", "{state}", "--map", "{map}", "-o", "{out}.h5"],
 }
 
 # (case, how the map file is broken, what the error line must name besides the file)
@@ -152,6 +153,7 @@ OTHER_ARTEFACT_ARGUMENTS = {  # (command, parameter): (valid kind to truncate, c
     (("compare",), "path_b"): ("steps", ["{steps}", "{bad}"]),
     (("dyn", "show"), "paths"): ("traj", ["{bad}", "-o", "{out}.png"]),
     (("dyn", "simulate"), "traj_path"): ("traj", ["{bad}", "{map}", "-o", "{out}.h5"]),
+    (("dyn", "replan"), "traj_path"): ("traj", ["{bad}", "{state}", "--map", "{map}", "-o", "{out}.h5"]),
     (("export",), "path"): ("traj", ["{bad}", "-o", "{out}.csv"]),
     (("inspect",), "path"): ("nav", ["{bad}"]),
     (("learn", "train"), "dataset_paths"): ("map", ["{bad}", "-o", "{out}.h5"]),
