@@ -286,8 +286,6 @@ def test_range_refinement_of_a_plan_with_costs_keeps_its_cost_terms(anymal, flat
     assert result.solve.cost > 0.0
 
 
-@pytest.mark.xfail(strict=True, reason="the between-knot band is classified by the support of the initial phases; "
-                   "optimized phases move it and the plan fails the independent check between the knots")
 def test_optimized_phase_durations_give_a_checked_plan_on_their_own_timing(anymal, flat):
     """optimize_phases: the flat trot converges with durations of its own (at least `phase_min`
     each, the last of every foot included, summing to T), the plan is sampled on that timing (contact
