@@ -29,7 +29,7 @@ def published_robots() -> Path:
     try:
         dist = importlib.metadata.distribution("example-robot-data")
     except importlib.metadata.PackageNotFoundError:
-        pytest.skip("example-robot-data is not installed (pip install -e '.[test]')")
+        pytest.fail("example-robot-data, a test dependency, is not installed (pip install -e '.[test]')")
     marker = next(f for f in dist.files if str(f).endswith("go1_description/urdf/go1.urdf"))
     return Path(dist.locate_file(marker)).resolve().parents[2]
 
