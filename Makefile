@@ -19,8 +19,10 @@ run: install
 	$(VENV)/bin/legplan pipeline run pipelines/pallet_climb.yaml -o $(OUT)/pallet_climb
 	@echo "reports: $(OUT)/{gap_crossing,nav_30m,compare_baselines,pallet_climb}/report/index.html"
 
+# The suite runs on every core (pytest-xdist); work stealing keeps the long end-to-end tests from
+# leaving a worker idle at the end.
 test: install test-system-packages
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q -n auto --dist worksteal
 
 install: $(STAMP)
 
