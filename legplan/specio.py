@@ -16,8 +16,8 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from legplan.errors import SpecError
-from legplan.parameters import RangeError, check_value, magnitude_problem
+from legplan.errors import LegplanError, SpecError
+from legplan.parameters import Interval, RangeError, check_value, magnitude_problem
 
 # libyaml's parser when PyYAML was built with it: the same documents, several times faster
 SAFE_LOADER = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -63,40 +63,108 @@ BOOLEAN_WORDS = {"1": True, "true": True, "yes": True, "on": True,
 
 def apply_overrides(base, overrides: dict[str, str] | None, source: str, what: str):
     """An instance of a parameter dataclass with `key=value` strings applied: `base` is the class
-    (start from its defaults) or an instance (start from its values). Each string is converted to
-    the field's declared type (str as given; int and float finite numbers, an int whole; bool one of
-    `BOOLEAN_WORDS`; a field declared `float | None` takes a float). Unknown keys and fields of other
-    types (tuples) are a one-line `SpecError` naming `source` and the `what` parameter, and so is a
-    value outside the field's declared range (`legplan.parameters.check_ranges`)."""
-    cls = base if isinstance(base, type) else type(base)
+    (start from its defaults) or an instance (start from its values); `override` with the error
+    lines naming `source` (e.g. "--param") and the `what` parameters."""
+    params = base() if isinstance(base, type) else base
+    return override(params, overrides or {}, FieldReader(source, f"{what} parameters"))
+
+
+def override(params, values: dict, reader: FieldReader, prefix: str = ""):
+    """A copy of the parameter dataclass `params` with `values` (field name, dotted for the fields of a
+    nested parameter dataclass → value) set: the one route by which a file or `--param` sets any
+    stage's parameters. A value is a typed value (a YAML file's) or text (the command line's),
+    converted to the field's declared type (`_from_text`); each is checked against its declared type
+    and range (the `legplan.parameters.param` declaration) and a failure is `reader`'s one-line error
+    naming the field."""
+    cls = type(params)
+    declared = {f.name: f for f in dataclasses.fields(cls)}
     hints = typing.get_type_hints(cls)
-    names = [f.name for f in dataclasses.fields(cls)]
-    values = {}
-    for key, text in (overrides or {}).items():
-        if key not in names:
-            raise SpecError(f"{source}: unknown {what} parameter '{key}' (known: {', '.join(sorted(names))})")
-        kind = hints[key]
-        if isinstance(kind, types.UnionType):                     # float | None
-            kind = next(arg for arg in typing.get_args(kind) if arg is not type(None))
-        if kind is str:
-            values[key] = text
-            continue
-        if kind is bool:
-            if text.strip().lower() not in BOOLEAN_WORDS:
-                raise SpecError(f"{source}: parameter '{key}' expects bool (true/false, 1/0, yes/no, on/off), "
-                                f"got {text!r}")
-            values[key] = BOOLEAN_WORDS[text.strip().lower()]
-            continue
-        if kind not in (int, float):
-            raise SpecError(f"{source}: {what} parameter '{key}' cannot be set with key=value")
-        number = parse_number(text, f"{source}: parameter '{key}'")  # finite, or a one-line error
-        if kind is int and not number.is_integer():
-            raise SpecError(f"{source}: parameter '{key}' expects int, got {text!r}")
-        values[key] = kind(number)
+    nested: dict[str, dict] = {}
+    changes = {}
+    for key, value in values.items():
+        head, _, rest = key.partition(".")
+        shown = f"{prefix}{key}"
+        if head not in declared:
+            reader.fail(f"{prefix}{head}", f"is unknown (known: {', '.join(declared)})")
+        if dataclasses.is_dataclass(hints[head]):
+            if not rest:
+                reader.fail(shown, "is a group of parameters: set its fields (NAME.FIELD)")
+            nested.setdefault(head, {})[rest] = value
+        elif rest:
+            reader.fail(f"{prefix}{head}", "has no fields")
+        else:
+            changes[head] = _leaf(declared[head], hints[head], value, params, reader, shown)
+    for head, inner in nested.items():
+        changes[head] = override(getattr(params, head), inner, reader, f"{prefix}{head}.")
     try:
-        return cls(**values) if base is cls else dataclasses.replace(base, **values)
-    except RangeError as exc:
-        raise SpecError(f"{source}: {exc}") from None
+        return dataclasses.replace(params, **changes)
+    except LegplanError as exc:  # a range that names another field (checked on the whole object)
+        where = f" {reader.where}:" if reader.where else ""
+        raise SpecError(f"{reader.path}:{where} {exc}") from None
+
+
+NULL_WORDS = ("null", "none", "~")
+"""Text that switches an optional parameter off (`key=null`)."""
+
+
+def _from_text(kind, text: str, reader: FieldReader, shown: str):
+    """Command-line text as a value of the declared `kind`: None for a null word, a
+    boolean word, a finite number; other kinds keep the text (a choice, a name)."""
+    word = text.strip().lower()
+    if word in NULL_WORDS:
+        return None  # refused by the caller unless the field is optional
+    if kind is bool:
+        if word not in BOOLEAN_WORDS:
+            reader.fail(shown, f"must be true or false (1/0, yes/no, on/off), got {text!r}")
+        return BOOLEAN_WORDS[word]
+    if kind in (int, float):
+        try:
+            return float(text)
+        except ValueError:
+            reader.fail(shown, f"must be a finite number, got {text!r}")
+    if typing.get_origin(kind) in (tuple, list):
+        reader.fail(shown, "cannot be set with KEY=VALUE (it holds several values)")
+    return text
+
+
+def _leaf(declared, kind, value, params, reader: FieldReader, shown: str):
+    """One field's value converted from text where given as text, checked against its type and
+    declared range."""
+    optional = isinstance(kind, types.UnionType) and type(None) in typing.get_args(kind)
+    if optional:
+        kind = next(arg for arg in typing.get_args(kind) if arg is not type(None))
+    given = value
+    if isinstance(value, str) and kind is not str:
+        value = _from_text(kind, value, reader, shown)
+    if value is None:
+        if not optional:
+            reader.fail(shown, "must not be null")
+        return None
+    allowed = declared.metadata.get("range")
+    if kind is bool:
+        if not isinstance(value, bool):
+            reader.fail(shown, f"must be true or false, got {given!r}")
+    elif kind in (int, float):
+        number = reader.number(value, shown)
+        if kind is int and not number.is_integer():
+            reader.fail(shown, f"must be a whole number, got {given!r}")
+        value = kind(number)
+        if magnitude_problem(value):
+            reader.fail(shown, f"{magnitude_problem(value)}, got {given!r}")
+    elif isinstance(allowed, tuple):
+        reader.choice(value, shown, allowed)
+    elif not isinstance(value, typing.get_origin(kind) or kind):
+        reader.fail(shown, f"must be {getattr(kind, '__name__', kind)}, got {given!r}")
+    if isinstance(allowed, Interval) and not allowed.contains(value, params):
+        reader.fail(shown, f"must be {_condition(allowed, params)}, got {given!r}")
+    return value
+
+
+def _condition(interval: Interval, params) -> str:
+    """The declared interval as a condition: ">= 0", "> 0", "in (0, 1]"."""
+    if interval.high == float("inf") and not isinstance(interval.low, str):
+        return f"{'>' if interval.low_open else '>='} {interval.low:g}"
+    return f"in {interval.describe(params)}"
 
 
 def read_yaml(path: str | os.PathLike, what: str = "spec"):

@@ -20,7 +20,8 @@ from dataclasses import fields
 import numpy as np
 
 from legplan.dyn.replan import MeasuredState, Previous
-from legplan.dyn.settings import DynParams, override
+from legplan.dyn.settings import DynParams
+from legplan.specio import override
 from legplan.errors import LegplanError
 from legplan.specio import FieldReader, read_yaml_mapping
 

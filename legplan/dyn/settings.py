@@ -19,28 +19,24 @@ or the paper's settings with the legs kept 6 cm off the terrain:
 
 `--param KEY=VALUE` (repeatable) is the other: any field, nested ones by dotted name
 (`--param dt=0.05`, `--param costs.force=0.5`, `--param solver.inner.max_iterations=30`), the value
-read as a YAML scalar (`null` switches an optional constraint off). Both go through `override`:
-unknown fields, wrong types and values outside the declared range are one-line errors naming the
-file (or `--param`) and the field.
+converted to the field's declared type (`null` switches an optional constraint off). Both go through
+`legplan.specio.override`, the one route of every stage's parameters: unknown fields, wrong types and
+values outside the declared range are one-line errors naming the file (or `--param`) and the field.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import os
-import types
-import typing
 from dataclasses import asdict, dataclass, fields
 from pathlib import Path
 
-import yaml
-
 from legplan.dyn.costs import CostWeights
-from legplan.errors import LegplanError, SpecError
-from legplan.parameters import Interval, Parameters, magnitude_problem, param
+from legplan.errors import LegplanError
+from legplan.parameters import Parameters, param
 from legplan.solve.auglag import ALParams
 from legplan.solve.hinged import HingedParams
-from legplan.specio import FieldReader, read_yaml_mapping
+from legplan.specio import FieldReader, override, read_yaml_mapping
 
 WARM_STAGES = ("costs", "projection", "polish")
 
@@ -165,7 +161,7 @@ def dyn_params(costs: str, overrides: dict | None = None) -> DynParams:
     else:
         params = _read_costs_file(path)
     if overrides:
-        params = override(params, {key: _scalar(value) for key, value in overrides.items()}, FieldReader("--param"))
+        params = override(params, overrides, FieldReader("--param"))
     return params
 
 
@@ -178,83 +174,6 @@ def _read_costs_file(path: Path) -> DynParams:
     costs = override(base.costs, {name: data[name] for name in weights if name in data}, reader)
     return override(dataclasses.replace(base, costs=costs), {name: data[name] for name in CONSTRAINT_FIELDS
                                                             if name in data}, reader)
-
-
-def _scalar(value):
-    """A `--param` value as YAML reads it ("0.5" → 0.5, "true" → True, "null" → None); other
-    values as given."""
-    if not isinstance(value, str):
-        return value
-    try:
-        return yaml.safe_load(value)
-    except yaml.YAMLError:
-        return value
-
-
-def override(params, values: dict, reader: FieldReader, prefix: str = ""):
-    """A copy of the parameter dataclass `params` with `values` (field name, dotted for the fields of a
-    nested parameter dataclass → value) set, each checked against its declared type and range (the
-    `param` declaration) and reported as `reader`'s one-line error naming the field."""
-    cls = type(params)
-    declared = {f.name: f for f in fields(cls)}
-    hints = typing.get_type_hints(cls)
-    nested: dict[str, dict] = {}
-    changes = {}
-    for key, value in values.items():
-        head, _, rest = key.partition(".")
-        shown = f"{prefix}{key}"
-        if head not in declared:
-            reader.fail(f"{prefix}{head}", f"is unknown (known: {', '.join(declared)})")
-        if dataclasses.is_dataclass(hints[head]):
-            if not rest:
-                reader.fail(shown, "is a group of parameters: set its fields (NAME.FIELD)")
-            nested.setdefault(head, {})[rest] = value
-        elif rest:
-            reader.fail(f"{prefix}{head}", "has no fields")
-        else:
-            changes[head] = _leaf(declared[head], hints[head], value, params, reader, shown)
-    for head, inner in nested.items():
-        changes[head] = override(getattr(params, head), inner, reader, f"{prefix}{head}.")
-    try:
-        return dataclasses.replace(params, **changes)
-    except LegplanError as exc:  # a range that names another field (checked on the whole object)
-        raise SpecError(f"{reader.path}: {exc}") from None
-
-
-def _leaf(declared, kind, value, params, reader: FieldReader, shown: str):
-    """One field's value checked against its type and declared range."""
-    optional = isinstance(kind, types.UnionType) and type(None) in typing.get_args(kind)
-    if optional:
-        kind = next(arg for arg in typing.get_args(kind) if arg is not type(None))
-    if value is None:
-        if not optional:
-            reader.fail(shown, "must not be null")
-        return None
-    allowed, given = declared.metadata.get("range"), value
-    if kind is bool:
-        if not isinstance(value, bool):
-            reader.fail(shown, f"must be true or false, got {value!r}")
-    elif kind in (int, float):
-        number = reader.number(value, shown)
-        if kind is int and not number.is_integer():
-            reader.fail(shown, f"must be a whole number, got {value!r}")
-        value = kind(number)
-        if magnitude_problem(value):
-            reader.fail(shown, f"{magnitude_problem(value)}, got {given!r}")
-    elif isinstance(allowed, tuple):
-        reader.choice(value, shown, allowed)
-    elif not isinstance(value, kind):
-        reader.fail(shown, f"must be {getattr(kind, '__name__', kind)}, got {value!r}")
-    if isinstance(allowed, Interval) and not allowed.contains(value, params):
-        reader.fail(shown, f"must be {_condition(allowed, params)}, got {given!r}")
-    return value
-
-
-def _condition(interval: Interval, params) -> str:
-    """The declared interval as a condition: ">= 0", "> 0", "in (0, 1]"."""
-    if interval.high == float("inf") and not isinstance(interval.low, str):
-        return f"{'>' if interval.low_open else '>='} {interval.low:g}"
-    return f"in {interval.describe(params)}"
 
 
 def settings_record(costs: str, init: str, params: DynParams) -> dict:

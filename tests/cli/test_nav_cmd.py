@@ -66,7 +66,7 @@ def test_bad_inputs_exit_2_without_output(tmp_path, block_map):
     assert result.exit_code == 2 and "--goal" in result.output
     result = run("nav", "search", map_path, "--start", 1, 1, "--goal", 5, 1, "--param", "bogus=1",
                  "-o", out)
-    assert result.exit_code == 2 and "unknown nav parameter 'bogus'" in result.output
+    assert result.exit_code == 2 and "nav parameters: field 'bogus' is unknown" in result.output
     bad = tmp_path / "q.csv"
     bad.write_text("start_x,start_y\n1,2\n")
     result = run("nav", "search", map_path, "--queries", bad, "-o", out)

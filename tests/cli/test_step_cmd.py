@@ -60,7 +60,7 @@ def test_failed_step_is_recorded_and_exit_1(inputs):
 
 
 @pytest.mark.parametrize("args, message", [
-    (["--param", "nope=1"], "unknown step planner parameter 'nope'"),
+    (["--param", "nope=1"], "step planner parameters: field 'nope' is unknown"),
     (["--param", "samples"], "expected KEY=VALUE, got 'samples'"),
     (["--steps", "5:9"], "has 2 consecutive pairs"),
 ])

@@ -159,9 +159,9 @@ def test_generate_param_overrides_and_size_scaled_defaults(flat_map, generated, 
 
     feet = load_robot("scarab2").foot_positions(q)
     assert feet[~stance][:, 2].max() > 0.06
-    for bad, message in [("lift_height=-0.01", "'lift_height' out of range"),
-                         ("nope=1", "unknown generator parameter 'nope'"),
-                         ("candidates=2.5", "'candidates' expects int"),
+    for bad, message in [("lift_height=-0.01", "field 'lift_height' must be >= 0"),
+                         ("nope=1", "generator parameters: field 'nope' is unknown"),
+                         ("candidates=2.5", "field 'candidates' must be a whole number"),
                          ("posture_weights=1", "'posture_weights' cannot be set")]:
         bad_out = tmp_path / "bad.h5"
         result = CliRunner().invoke(cli, [*args, "-o", str(bad_out), "--param", bad])

@@ -15,10 +15,10 @@ def test_overrides_start_from_the_instance_and_convert_bools_and_ints():
 
 
 @pytest.mark.parametrize("overrides, message", [
-    ({"geodesic_bound": "maybe"}, "'geodesic_bound' expects bool"),
-    ({"mu": "2.5"}, "'mu' expects int"),
+    ({"geodesic_bound": "maybe"}, "field 'geodesic_bound' must be true or false"),
+    ({"mu": "2.5"}, "field 'mu' must be a whole number"),
     ({"weight": "nan"}, "'weight'"),
-    ({"bogus": "1"}, "unknown nav parameter 'bogus'"),
+    ({"bogus": "1"}, "nav parameters: field 'bogus' is unknown"),
 ])
 def test_bad_overrides_name_the_key(overrides, message):
     with pytest.raises(SpecError, match=message):

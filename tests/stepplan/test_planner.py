@@ -62,11 +62,11 @@ def test_params_overrides():
     p = StepPlanParams.from_overrides({"samples": "50", "epsilon": "5e-4", "linear_solver": "dense"})
     assert (p.samples, p.epsilon, p.linear_solver) == (50, 5e-4, "dense")
     assert StepPlanParams().as_dict()["max_degree"] == 10
-    with pytest.raises(LegplanError, match="unknown step planner parameter 'nope'"):
+    with pytest.raises(LegplanError, match="step planner parameters: field 'nope' is unknown"):
         StepPlanParams.from_overrides({"nope": "1"})
-    with pytest.raises(LegplanError, match="'samples': expected a finite number, got 'many'"):
+    with pytest.raises(LegplanError, match="field 'samples' must be a finite number, got 'many'"):
         StepPlanParams.from_overrides({"samples": "many"})
-    with pytest.raises(LegplanError, match="'epsilon' out of range"):
+    with pytest.raises(LegplanError, match="field 'epsilon' must be > 0, got '-1'"):
         StepPlanParams.from_overrides({"epsilon": "-1"})
 
 

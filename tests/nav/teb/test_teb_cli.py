@@ -42,8 +42,8 @@ def test_simulate_writes_run(flat_map, tmp_path):
     (["--start", "a", "b", "--goal", "1", "1"], "--start"),
     (["--start", "1", "--goal", "1", "1"], "--start"),
     (["--start", "0", "0", "--goal", "1", "1", "--param", "weight=2"], "search.KEY, teb.KEY or sim.KEY"),
-    (["--start", "0", "0", "--goal", "1", "1", "--param", "sim.rate=0"], "'rate' out of range"),
-    (["--start", "0", "0", "--goal", "1", "1", "--param", "teb.nope=1"], "unknown teb parameter 'nope'"),
+    (["--start", "0", "0", "--goal", "1", "1", "--param", "sim.rate=0"], "field 'rate' must be > 0, got '0'"),
+    (["--start", "0", "0", "--goal", "1", "1", "--param", "teb.nope=1"], "teb parameters: field 'nope' is unknown"),
 ])
 def test_simulate_bad_pose_or_param_is_exit_2(flat_map, tmp_path, args, message):
     result = CliRunner().invoke(cli, ["nav", "simulate", str(flat_map), *args, "-o", str(tmp_path / "x.h5")])
