@@ -8,12 +8,16 @@ from __future__ import annotations
 import h5py
 import numpy as np
 
+from legplan.artefacts.memo import by_file
 
+
+@by_file
 def read_items(handle: h5py.File) -> dict[str, dict]:
     """`{group path: {"success", "reason", numeric attrs..., "dense/foot_slip": scalar datasets...}}`.
 
     Array datasets of an item go to `item["arrays"]` as `{relative name: ndarray}`; the `units`
-    attribute of every dataset to `item["units"]` as `{relative name: units}`.
+    attribute of every dataset to `item["units"]` as `{relative name: units}`. Read once per file
+    version (`legplan.artefacts.memo.by_file`): a report asks for them several times.
     """
     items: dict[str, dict] = {}
 

@@ -28,6 +28,7 @@ from collections.abc import Callable, Sequence
 import numpy as np
 
 from legplan.artefacts import open_artefact, require, require_attrs, write_artefact, write_dataset, write_summary
+from legplan.artefacts.memo import by_file
 from legplan.errors import ArtefactError
 from legplan.stepplan.measure import DENSE_UNITS, dense_check, judged, requirements
 from legplan.stepplan.params import StepPlanParams
@@ -201,8 +202,10 @@ def write_motion(path, records: Sequence[dict], robot: str, params: StepPlanPara
     return summary
 
 
+@by_file
 def read_motion(path) -> list[dict]:
-    """The per-step records of motion.h5 (control points, success, times, dense checks)."""
+    """The per-step records of motion.h5 (control points, success, times, dense checks); read once
+    per file version (`legplan.artefacts.memo.by_file`)."""
     out = []
     with open_artefact(path, kind="motion") as f:
         steps = require(f, "steps")
