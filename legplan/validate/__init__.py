@@ -10,8 +10,23 @@ and of centroidal trajectories (issue 14; Newton-Euler, forces, terrain, range o
     check.worst, check.passed, check.as_dict()
 """
 
-from legplan.validate.trajectory import CentroidalCheck, CheckTolerances, check_trajectory
-from legplan.validate.checks import ConfigChecks, Validator
-from legplan.validate.surface import SurfaceMesh
+
+import importlib
+
+# Each name from its module on first access (PEP 562): the trajectory check does not import FCL.
+_WHERE = {"CentroidalCheck": "trajectory", "CheckTolerances": "trajectory", "check_trajectory": "trajectory",
+          "ConfigChecks": "checks", "Validator": "checks", "SurfaceMesh": "surface"}
 
 __all__ = ["CentroidalCheck", "CheckTolerances", "ConfigChecks", "SurfaceMesh", "Validator", "check_trajectory"]
+
+
+def __getattr__(name):
+    if name not in _WHERE:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"legplan.validate.{_WHERE[name]}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted({*globals(), *__all__})
