@@ -10,23 +10,10 @@ and of centroidal trajectories (issue 14; Newton-Euler, forces, terrain, range o
     check.worst, check.passed, check.as_dict()
 """
 
+from legplan.lazy_exports import lazy_exports
 
-import importlib
-
-# Each name from its module on first access (PEP 562): the trajectory check does not import FCL.
-_WHERE = {"CentroidalCheck": "trajectory", "CheckTolerances": "trajectory", "check_trajectory": "trajectory",
+# Each name from its module on first access: the trajectory check does not import FCL.
+_HOMES = {"CentroidalCheck": "trajectory", "CheckTolerances": "trajectory", "check_trajectory": "trajectory",
           "ConfigChecks": "checks", "Validator": "checks", "SurfaceMesh": "surface"}
-
-__all__ = ["CentroidalCheck", "CheckTolerances", "ConfigChecks", "SurfaceMesh", "Validator", "check_trajectory"]
-
-
-def __getattr__(name):
-    if name not in _WHERE:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"legplan.validate.{_WHERE[name]}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted({*globals(), *__all__})
+__all__ = sorted(_HOMES)
+__getattr__, __dir__ = lazy_exports(__name__, _HOMES)
