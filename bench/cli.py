@@ -105,9 +105,13 @@ open(os.environ["LEGPLAN_BENCH_MODULES"], "w").write(json.dumps([m for m in sys.
 """
 
 # Imports the given modules in order, then ends as that tree's console script does (`main`: atexit
-# handlers, no module teardown; a tree without `main`: the interpreter's normal exit).
+# handlers, no module teardown; a tree without `main`: the interpreter's normal exit), with the
+# garbage collector set as that tree's `main` sets it.
 STARTUP = r"""
-import atexit, importlib, json, os, sys
+import atexit, gc, importlib, json, os, sys
+import legplan.cli.main
+if hasattr(legplan.cli.main, "YOUNG_OBJECTS"):  # as the console script sets the collector
+    gc.set_threshold(legplan.cli.main.YOUNG_OBJECTS, *gc.get_threshold()[1:])
 for name in json.load(open(sys.argv[1])):
     try:
         importlib.import_module(name)
