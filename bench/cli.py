@@ -39,7 +39,8 @@ is recorded with it.
 TOWR's figures are the issue's (TOWR rebuilt on this machine, process CPU, another — idle — day):
 TOWR cannot run here, so they are context for the reader, not a ratio taken in one run.
 
-Writes bench/results/cli.json and replaces the `cli` section of BENCHMARKS.md (not with --no-append).
+Writes bench/results/cli.json and replaces the `cli` section of BENCHMARKS.md (not with --no-append);
+with --skip-jobs the previous result's `--jobs` comparison is carried over, marked with its run.
 """
 
 from __future__ import annotations
@@ -222,8 +223,9 @@ def jobs_comparison(work: Path, step_range: str, repeats: int, map_path=None, st
 
 
 def jobs_markdown(result: dict) -> list[str]:
-    jobs = result["jobs"]
-    lines = ["", f"### `legplan step plan --steps {jobs['steps']}`: --jobs 2 against --jobs 1 (same run)", "",
+    jobs, earlier = result["jobs"], result.get("jobs_from")
+    run = f"run of {earlier['date']}, code {earlier['code']}, not repeated here" if earlier else "same run"
+    lines = ["", f"### `legplan step plan --steps {jobs['steps']}`: --jobs 2 against --jobs 1 ({run})", "",
              "Gap-crossing scenario (scarab2, maps/gap_crossing.yaml, generated sequence), the whole command, "
              "--jobs 1 and --jobs 2 in alternation, median of "
              f"{len(next(iter(jobs['variants'].values()))['1']['runs'])} runs; load average during the runs in the "
@@ -363,6 +365,12 @@ def main(argv=None) -> int:
         if not args.skip_jobs:
             result["jobs"] = jobs_comparison(work, args.jobs_steps, max(1, args.jobs_repeats), args.step_map,
                                              args.step_sequence)
+        else:  # the last run's --jobs comparison stays in the section, marked as that run's
+            previous = ROOT / "bench" / "results" / "cli.json"
+            earlier = json.loads(previous.read_text()) if previous.exists() else {}
+            if earlier.get("jobs"):
+                result["jobs"] = earlier["jobs"]
+                result["jobs_from"] = earlier.get("jobs_from") or {"date": earlier.get("date"), "code": earlier.get("code")}
     result["load_end"] = load_average()
     write_result("cli", result)
     if not args.no_append:
