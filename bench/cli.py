@@ -16,7 +16,13 @@ figure, start-up included. Each run is split into
     same run by a wrapper the probe installs (`PROBE`);
   * the rest: whole − start-up − solve (reading the robot and the map, building the problem,
     sampling, the independent check, the work file, writing traj.h5).
-Median of --repeats runs each (3 at least). `legplan --version` (interpreter + click) is measured in
+Median of --repeats runs each (3 at least). Every child runs with Python's bytecode cache in a folder
+of the run (`PYTHONPYCACHEPREFIX`; `PYTHONDONTWRITEBYTECODE` removed), as an installed package runs
+from its compiled modules: otherwise a tree whose sources have no cache would compile every module
+it imports on every run. The first, untimed run of each command (the module list) fills it.
+`legplan.cache`'s store of filtered terrain grids is a folder of the run too (`LEGPLAN_CACHE_DIR`),
+filled by that first run, so the timed runs are repeated runs on the same map; the "empty store"
+row is this tree's whole command with the store emptied before each run (the first run on a map). `legplan --version` (interpreter + click) is measured in
 the same run. With --before PATH, the legplan tree at PATH (e.g. a checkout of the main branch) runs
 the same commands in alternation with this tree (run i of both back to back), so both see the same
 load; its column is the reference measured side by side.
@@ -33,7 +39,8 @@ is recorded with it.
 TOWR's figures are the issue's (TOWR rebuilt on this machine, process CPU, another — idle — day):
 TOWR cannot run here, so they are context for the reader, not a ratio taken in one run.
 
-Writes bench/results/cli.json and replaces the `cli` section of BENCHMARKS.md (not with --no-append).
+Writes bench/results/cli.json and replaces the `cli` section of BENCHMARKS.md (not with --no-append);
+with --skip-jobs the previous result's `--jobs` comparison is carried over, marked with its run.
 """
 
 from __future__ import annotations
@@ -43,6 +50,7 @@ import datetime
 import json
 import os
 import resource
+import shutil
 import statistics
 import subprocess
 import sys
@@ -98,9 +106,13 @@ open(os.environ["LEGPLAN_BENCH_MODULES"], "w").write(json.dumps([m for m in sys.
 """
 
 # Imports the given modules in order, then ends as that tree's console script does (`main`: atexit
-# handlers, no module teardown; a tree without `main`: the interpreter's normal exit).
+# handlers, no module teardown; a tree without `main`: the interpreter's normal exit), with the
+# garbage collector set as that tree's `main` sets it.
 STARTUP = r"""
-import atexit, importlib, json, os, sys
+import atexit, gc, importlib, json, os, sys
+import legplan.cli.main
+if hasattr(legplan.cli.main, "YOUNG_OBJECTS"):  # as the console script sets the collector
+    gc.set_threshold(legplan.cli.main.YOUNG_OBJECTS, *gc.get_threshold()[1:])
 for name in json.load(open(sys.argv[1])):
     try:
         importlib.import_module(name)
@@ -129,8 +141,14 @@ def child_run(argv, env) -> tuple[float, float, subprocess.CompletedProcess]:
     return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), wall, done
 
 
+# Set by `main` to folders of the run: the bytecode cache and legplan.cache's store (module docstring).
+RUN_ENVIRONMENT: dict[str, str] = {}
+
+
 def environment(tree: Path, **extra) -> dict:
-    return {**os.environ, **THREADS, "PYTHONPATH": str(tree), **extra}
+    env = {**os.environ, **THREADS, **RUN_ENVIRONMENT, "PYTHONPATH": str(tree), **extra}
+    env.pop("PYTHONDONTWRITEBYTECODE", None)
+    return env
 
 
 def command(case, map_path: Path, out: Path) -> list[str]:
@@ -140,19 +158,20 @@ def command(case, map_path: Path, out: Path) -> list[str]:
     return args
 
 
-def run_once(tree: Path, args: list[str], work: Path, modules: Path) -> dict:
-    """One whole command and its split (see the module docstring)."""
+def run_once(tree: Path, args: list[str], work: Path, modules: Path, **extra) -> dict:
+    """One whole command and its split (see the module docstring); `extra` environment variables."""
     solve_file = work / "solve.txt"
     solve_file.unlink(missing_ok=True)
-    whole, done = child_cpu([sys.executable, "-c", PROBE + ENTRY, *args], environment(tree, LEGPLAN_BENCH_SOLVE=str(solve_file)))
+    whole, done = child_cpu([sys.executable, "-c", PROBE + ENTRY, *args],
+                            environment(tree, LEGPLAN_BENCH_SOLVE=str(solve_file), **extra))
     startup, _ = child_cpu([sys.executable, "-c", STARTUP, str(modules)], environment(tree))
     solve = float(solve_file.read_text()) if solve_file.exists() else float("nan")
     return {"whole": whole, "startup": startup, "solve": solve, "rest": whole - startup - solve,
             "exit": done.returncode, "stderr": done.stderr.strip()[-300:]}
 
 
-def module_list(tree: Path, args: list[str], path: Path) -> int:
-    subprocess.run([sys.executable, "-c", MODULES, *args], env=environment(tree, LEGPLAN_BENCH_MODULES=str(path)),
+def module_list(tree: Path, args: list[str], path: Path, **extra) -> int:
+    subprocess.run([sys.executable, "-c", MODULES, *args], env=environment(tree, LEGPLAN_BENCH_MODULES=str(path), **extra),
                    cwd=tree, check=False, capture_output=True)
     return len(json.loads(path.read_text())) if path.exists() else 0
 
@@ -204,8 +223,9 @@ def jobs_comparison(work: Path, step_range: str, repeats: int, map_path=None, st
 
 
 def jobs_markdown(result: dict) -> list[str]:
-    jobs = result["jobs"]
-    lines = ["", f"### `legplan step plan --steps {jobs['steps']}`: --jobs 2 against --jobs 1 (same run)", "",
+    jobs, earlier = result["jobs"], result.get("jobs_from")
+    run = f"run of {earlier['date']}, code {earlier['code']}, not repeated here" if earlier else "same run"
+    lines = ["", f"### `legplan step plan --steps {jobs['steps']}`: --jobs 2 against --jobs 1 ({run})", "",
              "Gap-crossing scenario (scarab2, maps/gap_crossing.yaml, generated sequence), the whole command, "
              "--jobs 1 and --jobs 2 in alternation, median of "
              f"{len(next(iter(jobs['variants'].values()))['1']['runs'])} runs; load average during the runs in the "
@@ -222,7 +242,7 @@ def jobs_markdown(result: dict) -> list[str]:
 
 
 def markdown(result: dict) -> str:
-    sides = ["this tree"] + (["before"] if result["before"] else [])
+    sides = ["this tree", "this tree, empty store"] + (["before"] if result["before"] else [])
     head = (f"## cli — whole `legplan dyn plan` process CPU, bench/dyn.py's cases ({result['date']}, "
             f"{result['code']})\n")
     lines = [head,
@@ -236,21 +256,30 @@ def markdown(result: dict) -> str:
              "the modules the command imported and ending as it does; solve: CPU inside "
              "`solve_augmented_lagrangian`; rest: whole − start-up − solve (robot, map, problem, sampling, "
              f"check, work file, traj.h5). `legplan --version`: {result['version_cpu']:.3f} s"
-             + (f" (before: {result['version_cpu_before']:.3f} s)" if result["before"] else "") + ".",
+             + (f" (before: {result['version_cpu_before']:.3f} s)" if result["before"] else "") + ". "
+             "Every side runs from compiled bytecode (a cache folder of the run, filled by an untimed first "
+             "run; without it a source tree recompiles what it imports on every run). 'this tree' runs are "
+             "repeated runs on the same map: the filtered terrain grids come from `legplan.cache`'s store "
+             "(a folder of the run, filled by the first run); 'empty store' is the first run on a map (store "
+             "emptied before each run, the filters computed and scipy.ndimage imported).",
              "",
              "TOWR column: the issue's figures, TOWR's whole process on this machine on another (idle) day. "
              "TOWR cannot be built and run here, so it was not measured in this run: it is context, and no "
              "ratio to it is taken.",
              "",
-             "| case | code | whole [s] | start-up [s] | solve [s] | rest [s] | exit | TOWR process, another day [s] |",
-             "|---|---|---|---|---|---|---|---|"]
+             "| case | code | whole [s] | start-up [s] | solve [s] | rest [s] | whole / before | exit | "
+             "TOWR process, another day [s] |",
+             "|---|---|---|---|---|---|---|---|---|"]
     for key, case in result["cases"].items():
         towr = TOWR_PROCESS_CPU.get(key)
         towr_text = f"{towr:.2f}" if towr is not None else TOWR_NOTES.get(key, "—")
         for side in sides:
+            if side not in case:  # a result of a version without that row
+                continue
             m = case[side]
+            ratio = f"{m['whole'] / case['before']['whole']:.2f}" if "before" in case and side != "before" else "—"
             lines.append(f"| {case['label']} | {side} | {m['whole']:.3f} | {m['startup']:.3f} | {m['solve']:.3f} | "
-                         f"{m['rest']:.3f} | {','.join(map(str, sorted(set(m['exit']))))} | {towr_text} |")
+                         f"{m['rest']:.3f} | {ratio} | {','.join(map(str, sorted(set(m['exit']))))} | {towr_text} |")
     lines.append("")
     lines.append("Exit 1 means the command ran and recorded a failed task (its reason is in traj.h5); the "
                  "CPU time is still the whole command's.")
@@ -291,6 +320,7 @@ def main(argv=None) -> int:
                                                capture_output=True, text=True).stdout.strip()
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
+        RUN_ENVIRONMENT.update(PYTHONPYCACHEPREFIX=str(work / "bytecode"), LEGPLAN_CACHE_DIR=str(work / "store"))
         version = {side: [] for side in trees}
         for _ in range(repeats):
             for side, tree in trees.items():
@@ -307,13 +337,22 @@ def main(argv=None) -> int:
             cmd = command(case, maps[case["map"]], work / "traj.h5")
             lists = {side: work / f"modules-{case['key']}-{i}.json" for i, side in enumerate(trees)}
             for side, tree in trees.items():
-                module_list(tree, cmd, lists[side])
+                for _ in range(2):  # the list of the second run: the first one fills the caches
+                    module_list(tree, cmd, lists[side])
             runs = {side: [] for side in trees}
             for i in range(repeats):
                 order = list(trees) if i % 2 == 0 else list(trees)[::-1]
                 for side in order:
                     runs[side].append(run_once(trees[side], cmd, work, lists[side]))
-            entry = {"label": case["label"], "command": ["legplan", *cmd[:2], f"{case['map']}.h5", *cmd[3:]]}
+            empty = []  # this tree, the first run on the map: legplan.cache's store emptied before each
+            lists["empty"] = work / f"modules-{case['key']}-empty.json"
+            module_list(ROOT, cmd, lists["empty"], LEGPLAN_CACHE_DIR=str(work / "empty-store-list"))
+            for i in range(repeats):
+                store = work / f"empty-store-{case['key']}-{i}"
+                empty.append(run_once(ROOT, cmd, work, lists["empty"], LEGPLAN_CACHE_DIR=str(store)))
+                shutil.rmtree(store, ignore_errors=True)
+            entry = {"label": case["label"], "command": ["legplan", *cmd[:2], f"{case['map']}.h5", *cmd[3:]],
+                     "this tree, empty store": medians(empty)}
             for side in trees:
                 entry[side] = medians(runs[side])
                 if runs[side][-1]["exit"] not in (0, 1):
@@ -326,6 +365,12 @@ def main(argv=None) -> int:
         if not args.skip_jobs:
             result["jobs"] = jobs_comparison(work, args.jobs_steps, max(1, args.jobs_repeats), args.step_map,
                                              args.step_sequence)
+        else:  # the last run's --jobs comparison stays in the section, marked as that run's
+            previous = ROOT / "bench" / "results" / "cli.json"
+            earlier = json.loads(previous.read_text()) if previous.exists() else {}
+            if earlier.get("jobs"):
+                result["jobs"] = earlier["jobs"]
+                result["jobs_from"] = earlier.get("jobs_from") or {"date": earlier.get("date"), "code": earlier.get("code")}
     result["load_end"] = load_average()
     write_result("cli", result)
     if not args.no_append:

@@ -4,6 +4,8 @@ files of the scenes many stages' tests use (box scene, flat, block and wall maps
 Helper modules beside this file (`scenes`, `wallmap`, `fake_artefacts`, `pictures`, `robot_helpers`)
 are importable from every test directory: pytest puts this conftest's directory on `sys.path`."""
 
+import os
+
 import numpy as np
 import pytest
 from scenes import BoxFiles
@@ -13,6 +15,19 @@ from legplan.robots import load_robot
 from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
 
 _GRID = dict(origin=(-0.6, -0.5), resolution=0.01, shape=(101, 121))
+
+
+@pytest.fixture(scope="session", autouse=True)
+def filter_store(tmp_path_factory):
+    """The store of `legplan.cache` in a folder of this session (commands run by tests included),
+    not the user's cache."""
+    saved = os.environ.get("LEGPLAN_CACHE_DIR")
+    os.environ["LEGPLAN_CACHE_DIR"] = str(tmp_path_factory.mktemp("filter-store"))
+    yield
+    if saved is None:
+        os.environ.pop("LEGPLAN_CACHE_DIR", None)
+    else:
+        os.environ["LEGPLAN_CACHE_DIR"] = saved
 
 
 @pytest.fixture(scope="session")

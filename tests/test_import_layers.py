@@ -7,7 +7,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 LAYERS = {
     "errors": 0, "interrupts": 0, "native_stderr": 0, "parameters": 0, "specio": 0, "geometry": 0,
-    "budget": 0, "outputs_apart": 0, "shipped": 0, "_lazy_numpy_clone": 0,
+    "budget": 0, "outputs_apart": 0, "shipped": 0, "_lazy_numpy_clone": 0, "cache": 0, "lazy_exports": 0,
     "solve": 1, "artefacts": 1,
     "terrain": 2, "robots": 2, "contact": 2, "batch": 2, "pipeline": 2,
     "validate": 3,

@@ -10,6 +10,7 @@ import datetime as _dt
 import hashlib
 import json
 import os
+from contextlib import contextmanager
 from pathlib import Path
 
 import h5py
@@ -46,14 +47,41 @@ def file_kind(path: str | os.PathLike) -> str:
     return path.suffix.lstrip(".") or "file"
 
 
+_RECORDS: dict[tuple, dict] | None = None  # inside `inputs_read_once`
+
+
+@contextmanager
+def inputs_read_once():
+    """Within the block, `input_record` reads and hashes each input file once and reuses its record
+    while the file is the same one, unchanged (device, inode, size, modification and change times): a
+    stage records its inputs twice (its work file, its artefact) in one command."""
+    global _RECORDS
+    saved, _RECORDS = _RECORDS, {}
+    try:
+        yield
+    finally:
+        _RECORDS = saved
+
+
 def input_record(path: str | os.PathLike) -> dict:
     """`{path, sha256, kind}` for one input file; a map also its `terrain` digest
     (`legplan.artefacts.identity.terrain_digest`), the identity later pairs are checked against."""
+    key = None
+    if _RECORDS is not None:
+        try:
+            status = os.stat(path)
+            key = (str(path), status.st_dev, status.st_ino, status.st_size, status.st_mtime_ns, status.st_ctime_ns)
+        except OSError:
+            pass  # sha256_file says what is wrong with it
+        if key in _RECORDS:
+            return dict(_RECORDS[key])
     record = {"path": str(path), "sha256": sha256_file(path), "kind": file_kind(path)}
     if record["kind"] == "map" and h5py.is_hdf5(path):  # a map artefact (a MovingAI .map is text)
         from legplan.artefacts.identity import terrain_digest
 
         record["terrain"] = terrain_digest(path)
+    if key is not None:
+        _RECORDS[key] = dict(record)
     return record
 
 

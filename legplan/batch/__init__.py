@@ -21,8 +21,8 @@ Contract of the task (`Task`):
   item that raised ("ExceptionType: message") or whose worker died twice ("worker died ..."). All
   three module-level (picklable by reference); `args` and the items picklable and small.
 * A record is a dict of str keys whose values are numpy arrays, numbers, bools, strings or nested
-  such dicts (stored in the work file as datasets, attributes, groups; read back with numpy scalar
-  types); `record["success"]` (when present) counts failures for the progress line.
+  such dicts (stored in the work file as datasets, attributes, groups; a resumed item's read back
+  with numpy scalar types); `record["success"]` (when present) counts failures for the progress line.
 * Same items in the same order, same records in the same order, whatever the backend or `--jobs`
   (records are ordered by item position, never by completion); only clock values may differ.
 

@@ -12,19 +12,20 @@ from __future__ import annotations
 import atexit
 import importlib
 import logging
-import multiprocessing
 import os
 import signal
 import uuid
 from collections import Counter, deque
 from collections.abc import Iterator, Sequence
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from legplan.batch.task import Task, one_thread_environment
 from legplan.errors import LegplanError
 from legplan.interrupts import die_with_parent
+
+if TYPE_CHECKING:
+    from concurrent.futures import ProcessPoolExecutor
 
 log = logging.getLogger(__name__)
 
@@ -58,6 +59,9 @@ def _started() -> None:
 
 
 def _new_pool(jobs: int, modules: Sequence[str] = ()) -> ProcessPoolExecutor:
+    import multiprocessing  # a pool only: `--jobs 1` starts without it (start-up time)
+    from concurrent.futures import ProcessPoolExecutor
+
     return ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"),
                                initializer=_init_pool_worker, initargs=(os.getpid(), tuple(modules)))
 
@@ -122,6 +126,9 @@ class ProcessPool:
     def _round(self, task, source: deque, limit: int):
         """Run `source` on a fresh pool with at most `limit` items in flight; yields finished
         items, returns the items in flight when the pool broke (empty when all finished)."""
+        from concurrent.futures import FIRST_COMPLETED, wait
+        from concurrent.futures.process import BrokenProcessPool
+
         workers = min(limit, self.jobs)
         pool = _prestarted.pop(workers, None) or _new_pool(workers)
         running: dict = {}

@@ -21,7 +21,8 @@ def run_batch(task: Task, items: Sequence, *, output: str | os.PathLike, identit
               inputs: Sequence = (), backend: Backend = Backend(), resume: bool = False,
               overwrite: bool = False, progress: Callable[[int, int, str], None] | None = None):
     """Run `task` on every item not yet in the work file of `output`; yields all records in item
-    order (read back from the work file). The work file is removed when the block ends without an
+    order: those of this run as the task returned them (each also stored in the work file), resumed
+    ones read back from it. The work file is removed when the block ends without an
     exception (publish the artefact inside it), and kept otherwise, for `resume`.
 
     `identity` (JSON-able: stage name, parameters) and `inputs` (files, by sha256) must match for
@@ -44,9 +45,11 @@ def run_batch(task: Task, items: Sequence, *, output: str | os.PathLike, identit
         count, clock = len(done), time.perf_counter()
         if progress is not None:
             progress(count, len(items), f"{len(done)} resumed" if done else "")
+        fresh = {}
         with closing(executor.run(task, todo)) as finished:  # closed at once on an exception: workers stop
             for position, record in finished:
                 work.add(position, record)
+                fresh[position] = record
                 raise_if_interrupted()  # h5py may have swallowed the signal's exception
                 count += 1
                 failed += not record.get("success", True)
@@ -54,7 +57,7 @@ def run_batch(task: Task, items: Sequence, *, output: str | os.PathLike, identit
                           time.perf_counter() - clock)
                 if progress is not None:
                     progress(count, len(items), f"{failed} failed")
-        records = work.records()
+        records = [fresh[position] if position in fresh else work.record(position) for position in range(len(items))]
     finally:
         executor.close()
         work.close()

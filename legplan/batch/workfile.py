@@ -128,6 +128,10 @@ class WorkFile:
         """Every stored record in item order."""
         return [read_record(self.items[name]) for name in sorted(self.items)]
 
+    def record(self, position: int) -> dict:
+        """The stored record of the item at `position`."""
+        return read_record(self.items[f"{position:06d}"])
+
     def close(self) -> None:
         if self.handle.id.valid:
             self.handle.close()

@@ -19,12 +19,13 @@ def run_stage(task, items: Sequence, description: str, *, output, identity: Mapp
               jobs: int, scheduler: str | None, resume: bool, overwrite: bool, publish: Callable):
     """Run `task` over `items` on the backend of `--jobs`/`--scheduler`, then `publish(records)`
     (the stage's atomic writer); returns (records in item order, what `publish` returned)."""
+    from legplan.artefacts.provenance import inputs_read_once
     from legplan.batch import Backend, run_batch, work_path
     from legplan.interrupts import Terminated
 
     backend = Backend(jobs, scheduler)
     try:
-        with progress_bar(f"{description} ({backend.describe()})") as progress, \
+        with inputs_read_once(), progress_bar(f"{description} ({backend.describe()})") as progress, \
                 run_batch(task, items, output=output, identity=identity, inputs=inputs, backend=backend,
                           resume=resume, overwrite=overwrite, progress=progress) as records:
             return records, publish(records)

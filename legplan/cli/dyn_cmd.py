@@ -72,7 +72,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     from legplan.dyn.terrain import TerrainModel
     from legplan.learn.initializers import check_warm_stage, initializer
     from legplan.robots import load_robot
-    from legplan.stepseq.robotinfo import robot_reference, robot_sha256
+    from legplan.robots.identity import robot_reference, robot_sha256
     from legplan.terrain import load_map
 
     check_output(output, overwrite)

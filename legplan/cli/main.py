@@ -10,6 +10,7 @@ errors print one line, no traceback unless `-v`.
 from __future__ import annotations
 
 import atexit
+import gc
 import importlib
 import os
 import re
@@ -227,11 +228,21 @@ def prepare_command(command: click.Command) -> click.Command:
     return command
 
 
+YOUNG_OBJECTS = 10_000
+"""Allocations between two collections of the youngest generation in the console script (Python's
+default: 700). A command's imports and solves allocate many long-lived objects, which at the
+default the collector traverses again and again in its older generations. Reference-counted
+objects are freed as before; only reference cycles wait longer."""
+
+
 def main() -> None:
     """The `legplan` console script: `cli`, then a quick exit. Once the command has finished, its
     output flushed and the `atexit` handlers run (logging, multiprocessing, h5py), the process ends
     without the interpreter's teardown of every imported module, which only frees memory and costs
-    a short command a noticeable share of its CPU time. Other threads still running get the normal exit."""
+    a short command a noticeable share of its CPU time. Other threads still running get the normal exit.
+    The cyclic garbage collector runs less often (`YOUNG_OBJECTS`)."""
+    _, older, oldest = gc.get_threshold()
+    gc.set_threshold(YOUNG_OBJECTS, older, oldest)
     try:
         cli(prog_name="legplan")
         code = 0

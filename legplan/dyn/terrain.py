@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from legplan.cache import filtered
 from legplan.terrain import TerrainMap
 
 EDGE_STEP = 0.02  # m: a height jump between neighbouring cells that makes both an edge
@@ -45,15 +46,11 @@ class TerrainModel:
         edge[1:, :] |= jump_y
         edge[:-1, :] |= jump_y
         self.has_edges = bool(edge.any())
-        from scipy import ndimage  # imported where a terrain model is built (start-up time)
-
-        smooth = ndimage.gaussian_filter(h, SLOPE_SMOOTHING / self.resolution, mode="nearest")
+        smooth = filtered("gaussian_filter", h, SLOPE_SMOOTHING / self.resolution, mode="nearest")
         gy, gx = np.gradient(smooth, self.resolution)
         self.slope_grid = np.hypot(gx, gy)
         if self.has_edges:
-            from scipy.ndimage import distance_transform_edt  # maps with edges only (start-up time)
-
-            self.edge_distance_grid = distance_transform_edt(~edge) * self.resolution
+            self.edge_distance_grid = filtered("distance_transform_edt", ~edge) * self.resolution
         else:
             self.edge_distance_grid = np.full(h.shape, np.inf)
 
@@ -97,9 +94,7 @@ class TerrainModel:
             span = int(np.floor(reach + 0.5))
             i, j = np.abs(np.mgrid[-span:span + 1, -span:span + 1])
             footprint = np.hypot(np.maximum(i - 0.5, 0.0), np.maximum(j - 0.5, 0.0)) <= reach
-            from scipy import ndimage
-
-            grids[radius] = ndimage.maximum_filter(self.height_grid, footprint=footprint, mode="nearest")
+            grids[radius] = filtered("maximum_filter", self.height_grid, footprint=footprint, mode="nearest")
         grid = grids[radius]
         return lambda x, y: self._bilinear(grid, x, y)
 

@@ -16,7 +16,6 @@ import os
 
 from legplan.dyn.init import INITIALIZERS
 from legplan.errors import LegplanError
-from legplan.learn.network import LearnedInit, load_bound, missing_filter
 
 
 def is_learned(name) -> bool:
@@ -31,6 +30,8 @@ def initializer(name) -> object:
     if is_learned(name):
         if not os.path.isfile(name):
             raise LegplanError(f"--init: {name}: no such file")
+        from legplan.learn.network import LearnedInit  # a learned --init only (start-up time)
+
         return LearnedInit(os.path.abspath(name))
     if name not in INITIALIZERS:
         raise LegplanError(f"--init: unknown initializer '{name}' (known: {', '.join(INITIALIZERS)})")
@@ -45,5 +46,7 @@ def check_warm_stage(warm_stage: str, init) -> None:
     if not is_learned(init):
         raise LegplanError(f"--warm-stage {warm_stage}: needs a learned --init INIT.h5, not '{init}' "
                            "(only a near-solution guess is projected; others are solved in stages)")
+    from legplan.learn.network import load_bound, missing_filter  # a learned --init only (start-up time)
+
     if warm_stage == "polish" and os.path.isfile(init) and load_bound(init) is None:
         raise missing_filter(init)

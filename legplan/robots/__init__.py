@@ -10,7 +10,7 @@ Names are imported on first use (PEP 562 `__getattr__`): `legplan.robots.navigat
 registry load without pinocchio, so navigation commands start fast (issue 19).
 """
 
-import importlib
+from legplan.lazy_exports import lazy_exports
 
 _HOMES = {
     "Centroidal": "centroidal", "Kinematics": "kinematics", "KinematicsWorkspace": "kinematics",
@@ -22,14 +22,4 @@ _HOMES = {
 }
 __all__ = sorted(_HOMES)
 
-
-def __getattr__(name: str):
-    if name not in _HOMES:
-        raise AttributeError(f"module 'legplan.robots' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"legplan.robots.{_HOMES[name]}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return __all__
+__getattr__, __dir__ = lazy_exports(__name__, _HOMES)

@@ -170,14 +170,15 @@ def _candidate_pairs(height: np.ndarray, mask: np.ndarray, reach_cells: float, k
     ny, nx = mask.shape
     k = int(np.ceil(reach_cells)) + 1
     cells, candidates, gaps = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
+    my, mx = np.nonzero(mask)  # the candidates, in row-major order
     for dy in range(-k, k + 1):
         for dx in range(-k, k + 1):
             gap = np.hypot(max(abs(dx) - 1, 0), max(abs(dy) - 1, 0))
-            if (dx == 0 and dy == 0) or gap > reach_cells:
+            if (dx == 0 and dy == 0) or gap > reach_cells or not len(my):
                 continue
             # cells (iy, ix) whose neighbour (iy + dy, ix + dx) is a candidate
-            cy, cx = np.nonzero(mask[max(dy, 0):ny + min(dy, 0), max(dx, 0):nx + min(dx, 0)])
-            cy, cx = cy + max(dy, 0), cx + max(dx, 0)
+            inside = (my >= dy) & (my < ny + dy) & (mx >= dx) & (mx < nx + dx)
+            cy, cx = my[inside], mx[inside]
             ok = keep(height[cy, cx], height[cy - dy, cx - dx])
             cells.append((cy[ok] - dy) * nx + (cx[ok] - dx))
             candidates.append(cy[ok] * nx + cx[ok])

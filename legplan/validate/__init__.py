@@ -10,8 +10,10 @@ and of centroidal trajectories (issue 14; Newton-Euler, forces, terrain, range o
     check.worst, check.passed, check.as_dict()
 """
 
-from legplan.validate.trajectory import CentroidalCheck, CheckTolerances, check_trajectory
-from legplan.validate.checks import ConfigChecks, Validator
-from legplan.validate.surface import SurfaceMesh
+from legplan.lazy_exports import lazy_exports
 
-__all__ = ["CentroidalCheck", "CheckTolerances", "ConfigChecks", "SurfaceMesh", "Validator", "check_trajectory"]
+# Each name from its module on first access: the trajectory check does not import FCL.
+_HOMES = {"CentroidalCheck": "trajectory", "CheckTolerances": "trajectory", "check_trajectory": "trajectory",
+          "ConfigChecks": "checks", "Validator": "checks", "SurfaceMesh": "surface"}
+__all__ = sorted(_HOMES)
+__getattr__, __dir__ = lazy_exports(__name__, _HOMES)

@@ -21,6 +21,7 @@ import math
 import fcl
 import numpy as np
 
+from legplan.cache import filtered
 
 _POINT_RADIUS = 1e-9
 
@@ -46,9 +47,7 @@ class SurfaceMesh:
         half = int(math.ceil(window / self.resolution)) + 1
         self.window = (half - 1) * self.resolution
         size = 2 * half + 1
-        from scipy import ndimage  # imported where a surface is built (start-up time)
-
-        self._hmax = ndimage.maximum_filter(self.height, size=size, mode="nearest")
+        self._hmax = filtered("maximum_filter", self.height, size=size, mode="nearest")
         # flat radius: horizontal distance from anywhere in a cell to the nearest column face
         # (a face lies half a cell beyond a cell whose height differs from a 4-neighbour's)
         h = self.height
@@ -58,9 +57,7 @@ class SurfaceMesh:
         edge[:-1, :] |= h[:-1, :] != h[1:, :]
         edge[1:, :] |= h[:-1, :] != h[1:, :]
         if edge.any():
-            from scipy.ndimage import distance_transform_edt  # maps with edges only (start-up time)
-
-            centre = distance_transform_edt(~edge) * self.resolution
+            centre = filtered("distance_transform_edt", ~edge) * self.resolution
             self._flat = np.maximum(centre - 0.5 * self.resolution - 0.5 * math.sqrt(2) * self.resolution, 0.0)
         else:
             self._flat = np.full(h.shape, np.inf)
