@@ -11,11 +11,12 @@ OUT ?= outputs
 
 .PHONY: run test install system-packages test-system-packages clean
 
+# nav_30m and compare_baselines run their independent stages two at a time (--jobs 2).
 run: install
 	$(VENV)/bin/legplan --version
 	$(VENV)/bin/legplan pipeline run pipelines/gap_crossing.yaml -o $(OUT)/gap_crossing
-	$(VENV)/bin/legplan pipeline run pipelines/nav_30m.yaml -o $(OUT)/nav_30m
-	$(VENV)/bin/legplan pipeline run pipelines/compare_baselines.yaml -o $(OUT)/compare_baselines
+	$(VENV)/bin/legplan pipeline run pipelines/nav_30m.yaml -o $(OUT)/nav_30m --jobs 2
+	$(VENV)/bin/legplan pipeline run pipelines/compare_baselines.yaml -o $(OUT)/compare_baselines --jobs 2
 	$(VENV)/bin/legplan pipeline run pipelines/pallet_climb.yaml -o $(OUT)/pallet_climb
 	@echo "reports: $(OUT)/{gap_crossing,nav_30m,compare_baselines,pallet_climb}/report/index.html"
 
