@@ -54,21 +54,26 @@ FACETS = [(np.cos(a), np.sin(a)) for a in np.arange(8) * np.pi / 4]
 class Gains:
     """Feedback gains (1/s², 1/s) and task weights of the controller (module docstring).
 
-    The base position outweighs its orientation 100:1: in a trot the two diagonal stance feet cannot
-    correct every base direction at once, and a base that drifts sideways off its support line
-    falls, while a small roll is harmless. Measured on planned flat trots at ANYmal's 40 N m (1 m and
-    0.5 m in 2.4 s, 0.3 m in 1.6 s, with and without the paper's costs): weights 1:1 fell or missed
-    the goal in all of them; 100:1 reached every goal with 6 mm rms base position error; raising the
-    orientation weight to 10 made all four fall."""
+    Acceleration-level gains give the same closed-loop dynamics whatever the robot's mass; what
+    differs between robots is how the tasks compete in the QP. In a trot the two diagonal stance
+    feet cannot produce a moment about the line through them, so the base position, its
+    orientation and the swing legs (whose reaction turns the base about that line, the more the
+    heavier the legs are against the trunk) cannot all be tracked at once. The base position
+    outweighs the orientation (a base that drifts sideways off its support line falls, a small
+    roll is harmless), but not so far that the orientation is given up entirely on a robot with
+    heavy legs. The swing feet are stiff (natural frequency √swing_kp, about critically damped):
+    a plan passes an edge with its swing foot a few millimetres clear, and a foot that lags or
+    sags under its path by more strikes the edge and catches on it. BENCHMARKS.md (robots, sim)
+    holds the runs behind these values."""
 
     base_kp: float = 400.0
     base_kd: float = 40.0
     rot_kp: float = 200.0
     rot_kd: float = 30.0
-    swing_kp: float = 600.0
-    swing_kd: float = 50.0
+    swing_kp: float = 1500.0
+    swing_kd: float = 80.0
     slip_kd: float = 20.0         # 1/s, damping of a stance foot's velocity
-    w_base: float = 100.0
+    w_base: float = 30.0
     w_rot: float = 1.0
     w_swing: float = 1.0
     w_force: float = 1e-5         # per N², against (m/s²)² of the motion tasks

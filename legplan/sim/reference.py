@@ -6,10 +6,22 @@ Rx), world angular velocity/acceleration, feet positions/velocities, contact for
 contact schedule. `at(t)` interpolates them linearly at the controller's 400 Hz instants; after the
 plan's end it holds the last pose at rest (the settling time of `SimParams`).
 
-The plan's feet are contact points on the terrain; the simulated foot is a sphere of radius r
-around the foot frame (robot.yaml), so the foot frame's reference is the planned point lifted by r
-along the terrain normal there. Feet accelerations are the finite differences of the planned
-velocities (the samples do not hold them).
+The plan's feet are points: on the terrain in stance, above it in swing; the simulated foot is a
+sphere of radius r around the foot frame (robot.yaml). The foot frame's reference is the sphere
+centre whose sphere touches the planned point: r along the terrain normal n for a point on the
+terrain (the sphere touches the ground there), r straight up for a point r or more above it (the
+sphere's lowest point on the planned path), and between them the offset turns from n to e_z with
+the point's height g above the terrain, along r (n (1 − s) + e_z s)/|…|, s = clip(g / r, 0, 1).
+Lifting a swing point along the normal instead would, where the point passes over an edge, take
+the normal of the edge's near-vertical face and pull the sphere r back into that face.
+
+The planner keeps a swing foot's point above the terrain, not its sphere: a sphere centred r above
+a point that passes an edge's corner overlaps the corner by up to r horizontally, and the foot
+catches on the edge. So the centre is raised, by the share s, to at least r above
+`TerrainModel.envelope_within(r)` (an upper bound of the map's columns within r of it: a sphere
+whose centre is that high clears every column); at lift-off and touch-down (s = 0) nothing changes.
+The foot frame's reference velocity is the planned point's plus the rate of that offset, and its
+acceleration the finite difference of the velocity (the samples hold no foot accelerations).
 """
 
 from __future__ import annotations
@@ -42,6 +54,23 @@ class RefPoint:
     normal: np.ndarray
 
 
+def foot_centres(feet, foot_radius, terrain, normal) -> np.ndarray:
+    """The foot spheres' centres (n, legs, 3) for the planned foot points `feet` (n, legs, 3), radii
+    `foot_radius` (legs,), on `terrain` (a `TerrainModel`) whose unit normal under each point is
+    `normal` (n, legs, 3): the offset of the module docstring, and a point above the terrain lifted
+    with its sphere over the map's columns (module docstring)."""
+    n, legs, _ = feet.shape
+    x, y = feet[..., 0].ravel(), feet[..., 1].ravel()
+    radius = np.asarray(foot_radius, float)[None, :]
+    share = np.clip((feet[..., 2] - terrain.height(x, y).reshape(n, legs)) / radius, 0.0, 1.0)
+    offset = (1.0 - share[..., None]) * normal + share[..., None] * np.array([0.0, 0.0, 1.0])
+    centres = feet + radius[..., None] * offset / np.linalg.norm(offset, axis=-1, keepdims=True)
+    for leg, r in enumerate(np.asarray(foot_radius, float)):
+        over = terrain.envelope_within(float(r))(centres[:, leg, 0], centres[:, leg, 1]) + r
+        centres[:, leg, 2] += share[:, leg] * np.maximum(over - centres[:, leg, 2], 0.0)
+    return centres
+
+
 class Reference:
     """Linear interpolation of the plan's samples (module docstring)."""
 
@@ -54,13 +83,14 @@ class Reference:
         feet = np.asarray(samples["feet_pos"], float)
         n, legs, _ = feet.shape
         normal = terrain.basis(feet[..., 0].ravel(), feet[..., 1].ravel())[0].reshape(n, legs, 3)
-        feet_vel = np.asarray(samples["feet_vel"], float)
+        centres = foot_centres(feet, foot_radius, terrain, normal)
+        feet_vel = np.asarray(samples["feet_vel"], float) + np.gradient(centres - feet, t, axis=0)
         self._arrays = {
             "pos": np.asarray(samples["base_pos"], float), "vel": np.asarray(samples["base_vel"], float),
             "acc": np.asarray(samples["base_acc"], float), "euler": np.asarray(samples["base_euler"], float),
             "omega": np.asarray(samples["base_ang_vel"], float),
             "omega_dot": np.asarray(samples["base_ang_acc"], float),
-            "feet_pos": feet + np.asarray(foot_radius, float)[None, :, None] * normal,
+            "feet_pos": centres,
             "feet_vel": feet_vel, "feet_acc": np.gradient(feet_vel, t, axis=0),
             "forces": np.asarray(samples["forces"], float), "normal": normal}
         self._contact = np.asarray(samples["contact"], bool)
