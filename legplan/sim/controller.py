@@ -19,6 +19,14 @@ plan says so and it touches the terrain (the simulator's contact state, as a rob
 sensing); a foot planned in stance that has not touched down yet moves at rest towards a point
 `search_depth` below its planned foothold (late touchdown) instead of pushing on air. The torques are τ = M_j v̇ + h_j − J_c,jᵀ f at the optimum.
 
+Footholds follow the base's velocity error (capture point, Pratt et al. 2006; Raibert's foot
+placement): a plan is executed open loop, and on a support line or a point the base is an inverted
+pendulum whose velocity error grows as e^{t/τ}, τ = √(h/g) (h the nominal base height), which only
+where the feet land can correct. Each swing foot's target moves horizontally by
+`step_feedback` · τ (v − v_plan), clipped to the range of motion's half-widths, phased in over the
+swing (`RefPoint.swing_progress`: none at lift-off, all of it at touch-down and for a late foot);
+the time constant makes the correction scale with the robot's size.
+
 Joint velocity limits v_max (URDF `velocity`): the joint rates one `velocity_horizon` ahead stay
 inside them, −v_max ≤ v_j + T v̇_j ≤ v_max (a joint already beyond its limit is braked back at
 (|v_j| − v_max)/T). Joint damping d (URDF `<dynamics damping>`) is compensated, τ += d v_j, and the
@@ -83,6 +91,7 @@ class Gains:
     search_depth: float = 0.03    # m, below the planned foothold a late foot reaches for
     velocity_horizon: float = 0.01   # s, T of the joint velocity limit rows
     w_contact: float = 1e4        # weight of the stance feet's zero acceleration in the relaxed QP
+    step_feedback: float = 1.0    # × the capture-point shift of the swing feet's footholds (0: none)
 
 
 QP_EPS_ABS = 1e-6
@@ -139,6 +148,8 @@ class WholeBodyController:
         self.damping = np.zeros(n) if damping is None else np.asarray(damping, float)
         self.mu = float(mu) * np.cos(np.pi / len(FACETS))
         self.gains = gains
+        self.time_constant = float(np.sqrt(robot.centroidal.base_height / 9.81))
+        self.step_limit = np.r_[np.asarray(robot.centroidal.range_of_motion, float)[:2], 0.0]
         self.qp_failures = 0
         self.qp_held = 0
         self._last = np.zeros(n)
@@ -168,6 +179,7 @@ class WholeBodyController:
         targets += [a_lin - drift.linear, a_ang - drift.angular]
         weights += [np.full(3, k.w_base), np.full(3, k.w_rot)]
 
+        step = self.step(vel.linear, ref.vel)
         contact_J, contact_rhs = [], []
         for leg, frame in enumerate(self.feet):
             Jf = pin.getFrameJacobian(model, data, frame, LWA)[:3]
@@ -183,9 +195,9 @@ class WholeBodyController:
             else:
                 p = data.oMf[frame].translation
                 if ref.contact[leg]:   # late touchdown: reach down for the terrain at rest
-                    a = k.swing_kp * (ref.feet_pos[leg] - k.search_depth * ref.normal[leg] - p) - k.swing_kd * vf
+                    a = k.swing_kp * (ref.feet_pos[leg] + step - k.search_depth * ref.normal[leg] - p) - k.swing_kd * vf
                 else:
-                    a = (ref.feet_acc[leg] + k.swing_kp * (ref.feet_pos[leg] - p)
+                    a = (ref.feet_acc[leg] + k.swing_kp * (ref.feet_pos[leg] + ref.swing_progress[leg] * step - p)
                          + k.swing_kd * (ref.feet_vel[leg] - vf))
                 rows.append(Jf)
                 targets.append(a - df)
@@ -236,6 +248,14 @@ class WholeBodyController:
         l = np.concatenate([l, -vmax - vj])
         u = np.concatenate([u, vmax - vj])
         return QP(H, g, A, b, C, l, u)
+
+    def step(self, velocity, planned_velocity) -> np.ndarray:
+        """The shift (3,) of a swing foot's foothold (module docstring): `step_feedback` × √(h/g) ×
+        the horizontal base velocity error, each axis inside the range of motion's half-width."""
+        error = np.asarray(velocity, float) - np.asarray(planned_velocity, float)
+        shift = self.gains.step_feedback * self.time_constant * error
+        shift[2] = 0.0
+        return np.clip(shift, -self.step_limit, self.step_limit)
 
     @staticmethod
     def _solve(qp: QP):

@@ -38,7 +38,8 @@ class RefPoint:
     """The reference at one instant (world frame): base `pos`, `vel`, `acc`, `rot` (3, 3), `omega`,
     `omega_dot`; per leg `feet_pos`, `feet_vel`, `feet_acc` (of the foot frame, i.e. sphere centre),
     `forces` (planned contact forces, N), `contact` (bool), `normal` (unit terrain normal under
-    each foot)."""
+    each foot), `swing_progress` (share of each foot's swing elapsed: 0 at lift-off, 1 at touch-down
+    and in stance)."""
 
     pos: np.ndarray
     vel: np.ndarray
@@ -52,6 +53,7 @@ class RefPoint:
     forces: np.ndarray
     contact: np.ndarray
     normal: np.ndarray
+    swing_progress: np.ndarray
 
 
 def foot_centres(feet, foot_radius, terrain, normal) -> np.ndarray:
@@ -69,6 +71,18 @@ def foot_centres(feet, foot_radius, terrain, normal) -> np.ndarray:
         over = terrain.envelope_within(float(r))(centres[:, leg, 0], centres[:, leg, 1]) + r
         centres[:, leg, 2] += share[:, leg] * np.maximum(over - centres[:, leg, 2], 0.0)
     return centres
+
+
+def swing_progress(t, contact) -> np.ndarray:
+    """Per sample and leg (n, legs): the share of the foot's swing elapsed at t, 0 at its lift-off
+    (the last stance sample before it) and 1 at its touch-down; 1 in stance."""
+    progress = np.ones(contact.shape)
+    for leg in range(contact.shape[1]):
+        swing = np.flatnonzero(~contact[:, leg])
+        for run in np.split(swing, np.flatnonzero(np.diff(swing) > 1) + 1) if len(swing) else []:
+            start, end = max(run[0] - 1, 0), min(run[-1] + 1, len(t) - 1)
+            progress[run, leg] = (t[run] - t[start]) / max(t[end] - t[start], 1e-9)
+    return progress
 
 
 class Reference:
@@ -94,6 +108,7 @@ class Reference:
             "feet_vel": feet_vel, "feet_acc": np.gradient(feet_vel, t, axis=0),
             "forces": np.asarray(samples["forces"], float), "normal": normal}
         self._contact = np.asarray(samples["contact"], bool)
+        self._arrays["swing_progress"] = swing_progress(t, self._contact)
         for name, value in self._arrays.items():
             if len(value) != n or not np.all(np.isfinite(value)):
                 raise ValueError(f"samples: {name} must have {n} finite rows")

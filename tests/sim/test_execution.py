@@ -10,7 +10,7 @@ from click.testing import CliRunner
 from legplan.artefacts import open_artefact, read_summary
 from legplan.cli.main import cli
 from legplan.dyn.terrain import TerrainModel
-from legplan.sim.reference import foot_centres
+from legplan.sim.reference import foot_centres, swing_progress
 from legplan.terrain import Grid2D, terrain_from_heightmap
 from legplan.terrain.columns import ColumnDistance
 from published_robots import robots_dir
@@ -65,3 +65,32 @@ def test_solo12_drafted_from_its_urdf_executes_its_flat_trot(tmp_path):
         summary = {key: value for key, (value, _) in read_summary(handle).items()}
     assert simulated.exit_code == 0 and summary["falls"] == 0 and summary["succeeded"] == 1, simulated.output
     assert summary["median_rms_orientation_error"] < 0.1
+
+
+def test_swing_progress_runs_from_lift_off_to_touch_down():
+    t = np.arange(7) * 0.1
+    contact = np.array([[1, 1], [0, 1], [0, 1], [0, 1], [1, 1], [1, 0], [1, 1]], bool)
+    progress = swing_progress(t, contact)
+    assert np.allclose(progress[:, 0], [1, 0.25, 0.5, 0.75, 1, 1, 1])
+    assert np.allclose(progress[:, 1], [1, 1, 1, 1, 1, 0.5, 1])
+
+
+def test_footholds_follow_the_velocity_error_so_a_pushed_trot_keeps_its_feet_under_it(robot):
+    """Open loop, a lateral push in a trot can only be caught where the feet land: the same plan and
+    push fall with the footholds as planned and reach the goal with the capture-point shift."""
+    from pathlib import Path
+
+    from legplan.dyn.planner import plan
+    from legplan.dyn.problem import DynParams, DynTask
+    from legplan.sim.controller import Gains
+    from legplan.sim.run import SimParams, simulate
+    from legplan.terrain.spec import build_map
+
+    flat = build_map(Path(__file__).parents[2] / "maps" / "flat.yaml")
+    planned = plan(DynTask((0, 0, 0), (1.0, 0, 0), "trot", 4, 2.4), robot.centroidal, TerrainModel(flat), DynParams())
+    assert planned.success
+    push = ((1.2, 0.0, 110.0, 0.1),)   # 11 N s sideways, mid-plan
+    as_planned = simulate(planned.samples, robot, flat, SimParams(pushes=push, gains=Gains(step_feedback=0.0)))
+    stepping = simulate(planned.samples, robot, flat, SimParams(pushes=push))
+    assert as_planned.fell, as_planned.reason
+    assert stepping.success, stepping.reason
