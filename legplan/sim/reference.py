@@ -15,11 +15,14 @@ the point's height g above the terrain, along r (n (1 − s) + e_z s)/|…|, s =
 Lifting a swing point along the normal instead would, where the point passes over an edge, take
 the normal of the edge's near-vertical face and pull the sphere r back into that face.
 
-The planner keeps a swing foot's point above the terrain, not its sphere: a sphere centred r above
-a point that passes an edge's corner overlaps the corner by up to r horizontally, and the foot
-catches on the edge. So the centre is raised, by the share s, to at least r above
-`TerrainModel.envelope_within(r)` (an upper bound of the map's columns within r of it: a sphere
-whose centre is that high clears every column); at lift-off and touch-down (s = 0) nothing changes.
+The planner keeps a swing foot's point above the terrain, not its sphere, and a swing point may
+skim the terrain: a sphere centred r above a point that passes an edge's corner overlaps the corner
+by up to r horizontally, and a sphere that skims a surface touches it at the least sag; either
+way the foot catches on the terrain and stays behind. So the centre is kept at least
+r (1 + sin(π p)) above `TerrainModel.envelope_within(r)` (an upper bound of the map's columns within
+r of it: a sphere whose centre is r above it clears every column; p the share of the swing elapsed,
+`swing_progress`), a clearance of up to r at mid-swing, raised to it by the larger of s and
+sin(π p); at lift-off and touch-down (p and s both 0) nothing changes.
 The foot frame's reference velocity is the planned point's plus the rate of that offset, and its
 acceleration the finite difference of the velocity (the samples hold no foot accelerations).
 """
@@ -56,20 +59,23 @@ class RefPoint:
     swing_progress: np.ndarray
 
 
-def foot_centres(feet, foot_radius, terrain, normal) -> np.ndarray:
+def foot_centres(feet, foot_radius, terrain, normal, progress=None) -> np.ndarray:
     """The foot spheres' centres (n, legs, 3) for the planned foot points `feet` (n, legs, 3), radii
     `foot_radius` (legs,), on `terrain` (a `TerrainModel`) whose unit normal under each point is
-    `normal` (n, legs, 3): the offset of the module docstring, and a point above the terrain lifted
-    with its sphere over the map's columns (module docstring)."""
+    `normal` (n, legs, 3): the offset of the module docstring, and a point above the terrain or in
+    its swing (`progress` (n, legs), `swing_progress`; None: no swing clearance) lifted with its
+    sphere over the map's columns (module docstring)."""
     n, legs, _ = feet.shape
     x, y = feet[..., 0].ravel(), feet[..., 1].ravel()
     radius = np.asarray(foot_radius, float)[None, :]
     share = np.clip((feet[..., 2] - terrain.height(x, y).reshape(n, legs)) / radius, 0.0, 1.0)
     offset = (1.0 - share[..., None]) * normal + share[..., None] * np.array([0.0, 0.0, 1.0])
     centres = feet + radius[..., None] * offset / np.linalg.norm(offset, axis=-1, keepdims=True)
+    bump = np.zeros((n, legs)) if progress is None else np.sin(np.pi * np.clip(progress, 0.0, 1.0))
     for leg, r in enumerate(np.asarray(foot_radius, float)):
-        over = terrain.envelope_within(float(r))(centres[:, leg, 0], centres[:, leg, 1]) + r
-        centres[:, leg, 2] += share[:, leg] * np.maximum(over - centres[:, leg, 2], 0.0)
+        over = terrain.envelope_within(float(r))(centres[:, leg, 0], centres[:, leg, 1]) + r * (1.0 + bump[:, leg])
+        weight = np.maximum(share[:, leg], bump[:, leg])
+        centres[:, leg, 2] += weight * np.maximum(over - centres[:, leg, 2], 0.0)
     return centres
 
 
@@ -97,7 +103,8 @@ class Reference:
         feet = np.asarray(samples["feet_pos"], float)
         n, legs, _ = feet.shape
         normal = terrain.basis(feet[..., 0].ravel(), feet[..., 1].ravel())[0].reshape(n, legs, 3)
-        centres = foot_centres(feet, foot_radius, terrain, normal)
+        contact = np.asarray(samples["contact"], bool)
+        centres = foot_centres(feet, foot_radius, terrain, normal, swing_progress(t, contact))
         feet_vel = np.asarray(samples["feet_vel"], float) + np.gradient(centres - feet, t, axis=0)
         self._arrays = {
             "pos": np.asarray(samples["base_pos"], float), "vel": np.asarray(samples["base_vel"], float),

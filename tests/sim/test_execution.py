@@ -4,6 +4,7 @@ controller that keeps a light, heavy-legged robot's trot upright (issue 34, issu
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import yaml
 from click.testing import CliRunner
 
@@ -37,6 +38,19 @@ def test_a_swing_foot_sphere_passes_over_an_edge_instead_of_into_its_face():
     assert np.allclose(swing[:2], feet[1, 0, :2])          # not pushed back along the face's normal
     clearance = ColumnDistance(height, np.asarray(grid.origin, float), grid.resolution, 0.2).values(swing[None])[0]
     assert clearance >= RADIUS - 1e-9                       # the sphere clears every column of the map
+
+
+def test_a_swing_foot_that_skims_the_terrain_clears_it_by_its_radius_at_mid_swing():
+    terrain, height, grid = _step_terrain()
+    # a swing point sliding along the step's top (gap 0) from lift-off to touch-down
+    t = np.linspace(0.0, 0.4, 5)
+    feet = np.stack([np.linspace(0.1, 0.3, 5), np.zeros(5), np.full(5, 0.14)], axis=1)[:, None]
+    contact = np.array([1, 0, 0, 0, 1], bool)[:, None]
+    normal = terrain.basis(feet[..., 0].ravel(), feet[..., 1].ravel())[0].reshape(5, 1, 3)
+    centres = foot_centres(feet, [RADIUS], terrain, normal, swing_progress(t, contact))
+    assert np.allclose(centres[[0, 4], 0, 2], 0.14 + RADIUS)          # lift-off and touch-down as planned
+    assert centres[2, 0, 2] == pytest.approx(0.14 + 2 * RADIUS)      # mid-swing: one radius clear
+    assert np.all(centres[1:4, 0, 2] > 0.14 + RADIUS)
 
 
 def _run(*args):
