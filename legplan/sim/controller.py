@@ -148,8 +148,9 @@ class WholeBodyController:
         self.damping = np.zeros(n) if damping is None else np.asarray(damping, float)
         self.mu = float(mu) * np.cos(np.pi / len(FACETS))
         self.gains = gains
-        self.time_constant = float(np.sqrt(robot.centroidal.base_height / 9.81))
-        self.step_limit = np.r_[np.asarray(robot.centroidal.range_of_motion, float)[:2], 0.0]
+        body = robot.centroidal   # none: no nominal height, so no foothold shift
+        self.time_constant = 0.0 if body is None else float(np.sqrt(body.base_height / 9.81))
+        self.step_limit = np.zeros(3) if body is None else np.r_[np.asarray(body.range_of_motion, float)[:2], 0.0]
         self.qp_failures = 0
         self.qp_held = 0
         self._last = np.zeros(n)
