@@ -19,6 +19,14 @@ plan says so and it touches the terrain (the simulator's contact state, as a rob
 sensing); a foot planned in stance that has not touched down yet moves at rest towards a point
 `search_depth` below its planned foothold (late touchdown) instead of pushing on air. The torques are τ = M_j v̇ + h_j − J_c,jᵀ f at the optimum.
 
+Footholds follow the base's velocity error (capture point, Pratt et al. 2006; Raibert's foot
+placement): a plan is executed open loop, and on a support line or a point the base is an inverted
+pendulum whose velocity error grows as e^{t/τ}, τ = √(h/g) (h the nominal base height), which only
+where the feet land can correct. Each swing foot's target moves horizontally by
+`step_feedback` · τ (v − v_plan), clipped to the range of motion's half-widths, phased in over the
+swing (`RefPoint.swing_progress`: none at lift-off, all of it at touch-down and for a late foot);
+the time constant makes the correction scale with the robot's size.
+
 Joint velocity limits v_max (URDF `velocity`): the joint rates one `velocity_horizon` ahead stay
 inside them, −v_max ≤ v_j + T v̇_j ≤ v_max (a joint already beyond its limit is braked back at
 (|v_j| − v_max)/T). Joint damping d (URDF `<dynamics damping>`) is compensated, τ += d v_j, and the
@@ -54,21 +62,26 @@ FACETS = [(np.cos(a), np.sin(a)) for a in np.arange(8) * np.pi / 4]
 class Gains:
     """Feedback gains (1/s², 1/s) and task weights of the controller (module docstring).
 
-    The base position outweighs its orientation 100:1: in a trot the two diagonal stance feet cannot
-    correct every base direction at once, and a base that drifts sideways off its support line
-    falls, while a small roll is harmless. Measured on planned flat trots at ANYmal's 40 N m (1 m and
-    0.5 m in 2.4 s, 0.3 m in 1.6 s, with and without the paper's costs): weights 1:1 fell or missed
-    the goal in all of them; 100:1 reached every goal with 6 mm rms base position error; raising the
-    orientation weight to 10 made all four fall."""
+    Acceleration-level gains give the same closed-loop dynamics whatever the robot's mass; what
+    differs between robots is how the tasks compete in the QP. In a trot the two diagonal stance
+    feet cannot produce a moment about the line through them, so the base position, its
+    orientation and the swing legs (whose reaction turns the base about that line, the more the
+    heavier the legs are against the trunk) cannot all be tracked at once. The base position
+    outweighs the orientation (a base that drifts sideways off its support line falls, a small
+    roll is harmless), but not so far that the orientation is given up entirely on a robot with
+    heavy legs. The swing feet are stiff (natural frequency √swing_kp, about critically damped):
+    a plan passes an edge with its swing foot a few millimetres clear, and a foot that lags or
+    sags under its path by more strikes the edge and catches on it. BENCHMARKS.md (robots, sim)
+    holds the runs behind these values."""
 
     base_kp: float = 400.0
     base_kd: float = 40.0
     rot_kp: float = 200.0
     rot_kd: float = 30.0
-    swing_kp: float = 600.0
-    swing_kd: float = 50.0
+    swing_kp: float = 1500.0
+    swing_kd: float = 80.0
     slip_kd: float = 20.0         # 1/s, damping of a stance foot's velocity
-    w_base: float = 100.0
+    w_base: float = 30.0
     w_rot: float = 1.0
     w_swing: float = 1.0
     w_force: float = 1e-5         # per N², against (m/s²)² of the motion tasks
@@ -78,6 +91,7 @@ class Gains:
     search_depth: float = 0.03    # m, below the planned foothold a late foot reaches for
     velocity_horizon: float = 0.01   # s, T of the joint velocity limit rows
     w_contact: float = 1e4        # weight of the stance feet's zero acceleration in the relaxed QP
+    step_feedback: float = 1.0    # × the capture-point shift of the swing feet's footholds (0: none)
 
 
 QP_EPS_ABS = 1e-6
@@ -134,6 +148,9 @@ class WholeBodyController:
         self.damping = np.zeros(n) if damping is None else np.asarray(damping, float)
         self.mu = float(mu) * np.cos(np.pi / len(FACETS))
         self.gains = gains
+        body = robot.centroidal   # none: no nominal height, so no foothold shift
+        self.time_constant = 0.0 if body is None else float(np.sqrt(body.base_height / 9.81))
+        self.step_limit = np.zeros(3) if body is None else np.r_[np.asarray(body.range_of_motion, float)[:2], 0.0]
         self.qp_failures = 0
         self.qp_held = 0
         self._last = np.zeros(n)
@@ -163,6 +180,7 @@ class WholeBodyController:
         targets += [a_lin - drift.linear, a_ang - drift.angular]
         weights += [np.full(3, k.w_base), np.full(3, k.w_rot)]
 
+        step = self.step(vel.linear, ref.vel)
         contact_J, contact_rhs = [], []
         for leg, frame in enumerate(self.feet):
             Jf = pin.getFrameJacobian(model, data, frame, LWA)[:3]
@@ -178,9 +196,9 @@ class WholeBodyController:
             else:
                 p = data.oMf[frame].translation
                 if ref.contact[leg]:   # late touchdown: reach down for the terrain at rest
-                    a = k.swing_kp * (ref.feet_pos[leg] - k.search_depth * ref.normal[leg] - p) - k.swing_kd * vf
+                    a = k.swing_kp * (ref.feet_pos[leg] + step - k.search_depth * ref.normal[leg] - p) - k.swing_kd * vf
                 else:
-                    a = (ref.feet_acc[leg] + k.swing_kp * (ref.feet_pos[leg] - p)
+                    a = (ref.feet_acc[leg] + k.swing_kp * (ref.feet_pos[leg] + ref.swing_progress[leg] * step - p)
                          + k.swing_kd * (ref.feet_vel[leg] - vf))
                 rows.append(Jf)
                 targets.append(a - df)
@@ -231,6 +249,14 @@ class WholeBodyController:
         l = np.concatenate([l, -vmax - vj])
         u = np.concatenate([u, vmax - vj])
         return QP(H, g, A, b, C, l, u)
+
+    def step(self, velocity, planned_velocity) -> np.ndarray:
+        """The shift (3,) of a swing foot's foothold (module docstring): `step_feedback` × √(h/g) ×
+        the horizontal base velocity error, each axis inside the range of motion's half-width."""
+        error = np.asarray(velocity, float) - np.asarray(planned_velocity, float)
+        shift = self.gains.step_feedback * self.time_constant * error
+        shift[2] = 0.0
+        return np.clip(shift, -self.step_limit, self.step_limit)
 
     @staticmethod
     def _solve(qp: QP):

@@ -6,10 +6,25 @@ Rx), world angular velocity/acceleration, feet positions/velocities, contact for
 contact schedule. `at(t)` interpolates them linearly at the controller's 400 Hz instants; after the
 plan's end it holds the last pose at rest (the settling time of `SimParams`).
 
-The plan's feet are contact points on the terrain; the simulated foot is a sphere of radius r
-around the foot frame (robot.yaml), so the foot frame's reference is the planned point lifted by r
-along the terrain normal there. Feet accelerations are the finite differences of the planned
-velocities (the samples do not hold them).
+The plan's feet are points: on the terrain in stance, above it in swing; the simulated foot is a
+sphere of radius r around the foot frame (robot.yaml). The foot frame's reference is the sphere
+centre whose sphere touches the planned point: r along the terrain normal n for a point on the
+terrain (the sphere touches the ground there), r straight up for a point r or more above it (the
+sphere's lowest point on the planned path), and between them the offset turns from n to e_z with
+the point's height g above the terrain, along r (n (1 − s) + e_z s)/|…|, s = clip(g / r, 0, 1).
+Lifting a swing point along the normal instead would, where the point passes over an edge, take
+the normal of the edge's near-vertical face and pull the sphere r back into that face.
+
+The planner keeps a swing foot's point above the terrain, not its sphere, and a swing point may
+skim the terrain: a sphere centred r above a point that passes an edge's corner overlaps the corner
+by up to r horizontally, and a sphere that skims a surface touches it at the least sag; either
+way the foot catches on the terrain and stays behind. So the centre is kept at least
+r (1 + sin(π p)) above `TerrainModel.envelope_within(r)` (an upper bound of the map's columns within
+r of it: a sphere whose centre is r above it clears every column; p the share of the swing elapsed,
+`swing_progress`), a clearance of up to r at mid-swing, raised to it by the larger of s and
+sin(π p); at lift-off and touch-down (p and s both 0) nothing changes.
+The foot frame's reference velocity is the planned point's plus the rate of that offset, and its
+acceleration the finite difference of the velocity (the samples hold no foot accelerations).
 """
 
 from __future__ import annotations
@@ -26,7 +41,8 @@ class RefPoint:
     """The reference at one instant (world frame): base `pos`, `vel`, `acc`, `rot` (3, 3), `omega`,
     `omega_dot`; per leg `feet_pos`, `feet_vel`, `feet_acc` (of the foot frame, i.e. sphere centre),
     `forces` (planned contact forces, N), `contact` (bool), `normal` (unit terrain normal under
-    each foot)."""
+    each foot), `swing_progress` (share of each foot's swing elapsed: 0 at lift-off, 1 at touch-down
+    and in stance)."""
 
     pos: np.ndarray
     vel: np.ndarray
@@ -40,6 +56,39 @@ class RefPoint:
     forces: np.ndarray
     contact: np.ndarray
     normal: np.ndarray
+    swing_progress: np.ndarray
+
+
+def foot_centres(feet, foot_radius, terrain, normal, progress=None) -> np.ndarray:
+    """The foot spheres' centres (n, legs, 3) for the planned foot points `feet` (n, legs, 3), radii
+    `foot_radius` (legs,), on `terrain` (a `TerrainModel`) whose unit normal under each point is
+    `normal` (n, legs, 3): the offset of the module docstring, and a point above the terrain or in
+    its swing (`progress` (n, legs), `swing_progress`; None: no swing clearance) lifted with its
+    sphere over the map's columns (module docstring)."""
+    n, legs, _ = feet.shape
+    x, y = feet[..., 0].ravel(), feet[..., 1].ravel()
+    radius = np.asarray(foot_radius, float)[None, :]
+    share = np.clip((feet[..., 2] - terrain.height(x, y).reshape(n, legs)) / radius, 0.0, 1.0)
+    offset = (1.0 - share[..., None]) * normal + share[..., None] * np.array([0.0, 0.0, 1.0])
+    centres = feet + radius[..., None] * offset / np.linalg.norm(offset, axis=-1, keepdims=True)
+    bump = np.zeros((n, legs)) if progress is None else np.sin(np.pi * np.clip(progress, 0.0, 1.0))
+    for leg, r in enumerate(np.asarray(foot_radius, float)):
+        over = terrain.envelope_within(float(r))(centres[:, leg, 0], centres[:, leg, 1]) + r * (1.0 + bump[:, leg])
+        weight = np.maximum(share[:, leg], bump[:, leg])
+        centres[:, leg, 2] += weight * np.maximum(over - centres[:, leg, 2], 0.0)
+    return centres
+
+
+def swing_progress(t, contact) -> np.ndarray:
+    """Per sample and leg (n, legs): the share of the foot's swing elapsed at t, 0 at its lift-off
+    (the last stance sample before it) and 1 at its touch-down; 1 in stance."""
+    progress = np.ones(contact.shape)
+    for leg in range(contact.shape[1]):
+        swing = np.flatnonzero(~contact[:, leg])
+        for run in np.split(swing, np.flatnonzero(np.diff(swing) > 1) + 1) if len(swing) else []:
+            start, end = max(run[0] - 1, 0), min(run[-1] + 1, len(t) - 1)
+            progress[run, leg] = (t[run] - t[start]) / max(t[end] - t[start], 1e-9)
+    return progress
 
 
 class Reference:
@@ -54,16 +103,19 @@ class Reference:
         feet = np.asarray(samples["feet_pos"], float)
         n, legs, _ = feet.shape
         normal = terrain.basis(feet[..., 0].ravel(), feet[..., 1].ravel())[0].reshape(n, legs, 3)
-        feet_vel = np.asarray(samples["feet_vel"], float)
+        contact = np.asarray(samples["contact"], bool)
+        centres = foot_centres(feet, foot_radius, terrain, normal, swing_progress(t, contact))
+        feet_vel = np.asarray(samples["feet_vel"], float) + np.gradient(centres - feet, t, axis=0)
         self._arrays = {
             "pos": np.asarray(samples["base_pos"], float), "vel": np.asarray(samples["base_vel"], float),
             "acc": np.asarray(samples["base_acc"], float), "euler": np.asarray(samples["base_euler"], float),
             "omega": np.asarray(samples["base_ang_vel"], float),
             "omega_dot": np.asarray(samples["base_ang_acc"], float),
-            "feet_pos": feet + np.asarray(foot_radius, float)[None, :, None] * normal,
+            "feet_pos": centres,
             "feet_vel": feet_vel, "feet_acc": np.gradient(feet_vel, t, axis=0),
             "forces": np.asarray(samples["forces"], float), "normal": normal}
         self._contact = np.asarray(samples["contact"], bool)
+        self._arrays["swing_progress"] = swing_progress(t, self._contact)
         for name, value in self._arrays.items():
             if len(value) != n or not np.all(np.isfinite(value)):
                 raise ValueError(f"samples: {name} must have {n} finite rows")
