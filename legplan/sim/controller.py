@@ -35,7 +35,11 @@ Coulomb friction (URDF `<dynamics friction>`, MuJoCo's friction loss) is not com
 flips with the joint rate, and it acts on the controller as a disturbance.
 
 The QP is small (18 + 3 n_c unknowns) and dense, solved by proxsuite's ProxQP (dense backend), cold
-started each tick; BENCHMARKS.md (sim) compares it with OSQP on the same QPs.
+started each tick; BENCHMARKS.md (sim) compares it with OSQP on the same QPs. ProxQP's solution of
+the same arrays differs in its last bits from call to call (its vectorized loops depend on where the
+arrays lie in memory), and a simulation amplifies one bit into a different run. So its solution is
+rounded to `QP_RESOLUTION_DECIMALS` (accelerations in m/s² and rad/s², forces in N): far below what changes a
+torque command, far above ProxQP's last bits; the same inputs then give the same run.
 
 Fallback when the QP is not solved (infeasible: the torque limits cannot hold the stance feet still
 and meet the velocity limits; or out of iterations), counted in `qp_failures`: the relaxed QP, in
@@ -103,15 +107,19 @@ are not: the same QPs, even the relaxed one that is feasible by construction, so
 iterations with residuals near 1e-11 at this tolerance."""
 
 
+QP_RESOLUTION_DECIMALS = 6
+"""The QP's solution is rounded to 10^-6 (m/s², rad/s², N): module docstring."""
+
+
 def solve_qp(qp: QP):
-    """ProxQP (dense) on `qp`, cold started: (its x, its status)."""
+    """ProxQP (dense) on `qp`, cold started: (its x rounded to `QP_RESOLUTION_DECIMALS`, its status)."""
     solver = proxsuite.proxqp.dense.QP(len(qp.g), len(qp.b), len(qp.l))
     solver.settings.eps_abs = QP_EPS_ABS
     solver.settings.eps_primal_inf = QP_EPS_PRIMAL_INF
     solver.settings.verbose = False
     solver.init(qp.H, qp.g, qp.A, qp.b, qp.C, qp.l, qp.u)
     solver.solve()
-    return solver.results.x, solver.results.info.status
+    return np.round(solver.results.x, QP_RESOLUTION_DECIMALS), solver.results.info.status
 
 
 @dataclass
