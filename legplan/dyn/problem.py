@@ -73,6 +73,9 @@ class DynProblem:
     """The extra range-of-motion sample times (s) it was built with (`build_problem`)."""
     com_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     """The CoM in the base frame (m): the base spline is the CoM's, `model` is `about_com`'s."""
+    dynamic: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
+    """Per base interval, the support class its between-knot dynamics band was built with
+    (`dynamic_intervals` of the formulation at build time)."""
 
 
 RANGE_CHECK_DT = 0.001  # s: the grid on which `range_excess_times` looks for a foot outside its box
@@ -167,6 +170,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         problem.range_times = np.union1d(problem.range_times, range_excess_times(problem, guess_values, -near_range))
     if timing is not None:
         problem.variables.append(timing.variable(durations))
+    problem.dynamic = dynamic_intervals(form)
     context = BuildContext(problem, params, sample_times(form, params))
     problem.constraints = declared_constraints(context)
     problem.costs = cost_blocks(form, terrain, model, params.costs, timing)
@@ -250,7 +254,7 @@ def _dynamics_between(c: BuildContext) -> list[Constraint]:
     weight = model.mass * GRAVITY
     lever = float(np.linalg.norm(model.nominal_feet[:, :2], axis=1).max())
     interval = np.clip(np.searchsorted(p.form.knots, t, side="right") - 1, 0, len(p.form.knots) - 2)
-    share = np.where(dynamic_intervals(p.form)[interval], c.params.dynamics_band_dynamic, c.params.dynamics_band)
+    share = np.where(p.dynamic[interval], c.params.dynamics_band_dynamic, c.params.dynamics_band)
     band = (share[:, None] * np.repeat([weight, weight * lever], 3)[None]).reshape(-1)
     return [Constraint(DynamicsBlock(p.form, model.mass, model.inertia, t, p.timing), -band, band,
                        name="dynamics_between", scale=np.tile(np.repeat([1.0 / weight, 1.0 / (weight * LEVER)], 3), t.size))]

@@ -77,8 +77,6 @@ def test_plan_writes_the_traj_artefact(planned):
     assert summary["check_base_height"][0] > 0.3  # a minimum: the base stays above the ground
 
 
-@pytest.mark.xfail(strict=True, reason="the between-knot band is classified by the support of the initial phases; "
-                   "optimized phases move it and the plan fails its check (test_a_plan_that_fails_its_check_exits_1)")
 def test_plan_with_optimized_phase_durations(planned, tmp_path):
     """--optimize-phases: recorded in the params, 2S = 16 more variables than the fixed-timing run
     (8 footsteps), phase durations of the plan's own summing to T, and the check passed."""

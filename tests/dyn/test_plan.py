@@ -358,3 +358,20 @@ def test_leg_clearance_keeps_thigh_and_shank_off_the_step_by_an_independent_chec
         assert check.ok, check.worst
         depth[clearance] = check.worst["leg_penetration"]
     assert depth[0.05] < -0.04 and depth[None] > -0.02
+
+
+def test_optimized_phases_get_the_dynamics_bands_of_their_own_support(anymal, flat):
+    """A walk whose optimized phases change which base intervals keep three feet down is solved
+    again with the bands of its own phases ("dynamics band" stages), so the plan's bands are those
+    of its final timing; without optimized phases the schedule has no such stage."""
+    from legplan.dyn.problem import dynamic_intervals
+
+    assert not any(s.start is Start.RECLASSIFIED for s in schedule(DynParams()))
+    params = replace(DynParams(leg_clearance=None), optimize_phases=True)
+    r = plan(DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "walk", 2, 3.0), anymal, flat, params)
+    assert r.success, r.reason
+    bands = [s for s in r.stages if s.name == "dynamics band"]
+    assert bands and all(s.success for s in bands)
+    first = r.stages[0].problem
+    assert not np.array_equal(first.dynamic, dynamic_intervals(r.stages[0].problem.form))  # phases moved
+    np.testing.assert_array_equal(r.problem.dynamic, dynamic_intervals(r.problem.form))
