@@ -121,7 +121,7 @@ class DynParams(Parameters):
         "terrain's envelope at the range-of-motion samples (LegClearanceBlock): on by default, since the "
         "independent check judges every leg sphere against the terrain, with a margin for the tracking "
         "error of the executing controller; None = off"))
-    torque_margin: float = param(0.1, "[0, 1)", doc=(
+    torque_margin: float = param(0.05, "[0, 1)", doc=(
         "share of each joint's torque limit (Centroidal.torque_limits) the planned forces leave free "
         "(JointTorqueBlock): for what the legs' own motion and the controller's corrections need on "
         "top of holding the contact forces, which the independent check judges against the full limit"))
