@@ -55,16 +55,18 @@ TASKS = {"flat walk": ("flat", "walk", 4, 4.0), "flat trot": ("flat", "trot", 4,
 # gait -> the share of a stride a foot stands (TOWR's Walk2: swings of 0.13 + 0.25 + 0.13 s in 1.52 s;
 # Run2: a diagonal pair of 0.4 s in 1.0 s)
 STANCE_SHARE = {"walk": 1.0 - 0.51 / 1.52, "trot": 0.4}
+KNOT_DT = 0.1  # s, the planner's base knot spacing (DynParams.dt)
 
 
 def strides_for(gait: str, strides: int, duration: float, distance: float, reach_x: float) -> tuple[int, float]:
     """(strides, duration) of a task over `distance` (m) for a robot whose range-of-motion box has
     the x half extent `reach_x`: the given ones, or more strides where a stride would carry the
     body farther past a standing foot than the box's extent 2·reach_x (an infeasible step), the
-    duration scaled with the strides."""
+    duration scaled with the strides and rounded up to whole base intervals (`KNOT_DT`: the
+    planner's between-knot dynamics samples then fall on the check's 10 ms grid)."""
     needed = int(np.ceil(STANCE_SHARE[gait] * distance / (2.0 * reach_x) - 1e-9))
     more = max(strides, needed)
-    return more, duration * more / strides
+    return more, float(np.ceil(duration * more / strides / KNOT_DT - 1e-9) * KNOT_DT)
 
 
 def robots_folder() -> Path:
