@@ -66,7 +66,7 @@ def strides_for(gait: str, strides: int, duration: float, distance: float, reach
     planner's between-knot dynamics samples then fall on the check's 10 ms grid)."""
     needed = int(np.ceil(STANCE_SHARE[gait] * distance / (2.0 * reach_x) - 1e-9))
     more = max(strides, needed)
-    return more, float(np.ceil(duration * more / strides / KNOT_DT - 1e-9) * KNOT_DT)
+    return more, round(float(np.ceil(duration * more / strides / KNOT_DT - 1e-9) * KNOT_DT), 9)
 
 
 def robots_folder() -> Path:
