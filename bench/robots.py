@@ -9,7 +9,10 @@ shipped `anymal`, exactly what a user runs, through the `legplan` command:
 2. four tasks scaled to the robot, whose body length L is the spread of its nominal feet along x and
    whose standing height h is its centroidal base height: a flat walk and a flat trot from (0, 0, 0)
    to (L, 0, 0), and a pallet walk and a pallet trot from (-1.4 L, 0, 0) onto a pallet of height h / 3
-   whose near edge is at x = 0 (goal (0.9 L, 0, 0)), with the robot's own pallet map;
+   whose near edge is at x = 0 (goal (0.9 L, 0, 0)), with the robot's own pallet map. A task's strides
+   are its default or more (`strides_for`): enough that the body passes a standing foot by no more
+   than the range-of-motion box's x extent 2 r_x per stance (a foot stands `STANCE_SHARE` of a
+   stride), the duration grown with them (same phase durations);
 3. `legplan dyn plan` (plan success, the independent dense check) and `legplan dyn simulate`
    (MuJoCo success, rms base position and orientation tracking error).
 
@@ -29,6 +32,7 @@ import time
 from importlib import metadata
 from pathlib import Path
 
+import numpy as np
 import yaml
 
 from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result
@@ -48,6 +52,21 @@ ROBOTS = {
 # task -> (map kind, gait, strides, duration in s)
 TASKS = {"flat walk": ("flat", "walk", 4, 4.0), "flat trot": ("flat", "trot", 4, 2.4),
          "pallet walk": ("pallet", "walk", 4, 5.5), "pallet trot": ("pallet", "trot", 6, 3.6)}
+# gait -> the share of a stride a foot stands (TOWR's Walk2: swings of 0.13 + 0.25 + 0.13 s in 1.52 s;
+# Run2: a diagonal pair of 0.4 s in 1.0 s)
+STANCE_SHARE = {"walk": 1.0 - 0.51 / 1.52, "trot": 0.4}
+KNOT_DT = 0.1  # s, the planner's base knot spacing (DynParams.dt)
+
+
+def strides_for(gait: str, strides: int, duration: float, distance: float, reach_x: float) -> tuple[int, float]:
+    """(strides, duration) of a task over `distance` (m) for a robot whose range-of-motion box has
+    the x half extent `reach_x`: the given ones, or more strides where a stride would carry the
+    body farther past a standing foot than the box's extent 2·reach_x (an infeasible step), the
+    duration scaled with the strides and rounded up to whole base intervals (`KNOT_DT`: the
+    planner's between-knot dynamics samples then fall on the check's 10 ms grid)."""
+    needed = int(np.ceil(STANCE_SHARE[gait] * distance / (2.0 * reach_x) - 1e-9))
+    more = max(strides, needed)
+    return more, round(float(np.ceil(duration * more / strides / KNOT_DT - 1e-9) * KNOT_DT), 9)
 
 
 def robots_folder() -> Path:
@@ -72,12 +91,13 @@ def summary(path: Path) -> dict:
         return {key: value for key, (value, _) in read_summary(handle).items()}
 
 
-def robot_shape(folder: Path) -> tuple[float, float]:
-    """(body length L, standing height h) from a robot folder's centroidal section."""
+def robot_shape(folder: Path) -> tuple[float, float, float]:
+    """(body length L, standing height h, range-of-motion x half extent) from a robot folder's
+    centroidal section."""
     spec = yaml.safe_load((folder / "robot.yaml").read_text())
     feet = [spec["centroidal"]["nominal_feet"][leg] for leg in spec["centroidal"]["nominal_feet"]]
     xs, zs = [f[0] for f in feet], [f[2] for f in feet]
-    return max(xs) - min(xs), -sum(zs) / len(zs)
+    return max(xs) - min(xs), -sum(zs) / len(zs), float(spec["centroidal"]["range_of_motion"][0])
 
 
 def write_maps(work: Path, length: float, height: float) -> dict[str, Path]:
@@ -121,17 +141,18 @@ def bench_robot(name: str, urdf: Path | None, work: Path) -> dict:
     except json.JSONDecodeError:
         row["check_errors"] = None
     row["check_exit"] = check.returncode
-    length, height = robot_shape(folder)
+    length, height, reach_x = robot_shape(folder)
     row["length"], row["height"] = length, height
     (work / f"{name}-maps").mkdir(parents=True)
     maps = write_maps(work / f"{name}-maps", length, height)
     for task, (kind, gait, strides, duration) in TASKS.items():
         start, goal = ((0, 0, 0), (length, 0, 0)) if kind == "flat" else ((-1.4 * length, 0, 0), (0.9 * length, 0, 0))
+        strides, duration = strides_for(gait, strides, duration, goal[0] - start[0], reach_x)
         traj, sim = work / f"{name}-{task.replace(' ', '_')}.h5", work / f"{name}-{task.replace(' ', '_')}-sim.h5"
         cpu = time.process_time()
         planned = run(["dyn", "plan", maps[kind], "--robot", folder, "--gait", gait, "--strides", strides,
                        "--duration", duration, "--start", *start, "--goal", *goal, "-o", traj, "-q"])
-        entry = {"plan_exit": planned.returncode}
+        entry = {"plan_exit": planned.returncode, "strides": strides, "duration": duration}
         if planned.returncode in (0, 1) and traj.exists():
             plan_summary = summary(traj)
             entry.update(planned=bool(plan_summary.get("succeeded")),
@@ -162,19 +183,22 @@ def markdown(result: dict) -> str:
              f"{result['commit']}, load {result['load_start']:.1f} → {result['load_end']:.1f})", "",
              "`bench/robots.py`: `robot init` (no hand edits) → `robot check` → `dyn plan` → `dyn simulate`; tasks "
              "scaled to the robot (body length L, standing height h): flat walk/trot to (L, 0), pallet of height "
-             "h/3 from (-1.4 L, 0) to (0.9 L, 0). One run each (the outcomes are deterministic).", "",
-             "| robot | init | check errors | task | planned | check passed | executed | rms pos (m) | rms rot (rad) | note |",
-             "|---|---|---|---|---|---|---|---|---|---|"]
+             "h/3 from (-1.4 L, 0) to (0.9 L, 0); strides as given (walks 4, flat trot 4, pallet trot 6) or more "
+             "where a stride would carry the body past a standing foot farther than the range-of-motion box "
+             "(durations scaled with them). One run each (the outcomes are deterministic).", "",
+             "| robot | init | check errors | task | strides / s | planned | check passed | executed | rms pos (m) | rms rot (rad) | note |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for row in result["rows"]:
         if not row.get("init", True):
-            lines.append(f"| {row['robot']} | failed | – | – | – | – | – | – | – | {row.get('init_error', '')} |")
+            lines.append(f"| {row['robot']} | failed | – | – | – | – | – | – | – | – | {row.get('init_error', '')} |")
             continue
         for task, entry in row["tasks"].items():
             def num(key):
                 value = entry.get(key)
                 return "–" if value is None else f"{value:.3f}"
             note = (entry.get("error") or entry.get("sim_error") or "").replace("|", "/")
-            lines.append(f"| {row['robot']} | ok | {row.get('check_errors')} | {task} | {entry.get('planned', False)} | "
+            shape = f"{entry.get('strides', '–')} / {entry.get('duration', float('nan')):.2f}"
+            lines.append(f"| {row['robot']} | ok | {row.get('check_errors')} | {task} | {shape} | {entry.get('planned', False)} | "
                          f"{entry.get('check_passed', False)} | {entry.get('executed', False)} | {num('rms_position')} | "
                          f"{num('rms_orientation')} | {note} |")
     for task in TASKS:

@@ -9,6 +9,8 @@ step (`euler.complex_step`, exact to round-off), the rest analytically.
   m·p̈ + m·g·e_z − Σ f_i = 0 and I_W ω̇ + ω × I_W ω − Σ (p_i − p) × f_i = 0, I_W = R I_B Rᵀ.
 * `RangeOfMotionBlock` — Rᵀ(p_i − p) − p̄_i, bounded by the range-of-motion box.
 * `LegClearanceBlock` — the height of the legs' collision spheres above the terrain's envelope.
+* `JointTorqueBlock` — a leg's joint torques Jᵀ(q) Rᵀ f for its foot's force, q by the leg's IK,
+  bounded by the robot's torque limits: the force polytope the joints allow.
 * `TerrainHeightBlock` — z − h(x, y) of foot samples: = 0 for stance nodes, ≥ 0 along swings against
   the terrain's column envelope (ours, between nodes too: TOWR constrains the swing apex only).
 * `ForceBlock` — f·n ∈ [0, f_max] and a friction pyramid inscribed in the Coulomb cone in stance, on
@@ -255,6 +257,72 @@ class LegClearanceBlock(RangeOfMotionBlock):
         dc_de = dr_de.reshape(self.n, k, 3, 3) + rds @ db_de[:, None]
         row = lambda d: np.einsum("nki,nkij->nkj", dh, d)
         return value.reshape(-1), self._jacobians(row(dc_dp), row(dc_de), row(dc_dq), values)
+
+
+class JointTorqueBlock(RangeOfMotionBlock):
+    """Per sample time, the torques of leg `leg`'s joints that hold its foot's force:
+    τ = J_f(q)ᵀ Rᵀ f, with q the joints that put the foot at b = Rᵀ(p_i − p) + o in the base frame (p
+    the CoM, o its offset in the base frame) by the leg's own kinematics (`legplan.dyn.legs.ChainLegs`,
+    IK warm-started from the last evaluation) and J_f the foot's point Jacobian there (statics of
+    massless legs, the torques the joints give for the contact force). Bounded by the joints' torque
+    limits (`Centroidal.torque_limits`) it keeps every force inside the polytope |J_fᵀ g| ≤ τ_max of
+    the leg's configuration at that time, not one bound on the normal force for every stance and
+    direction (ours: TOWR bounds f·n alone). The Jacobian: ∂τ/∂b (`ChainLegs.foot_torques`, through
+    the IK) by the chain rule with ∂b/∂(p, e, p_i), ∂τ/∂g = J_fᵀ with g = Rᵀ f, the rotation's
+    derivative by complex step."""
+
+    variables = ("base_lin", "base_ang", "feet", "forces")
+
+    def __init__(self, form: Formulation, leg: int, legs, times: np.ndarray, timing: PhaseTiming | None = None,
+                 com_offset=(0.0, 0.0, 0.0)):
+        super().__init__(form, leg, np.zeros(3), times, timing)
+        self.leg, self.legs = leg, legs
+        self.offset = np.asarray(com_offset, float)
+        self.joints = legs.nominal(leg, self.n)
+        self.rows = self.joints.shape[1]
+        self.size = self.rows * self.n
+        if timing is None:
+            self.variables = JointTorqueBlock.variables
+            self.force = form.force_matrix(leg, self.times)
+        else:
+            self.variables = JointTorqueBlock.variables + (PHASES,)
+            self.force_samples = TimedSamples(timing, "force", leg, self.times)
+            self.force = self.force_samples.matrix
+        self.base_jacobian = SampledJacobian([self.base], self.rows, self.n, self.columns[0])
+        self.foot_jacobian = SampledJacobian([self.foot], self.rows, self.n, self.columns[2])
+        self.force_jacobian = SampledJacobian([self.force], self.rows, self.n, 3 * self.force.shape[1])
+
+    def _retime(self, d: np.ndarray) -> bool:
+        if not super()._retime(d):
+            return False
+        changed, valid = refresh([self.force_samples], d)
+        if changed and valid:
+            self.force = self.force_samples.matrix
+            self.force_jacobian = self.force_jacobian.with_matrices([self.force])
+        return valid
+
+    def evaluate(self, values, jacobians):
+        if self.timing is not None and not self._retime(values[4]):
+            return invalid_timing(self, jacobians)
+        lin, ang, feet, forces = (_nodes(v) for v in values[:4])
+        p, e, q = self.base @ lin, self.base @ ang, self.foot @ feet
+        f = self.force @ forces
+        b = self._in_base(e, q - p) + self.offset
+        g = self._in_base(e, f)
+        tau, d_b, d_g, self.joints = self.legs.foot_torques(self.leg, b, g, self.joints)
+        if not jacobians:
+            return tau.reshape(-1), None
+        _, (db_de,) = complex_step(self._in_base, (e, q - p), (0,))
+        _, (dg_de,) = complex_step(self._in_base, (e, f), (0,))
+        rt = np.transpose(rotation(e), (0, 2, 1))
+        d_q = d_b @ rt
+        d_f = d_g @ rt
+        out = [self.base_jacobian([-d_q]), self.base_jacobian([d_b @ db_de + d_g @ dg_de]), self.foot_jacobian([d_q]),
+               self.force_jacobian([d_f])]
+        if self.timing is not None:
+            out.append(phase_jacobian([(d_q, self.samples, values[2]), (d_f, self.force_samples, values[3])],
+                                      self.size, self.timing.size))
+        return tau.reshape(-1), out
 
 
 class FootTerrainBlock(ResidualBlock):

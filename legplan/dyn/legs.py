@@ -9,7 +9,8 @@ and per foot the joint that carries it and the offset in that joint's frame — 
 chain for many samples at once:
 
 * forward kinematics: T_j = T_{j−1} M_j Rot(a_j, q_j) from the base, points x = T_j x_local;
-* inverse kinematics from the foot: damped Gauss–Newton on the joints, q ← q + Jᵀ(J Jᵀ + λI)⁻¹(b − x_foot(q)),
+* inverse kinematics from the foot: damped Gauss–Newton on the joints, q ← q + Jᵀ(J Jᵀ + λI)⁻¹(b − x_foot(q))
+  (a step scaled down to at most `IK_STEP` per joint),
   started from the previous solution of the same samples (the nominal joints at first), so the
   knee keeps the side of the nominal stance;
 * derivative of a sphere centre s(q(b)) by the implicit function theorem: ∂s/∂b = J_s ∂q/∂b with
@@ -31,6 +32,7 @@ import pinocchio as pin
 IK_ITERATIONS = 30
 IK_TOLERANCE = 1e-13  # m: foot position error at which the IK stops (Newton: one step more than 1e-10)
 IK_DAMPING = 1e-10  # λ of the damped steps (m²): only where the leg is stretched or folded flat
+IK_STEP = 0.5  # rad: the largest joint step of an IK iteration (a far target: Gauss–Newton overshoots)
 
 
 @dataclass(frozen=True)
@@ -78,7 +80,8 @@ class _Chain:
             error = feet - x
             if np.abs(error).max(initial=0.0) < IK_TOLERANCE:
                 break
-            q += (_damped_pinv(jac) @ error[..., None])[..., 0]
+            step = (_damped_pinv(jac) @ error[..., None])[..., 0]
+            q += step * np.minimum(1.0, IK_STEP / np.maximum(np.abs(step).max(axis=1, keepdims=True), 1e-300))
         return q
 
 
@@ -131,6 +134,34 @@ class ChainLegs:
     def nominal(self, leg: int, n: int) -> np.ndarray:
         """The nominal joints of a leg for n samples (an IK start)."""
         return np.tile(self.chains[leg].nominal, (n, 1))
+
+    def foot_torques(self, leg: int, feet: np.ndarray, forces: np.ndarray, q: np.ndarray):
+        """Joint torques τ = J_fᵀ g (n, J) that hold the leg's foot at `feet` (n, 3, base frame)
+        against forces g (n, 3, base frame) at the foot, J_f the foot's point Jacobian at the joints
+        of the IK started from q (n, J) (statics: the torque the joints give for the force, legs
+        without mass); ∂τ/∂foot (n, J, 3) by the implicit function theorem through the IK,
+        ∂τ/∂g = J_fᵀ (n, J, 3), and the joints (n, J). With r_i = x − o_i (x the foot, o_i joint
+        i's origin) and a_i its axis, τ_i = g · (a_i × r_i); a turn of joint k < i turns a_i and r_i
+        about a_k, of k ≥ i moves x alone: ∂τ_i/∂q_k = g · ((a_k × a_i) × r_i + a_i × (a_k × r_i))
+        for k < i, g · (a_i × (a_k × r_k)) for k ≥ i."""
+        chain = self.chains[leg]
+        q = chain.solve(np.asarray(feet, float), q)
+        origin, rot, axes = frames = chain.kinematics(q)
+        x, jac = chain.point(frames, chain.foot_joint, chain.foot_offset)
+        forces = np.asarray(forces, float)
+        count = q.shape[1]
+        tau = np.einsum("nai,na->ni", jac, forces)
+        r = x[:, None] - origin  # (n, J, 3)
+        moved = np.cross(axes[:, :, None], r[:, None])  # [n, k, i] = a_k × r_i
+        turned = np.cross(np.cross(axes[:, :, None], axes[:, None]), r[:, None])  # (a_k × a_i) × r_i
+        before = np.cross(axes[:, None], moved)  # [n, k, i] = a_i × (a_k × r_i)
+        tip = np.cross(axes[:, None], np.diagonal(moved, axis1=1, axis2=2).transpose(0, 2, 1)[:, :, None])  # a_i × (a_k × r_k)
+        k, i = np.meshgrid(np.arange(count), np.arange(count), indexing="ij")
+        lower = (k < i)[None, :, :, None]
+        reach = (np.arange(count) <= chain.foot_joint)  # joints past the foot's move nothing
+        terms = np.where(lower, turned + before, tip) * (reach[None, :, None, None] & reach[None, None, :, None])
+        d_tau_dq = np.einsum("nkia,na->nik", terms, forces)  # (n, i, k)
+        return tau, d_tau_dq @ _damped_pinv(jac), np.swapaxes(jac, 1, 2), q
 
     def sphere_centres(self, leg: int, feet: np.ndarray, q: np.ndarray):
         """Centres (n, k, 3) of the leg's k spheres in the base frame with its foot at `feet` (n, 3,

@@ -21,8 +21,8 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock, ForceBlock, LegClearanceBlock,
-                                     RangeOfMotionBlock, StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity,
+from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock, ForceBlock, JointTorqueBlock,
+                                     LegClearanceBlock, RangeOfMotionBlock, StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity,
                                      swing_constraint, swing_height)
 from legplan.dyn.costs import CostWeights, StairEdgeBlock, integral_costs
 from legplan.dyn.formulation import Formulation, Pose
@@ -335,6 +335,31 @@ def _force(c: BuildContext) -> list[Constraint]:
     return [Constraint(ForceBlock(p.terrain, model.friction, points if p.timing is None else TimedControlPoints(p.timing, c.leg),
                                   p.form.node_selector(stance_node, p.form.motion_nodes)),
                        lower, upper, name="force", scale=1.0 / (model.mass * GRAVITY))]
+
+
+@constraint("joint_torque", per_leg=True)
+def _joint_torque(c: BuildContext) -> list[Constraint]:
+    """The leg's joint torques inside its `Centroidal.torque_limits` less `DynParams.torque_margin`,
+    at the dynamics samples (knots and between) inside its stance phases (all of them when the
+    phases move); none for a model without torque limits (TOWR's scalar bound alone)."""
+    p, model = c.problem, c.problem.model
+    limits = getattr(model, "torque_limits", None)
+    if limits is None:
+        return []
+    if model.leg_chains is None:
+        raise ValueError("Centroidal.torque_limits need the legs' chains (Centroidal.leg_chains)")
+    t = np.union1d(c.times["dynamics"], c.times["between"])
+    if p.timing is None:
+        inside = np.zeros(t.size, bool)
+        for phase in c.foot.phases:
+            if phase.stance:
+                inside |= (t > phase.t0) & (t < phase.t0 + phase.duration)
+        t = t[inside]
+    if not t.size:
+        return []
+    bound = np.tile(np.asarray(limits[c.leg], float) * (1.0 - c.params.torque_margin), t.size)
+    return [Constraint(JointTorqueBlock(p.form, c.leg, model.leg_chains, t, p.timing, p.com_offset), -bound, bound,
+                       name="joint_torque", scale=1.0 / np.tile(np.asarray(limits[c.leg], float), t.size))]
 
 
 @constraint("leg_clearance", per_leg=True)

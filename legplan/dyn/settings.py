@@ -117,6 +117,10 @@ class DynParams(Parameters):
         "terrain's envelope at the range-of-motion samples (LegClearanceBlock): on by default, since the "
         "independent check judges every leg sphere against the terrain, with a margin for the tracking "
         "error of the executing controller; None = off"))
+    torque_margin: float = param(0.05, "[0, 1)", doc=(
+        "share of each joint's torque limit (Centroidal.torque_limits) the planned forces leave free "
+        "(JointTorqueBlock): for what the legs' own motion and the controller's corrections need on "
+        "top of holding the contact forces, which the independent check judges against the full limit"))
     solver: ALParams = param(ALParams(), doc="the feasibility stages (the constraints alone)")
     projection_solver: ALParams = param(ALParams(exact_rows=True), doc=(
         "the 'projection' warm stage: the constraints alone, stopped by the exact per-row test (a "

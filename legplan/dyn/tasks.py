@@ -172,7 +172,8 @@ def check_sizes(tasks: list[DynTask], params, source: str | os.PathLike | None, 
 
 
 def centroidal_model(robot, params=None, costs: str = "--costs"):
-    """The `centroidal:` model of a loaded robot with the kinematics its legs' spheres are placed by
+    """The `centroidal:` model of a loaded robot with the legs' chains (`Centroidal.leg_chains`, for
+    its torque limits) and the kinematics its legs' spheres are placed by
     in the planner's leg clearance: the planar closed form (`legplan.robots.planar_legs`, cheaper)
     where the legs have it, else the legs' chains (`legplan.dyn.legs.ChainLegs`, any serial leg); or
     a one-line error naming its robot.yaml; with `params` (`DynParams`) asking for leg clearance, one
@@ -183,8 +184,12 @@ def centroidal_model(robot, params=None, costs: str = "--costs"):
     if robot.n_legs != 4:
         raise LegplanError(f"{robot.yaml_path}: field 'legs' lists {robot.n_legs} legs; `legplan dyn` plans "
                            "quadrupeds (four legs: left front, right front, left hind, right hind)")
-    legs = robot.centroidal.leg_kinematics or ChainLegs.of_robot(robot)  # the closed form where it exists
+    chains = ChainLegs.of_robot(robot)
+    legs = robot.centroidal.leg_kinematics or chains  # the closed form where it exists
     if params is not None and params.leg_clearance is not None and legs is None:
         raise LegplanError(f"{costs}: field 'leg_clearance': {robot.yaml_path}'s legs are not serial chains of "
                            "revolute joints from the base, whose spheres the planner can place (legplan.dyn.legs)")
-    return replace(robot.centroidal, leg_kinematics=legs)
+    if robot.centroidal.torque_limits is not None and chains is None:
+        raise LegplanError(f"{robot.yaml_path}: field 'centroidal.torque_limits': the legs are not serial chains of "
+                           "revolute joints from the base, whose torques the planner can place (legplan.dyn.legs)")
+    return replace(robot.centroidal, leg_kinematics=legs, leg_chains=chains)

@@ -4,7 +4,11 @@ The model of TOWR (Winkler et al. 2018) and of `legplan dyn`: the whole robot as
 mass m and inertia I about its CoM, which lies at `com_offset` in the base frame (zero when
 absent: TOWR's models put the CoM at the base origin), feet that push with forces bounded by
 `max_normal_force` inside a friction pyramid of coefficient `friction`, and a range-of-motion box
-(half extents `range_of_motion`) around each foot's nominal position in the base frame.
+(half extents `range_of_motion`) around each foot's nominal position in the base frame. With
+`torque_limits` (per leg, one bound per joint in the leg's order, at most the URDF's efforts) the
+forces also stay inside each leg's torque polytope |J(q)ᵀ f| ≤ τ_max, J the foot's Jacobian at the
+joints q that put it where the plan has it: the forces the joints can give, where one scalar
+bound on the normal force ignores the leg's configuration and the force's direction.
 
 ```yaml
 centroidal:
@@ -15,6 +19,7 @@ centroidal:
   range_of_motion: [0.15, 0.10, 0.10]         # m
   max_normal_force: 1000.0                    # N
   friction: 0.5
+  torque_limits: {lf: [80, 80, 80], ...}      # N m, optional: per leg, its joints' order
 ```
 
 The inertia keys are the entries of the symmetric tensor (URDF convention: ixy = I[0, 1] =
@@ -29,12 +34,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from legplan.parameters import FORCE, FRICTION, LENGTH
+from legplan.parameters import FORCE, FRICTION, LENGTH, TORQUE
 from legplan.specio import FieldReader
 
 INERTIA_KEYS = ("ixx", "iyy", "izz", "ixy", "ixz", "iyz")
 SECTION_KEYS = ("mass", "inertia", "com_offset", "nominal_feet", "range_of_motion", "max_normal_force",
-                "friction")
+                "friction", "torque_limits")
 MASS_TOLERANCE = 1e-6  # relative, centroidal mass vs the URDF's total mass
 
 
@@ -57,11 +62,18 @@ class Centroidal:
     leg_kinematics: object = None
     """The legs' closed-form kinematics (`legplan.robots.planar_legs.PlanarLegs`), set by `RobotModel`
     from the URDF; None for legs of another kind (the planner's leg clearance needs it)."""
+    torque_limits: tuple | None = None
+    """Per leg (robot.yaml order) its joints' torque bounds (N m, read-only arrays in the leg's joint
+    order); None: the forces are bounded by `max_normal_force` and friction alone."""
+    leg_chains: object = None
+    """The legs' chains (`legplan.dyn.legs.ChainLegs`) the planner's torque polytope places the
+    joints by, set by `legplan.dyn.tasks.centroidal_model` when `torque_limits` are given."""
 
     def __post_init__(self):
         if self.com_offset is None:
             object.__setattr__(self, "com_offset", np.zeros(3))
-        for array in (self.inertia, self.nominal_feet, self.range_of_motion, self.com_offset):
+        for array in (self.inertia, self.nominal_feet, self.range_of_motion, self.com_offset,
+                      *(self.torque_limits or ())):
             array.setflags(write=False)
 
     @property
@@ -92,7 +104,28 @@ def parse_centroidal(reader: FieldReader, data: dict, legs: tuple[str, ...], urd
         nominal_feet=_nominal_feet(reader, section, legs), range_of_motion=rom,
         max_normal_force=reader.positive(reader.get(section, "max_normal_force", "centroidal.max_normal_force"),
                                          "centroidal.max_normal_force", FORCE),
-        friction=reader.positive(reader.get(section, "friction", "centroidal.friction"), "centroidal.friction", FRICTION))
+        friction=reader.positive(reader.get(section, "friction", "centroidal.friction"), "centroidal.friction", FRICTION),
+        torque_limits=_torque_limits(reader, section, legs))
+
+
+def _torque_limits(reader: FieldReader, section: dict, legs: tuple[str, ...]) -> tuple | None:
+    """The optional `torque_limits` mapping, one list of positive bounds per leg (lengths against
+    the legs' joints: `legplan.robots.spec`)."""
+    if section.get("torque_limits") is None:
+        return None
+    return tuple(np.array([reader.positive(v, f"{field}[{k}]", TORQUE) for k, v in enumerate(values)])
+                 for field, values in _per_leg(reader, section, "torque_limits", legs, None))
+
+
+def _per_leg(reader: FieldReader, section: dict, key: str, legs: tuple[str, ...], length: int | None):
+    """(field, vector) of every leg of the per-leg mapping `key`, in the order of `legs`; a leg it
+    lacks or a name that is no leg is a `SpecError`."""
+    mapping = reader.get(section, key, f"centroidal.{key}", dict)
+    unknown = sorted(str(name) for name in set(mapping) - set(legs))
+    if unknown:
+        reader.fail(f"centroidal.{key}.{unknown[0]}", f"names no leg (legs: {', '.join(legs)})")
+    return [(f"centroidal.{key}.{leg}", reader.vector(reader.get(mapping, leg, f"centroidal.{key}.{leg}"),
+                                                      f"centroidal.{key}.{leg}", length)) for leg in legs]
 
 
 def _inertia(reader: FieldReader, section: dict) -> np.ndarray:
@@ -114,14 +147,8 @@ def _inertia(reader: FieldReader, section: dict) -> np.ndarray:
 
 
 def _nominal_feet(reader: FieldReader, section: dict, legs: tuple[str, ...]) -> np.ndarray:
-    feet = reader.get(section, "nominal_feet", "centroidal.nominal_feet", dict)
-    unknown = sorted(str(name) for name in set(feet) - set(legs))
-    if unknown:
-        reader.fail(f"centroidal.nominal_feet.{unknown[0]}", f"names no leg (legs: {', '.join(legs)})")
     rows = []
-    for leg in legs:
-        field = f"centroidal.nominal_feet.{leg}"
-        row = reader.vector(reader.get(feet, leg, field), field, 3)
+    for field, row in _per_leg(reader, section, "nominal_feet", legs, 3):
         if row[2] >= 0:
             reader.fail(field, f"must be below the base (z < 0), got z = {row[2]:g}")
         rows.append(row)

@@ -18,8 +18,9 @@ Warnings:
 - a link inertia that is not physically consistent: mass <= 0, principal moments not positive or
   breaking the triangle inequality (I1 + I2 >= I3 for every order); links lighter than
   `FRAME_LINK_MASS` of the robot (frames, sensors) are not checked, one note lists them;
-- centroidal.max_normal_force above what the joint efforts allow at the nominal stance, or efforts
-  that are placeholders (`legplan.robots.rigid_body.leg_forces`).
+- centroidal.max_normal_force above what the joint efforts allow at the nominal stance when no
+  `torque_limits` bound the forces through the legs (those above the URDF's efforts are errors), or
+  efforts that are placeholders (`legplan.robots.rigid_body.leg_forces`).
 """
 
 from __future__ import annotations
@@ -150,7 +151,8 @@ def _centroidal(robot) -> list[Finding]:
     if c is None:
         return []
     findings = [Finding("error", field, message) for field, message in
-                urdf_contradictions(robot.model, robot.q_nominal, [leg.foot_frame_id for leg in robot.legs], c)]
+                urdf_contradictions(robot.model, robot.q_nominal, [leg.foot_frame_id for leg in robot.legs], c,
+                                    robot.legs)]
     reach = leg_reach(robot, np.zeros((1, 3)), np.eye(3)[None], c.nominal_feet[None])
     for k in np.flatnonzero(~reach.reachable[0]):
         findings.append(Finding("error", f"centroidal.nominal_feet.{c.legs[k]}", "is out of the leg's reach inside "
@@ -168,7 +170,7 @@ def _centroidal(robot) -> list[Finding]:
         findings.append(Finding("warning", "centroidal.max_normal_force", f"{c.max_normal_force:g} N is not backed "
                                 f"by the URDF: the efforts of {shown} are placeholders (missing, or a leg would push "
                                 f"{forces.force.max():.0f} N, more than 10 robot weights)"))
-    elif c.max_normal_force > (1 + FORCE_SLACK) * forces.force.min():
+    elif c.torque_limits is None and c.max_normal_force > (1 + FORCE_SLACK) * forces.force.min():
         k = int(np.argmin(forces.force))
         findings.append(Finding("warning", "centroidal.max_normal_force", f"{c.max_normal_force:g} N is more than "
                                 f"the {forces.force[k]:.0f} N leg {robot.legs[k].name}'s joint efforts allow at the "

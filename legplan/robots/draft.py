@@ -37,8 +37,10 @@
   (`KNEE_FOLD`) on its nominal side, other joints the nominal angle ± π/2; a warning names them.
 - Centroidal section (`legplan.robots.rigid_body`): mass, composite inertia about the CoM and the
   CoM offset at the stance (pinocchio's ccrba), nominal feet, a range-of-motion box every corner of
-  which the legs reach by IK, max normal force from the joint efforts (placeholder efforts flagged),
-  friction `DRAFT_FRICTION`.
+  which the legs reach by IK, friction `DRAFT_FRICTION`, and the force limits: the URDF's joint
+  efforts as `torque_limits` (the planner keeps |Jᵀf| inside them through each leg's Jacobian) with
+  max normal force `FORCE_CAP_WEIGHTS` robot weights; with placeholder efforts (flagged) no torque
+  limits and that cap, or `--max-normal-force`.
 """
 
 from __future__ import annotations
@@ -633,6 +635,10 @@ def draft_yaml(draft: RobotDraft, urdf_ref: str) -> str:
         lines += [f"  range_of_motion: {_vector(c['range_of_motion'])}",
                   f"  max_normal_force: {c['max_normal_force']:g}",
                   f"  friction: {c['friction']:g}"]
+        if c.get("torque_limits") is not None:
+            lines.append("  torque_limits:                       # N m, the URDF's joint efforts, per leg")
+            lines += [f"    {leg.name}: [{', '.join(f'{v:g}' for v in limits)}]"
+                      for leg, limits in zip(draft.legs, c["torque_limits"])]
     return "\n".join(lines) + "\n"
 
 
@@ -641,7 +647,7 @@ def draft_centroidal(draft: RobotDraft, options: DraftOptions | None = None) -> 
     from dataclasses import replace
 
     from legplan.robots.model import RobotModel
-    from legplan.robots.rigid_body import composite_body, drafted_force_limit, leg_forces, reach_box
+    from legplan.robots.rigid_body import composite_body, drafted_force_limit, leg_forces, reach_box, torque_limits_of
 
     options = options or DraftOptions()
     with tempfile.TemporaryDirectory() as folder:
@@ -663,9 +669,9 @@ def draft_centroidal(draft: RobotDraft, options: DraftOptions | None = None) -> 
     if options.max_normal_force is not None:
         force, source = options.max_normal_force, "given on the command line"
     else:
-        force = drafted_force_limit(robot, forces)
+        force = drafted_force_limit(robot)
         source = ("capped (placeholder joint efforts)" if forces.placeholder
-                  else "from the joint efforts through the leg Jacobians")
+                  else "capped, the joint efforts bounding the forces through the leg Jacobians (torque_limits)")
         if forces.placeholder:
             warnings.append(f"{draft.urdf}: joint efforts of {', '.join(forces.placeholder[:3])}"
                             f"{', ...' if len(forces.placeholder) > 3 else ''} are placeholders (missing, or a leg "
@@ -677,7 +683,8 @@ def draft_centroidal(draft: RobotDraft, options: DraftOptions | None = None) -> 
         "inertia": {"ixx": inertia[0, 0], "iyy": inertia[1, 1], "izz": inertia[2, 2],
                     "ixy": inertia[0, 1], "ixz": inertia[0, 2], "iyz": inertia[1, 2]},
         "nominal_feet": {leg.name: foot for leg, foot in zip(robot.legs, body.feet)},
-        "range_of_motion": box, "max_normal_force": force, "friction": options.friction, "force_source": source}
+        "range_of_motion": box, "max_normal_force": force, "friction": options.friction, "force_source": source,
+        "torque_limits": torque_limits_of(robot)}
     return replace(draft, centroidal=centroidal, warnings=tuple(warnings))
 
 

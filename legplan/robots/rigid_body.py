@@ -6,9 +6,12 @@ and the robot loader hold a written section against them.
   rotational inertia about the CoM in the base frame, from pinocchio's composite rigid body
   algorithm (`pin.ccrba`: the centroidal inertia Ig at q with zero velocity), and the feet in the
   base frame (forward kinematics).
-- Force limits (`leg_forces`): the largest vertical push f each foot can give at the stance with
-  every joint inside its effort limit, τ = Jᵀ f (J the foot's linear Jacobian in the world-aligned
-  frame, the leg's columns): f = min_j τ_max,j / |J_zj|. Efforts are placeholders when missing,
+- Force limits: the joints' efforts (`torque_limits_of`), which the planner holds |Jᵀ f| to through
+  each leg's Jacobian at its planned joints, and a cap of `FORCE_CAP_WEIGHTS` robot weights on the
+  normal force (`drafted_force_limit`). `leg_forces`: the largest vertical push f each foot can
+  give at the stance with every joint inside its effort limit, τ = Jᵀ f (J the foot's linear
+  Jacobian in the world-aligned frame, the leg's columns): f = min_j τ_max,j / |J_zj|, what
+  `robot check` holds a scalar bound without torque limits to. Efforts are placeholders when missing,
   or when they would let one leg push more than `PLACEHOLDER_WEIGHTS` times the robot's weight
   (no actuator of a walking robot comes near that; Solo12's URDF gives 1000 N m).
 - Range of motion (`reach_box`): half extents (x, y, z) of the largest box, centred on each
@@ -64,11 +67,12 @@ def composite_body(model: pin.Model, q: np.ndarray, foot_frame_ids) -> Composite
                          inertia=rotation.T @ data.Ig.inertia @ rotation, feet=feet)
 
 
-def urdf_contradictions(model: pin.Model, q: np.ndarray, foot_frame_ids, centroidal) -> list[tuple[str, str]]:
+def urdf_contradictions(model: pin.Model, q: np.ndarray, foot_frame_ids, centroidal, legs=()) -> list[tuple[str, str]]:
     """(field, message) per field of a `Centroidal` that contradicts the URDF at the nominal stance q
-    beyond its tolerance: com_offset, inertia, nominal_feet (the mass is checked when parsed)."""
+    beyond its tolerance: com_offset, inertia, nominal_feet (the mass is checked when parsed), and
+    with the robot's `legs` (`legplan.robots.spec.Leg`) a torque limit above its joint's effort."""
     body = composite_body(model, q, foot_frame_ids)
-    found = []
+    found = torque_contradictions(model, legs, centroidal) if legs else []
     gap = float(np.linalg.norm(centroidal.com_offset - body.com))
     if gap > COM_TOLERANCE:
         found.append(("centroidal.com_offset", f"is {_vec(centroidal.com_offset)} m but the URDF's CoM at the "
@@ -85,6 +89,31 @@ def urdf_contradictions(model: pin.Model, q: np.ndarray, foot_frame_ids, centroi
             found.append((f"centroidal.nominal_feet.{leg}", f"is {_vec(written)} m but the nominal stance puts "
                           f"the foot at {_vec(actual)} m ({gap * 1e3:.1f} mm away)"))
     return found
+
+
+def torque_contradictions(model: pin.Model, legs, centroidal) -> list[tuple[str, str]]:
+    """(field, message) per leg of `centroidal.torque_limits` with a bound above its joint's URDF
+    effort (`model.effortLimit`): the planner would ask for torques the robot does not have."""
+    if centroidal.torque_limits is None:
+        return []
+    efforts = np.asarray(model.effortLimit, float)
+    found = []
+    for leg, limits in zip(legs, centroidal.torque_limits):
+        above = [f"{name} {limit:g} > {efforts[v]:g}" for name, limit, v in zip(leg.joint_names, limits, leg.joint_idx_v)
+                 if limit > efforts[v] * (1 + 1e-9)]
+        if above:
+            found.append((f"centroidal.torque_limits.{leg.name}", f"exceeds the URDF's joint efforts (N m: "
+                          f"{', '.join(above)})"))
+    return found
+
+
+def torque_limits_of(robot) -> tuple | None:
+    """Per leg its joints' URDF efforts (N m), the drafted `torque_limits`; None when an effort of
+    the legs is a placeholder (`leg_forces`)."""
+    if leg_forces(robot).placeholder:
+        return None
+    efforts = np.asarray(robot.model.effortLimit, float)
+    return tuple(efforts[list(leg.joint_idx_v)] for leg in robot.legs)
 
 
 @dataclass(frozen=True)
@@ -123,12 +152,10 @@ def leg_forces(robot) -> LegForces:
     return LegForces(np.array(forces), tuple(limiting), tuple(placeholder))
 
 
-def drafted_force_limit(robot, forces: LegForces) -> float:
-    """max_normal_force for a draft: the weakest leg's push, at most `FORCE_CAP_WEIGHTS` robot
-    weights (the cap alone when the efforts are placeholders), rounded down to 1 N."""
-    cap = FORCE_CAP_WEIGHTS * robot.mass * GRAVITY
-    force = cap if forces.placeholder else min(cap, float(forces.force.min()))
-    return float(np.floor(force))
+def drafted_force_limit(robot) -> float:
+    """max_normal_force for a draft: `FORCE_CAP_WEIGHTS` robot weights, rounded down to 1 N (the
+    joints' efforts bound the forces through the legs, `torque_limits_of`, where they are usable)."""
+    return float(np.floor(FORCE_CAP_WEIGHTS * robot.mass * GRAVITY))
 
 
 def _feet_world(feet, offsets):

@@ -308,7 +308,7 @@ def _check_centroidal(reader: FieldReader, model: pin.Model, q_nominal: np.ndarr
     (`legplan.robots.rigid_body.urdf_contradictions`), as a `SpecError`."""
     from legplan.robots.rigid_body import urdf_contradictions
 
-    found = urdf_contradictions(model, q_nominal, [leg.foot_frame_id for leg in legs], centroidal)
+    found = urdf_contradictions(model, q_nominal, [leg.foot_frame_id for leg in legs], centroidal, legs)
     if found:
         reader.fail(*found[0])
 
@@ -329,6 +329,10 @@ def read_spec(yaml_path: str | Path, strict: bool = True) -> RobotSpec:
     q_nominal = _parse_nominal(reader, data, model, legs, lower, upper)
     navigation = parse_navigation(reader, data)
     centroidal = parse_centroidal(reader, data, tuple(leg.name for leg in legs), pin.computeTotalMass(model))
+    for leg, limits in zip(legs, getattr(centroidal, "torque_limits", None) or ()):
+        if len(limits) != len(leg.joint_names):
+            reader.fail(f"centroidal.torque_limits.{leg.name}", f"lists {len(limits)} bounds for the "
+                        f"{len(leg.joint_names)} joints of leg {leg.name} ({', '.join(leg.joint_names)})")
     if centroidal is not None and strict:
         _check_centroidal(reader, model, q_nominal, legs, centroidal)
     return RobotSpec(name=name, description=description.strip(), yaml_path=path, urdf_path=urdf,

@@ -50,6 +50,14 @@ of `CheckTolerances`: the largest value ≤ it, or for those in `MINIMA` the sma
   joint_limit_margin        smallest distance of an IK solution's joint to its limit (rad), ≥ 0
   leg_penetration           max over every leg's collision spheres but the feet, placed by pinocchio
                             FK at the IK solution, of radius − d(centre) (m): the whole-body check
+  joint_torque              max over stance feet and their legs' joints of |τ_j| / τ_max,j, τ = Jᵀ f
+                            the torques that hold the foot's force f (J the foot's Jacobian by
+                            pinocchio at the IK solution, world-aligned; statics of massless legs)
+                            against the URDF's effort limits τ_max (joints without a positive one are
+                            left out): ≤ 1 + `torque` for a model that bounds its forces by the
+                            joints (`Centroidal.torque_limits`), a plan that needs more torque than the
+                            robot has fails; TOWR's scalar model (max_normal_force alone) promises no
+                            torques, its ratio is recorded with the bound ∞
 
 "Relative" force violations are divided by max(f·n, m g / 4) (the force of one foot of four
 carrying the weight), so 1e-3 means a thousandth of a foot's share of the weight or of the force.
@@ -76,7 +84,7 @@ UNITS = {"newton_euler_force": "N", "newton_euler_torque": "N m", "newton_euler_
          "friction_cone": "1", "swing_force": "1", "stance_slip": "m", "stance_height": "m", "stance_column": "m",
          "penetration_height": "m", "penetration_column": "m", "base_height": "m", "base_above_feet": "m",
          "trunk_penetration": "m", "range_of_motion": "m", "leg_reach": "m", "joint_limit_margin": "rad",
-         "leg_penetration": "m"}
+         "leg_penetration": "m", "joint_torque": "1"}
 MINIMA = ("base_height", "base_above_feet", "joint_limit_margin")
 """Metrics whose worst value is the smallest, judged by a lower bound; the rest by an upper one."""
 
@@ -104,6 +112,8 @@ class CheckTolerances:
     penetration: float = 5e-3
     range_of_motion: float = 1e-3
     leg_reach: float = 1e-4
+    torque: float = 1e-3
+    """Relative: joint torques up to (1 + this) × the URDF's effort limits."""
     node_dt: float = 0.1
 
 
@@ -180,7 +190,9 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
     worst["range_of_motion"] = _max(np.maximum(offset, 0.0))
     reach, joints = _reach(robot, model, p, rot, feet, tolerances.leg_reach)
     worst.update(reach)
-    worst.update(_spheres(robot, columns, p, rot, joints))
+    kinematics = _kinematics(robot, p, rot, joints)
+    worst.update(_spheres(robot, columns, kinematics.sphere_centres))
+    worst["joint_torque"] = _joint_torque(robot, model, kinematics.foot_jacobians, forces, contact)
 
     between = tolerances.between
     loose = tolerances.between_dynamic
@@ -194,7 +206,8 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
                  "penetration_column": tolerances.penetration, "base_height": 0.0, "base_above_feet": 0.0,
                  "trunk_penetration": tolerances.penetration, "range_of_motion": tolerances.range_of_motion,
                  "leg_reach": tolerances.leg_reach, "joint_limit_margin": 0.0,
-                 "leg_penetration": tolerances.penetration}
+                 "leg_penetration": tolerances.penetration,
+                 "joint_torque": np.inf if getattr(model, "torque_limits", None) is None else 1.0 + tolerances.torque}
     worst = {name: float(worst[name]) for name in UNITS}
     passed = {name: bool(worst[name] >= bound if name in MINIMA else worst[name] <= bound)
               for name, bound in tolerance.items()}
@@ -332,18 +345,39 @@ def _reach(robot, model, p, rot, feet, tolerance: float) -> tuple[dict[str, floa
     return {"leg_reach": float(reach.error.max()), "joint_limit_margin": float(reach.limit_margin.min())}, reach.joints
 
 
-def _spheres(robot, columns: _Columns, p, rot, joints) -> dict[str, float]:
-    """How deep the trunk's and the legs' spheres (all but the feet) reach into the terrain (radius −
-    the exact column distance of the centre), the centres by one pinocchio FK of the base pose and
-    the IK joints."""
+def _kinematics(robot, p, rot, joints):
+    """Sphere centres and foot Jacobians (`legplan.robots.kinematics.Kinematics`) by one pinocchio
+    pass over the configurations of the base poses and the IK joints."""
     Q = np.empty((len(p), robot.nq))
     Q[:, :3], Q[:, 3:7], Q[:, 7:] = p, [pin.Quaternion(r).coeffs() for r in rot], joints   # (x, y, z, w)
+    return robot.kinematics(Q)
+
+
+def _joint_torque(robot, model, jacobians, forces, contact) -> float:
+    """Largest |Jᵀ f|_j / τ_max,j over the stance feet's legs (forces and contact from `model.legs`
+    to `robot.legs` order by name), joints with a positive finite effort limit."""
+    efforts = np.asarray(robot.model.effortLimit, float)
+    worst = 0.0
+    for k, leg in enumerate(robot.legs):
+        m = model.legs.index(leg.name)
+        columns = list(leg.joint_idx_v)
+        limit = efforts[columns]
+        judged = np.isfinite(limit) & (limit > 0)
+        tau = np.einsum("naj,na->nj", jacobians[:, k][:, :, columns], forces[:, m])[contact[:, m]]
+        worst = max(worst, _max(np.abs(tau[:, judged]) / limit[judged]))
+    return worst
+
+
+def _spheres(robot, columns: _Columns, centres) -> dict[str, float]:
+    """How deep the trunk's and the legs' spheres (all but the feet) reach into the terrain (radius −
+    the exact column distance of the centre), the centres (n, spheres, 3) placed by pinocchio FK of
+    the base pose and the IK joints."""
     index, foot = np.asarray(robot.spheres.leg_index), np.asarray(robot.spheres.is_foot, bool)
     picked = np.flatnonzero(~foot)
-    centres = robot.sphere_centres(Q)[:, picked]
+    centres = centres[:, picked]
     radii = np.asarray(robot.spheres.radii, float)[picked]
     reach = float(radii.max(initial=0.0)) + SPHERE_REACH
-    depth = radii - columns.distance(centres.reshape(-1, 3), reach).reshape(len(p), -1)
+    depth = radii - columns.distance(centres.reshape(-1, 3), reach).reshape(len(centres), -1)
     trunk = index[picked] == -1
     return {"trunk_penetration": float(depth[:, trunk].max(initial=-np.inf)),
             "leg_penetration": float(depth[:, ~trunk].max(initial=-np.inf))}

@@ -9,6 +9,7 @@ import pytest
 from legplan.dyn.costs import CostWeights, integral_costs
 from legplan.dyn.euler import body_rates, complex_step, rotation, world_rates
 from legplan.dyn.init import heuristic
+from legplan.dyn.legs import ChainLegs
 from legplan.dyn.problem import PAPER_COSTS, DynParams, DynTask, build_problem
 from legplan.dyn.timing import PHASES
 from legplan.solve import check_jacobian
@@ -25,7 +26,17 @@ PALLET_PARAMS = DynParams(costs=PAPER_COSTS, swing_height_min=0.05, base_clearan
 # the blocks that sample feet or forces in time, which read the phase durations when optimized
 TIMED_CONSTRAINTS = {"dynamics", "dynamics_between", "range_of_motion", "swing_above_terrain", "force", "base_clearance", "last_phase",
                      "leg_clearance"}
+TORQUE_LIMITS = (40.0, 40.0, 40.0)  # N m per joint: the pallet problem's legs get the joint-torque polytope
 TIMED_COSTS = {"force", "force_rate", "normal_force"}
+
+
+@pytest.fixture(scope="module")
+def anymal_torques(anymal):
+    """The ANYmal model with joint torque limits (and the legs' chains they need)."""
+    from legplan.robots import load_robot
+
+    return replace(anymal, torque_limits=tuple(np.array(TORQUE_LIMITS) for _ in anymal.legs),
+                   leg_chains=ChainLegs.of_robot(load_robot("anymal")))
 
 
 @pytest.fixture(scope="module")
@@ -62,6 +73,60 @@ def test_every_constraint_block_matches_finite_differences(request, problem_name
     else:  # every block of those names reads the durations, no other block does
         assert "last_phase" in names and reading == TIMED_CONSTRAINTS
         assert all(PHASES in k.block.variables for k in problem.constraints if k.name in TIMED_CONSTRAINTS)
+
+
+@pytest.mark.parametrize("optimize_phases", [False, True], ids=["fixed_timing", "optimize_phases"])
+def test_joint_torque_block_matches_finite_differences(anymal_torques, step, optimize_phases):
+    """The joint-torque polytope's rows (through the legs' IK) against finite differences, at a
+    perturbed guess of a walk onto the step whose every foot the legs reach (the IK's derivative
+    is that of the torques only where it solves), and bounded by the torque limits less the margin."""
+    from legplan.dyn.constraints import _nodes
+
+    params = replace(PALLET_PARAMS, optimize_phases=optimize_phases)
+    problem = build_problem(DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "walk", 2, 3.0), anymal_torques, step, params,
+                            heuristic)
+    values = _perturbed(problem, seed=2, scale=0.005)
+    blocks = [k for k in problem.constraints if k.name == "joint_torque"]
+    assert len(blocks) == 4
+    for k in blocks:
+        block = k.block
+        assert (PHASES in block.variables) == optimize_phases
+        assert np.allclose(k.upper, np.tile(TORQUE_LIMITS, block.n) * (1 - params.torque_margin)) and np.all(k.lower == -k.upper)
+        lin, ang, feet = (_nodes(values[v]) for v in block.variables[:3])
+        b = block._in_base(block.base @ ang, block.foot @ feet - block.base @ lin) + block.offset
+        chain = anymal_torques.leg_chains.chains[block.leg]
+        q = chain.solve(b, anymal_torques.leg_chains.nominal(block.leg, block.n))
+        reached, _ = chain.point(chain.kinematics(q), chain.foot_joint, chain.foot_offset)
+        assert np.abs(reached - b).max() < 1e-9  # the test's premise: every foot in reach
+        # a small step: a sample near a phase end, whose force has a kink there in the durations
+        report = check_jacobian(block, {v: values[v] for v in block.variables}, step=1e-6)
+        assert report.ok(atol=1e-5, rtol=1e-4), (block.leg, report)
+
+
+def test_joint_torques_are_the_statics_of_pinocchio(anymal_torques):
+    """`ChainLegs.foot_torques` at a foot and force equals pinocchio's Jᵀ f at the joints it returns
+    (the foot's frame Jacobian, world-aligned, of the robot with its base at the origin)."""
+    import pinocchio as pin
+
+    from legplan.robots import load_robot
+
+    robot = load_robot("anymal")
+    rng = np.random.default_rng(3)
+    for leg_index, leg in enumerate(robot.legs):
+        feet = anymal_torques.nominal_feet[leg_index] + rng.uniform(-0.05, 0.05, (5, 3))
+        forces = rng.uniform(-60, 60, (5, 3)) + [0, 0, 200]
+        tau, _, d_g, joints = anymal_torques.leg_chains.foot_torques(leg_index, feet, forces,
+                                                                     anymal_torques.leg_chains.nominal(leg_index, 5))
+        for k in range(5):
+            q = pin.neutral(robot.model)
+            q[[robot.model.idx_qs[robot.model.getJointId(n)] for n in leg.joint_names]] = joints[k]
+            jac = pin.computeFrameJacobian(robot.model, robot.model.createData(), q, leg.foot_frame_id,
+                                           pin.LOCAL_WORLD_ALIGNED)[:3, list(6 + np.array(leg.joint_idx))]
+            data = robot.model.createData()
+            pin.framesForwardKinematics(robot.model, data, q)
+            assert np.allclose(data.oMf[leg.foot_frame_id].translation, feet[k], atol=1e-9)
+            assert np.allclose(tau[k], jac.T @ forces[k], atol=1e-9)
+            assert np.allclose(d_g[k], jac.T, atol=1e-12)
 
 
 @both_timings

@@ -28,6 +28,43 @@ def test_section_parsed_in_leg_order(tmp_path):
         c.mass = 1.0                                                         # frozen
 
 
+def test_torque_limits_above_the_urdf_efforts_or_of_the_wrong_length_are_refused(published_anymal_b, tmp_path):
+    """torque_limits per leg: more bounds than the leg has joints is refused by the loader, a bound
+    above its joint's URDF effort by the strict loader and reported by `robot check` per leg; a
+    lower bound (a cautious user) is kept."""
+    import yaml
+
+    from legplan.robots.check import check_robot
+
+    folder = tmp_path / "b"
+    folder.mkdir()
+    spec = yaml.safe_load(published_anymal_b.read_text())
+    spec["urdf"] = str((published_anymal_b.parent / spec["urdf"]).resolve())
+    path = folder / "robot.yaml"
+
+    def written(limits):
+        spec["centroidal"]["torque_limits"] = limits
+        path.write_text(yaml.safe_dump(spec))
+        return path
+
+    legs = list(spec["centroidal"]["nominal_feet"])
+    lower = load_robot(written({leg: [60, 70, 80] for leg in legs})).centroidal.torque_limits
+    assert [list(v) for v in lower] == [[60, 70, 80]] * 4
+    with pytest.raises(SpecError, match=r"field 'centroidal\.torque_limits\.LF' lists 4 bounds for the 3 joints"):
+        load_robot(written({leg: [60, 70, 80, 90] if leg == "LF" else [60, 70, 80] for leg in legs}))
+    with pytest.raises(SpecError, match=r"field 'centroidal\.torque_limits\.RH' exceeds the URDF's joint efforts "
+                                        r"\(N m: RH_KFE 120 > 80\)"):
+        load_robot(written({leg: [80, 80, 120] if leg == "RH" else [80, 80, 80] for leg in legs}))
+    with pytest.raises(SpecError, match=r"field 'centroidal\.torque_limits\.XX' names no leg"):
+        load_robot(written({**{leg: [80, 80, 80] for leg in legs}, "XX": [1, 2, 3]}))
+    with pytest.raises(SpecError, match=r"field 'centroidal\.torque_limits\.LF\[1\]' must be > 0"):
+        load_robot(written({leg: [80, 0, 80] for leg in legs}))
+    robot = load_robot(written({leg: [80, 80, 120] if leg in ("LF", "RH") else [80, 80, 80] for leg in legs}),
+                       strict=False)
+    errors = [f.subject for f in check_robot(robot) if f.severity == "error"]
+    assert errors == ["centroidal.torque_limits.LF", "centroidal.torque_limits.RH"]
+
+
 def test_section_is_optional(toy, scarab2, jueying):
     assert toy.centroidal is None and scarab2.centroidal is None and jueying.centroidal is None
 

@@ -124,6 +124,40 @@ def test_leg_penetration_is_judged_in_every_check(model, flat_terrain, anymal):
     assert into.worst["leg_penetration"] > 0.01 and _failed(into) == {"leg_penetration"}
 
 
+def test_joint_torques_are_judged_against_the_urdf_efforts(model, flat_terrain, anymal):
+    """Standing nominally, each foot's m g / 4 needs τ = Jᵀ f at the nominal joints (pinocchio's
+    Jacobian, independently here): the judged ratio to the URDF's 40 N m efforts. The same stance
+    with the feet pushing 3× harder sideways-inwards (balanced, so Newton–Euler still holds) needs
+    more torque than the joints have: the check of a model with torque limits fails on joint_torque
+    alone (within the friction cone and the normal-force bound, only the efforts catch it); TOWR's
+    scalar model records the ratio with the bound ∞."""
+    import pinocchio as pin
+
+    q = anymal.q_nominal.copy()
+    q[:3] = [0.0, 0.0, 0.42]
+    data = anymal.model.createData()
+    efforts = np.asarray(anymal.model.effortLimit, float)
+    f = np.array([0.0, 0.0, model.mass * GRAVITY / 4])
+    expected = 0.0
+    for leg in anymal.legs:
+        jac = pin.computeFrameJacobian(anymal.model, data, q, leg.foot_frame_id, pin.LOCAL_WORLD_ALIGNED)[:3]
+        cols = list(leg.joint_idx_v)
+        expected = max(expected, float(np.max(np.abs(jac[:, cols].T @ f) / efforts[cols])))
+    limited = dataclasses.replace(model, torque_limits=tuple(np.full(3, 40.0) for _ in model.legs))
+    check = _check(_stance(model), limited, flat_terrain, anymal)
+    assert check.worst["joint_torque"] == pytest.approx(expected, rel=1e-6) and 0.1 < expected < 1
+    assert check.passed["joint_torque"] and check.tolerance["joint_torque"] == pytest.approx(1.001)
+    s = _stance(model)
+    s["forces"][..., 2] *= 3.0                               # 3 m g down on the ground ...
+    s["forces"][..., 1] = -np.sign(model.nominal_feet[:, 1]) * 0.3 * s["forces"][..., 2]   # ... inwards
+    s["base_acc"][:, 2] = 2.0 * GRAVITY                      # ... lifting the body at 2 g
+    heavy = _check(s, dataclasses.replace(limited, max_normal_force=1e4), flat_terrain, anymal)
+    assert heavy.worst["joint_torque"] > 1.001 and _failed(heavy) == {"joint_torque"}, heavy.failures()
+    scalar = _check(s, dataclasses.replace(model, max_normal_force=1e4), flat_terrain, anymal)
+    assert scalar.worst["joint_torque"] == heavy.worst["joint_torque"] and scalar.tolerance["joint_torque"] == np.inf
+    assert scalar.ok
+
+
 def test_constant_acceleration_known_residuals(model, flat_terrain, anymal):
     """Feet forces m (a + g e_z) / 4 balance the linear row; their lever below the CoM leaves the
     pitch torque (Σ r_i) × f = 0.42 m a_x about y, which a matching ω̇ = I_W⁻¹ τ removes."""
