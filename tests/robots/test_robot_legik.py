@@ -1,6 +1,5 @@
 """leg_reach: batch per-foot IK inside the planning limits, for any base pose and any leg chain."""
 
-import time
 
 import numpy as np
 import pytest
@@ -40,18 +39,17 @@ def test_target_reachable_only_outside_the_limits_is_unreachable(anymal):
     assert result.joints[0, anymal.legs[0].joint_idx[0]] == pytest.approx(0.6)       # held on the limit
 
 
-def test_500_samples_of_4_legs_in_well_under_a_second(anymal):
+def test_500_samples_of_4_legs_in_one_batch(anymal):
+    """The batch API on 500 random poses inside the range of motion (its speed is bench/robot_kinematics.py's)."""
     rng = np.random.default_rng(31)
     c, n = anymal.centroidal, 500
     base_pos = np.column_stack([rng.uniform(-1, 1, (n, 2)), rng.uniform(0.35, 0.5, n)])
     base_rot = rotvec_to_matrix(rng.uniform(-0.3, 0.3, (n, 3)))
     local = c.nominal_feet + rng.uniform(-1, 1, (n, 4, 3)) * c.range_of_motion
     feet = base_pos[:, None] + np.einsum("nij,nlj->nli", base_rot, local)
-    start = time.perf_counter()
     result = leg_reach(anymal, base_pos, base_rot, feet)
-    elapsed = time.perf_counter() - start
     assert result.reachable.all() and result.error.shape == (n, 4) and result.joints.shape == (n, 12)
-    assert elapsed < 1.0, elapsed          # 0.1 s measured on the project machine
+    assert result.error.max() < 1e-6
 
 
 def test_bad_shapes(anymal):
