@@ -125,9 +125,21 @@ class LegplanGroup(click.Group):
                 _bad_input(ctx, exc)
             ctx.exit(EXIT_PIPE_CLOSED)
         except (LegplanError, OSError) as exc:
+            _if_signalled()
             _bad_input(ctx, exc)
         except (KeyboardInterrupt, interrupts.Terminated) as exc:
             raise _stopped(exc) from None
+        except Exception:
+            _if_signalled()
+            raise
+
+
+def _if_signalled() -> None:
+    """A signal's exception that a C callback turned into another (h5py raises a TypeError for an
+    exception inside its type converters): the command was interrupted, not faulty."""
+    signum = interrupts.received()
+    if signum is not None:
+        raise _stopped(interrupts.exception_for(signum)) from None
 
 
 def _bad_input(ctx: click.Context, error: Exception):

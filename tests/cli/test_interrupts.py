@@ -286,3 +286,24 @@ def test_an_interrupt_while_the_arguments_are_parsed_is_130_or_143_too(monkeypat
     result = CliRunner().invoke(cli, ["map", "build", "x.yaml", "-o", "x.h5"])
     assert result.exit_code == code
     assert result.stderr.strip() == "Interrupted: stopped; nothing published"
+
+
+def test_a_signal_turned_into_another_error_by_a_c_callback_is_an_interruption(tmp_path, monkeypatch):
+    """h5py turns an exception raised inside its type converters into a TypeError: once a signal has
+    arrived, any error is reported as the interruption (one line, exit 130), never a traceback."""
+    import legplan.interrupts as interrupts
+    import legplan.terrain as terrain
+
+    def interrupted_inside_h5py(*args, **kwargs):
+        interrupts._received.append(signal.SIGINT)       # what the handler records before it raises
+        raise TypeError("Operation not defined for data type class")
+
+    monkeypatch.setattr(terrain, "save_map", interrupted_inside_h5py)
+    spec = Path(__file__).parents[2] / "maps" / "flat.yaml"
+    try:
+        result = CliRunner().invoke(cli, ["map", "build", str(spec), "-o", str(tmp_path / "map.h5"), "-q"])
+    finally:
+        interrupts._received.clear()
+    assert result.exit_code == 130, result.output
+    assert "Interrupted:" in result.stderr and "Traceback" not in result.stderr
+    assert not (tmp_path / "map.h5").exists()
