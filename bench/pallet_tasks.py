@@ -30,6 +30,7 @@ import csv
 import datetime
 import json
 import os
+import re
 import resource
 import subprocess
 import sys
@@ -163,50 +164,95 @@ def main() -> None:
     parser.add_argument("--tasks", type=int, default=100)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--jobs", type=int, default=2)
-    parser.add_argument("--costs", nargs="+", default=["none", "paper"])
+    parser.add_argument("--costs", nargs="+", default=["none", "paper"],
+                        help="settings to run; the JSON's other settings (earlier runs) are kept")
     parser.add_argument("--work", default="outputs/pallet_tasks", help="folder of the CSV and artefacts")
     parser.add_argument("--recount", action="store_true",
-                        help="only recount the artefacts of --work into the last JSON (its timings and loads kept)")
+                        help="only recount the artefacts of --work into the JSON (its timings and loads kept)")
+    parser.add_argument("--adopt", metavar="LOG", help="add the settings of an interrupted run of this script in "
+                        "--work: its artefacts, and its commands' times from its stderr LOG")
+    parser.add_argument("--load-start", type=float, help="with --adopt: the load average when that run started")
+    parser.add_argument("--load-end", type=float, help="with --adopt: the load average when its last command ended")
+    parser.add_argument("--started", help="with --adopt: when that run started (YYYY-MM-DD HH:MM UTC)")
     args = parser.parse_args()
+    work = (ROOT / args.work).resolve()
     if args.recount:
-        return recount((ROOT / args.work).resolve())
+        return recount(work, args.costs)
+    if args.adopt:
+        return adopt(work, args)
     from legplan.learn.space import read_space
 
     space = read_space(ROOT / args.space)
-    work = (ROOT / args.work).resolve()
     work.mkdir(parents=True, exist_ok=True)
     legplan = legplan_command()
-    started, code, date = load_average(), code_version(), datetime.datetime.now(datetime.timezone.utc)
     tasks_csv = work / "tasks.csv"
     write_tasks_csv(os.fspath(ROOT / args.space), args.tasks, args.seed, tasks_csv)
     map_h5 = work / "map.h5"
-    commands = [run_timed([legplan, "map", "build", space.map, "-o", os.fspath(map_h5), "--overwrite", "-q"],
-                          work / "map.log")]
-    settings = {}
+    build = run_timed([legplan, "map", "build", space.map, "-o", os.fspath(map_h5), "--overwrite", "-q"],
+                      work / "map.log")
+    result = previous_result(args.space, args.seed, args.jobs)
     for costs in args.costs:
+        started, date = load_average(), datetime.datetime.now(datetime.timezone.utc)
         traj, sim = work / f"traj_{costs}.h5", work / f"sim_{costs}.h5"
         plan = run_timed([legplan, "dyn", "plan", os.fspath(map_h5), "--tasks", os.fspath(tasks_csv), "--costs", costs,
                           "--jobs", str(args.jobs), "-o", os.fspath(traj), "--overwrite", "-q"],
                          work / f"plan_{costs}.log")
         simulate = run_timed([legplan, "dyn", "simulate", os.fspath(traj), os.fspath(map_h5), "--jobs", str(args.jobs),
                               "-o", os.fspath(sim), "--overwrite", "-q"], work / f"simulate_{costs}.log")
-        settings[costs] = {**count(traj, sim), "plan": plan, "simulate": simulate}
-        print(f"costs {costs}: {settings[costs]['planned']}/{args.tasks} planned, "
-              f"{settings[costs]['executed']} executed, {settings[costs]['fell']} fell", file=sys.stderr, flush=True)
-    result = {"date": date.strftime("%Y-%m-%d %H:%M UTC"), "machine": machine(), "code": code,
-              "load_average_start": started, "load_average_end": load_average(), "space": args.space,
-              "seed": args.seed, "tasks": args.tasks, "jobs": args.jobs, "map": commands[0], "settings": settings}
+        setting = {"date": date.strftime("%Y-%m-%d %H:%M UTC"), "code": code_version(), "load_average_start": started,
+                   "load_average_end": load_average(), "work": os.fspath(work), **count(traj, sim),
+                   "map_build": build, "plan": plan, "simulate": simulate}
+        result["settings"][costs] = setting
+        write_result("pallet_tasks", result)
+        print(f"costs {costs}: {setting['planned']}/{args.tasks} planned, {setting['executed']} executed, "
+              f"{setting['fell']} fell", file=sys.stderr, flush=True)
+    update_benchmarks("pallet_tasks", "\n".join(section(result)))
+    print("\n".join(section(result)))
+
+
+def previous_result(space: str, seed: int, jobs: int) -> dict:
+    """The JSON of earlier runs of the same space, seed and jobs (their settings are kept), or a new one."""
+    path = ROOT / "bench" / "results" / "pallet_tasks.json"
+    fresh = {"machine": machine(), "space": space, "seed": seed, "jobs": jobs, "settings": {}}
+    if path.exists():
+        old = json.loads(path.read_text())
+        if all(old.get(key) == fresh[key] for key in ("machine", "space", "seed", "jobs")):
+            return old
+    return fresh
+
+
+def adopt(work: Path, args) -> None:
+    """Add --costs settings of an interrupted run (its JSON never written) from its artefacts and the
+    `run_timed` lines of its stderr log."""
+    timed = {}
+    for line in Path(args.adopt).read_text().splitlines():
+        match = re.fullmatch(r"(legplan .*): exit (\d+), (\d+) s wall, (\d+) s CPU", line)
+        if match:
+            timed[match[1]] = {"command": match[1], "exit": int(match[2]), "wall_seconds": float(match[3]),
+                               "cpu_seconds": float(match[4])}
+    result = previous_result(args.space, args.seed, args.jobs)
+    for costs in args.costs:
+        traj, sim = work / f"traj_{costs}.h5", work / f"sim_{costs}.h5"
+
+        def find(*words):
+            return next(v for k, v in timed.items() if all(w in k.split() for w in words))
+
+        result["settings"][costs] = {
+            "date": args.started, "code": code_version(), "load_average_start": args.load_start,
+            "load_average_end": args.load_end, "work": os.fspath(work), "adopted_from_log": args.adopt,
+            **count(traj, sim), "map_build": find("map", "build"), "plan": find("plan", costs),
+            "simulate": find("simulate", os.fspath(traj))}
     write_result("pallet_tasks", result)
     update_benchmarks("pallet_tasks", "\n".join(section(result)))
     print("\n".join(section(result)))
 
 
-def recount(work: Path) -> None:
-    """Recount every setting of bench/results/pallet_tasks.json from the artefacts in `work`."""
+def recount(work: Path, settings: list[str]) -> None:
+    """Recount `settings` of bench/results/pallet_tasks.json from the artefacts in `work`."""
     path = ROOT / "bench" / "results" / "pallet_tasks.json"
     result = json.loads(path.read_text())
-    for costs, setting in result["settings"].items():
-        setting.update(count(work / f"traj_{costs}.h5", work / f"sim_{costs}.h5"))
+    for costs in settings:
+        result["settings"][costs].update(count(work / f"traj_{costs}.h5", work / f"sim_{costs}.h5"))
     write_result("pallet_tasks", result)
     update_benchmarks("pallet_tasks", "\n".join(section(result)))
     print("\n".join(section(result)))
@@ -214,34 +260,42 @@ def recount(work: Path) -> None:
 
 def section(result: dict) -> list[str]:
     """The BENCHMARKS.md section of a result."""
-    lines = [f"## pallet tasks — issue 34's execution targets through the CLI (`bench/pallet_tasks.py`, {result['date']})",
-             "", f"{result['machine']}, code {result['code']}, load average {result['load_average_start']:.1f} at start, "
-             f"{result['load_average_end']:.1f} at end (shared machine: times are noisy). {result['tasks']} tasks of "
-             f"`{result['space']}` (seed {result['seed']}, the library's sampler), planned by `legplan dyn plan MAP "
-             f"--tasks CSV --costs C --jobs {result['jobs']}` and executed by `legplan dyn simulate --jobs {result['jobs']}` "
-             "(plans that did not succeed are skipped). Planned = solved and its check passed; executed = goal "
-             "reached (10 cm, 0.2 rad) without a fall. Targets: planned-then-fell 0, executed ≥ 95 % of planned.", "",
-             "| costs | tasks | planned | check failed | not solved | executed | fell | missed goal | executed / planned "
-             "| median solve (s) | plan wall / CPU (s) | simulate wall / CPU (s) |",
-             "|---|---|---|---|---|---|---|---|---|---|---|---|"]
-    for costs, s in result["settings"].items():
-        lines.append(f"| {costs} | {s['tasks']} | {s['planned']} | {s['check_failed']} | {s['not_solved']} | "
+    settings = result["settings"]
+    lines = ["## pallet tasks — issue 34's execution targets through the CLI (`bench/pallet_tasks.py`)", "",
+             f"{result['machine']}; shared machine (2 cores, other agents' jobs running): times are noisy. Tasks of "
+             f"`{result['space']}` (seed {result['seed']}, the library's sampler `legplan.learn.dataset.dataset_items`; "
+             "a run of n tasks takes the first n), planned by `legplan dyn plan MAP --tasks CSV --costs C "
+             f"--jobs {result['jobs']}` and executed by `legplan dyn simulate --jobs {result['jobs']}` (plans that did "
+             "not succeed are skipped). Planned = solved and its check passed; executed = goal reached (10 cm, 0.2 rad) "
+             "without a fall. Targets: planned-then-fell 0, executed ≥ 95 % of planned. CPU = user + system of the "
+             "command and its workers.", "",
+             "| costs | date | code | load start → end | tasks | planned | check failed | not solved | executed | fell "
+             "| missed goal | executed / planned | median solve (s) | plan wall / CPU (s) | simulate wall / CPU (s) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"]
+    for costs, s in settings.items():
+        lines.append(f"| {costs} | {s['date']} | {s['code']} | {s['load_average_start']:.1f} → {s['load_average_end']:.1f} "
+                     f"| {s['tasks']} | {s['planned']} | {s['check_failed']} | {s['not_solved']} | "
                      f"{s['executed']} | {s['fell']} | {s['missed_goal']} | {s['executed_fraction']:.0%} | "
                      f"{s['median_solve_seconds']:.2f} | {s['plan']['wall_seconds']:.0f} / {s['plan']['cpu_seconds']:.0f} | "
                      f"{s['simulate']['wall_seconds']:.0f} / {s['simulate']['cpu_seconds']:.0f} |")
     lines += ["", "Plans that passed their check and fell (task: fall time; sim.h5's reason; unplanned contacts; "
               f"the first time a foot's simulated contact differed from the plan's for ≥ {MISMATCH_SECONDS} s; the "
               f"first time the base was more than {TRACKING_BOUND * 100:.0f} cm off the plan):", ""]
-    for costs, s in result["settings"].items():
+    for costs, s in settings.items():
         fallen = s["planned_then_fell"]
         lines.append(f"- {costs}: {len(fallen) or 'none'}")
+        if s.get("adopted_from_log"):
+            lines.append("  - (this setting's run was stopped after it, before its other setting: counts from its "
+                         "artefacts, times from its log, loads read by `uptime` at its start and end)")
         lines += [f"  - task {f['task']}: {f['fall_time']:.2f} s; {f['reason']}; "
                   f"{f['unplanned_contacts'] or 'no unplanned contact'}; "
                   f"{f['first_contact_mismatch'] or 'contacts as planned'}; base error > 5 cm from "
                   f"{f['tracking_error_over_5cm']:.2f} s" for f in fallen]
         if s["check_failed_metrics"]:
-            lines.append(f"  - check failures by metric: "
+            lines.append("  - check failures by metric: "
                          + ", ".join(f"{k} {v}" for k, v in sorted(s["check_failed_metrics"].items())))
+        if s["missed_goal_tasks"]:
+            lines.append(f"  - planned, no fall, goal missed: tasks {', '.join(map(str, s['missed_goal_tasks']))}")
     return lines
 
 
