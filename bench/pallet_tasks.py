@@ -113,14 +113,16 @@ def first_exceeding(t, values, bound: float) -> float:
     return float(t[over[0]]) if over.size else float("nan")
 
 
-def count(traj: Path, sim: Path) -> dict:
-    """Per costs setting: the counts of the module docstring and the planned-then-fell list."""
+def count(traj: Path, sim: Path, first: int | None = None) -> dict:
+    """Per costs setting: the counts of the module docstring and the planned-then-fell list (over the
+    tasks with index < `first`, when given)."""
     import h5py
 
     with h5py.File(traj, "r") as ft, h5py.File(sim, "r") as fs:
         legs = str(fs.attrs["legs"]).split(",")
-        plans = {int(g.attrs["index"]): g for g in ft["tasks"].values()}
-        runs = {int(g.attrs["index"]): g for g in fs["tasks"].values()}
+        plans = {int(g.attrs["index"]): g for g in ft["tasks"].values()
+                 if first is None or int(g.attrs["index"]) < first}
+        runs = {int(g.attrs["index"]): g for g in fs["tasks"].values() if first is None or int(g.attrs["index"]) < first}
         n = len(plans)
         solved = [i for i, g in plans.items() if bool(g.attrs.get("solved", g.attrs["success"]))]
         planned = [i for i, g in plans.items() if bool(g.attrs["success"])]
@@ -206,8 +208,23 @@ def main() -> None:
         write_result("pallet_tasks", result)
         print(f"costs {costs}: {setting['planned']}/{args.tasks} planned, {setting['executed']} executed, "
               f"{setting['fell']} fell", file=sys.stderr, flush=True)
+    add_common_subset(result)
+    write_result("pallet_tasks", result)
     update_benchmarks("pallet_tasks", "\n".join(section(result)))
     print("\n".join(section(result)))
+
+
+def add_common_subset(result: dict) -> None:
+    """When the settings ran different numbers of tasks: each larger one counted again on the first n
+    tasks of the smallest (the same tasks), as `on_common_tasks`."""
+    settings = result["settings"]
+    n = min(s["tasks"] for s in settings.values())
+    for s in settings.values():
+        s.pop("on_common_tasks", None)
+        if s["tasks"] > n:
+            work = Path(s["work"])
+            costs = next(c for c, v in settings.items() if v is s)
+            s["on_common_tasks"] = count(work / f"traj_{costs}.h5", work / f"sim_{costs}.h5", first=n)
 
 
 def previous_result(space: str, seed: int, jobs: int) -> dict:
@@ -242,6 +259,7 @@ def adopt(work: Path, args) -> None:
             "load_average_end": args.load_end, "work": os.fspath(work), "adopted_from_log": args.adopt,
             **count(traj, sim), "map_build": find("map", "build"), "plan": find("plan", costs),
             "simulate": find("simulate", os.fspath(traj))}
+    add_common_subset(result)
     write_result("pallet_tasks", result)
     update_benchmarks("pallet_tasks", "\n".join(section(result)))
     print("\n".join(section(result)))
@@ -253,6 +271,7 @@ def recount(work: Path, settings: list[str]) -> None:
     result = json.loads(path.read_text())
     for costs in settings:
         result["settings"][costs].update(count(work / f"traj_{costs}.h5", work / f"sim_{costs}.h5"))
+    add_common_subset(result)
     write_result("pallet_tasks", result)
     update_benchmarks("pallet_tasks", "\n".join(section(result)))
     print("\n".join(section(result)))
@@ -278,6 +297,11 @@ def section(result: dict) -> list[str]:
                      f"{s['executed']} | {s['fell']} | {s['missed_goal']} | {s['executed_fraction']:.0%} | "
                      f"{s['median_solve_seconds']:.2f} | {s['plan']['wall_seconds']:.0f} / {s['plan']['cpu_seconds']:.0f} | "
                      f"{s['simulate']['wall_seconds']:.0f} / {s['simulate']['cpu_seconds']:.0f} |")
+        if "on_common_tasks" in s:
+            c = s["on_common_tasks"]
+            lines.append(f"| {costs}, its first {c['tasks']} tasks | | | | {c['tasks']} | {c['planned']} | "
+                         f"{c['check_failed']} | {c['not_solved']} | {c['executed']} | {c['fell']} | {c['missed_goal']} | "
+                         f"{c['executed_fraction']:.0%} | {c['median_solve_seconds']:.2f} | | |")
     lines += ["", "Plans that passed their check and fell (task: fall time; sim.h5's reason; unplanned contacts; "
               f"the first time a foot's simulated contact differed from the plan's for ≥ {MISMATCH_SECONDS} s; the "
               f"first time the base was more than {TRACKING_BOUND * 100:.0f} cm off the plan):", ""]
