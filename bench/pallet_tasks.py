@@ -68,8 +68,9 @@ def run_timed(args: list[str], log: Path) -> dict:
             "wall_seconds": wall, "cpu_seconds": cpu}
 
 
-def write_tasks_csv(space_path: str, n: int, seed: int, path: Path) -> list[list[float]]:
-    """The space's first `n` tasks of `seed`, as the CSV `dyn plan --tasks` reads; returns the rows."""
+def write_tasks_csv(space_path: str, n: int, seed: int, path: Path, first: int = 0) -> list[list[float]]:
+    """Tasks `first` … `n` - 1 of the space's first `n` of `seed`, as the CSV `dyn plan --tasks` reads;
+    returns the rows."""
     from legplan.learn.dataset import dataset_items
     from legplan.learn.space import read_space
 
@@ -79,7 +80,7 @@ def write_tasks_csv(space_path: str, n: int, seed: int, path: Path) -> list[list
         writer = csv.writer(f)
         writer.writerow(["start_x", "start_y", "start_yaw", "goal_x", "goal_y", "goal_yaw", "gait", "strides",
                          "duration"])
-        for _, task, _ in items:
+        for _, task, _ in items[first:]:
             row = [*map(float, task.start), *map(float, task.goal)]
             writer.writerow([repr(v) for v in row] + [task.gait, task.strides, repr(float(task.duration))])
             rows.append(row)
@@ -113,9 +114,9 @@ def first_exceeding(t, values, bound: float) -> float:
     return float(t[over[0]]) if over.size else float("nan")
 
 
-def count(traj: Path, sim: Path, first: int | None = None) -> dict:
+def count(traj: Path, sim: Path, first: int | None = None, offset: int = 0) -> dict:
     """Per costs setting: the counts of the module docstring and the planned-then-fell list (over the
-    tasks with index < `first`, when given)."""
+    tasks with index < `first`, when given); task numbers reported + `offset` (the CSV's first task)."""
     import h5py
 
     with h5py.File(traj, "r") as ft, h5py.File(sim, "r") as fs:
@@ -141,7 +142,7 @@ def count(traj: Path, sim: Path, first: int | None = None) -> dict:
             g, p = runs[i], plans[i]
             mismatch = first_contact_mismatch(p["samples/t"][()], p["samples/contact"][()], g["series/t"][()],
                                               g["series/foot_forces"][()], legs)
-            fallen.append({"task": i, "fall_time": float(g.attrs["fall_time"]), "reason": str(g.attrs["reason"]),
+            fallen.append({"task": i + offset, "fall_time": float(g.attrs["fall_time"]), "reason": str(g.attrs["reason"]),
                            "unplanned_contacts": str(g.attrs["unplanned_contacts"]),
                            "unplanned_contact_time": float(g.attrs["unplanned_contact_time"]),
                            "qp_failures": int(g.attrs["qp_failures"]),
@@ -150,9 +151,9 @@ def count(traj: Path, sim: Path, first: int | None = None) -> dict:
                                                                       TRACKING_BOUND)})
         skipped_executed = [i for i, g in runs.items() if i not in planned and not bool(g.attrs["skipped"])]
         return {"tasks": n, "solved": len(solved), "planned": len(planned), "check_failed": len(check_failed),
-                "check_failed_tasks": sorted(check_failed), "check_failed_metrics": failed_metrics,
+                "check_failed_tasks": sorted(i + offset for i in check_failed), "check_failed_metrics": failed_metrics,
                 "not_solved": n - len(solved), "executed": len(executed), "fell": len(fell),
-                "missed_goal": len(missed), "missed_goal_tasks": sorted(missed),
+                "missed_goal": len(missed), "missed_goal_tasks": sorted(i + offset for i in missed),
                 "executed_fraction": len(executed) / len(planned) if planned else float("nan"),
                 "unplanned_executed": sorted(skipped_executed),
                 "median_solve_seconds": float(np.median([float(g.attrs["solve_seconds"]) for i, g in plans.items()
@@ -168,6 +169,8 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--costs", nargs="+", default=["none", "paper"],
                         help="settings to run; the JSON's other settings (earlier runs) are kept")
+    parser.add_argument("--first", type=int, default=0, help="run tasks --first … --tasks - 1 only (a separate "
+                        "row: the rest of an earlier run's tasks)")
     parser.add_argument("--work", default="outputs/pallet_tasks", help="folder of the CSV and artefacts")
     parser.add_argument("--recount", action="store_true",
                         help="only recount the artefacts of --work into the JSON (its timings and loads kept)")
@@ -188,7 +191,7 @@ def main() -> None:
     work.mkdir(parents=True, exist_ok=True)
     legplan = legplan_command()
     tasks_csv = work / "tasks.csv"
-    write_tasks_csv(os.fspath(ROOT / args.space), args.tasks, args.seed, tasks_csv)
+    write_tasks_csv(os.fspath(ROOT / args.space), args.tasks, args.seed, tasks_csv, args.first)
     map_h5 = work / "map.h5"
     build = run_timed([legplan, "map", "build", space.map, "-o", os.fspath(map_h5), "--overwrite", "-q"],
                       work / "map.log")
@@ -202,9 +205,10 @@ def main() -> None:
         simulate = run_timed([legplan, "dyn", "simulate", os.fspath(traj), os.fspath(map_h5), "--jobs", str(args.jobs),
                               "-o", os.fspath(sim), "--overwrite", "-q"], work / f"simulate_{costs}.log")
         setting = {"date": date.strftime("%Y-%m-%d %H:%M UTC"), "code": code_version(), "load_average_start": started,
-                   "load_average_end": load_average(), "work": os.fspath(work), **count(traj, sim),
+                   "load_average_end": load_average(), "work": os.fspath(work), "first_task": args.first,
+                   **count(traj, sim, offset=args.first),
                    "map_build": build, "plan": plan, "simulate": simulate}
-        result["settings"][costs] = setting
+        result["settings"][costs if args.first == 0 else f"{costs}, tasks {args.first}–{args.tasks - 1}"] = setting
         write_result("pallet_tasks", result)
         print(f"costs {costs}: {setting['planned']}/{args.tasks} planned, {setting['executed']} executed, "
               f"{setting['fell']} fell", file=sys.stderr, flush=True)
@@ -217,7 +221,7 @@ def main() -> None:
 def add_common_subset(result: dict) -> None:
     """When the settings ran different numbers of tasks: each larger one counted again on the first n
     tasks of the smallest (the same tasks), as `on_common_tasks`."""
-    settings = result["settings"]
+    settings = {c: s for c, s in result["settings"].items() if not s.get("first_task", 0)}
     n = min(s["tasks"] for s in settings.values())
     for s in settings.values():
         s.pop("on_common_tasks", None)
