@@ -21,6 +21,11 @@ from legplan.errors import LegplanError, did_you_mean
 KINDS = ("maps", "pipelines", "tasks")
 """The shipped folders; each also names the kind of a command's input."""
 
+INITIALIZERS = "initializers"
+"""The shipped trained initializers, a folder of the shipped `tasks/`: NAME.h5 (an init.h5 of `legplan
+learn`) trained on the task space tasks/NAME.yaml, and NAME.json, how it was made (command, seed,
+datasets' sha256) and how it did on held-out tasks."""
+
 
 def shipped_root() -> Path:
     """The folder holding the shipped `maps/`, `pipelines/` and `tasks/` (links resolved: the
@@ -36,6 +41,20 @@ def list_shipped(kind: str) -> list[str]:
     """Names (file stems) of the shipped YAML files of `kind`, sorted."""
     folder = shipped_dir(kind)
     return sorted(path.stem for path in folder.glob("*.yaml")) if folder.is_dir() else []
+
+
+def shipped_initializer(name: str) -> Path | None:
+    """The shipped initializer of the task space `name` (its init.h5), or None when none ships."""
+    if not name or os.sep in name or name.startswith("."):
+        return None
+    path = shipped_dir("tasks") / INITIALIZERS / f"{name}.h5"
+    return path if path.is_file() else None
+
+
+def list_shipped_initializers() -> list[str]:
+    """Names of the task spaces a trained initializer ships for, sorted."""
+    folder = shipped_dir("tasks") / INITIALIZERS
+    return sorted(path.stem for path in folder.glob("*.h5")) if folder.is_dir() else []
 
 
 def resolve_shipped(given: str | os.PathLike, kind: str) -> Path:

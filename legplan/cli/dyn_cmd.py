@@ -15,7 +15,7 @@ import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import (batch_opts, input_artefact, number, output_opt, overwrite_opt, param_opt, pose_opt,
+from legplan.cli.options import (batch_opts, init_opt, input_artefact, number, output_opt, overwrite_opt, param_opt, pose_opt,
                                  verbosity_opts, optimize_phases_opt, warm_stage_opt)
 from legplan.cli.options import count
 from legplan.errors import LegplanError
@@ -45,7 +45,7 @@ def command():
 @param_opt("A planner parameter (legplan.dyn.settings.DynParams), nested ones by dotted name, applied after "
            "--costs; e.g. --param dt=0.05 --param costs.force=0.5 --param solver.inner.max_iterations=30.")
 @optimize_phases_opt
-@click.option("--init", "init", default="heuristic", show_default=True, help="Initializer of the optimization.")
+@init_opt
 @warm_stage_opt
 @output_opt
 @overwrite_opt
@@ -99,6 +99,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
         check_same_map(init_fn.path, map_path, [trained_on], what="trained")
         for t in tasks:
             init_fn.check_task(t, params.dt)
+            init_fn.check_in_space(t)
         init = init_fn.path
 
     options = {"robot": robot, "gait": gait, "strides": strides, "duration": duration, "tasks": tasks_path,

@@ -13,7 +13,7 @@ import click
 
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
-from legplan.cli.options import (OutputPath, ShippedPath, batch_opts, input_artefact, number, optimize_phases_opt,
+from legplan.cli.options import (OutputPath, ShippedPath, batch_opts, init_opt, input_artefact, number, optimize_phases_opt,
                                  output_opt, overwrite_opt, seed_opt, verbosity_opts, warm_stage_opt)
 from legplan.cli.options import count as count_option
 from legplan.parameters import COST
@@ -32,8 +32,7 @@ def command():
 @click.argument("space_path", metavar="SPACE", type=ShippedPath("tasks"))
 @click.option("--n", "count", type=count_option("items"), required=True, help="Tasks to sample and solve.")
 @seed_opt
-@click.option("--init", "init", default="heuristic", show_default=True, metavar="heuristic|INIT.h5",
-              help="Initializer: the paper's Heuristic (A_h) or a trained init.h5 (A_θ).")
+@init_opt
 @click.option("--iterations", type=count_option("iterations"), default=None,
               help="LM iterations per task, all planner stages together (the paper's N_h = 100, N_θ = 25) [default: each stage's own cap].")
 @warm_stage_opt
@@ -129,6 +128,50 @@ def train_cmd(dataset_paths, g_max, hidden, weights_path, validation, seed, outp
     status(f"wrote {output}: {report['good']}/{report['tasks']} tasks with {_filtered(report)} "
            f"({report['converged']} converged); validation loss {report['validation_loss']:.3g} "
            f"(train {report['train_loss']:.3g}) on {report['validation_tasks']} held-out tasks")
+
+
+@command.command("ship")
+@click.argument("init_path", metavar="INIT", type=input_artefact)
+@click.argument("held_out_path", metavar="HELD_OUT", type=input_artefact)
+@click.option("-o", "--output", required=True, type=OutputPath(file_okay=False, files=("*.h5",)),
+              help="Directory to write NAME.h5 into (NAME: the task space's name).")
+@overwrite_opt
+@verbosity_opts
+def ship_cmd(init_path, held_out_path, output, overwrite):
+    """Ready a trained INIT to ship: NAME.h5, the network with its training's provenance and held-out results.
+
+    HELD_OUT is a dataset solved from INIT on tasks it was not trained on (`learn dataset --init INIT
+    --seed S` with another seed). Copied into the shipped tasks/initializers/, `--init NAME` uses it."""
+    from legplan.learn.shipping import ship_initializer
+
+    record = ship_initializer(init_path, held_out_path, output, overwrite=overwrite)
+    status(f"wrote {output}/{record['name']}.h5: held out {_held_out_line(record['held_out'])}")
+
+
+@command.command("shipped")
+@verbosity_opts
+def shipped_cmd():
+    """List the trained initializers that ship with legplan (`--init NAME`), with their held-out results."""
+    from legplan.learn.shipping import shipped_records
+
+    records = shipped_records()
+    if not records:
+        click.echo("no trained initializer ships with this installation")
+    for record in records:
+        trained = record["trained"]
+        click.echo(f"{record['name']}: {record['space']['gait']}, {record['space']['strides']} strides, "
+                   f"{record['space']['duration']:g} s, robot {record['space']['robot']}; trained by "
+                   f"`{' '.join(trained['command'][1:])}` (seed {trained['seed']}); held out "
+                   f"{_held_out_line(record['held_out'])}")
+
+
+def _held_out_line(held: dict) -> str:
+    def shown(key, form):
+        return "-" if held.get(key) is None else format(held[key], form)
+
+    return (f"{held['tasks']:g} tasks, {shown('success_rate', '.0%')} converged, median "
+            f"{shown('median_iterations', 'g')} iterations, {shown('median_seconds', '.2f')} s, max/median cost "
+            f"{shown('cost_max_over_median', '.2f')}")
 
 
 def _filtered(report: dict) -> str:

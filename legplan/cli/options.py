@@ -215,10 +215,28 @@ output_opt = click.option("-o", "--output", required=True, type=OutputPath(dir_o
 overwrite_opt = click.option("--overwrite", is_flag=True, help="Replace an existing output.")
 jobs_opt = click.option("-j", "--jobs", type=count("workers"), default=1, show_default=True,
                         help="Worker processes for independent items.")
+SCHEDULER_VARIABLE = "LEGPLAN_SCHEDULER"
+"""The environment variable a command's `--scheduler` falls back to: `legplan pipeline run
+--scheduler` sets it for its stages, so every many-item stage of a pipeline runs on one dask
+cluster. Where the items run does not change what they compute (same records whatever the
+backend), so a pipeline's provenance does not record it."""
+
+
+def check_scheduler(ctx, param, value):
+    """A malformed address is refused as the option is read, before the command reads its inputs."""
+    if value is not None:
+        from legplan.batch.backends import Backend
+
+        Backend(1, value)
+    return value
+
+
 scheduler_opt = click.option(
-    "--scheduler", metavar="local|tcp://HOST:PORT", default=None,
+    "--scheduler", metavar="local|tcp://HOST:PORT", default=None, envvar=SCHEDULER_VARIABLE,
+    callback=check_scheduler,
     help="Run the items on dask: 'local' starts a LocalCluster of --jobs workers on 127.0.0.1, "
-         "an address uses a running dask scheduler (workers with legplan installed, inputs readable).")
+         f"an address uses a running dask scheduler (workers with legplan installed, inputs readable). "
+         f"Default: ${SCHEDULER_VARIABLE} if set.")
 resume_opt = click.option("--resume", is_flag=True,
                           help="Continue the interrupted run kept in OUTPUT.work (same inputs and parameters).")
 
@@ -230,6 +248,17 @@ def batch_opts(func):
 
 seed_opt = click.option("--seed", type=click.IntRange(0, MAX_SEED), default=0, show_default=True,
                         help="Seed of every random choice; same inputs and seed, same artefact.")
+def _resolve_init(ctx, param, value):
+    from legplan.learn.initializers import resolve_init
+
+    return resolve_init(value)
+
+
+init_opt = click.option(
+    "--init", "init", default="heuristic", show_default=True, metavar="heuristic|INIT.h5|SPACE",
+    callback=_resolve_init,
+    help="Initializer: the paper's Heuristic (A_h), a trained init.h5 (A_θ), or the name of a task space "
+         "whose trained initializer ships with legplan (e.g. single_pallet_walk: `legplan learn shipped`).")
 warm_stage_opt = click.option(
     "--warm-stage", type=click.Choice(["costs", "projection", "polish"]), default="costs", show_default=True,
     help="From a learned --init: optimize the costs under the constraints (costs), or only project the "

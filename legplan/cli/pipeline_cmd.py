@@ -7,7 +7,7 @@ from pathlib import Path
 
 import click
 
-from legplan.cli.options import OutputPath, ShippedPath, jobs_opt, verbosity_opts
+from legplan.cli.options import SCHEDULER_VARIABLE, OutputPath, ShippedPath, check_scheduler, jobs_opt, verbosity_opts
 
 _STYLE = {"ran": "green", "items_failed": "yellow", "up_to_date": "dim", "failed": "bold red",
           "skipped": "red"}
@@ -52,9 +52,12 @@ def _out_dir(pipeline_file: str, out_dir: str | None, legacy_out: str | None) ->
 @click.option("--force", "legacy_force", is_flag=True, hidden=True, help="Deprecated spelling of --overwrite.")
 @click.option("--dry-run", is_flag=True, help="List what would run and why; run nothing.")
 @jobs_opt
+@click.option("--scheduler", metavar="local|tcp://HOST:PORT", default=None, callback=check_scheduler,
+              help="Run the items of every many-item stage on this dask scheduler ('local': a LocalCluster "
+                   "of the stage's --jobs workers); handed to the stages, not recorded in their provenance.")
 @verbosity_opts
 @click.pass_context
-def run_cmd(ctx, pipeline_file, out_dir, legacy_out, overwrite, legacy_force, dry_run, jobs):
+def run_cmd(ctx, pipeline_file, out_dir, legacy_out, overwrite, legacy_force, dry_run, jobs, scheduler):
     """Run PIPELINE's stages in dependency order (exit 1 if a stage failed, 2 on a bad pipeline file).
     PIPELINE is a file or a shipped pipeline's name (gap_crossing, pallet_climb, ...).
 
@@ -81,7 +84,8 @@ def run_cmd(ctx, pipeline_file, out_dir, legacy_out, overwrite, legacy_force, dr
         stderr_line(result.line(), f"{result.status:>12}", _STYLE[result.status])
 
     with progress_bar(f"pipeline {pipeline.name}") as progress:
-        result = run_pipeline(pipeline, out, force=force, jobs=jobs, progress=progress, on_result=show)
+        result = run_pipeline(pipeline, out, force=force, jobs=jobs, progress=progress, on_result=show,
+                              environment={SCHEDULER_VARIABLE: scheduler} if scheduler else None)
     for failed in result.failed:
         stderr_line(f"{failed.reason} (log: {failed.log})", f"stage '{failed.name}' failed:")
     if not result.ok:

@@ -2,6 +2,7 @@
 
     init = initializer("heuristic")      # A_h, `legplan.dyn.init.heuristic`
     init = initializer("init_2.h5")      # A_θ, `legplan.learn.network.LearnedInit`
+    init = initializer("single_pallet_walk")  # A_θ shipped for that task space (`legplan.shipped`)
     plan(task, model, terrain, params, init)
 
 The planner (`legplan.dyn`) takes any callable of the initializer signature and never resolves a
@@ -18,15 +19,30 @@ from legplan.dyn.init import INITIALIZERS
 from legplan.errors import LegplanError
 
 
+def resolve_init(name) -> str:
+    """`--init` as the command uses it: a built-in initializer's name or an INIT.h5 path as given; the
+    name of a task space with a shipped trained initializer (`legplan.shipped.shipped_initializer`)
+    becomes that init.h5's path, so the rest of a command (checks, provenance) sees the file."""
+    from legplan.shipped import shipped_initializer
+
+    name = os.fspath(name)
+    if name in INITIALIZERS or name.endswith(".h5"):
+        return name
+    shipped = shipped_initializer(name)
+    return str(shipped) if shipped is not None else name
+
+
 def is_learned(name) -> bool:
-    """Whether `--init` names a trained init.h5 (A_θ) rather than a built-in initializer."""
-    return os.fspath(name).endswith(".h5")
+    """Whether `--init` names a trained init.h5 (A_θ), a file or a shipped one, rather than a built-in
+    initializer."""
+    return resolve_init(name).endswith(".h5")
 
 
 def initializer(name) -> object:
-    """The initializer `--init` names: one of `legplan.dyn.init.INITIALIZERS`, or an init.h5 trained by
-    `legplan learn train` (the learned initializer, eq. (2) with A_θ); a one-line error otherwise."""
-    name = os.fspath(name)
+    """The initializer `--init` names: one of `legplan.dyn.init.INITIALIZERS`, an init.h5 trained by
+    `legplan learn train` (the learned initializer, eq. (2) with A_θ) or a shipped one by its task
+    space's name; a one-line error otherwise."""
+    name = resolve_init(name)
     if is_learned(name):
         if not os.path.isfile(name):
             raise LegplanError(f"--init: {name}: no such file")
@@ -34,7 +50,11 @@ def initializer(name) -> object:
 
         return LearnedInit(os.path.abspath(name))
     if name not in INITIALIZERS:
-        raise LegplanError(f"--init: unknown initializer '{name}' (known: {', '.join(INITIALIZERS)})")
+        from legplan.shipped import list_shipped_initializers
+
+        shipped = list_shipped_initializers()
+        raise LegplanError(f"--init: unknown initializer '{name}' (known: {', '.join(INITIALIZERS)}, an INIT.h5"
+                           f"{', or a shipped one: ' + ', '.join(shipped) if shipped else ''})")
     return INITIALIZERS[name]
 
 
@@ -43,6 +63,7 @@ def check_warm_stage(warm_stage: str, init) -> None:
     `--init`; `polish` also needs the training filter an init.h5 keeps (`learn.network.CostBound`)."""
     if warm_stage == "costs":
         return
+    init = resolve_init(init)
     if not is_learned(init):
         raise LegplanError(f"--warm-stage {warm_stage}: needs a learned --init INIT.h5, not '{init}' "
                            "(only a near-solution guess is projected; others are solved in stages)")

@@ -41,6 +41,7 @@ from legplan.learn.space import X_NAMES, task_vector
 log = logging.getLogger(__name__)
 
 KIND = "init"
+SPACE_SLACK = 1e-9  # m or rad: a task on a range's bound, written in decimal, is inside it
 MAD_SIGMA = 1.4826  # MAD of a normal distribution × this = its standard deviation
 TAIL_SIGMAS = 3.0
 DEFAULT_WEIGHTS = {"base_lin": 2.0, "base_ang": 1.0, "feet": 1.0, "forces": 2.0, "phases": 2.0}
@@ -350,6 +351,22 @@ class LearnedInit:
 
         check_layout(self.layout, layout_of(Formulation(make_gait(task.gait, task.strides, task.duration), dt),
                                             phases=True), self.path)
+
+    def check_in_space(self, task) -> None:
+        """Before planning: one-line error when a `DynTask`'s start or goal (x, y, yaw) lies outside the
+        ranges of the task space this network was trained on. Outside them the network extrapolates
+        and its guess is no nearby solution, which the one-stage near-solution solve relies on: such a
+        task is refused (plan it with `--init heuristic`) rather than planned from a poor guess."""
+        name = os.path.basename(self.path)
+        for end in ("start", "goal"):
+            ranges = self.space.get(end)
+            if not ranges:
+                continue
+            for axis, value, (lo, hi) in zip(("x", "y", "yaw"), getattr(task, end), ranges):
+                if not lo - SPACE_SLACK <= value <= hi + SPACE_SLACK:
+                    raise LegplanError(
+                        f"--init {name}: the task's {end} {axis} = {value:g} lies outside the range it was trained "
+                        f"on, [{lo:g}, {hi:g}] (task space '{self.space.get('name')}'): plan it with --init heuristic")
 
     def cost_bound(self, task, tolerance: float = 1.0) -> float:
         """The largest cost of a `DynTask`'s plan that the training filter would keep (`CostBound`),

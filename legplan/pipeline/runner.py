@@ -74,8 +74,13 @@ def stage_command(stage: ResolvedStage, entry: str = CLI_ENTRY) -> list[str]:
 
 
 def run_pipeline(pipeline: Pipeline, out_dir: str | os.PathLike, *, force: bool = False, jobs: int = 1,
-                 progress=None, on_result=None, entry: str = CLI_ENTRY) -> PipelineResult:
+                 progress=None, on_result=None, entry: str = CLI_ENTRY,
+                 environment: dict[str, str] | None = None) -> PipelineResult:
     """Run every stage that is not up to date; `on_result(StageResult)` is called as each settles.
+
+    `environment` is added to every stage's process environment (`legplan pipeline run --scheduler`
+    hands the stages a dask scheduler this way, `legplan.cli.options.SCHEDULER_VARIABLE`); it is
+    not part of a stage's argv, so it changes no up-to-date decision.
 
     `progress(done, total, message)` reports settled stages. `entry` is the Python snippet that runs
     the click group on `sys.argv` (tests substitute a fake one). Raises `SpecError` before running
@@ -121,7 +126,7 @@ def run_pipeline(pipeline: Pipeline, out_dir: str | os.PathLike, *, force: bool 
                     settle(StageResult(name, "up_to_date", "up to date", stage.argv))
                     continue
                 log.info("running stage %s (%s)", name, reason)
-                running[pool.submit(_execute, stage, out_dir, reason, entry, processes)] = name
+                running[pool.submit(_execute, stage, out_dir, reason, entry, processes, environment or {})] = name
             if not running:
                 continue
             finished, _ = wait(list(running), return_when=FIRST_COMPLETED)
@@ -142,11 +147,11 @@ def _stopping_on_exit(processes: StageProcesses):
 
 
 def _execute(stage: ResolvedStage, out_dir: Path, why: str, entry: str,
-             processes: StageProcesses) -> StageResult:
+             processes: StageProcesses, environment: dict[str, str]) -> StageResult:
     log_path = out_dir / "logs" / f"{stage.name}.log"
     log_path.parent.mkdir(parents=True, exist_ok=True)
     stage.output.parent.mkdir(parents=True, exist_ok=True)
-    env = {**os.environ, "MPLBACKEND": "Agg"}
+    env = {**os.environ, "MPLBACKEND": "Agg", **environment}
     start = time.perf_counter()
     with open(log_path, "w") as stream:
         stream.write("$ legplan " + " ".join(stage.argv) + "\n")

@@ -135,3 +135,19 @@ def test_real_stages_publish_linked_artefacts_then_are_up_to_date(tmp_path):
     assert again.exit_code == 0, again.output
     assert "map: up to date" in again.stderr and "report: up to date" in again.stderr
     assert {p: p.read_bytes() for p in before} == before
+
+
+def test_a_malformed_scheduler_is_one_line_before_any_stage_and_the_variable_reaches_batch_commands(tmp_path):
+    spec = tmp_path / "in.txt"
+    spec.write_text("x")
+    path = write(tmp_path, [{"name": "a", "command": ["map", "show", str(spec)], "inputs": [str(spec)],
+                             "output": "a.h5"}])
+    result = CliRunner().invoke(cli, ["pipeline", "run", str(path), "-o", str(tmp_path / "o"), "--scheduler", "nowhere"])
+    assert result.exit_code == 2 and "--scheduler: expected 'local' or an address" in result.output
+    assert not (tmp_path / "o").exists()
+    # a many-item command falls back to LEGPLAN_SCHEDULER, the variable `pipeline run --scheduler` sets
+    out = tmp_path / "traj.h5"
+    result = CliRunner().invoke(cli, ["dyn", "plan", str(spec), "--start", "0", "0", "0", "--goal", "1", "0", "0",
+                                      "-o", str(out)], env={"LEGPLAN_SCHEDULER": "nowhere"})
+    assert result.exit_code == 2 and "--scheduler: expected 'local' or an address" in result.output, result.output
+    assert not out.exists()

@@ -4,6 +4,7 @@ It writes a small artefact with real provenance (via legplan.artefacts), so pipe
 up-to-date detection without depending on any planner.
 """
 
+import os
 import sys
 from pathlib import Path
 
@@ -37,7 +38,8 @@ def make(inputs, output, overwrite, value, fail, items_failed):
     if fail:
         click.echo("fake failure: the planner blew up", err=True)
         sys.exit(2)
-    with write_artefact(output, "series", params={"value": value}, inputs=list(inputs),
+    scheduler = os.environ.get("LEGPLAN_SCHEDULER")  # what `pipeline run --scheduler` hands the stages
+    with write_artefact(output, "series", params={"value": value, "scheduler": scheduler}, inputs=list(inputs),
                         overwrite=overwrite) as f:
         write_summary(f, {"value": (value, "m"), "inputs": len(inputs)})
     if items_failed:

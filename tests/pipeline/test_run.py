@@ -8,7 +8,7 @@ import yaml
 from fake_stage import FAKE_ENTRY
 
 from legplan import interrupts
-from legplan.artefacts import open_artefact, read_summary
+from legplan.artefacts import open_artefact, read_provenance, read_summary
 from legplan.pipeline import load_pipeline, plan_run, run_pipeline
 
 
@@ -156,3 +156,13 @@ def test_an_output_may_start_with_a_variable_only(tmp_path, write_pipeline):
             {"name": "b", "command": ["fake", "make"], "output": output}]})
         with pytest.raises(SpecError, match=message):
             load_pipeline(path)
+
+
+def test_an_environment_reaches_every_stage_and_changes_no_up_to_date_decision(tmp_path, chain, monkeypatch):
+    monkeypatch.delenv("LEGPLAN_SCHEDULER", raising=False)
+    out = tmp_path / "out"
+    assert run(chain, out, environment={"LEGPLAN_SCHEDULER": "tcp://127.0.0.1:8786"}).ok
+    for name in ("a.h5", "sub/b.h5", "c.h5", "d.h5"):
+        with open_artefact(out / name) as f:
+            assert read_provenance(f)["params"]["scheduler"] == "tcp://127.0.0.1:8786"
+    assert statuses(run(chain, out)) == dict.fromkeys("abcd", "up_to_date")  # not part of the provenance

@@ -1,0 +1,103 @@
+"""Shipped trained initializers: `ship_initializer` (provenance, held-out results), `--init NAME`, and the
+refusal of tasks outside the trained space."""
+
+import json
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+from click.testing import CliRunner
+
+import legplan.shipped
+from legplan.cli.main import cli
+from legplan.dyn.problem import DynTask
+from legplan.errors import LegplanError
+from legplan.learn.cycle import run_cycle
+from legplan.learn.dataset import make_dataset
+from legplan.learn.initializers import initializer, is_learned, resolve_init
+from legplan.learn.network import LearnedInit
+from legplan.learn.shipping import ship_initializer, shipped_records
+from legplan.learn.space import read_space
+
+ROOT = Path(__file__).resolve().parents[2]
+SPACE = (ROOT / "tests" / "data" / "learn_flat_trot.yaml").read_text().replace("../../maps/flat.yaml",
+                                                                               f"{ROOT}/maps/flat.yaml")
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory):
+    """A one-cycle training (seed 1) of the tiny flat-trot space and a held-out dataset (seed 2)."""
+    work = tmp_path_factory.mktemp("ship")
+    space = work / "tiny_trot.yaml"
+    space.write_text(SPACE)
+    run_cycle(space, work / "cycle", count=3, cycles=1, seed=1, heuristic_iterations=50, hidden=(8, 8),
+              hidden_later=(8, 8), report=lambda line: None)
+    init = work / "cycle" / "init_1.h5"
+    make_dataset(read_space(space), space, 2, 2, str(init), 25, work / "held_out.h5")
+    make_dataset(read_space(space), space, 2, 1, str(init), 25, work / "seen.h5")  # the training's seed
+    return work, init
+
+
+def test_ship_writes_the_init_and_its_provenance_with_held_out_results(trained, tmp_path):
+    work, init = trained
+    record = ship_initializer(init, work / "held_out.h5", tmp_path / "out")
+    assert record["name"] == "tiny_trot"
+    shipped = tmp_path / "out" / "tiny_trot.h5"
+    with h5py.File(init, "r") as f, h5py.File(shipped, "r") as g:
+        assert record["trained"]["command"] == json.loads(f.attrs["command"])  # as the init.h5 records it
+        assert json.loads(g.attrs["params"]) == json.loads(json.dumps({k: record[k] for k in ("trained", "held_out")}))
+        assert [r["path"] for r in json.loads(g.attrs["inputs"])] == [str(init), str(work / "held_out.h5")]
+        assert g.attrs["space"] == f.attrs["space"]
+    original, copy = LearnedInit(init), LearnedInit(shipped)  # the same network
+    assert all(np.array_equal(a, b) for a, b in zip(original.net.weights, copy.net.weights))
+    assert [d["path"] for d in record["trained"]["datasets"]] == ["dataset_0.h5"]
+    held = record["held_out"]
+    assert held["seed"] == 2 and held["tasks"] == 2 and 0.0 <= held["success_rate"] <= 1.0
+    with pytest.raises(LegplanError, match="exists"):
+        ship_initializer(init, work / "held_out.h5", tmp_path / "out")
+
+
+def test_ship_refuses_a_dataset_that_is_not_held_out_or_not_solved_from_the_init(trained, tmp_path):
+    work, init = trained
+    with pytest.raises(LegplanError, match="field 'seed': 1 is a seed of the training"):
+        ship_initializer(init, work / "seen.h5", tmp_path)
+    with pytest.raises(LegplanError, match="field 'inputs': not solved from"):
+        ship_initializer(init, work / "cycle" / "dataset_0.h5", tmp_path)
+    assert not list(tmp_path.iterdir())
+
+
+def test_init_by_name_resolves_a_shipped_initializer_and_refuses_tasks_outside_its_space(trained, tmp_path,
+                                                                                         monkeypatch):
+    work, init = trained
+    tasks = tmp_path / "tasks"
+    ship_initializer(init, work / "held_out.h5", tasks / legplan.shipped.INITIALIZERS)
+    monkeypatch.setattr(legplan.shipped, "shipped_dir", lambda kind: tmp_path / kind)
+    assert resolve_init("tiny_trot") == str(tasks / "initializers" / "tiny_trot.h5") and is_learned("tiny_trot")
+    assert resolve_init("heuristic") == "heuristic" and resolve_init("other") == "other"
+    assert [(r["name"], r["held_out"]["seed"]) for r in shipped_records()] == [("tiny_trot", 2)]
+    learned = initializer("tiny_trot")
+    assert isinstance(learned, LearnedInit)
+    learned.check_in_space(DynTask((-0.6, 0.15, 0.2), (0.0, 0.0, 0.0), "trot", 2, 2.4))  # on the bounds
+    for start, goal, message in (((-0.7, 0.0, 0.0), (0.0, 0.0, 0.0), "start x = -0.7 lies outside"),
+                                 ((-0.5, 0.0, 0.3), (0.0, 0.0, 0.0), "start yaw = 0.3 lies outside"),
+                                 ((-0.5, 0.0, 0.0), (0.1, 0.0, 0.0), "goal x = 0.1 lies outside")):
+        with pytest.raises(LegplanError, match=message):
+            learned.check_in_space(DynTask(start, goal, "trot", 2, 2.4))
+    with pytest.raises(LegplanError, match="or a shipped one: tiny_trot"):
+        initializer("tiny_trott")
+
+
+def test_dyn_plan_refuses_a_task_outside_the_shipped_space_before_writing(trained, tmp_path, monkeypatch):
+    work, init = trained
+    built = CliRunner().invoke(cli, ["map", "build", str(ROOT / "maps" / "flat.yaml"), "-o", str(tmp_path / "flat.h5")])
+    assert built.exit_code == 0, built.output
+    ship_initializer(init, work / "held_out.h5", tmp_path / "tasks" / legplan.shipped.INITIALIZERS)
+    monkeypatch.setattr(legplan.shipped, "shipped_dir", lambda kind: tmp_path / kind)
+    out = tmp_path / "traj.h5"
+    result = CliRunner().invoke(cli, ["dyn", "plan", str(tmp_path / "flat.h5"), "--gait", "trot", "--strides", "2", "--duration",
+                                      "2.4", "--start", "-1.0", "0", "0", "--goal", "0", "0", "0",
+                                      "--init", "tiny_trot", "-o", str(out)])
+    assert result.exit_code == 2, result.output
+    assert "start x = -1 lies outside the range it was trained on" in result.output
+    assert not out.exists()
