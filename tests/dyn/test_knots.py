@@ -45,3 +45,25 @@ def test_gaits_without_unloaded_phases_keep_evenly_spaced_knots():
     gait = make_gait("walk", 4, 3.5)
     np.testing.assert_array_equal(Formulation(gait, 0.1, unloaded_polynomials=16).knots, Formulation(gait, 0.1).knots)
     assert Formulation(gait, 0.1).knots == pytest.approx(np.linspace(0.0, 3.5, 36))
+
+
+def test_heuristic_forces_of_a_support_pair_carry_the_weight_over_it_and_its_flights(anymal, flat):
+    """The heuristic's summed force over an unloaded phase is a bump from zero to zero whose impulse
+    is m·g over the phase and half of each flight next to it (what the base needs to end where it
+    started); a walk's forces stay the weight shared over the feet down."""
+    from legplan.dyn.init import heuristic
+    from legplan.dyn.problem import DynParams, DynTask, build_problem
+
+    task = DynTask((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), "trot", 4, 2.4)
+    problem = build_problem(task, anymal, flat, DynParams(), heuristic)
+    form = problem.form
+    forces = next(v.value for v in problem.variables if v.name == "forces").reshape(-1, 3)
+    gait = form.gait
+    bounds = np.concatenate([[0.0], np.cumsum(gait.durations)])
+    k = int(np.flatnonzero(unloaded_phases(gait))[1])  # a pair between two flights
+    t = np.linspace(bounds[k], bounds[k + 1], 2001)
+    total = sum(form.force_matrix(leg, t) @ forces for leg in range(form.legs))[:, 2]
+    impulse = np.sum(0.5 * (total[1:] + total[:-1]) * np.diff(t))
+    carried = gait.durations[k] + 0.5 * (gait.durations[k - 1] + gait.durations[k + 1])
+    assert impulse == pytest.approx(anymal.mass * 9.81 * carried, rel=1e-6)
+    assert abs(total[0]) < 1e-9 and abs(total[-1]) < 1e-9 and total.min() >= 0.0
