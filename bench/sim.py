@@ -67,7 +67,7 @@ SETTINGS = {"none": DynParams(), "paper": PAPER, "paper, legs 6 cm": replace(PAP
 PUSH_DURATION = 0.1        # s
 PUSH_START = 4.0           # N s, the first impulse tried
 PUSH_CASES = [("flat", "flat trot 1 m", FLAT[0], "trot", 2.4, 0.5, ("none", "paper")),
-              ("single_pallet", "single pallet walk", PALLET[0], "walk", 5.5, 1.0, tuple(SETTINGS))]
+              ("single_pallet", "single pallet walk", PALLET[0], "walk", 5.5, 1.0, ("none", "paper"))]
 """(map, label, (start, goal), gait, duration s, resolution N s, cost settings) of the push bisection."""
 
 

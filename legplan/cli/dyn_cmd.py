@@ -134,23 +134,32 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
 @click.argument("paths", metavar="TRAJ [TRAJ2]", nargs=-1, required=True, type=input_artefact)
 @click.option("--task", "task_index", type=count("items", 0), default=0, show_default=True,
               help="Which task of each artefact to draw.")
+@click.option("--sim", "sims", multiple=True, type=input_artefact, metavar="SIM",
+              help="With two TRAJ: the sim.h5 of each (`dyn simulate`), in the same order, given twice: adds "
+                   "their tracking errors and executed angular rates (Fig. 4 (e)-(h)).")
 @output_opt
 @overwrite_opt
 @verbosity_opts
-def show_cmd(paths, task_index, output, overwrite):
+def show_cmd(paths, task_index, sims, output, overwrite):
     """PNG of TRAJ: base, feet and forces over time (Fig. 3); of two runs, forces and base angular
-    velocity of TRAJ against TRAJ2, e.g. with vs without costs (Fig. 4 (a)-(d))."""
+    velocity of TRAJ against TRAJ2, e.g. with vs without costs (Fig. 4 (a)-(d)), and with --sim
+    twice their executions' tracking errors and angular rates (Fig. 4 (e)-(h))."""
     from legplan.artefacts import check_output
     from legplan.dyn.figures import plot_comparison, plot_trajectory, shown_task
+    from legplan.sim.artefact import read_executed
 
     check_output(output, overwrite)
     if len(paths) > 2:
         raise LegplanError(f"dyn show: give one or two traj artefacts, got {len(paths)}")
+    if sims and (len(sims) != 2 or len(paths) != 2):
+        raise LegplanError(f"dyn show: --sim: give one sim artefact per traj artefact of two, got {len(sims)} "
+                           f"for {len(paths)}")
     runs = [shown_task(path, task_index) for path in paths]
+    executed = tuple(read_executed(path, task_index) for path in sims) or None
     if len(runs) == 1:
         plot_trajectory(output, *runs[0], overwrite=overwrite)
     else:
-        plot_comparison(output, runs[0], runs[1], overwrite=overwrite)
+        plot_comparison(output, runs[0], runs[1], executed=executed, overwrite=overwrite)
     status(f"wrote {output}")
 
 

@@ -4,7 +4,10 @@
   heights and foot forces over time, the optimization nodes as red dots on the 10 ms samples, each
   leg's contact phases shaded, and a gait diagram.
 * `plot_comparison` — the paper's Fig. 4 (a)–(d): foot forces along x, y, z and the base's roll and
-  pitch rates of two runs (e.g. with and without costs) on shared axes.
+  pitch rates of two runs (e.g. with and without costs) on shared axes; with their executions in
+  MuJoCo (`legplan dyn simulate`'s sim.h5), Fig. 4 (e)–(f) too: the norms of the base's position and
+  orientation tracking errors, and (g)–(h) the executed roll and pitch rates, a fall marked where it
+  ended the run.
 """
 
 from __future__ import annotations
@@ -102,12 +105,15 @@ def plot_trajectory(output, label: str, legs: list[str], task: dict, *, overwrit
     save_figure(fig, output, overwrite=overwrite, dpi=90)
 
 
-def plot_comparison(output, run_a: tuple, run_b: tuple, *, overwrite: bool = False) -> None:
+def plot_comparison(output, run_a: tuple, run_b: tuple, *, executed: tuple | None = None,
+                    overwrite: bool = False) -> None:
     """Fig. 4 (a)–(d): foot forces along x, y, z per leg and the base's roll and pitch rates, run A
-    solid and run B dashed."""
+    solid and run B dashed; with `executed` (the sim.h5 records of A and B,
+    `legplan.sim.artefact.read_executed`) also (e)–(h) of the module docstring."""
     (label_a, legs, a), (label_b, _, b) = run_a, run_b
-    fig = Figure(figsize=(13, 8), layout="constrained")
-    axes = fig.subplots(2, 2).ravel()
+    rows = 2 if executed is None else 4
+    fig = Figure(figsize=(13, 4 * rows), layout="constrained")
+    axes = fig.subplots(rows, 2).ravel()
     for k, ax in enumerate(axes[:3]):
         for leg, name in enumerate(legs):
             ax.plot(a["samples"]["t"], a["samples"]["forces"][:, leg, k], color=f"C{leg}", lw=1.2)
@@ -119,11 +125,36 @@ def plot_comparison(output, run_a: tuple, run_b: tuple, *, overwrite: bool = Fal
     for k, name in enumerate(("roll rate ω_x", "pitch rate ω_y")):
         ax.plot(a["samples"]["t"], a["samples"]["base_ang_vel"][:, k], color=f"C{k}", lw=1.2, label=name)
         ax.plot(b["samples"]["t"], b["samples"]["base_ang_vel"][:, k], color=f"C{k}", lw=1.0, ls="--")
-    ax.set_title("(d) base angular velocity")
+    ax.set_title("(d) base angular velocity, planned")
     ax.set_ylabel("ω [rad/s]")
     ax.legend(fontsize=7)
+    if executed is not None:
+        _executed_panels(axes[4:], executed)
     for ax in axes:
         ax.set_xlabel("t [s]")
     fig.legend([Line2D([], [], color="k"), Line2D([], [], color="k", ls="--")], [label_a, label_b],
                loc="outside lower center", ncol=2, fontsize=9)
     save_figure(fig, output, overwrite=overwrite, dpi=90)
+
+
+EXECUTED_PANELS = (("(e) base position tracking error ‖p − p_plan‖", "position_error", None, "[m]"),
+                   ("(f) base orientation tracking error ‖log(R_planᵀ R)‖", "orientation_error", None, "[rad]"),
+                   ("(g) base roll rate ω_x, executed", "base_ang_vel", 0, "[rad/s]"),
+                   ("(h) base pitch rate ω_y, executed", "base_ang_vel", 1, "[rad/s]"))
+"""(title, sim.h5 series, component or None, unit) of Fig. 4 (e)–(h)."""
+
+
+def _executed_panels(axes, executed: tuple) -> None:
+    """Fig. 4 (e)–(h) of the two executions (run A solid, B dashed); a fall marked by a cross at its
+    time."""
+    for ax, (title, name, component, unit) in zip(axes, EXECUTED_PANELS):
+        for run, (record, style) in enumerate(zip(executed, ("-", "--"))):
+            series = record["series"]
+            values = series[name] if component is None else series[name][:, component]
+            ax.plot(series["t"], values, color=f"C{run}", ls=style, lw=1.2 - 0.2 * run)
+            if record["fell"]:
+                ax.plot(series["t"][-1], values[-1], color=f"C{run}", marker="x", ms=9, mew=2, ls="none")
+                ax.annotate(f"fell at {float(record['fall_time']):.2f} s", (series["t"][-1], values[-1]),
+                            textcoords="offset points", xytext=(4, 4), fontsize=7, color=f"C{run}")
+        ax.set_title(title)
+        ax.set_ylabel(unit)

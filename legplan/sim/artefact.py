@@ -30,7 +30,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from legplan.artefacts import write_artefact, write_dataset, write_summary
+from legplan.artefacts import open_artefact, require, require_attrs, write_artefact, write_dataset, write_summary
+from legplan.errors import LegplanError
 from legplan.sim.run import REPLAN_UNITS, SERIES_UNITS
 
 NAN = float("nan")
@@ -106,3 +107,19 @@ def summary_rows(records: list[dict]) -> dict:
             "peak_speed_ratio": pick("peak_speed_ratio", lambda v: np.nanmax(v) if np.isfinite(v).any() else NAN),
             "unplanned_contact_tasks": sum(bool(r["unplanned_contacts"]) for r in records),
             "realtime_factor": sum(r["simulated"] for r in ran) / wall if wall > 0 else NAN}
+
+
+def read_executed(path, index: int) -> dict:
+    """Task `index` of a sim artefact as a dict of its attributes and `series` (name -> array); a
+    one-line error naming the file when the task is missing or was not executed (no series)."""
+    with open_artefact(path, kind="sim") as handle:
+        tasks = require(handle, "tasks")
+        name = f"{int(index):04d}"
+        if name not in tasks:
+            raise LegplanError(f"{path}: no task {index} (the artefact has {len(tasks)} task(s))")
+        group = tasks[name]
+        record = require_attrs(group, ("success", "reason", "fell", "fall_time"))
+        if "series" not in group:
+            raise LegplanError(f"{path}: task {index} was not executed ({record['reason']})")
+        record["series"] = {key: require(group["series"], key)[()] for key in SERIES_UNITS}
+    return record

@@ -23,6 +23,16 @@ r (1 + sin(π p)) above `TerrainModel.envelope_within(r)` (an upper bound of the
 r of it: a sphere whose centre is r above it clears every column; p the share of the swing elapsed,
 `swing_progress`), a clearance of up to r at mid-swing, raised to it by the larger of s and
 sin(π p); at lift-off and touch-down (p and s both 0) nothing changes.
+
+That lift is a function of where the planned point is, so it appears as abruptly as the point
+reaches an edge: a swing point that moves fast towards a step and passes close to its corner asks
+for a lift of up to the sphere's radius and more within one sample, on top of the plan's own rise,
+which the swing leg (within its torque limits) cannot follow, and the sphere strikes the step's
+face. So the lift is anticipated: within each swing, the centre at time t is raised to at least
+z(τ) − `lift_rate` (τ − t) for every later sample τ of the swing that is lifted (z its lifted
+height): where it must be over an edge, the foot arrives from below at `lift_rate` at most instead
+of jumping there. Only later lifted samples count, so the plan's own vertical motion stays as
+planned elsewhere (its touch-down is not delayed), and the foot is never lower than before.
 The foot frame's reference velocity is the planned point's plus the rate of that offset, and its
 acceleration the finite difference of the velocity (the samples hold no foot accelerations).
 """
@@ -59,12 +69,13 @@ class RefPoint:
     swing_progress: np.ndarray
 
 
-def foot_centres(feet, foot_radius, terrain, normal, progress=None) -> np.ndarray:
+def foot_centres(feet, foot_radius, terrain, normal, progress=None, t=None, lift_rate=None) -> np.ndarray:
     """The foot spheres' centres (n, legs, 3) for the planned foot points `feet` (n, legs, 3), radii
     `foot_radius` (legs,), on `terrain` (a `TerrainModel`) whose unit normal under each point is
     `normal` (n, legs, 3): the offset of the module docstring, and a point above the terrain or in
     its swing (`progress` (n, legs), `swing_progress`; None: no swing clearance) lifted with its
-    sphere over the map's columns (module docstring)."""
+    sphere over the map's columns; with the samples' times `t` (n,) and `lift_rate` (m/s), that lift
+    anticipated (`anticipated`) within each swing (module docstring)."""
     n, legs, _ = feet.shape
     x, y = feet[..., 0].ravel(), feet[..., 1].ravel()
     radius = np.asarray(foot_radius, float)[None, :]
@@ -75,8 +86,27 @@ def foot_centres(feet, foot_radius, terrain, normal, progress=None) -> np.ndarra
     for leg, r in enumerate(np.asarray(foot_radius, float)):
         over = terrain.envelope_within(float(r))(centres[:, leg, 0], centres[:, leg, 1]) + r * (1.0 + bump[:, leg])
         weight = np.maximum(share[:, leg], bump[:, leg])
-        centres[:, leg, 2] += weight * np.maximum(over - centres[:, leg, 2], 0.0)
+        lift = weight * np.maximum(over - centres[:, leg, 2], 0.0)
+        centres[:, leg, 2] += lift
+        if t is not None and lift_rate is not None and progress is not None:
+            for run in _runs(np.flatnonzero(progress[:, leg] < 1.0)):
+                centres[run, leg, 2] = anticipated(np.asarray(t, float)[run], centres[run, leg, 2],
+                                                   lift[run] > 0.0, lift_rate)
     return centres
+
+
+def anticipated(t, z, lifted, rate: float) -> np.ndarray:
+    """Heights `z` at the times `t` raised so that they rise at most at `rate` towards every later
+    sample flagged `lifted`: max(z(t), max over τ ≥ t lifted of z(τ) − rate (τ − t)) (module docstring)."""
+    t, z = np.asarray(t, float), np.asarray(z, float)
+    later = (t[None, :] >= t[:, None]) & np.asarray(lifted, bool)[None, :]
+    ahead = np.where(later, z[None, :] - rate * (t[None, :] - t[:, None]), -np.inf)
+    return np.maximum(z, ahead.max(axis=1, initial=-np.inf))
+
+
+def _runs(indices: np.ndarray) -> list[np.ndarray]:
+    """Consecutive runs of sorted sample indices."""
+    return np.split(indices, np.flatnonzero(np.diff(indices) > 1) + 1) if len(indices) else []
 
 
 def swing_progress(t, contact) -> np.ndarray:
@@ -84,17 +114,21 @@ def swing_progress(t, contact) -> np.ndarray:
     (the last stance sample before it) and 1 at its touch-down; 1 in stance."""
     progress = np.ones(contact.shape)
     for leg in range(contact.shape[1]):
-        swing = np.flatnonzero(~contact[:, leg])
-        for run in np.split(swing, np.flatnonzero(np.diff(swing) > 1) + 1) if len(swing) else []:
+        for run in _runs(np.flatnonzero(~contact[:, leg])):
             start, end = max(run[0] - 1, 0), min(run[-1] + 1, len(t) - 1)
             progress[run, leg] = (t[run] - t[start]) / max(t[end] - t[start], 1e-9)
     return progress
 
 
-class Reference:
-    """Linear interpolation of the plan's samples (module docstring)."""
+LIFT_RATE = 2.0
+"""m/s: default `lift_rate` of a `Reference` (`SimParams.lift_rate`)."""
 
-    def __init__(self, samples: dict, foot_radius, terrain):
+
+class Reference:
+    """Linear interpolation of the plan's samples (module docstring); `lift_rate` (m/s) bounds the
+    rate of the swing feet's lift over the terrain (None: unbounded)."""
+
+    def __init__(self, samples: dict, foot_radius, terrain, lift_rate: float | None = LIFT_RATE):
         t = np.asarray(samples["t"], float)
         if t.ndim != 1 or len(t) < 2 or not np.all(np.diff(t) > 0):
             raise ValueError("samples: t must hold at least two increasing times")
@@ -104,7 +138,7 @@ class Reference:
         n, legs, _ = feet.shape
         normal = terrain.basis(feet[..., 0].ravel(), feet[..., 1].ravel())[0].reshape(n, legs, 3)
         contact = np.asarray(samples["contact"], bool)
-        centres = foot_centres(feet, foot_radius, terrain, normal, swing_progress(t, contact))
+        centres = foot_centres(feet, foot_radius, terrain, normal, swing_progress(t, contact), t, lift_rate)
         feet_vel = np.asarray(samples["feet_vel"], float) + np.gradient(centres - feet, t, axis=0)
         self._arrays = {
             "pos": np.asarray(samples["base_pos"], float), "vel": np.asarray(samples["base_vel"], float),

@@ -47,7 +47,7 @@ from legplan.parameters import Parameters, param
 from legplan.robots import leg_reach
 from legplan.sim.controller import Gains, WholeBodyController
 from legplan.sim.model import ModelOptions, build_model
-from legplan.sim.reference import Reference
+from legplan.sim.reference import LIFT_RATE, Reference
 
 CONTROL_DT = 0.0025   # s, 400 Hz (paper Sec. III-B)
 OVERSPEED = 1.05      # × a joint's velocity limit counted as over it (`SimResult.overspeed_time`)
@@ -69,6 +69,8 @@ class SimParams(Parameters):
     friction_scale: float = param(1.0, "(0, inf)", doc="× the simulated friction only (the controller keeps μ)")
     mass_scale: float = param(1.0, "(0, inf)",
                               doc="× every simulated mass and inertia (the controller keeps the URDF's)")
+    lift_rate: float = param(LIFT_RATE, "(0, inf)", doc=(
+        "m/s: largest rate of a swing foot's lift over the terrain's edges (legplan.sim.reference)"))
     pushes: tuple = ()                # ((t s, f_x N, f_y N, duration s), ...) on the root link
     zero_torque: bool = False         # apply no torques (a planted fall, for tests)
     model: ModelOptions = field(default_factory=ModelOptions)
@@ -141,7 +143,7 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
     mu = robot.centroidal.friction if params.friction is None else params.friction
     sim = build_model(robot, terrain_map, mu, params.model)
     terrain = TerrainModel(terrain_map)
-    reference = Reference(samples, sim.foot_radius, terrain)
+    reference = Reference(samples, sim.foot_radius, terrain, params.lift_rate)
     controller = WholeBodyController(robot, sim.effort, mu, params.gains, velocity_limit=sim.velocity_limit,
                                      damping=sim.damping, armature=sim.armature)
     model = sim.model
@@ -167,7 +169,7 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
         t = start + tick * CONTROL_DT
         q, v = _pinocchio_state(data, sim)
         if replanner is not None and replanner.due(t):
-            reference = _replanned(replanner, t, data, sim, q, v, terrain) or reference
+            reference = _replanned(replanner, t, data, sim, q, v, terrain, params.lift_rate) or reference
         ref = reference.at(t)
         if not params.zero_torque:
             tau = controller.torques(q, v, ref, touching(data, sim))
@@ -235,7 +237,7 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
                      replans=replanner.columns() if replanner is not None else {})
 
 
-def _replanned(replanner, t: float, data, sim, q, v, terrain: TerrainModel):
+def _replanned(replanner, t: float, data, sim, q, v, terrain: TerrainModel, lift_rate: float):
     """The `Reference` of a replan from the simulated state at t (the feet as the contact points
     under the foot spheres), or None when it failed."""
     rot = pin.Quaternion(q[3:7]).normalized().matrix()
@@ -243,7 +245,7 @@ def _replanned(replanner, t: float, data, sim, q, v, terrain: TerrainModel):
     normal = terrain.basis(centres[:, 0], centres[:, 1])[0]
     feet = centres - np.asarray(sim.foot_radius, float)[:, None] * normal
     samples = replanner(t, q[:3], rot, data.qvel[:3], rot @ v[3:6], feet)
-    return None if samples is None else Reference(samples, sim.foot_radius, terrain)
+    return None if samples is None else Reference(samples, sim.foot_radius, terrain, lift_rate)
 
 
 def perturb(sim, data, params: SimParams) -> None:

@@ -55,6 +55,14 @@ of `CheckTolerances`: the largest value ≤ it, or for those in `MINIMA` the sma
                             joints (`Centroidal.torque_limits`), a plan that needs more torque than the
                             robot has fails; TOWR's scalar model (max_normal_force alone) promises no
                             torques, its ratio is recorded with the bound ∞
+  line_support              the longest phase in which the same one or two feet carry the base
+                            (a trot's diagonal pair, a walk's two-foot exchange), in units of
+                            τ = √(h/g), h the nominal base height: on a line or a point of support
+                            the base is an inverted pendulum whose deviations from the plan grow as
+                            e^{t/τ} (the feet can exert no moment about the line through them), and
+                            the executing controller corrects them only where the next feet land;
+                            ≤ `line_support` (a slow trot whose diagonal stances last this long
+                            leaves the executing controller too far off to recover)
 
 "Relative" force violations are divided by max(f·n, m g / 4) (the force of one foot of four
 carrying the weight), so 1e-3 means a thousandth of a foot's share of the weight or of the force.
@@ -80,7 +88,7 @@ UNITS = {"newton_euler_force": "N", "newton_euler_torque": "N m", "newton_euler_
          "friction_cone": "1", "swing_force": "1", "stance_slip": "m", "stance_height": "m", "stance_column": "m",
          "penetration_height": "m", "penetration_column": "m", "base_height": "m", "base_above_feet": "m",
          "trunk_penetration": "m", "range_of_motion": "m", "leg_reach": "m", "joint_limit_margin": "rad",
-         "leg_penetration": "m", "joint_torque": "1"}
+         "leg_penetration": "m", "joint_torque": "1", "line_support": "√(h/g)"}
 MINIMA = ("base_height", "base_above_feet", "joint_limit_margin")
 """Metrics whose worst value is the smallest, judged by a lower bound; the rest by an upper one."""
 
@@ -105,6 +113,9 @@ class CheckTolerances:
     leg_reach: float = 1e-4
     torque: float = 1e-3
     """Relative: joint torques up to (1 + this) × the URDF's effort limits."""
+    line_support: float = 1.5
+    """The longest phase on the same one or two feet, × √(h/g) (module docstring): a deviation
+    grows e^1.5 ≈ 4.5-fold in it. BENCHMARKS.md (exec2: slow trots) holds the executions behind it."""
     node_dt: float = 0.1
 
 
@@ -180,6 +191,7 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
     kinematics = _kinematics(robot, p, rot, joints)
     worst.update(_spheres(robot, columns, kinematics.sphere_centres))
     worst["joint_torque"] = _joint_torque(robot, model, kinematics.foot_jacobians, forces, contact)
+    worst["line_support"] = _line_support(t, contact) / np.sqrt(_base_height(model, robot) / GRAVITY)
 
     between = tolerances.between
     tolerance = {"newton_euler_force": between * weight, "newton_euler_torque": between * weight * lever,
@@ -192,7 +204,8 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
                  "trunk_penetration": tolerances.penetration, "range_of_motion": tolerances.range_of_motion,
                  "leg_reach": tolerances.leg_reach, "joint_limit_margin": 0.0,
                  "leg_penetration": tolerances.penetration,
-                 "joint_torque": np.inf if getattr(model, "torque_limits", None) is None else 1.0 + tolerances.torque}
+                 "joint_torque": np.inf if getattr(model, "torque_limits", None) is None else 1.0 + tolerances.torque,
+                 "line_support": tolerances.line_support}
     worst = {name: float(worst[name]) for name in UNITS}
     passed = {name: bool(worst[name] >= bound if name in MINIMA else worst[name] <= bound)
               for name, bound in tolerance.items()}
@@ -352,3 +365,24 @@ def _spheres(robot, columns: _Columns, centres) -> dict[str, float]:
     trunk = index[picked] == -1
     return {"trunk_penetration": float(depth[:, trunk].max(initial=-np.inf)),
             "leg_penetration": float(depth[:, ~trunk].max(initial=-np.inf))}
+
+
+def _line_support(t: np.ndarray, contact: np.ndarray) -> float:
+    """Longest time (s) the same one or two feet are the only ones in contact: the samples of each
+    such run, each counted for the sample spacing."""
+    if len(t) < 2:
+        return 0.0
+    dt = float(np.median(np.diff(t)))
+    count = contact.sum(axis=1)
+    longest, run = 0, 0
+    for k in range(len(t)):
+        line = 1 <= count[k] <= 2
+        run = run + 1 if line and k and np.array_equal(contact[k], contact[k - 1]) else int(line)
+        longest = max(longest, run)
+    return longest * dt
+
+
+def _base_height(model, robot) -> float:
+    """The nominal base height (m) of the centroidal model, or of the robot's `centroidal` section."""
+    height = getattr(model, "base_height", None)
+    return float(height if height is not None else robot.centroidal.base_height)
