@@ -1,6 +1,6 @@
 """Benchmark of published quadrupeds from their URDF to an executed motion, with no hand edits.
 
-    .venv/bin/python bench/robots.py [--robots anymal_b,go1] [--no-append]
+    .venv/bin/python bench/robots.py [--robots anymal_b,go1] [--tasks "pallet trot"] [--work DIR] [--no-append]
 
 For each robot of example-robot-data (a test dependency: ANYmal B and C, HyQ, Go1, Solo12) and the
 shipped `anymal`, exactly what a user runs, through the `legplan` command:
@@ -113,19 +113,19 @@ def write_maps(work: Path, length: float, height: float) -> dict[str, Path]:
     for spec in (flat, pallet):
         (work / f"{spec['name']}.yaml").write_text(yaml.safe_dump(spec))
         maps[spec["name"]] = work / f"{spec['name']}.h5"
-        done = run(["map", "build", work / f"{spec['name']}.yaml", "-o", maps[spec["name"]], "-q"])
+        done = run(["map", "build", work / f"{spec['name']}.yaml", "-o", maps[spec["name"]], "--overwrite", "-q"])
         if done.returncode:
             raise RuntimeError(f"map build: {last_line(done)}")
     return maps
 
 
-def bench_robot(name: str, urdf: Path | None, work: Path) -> dict:
+def bench_robot(name: str, urdf: Path | None, work: Path, tasks=tuple(TASKS)) -> dict:
     row = {"robot": name, "tasks": {}}
     folder = work / name
     if urdf is None:
         folder = Path(str(ROOT / "robots" / name))
     else:
-        init = run(["robot", "init", urdf, "-o", folder, "--name", name, "-q"])
+        init = run(["robot", "init", urdf, "-o", folder, "--name", name, "--overwrite", "-q"])
         row["init"] = init.returncode == 0
         if init.returncode:
             row["init_error"] = last_line(init)
@@ -143,15 +143,16 @@ def bench_robot(name: str, urdf: Path | None, work: Path) -> dict:
     row["check_exit"] = check.returncode
     length, height, reach_x = robot_shape(folder)
     row["length"], row["height"] = length, height
-    (work / f"{name}-maps").mkdir(parents=True)
+    (work / f"{name}-maps").mkdir(parents=True, exist_ok=True)
     maps = write_maps(work / f"{name}-maps", length, height)
-    for task, (kind, gait, strides, duration) in TASKS.items():
+    for task in tasks:
+        kind, gait, strides, duration = TASKS[task]
         start, goal = ((0, 0, 0), (length, 0, 0)) if kind == "flat" else ((-1.4 * length, 0, 0), (0.9 * length, 0, 0))
         strides, duration = strides_for(gait, strides, duration, goal[0] - start[0], reach_x)
         traj, sim = work / f"{name}-{task.replace(' ', '_')}.h5", work / f"{name}-{task.replace(' ', '_')}-sim.h5"
         cpu = time.process_time()
         planned = run(["dyn", "plan", maps[kind], "--robot", folder, "--gait", gait, "--strides", strides,
-                       "--duration", duration, "--start", *start, "--goal", *goal, "-o", traj, "-q"])
+                       "--duration", duration, "--start", *start, "--goal", *goal, "-o", traj, "--overwrite", "-q"])
         entry = {"plan_exit": planned.returncode, "strides": strides, "duration": duration}
         if planned.returncode in (0, 1) and traj.exists():
             plan_summary = summary(traj)
@@ -161,7 +162,7 @@ def bench_robot(name: str, urdf: Path | None, work: Path) -> dict:
         else:
             entry["error"] = last_line(planned)
         if traj.exists():
-            simulated = run(["dyn", "simulate", traj, maps[kind], "-o", sim, "-q"])
+            simulated = run(["dyn", "simulate", traj, maps[kind], "-o", sim, "--overwrite", "-q"])
             entry["sim_exit"] = simulated.returncode
             if sim.exists():
                 sim_summary = summary(sim)
@@ -201,7 +202,7 @@ def markdown(result: dict) -> str:
             lines.append(f"| {row['robot']} | ok | {row.get('check_errors')} | {task} | {shape} | {entry.get('planned', False)} | "
                          f"{entry.get('check_passed', False)} | {entry.get('executed', False)} | {num('rms_position')} | "
                          f"{num('rms_orientation')} | {note} |")
-    for task in TASKS:
+    for task in result.get("tasks", TASKS):
         done = [r["tasks"].get(task, {}).get("executed", False) for r in result["rows"]]
         lines.append(f"\n{task}: executed on {sum(done)}/{len(done)} robots.")
     return "\n".join(lines)
@@ -210,17 +211,25 @@ def markdown(result: dict) -> str:
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--robots", default=",".join(ROBOTS), help="comma-separated robot keys")
-    parser.add_argument("--no-append", action="store_true", help="do not touch BENCHMARKS.md")
+    parser.add_argument("--tasks", default=",".join(TASKS), help="comma-separated tasks")
+    parser.add_argument("--work", help="keep the robot folders and artefacts in this folder (default: a temporary one)")
+    parser.add_argument("--no-append", action="store_true", help="do not touch BENCHMARKS.md (nor the JSON result)")
     args = parser.parse_args()
+    tasks = [task.strip() for task in args.tasks.split(",")]
+    unknown = sorted(set(tasks) - set(TASKS))
+    if unknown:
+        parser.error(f"--tasks: unknown task '{unknown[0]}' (tasks: {', '.join(TASKS)})")
     folder = robots_folder()
     load_start = load_average()
-    with tempfile.TemporaryDirectory(prefix="legplan-bench-robots-") as work:
-        rows = [bench_robot(name, None if ROBOTS[name] is None else folder / ROBOTS[name], Path(work))
+    with tempfile.TemporaryDirectory(prefix="legplan-bench-robots-") as temporary:
+        work = Path(args.work or temporary)
+        work.mkdir(parents=True, exist_ok=True)
+        rows = [bench_robot(name, None if ROBOTS[name] is None else folder / ROBOTS[name], work, tasks)
                 for name in args.robots.split(",")]
     result = {"date": str(datetime.date.today()), "machine": machine(), "commit": code_version(),
-              "load_start": load_start, "load_end": load_average(), "rows": rows}
-    write_result("robots", result)
+              "load_start": load_start, "load_end": load_average(), "tasks": tasks, "rows": rows}
     if not args.no_append:
+        write_result("robots", result)
         update_benchmarks("robots", markdown(result))
     print(markdown(result))
 

@@ -168,7 +168,9 @@ def robot_summary(robot) -> dict:
         summary["centroidal"] = {"mass": c.mass, "inertia": c.inertia.tolist(), "com_offset": c.com_offset.tolist(),
                                  "nominal_feet": dict(zip(c.legs, c.nominal_feet.tolist())),
                                  "range_of_motion": c.range_of_motion.tolist(), "base_height": c.base_height,
-                                 "max_normal_force": c.max_normal_force, "friction": c.friction}
+                                 "max_normal_force": c.max_normal_force, "friction": c.friction,
+                                 "torque_limits": None if c.torque_limits is None else
+                                 {leg: limits.tolist() for leg, limits in zip(c.legs, c.torque_limits)}}
     return summary
 
 
@@ -232,5 +234,12 @@ def show_command(robot, png, overwrite, as_json):
         click.echo(f"    CoM in the base frame: {c['com_offset']} m")
         for leg, foot in c["nominal_feet"].items():
             click.echo(f"    nominal foot {leg}: {foot} m")
+        if c["torque_limits"] is None:
+            click.echo("    torque limits: none (the forces bounded by the max normal force and friction alone)")
+        else:
+            joints = {leg["name"]: leg["joints"] for leg in info["legs"]}
+            for leg, limits in c["torque_limits"].items():
+                shown = ", ".join(f"{joint} {limit:g}" for joint, limit in zip(joints[leg], limits))
+                click.echo(f"    torque limits {leg} [N m]: {shown}")
     if png:
         click.echo(f"  stance picture: {png}")

@@ -172,3 +172,27 @@ def test_anymal_b_flying_trot_plans_inside_its_joint_torques(drafted):
     assert check.ok, check.failures()
     assert check.tolerance["joint_torque"] == pytest.approx(1.001) and 0.8 < check.worst["joint_torque"] <= 1.001
     assert result.samples["forces"][..., 2].max() > 1.1 * leg_forces(robot).force.min()
+
+
+def test_robot_show_prints_the_torque_limits(drafted):
+    """`robot show` prints every leg's torque limits joint by joint (text and JSON), and says when
+    there are none (Solo12's placeholder efforts)."""
+    import json
+
+    from click.testing import CliRunner
+
+    from legplan.cli.main import cli
+
+    robot = load_robot(drafted["go1"][0])
+    shown = CliRunner().invoke(cli, ["robot", "show", str(drafted["go1"][0])])
+    assert shown.exit_code == 0, shown.output
+    for leg, limits in zip(robot.legs, robot.centroidal.torque_limits):
+        line = next(row for row in shown.output.splitlines() if row.strip().startswith(f"torque limits {leg.name} "))
+        assert line.split(": ", 1)[1] == ", ".join(f"{joint} {limit:g}" for joint, limit in zip(leg.joint_names, limits))
+    as_json = CliRunner().invoke(cli, ["robot", "show", str(drafted["go1"][0]), "--json"])
+    limits = json.loads(as_json.output)["centroidal"]["torque_limits"]
+    assert limits == {leg.name: list(map(float, values))
+                      for leg, values in zip(robot.legs, robot.centroidal.torque_limits)}
+    solo = CliRunner().invoke(cli, ["robot", "show", str(drafted["solo12"][0]), "--json"])
+    assert json.loads(solo.output)["centroidal"]["torque_limits"] is None
+    assert "torque limits: none" in CliRunner().invoke(cli, ["robot", "show", str(drafted["solo12"][0])]).output
