@@ -196,3 +196,34 @@ def test_robot_show_prints_the_torque_limits(drafted):
     solo = CliRunner().invoke(cli, ["robot", "show", str(drafted["solo12"][0]), "--json"])
     assert json.loads(solo.output)["centroidal"]["torque_limits"] is None
     assert "torque limits: none" in CliRunner().invoke(cli, ["robot", "show", str(drafted["solo12"][0])]).output
+
+
+def test_go1_stands_at_a_share_of_the_drop_its_calf_limits_allow(drafted):
+    """Go1's calf cannot straighten (its URDF limits end 0.89 rad short of straight): the draft
+    measures the stance depth against the deepest the foot reaches under its hip inside the joint
+    limits, found here by pinocchio FK over a grid of thigh and calf angles, not by the drafting IK
+    (both for the URDF's foot link, whose lowest point the contact point is)."""
+    from legplan.robots.draft import STANCE_DEPTHS
+
+    robot = load_robot(drafted["go1"][0])
+    model, data = robot.model, robot.model.createData()
+    leg = robot.legs[0]
+    ids = [model.getJointId(j) for j in leg.joint_names]
+    q = robot.q_nominal.copy()
+    q[:3], q[3:7] = 0.0, [0, 0, 0, 1]
+    pin.framesForwardKinematics(model, data, q)
+    link = model.frames[leg.foot_frame_id].parentFrame                   # the URDF's FL_foot
+    hip, foot = data.oMi[ids[0]].translation.copy(), data.oMf[link].translation.copy()
+    thigh, calf = (model.idx_qs[j] for j in ids[1:])
+    assert model.upperPositionLimit[calf] < -0.5                       # the straight leg is out of reach
+    deepest = 0.0
+    for a in np.linspace(model.lowerPositionLimit[thigh], model.upperPositionLimit[thigh], 241):
+        for b in np.linspace(model.lowerPositionLimit[calf], model.upperPositionLimit[calf], 241):
+            q[thigh], q[calf] = a, b
+            pin.framesForwardKinematics(model, data, q)
+            p = data.oMf[link].translation
+            if abs(p[0] - foot[0]) < 0.004:                          # under the nominal foot (y: the HAA at 0)
+                deepest = max(deepest, hip[2] - p[2])
+    share = (hip[2] - foot[2]) / deepest
+    assert min(abs(share - depth) for depth in STANCE_DEPTHS) < 0.02, share
+    assert robot.centroidal.range_of_motion[2] > 0.05                  # room to step down and up
