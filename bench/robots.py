@@ -1,6 +1,6 @@
 """Benchmark of published quadrupeds from their URDF to an executed motion, with no hand edits.
 
-    .venv/bin/python bench/robots.py [--robots anymal_b,go1] [--tasks "pallet trot"] [--work DIR] [--no-append]
+    .venv/bin/python bench/robots.py [--robots anymal_b,go1] [--tasks "pallet trot"] [--work DIR] [--update] [--no-append]
 
 For each robot of example-robot-data (a test dependency: ANYmal B and C, HyQ, Go1, Solo12) and the
 shipped `anymal`, exactly what a user runs, through the `legplan` command:
@@ -189,6 +189,12 @@ def markdown(result: dict) -> str:
              "(durations scaled with them). One run each (the outcomes are deterministic).", "",
              "| robot | init | check errors | task | strides / s | planned | check passed | executed | rms pos (m) | rms rot (rad) | note |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
+    runs = sorted({(row["run"]["commit"], row["run"]["date"], row["run"]["load_start"], row["run"]["load_end"])
+                   for row in result["rows"] if "run" in row})
+    if len(runs) > 1:
+        lines.insert(2, "Rows from several runs: " + "; ".join(
+            f"{', '.join(r['robot'] for r in result['rows'] if r.get('run', {}).get('commit') == commit)} at {commit} "
+            f"({date}, load {start:.1f} → {end:.1f})" for commit, date, start, end in runs) + ".\n")
     for row in result["rows"]:
         if not row.get("init", True):
             lines.append(f"| {row['robot']} | failed | – | – | – | – | – | – | – | – | {row.get('init_error', '')} |")
@@ -213,6 +219,9 @@ def main():
     parser.add_argument("--robots", default=",".join(ROBOTS), help="comma-separated robot keys")
     parser.add_argument("--tasks", default=",".join(TASKS), help="comma-separated tasks")
     parser.add_argument("--work", help="keep the robot folders and artefacts in this folder (default: a temporary one)")
+    parser.add_argument("--update", action="store_true", help=(
+        "replace only these robots' rows of bench/results/robots.json (same tasks), keeping the others' with "
+        "their own commit and load; the table says which rows came from which run"))
     parser.add_argument("--no-append", action="store_true", help="do not touch BENCHMARKS.md (nor the JSON result)")
     args = parser.parse_args()
     tasks = [task.strip() for task in args.tasks.split(",")]
@@ -226,8 +235,19 @@ def main():
         work.mkdir(parents=True, exist_ok=True)
         rows = [bench_robot(name, None if ROBOTS[name] is None else folder / ROBOTS[name], work, tasks)
                 for name in args.robots.split(",")]
-    result = {"date": str(datetime.date.today()), "machine": machine(), "commit": code_version(),
-              "load_start": load_start, "load_end": load_average(), "tasks": tasks, "rows": rows}
+    run_info = {"date": str(datetime.date.today()), "commit": code_version(), "load_start": load_start,
+                "load_end": load_average()}
+    for row in rows:
+        row["run"] = run_info
+    result = {**run_info, "machine": machine(), "tasks": tasks, "rows": rows}
+    previous = ROOT / "bench" / "results" / "robots.json"
+    if args.update and previous.exists():
+        kept = json.loads(previous.read_text())
+        fresh = {row["robot"]: row for row in rows}
+        order = [row["robot"] for row in kept["rows"]] + [name for name in fresh if name not in
+                                                          {row["robot"] for row in kept["rows"]}]
+        old = {row["robot"]: {"run": {key: kept[key] for key in run_info}, **row} for row in kept["rows"]}
+        result["rows"] = [fresh.get(name) or old[name] for name in order]
     if not args.no_append:
         write_result("robots", result)
         update_benchmarks("robots", markdown(result))

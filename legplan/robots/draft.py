@@ -41,12 +41,12 @@
   vertically inside its joint efforts (where no depth lets them, the one at which they push
   hardest); placeholder efforts bound nothing. Without a centroidal section, or with `--height`,
   the first.
-- Joint limits (`sanitized_limits`): the URDF's, except a revolute range of 2π or more (not a
-  physical stop): the knee (a leg's last joint) from nearly stretched (`KNEE_MARGIN`) to folded
+- Joint limits (`sanitized_limits`): the URDF's (a joint without a range, lower = upper, is refused),
+  except a revolute range of 2π or more (not a physical stop): the knee (a leg's last joint) from nearly stretched (`KNEE_MARGIN`) to folded
   (`KNEE_FOLD`) on its nominal side, other joints the nominal angle ± π/2; a warning names them.
 - Centroidal section (`legplan.robots.rigid_body`): mass, composite inertia about the CoM and the
-  CoM offset at the stance (pinocchio's ccrba), nominal feet, a range-of-motion box every corner of
-  which the legs reach by IK, friction `DRAFT_FRICTION`, and the force limits: the URDF's joint
+  CoM offset at the stance (pinocchio's ccrba), nominal feet, a range-of-motion box whose corners,
+  edge midpoints and face centres the legs reach by IK, friction `DRAFT_FRICTION`, and the force limits: the URDF's joint
   efforts as `torque_limits` (the planner keeps |Jᵀf| inside them through each leg's Jacobian) with
   max normal force `FORCE_CAP_WEIGHTS` robot weights; with placeholder efforts (flagged) no torque
   limits and that cap, or `--max-normal-force`.
@@ -535,6 +535,11 @@ def draft_robot(urdf: str | Path, name: str, options: DraftOptions | None = None
         if base_model.nqs[joint] != 1 or base_model.nvs[joint] != 1:
             raise LegplanError(f"{urdf}: joint '{base_model.names[joint]}' is not a 1-DoF revolute or prismatic joint "
                                f"(nq={base_model.nqs[joint]}); legs of such joints are not supported")
+        k = int(base_model.idx_qs[joint])
+        if base_model.upperPositionLimit[k] <= base_model.lowerPositionLimit[k]:
+            raise LegplanError(f"{urdf}: joint '{base_model.names[joint]}': its <limit> gives no range (lower "
+                               f"{base_model.lowerPositionLimit[k]:g} = upper {base_model.upperPositionLimit[k]:g}; "
+                               "a movable joint needs lower < upper); legs of fixed joints cannot be drafted")
     links = read_urdf_links(urdf, options.package_paths)
     chains = leg_chains(base_model, urdf)
     if len(chains) == 4:
@@ -680,8 +685,8 @@ def draft_yaml(draft: RobotDraft, urdf_ref: str) -> str:
     c = draft.centroidal
     if c is not None:
         lines += ["", "# Single rigid body at the nominal stance (legplan.robots.rigid_body): pinocchio's composite",
-                  "# inertia about the CoM, the CoM in the base frame, a range-of-motion box whose corners every",
-                  f"# leg reaches inside the joint limits, the normal force {c['force_source']}.",
+                  "# inertia about the CoM, the CoM in the base frame, a range-of-motion box whose corners, edge",
+                  f"# midpoints and face centres every leg reaches inside the joint limits, the normal force {c['force_source']}.",
                   "centroidal:",
                   f"  mass: {c['mass']:.10g}",
                   "  inertia: {" + ", ".join(f"{key}: {value:.6g}" for key, value in c["inertia"].items()) + "}",

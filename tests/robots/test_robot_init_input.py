@@ -191,6 +191,19 @@ def test_urdf_without_legs(tmp_path):
     _one_line_exit_2(run("robot", "init", urdf, "-o", out), out, f"{urdf}: no joint below the base link")
 
 
+def test_a_joint_whose_limit_gives_no_range(tmp_path):
+    """A revolute joint whose <limit> leaves out lower and upper (the URDF's default range [0, 0],
+    as example-robot-data's quadruped_description writes its knees): one line naming the joint."""
+    urdf = tmp_path / "quad.urdf"
+    text = quadruped_urdf()
+    knee = 'name="RH_KFE" type="revolute">'
+    head, tail = text.split(knee)
+    urdf.write_text(head + knee + tail.replace('lower="-2.6" upper="2.6" ', "", 1))
+    out = tmp_path / "out"
+    _one_line_exit_2(run("robot", "init", urdf, "-o", out), out,
+                     f"{urdf}: joint 'RH_KFE': its <limit> gives no range (lower 0 = upper 0")
+
+
 def test_legs_that_branch(toy_urdf, tmp_path):
     text = toy_urdf.read_text().replace("</robot>", '<joint name="claw_a" type="revolute"><parent link="thigh_a"/>'
                                         '<child link="claw_a"/><axis xyz="0 1 0"/><limit lower="-1" upper="1" '

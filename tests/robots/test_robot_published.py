@@ -227,3 +227,19 @@ def test_go1_stands_at_a_share_of_the_drop_its_calf_limits_allow(drafted):
     share = (hip[2] - foot[2]) / deepest
     assert min(abs(share - depth) for depth in STANCE_DEPTHS) < 0.02, share
     assert robot.centroidal.range_of_motion[2] > 0.05                  # room to step down and up
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_the_drafted_range_of_motion_box_is_reached_on_a_finer_grid(name, drafted):
+    """Every point of a 5 × 5 × 5 grid on the surface of the drafted box around each nominal foot
+    is reached by IK inside the joint limits: more than the corners, edge midpoints and face centres
+    the draft proves (HyQ's legs reach all corners of a box whose top edge midpoints they miss)."""
+    from legplan.robots.legik import leg_reach
+
+    robot = load_robot(drafted[name][0])
+    c = robot.centroidal
+    grid = np.linspace(-1.0, 1.0, 5)
+    points = np.array([[a, b, d] for a in grid for b in grid for d in grid if max(abs(a), abs(b), abs(d)) == 1.0])
+    targets = c.nominal_feet[None, :, :] + (points * c.range_of_motion)[:, None, :]
+    reach = leg_reach(robot, np.zeros((len(points), 3)), np.tile(np.eye(3), (len(points), 1, 1)), targets)
+    assert reach.reachable.all(), points[~reach.reachable.all(axis=1)]
