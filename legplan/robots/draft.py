@@ -15,9 +15,10 @@
   `foot: {link, offset}` (a frame `<leg>_foot` is added at load time, `<leg>_contact` when the URDF
   has a `<leg>_foot` already); the URDF is not edited.
 - Collision spheres (`primitive_spheres`): per box a row (or grid) over its two longest edges, per
-  cylinder a row along its axis, at most `MAX_SPHERES_PER_SHAPE` along an edge; the radius is half
-  the thickness (box: at least a quarter of the middle edge) or more, so the spheres touch along
-  each edge; a sphere stays a sphere; a mesh-only link is covered as the box around its vertices;
+  cylinder a row along its axis, at most `MAX_SPHERES_PER_SHAPE` along an edge, as many as the
+  radius needs to span it (rounded up: a flat plate gets two rows, not one row of spheres as wide
+  as the plate, which would reach far below it); the radius is half the thickness (box: at least
+  a quarter of the middle edge) or more, so the spheres touch along each edge; a sphere stays a sphere; a mesh-only link is covered as the box around its vertices;
   spheres under `SMALLEST_SPHERE` of the leg length (sensor markers) and spheres inside another
   sphere moved by the same joint are left out.
   A foot sphere sits on each foot point (the foot link's sphere radius, else half the smallest
@@ -256,7 +257,7 @@ def primitive_spheres(shape: Primitive) -> list[tuple[np.ndarray, float]]:
         thickness = max(shape.size[order[2]] / 2, shape.size[order[1]] / 4)
     counts, radius = [], thickness
     for edge in edges:                 # the longest edge first: its spacing sets the radius
-        counts.append(min(MAX_SPHERES_PER_SHAPE, max(1, round(edge / (2 * radius)))))
+        counts.append(min(MAX_SPHERES_PER_SHAPE, max(1, math.ceil(edge / (2 * radius) - 1e-9))))
         radius = max(radius, edge / (2 * counts[-1]))
     grids = [(np.arange(n) + 0.5) * edge / n - edge / 2 for edge, n in zip(edges, counts)]
     spheres = []
