@@ -78,7 +78,7 @@ def _foot_option(text: str) -> tuple[str, tuple[str, list[float] | None]]:
               help="A leg's foot: on LINK at offset X,Y,Z (m, link frame), or at the lowest point of LINK's "
                    "geometry in the stance when no offset is given. Repeatable.")
 @click.option("--height", type=number(LENGTH), default=None,
-              help="Base height of the nominal stance (m); default: legs bent to 0.65-0.75 of their "
+              help="Base height of the nominal stance (m); default: legs bent to 0.65-0.8 of their "
                    "drop, the share with the largest range of motion whose legs hold a trot (legplan.robots.draft).")
 @click.option("--package-path", "package_paths", multiple=True, type=click.Path(file_okay=False),
               help="A folder holding ROS packages (or a package itself) for package:// meshes; searched "

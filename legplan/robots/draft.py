@@ -74,8 +74,9 @@ from legplan.robots.urdf import Primitive, UrdfLinks, UrdfParseError, build_free
 MAX_SPHERES_PER_SHAPE = 3
 STANCE_STARTS = 6
 REACH_FRACTION = 0.75      # hip-to-foot distance / chain length in the nominal stance of a spread leg
-STANCE_DEPTHS = (0.75, 0.7, 0.65)   # foot depth below the hip / the deepest drop inside the joint limits,
-                                    # hanging legs: the candidates of `drafted`, the first without a choice
+STANCE_DEPTHS = (0.75, 0.8, 0.7, 0.65)   # foot depth below the hip / the deepest drop inside the joint
+                                         # limits, hanging legs: the candidates of `drafted`, the first
+                                         # without a choice
 TROT_WEIGHT_SHARE = 1.0 / (2 * 0.8)  # of the robot's weight: what a leg of TOWR's flying trot (a diagonal
                                     # pair stands 0.8 of each second) pushes on average over its stance
 DROP_XY_WEIGHT = 100.0     # the deepest drop's fit: weight of the foot's (x, y) against its depth ...
