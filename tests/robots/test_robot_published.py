@@ -243,3 +243,40 @@ def test_the_drafted_range_of_motion_box_is_reached_on_a_finer_grid(name, drafte
     targets = c.nominal_feet[None, :, :] + (points * c.range_of_motion)[:, None, :]
     reach = leg_reach(robot, np.zeros((len(points), 3)), np.tile(np.eye(3), (len(points), 1, 1)), targets)
     assert reach.reachable.all(), points[~reach.reachable.all(axis=1)]
+
+
+def test_go1_drafted_from_its_urdf_trots_onto_a_pallet_in_mujoco(drafted, tmp_path):
+    """Go1 as `robot init` drafts it (no edits, no options) trots onto a pallet a third of its
+    standing height high (the bench's pallet trot: 6 strides in 3.6 s from -1.4 L to 0.9 L), passes
+    the independent check and reaches the goal in MuJoCo."""
+    import yaml
+    from click.testing import CliRunner
+
+    from legplan.artefacts import open_artefact, read_summary
+    from legplan.cli.main import cli
+
+    def run(*args):
+        return CliRunner().invoke(cli, [str(a) for a in args])
+
+    def summary(path):
+        with open_artefact(path) as handle:
+            return {key: value for key, (value, _) in read_summary(handle).items()}
+
+    folder = drafted["go1"][0].parent
+    feet = yaml.safe_load((folder / "robot.yaml").read_text())["centroidal"]["nominal_feet"]
+    length = max(f[0] for f in feet.values()) - min(f[0] for f in feet.values())
+    top = round(-sum(f[2] for f in feet.values()) / len(feet) / 3, 3)
+    spec = {"name": "pallet", "resolution": 0.01, "ground": 0.0,
+            "extent": {"x": [-3 * length, 3 * length], "y": [-2 * length, 2 * length]},
+            "primitives": [{"type": "box", "center": [1.1 * length, 0.0], "size": [2.2 * length, 2 * length], "top": top},
+                           {"type": "slope", "center": [0.015, 0.0], "size": [0.03, 2 * length], "from": 0.0, "to": top}]}
+    (tmp_path / "pallet.yaml").write_text(yaml.safe_dump(spec))
+    assert run("map", "build", tmp_path / "pallet.yaml", "-o", tmp_path / "pallet.h5", "-q").exit_code == 0
+    traj, sim = tmp_path / "traj.h5", tmp_path / "sim.h5"
+    planned = run("dyn", "plan", tmp_path / "pallet.h5", "--robot", folder, "--gait", "trot", "--strides", 6,
+                  "--duration", 3.6, "--start", -1.4 * length, 0, 0, "--goal", 0.9 * length, 0, 0, "-o", traj, "-q")
+    assert planned.exit_code == 0, planned.output
+    assert summary(traj)["check_passed"] == 1
+    simulated = run("dyn", "simulate", traj, tmp_path / "pallet.h5", "-o", sim, "-q")
+    result = summary(sim)
+    assert simulated.exit_code == 0 and result["falls"] == 0 and result["succeeded"] == 1, simulated.output
