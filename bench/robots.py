@@ -1,6 +1,6 @@
 """Benchmark of published quadrupeds from their URDF to an executed motion, with no hand edits.
 
-    .venv/bin/python bench/robots.py [--robots anymal_b,go1] [--no-append]
+    .venv/bin/python bench/robots.py [--robots anymal_b,go1] [--tasks "pallet trot"] [--work DIR] [--update] [--no-append]
 
 For each robot of example-robot-data (a test dependency: ANYmal B and C, HyQ, Go1, Solo12) and the
 shipped `anymal`, exactly what a user runs, through the `legplan` command:
@@ -14,7 +14,10 @@ shipped `anymal`, exactly what a user runs, through the `legplan` command:
    than the range-of-motion box's x extent 2 r_x per stance (a foot stands `STANCE_SHARE` of a
    stride), the duration grown with them (same phase durations);
 3. `legplan dyn plan` (plan success, the independent dense check) and `legplan dyn simulate`
-   (MuJoCo success, rms base position and orientation tracking error).
+   (MuJoCo success, rms base position and orientation tracking error); the pallet trot with the
+   legs' spheres kept `TROT_LEG_CLEARANCE` above the terrain (`--param leg_clearance`, the same on
+   every robot): a trot's legs sweep past the pallet's edge within a few hundredths of a second,
+   faster than the controller tracks them, and the default 2 cm let Solo12's hind shanks strike it.
 
 Writes bench/results/robots.json and the `robots` section of BENCHMARKS.md.
 """
@@ -56,6 +59,7 @@ TASKS = {"flat walk": ("flat", "walk", 4, 4.0), "flat trot": ("flat", "trot", 4,
 # Run2: a diagonal pair of 0.4 s in 1.0 s)
 STANCE_SHARE = {"walk": 1.0 - 0.51 / 1.52, "trot": 0.4}
 KNOT_DT = 0.1  # s, the planner's base knot spacing (DynParams.dt)
+TROT_LEG_CLEARANCE = 0.03  # m, the pallet trot's leg clearance (module docstring)
 
 
 def strides_for(gait: str, strides: int, duration: float, distance: float, reach_x: float) -> tuple[int, float]:
@@ -113,19 +117,19 @@ def write_maps(work: Path, length: float, height: float) -> dict[str, Path]:
     for spec in (flat, pallet):
         (work / f"{spec['name']}.yaml").write_text(yaml.safe_dump(spec))
         maps[spec["name"]] = work / f"{spec['name']}.h5"
-        done = run(["map", "build", work / f"{spec['name']}.yaml", "-o", maps[spec["name"]], "-q"])
+        done = run(["map", "build", work / f"{spec['name']}.yaml", "-o", maps[spec["name"]], "--overwrite", "-q"])
         if done.returncode:
             raise RuntimeError(f"map build: {last_line(done)}")
     return maps
 
 
-def bench_robot(name: str, urdf: Path | None, work: Path) -> dict:
+def bench_robot(name: str, urdf: Path | None, work: Path, tasks=tuple(TASKS)) -> dict:
     row = {"robot": name, "tasks": {}}
     folder = work / name
     if urdf is None:
         folder = Path(str(ROOT / "robots" / name))
     else:
-        init = run(["robot", "init", urdf, "-o", folder, "--name", name, "-q"])
+        init = run(["robot", "init", urdf, "-o", folder, "--name", name, "--overwrite", "-q"])
         row["init"] = init.returncode == 0
         if init.returncode:
             row["init_error"] = last_line(init)
@@ -143,15 +147,18 @@ def bench_robot(name: str, urdf: Path | None, work: Path) -> dict:
     row["check_exit"] = check.returncode
     length, height, reach_x = robot_shape(folder)
     row["length"], row["height"] = length, height
-    (work / f"{name}-maps").mkdir(parents=True)
+    (work / f"{name}-maps").mkdir(parents=True, exist_ok=True)
     maps = write_maps(work / f"{name}-maps", length, height)
-    for task, (kind, gait, strides, duration) in TASKS.items():
+    for task in tasks:
+        kind, gait, strides, duration = TASKS[task]
         start, goal = ((0, 0, 0), (length, 0, 0)) if kind == "flat" else ((-1.4 * length, 0, 0), (0.9 * length, 0, 0))
         strides, duration = strides_for(gait, strides, duration, goal[0] - start[0], reach_x)
         traj, sim = work / f"{name}-{task.replace(' ', '_')}.h5", work / f"{name}-{task.replace(' ', '_')}-sim.h5"
         cpu = time.process_time()
+        extra = ["--param", f"leg_clearance={TROT_LEG_CLEARANCE}"] if task == "pallet trot" else []
         planned = run(["dyn", "plan", maps[kind], "--robot", folder, "--gait", gait, "--strides", strides,
-                       "--duration", duration, "--start", *start, "--goal", *goal, "-o", traj, "-q"])
+                       "--duration", duration, "--start", *start, "--goal", *goal, "-o", traj, "--overwrite", "-q",
+                       *extra])
         entry = {"plan_exit": planned.returncode, "strides": strides, "duration": duration}
         if planned.returncode in (0, 1) and traj.exists():
             plan_summary = summary(traj)
@@ -161,7 +168,7 @@ def bench_robot(name: str, urdf: Path | None, work: Path) -> dict:
         else:
             entry["error"] = last_line(planned)
         if traj.exists():
-            simulated = run(["dyn", "simulate", traj, maps[kind], "-o", sim, "-q"])
+            simulated = run(["dyn", "simulate", traj, maps[kind], "-o", sim, "--overwrite", "-q"])
             entry["sim_exit"] = simulated.returncode
             if sim.exists():
                 sim_summary = summary(sim)
@@ -185,9 +192,16 @@ def markdown(result: dict) -> str:
              "scaled to the robot (body length L, standing height h): flat walk/trot to (L, 0), pallet of height "
              "h/3 from (-1.4 L, 0) to (0.9 L, 0); strides as given (walks 4, flat trot 4, pallet trot 6) or more "
              "where a stride would carry the body past a standing foot farther than the range-of-motion box "
-             "(durations scaled with them). One run each (the outcomes are deterministic).", "",
+             "(durations scaled with them); the pallet trot with `--param leg_clearance=0.03`. One run each (the "
+             "outcomes are deterministic).", "",
              "| robot | init | check errors | task | strides / s | planned | check passed | executed | rms pos (m) | rms rot (rad) | note |",
              "|---|---|---|---|---|---|---|---|---|---|---|"]
+    runs = sorted({(row["run"]["commit"], row["run"]["date"], row["run"]["load_start"], row["run"]["load_end"])
+                   for row in result["rows"] if "run" in row})
+    if len(runs) > 1:
+        lines.insert(2, "Rows from several runs: " + "; ".join(
+            f"{', '.join(r['robot'] for r in result['rows'] if r.get('run', {}).get('commit') == commit)} at {commit} "
+            f"({date}, load {start:.1f} → {end:.1f})" for commit, date, start, end in runs) + ".\n")
     for row in result["rows"]:
         if not row.get("init", True):
             lines.append(f"| {row['robot']} | failed | – | – | – | – | – | – | – | – | {row.get('init_error', '')} |")
@@ -201,7 +215,7 @@ def markdown(result: dict) -> str:
             lines.append(f"| {row['robot']} | ok | {row.get('check_errors')} | {task} | {shape} | {entry.get('planned', False)} | "
                          f"{entry.get('check_passed', False)} | {entry.get('executed', False)} | {num('rms_position')} | "
                          f"{num('rms_orientation')} | {note} |")
-    for task in TASKS:
+    for task in result.get("tasks", TASKS):
         done = [r["tasks"].get(task, {}).get("executed", False) for r in result["rows"]]
         lines.append(f"\n{task}: executed on {sum(done)}/{len(done)} robots.")
     return "\n".join(lines)
@@ -210,17 +224,39 @@ def markdown(result: dict) -> str:
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--robots", default=",".join(ROBOTS), help="comma-separated robot keys")
-    parser.add_argument("--no-append", action="store_true", help="do not touch BENCHMARKS.md")
+    parser.add_argument("--tasks", default=",".join(TASKS), help="comma-separated tasks")
+    parser.add_argument("--work", help="keep the robot folders and artefacts in this folder (default: a temporary one)")
+    parser.add_argument("--update", action="store_true", help=(
+        "replace only these robots' rows of bench/results/robots.json (same tasks), keeping the others' with "
+        "their own commit and load; the table says which rows came from which run"))
+    parser.add_argument("--no-append", action="store_true", help="do not touch BENCHMARKS.md (nor the JSON result)")
     args = parser.parse_args()
+    tasks = [task.strip() for task in args.tasks.split(",")]
+    unknown = sorted(set(tasks) - set(TASKS))
+    if unknown:
+        parser.error(f"--tasks: unknown task '{unknown[0]}' (tasks: {', '.join(TASKS)})")
     folder = robots_folder()
     load_start = load_average()
-    with tempfile.TemporaryDirectory(prefix="legplan-bench-robots-") as work:
-        rows = [bench_robot(name, None if ROBOTS[name] is None else folder / ROBOTS[name], Path(work))
+    with tempfile.TemporaryDirectory(prefix="legplan-bench-robots-") as temporary:
+        work = Path(args.work or temporary)
+        work.mkdir(parents=True, exist_ok=True)
+        rows = [bench_robot(name, None if ROBOTS[name] is None else folder / ROBOTS[name], work, tasks)
                 for name in args.robots.split(",")]
-    result = {"date": str(datetime.date.today()), "machine": machine(), "commit": code_version(),
-              "load_start": load_start, "load_end": load_average(), "rows": rows}
-    write_result("robots", result)
+    run_info = {"date": str(datetime.date.today()), "commit": code_version(), "load_start": load_start,
+                "load_end": load_average()}
+    for row in rows:
+        row["run"] = run_info
+    result = {**run_info, "machine": machine(), "tasks": tasks, "rows": rows}
+    previous = ROOT / "bench" / "results" / "robots.json"
+    if args.update and previous.exists():
+        kept = json.loads(previous.read_text())
+        fresh = {row["robot"]: row for row in rows}
+        order = [row["robot"] for row in kept["rows"]] + [name for name in fresh if name not in
+                                                          {row["robot"] for row in kept["rows"]}]
+        old = {row["robot"]: {"run": {key: kept[key] for key in run_info}, **row} for row in kept["rows"]}
+        result["rows"] = [fresh.get(name) or old[name] for name in order]
     if not args.no_append:
+        write_result("robots", result)
         update_benchmarks("robots", markdown(result))
     print(markdown(result))
 

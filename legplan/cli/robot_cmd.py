@@ -78,7 +78,8 @@ def _foot_option(text: str) -> tuple[str, tuple[str, list[float] | None]]:
               help="A leg's foot: on LINK at offset X,Y,Z (m, link frame), or at the lowest point of LINK's "
                    "geometry in the stance when no offset is given. Repeatable.")
 @click.option("--height", type=number(LENGTH), default=None,
-              help="Base height of the nominal stance (m); default: legs bent to 3/4 of their drop.")
+              help="Base height of the nominal stance (m); default: legs bent to 0.65-0.8 of their "
+                   "drop, the share with the largest range of motion whose legs hold a trot (legplan.robots.draft).")
 @click.option("--package-path", "package_paths", multiple=True, type=click.Path(file_okay=False),
               help="A folder holding ROS packages (or a package itself) for package:// meshes; searched "
                    "before the URDF's parent folders and ROS_PACKAGE_PATH. Repeatable.")
@@ -168,7 +169,9 @@ def robot_summary(robot) -> dict:
         summary["centroidal"] = {"mass": c.mass, "inertia": c.inertia.tolist(), "com_offset": c.com_offset.tolist(),
                                  "nominal_feet": dict(zip(c.legs, c.nominal_feet.tolist())),
                                  "range_of_motion": c.range_of_motion.tolist(), "base_height": c.base_height,
-                                 "max_normal_force": c.max_normal_force, "friction": c.friction}
+                                 "max_normal_force": c.max_normal_force, "friction": c.friction,
+                                 "torque_limits": None if c.torque_limits is None else
+                                 {leg: limits.tolist() for leg, limits in zip(c.legs, c.torque_limits)}}
     return summary
 
 
@@ -232,5 +235,12 @@ def show_command(robot, png, overwrite, as_json):
         click.echo(f"    CoM in the base frame: {c['com_offset']} m")
         for leg, foot in c["nominal_feet"].items():
             click.echo(f"    nominal foot {leg}: {foot} m")
+        if c["torque_limits"] is None:
+            click.echo("    torque limits: none (the forces bounded by the max normal force and friction alone)")
+        else:
+            joints = {leg["name"]: leg["joints"] for leg in info["legs"]}
+            for leg, limits in c["torque_limits"].items():
+                shown = ", ".join(f"{joint} {limit:g}" for joint, limit in zip(joints[leg], limits))
+                click.echo(f"    torque limits {leg} [N m]: {shown}")
     if png:
         click.echo(f"  stance picture: {png}")

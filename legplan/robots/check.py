@@ -8,8 +8,8 @@ Errors (the robot would mislead the planners):
 - no mass: the URDF's links weigh nothing in all (no centre of mass, no dynamics to plan with).
 - centroidal section: a field that contradicts the URDF at the nominal stance (com_offset, inertia,
   nominal_feet: `legplan.robots.rigid_body.urdf_contradictions`, the rule the loader enforces); a
-  nominal foot or a corner of the range-of-motion box that its leg does not reach by IK inside the
-  planning joint limits; four legs not in the order the gaits take them (left front, right front,
+  nominal foot or a corner, edge midpoint or face centre of the range-of-motion box that its leg
+  does not reach by IK inside the planning joint limits; four legs not in the order the gaits take them (left front, right front,
   left hind, right hind).
 Warnings:
 - a foot frame more than `FOOT_FAR_END_TOLERANCE` of the last segment away from where `robot init`
@@ -33,7 +33,7 @@ import pinocchio as pin
 from legplan.errors import LegplanError
 from legplan.robots.draft import contact_point, quadruped_order
 from legplan.robots.legik import leg_reach
-from legplan.robots.rigid_body import box_corners, leg_forces, unreachable_corners, urdf_contradictions
+from legplan.robots.rigid_body import box_points, leg_forces, unreachable_points, urdf_contradictions
 from legplan.robots.sizing import size_scaled
 from legplan.robots.spec import FOOT_HEIGHT_TOLERANCE
 from legplan.robots.urdf import read_urdf_links
@@ -157,13 +157,14 @@ def _centroidal(robot) -> list[Finding]:
     for k in np.flatnonzero(~reach.reachable[0]):
         findings.append(Finding("error", f"centroidal.nominal_feet.{c.legs[k]}", "is out of the leg's reach inside "
                                 f"the joint limits (the IK stops {reach.error[0, k] * 1e3:.1f} mm away)"))
-    missed = unreachable_corners(robot, c.nominal_feet, c.range_of_motion)
+    missed = unreachable_points(robot, c.nominal_feet, c.range_of_motion)
     if missed.any():
-        corners = box_corners(c.range_of_motion)
-        legs = [f"{c.legs[k]} ({int(missed[:, k].sum())}/8, e.g. {_signed(corners[np.argmax(missed[:, k])])})"
+        points = box_points(c.range_of_motion)
+        legs = [f"{c.legs[k]} ({int(missed[:, k].sum())}/{len(points)}, e.g. {_signed(points[np.argmax(missed[:, k])])})"
                 for k in np.flatnonzero(missed.any(axis=0))]
         findings.append(Finding("error", "centroidal.range_of_motion", f"{_signed(c.range_of_motion)} m: box "
-                                f"corners out of reach inside the joint limits for legs {', '.join(legs)}"))
+                                f"corners, edge midpoints or face centres out of reach inside the joint limits for legs "
+                                f"{', '.join(legs)}"))
     forces = leg_forces(robot)
     if forces.placeholder:
         shown = ", ".join(forces.placeholder[:3]) + (", ..." if len(forces.placeholder) > 3 else "")

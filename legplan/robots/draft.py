@@ -15,9 +15,10 @@
   `foot: {link, offset}` (a frame `<leg>_foot` is added at load time, `<leg>_contact` when the URDF
   has a `<leg>_foot` already); the URDF is not edited.
 - Collision spheres (`primitive_spheres`): per box a row (or grid) over its two longest edges, per
-  cylinder a row along its axis, at most `MAX_SPHERES_PER_SHAPE` along an edge; the radius is half
-  the thickness (box: at least a quarter of the middle edge) or more, so the spheres touch along
-  each edge; a sphere stays a sphere; a mesh-only link is covered as the box around its vertices;
+  cylinder a row along its axis, at most `MAX_SPHERES_PER_SHAPE` along an edge, as many as the
+  radius needs to span it (rounded up: a flat plate gets two rows, not one row of spheres as wide
+  as the plate, which would reach far below it); the radius is half the thickness (box: at least
+  a quarter of the middle edge) or more, so the spheres touch along each edge; a sphere stays a sphere; a mesh-only link is covered as the box around its vertices;
   spheres under `SMALLEST_SPHERE` of the leg length (sensor markers) and spheres inside another
   sphere moved by the same joint are left out.
   A foot sphere sits on each foot point (the foot link's sphere radius, else half the smallest
@@ -25,19 +26,28 @@
   nominal stance are dropped (the foot sphere covers the tip).
 - Nominal stance (`solve_stance`): base level at height h, each foot on z = 0. A leg that hangs
   below its hip at the zero configuration keeps its foot's (x, y) there (the hip's lateral offsets
-  respected) at `STANCE_DEPTH` of that drop below the hip, knee bent towards the body's centre
-  unless the joint limits decide; a leg that spreads sideways puts its foot at half its horizontal
-  reach, hip-to-foot distance `REACH_FRACTION` × chain length, knee highest. h is the legs' mean
-  (or `--height`); each leg is a least-squares IK inside the joint limits from several starts. When
-  the contact point is the lowest point of the foot's geometry, the stance is solved twice: with
-  the foot link's origin, then with the contact point found there, at the same (x, y), the base
-  raised by the contact point's depth (the legs keep their bend).
-- Joint limits (`sanitized_limits`): the URDF's, except a revolute range of 2π or more (not a
-  physical stop): the knee (a leg's last joint) from nearly stretched (`KNEE_MARGIN`) to folded
+  respected) at a share, the stance depth, of the deepest drop below the hip it reaches there
+  inside the joint limits (that of the zero configuration when the limits hold it, else fitted by
+  the leg's IK: a knee whose limits stop it short of straight bends more), knee bent towards the
+  body's centre unless the joint limits decide; a leg that spreads sideways puts its foot at half
+  its horizontal reach, hip-to-foot distance `REACH_FRACTION` × chain length, knee highest. h is
+  the legs' mean (or `--height`); each leg is a least-squares IK inside the joint limits from
+  several starts. When the contact point is the lowest point of the foot's geometry, the stance
+  is solved twice: with the foot link's origin, then with the contact point found there, at the
+  same (x, y), the base raised by the contact point's depth (the legs keep their bend).
+- Stance depth (`drafted`): bent knees give the range of motion room (a box around the nominal
+  foot, so a foot near the bottom of its reach has no room to step down), straight ones let the
+  joints push harder. Of `STANCE_DEPTHS` the draft takes the one whose range-of-motion box is the
+  largest among those at which every leg can push `TROT_WEIGHT_SHARE` of the robot's weight
+  vertically inside its joint efforts (where no depth lets them, the one at which they push
+  hardest); placeholder efforts bound nothing. Without a centroidal section, or with `--height`,
+  the first.
+- Joint limits (`sanitized_limits`): the URDF's (a joint without a range, lower = upper, is refused),
+  except a revolute range of 2π or more (not a physical stop): the knee (a leg's last joint) from nearly stretched (`KNEE_MARGIN`) to folded
   (`KNEE_FOLD`) on its nominal side, other joints the nominal angle ± π/2; a warning names them.
 - Centroidal section (`legplan.robots.rigid_body`): mass, composite inertia about the CoM and the
-  CoM offset at the stance (pinocchio's ccrba), nominal feet, a range-of-motion box every corner of
-  which the legs reach by IK, friction `DRAFT_FRICTION`, and the force limits: the URDF's joint
+  CoM offset at the stance (pinocchio's ccrba), nominal feet, a range-of-motion box whose corners,
+  edge midpoints and face centres the legs reach by IK, friction `DRAFT_FRICTION`, and the force limits: the URDF's joint
   efforts as `torque_limits` (the planner keeps |Jᵀf| inside them through each leg's Jacobian) with
   max normal force `FORCE_CAP_WEIGHTS` robot weights; with placeholder efforts (flagged) no torque
   limits and that cap, or `--max-normal-force`.
@@ -64,7 +74,13 @@ from legplan.robots.urdf import Primitive, UrdfLinks, UrdfParseError, build_free
 MAX_SPHERES_PER_SHAPE = 3
 STANCE_STARTS = 6
 REACH_FRACTION = 0.75      # hip-to-foot distance / chain length in the nominal stance of a spread leg
-STANCE_DEPTH = 0.75        # foot depth below the hip / the drop at the zero configuration, hanging legs
+STANCE_DEPTHS = (0.75, 0.8, 0.7, 0.65)   # foot depth below the hip / the deepest drop inside the joint
+                                         # limits, hanging legs: the candidates of `drafted`, the first
+                                         # without a choice
+TROT_WEIGHT_SHARE = 1.0 / (2 * 0.8)  # of the robot's weight: what a leg of TOWR's flying trot (a diagonal
+                                    # pair stands 0.8 of each second) pushes on average over its stance
+DROP_XY_WEIGHT = 100.0     # the deepest drop's fit: weight of the foot's (x, y) against its depth ...
+DROP_XY_TOLERANCE = 1e-3   # m, ... and how near (x, y) it must stay
 FOOT_ON_GROUND = 5e-4      # m, |z| of every foot after rounding the drafted stance
 KNEE_MARGIN = 0.1          # rad, sanitized knee range: from this far from stretched ...
 KNEE_FOLD = 2.7            # rad, ... to this far (folded)
@@ -242,7 +258,7 @@ def primitive_spheres(shape: Primitive) -> list[tuple[np.ndarray, float]]:
         thickness = max(shape.size[order[2]] / 2, shape.size[order[1]] / 4)
     counts, radius = [], thickness
     for edge in edges:                 # the longest edge first: its spacing sets the radius
-        counts.append(min(MAX_SPHERES_PER_SHAPE, max(1, round(edge / (2 * radius)))))
+        counts.append(min(MAX_SPHERES_PER_SHAPE, max(1, math.ceil(edge / (2 * radius) - 1e-9))))
         radius = max(radius, edge / (2 * counts[-1]))
     grids = [(np.arange(n) + 0.5) * edge / n - edge / 2 for edge, n in zip(edges, counts)]
     spheres = []
@@ -260,8 +276,9 @@ class _LegGoal:
     hanging: bool
 
 
-def _leg_goals(model, chains, feet) -> tuple[list[_LegGoal], np.ndarray]:
-    """Per leg its stance goal (module docstring), and the hips' centre (x, y)."""
+def _leg_goals(model, chains, feet, lower, upper, depth: float) -> tuple[list[_LegGoal], np.ndarray]:
+    """Per leg its stance goal (module docstring), and the hips' centre (x, y); `lower`, `upper` the
+    joint limits (nq − 7,), `depth` a hanging foot's share of its deepest drop."""
     data = model.createData()
     pin.framesForwardKinematics(model, data, pin.neutral(model))
     hips = np.array([data.oMi[chain[0]].translation for chain in chains])
@@ -272,7 +289,10 @@ def _leg_goals(model, chains, feet) -> tuple[list[_LegGoal], np.ndarray]:
         foot0 = data.oMf[foot].translation
         drop = hip[2] - foot0[2]
         if drop > 0.5 * length:
-            goals.append(_LegGoal(foot0[:2].copy(), STANCE_DEPTH * drop - hip[2], True))
+            idx = [int(model.idx_qs[j]) - 7 for j in chain]
+            if not np.all((lower[idx] <= 0.0) & (upper[idx] >= 0.0)):    # the zero configuration is out of reach
+                drop = _deepest_drop(model, chain, foot, foot0[:2].copy(), hip[2], drop, lower, upper)
+            goals.append(_LegGoal(foot0[:2].copy(), depth * drop - hip[2], True))
             continue
         out = foot0[:2] - hip[:2]
         direction = out if np.linalg.norm(out) > 0.2 * length else hip[:2] - centre
@@ -282,6 +302,48 @@ def _leg_goals(model, chains, feet) -> tuple[list[_LegGoal], np.ndarray]:
         depth = math.sqrt(max((REACH_FRACTION * length) ** 2 - radius ** 2, (0.3 * length) ** 2)) - hip[2]
         goals.append(_LegGoal(hip[:2] + radius * direction, depth, False))
     return goals, centre
+
+
+def _deepest_drop(model, chain, foot, target, hip_z: float, drop: float, lower, upper) -> float:
+    """How far below its hip (at height `hip_z` above the base origin) the foot of a hanging leg
+    reaches at `target` (x, y) inside the joint limits: least squares from both knee branches that
+    hold the foot at (x, y) (weight `DROP_XY_WEIGHT`) and pull it towards the zero configuration's
+    `drop`, which the limits keep it from; the deepest fit within `DROP_XY_TOLERANCE` of (x, y)
+    (`drop` when none is)."""
+    problem = LegStance(model, chain, foot, target, 0.0)
+    lo, hi = lower[[i - 7 for i in problem.idx]] + 1e-3, upper[[i - 7 for i in problem.idx]] - 1e-3
+    aim = hip_z - drop
+
+    def residuals(x):
+        pin.framesForwardKinematics(model, problem.data, problem.configuration(x))
+        p = problem.data.oMf[foot].translation
+        return np.concatenate([DROP_XY_WEIGHT * (p[:2] - problem.target), [p[2] - aim]])
+
+    def jacobian(x):
+        jac = pin.computeFrameJacobian(model, problem.data, problem.configuration(x), foot,
+                                       pin.LOCAL_WORLD_ALIGNED)[:3, problem.columns]
+        return np.vstack([DROP_XY_WEIGHT * jac[:2], jac[2:3]])
+
+    depths = []
+    for seed in _knee_seeds(len(problem.idx)):
+        fit = least_squares(residuals, np.clip(seed, lo, hi), jac=jacobian, bounds=(lo, hi))
+        r = residuals(fit.x)
+        if np.linalg.norm(r[:2]) / DROP_XY_WEIGHT < DROP_XY_TOLERANCE:
+            depths.append(hip_z - (r[2] + aim))
+    return max(depths) if depths else drop
+
+
+def _knee_seeds(n: int) -> list[np.ndarray]:
+    """IK starts of an n-joint leg on both knee branches: the last joint ±1 rad, the one before it
+    ∓0.5 rad."""
+    seeds = []
+    for side in (1.0, -1.0):
+        bent = np.zeros(n)
+        bent[-1] = side
+        if n > 1:
+            bent[-2] = -0.5 * side
+        seeds.append(bent)
+    return seeds
 
 
 class LegStance:
@@ -334,13 +396,7 @@ def _solve_leg(model, chain, foot, goal, height, centre, lower, upper, rng):
         return (knee[0] - (hip[0] + tip[0]) / 2) * np.sign(centre[0] - hip[0])
 
     seed_lo, seed_hi = np.maximum(lo, -math.pi), np.minimum(hi, math.pi)
-    seeds = []
-    for side in (1.0, -1.0):                      # both knee branches
-        bent = np.zeros(len(idx))
-        bent[-1] = side
-        if len(idx) > 1:
-            bent[-2] = -0.5 * side
-        seeds.append(bent)
+    seeds = _knee_seeds(len(idx))                 # both knee branches
     seeds.append(np.zeros(len(idx)))
     seeds += [rng.uniform(seed_lo, seed_hi) * 0.5 for _ in range(STANCE_STARTS - len(seeds))]
     found = []
@@ -359,14 +415,14 @@ def _solve_leg(model, chain, foot, goal, height, centre, lower, upper, rng):
 
 
 def solve_stance(model: pin.Model, chains, feet, urdf: Path, height: float | None = None,
-                 targets=None) -> np.ndarray:
+                 targets=None, depth: float = STANCE_DEPTHS[0]) -> np.ndarray:
     """The nominal configuration q (nq,): level base, every foot on z = 0 near its goal (at
-    `targets` (n_legs, 2) when given)."""
-    goals, centre = _leg_goals(model, chains, feet)
+    `targets` (n_legs, 2) when given), hanging feet at `depth` of their deepest drop."""
+    lower, upper = model.lowerPositionLimit[7:], model.upperPositionLimit[7:]
+    goals, centre = _leg_goals(model, chains, feet, lower, upper, depth)
     if targets is not None:
         goals = [replace(goal, target=np.asarray(target, float)) for goal, target in zip(goals, targets)]
     base = float(np.mean([g.depth for g in goals])) if height is None else height
-    lower, upper = model.lowerPositionLimit[7:], model.upperPositionLimit[7:]
     rng = np.random.default_rng(0)
     q = pin.neutral(model)
     q[2] = base
@@ -464,9 +520,11 @@ def _choose_feet(model, links, chains, names, options, urdf):
     return chosen
 
 
-def draft_robot(urdf: str | Path, name: str, options: DraftOptions | None = None) -> RobotDraft:
+def draft_robot(urdf: str | Path, name: str, options: DraftOptions | None = None,
+                depth: float = STANCE_DEPTHS[0]) -> RobotDraft:
     """Draft the robot.yaml content for the URDF at `urdf` (see the module docstring), without the
-    centroidal section (`draft_centroidal` adds it)."""
+    centroidal section (`draft_centroidal` adds it), hanging feet at `depth` of their deepest drop
+    (`drafted` chooses it)."""
     options = options or DraftOptions()
     urdf = Path(urdf)
     if not urdf.is_file():
@@ -479,6 +537,11 @@ def draft_robot(urdf: str | Path, name: str, options: DraftOptions | None = None
         if base_model.nqs[joint] != 1 or base_model.nvs[joint] != 1:
             raise LegplanError(f"{urdf}: joint '{base_model.names[joint]}' is not a 1-DoF revolute or prismatic joint "
                                f"(nq={base_model.nqs[joint]}); legs of such joints are not supported")
+        k = int(base_model.idx_qs[joint])
+        if base_model.upperPositionLimit[k] <= base_model.lowerPositionLimit[k]:
+            raise LegplanError(f"{urdf}: joint '{base_model.names[joint]}': its <limit> gives no range (lower "
+                               f"{base_model.lowerPositionLimit[k]:g} = upper {base_model.upperPositionLimit[k]:g}; "
+                               "a movable joint needs lower < upper); legs of fixed joints cannot be drafted")
     links = read_urdf_links(urdf, options.package_paths)
     chains = leg_chains(base_model, urdf)
     if len(chains) == 4:
@@ -492,7 +555,7 @@ def draft_robot(urdf: str | Path, name: str, options: DraftOptions | None = None
     def stance(points, height=options.height, targets=None):
         model = pin.Model(base_model)
         feet = [add_foot_frame(model, link, offset, frame) for (link, offset, _), frame in zip(points, frames)]
-        return model, feet, solve_stance(model, chains, feet, urdf, height, targets)
+        return model, feet, solve_stance(model, chains, feet, urdf, height, targets, depth)
 
     model, feet, q = stance(chosen)
     if any(refine for _, _, refine in chosen):        # the contact point: lowest in this stance
@@ -624,8 +687,8 @@ def draft_yaml(draft: RobotDraft, urdf_ref: str) -> str:
     c = draft.centroidal
     if c is not None:
         lines += ["", "# Single rigid body at the nominal stance (legplan.robots.rigid_body): pinocchio's composite",
-                  "# inertia about the CoM, the CoM in the base frame, a range-of-motion box whose corners every",
-                  f"# leg reaches inside the joint limits, the normal force {c['force_source']}.",
+                  "# inertia about the CoM, the CoM in the base frame, a range-of-motion box whose corners, edge",
+                  f"# midpoints and face centres every leg reaches inside the joint limits, the normal force {c['force_source']}.",
                   "centroidal:",
                   f"  mass: {c['mass']:.10g}",
                   "  inertia: {" + ", ".join(f"{key}: {value:.6g}" for key, value in c["inertia"].items()) + "}",
@@ -684,8 +747,41 @@ def draft_centroidal(draft: RobotDraft, options: DraftOptions | None = None) -> 
                     "ixy": inertia[0, 1], "ixz": inertia[0, 2], "iyz": inertia[1, 2]},
         "nominal_feet": {leg.name: foot for leg, foot in zip(robot.legs, body.feet)},
         "range_of_motion": box, "max_normal_force": force, "friction": options.friction, "force_source": source,
-        "torque_limits": torque_limits_of(robot)}
+        "torque_limits": torque_limits_of(robot),
+        "leg_force": np.inf if forces.placeholder else float(forces.force.min())}
     return replace(draft, centroidal=centroidal, warnings=tuple(warnings))
+
+
+def drafted(urdf: str | Path, name: str, options: DraftOptions | None = None) -> RobotDraft:
+    """The draft `robot init` writes: with a centroidal section and no `--height`, the stance depth
+    of `STANCE_DEPTHS` whose legs can each push `TROT_WEIGHT_SHARE` of the robot's weight inside
+    their efforts and whose range-of-motion box is the largest (volume); where none can, the one
+    whose legs push hardest (module docstring). Otherwise the first depth's."""
+    options = options or DraftOptions()
+    if not options.centroidal or options.height is not None:
+        draft = draft_robot(urdf, name, options)
+        return draft_centroidal(draft, options) if options.centroidal else draft
+    from legplan.robots.rigid_body import GRAVITY
+
+    best, key, failure, heights = None, None, None, set()
+    for depth in STANCE_DEPTHS:
+        try:
+            draft = draft_robot(urdf, name, options, depth)
+            if draft.base_height in heights:          # no hanging leg: the depth changes nothing
+                break
+            heights.add(draft.base_height)
+            draft = draft_centroidal(draft, options)
+        except LegplanError as exc:
+            failure = failure or exc
+            continue
+        c = draft.centroidal
+        holds = c["leg_force"] >= TROT_WEIGHT_SHARE * c["mass"] * GRAVITY
+        rank = (holds, float(np.prod(c["range_of_motion"])) if holds else c["leg_force"])
+        if key is None or rank > key:
+            best, key = draft, rank
+    if best is None:
+        raise failure
+    return best
 
 
 def write_draft(urdf: str | Path, folder: str | Path, name: str | None = None, overwrite: bool = False,
@@ -703,9 +799,7 @@ def write_draft(urdf: str | Path, folder: str | Path, name: str | None = None, o
     related = os.path.commonpath([urdf_abs, folder_abs]) != os.path.sep
     urdf_ref = os.path.relpath(urdf_abs, folder_abs) if related else str(urdf_abs)
     options = options or DraftOptions()
-    draft = draft_robot(urdf, name or folder.resolve().name, options)
-    if options.centroidal:
-        draft = draft_centroidal(draft, options)
+    draft = drafted(urdf, name or folder.resolve().name, options)
     created = not folder.exists()
     folder.mkdir(parents=True, exist_ok=True)
     try:

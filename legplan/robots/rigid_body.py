@@ -15,12 +15,13 @@ and the robot loader hold a written section against them.
   or when they would let one leg push more than `PLACEHOLDER_WEIGHTS` times the robot's weight
   (no actuator of a walking robot comes near that; Solo12's URDF gives 1000 N m).
 - Range of motion (`reach_box`): half extents (x, y, z) of the largest box, centred on each
-  nominal foot, whose every corner each leg reaches by IK inside its planning joint limits
-  (`legplan.robots.legik`): per axis `REACH_FRACTION` of the shortest reach along ±axis,
-  at most `NEIGHBOUR_FRACTION` of the distance to the nearest foot along that axis, shrunk until all
-  corners are reached. The reach along a direction is the last of `REACH_STEPS` equal steps up to
-  the leg length reached (IK from the nominal stance) without a miss before it. IK from the nominal
-  stance alone suffices: a corner it reaches is reachable, and one it misses only shrinks the box.
+  nominal foot, whose corners, edge midpoints and face centres (`box_points`) each leg reaches by
+  IK inside its planning joint limits (`legplan.robots.legik`): per axis `REACH_FRACTION` of the
+  shortest reach along ±axis, at most `NEIGHBOUR_FRACTION` of the distance to the nearest foot
+  along that axis, shrunk until all those points are reached. The reach along a direction is the
+  last of `REACH_STEPS` equal steps up to the leg length reached (IK from the nominal stance)
+  without a miss before it. IK from the nominal stance alone suffices: a point it reaches is
+  reachable, and one it misses only shrinks the box.
 """
 
 from __future__ import annotations
@@ -172,16 +173,21 @@ def _reached(robot, feet, offsets, starts: int | None = None) -> np.ndarray:
     return result.reachable
 
 
-def box_corners(range_of_motion) -> np.ndarray:
-    """(8, 3) corner offsets of the box of half extents `range_of_motion`."""
-    signs = np.array([[sx, sy, sz] for sx in (-1, 1) for sy in (-1, 1) for sz in (-1, 1)], float)
+def box_points(range_of_motion) -> np.ndarray:
+    """(26, 3) offsets of the box of half extents `range_of_motion`: its corners, edge midpoints
+    and face centres (the 3 × 3 × 3 grid's surface), corners first. A leg's workspace is not
+    convex: a leg that reaches all corners can miss an edge's middle (HyQ, whose hip lifts a foot
+    fore and aft only with a sideways swing)."""
+    grid = [(sx, sy, sz) for sx in (-1, 0, 1) for sy in (-1, 0, 1) for sz in (-1, 0, 1) if (sx, sy, sz) != (0, 0, 0)]
+    signs = np.array(sorted(grid, key=lambda g: -sum(map(abs, g))), float)
     return signs * np.asarray(range_of_motion, float)
 
 
-def unreachable_corners(robot, feet, range_of_motion, starts: int | None = None) -> np.ndarray:
-    """(8, n_legs) True where a leg does not reach a corner of the box around its nominal foot
-    `feet` (n_legs, 3, base frame) by IK from `starts` starts (None: all of `leg_reach`'s)."""
-    return ~_reached(robot, np.asarray(feet, float), box_corners(range_of_motion), starts)
+def unreachable_points(robot, feet, range_of_motion, starts: int | None = None) -> np.ndarray:
+    """(26, n_legs) True where a leg does not reach a point of `box_points` of the box around its
+    nominal foot `feet` (n_legs, 3, base frame) by IK from `starts` starts (None: all of
+    `leg_reach`'s)."""
+    return ~_reached(robot, np.asarray(feet, float), box_points(range_of_motion), starts)
 
 
 def reach_box(robot, feet) -> np.ndarray:
@@ -201,7 +207,7 @@ def reach_box(robot, feet) -> np.ndarray:
         if len(gaps):
             box[axis] = min(box[axis], NEIGHBOUR_FRACTION * gaps.min())
     for _ in range(30):
-        if not unreachable_corners(robot, feet, box, starts=1).any():   # reached: proven
+        if not unreachable_points(robot, feet, box, starts=1).any():    # reached: proven
             return np.floor(box * 1e3) / 1e3
         box *= SHRINK
     return np.zeros(3)

@@ -121,6 +121,12 @@ def test_leg_names_and_spheres_of_primitives():
     assert len(spheres) == 3 and np.allclose(centres[:, 1:], 0)
     assert centres[:, 0].min() - radius <= -0.05 + 1e-12 and centres[:, 0].max() + radius >= 0.25 - 1e-12
     assert radius >= 0.05 - 1e-12
+    plate = Primitive("box", (0.448, 0.219, 0.053), pin.SE3.Identity())        # Solo12's base, as its mesh's box
+    spheres = primitive_spheres(plate)
+    centres, radii = np.array([c for c, _ in spheres]), np.array([r for _, r in spheres])
+    assert len(spheres) == 6 and len(set(np.round(centres[:, 1], 6))) == 2    # two rows along the plate
+    assert (centres[:, 0] - radii).min() <= -0.224 + 1e-12 and (centres[:, 1] + radii).max() >= 0.1095 - 1e-12
+    assert radii.max() - 0.0265 < 0.05                                          # not far below the plate
     cylinder = Primitive("cylinder", (0.01, 0.138), pin.SE3(pin.rpy.rpyToMatrix(0, math.pi / 2, 0), np.zeros(3)))
     along = np.array([c for c, _ in primitive_spheres(cylinder)])
     assert len(along) == 3 and np.allclose(along[:, 1:], 0, atol=1e-12)   # the cylinder's axis is x here

@@ -13,7 +13,7 @@ from robot_helpers import write_toy_robot
 from legplan.cli.main import cli
 from legplan.errors import SpecError
 from legplan.robots import load_robot
-from legplan.robots.draft import quadruped_order
+from legplan.robots.draft import STANCE_DEPTHS, TROT_WEIGHT_SHARE, quadruped_order
 from legplan.robots.urdf import read_urdf_links, resolve_mesh
 
 TOY_FEET = [arg for leg in "abcd" for arg in ("--foot", f"{leg}=toe_{leg}")]
@@ -22,9 +22,10 @@ INERTIA = '<inertial><mass value="{}"/><inertia ixx="1e-3" iyy="1e-3" izz="1e-3"
 OCTAHEDRON = [(0.015, 0, 0), (-0.015, 0, 0), (0, 0.015, 0), (0, -0.015, 0), (0, 0, 0.015), (0, 0, -0.015)]
 
 
-def quadruped_urdf(foot: str = '<sphere radius="0.015"/>') -> str:
+def quadruped_urdf(foot: str = '<sphere radius="0.015"/>', effort: float = 20.0) -> str:
     """A 3-DoF quadruped as ROS URDFs write them: HAA about x, HFE and KFE about y, hips 5 cm out
-    from the HAA axis, legs hanging at zero, a `<LEG>_foot` link with `foot` geometry."""
+    from the HAA axis, legs hanging at zero, a `<LEG>_foot` link with `foot` geometry, joint
+    efforts `effort` (N m)."""
     parts = [f'<robot name="quad"><link name="base">{INERTIA.format(5.0)}<collision><geometry>'
              '<box size="0.4 0.2 0.1"/></geometry></collision></link>']
     for leg, x, y in (("LF", 0.2, 0.1), ("RF", 0.2, -0.1), ("LH", -0.2, 0.1), ("RH", -0.2, -0.1)):
@@ -37,7 +38,7 @@ def quadruped_urdf(foot: str = '<sphere radius="0.015"/>') -> str:
         for joint, parent, child, xyz, axis, (lo_hi), shape in chain:
             lo, hi = lo_hi.split()
             parts.append(f'<joint name="{leg}_{joint}" type="revolute"><parent link="{parent}"/><child link="{child}"/>'
-                         f'<origin xyz="{xyz}"/><axis xyz="{axis}"/><limit lower="{lo}" upper="{hi}" effort="20" '
+                         f'<origin xyz="{xyz}"/><axis xyz="{axis}"/><limit lower="{lo}" upper="{hi}" effort="{effort:g}" '
                          'velocity="10"/></joint>')
             geometry = f'<collision><origin xyz="0 0 -0.075"/><geometry>{shape}</geometry></collision>' if shape else ""
             parts.append(f'<link name="{child}">{INERTIA.format(0.3)}{geometry}</link>')
@@ -60,7 +61,8 @@ def test_a_quadruped_urdf_drafts_completely(tmp_path):
     np.testing.assert_allclose(feet[:, 1], [0.15, -0.15, 0.15, -0.15], atol=1e-3)    # the hips' 5 cm respected
     np.testing.assert_allclose(feet[:, 0], [0.2, 0.2, -0.2, -0.2], atol=1e-3)        # under the hips
     np.testing.assert_allclose(feet[:, 2], 0.0, atol=5e-4)
-    assert q[2] == pytest.approx(0.75 * 0.3 + 0.015, abs=2e-3)     # 3/4 of the drop, plus the foot ball
+    depths = [depth * 0.3 + 0.015 for depth in STANCE_DEPTHS]        # shares of the drop, plus the foot ball
+    assert min(abs(q[2] - h) for h in depths) < 2e-3
     knees = robot.model.createData()
     pin.forwardKinematics(robot.model, knees, q)
     for leg, foot in zip(robot.legs, feet):                          # bent, towards the body's centre
@@ -72,6 +74,37 @@ def test_a_quadruped_urdf_drafts_completely(tmp_path):
     assert robot.centroidal.mass == pytest.approx(5.0 + 4 * (3 * 0.3 + 0.01))
     check = run("robot", "check", out)
     assert check.exit_code == 0 and "quad: 0 errors, 0 warnings" in check.output, check.output
+
+
+@pytest.mark.parametrize("effort", [20.0, 1.5])
+def test_the_stance_depth_is_the_largest_box_whose_legs_hold_a_trot(tmp_path, effort):
+    """Of the candidate depths, the draft stands at the one with the largest range-of-motion box
+    among those at which every leg pushes a flying trot's weight share inside its efforts: with
+    strong joints the box decides; with joints too weak at every depth, the straightest stance
+    (where a leg pushes hardest). Each candidate is drafted at its own `--height`, as a user would."""
+    from legplan.robots.rigid_body import GRAVITY, leg_forces
+
+    urdf = tmp_path / "quad.urdf"
+    urdf.write_text(quadruped_urdf(effort=effort))
+    out = tmp_path / "quad"
+    assert run("robot", "init", urdf, "-o", out).exit_code == 0
+    chosen = load_robot(out)
+    candidates = []
+    for k, depth in enumerate(STANCE_DEPTHS):
+        folder = tmp_path / f"at{k}"
+        height = depth * 0.3 + 0.015                                        # the drop, plus the foot ball
+        assert run("robot", "init", urdf, "-o", folder, "--height", height).exit_code == 0
+        robot = load_robot(folder)
+        push = leg_forces(robot).force.min()
+        candidates.append((push >= TROT_WEIGHT_SHARE * robot.mass * GRAVITY,
+                           np.prod(robot.centroidal.range_of_motion), push, robot.q_nominal[2]))
+    holding = [c for c in candidates if c[0]]
+    best = max(holding, key=lambda c: c[1]) if holding else max(candidates, key=lambda c: c[2])
+    assert chosen.q_nominal[2] == pytest.approx(best[3], abs=2e-3)
+    if effort < 2:
+        assert not holding and chosen.q_nominal[2] == pytest.approx(max(STANCE_DEPTHS) * 0.3 + 0.015, abs=2e-3)
+    else:
+        assert holding and len({round(c[1], 9) for c in candidates}) == len(candidates)   # the boxes differ
 
 
 def test_a_mesh_foot_touches_the_ground_with_its_lowest_vertex(tmp_path):
@@ -156,6 +189,19 @@ def test_urdf_without_legs(tmp_path):
                     '<inertia ixx="1" iyy="1" izz="1" ixy="0" ixz="0" iyz="0"/></inertial></link></robot>')
     out = tmp_path / "out"
     _one_line_exit_2(run("robot", "init", urdf, "-o", out), out, f"{urdf}: no joint below the base link")
+
+
+def test_a_joint_whose_limit_gives_no_range(tmp_path):
+    """A revolute joint whose <limit> leaves out lower and upper (the URDF's default range [0, 0],
+    as example-robot-data's quadruped_description writes its knees): one line naming the joint."""
+    urdf = tmp_path / "quad.urdf"
+    text = quadruped_urdf()
+    knee = 'name="RH_KFE" type="revolute">'
+    head, tail = text.split(knee)
+    urdf.write_text(head + knee + tail.replace('lower="-2.6" upper="2.6" ', "", 1))
+    out = tmp_path / "out"
+    _one_line_exit_2(run("robot", "init", urdf, "-o", out), out,
+                     f"{urdf}: joint 'RH_KFE': its <limit> gives no range (lower 0 = upper 0")
 
 
 def test_legs_that_branch(toy_urdf, tmp_path):

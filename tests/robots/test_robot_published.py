@@ -172,3 +172,111 @@ def test_anymal_b_flying_trot_plans_inside_its_joint_torques(drafted):
     assert check.ok, check.failures()
     assert check.tolerance["joint_torque"] == pytest.approx(1.001) and 0.8 < check.worst["joint_torque"] <= 1.001
     assert result.samples["forces"][..., 2].max() > 1.1 * leg_forces(robot).force.min()
+
+
+def test_robot_show_prints_the_torque_limits(drafted):
+    """`robot show` prints every leg's torque limits joint by joint (text and JSON), and says when
+    there are none (Solo12's placeholder efforts)."""
+    import json
+
+    from click.testing import CliRunner
+
+    from legplan.cli.main import cli
+
+    robot = load_robot(drafted["go1"][0])
+    shown = CliRunner().invoke(cli, ["robot", "show", str(drafted["go1"][0])])
+    assert shown.exit_code == 0, shown.output
+    for leg, limits in zip(robot.legs, robot.centroidal.torque_limits):
+        line = next(row for row in shown.output.splitlines() if row.strip().startswith(f"torque limits {leg.name} "))
+        assert line.split(": ", 1)[1] == ", ".join(f"{joint} {limit:g}" for joint, limit in zip(leg.joint_names, limits))
+    as_json = CliRunner().invoke(cli, ["robot", "show", str(drafted["go1"][0]), "--json"])
+    limits = json.loads(as_json.output)["centroidal"]["torque_limits"]
+    assert limits == {leg.name: list(map(float, values))
+                      for leg, values in zip(robot.legs, robot.centroidal.torque_limits)}
+    solo = CliRunner().invoke(cli, ["robot", "show", str(drafted["solo12"][0]), "--json"])
+    assert json.loads(solo.output)["centroidal"]["torque_limits"] is None
+    assert "torque limits: none" in CliRunner().invoke(cli, ["robot", "show", str(drafted["solo12"][0])]).output
+
+
+def test_go1_stands_at_a_share_of_the_drop_its_calf_limits_allow(drafted):
+    """Go1's calf cannot straighten (its URDF limits end 0.89 rad short of straight): the draft
+    measures the stance depth against the deepest the foot reaches under its hip inside the joint
+    limits, found here by pinocchio FK over a grid of thigh and calf angles, not by the drafting IK
+    (both for the URDF's foot link, whose lowest point the contact point is)."""
+    from legplan.robots.draft import STANCE_DEPTHS
+
+    robot = load_robot(drafted["go1"][0])
+    model, data = robot.model, robot.model.createData()
+    leg = robot.legs[0]
+    ids = [model.getJointId(j) for j in leg.joint_names]
+    q = robot.q_nominal.copy()
+    q[:3], q[3:7] = 0.0, [0, 0, 0, 1]
+    pin.framesForwardKinematics(model, data, q)
+    link = model.frames[leg.foot_frame_id].parentFrame                   # the URDF's FL_foot
+    hip, foot = data.oMi[ids[0]].translation.copy(), data.oMf[link].translation.copy()
+    thigh, calf = (model.idx_qs[j] for j in ids[1:])
+    assert model.upperPositionLimit[calf] < -0.5                       # the straight leg is out of reach
+    deepest = 0.0
+    for a in np.linspace(model.lowerPositionLimit[thigh], model.upperPositionLimit[thigh], 241):
+        for b in np.linspace(model.lowerPositionLimit[calf], model.upperPositionLimit[calf], 241):
+            q[thigh], q[calf] = a, b
+            pin.framesForwardKinematics(model, data, q)
+            p = data.oMf[link].translation
+            if abs(p[0] - foot[0]) < 0.004:                          # under the nominal foot (y: the HAA at 0)
+                deepest = max(deepest, hip[2] - p[2])
+    share = (hip[2] - foot[2]) / deepest
+    assert min(abs(share - depth) for depth in STANCE_DEPTHS) < 0.02, share
+    assert robot.centroidal.range_of_motion[2] > 0.05                  # room to step down and up
+
+
+@pytest.mark.parametrize("name", ROBOTS)
+def test_the_drafted_range_of_motion_box_is_reached_on_a_finer_grid(name, drafted):
+    """Every point of a 5 × 5 × 5 grid on the surface of the drafted box around each nominal foot
+    is reached by IK inside the joint limits: more than the corners, edge midpoints and face centres
+    the draft proves (HyQ's legs reach all corners of a box whose top edge midpoints they miss)."""
+    from legplan.robots.legik import leg_reach
+
+    robot = load_robot(drafted[name][0])
+    c = robot.centroidal
+    grid = np.linspace(-1.0, 1.0, 5)
+    points = np.array([[a, b, d] for a in grid for b in grid for d in grid if max(abs(a), abs(b), abs(d)) == 1.0])
+    targets = c.nominal_feet[None, :, :] + (points * c.range_of_motion)[:, None, :]
+    reach = leg_reach(robot, np.zeros((len(points), 3)), np.tile(np.eye(3), (len(points), 1, 1)), targets)
+    assert reach.reachable.all(), points[~reach.reachable.all(axis=1)]
+
+
+def test_go1_drafted_from_its_urdf_trots_onto_a_pallet_in_mujoco(drafted, tmp_path):
+    """Go1 as `robot init` drafts it (no edits, no options) trots onto a pallet a third of its
+    standing height high (the bench's pallet trot: 6 strides in 3.6 s from -1.4 L to 0.9 L), passes
+    the independent check and reaches the goal in MuJoCo."""
+    import yaml
+    from click.testing import CliRunner
+
+    from legplan.artefacts import open_artefact, read_summary
+    from legplan.cli.main import cli
+
+    def run(*args):
+        return CliRunner().invoke(cli, [str(a) for a in args])
+
+    def summary(path):
+        with open_artefact(path) as handle:
+            return {key: value for key, (value, _) in read_summary(handle).items()}
+
+    folder = drafted["go1"][0].parent
+    feet = yaml.safe_load((folder / "robot.yaml").read_text())["centroidal"]["nominal_feet"]
+    length = max(f[0] for f in feet.values()) - min(f[0] for f in feet.values())
+    top = round(-sum(f[2] for f in feet.values()) / len(feet) / 3, 3)
+    spec = {"name": "pallet", "resolution": 0.01, "ground": 0.0,
+            "extent": {"x": [-3 * length, 3 * length], "y": [-2 * length, 2 * length]},
+            "primitives": [{"type": "box", "center": [1.1 * length, 0.0], "size": [2.2 * length, 2 * length], "top": top},
+                           {"type": "slope", "center": [0.015, 0.0], "size": [0.03, 2 * length], "from": 0.0, "to": top}]}
+    (tmp_path / "pallet.yaml").write_text(yaml.safe_dump(spec))
+    assert run("map", "build", tmp_path / "pallet.yaml", "-o", tmp_path / "pallet.h5", "-q").exit_code == 0
+    traj, sim = tmp_path / "traj.h5", tmp_path / "sim.h5"
+    planned = run("dyn", "plan", tmp_path / "pallet.h5", "--robot", folder, "--gait", "trot", "--strides", 6,
+                  "--duration", 3.6, "--start", -1.4 * length, 0, 0, "--goal", 0.9 * length, 0, 0, "-o", traj, "-q")
+    assert planned.exit_code == 0, planned.output
+    assert summary(traj)["check_passed"] == 1
+    simulated = run("dyn", "simulate", traj, tmp_path / "pallet.h5", "-o", sim, "-q")
+    result = summary(sim)
+    assert simulated.exit_code == 0 and result["falls"] == 0 and result["succeeded"] == 1, simulated.output
