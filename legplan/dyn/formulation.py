@@ -205,19 +205,6 @@ def phase_knots(gait: Gait, dt: float, unloaded_polynomials: int | None = None) 
     return np.array(knots)
 
 
-def dense_knots(gait: Gait, dt: float, unloaded_polynomials: int) -> np.ndarray:
-    """Evenly spaced base knots as dense as `phase_knots` makes them in the shortest unloaded phase
-    (its duration / `unloaded_polynomials`, at most `dt`): for phase durations that the optimizer moves
-    (`DynParams.optimize_phases`), where knots fixed at the initial phase boundaries would end up
-    inside the moved phases, short polynomials everywhere follow the summed force wherever its phases
-    go (the summed force is smooth across a boundary: each foot's force leaves and reaches zero with
-    zero slope)."""
-    unloaded = unloaded_phases(gait)
-    spacing = min(dt, float(gait.durations[unloaded].min()) / unloaded_polynomials) if unloaded.any() else dt
-    count = max(1, int(np.ceil(gait.duration / spacing - 1e-9)))
-    return np.linspace(0.0, gait.duration, count + 1)
-
-
 def unloaded_phases(gait: Gait) -> np.ndarray:
     """Per whole-body phase: whether feet carry it and it begins or ends at a boundary where no foot
     stays in contact (every contact there is made or broken: a trot's support pairs), i.e. where the

@@ -25,7 +25,7 @@ from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock,
                                      LegClearanceBlock, RangeOfMotionBlock, StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity,
                                      swing_constraint, swing_height)
 from legplan.dyn.costs import CostWeights, StairEdgeBlock, integral_costs
-from legplan.dyn.formulation import Formulation, Pose, dense_knots, unloaded_phases
+from legplan.dyn.formulation import Formulation, Pose
 from legplan.dyn.gait import make_gait
 from legplan.dyn.settings import PAPER, PAPER_COSTS, DynParams  # noqa: F401 (the planner's parameters, re-exported)
 from legplan.dyn.terrain import TerrainModel
@@ -136,22 +136,11 @@ def sample_times(form: Formulation, params: DynParams) -> dict:
             "range": rom}
 
 
-def task_formulation(task: DynTask, params: DynParams, timed: bool = False) -> Formulation:
+def task_formulation(task: DynTask, params: DynParams) -> Formulation:
     """The `Formulation` of a task's gait under `params` (its base knots: `DynParams.dt`,
-    `phase_knots`, `unloaded_polynomials`): the one variable layout of the task. `timed`: an
-    initializer sets the phase durations (`sets_timing`), so that, as with `optimize_phases`, the
-    phases need not stay at the gait's boundaries and the knots are dense everywhere."""
-    gait = make_gait(task.gait, task.strides, task.duration)
-    moving = params.optimize_phases or timed
-    if moving and params.unloaded_polynomials is not None and unloaded_phases(gait).any():
-        return Formulation(gait, params.dt, knots=dense_knots(gait, params.dt, params.unloaded_polynomials))
-    return Formulation(gait, params.dt, aligned=params.phase_knots, unloaded_polynomials=params.unloaded_polynomials)
-
-
-def sets_timing(initializer) -> bool:
-    """Whether an initializer's guesses carry phase durations (`PHASES`: a network trained with them),
-    which then set the plan's timing (`legplan.dyn.timing`)."""
-    return bool(getattr(initializer, "sets_timing", False))
+    `phase_knots`, `unloaded_polynomials`): the one variable layout of the task."""
+    return Formulation(make_gait(task.gait, task.strides, task.duration), params.dt, aligned=params.phase_knots,
+                       unloaded_polynomials=params.unloaded_polynomials)
 
 
 def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer,
@@ -165,7 +154,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         form, start, goal, feet0 = task.setup(model, terrain, params)
         model = about_com(model)
     else:
-        form = task_formulation(task, params, timed=sets_timing(initializer))
+        form = task_formulation(task, params)
         start, goal = task_poses(task, model, terrain)
         model = about_com(model)
         feet0 = start_feet(model, start, terrain)

@@ -74,9 +74,9 @@ class DynParams(Parameters):
     unloaded_polynomials: int | None = param(16, "[1, 1000]", doc=(
         "base polynomials (at least) in every phase next to a boundary where no foot stays in contact "
         "(formulation.unloaded_phases: a trot's support pairs), whose summed force rises from or falls "
-        "to zero; the knots then sit at every phase boundary of the gait's timing (formulation.phase_knots), "
-        "or, with optimize_phases, which moves the phases, are spaced evenly as densely everywhere "
-        "(formulation.dense_knots). None = knots every dt, as for gaits without such phases"))
+        "to zero; the knots then sit at every phase boundary of the gait's timing (formulation.phase_knots) "
+        "and stay there when optimize_phases moves the phases. None = knots every dt, as for gaits "
+        "without such phases"))
     phase_knots: bool = param(False, (False, True), doc=(
         "base knots at the gait's phase boundaries too (formulation.phase_knots), not only evenly "
         "spaced: the contact set is then constant on every base polynomial"))

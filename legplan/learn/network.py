@@ -349,13 +349,7 @@ class LearnedInit:
         trained for."""
         from legplan.dyn.problem import DynParams, task_formulation
 
-        form = task_formulation(task, params or DynParams(), timed=self.sets_timing)
-        check_layout(self.layout, layout_of(form, phases=True), self.path)
-
-    @property
-    def sets_timing(self) -> bool:
-        """Whether its guesses carry phase durations (trained with them), which set the plan's timing."""
-        return self.layout.get("phases", 0) > 0
+        check_layout(self.layout, layout_of(task_formulation(task, params or DynParams()), phases=True), self.path)
 
     def check_in_space(self, task) -> None:
         """Before planning: one-line error when a `DynTask`'s start or goal (x, y, yaw) lies outside the

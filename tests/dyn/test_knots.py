@@ -67,25 +67,3 @@ def test_heuristic_forces_of_a_support_pair_carry_the_weight_over_it_and_its_fli
     carried = gait.durations[k] + 0.5 * (gait.durations[k - 1] + gait.durations[k + 1])
     assert impulse == pytest.approx(anymal.mass * 9.81 * carried, rel=1e-6)
     assert abs(total[0]) < 1e-9 and abs(total[-1]) < 1e-9 and total.min() >= 0.0
-
-
-def test_moving_phases_get_evenly_spaced_knots_as_dense_as_the_shortest_unloaded_phase():
-    """With optimize_phases (or a guess that sets the timing) the phases leave their boundaries, so the
-    knots are spaced evenly at the shortest unloaded phase's polynomial length; a walk keeps TOWR's."""
-    from dataclasses import replace
-
-    from legplan.dyn.problem import DynTask, task_formulation
-    from legplan.dyn.settings import DynParams
-
-    params = replace(DynParams(), optimize_phases=True)
-    task = DynTask((0, 0, 0), (1, 0, 0), "trot", 4, 2.4)
-    gait = make_gait("trot", 4, 2.4)
-    for form in (task_formulation(task, params), task_formulation(task, DynParams(), timed=True)):
-        steps = np.diff(form.knots)
-        np.testing.assert_allclose(steps, steps[0])
-        assert steps[0] <= gait.durations[unloaded_phases(gait)].min() / params.unloaded_polynomials + 1e-12
-        assert form.knots[0] == 0.0 and form.knots[-1] == pytest.approx(gait.duration)
-    fixed = task_formulation(task, DynParams())
-    assert not np.allclose(np.diff(fixed.knots), np.diff(fixed.knots)[0])  # phase-aligned without them
-    walk = task_formulation(DynTask((0, 0, 0), (1, 0, 0), "walk", 4, 3.5), params)
-    np.testing.assert_allclose(np.diff(walk.knots), 0.1)
