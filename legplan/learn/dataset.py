@@ -56,7 +56,7 @@ def check_init(init: str, space: TaskSpace) -> None:
     if is_learned(init):
         check_space(init, chosen.space, space.record())
         chosen.check_task(DynTask((0, 0, 0), (0, 0, 0), space.gait, space.strides, space.duration),
-                          solver_params(space.costs, None))
+                          solver_params(space.costs, None).dt)
 
 
 class DatasetWorker:

@@ -343,13 +343,14 @@ class LearnedInit:
     def __setstate__(self, state):
         self.__init__(state["path"])
 
-    def check_task(self, task, params=None) -> None:
+    def check_task(self, task, dt: float = 0.1) -> None:
         """Before planning: one-line error when a `DynTask`'s variable layout (gait, strides, duration,
-        base knots of `params`, a `DynParams`, default its defaults) is not the one this network was
-        trained for."""
-        from legplan.dyn.problem import DynParams, task_formulation
+        node spacing `dt`) is not the one this network was trained for."""
+        from legplan.dyn.formulation import Formulation
+        from legplan.dyn.gait import make_gait
 
-        check_layout(self.layout, layout_of(task_formulation(task, params or DynParams()), phases=True), self.path)
+        check_layout(self.layout, layout_of(Formulation(make_gait(task.gait, task.strides, task.duration), dt),
+                                            phases=True), self.path)
 
     def check_in_space(self, task) -> None:
         """Before planning: one-line error when a `DynTask`'s start or goal (x, y, yaw) lies outside the
