@@ -73,7 +73,7 @@ def test_dyn_plan_takes_param_overrides_and_refuses_a_bad_one_with_one_line(tmp_
     flat = tmp_path / "flat.h5"
     runner = CliRunner()
     assert runner.invoke(cli, ["map", "build", str(root / "maps" / "flat.yaml"), "-o", str(flat), "-q"]).exit_code == 0
-    task = ["dyn", "plan", str(flat), "--gait", "trot", "--strides", "2", "--duration", "2.4",
+    task = ["dyn", "plan", str(flat), "--gait", "trot", "--strides", "2", "--duration", "1.2",
             "--start", "-0.3", "0", "0", "--goal", "0", "0", "0"]
     out = tmp_path / "bad.h5"
     result = runner.invoke(cli, [*task, "--param", "costs.force=-1", "-o", str(out)])
