@@ -35,6 +35,9 @@ def ship_initializer(init_path, held_out_path, output_dir, *, overwrite: bool = 
     from legplan.learn.dataset import read_dataset, summarize
     from legplan.learn.network import KIND as INIT_KIND
 
+    for path in (init_path, held_out_path):  # each readable, in the order given, before their kinds
+        with open_artefact(path):
+            pass
     with open_artefact(init_path, kind=INIT_KIND) as f:
         trained = read_provenance(f)
         space = json.loads(f.attrs["space"])

@@ -54,7 +54,7 @@ READERS = {
     "sim": ["compare", "{bad}", "{sim}"],
     "dataset": ["learn", "train", "{bad}", "-o", "{out}.h5"],
     "init": ["dyn", "plan", "{flat}", "--start", "-0.4", "0", "0", "--goal", "0", "0", "0", "--strides", "2",
-             "--duration", "2.4", "--init", "{bad}", "-o", "{out}.h5"],
+             "--duration", "1.2", "--init", "{bad}", "-o", "{out}.h5"],
 }
 
 
@@ -123,7 +123,7 @@ PAIRS = {
     "step show": (["step", "show", "{motion}", "--map", "{other}", "-o", "{out}.png"], "motion.h5", "planned on"),
     "steps show": (["steps", "show", "{steps}", "--map", "{other}", "-o", "{out}.png"], "steps.h5", "made on"),
     "dyn plan --init": (["dyn", "plan", "{other}", "--start", "-0.4", "0", "0", "--goal", "0", "0", "0", "--strides",
-                         "2", "--duration", "2.4", "--init", "{init}", "-o", "{out}.h5"], "init.h5", "trained on"),
+                         "2", "--duration", "1.2", "--init", "{init}", "-o", "{out}.h5"], "init.h5", "trained on"),
 }
 
 
@@ -150,7 +150,7 @@ def test_the_same_terrain_built_again_is_the_same_map(more, tmp_path):
     with pytest.raises(ArtefactError, match="another terrain"):
         check_same_map(more["traj"], more["other"], [input_record(built[0])])
     result = invoke(["dyn", "plan", more["flat"], "--start", "-0.4", "0", "0", "--goal", "0", "0", "0", "--strides",
-                     "2", "--duration", "2.4", "--init", more["init"], "-o", tmp_path / "t.h5", "-q"])
+                     "2", "--duration", "1.2", "--init", more["init"], "-o", tmp_path / "t.h5", "-q"])
     assert result.exit_code in (0, 1), result.stderr  # the map built from the space's spec is its map
 
 

@@ -12,7 +12,7 @@ from legplan.artefacts import read_summary
 from legplan.cli.main import cli
 
 ROOT = Path(__file__).resolve().parents[2]
-TINY = ROOT / "tests" / "data" / "learn_flat_trot.yaml"  # flat 2-stride trots, 2.4 s, no costs
+TINY = ROOT / "tests" / "data" / "learn_flat_trot.yaml"  # flat 2-stride trots, 1.2 s, no costs
 SPACE = TINY.read_text().replace("../../maps/flat.yaml", f"{ROOT}/maps/flat.yaml")
 
 
@@ -102,7 +102,7 @@ def test_bad_space_and_foreign_init_are_exit_2_with_no_output(trained):
     result = invoke("learn", "dataset", bad, "--n", 2, "-o", tmp / "x.h5")
     assert result.exit_code == 2 and f"{bad}: field 'strides'" in result.output
     other = tmp / "other.yaml"
-    other.write_text(SPACE.replace("strides: 2", "strides: 3").replace("duration: 2.4", "duration: 3.4"))
+    other.write_text(SPACE.replace("strides: 2", "strides: 3").replace("duration: 1.2", "duration: 3.4"))
     result = invoke("learn", "dataset", other, "--n", 2, "--init", tmp / "init.h5", "-o", tmp / "x.h5")
     assert result.exit_code == 2 and "field 'space.strides'" in result.output
     result = invoke("learn", "train", tmp / "d0.h5", "--g-max", "-1", "-o", tmp / "x.h5")
@@ -153,7 +153,7 @@ def test_warm_stage_polish_reads_the_filter_that_learn_train_keeps(trained, tmp_
     flat = tmp_path / "flat.h5"
     assert invoke("map", "build", ROOT / "maps" / "flat.yaml", "-o", flat, "-q").exit_code == 0
     for args in (["learn", "dataset", space, "--n", 2],
-                 ["dyn", "plan", flat, "--gait", "trot", "--strides", 2, "--duration", 2.4,
+                 ["dyn", "plan", flat, "--gait", "trot", "--strides", 2, "--duration", 1.2,
                   "--start", -0.5, 0.0, 0.0, "--goal", 0.0, 0.0, 0.0]):
         result = invoke(*args, "--init", old, "--warm-stage", "polish", "-o", tmp_path / "x.h5")
         assert result.exit_code == 2 and f"{old}: field 'filter' is missing" in result.output
@@ -187,7 +187,7 @@ def test_dyn_plan_takes_the_learned_initializer_and_refuses_another_layout(train
     tmp, _ = trained
     flat = tmp_path / "flat.h5"
     assert invoke("map", "build", ROOT / "maps" / "flat.yaml", "-o", flat, "-q").exit_code == 0
-    common = ["dyn", "plan", flat, "--gait", "trot", "--strides", 2, "--duration", 2.4, "--init", tmp / "init.h5"]
+    common = ["dyn", "plan", flat, "--gait", "trot", "--strides", 2, "--duration", 1.2, "--init", tmp / "init.h5"]
     result = invoke(*common, "--start", -0.5, 0.1, 0.0, "--goal", 0.0, 0.0, 0.0, "-o", tmp_path / "t.h5", "-q")
     assert result.exit_code == 0, result.output + str(result.exception)
     with h5py.File(tmp_path / "t.h5", "r") as f:
@@ -198,7 +198,7 @@ def test_dyn_plan_takes_the_learned_initializer_and_refuses_another_layout(train
     assert result.exit_code == 0, result.output + str(result.exception)
     with h5py.File(tmp_path / "p.h5", "r") as f:
         assert json.loads(f.attrs["params"])["dyn"]["warm_stage"] == "projection" and f["tasks/0000"].attrs["success"]
-    bad = invoke("dyn", "plan", flat, "--gait", "walk", "--strides", 2, "--duration", 2.4, "--init", tmp / "init.h5",
+    bad = invoke("dyn", "plan", flat, "--gait", "walk", "--strides", 2, "--duration", 1.2, "--init", tmp / "init.h5",
                  "--start", -0.5, 0.1, 0.0, "--goal", 0.0, 0.0, 0.0, "-o", tmp_path / "u.h5", "-q")
     assert bad.exit_code == 2 and "init.h5" in bad.output and not (tmp_path / "u.h5").exists()
 
@@ -218,7 +218,7 @@ def test_phase_durations_flow_through_dataset_train_and_plan(trained, tmp_path):
     assert result.exit_code == 0, result.output + str(result.exception)
     flat = tmp_path / "flat.h5"
     assert invoke("map", "build", ROOT / "maps" / "flat.yaml", "-o", flat, "-q").exit_code == 0
-    common = ["dyn", "plan", flat, "--gait", "trot", "--strides", 2, "--duration", 2.4,
+    common = ["dyn", "plan", flat, "--gait", "trot", "--strides", 2, "--duration", 1.2,
               "--start", -0.5, 0.1, 0.0, "--goal", 0.0, 0.0, 0.0, "-q"]
     result = invoke(*common, "--init", tmp_path / "ip.h5", "-o", tmp_path / "t.h5")
     assert result.exit_code == 0, result.output + str(result.exception)
@@ -226,8 +226,8 @@ def test_phase_durations_flow_through_dataset_train_and_plan(trained, tmp_path):
     with h5py.File(tmp_path / "t.h5", "r") as f:
         durations = f["tasks/0000/phases/durations"][()]
         assert f["tasks/0000"].attrs["success"] and json.loads(f.attrs["params"])["dyn"]["optimize_phases"] is False
-    assert durations.sum() == pytest.approx(2.4)
-    nominal = make_gait("trot", 2, 2.4).durations  # the network's timing (near the gait's here), not the gait's
+    assert durations.sum() == pytest.approx(1.2)
+    nominal = make_gait("trot", 2, 1.2).durations  # the network's timing (near the gait's here), not the gait's
     assert durations.size != nominal.size or np.abs(durations - nominal).max() > 0
     bad = tmp_path / "bad.h5"
     bad.write_bytes((tmp_path / "ip.h5").read_bytes())

@@ -96,7 +96,7 @@ def test_dyn_plan_refuses_a_task_outside_the_shipped_space_before_writing(traine
     monkeypatch.setattr(legplan.shipped, "shipped_dir", lambda kind: tmp_path / kind)
     out = tmp_path / "traj.h5"
     result = CliRunner().invoke(cli, ["dyn", "plan", str(tmp_path / "flat.h5"), "--gait", "trot", "--strides", "2", "--duration",
-                                      "2.4", "--start", "-1.0", "0", "0", "--goal", "0", "0", "0",
+                                      "1.2", "--start", "-1.0", "0", "0", "--goal", "0", "0", "0",
                                       "--init", "tiny_trot", "-o", str(out)])
     assert result.exit_code == 2, result.output
     assert "start x = -1 lies outside the range it was trained on" in result.output

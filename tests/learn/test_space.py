@@ -31,7 +31,7 @@ def test_shipped_task_spaces_load(space):
 @pytest.mark.parametrize("old, new, field", [
     ("gait: trot", "gait: gallop", "gait"),
     ("strides: 2", "strides: 0", "strides"),
-    ("duration: 2.4", "duration: -1", "duration"),
+    ("duration: 1.2", "duration: -1", "duration"),
     ("costs: none", "costs: nosuch", "costs"),
     ("yaw: [-0.2, 0.2]}", "yaw: [0.2, -0.2]}", "start.yaw"),
     ("y: [-0.15, 0.15]", "y: [-0.15, .nan]", "start.y[1]"),
