@@ -22,9 +22,9 @@ KINDS = ("maps", "pipelines", "tasks")
 """The shipped folders; each also names the kind of a command's input."""
 
 INITIALIZERS = "initializers"
-"""The shipped trained initializers, a folder of the shipped `tasks/`: NAME.h5 (an init.h5 of `legplan
-learn`) trained on the task space tasks/NAME.yaml, and NAME.json, how it was made (command, seed,
-datasets' sha256) and how it did on held-out tasks."""
+"""The shipped trained initializers, a folder of the shipped `tasks/`: NAME.h5, an init.h5 trained on
+the task space tasks/NAME.yaml and readied by `legplan learn ship`, whose provenance records how it
+was made (command, seed, datasets' sha256) and how it did on held-out tasks (`legplan.learn.shipping`)."""
 
 
 def shipped_root() -> Path:
