@@ -78,6 +78,9 @@ class KinematicsWorkspace:
                 if k > 0:
                     support[j, model.idx_vs[k]:model.idx_vs[k] + model.nvs[k]] = True
         self._mask = support[self._points.joints]                        # (p, nv)
+        self._feet = feet
+        self._feet_joints, self._feet_slot = np.unique(feet.joints, return_inverse=True)
+        self._feet_mask = support[feet.joints]
         self._cache_key: np.ndarray | None = None
         self._cache: Kinematics | None = None
 
@@ -91,9 +94,23 @@ class KinematicsWorkspace:
         self._cache_key, self._cache = Q.copy(), result
         return result
 
-    def _compute(self, Q: np.ndarray, jacobians: bool) -> Kinematics:
+    def feet(self, Q: np.ndarray, jacobians: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """Foot positions (n, n_legs, 3) and, if asked, their Jacobians (n, n_legs, 3, nv) alone: the
+        same numbers as `evaluate`'s feet without the spheres and bodies (leg IK needs only these).
+        Not cached, and it leaves `evaluate`'s cache alone."""
+        placements, J = self._joint_placements(Q, self._feet_joints, jacobians)
+        points = _attached(placements[:, self._feet_slot], self._feet.offsets)
+        if not jacobians:
+            return points, None
+        jac = _point_jacobians(J, points)
+        jac *= self._feet_mask[None, :, None, :]
+        return points, jac
+
+    def _joint_placements(self, Q: np.ndarray, joint_ids: np.ndarray, jacobians: bool):
+        """Placements (n, j, 4, 4) of the joints `joint_ids` and, if asked, the WORLD joint
+        Jacobians `data.J` (n, 6, nv) of every configuration of Q."""
         model, data = self.model, self.data
-        n, used = len(Q), [int(j) for j in self._used_joints]
+        n, used = len(Q), [int(j) for j in joint_ids]
         placements = np.empty((n, len(used), 4, 4))
         J = np.empty((n, 6, model.nv)) if jacobians else None
         oMi = data.oMi
@@ -105,8 +122,11 @@ class KinematicsWorkspace:
                 pin.forwardKinematics(model, data, q)
             joints = oMi.tolist()  # one conversion of the vector: faster than indexing it per joint
             placements[i] = [joints[j].homogeneous for j in used]
-        H = placements[:, self._slot]                                     # (n, p, 4, 4)
-        points = np.einsum("npij,pj->npi", H[..., :3, :3], self._points.offsets) + H[..., :3, 3]
+        return placements, J
+
+    def _compute(self, Q: np.ndarray, jacobians: bool) -> Kinematics:
+        placements, J = self._joint_placements(Q, self._used_joints, jacobians)
+        points = _attached(placements[:, self._slot], self._points.offsets)   # (n, p, 3)
         jac = None
         if jacobians:
             jac = _point_jacobians(J, points)
@@ -122,6 +142,11 @@ class KinematicsWorkspace:
             sphere_jacobians=None if jac is None else _read_only(jac[:, spheres]),
             com_jacobian=None if jac is None else _read_only(
                 np.einsum("b,nbij->nij", self._weights, jac[:, bodies])))
+
+
+def _attached(H: np.ndarray, offsets: np.ndarray) -> np.ndarray:
+    """World positions (n, p, 3) of points with `offsets` (p, 3) in frames placed at H (n, p, 4, 4)."""
+    return np.einsum("npij,pj->npi", H[..., :3, :3], offsets) + H[..., :3, 3]
 
 
 def _point_jacobians(J: np.ndarray, points: np.ndarray) -> np.ndarray:

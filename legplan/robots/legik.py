@@ -143,8 +143,8 @@ def _solve(robot, targets, start, cols, tolerance, max_iterations):
 def _evaluate(robot, Q, targets, cols):
     """Foot errors (m, n_legs, 3) = target - foot, and per leg the foot Jacobian (m, 3, k) w.r.t.
     the leg's joints."""
-    kin = robot.kinematics(Q)
-    return targets - kin.foot_positions, [kin.foot_jacobians[:, leg][..., 6 + c] for leg, c in enumerate(cols)]
+    feet, jacobians = robot.feet(Q)
+    return targets - feet, [jacobians[:, leg][..., 6 + c] for leg, c in enumerate(cols)]
 
 
 def _step(q, e, J, lam, lower, upper):

@@ -100,6 +100,11 @@ class RobotModel:
         """Feet, sphere centres, CoM and (if `jacobians`) their Jacobians in one pass over Q."""
         return self.workspace.evaluate(self._configurations(Q), jacobians)
 
+    def feet(self, Q, jacobians: bool = True) -> tuple[np.ndarray, np.ndarray | None]:
+        """Foot positions (n, n_legs, 3) and (if `jacobians`) Jacobians (n, n_legs, 3, nv) alone, without
+        the spheres and the CoM: what leg IK needs (`KinematicsWorkspace.feet`)."""
+        return self.workspace.feet(self._configurations(Q), jacobians)
+
     def foot_positions(self, Q) -> np.ndarray:
         """(n, n_legs, 3) world positions of the foot frames."""
         return self.kinematics(Q, jacobians=False).foot_positions

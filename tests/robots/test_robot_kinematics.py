@@ -82,6 +82,18 @@ def test_jacobians_by_finite_differences_in_vector_space(any_robot):
         np.testing.assert_allclose(jac_x[i], np.moveaxis(fd, 0, -1), atol=1e-7)
 
 
+def test_feet_alone_equal_the_full_batch(any_robot):
+    """`feet` (leg IK's evaluation) gives the full batch's foot numbers bit for bit, and leaves its cache."""
+    robot = any_robot
+    Q = random_configurations(robot, np.random.default_rng(12), 7)
+    kin = robot.kinematics(Q)
+    feet, jacobians = robot.feet(Q)
+    assert np.array_equal(feet, kin.foot_positions) and np.array_equal(jacobians, kin.foot_jacobians)
+    positions, none = robot.feet(Q[:3], jacobians=False)
+    assert none is None and np.array_equal(positions, kin.foot_positions[:3])
+    assert robot.kinematics(Q) is kin
+
+
 def test_cached_batches_are_consistent(scarab2):
     rng = np.random.default_rng(14)
     Q1, Q2 = random_configurations(scarab2, rng, 4), random_configurations(scarab2, rng, 4)
