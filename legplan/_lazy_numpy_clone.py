@@ -1,4 +1,4 @@
-"""Keep `import scipy.sparse` from importing numpy.f2py, numpy.testing and numpy.ma.
+"""Keep `import scipy.sparse` from importing numpy.f2py, numpy.testing, numpy.ma and Cython.
 
 scipy's vendored array-API namespace for numpy (`scipy._lib.array_api_compat.numpy`, imported by every
 scipy subpackage, scipy.sparse included) copies numpy's namespace with `from numpy import *` and a
@@ -7,12 +7,13 @@ testing (with unittest), ma, polynomial, ... — none of which legplan uses, at 
 of scipy.sparse's import time. `install()` hooks that one module's first import: while it runs, numpy
 lists none of those submodules, and afterwards the namespace gets them on first access (PEP 562
 `__getattr__` forwarding to numpy), so it still offers every name numpy does. Any surprise in the
-hook (another scipy layout) falls back to the plain import.
+hook (another scipy layout) falls back to the plain import. While the hook waits, it also answers
+"no such module" to scipy's test utilities (`scipy._lib._testutils`, imported by every scipy
+subpackage), which look for Cython only to decide whether to run Cython API tests.
 """
 
 from __future__ import annotations
 
-import importlib.abc
 import importlib.util
 import sys
 
@@ -20,10 +21,13 @@ TARGET = "scipy._lib.array_api_compat.numpy"
 DEFERRED = frozenset({"f2py", "testing", "ma", "matlib", "ctypeslib", "polynomial", "rec", "char"})
 
 
-class _Finder(importlib.abc.MetaPathFinder):
-    """Finds nothing itself; wraps the loader of `TARGET` the first time it is imported."""
+class _Finder:
+    """Finds nothing itself; wraps the loader of `TARGET` the first time it is imported (a meta path
+    finder by protocol: `importlib.abc` would import `importlib.resources` and `tempfile` at start-up)."""
 
     def find_spec(self, name, path, target=None):
+        if name == "cython" and _importing("scipy._lib._testutils"):
+            raise ModuleNotFoundError("legplan: scipy's test utilities run without Cython", name=name)
         if name != TARGET:
             return None
         uninstall()
@@ -34,7 +38,7 @@ class _Finder(importlib.abc.MetaPathFinder):
         return spec
 
 
-class _Loader(importlib.abc.Loader):
+class _Loader:
     def __init__(self, loader):
         self.loader = loader
 
@@ -61,6 +65,12 @@ class _Loader(importlib.abc.Loader):
                     return getattr(numpy, name)
                 raise AttributeError(f"module {module.__name__!r} has no attribute {name!r}")
             module.__getattr__ = forward
+
+
+def _importing(module: str) -> bool:
+    """Is `module` being imported right now (in sys.modules, its first execution not finished)?"""
+    spec = getattr(sys.modules.get(module), "__spec__", None)
+    return bool(getattr(spec, "_initializing", False))
 
 
 _finder = _Finder()

@@ -24,7 +24,6 @@ from __future__ import annotations
 import hashlib
 import os
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -82,6 +81,8 @@ def filtered(function: str, *args, **kwargs) -> np.ndarray:
 
 def _store(path: Path, result: np.ndarray) -> None:
     """Write `result` to `path` atomically; a folder that cannot be written is left as it is."""
+    import tempfile  # only a first run on a map stores: later runs start without it
+
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         handle, temporary = tempfile.mkstemp(prefix=f".{path.stem[:32]}-", suffix=".npy", dir=path.parent)

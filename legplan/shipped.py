@@ -13,7 +13,7 @@ file it names, by name (`gap_crossing`, `pallet_climb.yaml`) or by its path in t
 from __future__ import annotations
 
 import os
-from importlib.resources import files
+import sys
 from pathlib import Path
 
 from legplan.errors import LegplanError, did_you_mean
@@ -27,10 +27,23 @@ the task space tasks/NAME.yaml and readied by `legplan learn ship`, whose proven
 was made (command, seed, datasets' sha256) and how it did on held-out tasks (`legplan.learn.shipping`)."""
 
 
+def package_data(name: str) -> Path:
+    """The package data `legplan/<name>`: in the package's folder when legplan is installed as
+    folders (a wheel, an editable install), otherwise through `importlib.resources` (imported only
+    then: it brings `tempfile`, `zipfile` and more into every command's start-up)."""
+    locations = getattr(sys.modules["legplan"].__spec__, "submodule_search_locations", None) or []
+    for folder in map(Path, locations):
+        if (folder / "__init__.py").is_file():
+            return folder / name
+    from importlib.resources import files
+
+    return Path(str(files("legplan") / name))
+
+
 def shipped_root() -> Path:
     """The folder holding the shipped `maps/`, `pipelines/` and `tasks/` (links resolved: the
     repository's folders in a source checkout, so messages and provenance name them)."""
-    return Path(str(files("legplan") / "scenarios"))
+    return package_data("scenarios")
 
 
 def shipped_dir(kind: str) -> Path:

@@ -22,7 +22,8 @@ log = logging.getLogger(__name__)
 
 THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 _local = threading.local()
-_limited = {"done": False}
+# Inherited one-thread settings reached every BLAS/OpenMP library before it loaded: nothing to limit.
+_limited = {"done": all(os.environ.get(name) == "1" for name in THREAD_VARIABLES)}
 
 
 def one_thread_environment() -> None:

@@ -14,12 +14,12 @@ from __future__ import annotations
 
 import os
 from dataclasses import dataclass
-from importlib.resources import files
 from pathlib import Path
 
 from typing import TYPE_CHECKING
 
 from legplan.errors import LegplanError, did_you_mean
+from legplan.shipped import package_data
 
 if TYPE_CHECKING:
     from legplan.robots.model import RobotModel
@@ -31,7 +31,7 @@ ENV_ROBOTS = "LEGPLAN_ROBOTS"
 def shipped_robots_dir() -> Path:
     """The folder of the robots that ship with legplan (package data `legplan/robot_models`), with
     the link resolved: the repository's `robots/` in a source checkout, so messages name it."""
-    return Path(str(files("legplan") / "robot_models")).resolve()
+    return package_data("robot_models").resolve()
 
 
 def robot_search_path() -> list[Path]:

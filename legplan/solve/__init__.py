@@ -11,15 +11,22 @@ sparse or `BlockDiagonal` JᵀJ pieces and Jᵀh); variables with `schur_block` 
 Schur complement before factorising. Test every block with `check_jacobian(block, values)`.
 """
 
-from legplan.solve.blocks import BlockDiagonal, FunctionBlock, NormalTerms, ResidualBlock, StructuredBlock
-from legplan.solve.inequality import HingeInequality, IntervalPenalty
-from legplan.solve.jaccheck import JacobianCheck, check_jacobian, check_normal_terms, numeric_jacobian
-from legplan.solve.linsolve import (CholmodSolver, DenseSolver, LinearSolver, NotPositiveDefiniteError,
-                                    ScipySolver, make_solver)
-from legplan.solve.lm import LMParams, LMResult, Status, Timings, solve_lm
-from legplan.solve.problem import NormalEquations, Problem
-from legplan.solve.schur import SchurSolver
-from legplan.solve.variables import VariableBlock, VariableLayout
+from legplan.lazy_exports import lazy_exports
+
+# Names load with their module on first use (PEP 562): a planner importing the blocks and one solver does
+# not import the others, the Jacobian checker or the Schur solver.
+_HOMES = {
+    **dict.fromkeys(("BlockDiagonal", "FunctionBlock", "NormalTerms", "ResidualBlock", "StructuredBlock"), "blocks"),
+    **dict.fromkeys(("HingeInequality", "IntervalPenalty"), "inequality"),
+    **dict.fromkeys(("JacobianCheck", "check_jacobian", "check_normal_terms", "numeric_jacobian"), "jaccheck"),
+    **dict.fromkeys(("CholmodSolver", "DenseSolver", "LinearSolver", "NotPositiveDefiniteError", "ScipySolver",
+                     "make_solver"), "linsolve"),
+    **dict.fromkeys(("LMParams", "LMResult", "Status", "Timings", "solve_lm"), "lm"),
+    **dict.fromkeys(("NormalEquations", "Problem"), "problem"),
+    "SchurSolver": "schur",
+    **dict.fromkeys(("VariableBlock", "VariableLayout"), "variables"),
+}
+__getattr__, __dir__ = lazy_exports(__name__, _HOMES)
 
 __all__ = [
     "BlockDiagonal", "CholmodSolver", "DenseSolver", "FunctionBlock", "HingeInequality", "IntervalPenalty",

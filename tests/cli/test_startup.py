@@ -53,10 +53,13 @@ assert CliRunner().invoke(cli, ["--version"]).exit_code == 0
 # (rotations come from pinocchio), the numpy submodules scipy's numpy namespace would import
 # (legplan._lazy_numpy_clone; numpy.ma is not among them: numpy's own `np.unique` imports it), a
 # process pool with `--jobs 1`, FCL (the trajectory check measures terrain distance without it), the
-# step-sequence and learned-initializer packages.
+# step-sequence and learned-initializer packages, Cython (scipy's test utilities look for it),
+# importlib.resources with zipfile (the shipped robots are a folder of the package), the solvers'
+# Jacobian checker.
 NOT_FOR_DYN_PLAN = ("matplotlib", "mujoco", "dask", "distributed", "sklearn", "ompl", "proxsuite", "scipy.spatial", "scipy.linalg",
                     "scipy.optimize", "numpy.f2py", "numpy.testing", "unittest", "multiprocessing",
-                    "concurrent.futures.process", "fcl", "legplan.stepseq", "legplan.learn.network")
+                    "concurrent.futures.process", "fcl", "legplan.stepseq", "legplan.learn.network", "Cython", "cython",
+                    "importlib.resources", "zipfile", "legplan.solve.jaccheck")
 # ... and, once a run on the same map has stored the filtered terrain grids (legplan.cache), the
 # filters' library.
 NOT_FOR_DYN_PLAN_AGAIN = ("scipy.ndimage", "scipy.special")
