@@ -53,7 +53,24 @@ class ContactMode:
 def _jac_x(robot, X: np.ndarray, jac_v: np.ndarray) -> np.ndarray:
     """Jacobians w.r.t. the tangent v (n, ..., nv) mapped to the vector x (n, ..., nx)."""
     tangent = robot.tangent_map(X)
-    return np.einsum("n...v,nvx->n...x", jac_v, tangent)
+    if tangent.shape[1] != tangent.shape[2] or tangent.shape[1] < 6:  # no columns (values only), or no base
+        return np.einsum("n...v,nvx->n...x", jac_v, tangent)
+    return block_tangent_product(jac_v, tangent)
+
+
+def block_tangent_product(jac_v: np.ndarray, tangent: np.ndarray) -> np.ndarray:
+    """J_v @ T for T = blockdiag(A, B, I) (n, nv, nv), the tangent map of `RobotModel.tangent_map`:
+    the base's two 3×3 blocks multiplied out, the joint columns copied. Each entry is summed in the
+    order `einsum("n...v,nvx->n...x")` sums it (the other terms are exact zeros), so the numbers are
+    the dense product's at a fraction of its cost."""
+    out = np.empty(jac_v.shape)
+    lead = (slice(None),) + (None,) * (jac_v.ndim - 2)
+    for lo in (0, 3):
+        block = tangent[:, lo:lo + 3, lo:lo + 3][lead]                   # (n, 1, ..., 3, 3)
+        col = [jac_v[..., lo + k, None] * block[..., k, :] for k in range(3)]
+        out[..., lo:lo + 3] = (col[0] + col[1]) + col[2]
+    out[..., 6:] = jac_v[..., 6:]
+    return out
 
 
 def stance_foot_terms(robot, X, mode: ContactMode, Q=None):

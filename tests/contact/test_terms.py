@@ -71,3 +71,15 @@ def test_stance_foot_spheres_are_exempt_and_swing_foot_uses_foot_clearance(scara
     assert margins[swing_foot] == pytest.approx(mode.foot_clearance)
     values, _ = collision_terms(scarab, x[None], mode, flat_terrain.sdf)
     assert values.shape[1] == len(margins) - (len(feet) - 1)
+
+
+def test_block_tangent_product_is_the_dense_product_bit_for_bit(scarab):
+    """The terms map Jacobians to x by the tangent map's blocks: the same numbers as the dense einsum."""
+    from legplan.contact.terms import block_tangent_product
+
+    rng = np.random.default_rng(4)
+    X = scarab.to_vector(scarab.q_nominal[None]) + rng.normal(scale=0.3, size=(9, scarab.nx))
+    tangent = scarab.tangent_map(X)
+    for shape in ((9, scarab.nv), (9, 5, 3, scarab.nv), (9, 3, scarab.nv)):
+        jac_v = rng.normal(size=shape) * (rng.random(shape) > 0.3)
+        assert np.array_equal(block_tangent_product(jac_v, tangent), np.einsum("n...v,nvx->n...x", jac_v, tangent))
