@@ -2,7 +2,12 @@
 
     .venv/bin/python bench/cli.py [--repeats 3] [--cases KEY,KEY] [--before PATH] [--no-append]
                                   [--jobs-steps 60:80] [--jobs-repeats 3] [--skip-dyn] [--skip-jobs]
-                                  [--step-map map.h5 --step-sequence steps.h5]
+                                  [--swings 12] [--step-map map.h5 --step-sequence steps.h5]
+
+The side-by-side run of issue 38 (main's code as the reference, e.g. `git worktree add --detach
+/tmp/speed_ref main`):
+
+    nice -n 5 .venv/bin/python bench/cli.py --before /tmp/speed_ref --jobs-repeats 2
 
 For every case of bench/dyn.py (`CASES`: TOWR's cases and stairs) the whole command
 `legplan dyn plan MAP --gait --strides --duration --start --goal -o traj.h5 -q` (run as the
@@ -35,6 +40,13 @@ the ≥ 0.2 s items of the target). Wall time and process CPU of each, --jobs 1 
 alternation, median of --jobs-repeats runs; the speed-up is the ratio of the median wall times.
 On a machine whose two cores are busy with other work no pool can approach 2×: the load average
 is recorded with it.
+
+Whole swings, this tree against --before: with --before, --swings N whole swings of that scenario (every
+k-th of them, spread over the sequence) are planned by one long-lived process per tree (`SWING_WORKER`:
+the planner call of `legplan step plan`, `plan_step`, on the tree's own code), item by item in
+alternation, order swapped every item; per item the CPU of the planning call and a digest of its
+result (control points, degree, norm, success), so the table says whether both trees planned the same
+swings bit for bit.
 
 TOWR's figures are the issue's (TOWR rebuilt on this machine, process CPU, another — idle — day):
 TOWR cannot run here, so they are context for the reader, not a ratio taken in one run.
@@ -123,6 +135,31 @@ if hasattr(legplan.cli.main, "main"):
     atexit._run_exitfuncs()
     sys.stdout.flush()
     os._exit(0)
+"""
+
+# Plans whole swings of a given map and sequence on demand (stdin: swing index; stdout: one JSON line).
+SWING_WORKER = r"""
+import hashlib, json, sys, time
+sys.path.insert(0, "bench")
+import numpy as np
+from step_plan import merge_swings
+from legplan.stepplan.batch import StepWorker, motion_stance
+from legplan.stepplan.params import StepPlanParams
+from legplan.stepplan.planner import plan_step
+from legplan.stepseq.sequence import read_steps
+seq = merge_swings(read_steps(sys.argv[2]))
+worker = StepWorker(seq.robot, sys.argv[1], StepPlanParams())
+print(json.dumps(len(seq) - 1), flush=True)
+for line in sys.stdin:
+    i = json.loads(line)
+    stance = motion_stance(seq.stance[i], seq.stance[i + 1], seq.footholds[i], seq.footholds[i + 1])
+    footholds = np.nan_to_num(seq.footholds[i])
+    cpu = time.process_time()
+    plan = plan_step(worker.robot, worker.distance, seq.q[i], seq.q[i + 1], stance, footholds, worker.params)
+    cpu = time.process_time() - cpu
+    digest = hashlib.sha256(np.ascontiguousarray(plan.control_points).tobytes() + repr(
+        (plan.degree, plan.norm, plan.success, plan.reason)).encode()).hexdigest()[:16]
+    print(json.dumps({"cpu": cpu, "success": bool(plan.success), "digest": digest}), flush=True)
 """
 
 
@@ -222,6 +259,49 @@ def jobs_comparison(work: Path, step_range: str, repeats: int, map_path=None, st
     return out
 
 
+def swings_comparison(trees: dict, map_path: Path, steps_path: Path, count: int) -> dict:
+    """Whole swings planned by each tree's `SWING_WORKER`, item by item in alternation (module docstring)."""
+    workers = {side: subprocess.Popen([sys.executable, "-c", SWING_WORKER, str(map_path), str(steps_path)],
+                                      cwd=tree, env=environment(tree), text=True, stdin=subprocess.PIPE,
+                                      stdout=subprocess.PIPE) for side, tree in trees.items()}
+    total = min(json.loads(w.stdout.readline()) for w in workers.values())
+    chosen = sorted({int(round(k)) for k in [i * (total - 1) / max(count - 1, 1) for i in range(count)]})
+    runs = {side: [] for side in trees}
+    for n, i in enumerate(chosen):
+        for side in (list(trees) if n % 2 == 0 else list(trees)[::-1]):
+            workers[side].stdin.write(json.dumps(i) + "\n")
+            workers[side].stdin.flush()
+            runs[side].append({"swing": i, **json.loads(workers[side].stdout.readline()), "load": load_average()})
+    for w in workers.values():
+        w.stdin.close()
+        w.wait()
+    out = {"swings": chosen, "runs": runs, "median_cpu": {side: statistics.median(r["cpu"] for r in rs)
+                                                          for side, rs in runs.items()}}
+    sides = list(trees)
+    out["same_results"] = all(a["digest"] == b["digest"] for a, b in zip(runs[sides[0]], runs[sides[1]]))
+    print("whole swings: " + "; ".join(f"{side} median {cpu:.3f} s" for side, cpu in out["median_cpu"].items())
+          + f"; same results: {out['same_results']}", flush=True)
+    return out
+
+
+def swings_markdown(result: dict) -> list[str]:
+    sw = result["swings"]
+    loads = [r["load"] for rs in sw["runs"].values() for r in rs]
+    lines = ["", f"### Step planning, whole swings: this tree against {result['before']} (same run)", "",
+             f"{len(sw['swings'])} whole swings of the gap-crossing scenario (scarab2, every k-th of the sequence's "
+             f"swings: {', '.join(map(str, sw['swings']))}), each planned by one long-lived process per tree "
+             "(`plan_step`, `legplan step plan`'s planner call), item by item in alternation; CPU of the planning "
+             f"call, one BLAS thread; load average {min(loads):.1f}–{max(loads):.1f}. Results bit for bit the same "
+             f"(control points, degree, norm, status of every swing): {'yes' if sw['same_results'] else 'NO'}.", "",
+             "| code | median item CPU [s] | mean [s] | successes | ratio to before |", "|---|---|---|---|---|"]
+    before = sw["median_cpu"]["before"]
+    for side, rs in sw["runs"].items():
+        cpus = [r["cpu"] for r in rs]
+        lines.append(f"| {side} | {statistics.median(cpus):.3f} | {statistics.mean(cpus):.3f} | "
+                     f"{sum(r['success'] for r in rs)}/{len(rs)} | {statistics.median(cpus) / before:.2f} |")
+    return lines
+
+
 def jobs_markdown(result: dict) -> list[str]:
     jobs, earlier = result["jobs"], result.get("jobs_from")
     run = f"run of {earlier['date']}, code {earlier['code']}, not repeated here" if earlier else "same run"
@@ -285,6 +365,8 @@ def markdown(result: dict) -> str:
                  "CPU time is still the whole command's.")
     if result.get("jobs"):
         lines += jobs_markdown(result)
+    if result.get("swings"):
+        lines += swings_markdown(result)
     return "\n".join(lines)
 
 
@@ -300,6 +382,7 @@ def main(argv=None) -> int:
     ap.add_argument("--step-sequence", type=Path, help="its generated steps.h5 (generated if not given)")
     ap.add_argument("--skip-dyn", action="store_true", help="only the --jobs comparison")
     ap.add_argument("--skip-jobs", action="store_true", help="only the dyn plan cases")
+    ap.add_argument("--swings", type=int, default=12, help="whole swings planned side by side with --before (0: none)")
     args = ap.parse_args(argv)
     repeats = max(3, args.repeats)
 
@@ -362,9 +445,15 @@ def main(argv=None) -> int:
                 f"{side} whole {entry[side]['whole']:.3f} start-up {entry[side]['startup']:.3f} solve "
                 f"{entry[side]['solve']:.3f} rest {entry[side]['rest']:.3f} exit {entry[side]['exit']}" for side in trees),
                 flush=True)
+        step_map, step_sequence = args.step_map, args.step_sequence
+        if (not args.skip_jobs or (args.swings and args.before is not None)) and (step_map is None or step_sequence is None):
+            from step_plan import scenario
+            step_map, step_sequence = scenario(work, "scarab2", (-0.6, 0.0, 0.0), (0.6, 0.0, 0.0))
+        if args.swings and args.before is not None:
+            result["swings"] = swings_comparison(trees, step_map, step_sequence, args.swings)
         if not args.skip_jobs:
-            result["jobs"] = jobs_comparison(work, args.jobs_steps, max(1, args.jobs_repeats), args.step_map,
-                                             args.step_sequence)
+            result["jobs"] = jobs_comparison(work, args.jobs_steps, max(1, args.jobs_repeats), step_map,
+                                             step_sequence)
         else:  # the last run's --jobs comparison stays in the section, marked as that run's
             previous = ROOT / "bench" / "results" / "cli.json"
             earlier = json.loads(previous.read_text()) if previous.exists() else {}
