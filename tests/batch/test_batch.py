@@ -198,3 +198,26 @@ def test_dask_reads_each_outcome_by_what_came_back_not_by_the_future_status(monk
     assert records[0] == {"index": 0, "success": True}
     assert records[1] == failed(1, "worker died (KilledWorker: gone)")
     assert not records[2]["success"] and "CancelledError" in records[2]["reason"]
+
+
+@pytest.mark.parametrize("inherited", ["1", "2"])
+def test_blas_threads_limited_unless_one_thread_was_inherited(inherited):
+    """A process started with one BLAS/OpenMP thread in its environment has nothing to limit (its
+    libraries read it as they loaded); any other setting is limited through threadpoolctl."""
+    import os
+    import subprocess
+    import sys
+
+    code = """
+import sys
+import numpy
+from legplan.batch import Task
+from toytasks import square, failed
+Task(square, failed).provide(None)
+print("threadpoolctl" in sys.modules)
+"""
+    env = {**os.environ, **dict.fromkeys(("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"), inherited),
+           "PYTHONPATH": os.pathsep.join(sys.path)}
+    out = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True,
+                         cwd=os.path.dirname(__file__))
+    assert out.stdout.strip() == ("False" if inherited == "1" else "True")
