@@ -33,6 +33,10 @@ from __future__ import annotations
 import numpy as np
 
 
+PAIR_BLOCK = 1 << 20
+"""(offset, candidate) combinations `_candidate_pairs` tests at once: bounds its temporary arrays."""
+
+
 class ColumnDistance:
     """Signed distance to the column solid of `height` (ny, nx), exact up to `reach` (m)."""
 
@@ -166,21 +170,24 @@ def _candidate_pairs(height: np.ndarray, mask: np.ndarray, reach_cells: float, k
     """(cell, candidate) index pairs of the flat grid and the distance of their squares (in cells):
     candidates are `mask` cells whose square lies within `reach_cells` cell sizes of the cell's
     square and whose height h_c passes keep(h_c, h_cell) (the own cell is excluded: every query
-    adds it)."""
+    adds it). Pairs come offset by offset (dy, then dx, ascending), each offset's in row-major
+    order of the candidates; the offsets are handled in groups of whole arrays, not one by one."""
     ny, nx = mask.shape
     k = int(np.ceil(reach_cells)) + 1
-    cells, candidates, gaps = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
     my, mx = np.nonzero(mask)  # the candidates, in row-major order
-    for dy in range(-k, k + 1):
-        for dx in range(-k, k + 1):
-            gap = np.hypot(max(abs(dx) - 1, 0), max(abs(dy) - 1, 0))
-            if (dx == 0 and dy == 0) or gap > reach_cells or not len(my):
-                continue
-            # cells (iy, ix) whose neighbour (iy + dy, ix + dx) is a candidate
-            inside = (my >= dy) & (my < ny + dy) & (mx >= dx) & (mx < nx + dx)
-            cy, cx = my[inside], mx[inside]
-            ok = keep(height[cy, cx], height[cy - dy, cx - dx])
-            cells.append((cy[ok] - dy) * nx + (cx[ok] - dx))
-            candidates.append(cy[ok] * nx + cx[ok])
-            gaps.append(np.full(int(ok.sum()), gap))
+    offsets = [(dy, dx, np.hypot(max(abs(dx) - 1, 0), max(abs(dy) - 1, 0)))
+               for dy in range(-k, k + 1) for dx in range(-k, k + 1) if dx or dy]
+    offsets = [o for o in offsets if not o[2] > reach_cells] if len(my) else []
+    cells, candidates, gaps = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
+    group = max(1, PAIR_BLOCK // max(len(my), 1))  # offsets per group: a bounded (offsets × candidates) block
+    for start in range(0, len(offsets), group):
+        dy, dx, gap = (np.array(v) for v in zip(*offsets[start:start + group]))
+        # cells (iy, ix) whose neighbour (iy + dy, ix + dx) is a candidate
+        inside = ((my >= dy[:, None]) & (my < ny + dy[:, None]) & (mx >= dx[:, None]) & (mx < nx + dx[:, None]))
+        o, c = np.nonzero(inside)  # offset-major, candidates in row-major order within an offset
+        cy, cx, oy, ox = my[c], mx[c], dy[o], dx[o]
+        ok = keep(height[cy, cx], height[cy - oy, cx - ox])
+        cells.append((cy[ok] - oy[ok]) * nx + (cx[ok] - ox[ok]))
+        candidates.append(cy[ok] * nx + cx[ok])
+        gaps.append(gap[o[ok]])
     return np.concatenate(cells), np.concatenate(candidates), np.concatenate(gaps)

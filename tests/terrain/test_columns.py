@@ -87,3 +87,19 @@ def test_sphere_passing_a_box_corner(scene):
     assert (old_row <= 0).any()  # the old lookup passes a sphere that is 1 mm short
     new_row = clearance - (columns.values(path) - radius)
     np.testing.assert_allclose(new_row, 1e-3, atol=1e-9)
+
+
+def test_candidate_tables_do_not_depend_on_the_pair_block(monkeypatch):
+    """The candidate pairs are built in blocks of offsets: any block size gives the same tables, in the
+    same order (the order decides which of equally near columns a query reports)."""
+    import legplan.terrain.columns as columns
+
+    terrain = _terrain()
+    whole = ColumnDistance.of(terrain, REACH)
+    monkeypatch.setattr(columns, "PAIR_BLOCK", 97)  # a few offsets per block, blocks of uneven size
+    pieces = ColumnDistance.of(terrain, REACH)
+    def arrays(d):
+        return [*d._rows, *d._clear, *(array for table in d._tables for array in table)]
+
+    assert len(arrays(whole)) == 8
+    assert all(np.array_equal(x, y) for x, y in zip(arrays(whole), arrays(pieces), strict=True))
