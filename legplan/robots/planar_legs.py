@@ -74,8 +74,9 @@ class PlanarLegs:
         rows = {name: [] for name in ("haa", "hip", "lateral", "thigh", "shank", "knee_side", "thigh_direction",
                                       "shank_direction")}
         spheres = {name: [] for name in ("leg", "link", "offset", "radius", "index")}
+        scratch = model.createData()  # the turned configurations' FK, one workspace for every joint
         for k, (leg, (haa, hfe, kfe)) in enumerate(zip(robot.legs, joints)):
-            axes = [_joint_axis(model, data, q, j) for j in (haa, hfe, kfe)]
+            axes = [_joint_axis(model, data, q, j, scratch) for j in (haa, hfe, kfe)]
             if not all(np.linalg.norm(np.cross(a, e)) < AXIS_TOLERANCE
                        for a, e in zip(axes, ([1.0, 0, 0], [0, 1.0, 0], [0, 1.0, 0]))):
                 return None
@@ -157,13 +158,12 @@ class PlanarLegs:
         return np.stack(out, axis=1) if out else np.zeros((len(feet), 0, 3), dtype=feet.dtype)
 
 
-def _joint_axis(model: pin.Model, data: pin.Data, q: np.ndarray, joint: int) -> np.ndarray:
+def _joint_axis(model: pin.Model, data: pin.Data, q: np.ndarray, joint: int, other: pin.Data) -> np.ndarray:
     """The rotation axis of a one-degree-of-freedom joint in the base frame at q (from the change of
-    its placement under a small turn)."""
+    its placement under a small turn; `data` holds the FK at q, `other` is a workspace for the turn)."""
     turned = q.copy()
     turned[model.idx_qs[joint]] += 1e-6
     rotation = data.oMi[joint].rotation.copy()
-    other = model.createData()
     pin.forwardKinematics(model, other, turned)
     axis = rotation @ pin.log3(rotation.T @ other.oMi[joint].rotation)
     return axis / np.linalg.norm(axis)
