@@ -146,8 +146,8 @@ class KinematicsWorkspace:
 
 def _attached(H: np.ndarray, offsets: np.ndarray) -> np.ndarray:
     """World positions (n, p, 3) of points with `offsets` (p, 3) in frames placed at H (n, p, 4, 4):
-    R o + t written out per column of R (an einsum over the strided 3×3 blocks costs several times
-    more); the columns are summed as (0 + 2) + 1, the order of numpy's einsum, so the numbers are the same."""
+    R o + t written out per column of R, cheaper than an einsum over the strided 3×3 blocks; the columns
+    are summed as (0 + 2) + 1, the order in which numpy's einsum sums them, so the numbers are the same."""
     R = H[..., :3, :3]
     return (R[..., 0] * offsets[:, 0, None] + R[..., 2] * offsets[:, 2, None]) + R[..., 1] * offsets[:, 1, None] \
         + H[..., :3, 3]
