@@ -131,3 +131,16 @@ def test_sphere_distances_against_fcl(scarab2):
             if expected > 1e-3:                                  # FCL reports separation distances
                 got = fcl.distance(objects[a], objects[b], fcl.DistanceRequest(), fcl.DistanceResult())
                 np.testing.assert_allclose(got, expected, atol=1e-6)
+
+
+def test_attached_points_are_the_einsum_bit_for_bit():
+    """Points attached to joints, written out per column, give numpy's einsum numbers exactly (the
+    planners' results do not change with the formula)."""
+    from legplan.robots.kinematics import _attached
+
+    rng = np.random.default_rng(15)
+    for n, p in ((1, 1), (7, 40), (33, 53)):
+        H = rng.normal(size=(n, p, 4, 4)) * rng.uniform(0.1, 10.0)
+        offsets = rng.normal(size=(p, 3))
+        expected = np.einsum("npij,pj->npi", H[..., :3, :3], offsets) + H[..., :3, 3]
+        assert np.array_equal(_attached(H, offsets), expected)
