@@ -4,7 +4,9 @@ An initializer is a callable ``(form, model, terrain, start, goal, start_feet) -
 full value vectors of ``base_lin``, ``base_ang``, ``feet`` and ``forces`` (fixed entries are then
 overwritten from the task). `heuristic` is the paper's *Heuristic* (Sec. IV): the base linearly
 interpolated from start to goal, footsteps evenly spaced along it and timed by the gait, forces m·g
-shared equally over the feet in stance. A learned initializer plugs in with the same signature.
+shared equally over the feet in stance; in a phase whose load starts and ends at zero
+(`formulation.unloaded_phases`: a trot's support pair) a parabola that carries the weight over the
+phase and its flights instead (ours). A learned initializer plugs in with the same signature.
 """
 
 from __future__ import annotations
@@ -57,8 +59,31 @@ def heuristic(form: Formulation, model, terrain: TerrainModel, start: Pose, goal
             t = np.array([_node_time(foot, i) for i in ids])
             share = model.mass * GRAVITY / np.maximum(form.gait.contact(t).sum(axis=1), 1)
             forces[ids, 0, 2] = share
+            bump = _unloaded_bump(form.gait, t)
+            if bump is not None:
+                forces[ids, :, 2] = model.mass * GRAVITY * bump
     return {"base_lin": lin.reshape(-1), "base_ang": ang.reshape(-1), "feet": feet.reshape(-1),
             "forces": forces.reshape(-1)}
+
+
+def _unloaded_bump(gait, t: np.ndarray) -> np.ndarray | None:
+    """Per node time t of a stance inside one of the gait's `unloaded_phases` (a trot's support
+    pair): the value and rate, in units of m·g, of the foot's share of the parabola that vanishes at
+    the phase's ends and carries the weight over the phase and the flights next to it (the impulse
+    that leaves the base's vertical velocity as it was); None for a stance that does not lie in one
+    such phase."""
+    from legplan.dyn.formulation import unloaded_phases
+
+    bounds = np.concatenate([[0.0], np.cumsum(gait.durations)])
+    k = int(np.clip(np.searchsorted(bounds, 0.5 * (t[0] + t[-1]), side="right") - 1, 0, gait.durations.size - 1))
+    if not unloaded_phases(gait)[k] or t[0] < bounds[k] - 1e-9 or t[-1] > bounds[k + 1] + 1e-9:
+        return None
+    t0, t1 = bounds[k], bounds[k + 1]
+    span = t1 - t0
+    carried = span + sum(0.5 * gait.durations[j] for j in (k - 1, k + 1)
+                         if 0 <= j < gait.durations.size and not gait.stance[j].any())
+    a = 6.0 * carried / span ** 3 / gait.stance[k].sum()
+    return np.column_stack([a * (t - t0) * (t1 - t), a * (t0 + t1 - 2 * t)])
 
 
 def _node_time(foot, node: int) -> float:

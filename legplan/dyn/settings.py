@@ -64,19 +64,19 @@ class DynParams(Parameters):
         "points per base interval (the knot that opens it included, equally spaced) at which the "
         "Newton–Euler rows are constrained: to zero at the knots (TOWR's collocation), inside "
         "±dynamics_band at the others (1: TOWR's alone). Between the knots the base acceleration is "
-        "linear while the forces are cubics that vanish with zero slope at every touchdown and lift-off, "
-        "so equality along a whole interval over-constrains the problem; a band bounds what the "
-        "executing controller must absorb at the times it executes"))
+        "linear while the forces are cubics that vanish at every touchdown and lift-off, so equality "
+        "along a whole interval over-constrains the problem; a band bounds what the executing "
+        "controller must absorb at the times it executes"))
     dynamics_band: float = param(0.04, "(0, 1]", doc=(
         "share of m·g (force rows) and of m·g·ℓ (torque rows, ℓ the largest horizontal distance of a "
         "nominal foot from the CoM) the Newton–Euler residual may reach between the knots; below the "
         "independent check's bound by a margin for the solver's tolerance"))
-    dynamics_band_dynamic: float = param(0.25, "(0, 1]", doc=(
-        "dynamics_band in a base interval with fewer than three feet in contact throughout (a trot's "
-        "support pair, its exchange, a flight): the weight then passes through two feet or none, "
-        "whose forces, cubics that vanish with zero slope at lift-off and touchdown, cannot follow the "
-        "base's linear acceleration within dynamics_band; the independent check judges these samples "
-        "by its own bound for them"))
+    unloaded_polynomials: int | None = param(16, "[1, 1000]", doc=(
+        "base polynomials (at least) in every phase next to a boundary where no foot stays in contact "
+        "(formulation.unloaded_phases: a trot's support pairs), whose summed force rises from or falls "
+        "to zero; the knots then sit at every phase boundary of the gait's timing (formulation.phase_knots), "
+        "or, with optimize_phases, which moves the phases, are spaced evenly as densely everywhere "
+        "(formulation.dense_knots). None = knots every dt, as for gaits without such phases"))
     phase_knots: bool = param(False, (False, True), doc=(
         "base knots at the gait's phase boundaries too (formulation.phase_knots), not only evenly "
         "spaced: the contact set is then constant on every base polynomial"))

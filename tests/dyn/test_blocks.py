@@ -54,6 +54,26 @@ both_timings = pytest.mark.parametrize("problem_name", ["pallet_problem", "timed
                                        ids=["fixed_timing", "optimize_phases"])
 
 
+def test_blocks_on_a_trots_phase_aligned_unequal_knots_match_finite_differences(anymal, step):
+    """A flying trot's base knots (phase-aligned, 16 short polynomials per support pair, longer ones
+    in the stands and flights): the dynamics rows at the knots and between them and the acceleration
+    continuity at every junction of unequal polynomials against finite differences."""
+    from legplan.dyn.formulation import unloaded_phases
+
+    problem = build_problem(DynTask((-0.3, 0.0, 0.0), (0.6, 0.0, 0.0), "trot", 2, 2.4), anymal, step, DynParams(),
+                            heuristic)
+    widths = np.diff(problem.form.knots)
+    assert unloaded_phases(problem.form.gait).any() and widths.max() > 2.0 * widths.min()
+    values = _perturbed(problem)
+    checked = set()
+    for k in problem.constraints:
+        if k.name in ("dynamics", "dynamics_between", "acceleration_continuity"):
+            report = check_jacobian(k.block, {v: values[v] for v in k.block.variables})
+            assert report.ok(atol=1e-5, rtol=1e-4), (k.name, report)
+            checked.add(k.name)
+    assert checked == {"dynamics", "dynamics_between", "acceleration_continuity"}
+
+
 @both_timings
 def test_every_constraint_block_matches_finite_differences(request, problem_name):
     """Every constraint block's Jacobian (the phases' too when optimized) against finite differences."""
