@@ -70,14 +70,14 @@ class Formulation:
     """Splines and variable blocks of one problem: a gait over `duration`, `legs` feet."""
 
     def __init__(self, gait: Gait, dt: float = 0.1, knots: np.ndarray | None = None, aligned: bool = False,
-                 unloaded_polynomials: int | None = None):
+                 unloaded_polynomials: int | None = None, unloaded_dt: float | None = None):
         self.gait, self.dt = gait, dt
         self.duration = gait.duration
         self.legs = gait.stance.shape[1]
         if knots is None:
             count = max(1, int(np.ceil(self.duration / dt - 1e-9)))
             if unloaded_polynomials is not None and unloaded_phases(gait).any():
-                knots = phase_knots(gait, dt, unloaded_polynomials)
+                knots = phase_knots(gait, dt, unloaded_polynomials, unloaded_dt)
             else:
                 knots = phase_knots(gait, dt) if aligned else np.linspace(0.0, self.duration, count + 1)
         self.knots = np.asarray(knots, float)
@@ -187,33 +187,41 @@ class Formulation:
         return int(round(12 * self.duration / dt + 20 * self.footsteps + 120))
 
 
-def phase_knots(gait: Gait, dt: float, unloaded_polynomials: int | None = None) -> np.ndarray:
+def phase_knots(gait: Gait, dt: float, unloaded_polynomials: int | None = None,
+                unloaded_dt: float | None = None) -> np.ndarray:
     """The base knots: every whole-body phase of the gait split into equal polynomials of at most
-    `dt`, the `unloaded_phases` into `unloaded_polynomials` at least. The contact set is then
+    `dt`, the `unloaded_phases` into `unloaded_polynomials` at least and of at most `unloaded_dt`
+    (a slow trot's long pairs: its count alone left their polynomials too long for the solver to
+    converge; a fixed count keeps a fast trot's base as smooth as it executes). The contact set is then
     constant on every base polynomial, whose acceleration is linear: the summed forces can follow it
     between the knots (`DynParams.dynamics_points`), where knots spaced evenly over the motion put
     touchdowns, lift-offs and flights inside a polynomial."""
     least = np.ones(gait.durations.size, int)
+    longest = np.full(gait.durations.size, dt)
     if unloaded_polynomials is not None:
         least[unloaded_phases(gait)] = unloaded_polynomials
+        if unloaded_dt is not None:
+            longest[unloaded_phases(gait)] = min(dt, unloaded_dt)
     knots, t = [0.0], 0.0
-    for d, fewest in zip(gait.durations, least):
-        count = max(fewest, int(np.ceil(d / dt - 1e-9)))
+    for d, fewest, h in zip(gait.durations, least, longest):
+        count = max(fewest, int(np.ceil(d / h - 1e-9)))
         knots += list(t + d * np.arange(1, count + 1) / count)
         t += d
     knots[-1] = gait.duration
     return np.array(knots)
 
 
-def dense_knots(gait: Gait, dt: float, unloaded_polynomials: int) -> np.ndarray:
+def dense_knots(gait: Gait, dt: float, unloaded_polynomials: int, unloaded_dt: float | None = None) -> np.ndarray:
     """Evenly spaced base knots as dense as `phase_knots` makes them in the shortest unloaded phase
-    (its duration / `unloaded_polynomials`, at most `dt`): for phase durations that the optimizer moves
+    (its duration / `unloaded_polynomials`, at most `dt` and `unloaded_dt`): for phase durations that the optimizer moves
     (`DynParams.optimize_phases`), where knots fixed at the initial phase boundaries would end up
     inside the moved phases, short polynomials everywhere follow the summed force wherever its phases
     go (the summed force is smooth across a boundary: each foot's force leaves and reaches zero with
     zero slope)."""
     unloaded = unloaded_phases(gait)
     spacing = min(dt, float(gait.durations[unloaded].min()) / unloaded_polynomials) if unloaded.any() else dt
+    if unloaded.any() and unloaded_dt is not None:
+        spacing = min(spacing, unloaded_dt)
     count = max(1, int(np.ceil(gait.duration / spacing - 1e-9)))
     return np.linspace(0.0, gait.duration, count + 1)
 

@@ -24,7 +24,7 @@ import numpy as np
 from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock, ForceBlock, JointTorqueBlock,
                                      LegClearanceBlock, RangeOfMotionBlock, StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity,
                                      swing_constraint, swing_height)
-from legplan.dyn.costs import CostWeights, StairEdgeBlock, integral_costs
+from legplan.dyn.costs import CostWeights, StairEdgeBlock, StanceWidthBlock, integral_costs
 from legplan.dyn.formulation import Formulation, Pose, dense_knots, unloaded_phases
 from legplan.dyn.gait import make_gait
 from legplan.dyn.settings import PAPER, PAPER_COSTS, DynParams  # noqa: F401 (the planner's parameters, re-exported)
@@ -144,8 +144,10 @@ def task_formulation(task: DynTask, params: DynParams, timed: bool = False) -> F
     gait = make_gait(task.gait, task.strides, task.duration)
     moving = params.optimize_phases or timed
     if moving and params.unloaded_polynomials is not None and unloaded_phases(gait).any():
-        return Formulation(gait, params.dt, knots=dense_knots(gait, params.dt, params.unloaded_polynomials))
-    return Formulation(gait, params.dt, aligned=params.phase_knots, unloaded_polynomials=params.unloaded_polynomials)
+        return Formulation(gait, params.dt, knots=dense_knots(gait, params.dt, params.unloaded_polynomials,
+                                                              params.unloaded_dt))
+    return Formulation(gait, params.dt, aligned=params.phase_knots, unloaded_polynomials=params.unloaded_polynomials,
+                       unloaded_dt=params.unloaded_dt)
 
 
 def sets_timing(initializer) -> bool:
@@ -414,6 +416,14 @@ def _stair_edge(form, terrain, model, w: CostWeights, timing) -> list[CostTerm]:
     nodes = [n for foot in form.feet for n in foot.stance_nodes]
     return [CostTerm("stair_edge", StairEdgeBlock(terrain, form.node_selector(nodes, form.motion_nodes),
                                                   w.stair_edge_sigma), w.stair_edge)]
+
+
+@cost("stance_width")
+def _stance_width(form, terrain, model, w: CostWeights, timing) -> list[CostTerm]:
+    """Off while the phases move (`optimize_phases`: the stances' middles move with them)."""
+    if not (w.stance_width > 0 and timing is None):
+        return []
+    return [CostTerm("stance_width", StanceWidthBlock(form, model.nominal_feet[:, 1]), w.stance_width)]
 
 
 @cost("swing_height")

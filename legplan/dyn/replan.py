@@ -162,7 +162,8 @@ class ReplanTask:
 
     def setup(self, model, terrain, params: DynParams):
         form = Formulation(self.gait_rest, params.dt, self.knots(params), aligned=params.phase_knots,
-                           unloaded_polynomials=params.unloaded_polynomials)
+                           unloaded_polynomials=params.unloaded_polynomials,
+                           unloaded_dt=params.unloaded_dt)
         start, _, _ = self.com_state()
         return form, start, self.previous.goal_pose(), self.state.feet_pos.copy()
 

@@ -71,12 +71,15 @@ class DynParams(Parameters):
         "share of m·g (force rows) and of m·g·ℓ (torque rows, ℓ the largest horizontal distance of a "
         "nominal foot from the CoM) the Newton–Euler residual may reach between the knots; below the "
         "independent check's bound by a margin for the solver's tolerance"))
-    unloaded_polynomials: int | None = param(16, "[1, 1000]", doc=(
+    unloaded_polynomials: int | None = param(8, "[1, 1000]", doc=(
         "base polynomials (at least) in every phase next to a boundary where no foot stays in contact "
         "(formulation.unloaded_phases: a trot's support pairs), whose summed force rises from or falls "
         "to zero; the knots then sit at every phase boundary of the gait's timing (formulation.phase_knots), "
         "or, with optimize_phases, which moves the phases, are spaced evenly as densely everywhere "
         "(formulation.dense_knots). None = knots every dt, as for gaits without such phases"))
+    unloaded_dt: float = param(0.05, "(0, inf)", doc=(
+        "s: the longest base polynomial in those phases (formulation.phase_knots): a slow trot's long "
+        "pairs get more than unloaded_polynomials"))
     phase_knots: bool = param(False, (False, True), doc=(
         "base knots at the gait's phase boundaries too (formulation.phase_knots), not only evenly "
         "spaced: the contact set is then constant on every base polynomial"))
@@ -136,9 +139,10 @@ class DynParams(Parameters):
 
 PAPER_COSTS = CostWeights(base_z_velocity=1.0, base_angular_velocity=1.0, force=1.0, force_rate=0.01,
                           normal_force=1.0, derivative_weight=0.01, stair_edge=1.0, stair_edge_sigma=0.05,
-                          swing_height=1.0)
+                          swing_height=1.0, stance_width=100.0)
 """Weights of the "paper" preset (the paper gives none; force terms in units of m·g, see
-`legplan.dyn.costs`)."""
+`legplan.dyn.costs`), with our `stance_width` term: with the Newton–Euler rows held between the knots,
+the angular-velocity term alone draws a trot's footholds in under the base (`legplan.dyn.costs`)."""
 
 PAPER = DynParams(costs=PAPER_COSTS, swing_height_min=0.05, base_clearance=0.2)
 """The paper's additions (Sec. III-A-1, III-A-2): its costs, swing apexes 5 cm above both adjacent

@@ -89,3 +89,28 @@ def test_moving_phases_get_evenly_spaced_knots_as_dense_as_the_shortest_unloaded
     assert not np.allclose(np.diff(fixed.knots), np.diff(fixed.knots)[0])  # phase-aligned without them
     walk = task_formulation(DynTask((0, 0, 0), (1, 0, 0), "walk", 4, 3.5), params)
     np.testing.assert_allclose(np.diff(walk.knots), 0.1)
+
+
+def test_heuristic_base_hops_with_its_forces(anymal, flat):
+    """The heuristic's base height follows its force guess (m z̈ = Σf_z − m g, to the spline's
+    resolution) over a flying trot: it falls freely in the flights and rises on each pair's bump, the
+    hop vanishing at the start and the end; a walk's base guess stays level."""
+    from legplan.dyn.init import heuristic
+    from legplan.dyn.problem import DynParams, DynTask, build_problem
+
+    problem = build_problem(DynTask((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), "trot", 4, 2.4), anymal, flat, DynParams(), heuristic)
+    form, values = problem.form, {v.name: v.value for v in problem.variables}
+    forces = values["forces"].reshape(-1, 3)
+    t = np.linspace(0.6, form.duration - 0.6, 400)  # the strides between the first and the last pair
+    total = sum(form.force_matrix(leg, t) @ forces for leg in range(form.legs))[:, 2]
+    z_acc = (form.base_matrix(t, 2) @ values["base_lin"].reshape(-1, 3))[:, 2]
+    weight = anymal.mass * 9.81
+    residual = np.abs(anymal.mass * z_acc - (total - weight))
+    assert residual.max() < 0.03 * weight  # a level base would leave the whole bump (up to ~m·g)
+    flight = form.gait.contact(t).sum(axis=1) == 0
+    assert flight.any() and np.all(z_acc[flight] < -0.5 * 9.81)  # it falls in the flights
+    z = (form.base_matrix(np.array([0.0, form.duration])) @ values["base_lin"].reshape(-1, 3))[:, 2]
+    assert z[0] == pytest.approx(problem.variables[0].value[2], abs=1e-9)
+    walk = build_problem(DynTask((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), "walk", 4, 3.5), anymal, flat, DynParams(), heuristic)
+    lin = next(v.value for v in walk.variables if v.name == "base_lin").reshape(-1, 2, 3)
+    np.testing.assert_allclose(lin[:, 0, 2], lin[0, 0, 2]) and np.testing.assert_allclose(lin[:, 1, 2], 0.0)
