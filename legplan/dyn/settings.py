@@ -77,7 +77,7 @@ class DynParams(Parameters):
         "to zero; the knots then sit at every phase boundary of the gait's timing (formulation.phase_knots), "
         "or, with optimize_phases, which moves the phases, are spaced evenly as densely everywhere "
         "(formulation.dense_knots). None = knots every dt, as for gaits without such phases"))
-    unloaded_dt: float = param(0.05, "(0, inf)", doc=(
+    unloaded_dt: float = param(0.035, "(0, inf)", doc=(
         "s: the longest base polynomial in those phases (formulation.phase_knots): a slow trot's long "
         "pairs get more than unloaded_polynomials"))
     phase_knots: bool = param(False, (False, True), doc=(
