@@ -71,15 +71,13 @@ def run(*args) -> float:
 def peak_force(space, y: np.ndarray, layout: dict) -> float:
     """Largest |f| (N) of any foot over the 10 ms samples of solution y (on its own timing when y
     holds the phase durations)."""
-    from legplan.dyn.formulation import Formulation
-    from legplan.dyn.gait import make_gait
     from legplan.dyn.planner import sample_solution
-    from legplan.dyn.problem import DynParams
+    from legplan.dyn.problem import DynParams, DynTask, task_formulation
     from legplan.dyn.timing import PHASES, PhaseTiming
     from legplan.learn.layout import split
 
     params = DynParams()
-    form = Formulation(make_gait(space.gait, space.strides, space.duration), params.dt)
+    form = task_formulation(DynTask((0, 0, 0), (0, 0, 0), space.gait, space.strides, space.duration), params)
     values = split(y, layout)
     if PHASES in values:
         form = PhaseTiming(form, params.phase_min).formulation(values[PHASES])

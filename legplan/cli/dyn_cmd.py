@@ -98,7 +98,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
                       "terrain": init_fn.space.get("map_terrain")}
         check_same_map(init_fn.path, map_path, [trained_on], what="trained")
         for t in tasks:
-            init_fn.check_task(t, params.dt)
+            init_fn.check_task(t, params)
             init_fn.check_in_space(t)
         init = init_fn.path
 

@@ -22,6 +22,13 @@ With the phase durations optimized, the force terms' polynomials change length w
 ``stair_edge`` (Sec. III-A-2): Σ exp(−d²/2σ²) over the footholds, d the distance to the nearest
 terrain edge; as a residual exp(−d²/4σ²) per stance node. ``swing_height``: apex z minus each
 adjacent stance z (the cost that keeps swings low; the constraint keeps them above a clearance).
+
+``stance_width`` (ours): each foothold's lateral offset from the base, in the base's heading frame at
+the middle of its stance, minus the nominal stance's. Where the Newton–Euler rows hold between the
+knots, a diagonal support pair can balance the weight's moment about its line only by horizontal
+forces, by turning the base, or by footholds drawn in under the base; with the angular-velocity and
+force terms on, the last is free, and the plan narrows its stance until the executed trot falls
+over its support line. This term prices that third way.
 """
 
 from __future__ import annotations
@@ -97,11 +104,15 @@ class CostWeights(Parameters):
     stair_edge: float = param(0.0, "[0, inf)", "ω", "Σ exp(−d²/2σ²) over the footholds, d to the nearest edge")
     stair_edge_sigma: float = param(0.05, "(0, inf)", "σ", "m: the width of the stair-edge term")
     swing_height: float = param(0.0, "[0, inf)", "ω", "swing apex z above each adjacent foothold, squared")
+    stance_width: float = param(0.0, "[0, inf)", "ω", (
+        "each foothold's lateral offset from the base (in its heading frame, at the stance's middle) "
+        "minus the nominal stance's, squared (m²; ours, not the paper's)"))
 
     @property
     def active(self) -> bool:
         return any(getattr(self, k) > 0 for k in ("base_z_velocity", "base_angular_velocity", "force",
-                                                  "force_rate", "normal_force", "stair_edge", "swing_height"))
+                                                  "force_rate", "normal_force", "stair_edge", "swing_height",
+                                                  "stance_width"))
 
 
 def _embedded(matrix: sp.csr_matrix, offset_nodes: int, total_nodes: int) -> sp.csr_matrix:
@@ -268,3 +279,37 @@ class StairEdgeBlock(ResidualBlock):
             return self._gauss(q)[:, 0], None
         r, (j,) = complex_step(self._gauss, (q,), (0,))
         return r[:, 0], [self.jacobian([j])]
+
+
+class StanceWidthBlock(ResidualBlock):
+    """``stance_width`` (module docstring): per stance node i of leg l at the middle t_i of its stance,
+    r_i = −sin ψ(t_i) (q_x − c_x(t_i)) + cos ψ(t_i) (q_y − c_y(t_i)) − n_y,l: q the foothold, c the
+    base position, ψ its yaw (the base splines at t_i) and n_l the nominal foot in the base frame."""
+
+    variables = ("feet", "base_lin", "base_ang")
+
+    def __init__(self, form: Formulation, nominal_y: np.ndarray):
+        nodes, times, offsets = [], [], []
+        for leg, foot in enumerate(form.feet):
+            for phase, node in zip([p for p in foot.phases if p.stance], foot.stance_nodes):
+                nodes.append(node), times.append(0.5 * (phase.t0 + phase.t1)), offsets.append(nominal_y[leg])
+        self.selector = form.node_selector(nodes, form.motion_nodes)
+        self.base = form.base_matrix(np.array(times))
+        self.nominal = np.array(offsets, float)
+        self.size = len(nodes)
+        self._axis = [sp.csr_matrix(np.eye(3)[a:a + 1]) for a in range(3)]
+
+    def evaluate(self, values, jacobians):
+        q = self.selector @ np.asarray(values[0]).reshape(-1, 3)
+        c = self.base @ np.asarray(values[1]).reshape(-1, 3)
+        psi = (self.base @ np.asarray(values[2]).reshape(-1, 3))[:, 2]
+        sn, cs = np.sin(psi), np.cos(psi)
+        d = q[:, :2] - c[:, :2]
+        r = -sn * d[:, 0] + cs * d[:, 1] - self.nominal
+        if not jacobians:
+            return r, None
+        x, y, z = self._axis
+        feet = sp.diags(-sn) @ sp.kron(self.selector, x) + sp.diags(cs) @ sp.kron(self.selector, y)
+        lin = sp.diags(sn) @ sp.kron(self.base, x) - sp.diags(cs) @ sp.kron(self.base, y)
+        ang = sp.diags(-cs * d[:, 0] - sn * d[:, 1]) @ sp.kron(self.base, z)
+        return r, [sp.csr_matrix(feet), sp.csr_matrix(lin), sp.csr_matrix(ang)]

@@ -4,7 +4,13 @@ Phase-based parametrization of Winkler et al. (2018), as summarized in the TOWR-
 
 * base linear position and Euler angles: cubic Hermite node splines, the duration split into equal
   polynomials of at most ``dt`` (TOWR's), or with `aligned` every whole-body phase of the gait so
-  (`phase_knots`); variables ``base_lin`` and ``base_ang``,
+  (`phase_knots`); a gait with `unloaded_phases` (a trot's support pairs, whose summed force rises
+  from zero and falls back to it) gets phase-aligned knots and at least `unloaded_polynomials` equal
+  polynomials in each of those phases: the base acceleration, linear on a polynomial, then follows
+  the summed force between the knots, where the dynamics are sampled (the single-rigid-body
+  dynamics of Winkler et al. 2018, eq. (1), on the TOWR-costs paper's collocation, Sec. III-A, with
+  more base polynomials where one every 0.1 s cannot follow the force);
+  variables ``base_lin`` and ``base_ang``,
   each (nodes, value|derivative, xyz) flattened. The first node (start pose, zero velocity) is fixed;
   of the last node the goal fixes x, y, all three angles and every derivative, the height stays free.
 * per foot, one node per stance phase (the foot is constant in stance: derivative fixed to 0) and one
@@ -18,8 +24,9 @@ Phase-based parametrization of Winkler et al. (2018), as summarized in the TOWR-
   makes it rise quadratically and leaves the Newton–Euler residual between the knots no way to
   vanish (`DynParams.dynamics_points`). Variable ``forces``.
 
-Free variables: 12·T/dt + 26·S + c (S footsteps: 3 rates at each touchdown and lift-off more than
-TOWR's), against the paper's N = 12T/dt + 20S + 120 (`Formulation.paper_variable_count`).
+Free variables: 12·K + 26·S + c (K base polynomials, T/dt with TOWR's knots; S footsteps: 3 rates at
+each touchdown and lift-off more than TOWR's), against the paper's N = 12T/dt + 20S + 120
+(`Formulation.paper_variable_count`).
 """
 
 from __future__ import annotations
@@ -62,13 +69,17 @@ class FootNodes:
 class Formulation:
     """Splines and variable blocks of one problem: a gait over `duration`, `legs` feet."""
 
-    def __init__(self, gait: Gait, dt: float = 0.1, knots: np.ndarray | None = None, aligned: bool = False):
+    def __init__(self, gait: Gait, dt: float = 0.1, knots: np.ndarray | None = None, aligned: bool = False,
+                 unloaded_polynomials: int | None = None, unloaded_dt: float | None = None):
         self.gait, self.dt = gait, dt
         self.duration = gait.duration
         self.legs = gait.stance.shape[1]
         if knots is None:
             count = max(1, int(np.ceil(self.duration / dt - 1e-9)))
-            knots = phase_knots(gait, dt) if aligned else np.linspace(0.0, self.duration, count + 1)
+            if unloaded_polynomials is not None and unloaded_phases(gait).any():
+                knots = phase_knots(gait, dt, unloaded_polynomials, unloaded_dt)
+            else:
+                knots = phase_knots(gait, dt) if aligned else np.linspace(0.0, self.duration, count + 1)
         self.knots = np.asarray(knots, float)
         count = self.knots.size - 1
         self.base = NodeSpline([Segment(a, b, k, k + 1) for k, (a, b) in
@@ -176,18 +187,61 @@ class Formulation:
         return int(round(12 * self.duration / dt + 20 * self.footsteps + 120))
 
 
-def phase_knots(gait: Gait, dt: float) -> np.ndarray:
+def phase_knots(gait: Gait, dt: float, unloaded_polynomials: int | None = None,
+                unloaded_dt: float | None = None) -> np.ndarray:
     """The base knots: every whole-body phase of the gait split into equal polynomials of at most
-    `dt`. The contact set is then constant on every base polynomial, whose acceleration is linear:
-    the summed forces can follow it between the knots (`DynParams.dynamics_points`), where knots
-    spaced evenly over the motion put touchdowns, lift-offs and flights inside a polynomial."""
+    `dt`, the `unloaded_phases` into `unloaded_polynomials` at least and of at most `unloaded_dt`
+    (a slow trot's long pairs: its count alone left their polynomials too long for the solver to
+    converge; a fixed count keeps a fast trot's base as smooth as it executes). The contact set is then
+    constant on every base polynomial, whose acceleration is linear: the summed forces can follow it
+    between the knots (`DynParams.dynamics_points`), where knots spaced evenly over the motion put
+    touchdowns, lift-offs and flights inside a polynomial."""
+    least = np.ones(gait.durations.size, int)
+    longest = np.full(gait.durations.size, dt)
+    if unloaded_polynomials is not None:
+        least[unloaded_phases(gait)] = unloaded_polynomials
+        if unloaded_dt is not None:
+            longest[unloaded_phases(gait)] = min(dt, unloaded_dt)
     knots, t = [0.0], 0.0
-    for d in gait.durations:
-        count = max(1, int(np.ceil(d / dt - 1e-9)))
+    for d, fewest, h in zip(gait.durations, least, longest):
+        count = max(fewest, int(np.ceil(d / h - 1e-9)))
         knots += list(t + d * np.arange(1, count + 1) / count)
         t += d
     knots[-1] = gait.duration
     return np.array(knots)
+
+
+def dense_knots(gait: Gait, dt: float, unloaded_polynomials: int, unloaded_dt: float | None = None) -> np.ndarray:
+    """Evenly spaced base knots as dense as `phase_knots` makes them in the shortest unloaded phase
+    (its duration / `unloaded_polynomials`, at most `dt` and `unloaded_dt`): for phase durations that the optimizer moves
+    (`DynParams.optimize_phases`), where knots fixed at the initial phase boundaries would end up
+    inside the moved phases, short polynomials everywhere follow the summed force wherever its phases
+    go (the summed force is smooth across a boundary: each foot's force leaves and reaches zero with
+    zero slope)."""
+    unloaded = unloaded_phases(gait)
+    spacing = min(dt, float(gait.durations[unloaded].min()) / unloaded_polynomials) if unloaded.any() else dt
+    if unloaded.any() and unloaded_dt is not None:
+        spacing = min(spacing, unloaded_dt)
+    count = max(1, int(np.ceil(gait.duration / spacing - 1e-9)))
+    return np.linspace(0.0, gait.duration, count + 1)
+
+
+def unloaded_phases(gait: Gait) -> np.ndarray:
+    """Per whole-body phase: whether feet carry it and it begins or ends at a boundary where no foot
+    stays in contact (every contact there is made or broken: a trot's support pairs), i.e. where the
+    summed contact force vanishes, each foot's force being zero at its touchdown and lift-off (module
+    docstring). The summed force over such a phase is a bump to or from zero that carries the weight
+    over the phase and the flight next to it; the base's acceleration, linear on each polynomial of
+    the cubic base spline (the dynamics of Winkler et al. 2018, eq. (1), m p̈ = Σf − m g),
+    follows a bump of curvature f'' within about f''h²/8 on polynomials of length h. For a parabolic
+    bump of duration T carrying m·g over T + T_flight, f'' = 12 m g (T + T_flight)/T³, so with
+    n = T/h polynomials the gap is about 1.5 (1 + T_flight/T) m·g / n²: a count of polynomials per
+    phase, not a spacing, bounds it whatever the gait's tempo. A flight needs none: no force, the
+    acceleration is −g, linear."""
+    stance = np.asarray(gait.stance, bool)
+    kept = (stance[:-1] & stance[1:]).any(axis=1)  # per interior boundary: some foot stays down
+    vanishing = np.concatenate([[False], ~kept, [False]])
+    return (vanishing[:-1] | vanishing[1:]) & stance.any(axis=1)
 
 
 def _foot_nodes(phases: list[FootPhase], motion_offset: int, force_offset: int) -> FootNodes:

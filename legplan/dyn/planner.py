@@ -26,10 +26,6 @@ The schedule (the paper's two initializers, Sec. IV):
   without it from there; with costs, "costs" from the feasible point (`cost_solver`), and if those
   end short of the tolerance, "feasibility after costs" from there. If the attempt fails, the same
   again from the guess with TOWR's swing constraint switched (`DynParams.towr_swing`).
-* A successful plan whose phase durations were optimized (`DynParams.optimize_phases`) gets up to
-  `BAND_ROUNDS` "dynamics band" stages: while its optimized phases change which base intervals keep
-  three feet in contact (`dynamic_intervals`, which sets each interval's between-knot dynamics band),
-  the constraints alone are solved again from the plan with the bands of its own phases.
 * A successful plan then gets up to `RANGE_ROUNDS` "range of motion" stages: while a foot leaves its
   box between the constraint's samples (`range_excess_times`), those times become samples and the
   constraints alone are solved again from the plan (an exchange method for the continuous
@@ -51,8 +47,7 @@ from legplan.dyn.costs import CostWeights
 from legplan.dyn.euler import rotation, world_rates
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.init import heuristic
-from legplan.dyn.problem import (DynParams, DynTask, DynProblem, build_problem, cost_blocks, dynamic_intervals,
-                                 range_excess_times)
+from legplan.dyn.problem import DynParams, DynTask, DynProblem, build_problem, cost_blocks, range_excess_times
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import PHASES
 from legplan.solve.auglag import ALParams, ALResult, evaluate_costs, solve_augmented_lagrangian
@@ -62,7 +57,6 @@ SAMPLE_DT = 0.01  # s, the artefact's sampling of the solution
 POLISH_OUTER = 2  # outer iterations of the costs when polishing a projected plan
 POLISH_RESERVE = 3  # LM iterations of the budget the polishing costs leave for the projection after them
 RANGE_ROUNDS = 3  # "range of motion" stages after a successful plan, at most
-BAND_ROUNDS = 2  # "dynamics band" stages after a successful plan with optimized phases, at most
 GUESS_RANGE_NEAR = 0.005
 """m: a stage from a near-solution guess samples the range of motion also where the guess comes
 within this of a box between the regular samples (`range_excess_times`): its solution would likely
@@ -88,7 +82,6 @@ class Start(enum.Enum):
     NEAR_GUESS = "near_guess"  # the guess, also sampled where it comes near a box (`GUESS_RANGE_NEAR`)
     PREVIOUS = "previous"  # the last stage's solution and samples
     RANGE_EXCESS = "range_excess"  # that, also sampled where it leaves a box (skipped when it does not)
-    RECLASSIFIED = "reclassified"  # that, its dynamics bands from its own phases (skipped when unchanged)
 
 
 @dataclass(frozen=True)
@@ -136,8 +129,6 @@ def schedule(params: DynParams, near_solution: bool = False) -> list[Stage]:
         if params.costs.active:
             stages += [Stage("costs" + label, True, "cost_solver", When.SUCCEEDED, needs_budget=False),
                        Stage("feasibility after costs" + label, False, "solver", When.FAILED)]
-    if params.optimize_phases:
-        stages += [Stage("dynamics band", False, "solver", When.PLAN_SUCCEEDED, Start.RECLASSIFIED)] * BAND_ROUNDS
     stages += [Stage("range of motion", False, "solver", When.PLAN_SUCCEEDED, Start.RANGE_EXCESS)] * RANGE_ROUNDS
     return stages
 
@@ -273,8 +264,7 @@ def _run_stage(stage: Stage, task: DynTask, model, terrain: TerrainModel, params
                last: StageOutcome | None, budget: Budget, callback) -> StageOutcome | None:
     """Build the stage's problem and solve it within the budget; None for a "range of motion" stage
     that finds no foot outside its box at a time not yet sampled (an excess found only at sampled
-    times is within the solver's tolerance), and for a "dynamics band" stage whose plan's phases
-    keep the support classes it was built with."""
+    times is within the solver's tolerance)."""
     from_guess = stage.start in (Start.GUESS, Start.NEAR_GUESS)
     swing = stage.towr_swing if stage.towr_swing is not None else (
         params.towr_swing if from_guess else last.towr_swing)
@@ -290,9 +280,6 @@ def _run_stage(stage: Stage, task: DynTask, model, terrain: TerrainModel, params
             if not found.size:
                 return None
             times = np.union1d(times, found)
-        if stage.start is Start.RECLASSIFIED and np.array_equal(dynamic_intervals(last.problem.form),
-                                                               last.problem.dynamic):
-            return None
         values = last.result.values
         problem = build_problem(task, model, terrain, stage_params, lambda *_: values, times)
     setup = time.perf_counter() - t0

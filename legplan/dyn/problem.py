@@ -24,8 +24,8 @@ import numpy as np
 from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock, ForceBlock, JointTorqueBlock,
                                      LegClearanceBlock, RangeOfMotionBlock, StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity,
                                      swing_constraint, swing_height)
-from legplan.dyn.costs import CostWeights, StairEdgeBlock, integral_costs
-from legplan.dyn.formulation import Formulation, Pose
+from legplan.dyn.costs import CostWeights, StairEdgeBlock, StanceWidthBlock, integral_costs
+from legplan.dyn.formulation import Formulation, Pose, dense_knots, unloaded_phases
 from legplan.dyn.gait import make_gait
 from legplan.dyn.settings import PAPER, PAPER_COSTS, DynParams  # noqa: F401 (the planner's parameters, re-exported)
 from legplan.dyn.terrain import TerrainModel
@@ -73,9 +73,6 @@ class DynProblem:
     """The extra range-of-motion sample times (s) it was built with (`build_problem`)."""
     com_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     """The CoM in the base frame (m): the base spline is the CoM's, `model` is `about_com`'s."""
-    dynamic: np.ndarray = field(default_factory=lambda: np.zeros(0, bool))
-    """Per base interval, the support class its between-knot dynamics band was built with
-    (`dynamic_intervals` of the formulation at build time)."""
 
 
 RANGE_CHECK_DT = 0.001  # s: the grid on which `range_excess_times` looks for a foot outside its box
@@ -139,6 +136,26 @@ def sample_times(form: Formulation, params: DynParams) -> dict:
             "range": rom}
 
 
+def task_formulation(task: DynTask, params: DynParams, timed: bool = False) -> Formulation:
+    """The `Formulation` of a task's gait under `params` (its base knots: `DynParams.dt`,
+    `phase_knots`, `unloaded_polynomials`): the one variable layout of the task. `timed`: an
+    initializer sets the phase durations (`sets_timing`), so that, as with `optimize_phases`, the
+    phases need not stay at the gait's boundaries and the knots are dense everywhere."""
+    gait = make_gait(task.gait, task.strides, task.duration)
+    moving = params.optimize_phases or timed
+    if moving and params.unloaded_polynomials is not None and unloaded_phases(gait).any():
+        return Formulation(gait, params.dt, knots=dense_knots(gait, params.dt, params.unloaded_polynomials,
+                                                              params.unloaded_dt))
+    return Formulation(gait, params.dt, aligned=params.phase_knots, unloaded_polynomials=params.unloaded_polynomials,
+                       unloaded_dt=params.unloaded_dt)
+
+
+def sets_timing(initializer) -> bool:
+    """Whether an initializer's guesses carry phase durations (`PHASES`: a network trained with them),
+    which then set the plan's timing (`legplan.dyn.timing`)."""
+    return bool(getattr(initializer, "sets_timing", False))
+
+
 def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer,
                   range_times: np.ndarray = (), near_range: float | None = None) -> DynProblem:
     """The constrained least-squares problem of one task (see module docstring); `range_times` are
@@ -150,8 +167,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         form, start, goal, feet0 = task.setup(model, terrain, params)
         model = about_com(model)
     else:
-        form = Formulation(make_gait(task.gait, task.strides, task.duration), params.dt,
-                           aligned=params.phase_knots)
+        form = task_formulation(task, params, timed=sets_timing(initializer))
         start, goal = task_poses(task, model, terrain)
         model = about_com(model)
         feet0 = start_feet(model, start, terrain)
@@ -170,7 +186,6 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         problem.range_times = np.union1d(problem.range_times, range_excess_times(problem, guess_values, -near_range))
     if timing is not None:
         problem.variables.append(timing.variable(durations))
-    problem.dynamic = dynamic_intervals(form)
     context = BuildContext(problem, params, sample_times(form, params))
     problem.constraints = declared_constraints(context)
     problem.costs = cost_blocks(form, terrain, model, params.costs, timing)
@@ -246,36 +261,15 @@ def _dynamics(c: BuildContext) -> list[Constraint]:
 
 @constraint("dynamics_between")
 def _dynamics_between(c: BuildContext) -> list[Constraint]:
-    """Newton–Euler rows inside ±`DynParams.dynamics_band` between the knots (±`dynamics_band_dynamic`
-    in the base intervals with fewer than three feet in contact throughout, `dynamic_intervals`)."""
+    """Newton–Euler rows inside ±`DynParams.dynamics_band` between the knots."""
     p, model, t = c.problem, c.problem.model, c.times["between"]
     if not t.size:
         return []
     weight = model.mass * GRAVITY
     lever = float(np.linalg.norm(model.nominal_feet[:, :2], axis=1).max())
-    interval = np.clip(np.searchsorted(p.form.knots, t, side="right") - 1, 0, len(p.form.knots) - 2)
-    share = np.where(p.dynamic[interval], c.params.dynamics_band_dynamic, c.params.dynamics_band)
-    band = (share[:, None] * np.repeat([weight, weight * lever], 3)[None]).reshape(-1)
+    band = np.tile(c.params.dynamics_band * np.repeat([weight, weight * lever], 3), t.size)
     return [Constraint(DynamicsBlock(p.form, model.mass, model.inertia, t, p.timing), -band, band,
                        name="dynamics_between", scale=np.tile(np.repeat([1.0 / weight, 1.0 / (weight * LEVER)], 3), t.size))]
-
-
-def dynamic_intervals(form: Formulation, dt: float = 1e-3) -> np.ndarray:
-    """Per base interval (between consecutive knots): whether fewer than three feet stay in contact
-    throughout it (on a `dt` grid, the interval's ends excluded): the robot rests on a line or a
-    point or flies (a trot's support pairs, their exchange, a flight) instead of a support polygon."""
-    flags = []
-    for t0, t1 in zip(form.knots[:-1], form.knots[1:]):
-        times = np.arange(t0 + dt, t1 - 0.5 * dt, dt)
-        held = 0
-        for foot in form.feet:
-            in_contact = np.zeros(times.size, bool)
-            for phase in foot.phases:
-                if phase.stance:
-                    in_contact |= (times >= phase.t0) & (times <= phase.t0 + phase.duration)
-            held += bool(times.size) and bool(in_contact.all())
-        flags.append(held < 3)
-    return np.array(flags, bool)
 
 
 @constraint("acceleration_continuity")
@@ -422,6 +416,14 @@ def _stair_edge(form, terrain, model, w: CostWeights, timing) -> list[CostTerm]:
     nodes = [n for foot in form.feet for n in foot.stance_nodes]
     return [CostTerm("stair_edge", StairEdgeBlock(terrain, form.node_selector(nodes, form.motion_nodes),
                                                   w.stair_edge_sigma), w.stair_edge)]
+
+
+@cost("stance_width")
+def _stance_width(form, terrain, model, w: CostWeights, timing) -> list[CostTerm]:
+    """Off while the phases move (`optimize_phases`: the stances' middles move with them)."""
+    if not (w.stance_width > 0 and timing is None):
+        return []
+    return [CostTerm("stance_width", StanceWidthBlock(form, model.nominal_feet[:, 1]), w.stance_width)]
 
 
 @cost("swing_height")

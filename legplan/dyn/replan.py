@@ -161,7 +161,9 @@ class ReplanTask:
                 euler_rates(s.base_euler, s.base_ang_vel))
 
     def setup(self, model, terrain, params: DynParams):
-        form = Formulation(self.gait_rest, params.dt, self.knots(params))
+        form = Formulation(self.gait_rest, params.dt, self.knots(params), aligned=params.phase_knots,
+                           unloaded_polynomials=params.unloaded_polynomials,
+                           unloaded_dt=params.unloaded_dt)
         start, _, _ = self.com_state()
         return form, start, self.previous.goal_pose(), self.state.feet_pos.copy()
 

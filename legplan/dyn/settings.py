@@ -64,19 +64,22 @@ class DynParams(Parameters):
         "points per base interval (the knot that opens it included, equally spaced) at which the "
         "Newton–Euler rows are constrained: to zero at the knots (TOWR's collocation), inside "
         "±dynamics_band at the others (1: TOWR's alone). Between the knots the base acceleration is "
-        "linear while the forces are cubics that vanish with zero slope at every touchdown and lift-off, "
-        "so equality along a whole interval over-constrains the problem; a band bounds what the "
-        "executing controller must absorb at the times it executes"))
+        "linear while the forces are cubics that vanish at every touchdown and lift-off, so equality "
+        "along a whole interval over-constrains the problem; a band bounds what the executing "
+        "controller must absorb at the times it executes"))
     dynamics_band: float = param(0.04, "(0, 1]", doc=(
         "share of m·g (force rows) and of m·g·ℓ (torque rows, ℓ the largest horizontal distance of a "
         "nominal foot from the CoM) the Newton–Euler residual may reach between the knots; below the "
         "independent check's bound by a margin for the solver's tolerance"))
-    dynamics_band_dynamic: float = param(0.25, "(0, 1]", doc=(
-        "dynamics_band in a base interval with fewer than three feet in contact throughout (a trot's "
-        "support pair, its exchange, a flight): the weight then passes through two feet or none, "
-        "whose forces, cubics that vanish with zero slope at lift-off and touchdown, cannot follow the "
-        "base's linear acceleration within dynamics_band; the independent check judges these samples "
-        "by its own bound for them"))
+    unloaded_polynomials: int | None = param(8, "[1, 1000]", doc=(
+        "base polynomials (at least) in every phase next to a boundary where no foot stays in contact "
+        "(formulation.unloaded_phases: a trot's support pairs), whose summed force rises from or falls "
+        "to zero; the knots then sit at every phase boundary of the gait's timing (formulation.phase_knots), "
+        "or, with optimize_phases, which moves the phases, are spaced evenly as densely everywhere "
+        "(formulation.dense_knots). None = knots every dt, as for gaits without such phases"))
+    unloaded_dt: float = param(0.035, "(0, inf)", doc=(
+        "s: the longest base polynomial in those phases (formulation.phase_knots): a slow trot's long "
+        "pairs get more than unloaded_polynomials"))
     phase_knots: bool = param(False, (False, True), doc=(
         "base knots at the gait's phase boundaries too (formulation.phase_knots), not only evenly "
         "spaced: the contact set is then constant on every base polynomial"))
@@ -136,9 +139,10 @@ class DynParams(Parameters):
 
 PAPER_COSTS = CostWeights(base_z_velocity=1.0, base_angular_velocity=1.0, force=1.0, force_rate=0.01,
                           normal_force=1.0, derivative_weight=0.01, stair_edge=1.0, stair_edge_sigma=0.05,
-                          swing_height=1.0)
+                          swing_height=1.0, stance_width=100.0)
 """Weights of the "paper" preset (the paper gives none; force terms in units of m·g, see
-`legplan.dyn.costs`)."""
+`legplan.dyn.costs`), with our `stance_width` term: with the Newton–Euler rows held between the knots,
+the angular-velocity term alone draws a trot's footholds in under the base (`legplan.dyn.costs`)."""
 
 PAPER = DynParams(costs=PAPER_COSTS, swing_height_min=0.05, base_clearance=0.2)
 """The paper's additions (Sec. III-A-1, III-A-2): its costs, swing apexes 5 cm above both adjacent

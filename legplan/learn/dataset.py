@@ -56,7 +56,7 @@ def check_init(init: str, space: TaskSpace) -> None:
     if is_learned(init):
         check_space(init, chosen.space, space.record())
         chosen.check_task(DynTask((0, 0, 0), (0, 0, 0), space.gait, space.strides, space.duration),
-                          solver_params(space.costs, None).dt)
+                          solver_params(space.costs, None))
 
 
 class DatasetWorker:
@@ -140,7 +140,9 @@ def solve_item(worker: DatasetWorker, item) -> dict:
 
 def predicts_phases(initializer) -> bool:
     """Whether an initializer's guesses carry phase durations (a network trained with them)."""
-    return getattr(initializer, "layout", {}).get("phases", 0) > 0
+    from legplan.dyn.problem import sets_timing
+
+    return sets_timing(initializer)
 
 
 def failed_item(item, reason: str) -> dict:

@@ -343,14 +343,19 @@ class LearnedInit:
     def __setstate__(self, state):
         self.__init__(state["path"])
 
-    def check_task(self, task, dt: float = 0.1) -> None:
+    def check_task(self, task, params=None) -> None:
         """Before planning: one-line error when a `DynTask`'s variable layout (gait, strides, duration,
-        node spacing `dt`) is not the one this network was trained for."""
-        from legplan.dyn.formulation import Formulation
-        from legplan.dyn.gait import make_gait
+        base knots of `params`, a `DynParams`, default its defaults) is not the one this network was
+        trained for."""
+        from legplan.dyn.problem import DynParams, task_formulation
 
-        check_layout(self.layout, layout_of(Formulation(make_gait(task.gait, task.strides, task.duration), dt),
-                                            phases=True), self.path)
+        form = task_formulation(task, params or DynParams(), timed=self.sets_timing)
+        check_layout(self.layout, layout_of(form, phases=True), self.path)
+
+    @property
+    def sets_timing(self) -> bool:
+        """Whether its guesses carry phase durations (trained with them), which set the plan's timing."""
+        return self.layout.get("phases", 0) > 0
 
     def check_in_space(self, task) -> None:
         """Before planning: one-line error when a `DynTask`'s start or goal (x, y, yaw) lies outside the

@@ -12,15 +12,12 @@ of `CheckTolerances`: the largest value ≤ it, or for those in `MINIMA` the sma
 
   newton_euler_force        max over the 10 ms samples of |m(p̈ + g e_z) − Σ f_i|∞ (N), the linear
                             row of the single-rigid-body dynamics (Winkler et al. 2018, eq. (1)),
-                            ≤ `between` · m·g: the dynamics where the robot executes the plan, between
-                            the points where the formulation enforces them too; over the samples of
-                            the base intervals with three or more feet in contact throughout
+                            ≤ `between` · m·g at every sample: the dynamics where the robot executes
+                            the plan, between the points where the formulation enforces them too
   newton_euler_torque       max |I_W ω̇ + ω × I_W ω − Σ (p_i − c) × f_i|∞ (N·m) about the CoM c (at
                             `Centroidal.com_offset` in the base frame), I_W = R I_B Rᵀ (the angular
                             row), ≤ `between` · m·g·ℓ (ℓ: the largest horizontal distance of a nominal
                             foot from the base origin: a foot-force error of that share of m·g)
-  newton_euler_force_dynamic the two above over the samples of the base intervals with fewer than
-  newton_euler_torque_dynamic three feet in contact throughout: ≤ `between_dynamic` · m·g and · m·g·ℓ
   newton_euler_force_nodes  the same at the node times, where the formulation enforces the
   newton_euler_torque_nodes dynamics: ≤ `newton_euler`·m·g and ≤ `newton_euler`·m·g·ℓ
   angular_velocity          |ω − ω(e, ė)| (rad/s): the sampled world ω against the one of
@@ -86,8 +83,7 @@ HEIGHT_STEP = 1e-6  # m, central-difference step of the heightmap gradient
 
 SPHERE_REACH = 0.05  # m: distances of sphere surfaces are resolved this far out (`ColumnDistance` reach)
 
-UNITS = {"newton_euler_force": "N", "newton_euler_torque": "N m", "newton_euler_force_dynamic": "N",
-         "newton_euler_torque_dynamic": "N m", "newton_euler_force_nodes": "N",
+UNITS = {"newton_euler_force": "N", "newton_euler_torque": "N m", "newton_euler_force_nodes": "N",
          "newton_euler_torque_nodes": "N m", "angular_velocity": "rad/s", "normal_force": "1",
          "friction_cone": "1", "swing_force": "1", "stance_slip": "m", "stance_height": "m", "stance_column": "m",
          "penetration_height": "m", "penetration_column": "m", "base_height": "m", "base_above_feet": "m",
@@ -108,11 +104,6 @@ class CheckTolerances:
     newton_euler: float = 1e-3
     between: float = 0.05
     """Newton–Euler residual at every sample, a share of m·g."""
-    between_dynamic: float = 0.3
-    """The same at the samples of a base interval (between consecutive node times) with fewer than
-    three feet in contact at all its samples (a trot's support pair, its exchange, a flight): the
-    formulation's forces cannot follow the base acceleration there within `between`
-    (`DynParams.dynamics_band_dynamic` is the planner's band there)."""
     angular_velocity: float = 1e-6
     force: float = 1e-3
     slip: float = 1e-3
@@ -186,11 +177,7 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
         node_times = np.linspace(t[0], t[-1], count + 1)
     nodes = _node_samples(t, np.asarray(node_times, float))
     omega = _euler_world_rates(s["base_euler"], s["base_euler_rate"])
-    dynamic = _dynamic_samples(t, np.asarray(node_times, float), contact)
-    worst = {"newton_euler_force": force_res[~dynamic].max(initial=0.0),
-             "newton_euler_torque": torque_res[~dynamic].max(initial=0.0),
-             "newton_euler_force_dynamic": force_res[dynamic].max(initial=0.0),
-             "newton_euler_torque_dynamic": torque_res[dynamic].max(initial=0.0),
+    worst = {"newton_euler_force": _max(force_res), "newton_euler_torque": _max(torque_res),
              "newton_euler_force_nodes": force_res[nodes].max(initial=0.0),
              "newton_euler_torque_nodes": torque_res[nodes].max(initial=0.0),
              "angular_velocity": _max(np.linalg.norm(s["base_ang_vel"] - omega, axis=1))}
@@ -208,9 +195,7 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
     worst["line_support"] = _line_support(t, contact) / np.sqrt(_base_height(model, robot) / GRAVITY)
 
     between = tolerances.between
-    loose = tolerances.between_dynamic
     tolerance = {"newton_euler_force": between * weight, "newton_euler_torque": between * weight * lever,
-                 "newton_euler_force_dynamic": loose * weight, "newton_euler_torque_dynamic": loose * weight * lever,
                  "newton_euler_force_nodes": rel * weight, "newton_euler_torque_nodes": rel * weight * lever,
                  "angular_velocity": tolerances.angular_velocity, "normal_force": tolerances.force,
                  "friction_cone": tolerances.force, "swing_force": tolerances.force,
@@ -231,20 +216,6 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
 def _max(values) -> float:
     """Largest entry, 0 for an empty array."""
     return float(np.max(values, initial=0.0))
-
-
-def _dynamic_samples(t: np.ndarray, node_times: np.ndarray, contact: np.ndarray) -> np.ndarray:
-    """Per sample: whether it lies in a base interval (between consecutive node times) with fewer
-    than three feet in contact at all its samples, both node times included (a foot that lifts off
-    or touches down inside the interval is out of contact at some sample up to its end): a support
-    line, a point or a flight instead of a support polygon."""
-    count = max(len(node_times) - 1, 1)
-    interval = np.clip(np.searchsorted(node_times, t, side="right") - 1, 0, count - 1)
-    dynamic = np.empty(count, bool)
-    for k in range(count):
-        inside = (t >= node_times[k] - 1e-6) & (t <= node_times[min(k + 1, len(node_times) - 1)] + 1e-6)
-        dynamic[k] = contact[inside].all(axis=0).sum() < 3
-    return dynamic[interval]
 
 
 def _node_samples(t: np.ndarray, node_times: np.ndarray) -> np.ndarray:

@@ -14,7 +14,7 @@ from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
 from pictures import drawn, pixels, share
 
 TROT = ["--gait", "walk", "--strides", "2", "--duration", "3.0", "--start", "0", "0", "0", "--goal", "0.6", "0", "0"]
-"""A 3 s walk (the defaults' between-knot dynamics band holds for walks; a flying trot stalls in it)."""
+"""A 3 s walk (cheaper to plan than a flying trot, whose support pairs get short base polynomials)."""
 
 
 def invoke(*args):
@@ -125,12 +125,12 @@ def test_tasks_file_records_an_infeasible_task_as_failed(planned, tmp_path):
 
 def test_a_plan_that_fails_its_check_exits_1(planned, tmp_path):
     """A converged plan whose independent check fails is a failed task: exit 1, the reason names the
-    check's failed metrics. A trot planned with the between-knot band as wide as m·g converges with
-    dynamics the check refuses between the knots."""
+    check's failed metrics. A trot planned with the between-knot band as wide as m·g and TOWR's
+    evenly spaced knots converges with dynamics the check refuses between the knots."""
     _, map_path, _ = planned
     out = tmp_path / "trot.h5"
     trot = ["--gait", "trot", "--strides", "4", "--duration", "2.4", "--start", "0", "0", "0", "--goal", "1", "0", "0",
-            "--param", "dynamics_band=1", "--param", "dynamics_band_dynamic=1"]
+            "--param", "dynamics_band=1", "--param", "unloaded_polynomials=null"]
     result = invoke("dyn", "plan", map_path, *trot, "-o", out)
     assert result.exit_code == 1, result.output + str(result.exception)
     assert "task 0: failed: check: newton_euler" in result.stderr and "0/1 tasks planned" in result.stderr + result.output

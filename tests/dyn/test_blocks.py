@@ -54,6 +54,26 @@ both_timings = pytest.mark.parametrize("problem_name", ["pallet_problem", "timed
                                        ids=["fixed_timing", "optimize_phases"])
 
 
+def test_blocks_on_a_trots_phase_aligned_unequal_knots_match_finite_differences(anymal, step):
+    """A flying trot's base knots (phase-aligned, short polynomials in every support pair, longer ones
+    in the stands and flights): the dynamics rows at the knots and between them and the acceleration
+    continuity at every junction of unequal polynomials against finite differences."""
+    from legplan.dyn.formulation import unloaded_phases
+
+    problem = build_problem(DynTask((-0.3, 0.0, 0.0), (0.6, 0.0, 0.0), "trot", 2, 2.4), anymal, step, DynParams(),
+                            heuristic)
+    widths = np.diff(problem.form.knots)
+    assert unloaded_phases(problem.form.gait).any() and widths.max() > 1.5 * widths.min()
+    values = _perturbed(problem)
+    checked = set()
+    for k in problem.constraints:
+        if k.name in ("dynamics", "dynamics_between", "acceleration_continuity"):
+            report = check_jacobian(k.block, {v: values[v] for v in k.block.variables})
+            assert report.ok(atol=1e-5, rtol=1e-4), (k.name, report)
+            checked.add(k.name)
+    assert checked == {"dynamics", "dynamics_between", "acceleration_continuity"}
+
+
 @both_timings
 def test_every_constraint_block_matches_finite_differences(request, problem_name):
     """Every constraint block's Jacobian (the phases' too when optimized) against finite differences."""
@@ -159,6 +179,8 @@ def test_timed_costs_equal_the_fixed_timing_costs_at_the_same_timing(pallet_prob
         nodes = _perturbed(pallet_problem, seed=4, scale=0.5)
         values.update({name: nodes[name] for name in fixed})
     timed, plain = evaluate_costs(timed_pallet_problem.costs, values), evaluate_costs(pallet_problem.costs, values)
+    assert "stance_width" in plain and "stance_width" not in timed  # off while the phases move
+    plain.pop("stance_width")
     assert set(timed) == set(plain)
     for name in plain:
         assert timed[name] == pytest.approx(plain[name], rel=1e-9, abs=1e-300), name
@@ -235,3 +257,29 @@ def test_complex_step_is_exact_for_a_polynomial():
     for i in range(2):
         expected[i, 0, 0], expected[i, 1, 1] = 3 * x[i, 0] ** 2, 3 * x[i, 1] ** 2
     assert jac == pytest.approx(expected, abs=1e-14)
+
+
+def test_stance_width_block_matches_finite_differences_and_vanishes_at_the_nominal_stance(anymal, flat):
+    """`StanceWidthBlock` against finite differences at a perturbed, yawed point; zero on the
+    heuristic's footholds on a straight line (each foothold at its nominal lateral offset from the
+    base at its stance's middle), and the lateral shift of one foothold comes back as its residual."""
+    from legplan.dyn.costs import StanceWidthBlock
+    from legplan.dyn.problem import about_com
+
+    task = DynTask((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), "trot", 4, 2.4)
+    problem = build_problem(task, anymal, flat, DynParams(), heuristic)
+    block = StanceWidthBlock(problem.form, about_com(anymal).nominal_feet[:, 1])
+    values = {v.name: v.value.copy() for v in problem.variables}
+    r, _ = block.evaluate([values[v] for v in block.variables], False)
+    assert np.abs(r).max() < 1e-9
+    feet = values["feet"].reshape(-1, 2, 3)
+    node = problem.form.feet[1].stance_nodes[2]
+    feet[node, 0, 1] += 0.07
+    r, _ = block.evaluate([values[v] for v in block.variables], False)
+    assert np.sort(np.abs(r))[-1] == pytest.approx(0.07) and np.sort(np.abs(r))[-2] < 1e-9
+    rng = np.random.default_rng(3)
+    for name in block.variables:
+        values[name] = values[name] + 0.05 * rng.standard_normal(values[name].size)
+    values["base_ang"].reshape(-1, 2, 3)[:, 0, 2] += 0.6  # yawed
+    report = check_jacobian(block, {v: values[v] for v in block.variables})
+    assert report.ok(atol=1e-6, rtol=1e-5), report

@@ -23,7 +23,7 @@ def test_the_declared_names_are_the_problems_blocks_in_order(anymal, flat):
     assert [k.name for k in paper.constraints][-2:] == ["swing_height", "base_clearance"]
     assert list(CONSTRAINTS)[:5] == ["last_phase", "dynamics", "dynamics_between", "acceleration_continuity", "swing"]
     assert {k.name for k in paper.constraints} <= set(CONSTRAINTS)
-    assert {term.name for term in paper.costs} >= {"swing_height"} and list(COSTS) == ["stair_edge", "swing_height"]
+    assert {term.name for term in paper.costs} >= {"swing_height"} and list(COSTS) == ["stair_edge", "stance_width", "swing_height"]
 
 
 def test_declaring_a_builder_adds_a_constraint(anymal, flat, monkeypatch):

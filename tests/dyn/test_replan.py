@@ -92,3 +92,27 @@ def test_perturbed_replan_converges_from_the_measured_state(planned, anymal, fla
     assert np.allclose(s["base_pos"][-1, :2], planned.samples["base_pos"][-1, :2], atol=1e-6)
     record = out.record()
     assert record["success"] and record["cpu_seconds"] > 0 and record["iterations"] == out.iterations
+
+
+def test_a_flying_trot_replans_on_its_short_polynomials(anymal, flat):
+    """A flying trot (short base polynomials in its support pairs) replanned from its own state in
+    the middle of a pair: the replan keeps the previous plan's knots after t, converges, and the
+    independent check finds its Newton–Euler residual within 5 % at every 10 ms sample."""
+    from legplan.robots import load_robot
+    from legplan.terrain import Grid2D, terrain_from_heightmap
+    from legplan.validate.trajectory import check_trajectory
+
+    trot = plan(DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "trot", 2, 2.4), anymal, flat, DynParams())
+    assert trot.success, trot.reason
+    gait = trot.problem.form.gait
+    ends = np.cumsum(gait.durations)
+    state = MeasuredState.from_samples(trot.samples, 0.5 * (ends[2] + ends[3]))
+    out = replan(trot, state, anymal, flat, DynParams())
+    assert out.success, out.plan.reason
+    later = trot.problem.form.knots[trot.problem.form.knots > state.t + 0.05] - state.t
+    assert np.abs(out.plan.problem.form.knots[:, None] - later[None, :-1]).min(axis=0).max() < 1e-9
+    grid = Grid2D(origin=(-1.5, -1.0), resolution=0.02, shape=(101, 176))  # the `flat` fixture's map
+    terrain_map = terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat")
+    check = check_trajectory(out.plan.samples, anymal, terrain_map, load_robot("anymal"),
+                             node_times=out.plan.problem.form.knots)
+    assert check.passed["newton_euler_force"] and check.passed["newton_euler_torque"], check.failures()
