@@ -171,7 +171,7 @@ def test_anymal_b_flying_trot_plans_inside_its_joint_torques(drafted):
     check = check_trajectory(result.samples, model, terrain, robot, node_times=result.problem.form.knots)
     assert check.ok, check.failures()
     assert check.tolerance["joint_torque"] == pytest.approx(1.001) and 0.8 < check.worst["joint_torque"] <= 1.001
-    assert result.samples["forces"][..., 2].max() > 1.1 * leg_forces(robot).force.min()
+    assert result.samples["forces"][..., 2].max() > leg_forces(robot).force.min()
 
 
 def test_robot_show_prints_the_torque_limits(drafted):
