@@ -260,6 +260,21 @@ def _runs(stage: Stage, last: StageOutcome | None, attempt: bool, ran_previous: 
     return ran_previous  # When.AFTER
 
 
+@dataclass(frozen=True)
+class _Previous:
+    """The initializer of a stage that starts from the last stage's solution: its values, which
+    carry phase durations (`PHASES`) when a timing was set or optimized, so that the stage builds the
+    same variable layout (`problem.task_formulation`'s timed knots) as the stage that produced them."""
+    values: dict
+
+    @property
+    def sets_timing(self) -> bool:
+        return PHASES in self.values
+
+    def __call__(self, *_):
+        return self.values
+
+
 def _run_stage(stage: Stage, task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer,
                last: StageOutcome | None, budget: Budget, callback) -> StageOutcome | None:
     """Build the stage's problem and solve it within the budget; None for a "range of motion" stage
@@ -280,8 +295,7 @@ def _run_stage(stage: Stage, task: DynTask, model, terrain: TerrainModel, params
             if not found.size:
                 return None
             times = np.union1d(times, found)
-        values = last.result.values
-        problem = build_problem(task, model, terrain, stage_params, lambda *_: values, times)
+        problem = build_problem(task, model, terrain, stage_params, _Previous(last.result.values), times)
     setup = time.perf_counter() - t0
     solver = getattr(params, stage.solver)
     if stage.max_outer is not None:
