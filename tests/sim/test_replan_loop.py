@@ -1,6 +1,8 @@
 """`dyn simulate --replan PERIOD`: the closed loop replans from the simulated state every PERIOD and
 records every replan in sim.h5 (issue 39 item 3)."""
 
+import json
+
 import h5py
 import numpy as np
 from click.testing import CliRunner
@@ -37,3 +39,25 @@ def json_replan(path):
     import json
     with h5py.File(path) as handle:
         return json.loads(handle.attrs["params"])["replan"]
+
+
+
+def test_closed_loop_survives_a_push_the_open_loop_falls_under(flat, trot):
+    """The 1 m flat trot pushed sideways at half its duration (16 N s): executed as planned it
+    falls; replanned every 0.25 s from the simulated state it reaches the goal."""
+    from legplan.dyn.artefact import read_tasks
+    from legplan.dyn.replan_io import recorded_params
+    from legplan.sim.items import SimWorker, sim_items, simulate_item
+    from legplan.sim.run import SimParams
+
+    attrs, tasks = read_tasks(trot)
+    item = sim_items(tasks)[0]
+    params = SimParams(pushes=((1.2, 0.0, 160.0, 0.1),))
+    dyn = recorded_params(json.loads(attrs["params"]))
+    opened = simulate_item(SimWorker("anymal", str(flat[1]), params), item)
+    closed = simulate_item(SimWorker("anymal", str(flat[1]), params, replan=(0.25, dyn)), item)
+    assert not opened["success"] and opened["reason"].startswith("fell"), opened["reason"]
+    assert closed["success"], closed["reason"]
+    replans = closed["replans"]
+    assert replans["success"].size >= 7 and replans["success"].mean() > 0.5
+    assert np.all(replans["cpu_seconds"] > 0) and np.all(replans["violation"] >= 0)
