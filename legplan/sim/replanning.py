@@ -9,8 +9,11 @@
 the simulated state. The simulation waits for the replan (no latency: the new plan holds from the
 tick it was measured at); each replan's CPU seconds are recorded so that its latency shows. A
 converged replan (`legplan.dyn.replan.replan`) becomes the reference (its
-samples on the plan's clock) and the plan later replans start from; a failed one is recorded and the
-controller keeps the last good reference.
+samples on the plan's clock) and the plan later replans start from. With
+`ReplanParams.track_unconverged` (default) so does one that ran out of iterations or stalled: it
+starts from the measured state, where the last reference starts from a state the robot has left (a
+push); only a numerical failure keeps the last reference. Every replan's status is recorded
+(`success` is convergence).
 """
 
 from __future__ import annotations
@@ -20,6 +23,7 @@ import pinocchio as pin
 
 from legplan.dyn.replan import PHASE_END, MeasuredState, Previous, ReplanParams, replan
 from legplan.sim.run import REPLAN_UNITS
+from legplan.solve.lm import Status
 
 LAST_REPLAN = 0.3  # s: no replan starts closer than this to the plan's end (the closing Stand)
 
@@ -52,7 +56,8 @@ class Replanner:
             return None
         self.rows.append({**state.record(), "iterations": out.iterations, "cpu_seconds": out.cpu_seconds,
                           "violation": out.violation, "success": out.success})
-        if not out.success:
+        if not (out.success or self.settings.track_unconverged and out.status in (Status.MAX_ITERATIONS,
+                                                                                   Status.STALLED)):
             return None
         self.previous = Previous.from_plan(out.plan)
         self._origin = t

@@ -61,3 +61,36 @@ def test_closed_loop_survives_a_push_the_open_loop_falls_under(flat, trot):
     replans = closed["replans"]
     assert replans["success"].size >= 7 and replans["success"].mean() > 0.5
     assert np.all(replans["cpu_seconds"] > 0) and np.all(replans["violation"] >= 0)
+
+
+def test_an_unconverged_replan_is_tracked_only_when_asked(flat, trot):
+    """A replan cut at one LM iteration (MAX_ITERATIONS) from a pushed state: recorded as not
+    converged either way; handed to the controller with `track_unconverged`, not without."""
+    import pinocchio as pin
+
+    from legplan.dyn.artefact import read_tasks
+    from legplan.dyn.replan import Previous, ReplanParams
+    from legplan.dyn.replan_io import recorded_params
+    from legplan.dyn.tasks import centroidal_model
+    from legplan.dyn.terrain import TerrainModel
+    from legplan.robots import load_robot
+    from legplan.sim.replanning import Replanner
+
+    attrs, tasks = read_tasks(trot)
+    params = recorded_params(json.loads(attrs["params"]))
+    model = centroidal_model(load_robot("anymal"), params)
+    samples = tasks[0]["samples"]
+    k = int(np.argmin(np.abs(samples["t"] - 0.5)))
+    rot = pin.rpy.rpyToMatrix(*samples["base_euler"][k])
+    state = (samples["base_pos"][k], rot, samples["base_vel"][k] + [0.0, 0.4, 0.0], samples["base_ang_vel"][k],
+             samples["feet_pos"][k])
+    handed = {}
+    for track in (True, False):
+        replanner = Replanner(Previous.from_record(tasks[0], model.com_offset, params.dt), model,
+                              TerrainModel(flat[0]), params, 0.5, ReplanParams(max_iterations=1, track_unconverged=track))
+        handed[track] = replanner(float(samples["t"][k]), *state)
+        assert replanner.columns()["success"].tolist() == [False]
+        assert replanner.columns()["iterations"].tolist() == [1]
+    assert handed[False] is None
+    assert np.allclose(handed[True]["base_vel"][0], state[2], atol=1e-9)
+    assert handed[True]["t"][0] == samples["t"][k]
