@@ -86,8 +86,9 @@ def test_an_unconverged_replan_is_tracked_only_when_asked(flat, trot):
              samples["feet_pos"][k])
     handed = {}
     for track in (True, False):
+        settings = ReplanParams(max_iterations=1, track_unconverged=track)
         replanner = Replanner(Previous.from_record(tasks[0], model.com_offset, params.dt), model,
-                              TerrainModel(flat[0]), params, 0.5, ReplanParams(max_iterations=1, track_unconverged=track))
+                              TerrainModel(flat[0]), params, 0.5, settings)
         handed[track] = replanner(float(samples["t"][k]), *state)
         assert replanner.columns()["success"].tolist() == [False]
         assert replanner.columns()["iterations"].tolist() == [1]
