@@ -61,9 +61,6 @@ SHORT_FIRST = 0.3  # share of dt: a shorter first base polynomial of a replan is
 PHASE_END = 1e-3  # s: a phase with less than this left at the replan time is taken as over
 NODE_INSIDE = 1e-9  # share of a segment: where a node's value and rate are read from the previous splines
 EPS = 1e-9  # s: times closer than this are equal
-SETTLED = ("range_of_motion", "leg_clearance")
-"""Constraints of the measured state's own configuration (sampled from time 0, rows time after time)
-that a replan relaxes at its start by what the measured state exceeds them (`ReplanParams.settle`)."""
 
 
 @dataclass(frozen=True)
@@ -82,9 +79,8 @@ class ReplanParams(Parameters):
         "iterations or stalled too (it starts from the measured state, the last plan does not); "
         "False: only converged ones"))
     settle: float = param(0.2, "(0, inf)", doc=(
-        "s: a measured foot outside its range-of-motion box or a leg nearer the terrain than the "
-        "clearance (tracking error, a push) may stay so by its measured excess, shrinking linearly "
-        "to none over this time"))
+        "s: a measured foot outside its range-of-motion box (tracking error, a push) may stay "
+        "outside by its measured excess, shrinking linearly to none over this time"))
 
 
 @dataclass(frozen=True)
@@ -315,22 +311,24 @@ class ReplanTask:
 
 
     def _settle_range(self, problem) -> None:
-        """Widen the range-of-motion boxes and lower the leg clearance by the measured state's excess
-        over them (at time 0, where base and feet are measured, not planned), shrinking linearly to
-        none at `settle`: the measured state is no plan to be made feasible, the plan leads it back."""
-        values = {v.name: v.value for v in problem.variables}
-        for i, c in enumerate(problem.constraints):
-            if c.name not in SETTLED or not c.block.times.size or c.block.times[0] > EPS:
+        """Widen each foot's range-of-motion box by the measured state's excess over it at time 0
+        (Rᵀ(p_i − c) − p̄_i of the measured base and feet, `RangeOfMotionBlock`'s rows), shrinking
+        linearly to none at `settle`: the measured state is no plan to be made feasible, the plan
+        leads the feet back into their boxes."""
+        pose, _, _ = self.com_state()
+        turn = rotation(pose.euler[None])[0]
+        offsets = (self.state.feet_pos - pose.position) @ turn - problem.model.nominal_feet
+        boxes = [i for i, c in enumerate(problem.constraints) if c.name == "range_of_motion"]
+        for leg, i in enumerate(boxes):  # one per leg, in leg order
+            c = problem.constraints[i]
+            if not c.block.times.size or c.block.times[0] > EPS:
                 continue
-            n = c.block.times.size
-            rows = c.block.evaluate([values[name] for name in c.block.variables], False)[0].reshape(n, -1)
-            over = np.maximum(rows[0] - c.upper.reshape(n, -1)[0], 0.0)
-            under = np.maximum(c.lower.reshape(n, -1)[0] - rows[0], 0.0)
-            if not (over.any() or under.any()):
+            excess = np.maximum(np.abs(offsets[leg]) - c.upper[:3], 0.0)
+            if not excess.any():
                 continue
-            share = np.clip(1.0 - c.block.times / self.settle, 0.0, None)[:, None]
-            problem.constraints[i] = Constraint(c.block, c.lower - (share * under).reshape(-1),
-                                                c.upper + (share * over).reshape(-1), c.name, c.scale)
+            share = np.clip(1.0 - c.block.times / self.settle, 0.0, None)
+            widen = (share[:, None] * excess[None]).reshape(-1)
+            problem.constraints[i] = Constraint(c.block, c.lower - widen, c.upper + widen, c.name, c.scale)
 
 
 def euler_rates(euler: np.ndarray, omega: np.ndarray) -> np.ndarray:
