@@ -138,7 +138,7 @@ CPU = process time of `legplan.dyn.replan.replan` (build + solve), one thread. {
 
 Per run median/p95 (ms): {per_run}. Target {met}; the first plan took
 {r['plan_cpu_seconds'] / max(r['plan_iterations'], 1) * 1e3:.0f} ms CPU per LM iteration.
-{push_section()}"""
+{push_section()}{tasks_section()}"""
 
 
 def push_section() -> str:
@@ -171,6 +171,30 @@ One run per impulse (deterministic).
 | case | loop | largest survived (N s) | smallest failed (N s) | replans converged (all runs) | replan CPU median / max (ms) |
 |---|---|---|---|---|---|
 """ + "\n".join(lines) + "\n"
+
+
+def tasks_section() -> str:
+    """The counts of bench/replan_tasks.py's JSON, when it exists."""
+    import json
+
+    path = ROOT / "bench" / "results" / "replan_tasks.json"
+    if not path.exists():
+        return ""
+    r = json.loads(path.read_text())
+    planned = max(r["planned"], 1)
+    cpu = [c for row in r["rows"] if "closed" in row for c in row["closed"]["replan_cpu"]]
+    converged = sum(row["closed"]["replans_converged"] for row in r["rows"] if "closed" in row)
+    return f"""
+Sampled single-pallet tasks with a random push (`bench/replan_tasks.py`, {r['date']}, code {r['code']}, load
+{r['load_start']:.1f} → {r['load_end']:.1f}): tasks {r['first']}–{r['first'] + r['tasks'] - 1} of `tasks/single_pallet_walk.yaml`
+(seed {r['seed']}, as `bench/pallet_tasks.py`), planned with `DynParams()`; per task a ±y push of
+{r['impulse'][0]:g}–{r['impulse'][1]:g} N s for {r['push_duration']} s at a uniform time in [0.25, 0.75] of the plan
+(seeded per task); closed loop replans every {r['period']} s.
+
+| tasks | planned | executed open loop | executed closed loop | replans converged | replan CPU median / p95 (ms) |
+|---|---|---|---|---|---|
+| {r['tasks']} | {r['planned']} | {r['executed_open']} ({100 * r['executed_open'] / planned:.0f} %) | {r['executed_closed']} ({100 * r['executed_closed'] / planned:.0f} %) | {converged}/{len(cpu)} | {np.median(cpu) * 1e3:.0f} / {np.percentile(cpu, 95) * 1e3:.0f} |
+"""
 
 
 if __name__ == "__main__":

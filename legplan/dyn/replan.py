@@ -18,8 +18,13 @@ The guess is the previous solution shifted in time (`ShiftedInit`): every node o
 takes the previous splines' value and rate at its own time t + τ, so after the phase holding t the
 new splines are the previous ones.
 
-Receding horizon (model predictive control with a terminal constraint): the feet move only within
-the first `ReplanParams.horizon` h seconds. Every foothold touched down at or after h (with the
+What the measured state itself violates is not the replan's to undo at once: a foot outside its
+range-of-motion box at t (tracking error, a push) may stay outside by that excess, shrinking
+linearly to none over `ReplanParams.settle`; what is left of a swing at t has no swing-height rows.
+
+Optional receding horizon (`ReplanParams.horizon`, off by default: freezing the tail leaves the
+free part less room and the solve converges no faster), model predictive control with a terminal
+constraint: the feet move only within the first h seconds. Every foothold touched down at or after h (with the
 forces of its stance) and every swing apex at or after h keep the shifted previous value
 (`frozen_tail`), and so does the base from the first knot at or after the last time a free foot
 node reaches (a foothold until the end of its stance and the apex of its next swing), `Tail.until`.
@@ -29,8 +34,9 @@ after it every sample reads frozen nodes alone.
 
 One solve, no stages: the constraints alone (`DynParams.projection_solver`, "projection") or the
 costs under them (`warm_solver`, "costs") from the shifted guess, capped at
-`ReplanParams.max_iterations` LM iterations. A replan succeeds when every constraint row sampled in
-its window is within the solver's `violation_tolerance` (CONVERGED). What it does not do, and the
+`ReplanParams.max_iterations` LM iterations. A replan succeeds when every constraint row it
+samples (in its window, with the relaxations above) is within the solver's `violation_tolerance`
+(CONVERGED). What it does not do, and the
 planner does: the range-of-motion exchange stages and the fallback stages from the heuristic guess;
 the independent check of a whole plan (`legplan.validate`) runs on `dyn replan`'s output, and in
 the simulator the execution judges it.
