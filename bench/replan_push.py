@@ -1,70 +1,118 @@
-"""Lateral push survived open loop vs closed loop (`dyn simulate --replan`), issue 39 item 3, a first
-look on a small case: a flat 2-stride walk (3 s, (0, 0, 0) → (0.5, 0.1, 0.1), `DynParams()`), pushed
-along +y at half its duration for `DURATION` s with increasing forces; each level executed open loop
-and closed loop (replanning every `PERIOD` s). Survived = reached the goal without falling.
+"""Lateral push survived open loop vs closed loop (`dyn simulate --replan`, issue 39 item 3): the
+largest +y push on the trunk a plan survives executed as planned (open loop) and replanned every
+`--period` s from the simulated state (closed loop, `legplan.sim.replanning.Replanner`), bracketed
+the same way for both as `bench/sim.py --push-only` brackets the open loop: a push of `PUSH_DURATION`
+at half the plan, its impulse doubled from `PUSH_START` N s until a run fails, then halved down to
+the case's resolution. Survived = reached the goal without falling. One run per impulse: MuJoCo,
+the controller and the replans are deterministic. The simulation waits for every replan (no
+latency modelled); the CPU seconds of each replan are recorded (median, largest) so its latency
+shows.
 
-    OMP_NUM_THREADS=1 .venv/bin/python bench/replan_push.py
+    OMP_NUM_THREADS=1 .venv/bin/python bench/replan_push.py [--cases flat_trot pallet_walk] [--period 0.25]
 
-Writes bench/results/replan_push.json (no BENCHMARKS.md section of its own: `bench/replan.py`'s
-section cites it).
+Cases: the 1 m flat trot (4 strides, 2.4 s) and the (-1.0, 0.3, 0.3) → (0.6, 0, 0) single pallet
+walk (4 strides, 5.5 s) of `bench/sim.py`, planned with `DynParams()` (no costs). Writes
+bench/results/replan_push.json (`bench/replan.py`'s BENCHMARKS.md section cites it).
 """
 
 from __future__ import annotations
 
-import datetime
-import time
+import os
 
-import numpy as np
+for _name in ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_name, "1")
 
-from common import code_version, load_average, machine, write_result
+import argparse  # noqa: E402
+import datetime  # noqa: E402
+import sys  # noqa: E402
+import time  # noqa: E402
 
-FORCES = (50.0, 65.0, 80.0, 100.0)  # N along +y
-DURATION = 0.1  # s
-PERIOD = 0.25  # s
+import numpy as np  # noqa: E402
+
+from common import ROOT, code_version, load_average, machine, write_result  # noqa: E402
+
+PUSH_DURATION = 0.1  # s
+PUSH_START = 4.0  # N s, the first impulse tried
+CASES = {"flat_trot": ("flat", "flat trot 1 m", ((0, 0, 0), (1.0, 0, 0)), "trot", 2.4, 1.0),
+         "pallet_walk": ("single_pallet", "single pallet walk", ((-1.0, 0.3, 0.3), (0.6, 0, 0)), "walk", 5.5, 1.0)}
+"""name: (map, label, (start, goal), gait, duration s, resolution N s)."""
+
+
+def bracket(survives, resolution: float, most: float) -> tuple[float, float, list]:
+    """(largest survived impulse, smallest failed one or inf, runs): doubling from `PUSH_START`
+    until a run fails (or `most` N s survives), then bisection to `resolution`."""
+    runs = [survives(0.0)]
+    if not runs[0]["success"]:
+        return float("nan"), 0.0, runs
+    low, high = 0.0, PUSH_START
+    while True:
+        runs.append(survives(high))
+        if not runs[-1]["success"]:
+            break
+        if high >= most:
+            return high, float("inf"), runs
+        low, high = high, 2 * high
+    while high - low > resolution:
+        middle = 0.5 * (low + high)
+        runs.append(survives(middle))
+        low, high = (middle, high) if runs[-1]["success"] else (low, middle)
+    return low, high, runs
 
 
 def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--cases", nargs="+", choices=tuple(CASES), default=list(CASES))
+    parser.add_argument("--period", type=float, default=0.25, help="s between replans")
+    parser.add_argument("--most", type=float, default=64.0, help="N s: stop doubling once this survives")
+    parser.add_argument("--loops", nargs="+", choices=("open", "closed"), default=["open", "closed"])
+    args = parser.parse_args()
+
     from legplan.dyn.planner import plan
     from legplan.dyn.problem import DynParams, DynTask
     from legplan.dyn.replan import Previous
-    from legplan.dyn.tasks import centroidal_model
     from legplan.dyn.terrain import TerrainModel
     from legplan.robots import load_robot
     from legplan.sim.replanning import Replanner
     from legplan.sim.run import SimParams, simulate
-    from legplan.terrain import Grid2D, terrain_from_heightmap
+    from legplan.terrain.spec import build_map
 
     load_start = load_average()
+    started = time.perf_counter()
     robot = load_robot("anymal")
     params = DynParams()
-    model = centroidal_model(robot, params)
-    grid = Grid2D(origin=(-1.0, -1.0), resolution=0.02, shape=(101, 151))
-    terrain_map = terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat")
-    terrain = TerrainModel(terrain_map)
-    task = DynTask((0.0, 0.0, 0.0), (0.5, 0.1, 0.1), "walk", 2, 3.0)
-    planned = plan(task, model, terrain, params)
     rows = []
-    for force in FORCES:
-        sim_params = SimParams(pushes=((task.duration / 2, 0.0, force, DURATION),))
-        for loop in ("open", "closed"):
-            replanner = (Replanner(Previous.from_plan(planned), model, terrain, params, PERIOD)
-                         if loop == "closed" else None)
-            started = time.perf_counter()
-            result = simulate(planned.samples, robot, terrain_map, sim_params, goal=task.goal, replanner=replanner)
-            replans = result.replans
-            rows.append({"force": force, "impulse": force * DURATION, "loop": loop, "success": result.success,
-                         "reason": result.reason, "replans": int(len(replans.get("t", []))),
-                         "replans_converged": int(np.sum(replans.get("success", []))),
-                         "wall": time.perf_counter() - started})
-            print(rows[-1], flush=True)
-    best = {loop: max([r["impulse"] for r in rows if r["loop"] == loop and r["success"]], default=0.0)
-            for loop in ("open", "closed")}
-    write_result("replan_push", {"date": datetime.date.today().isoformat(), "machine": machine(),
-                                 "code": code_version(), "load_start": load_start, "load_end": load_average(),
-                                 "task": [task.start, task.goal, task.gait, task.strides, task.duration],
-                                 "duration": DURATION, "period": PERIOD, "rows": rows,
-                                 "largest_survived_impulse": best})
-    print("largest survived impulse (N s):", best)
+    for name in args.cases:
+        map_name, label, (start, goal), gait, duration, resolution = CASES[name]
+        terrain_map = build_map(ROOT / "maps" / f"{map_name}.yaml")
+        terrain = TerrainModel(terrain_map)
+        planned = plan(DynTask(start, goal, gait, 4, duration), robot.centroidal, terrain, params)
+        print(f"{label}: plan {planned.status.name}", file=sys.stderr, flush=True)
+        for loop in args.loops:
+            def survives(impulse: float) -> dict:
+                pushes = ((duration / 2, 0.0, impulse / PUSH_DURATION, PUSH_DURATION),) if impulse > 0 else ()
+                replanner = (Replanner(Previous.from_plan(planned), robot.centroidal, terrain, params, args.period)
+                             if loop == "closed" else None)
+                result = simulate(planned.samples, robot, terrain_map, SimParams(pushes=pushes), goal=goal,
+                                  replanner=replanner)
+                replans = result.replans
+                cpu = np.asarray(replans.get("cpu_seconds", []), float)
+                run = {"impulse": impulse, "success": result.success, "reason": result.reason,
+                       "replans": int(cpu.size), "replans_converged": int(np.sum(replans.get("success", []))),
+                       "replan_cpu_median": float(np.median(cpu)) if cpu.size else None,
+                       "replan_cpu_max": float(cpu.max()) if cpu.size else None, "wall": result.wall}
+                print(f"  {label} {loop} {impulse:.2f} N s: {result.reason}; replans {run['replans_converged']}/"
+                      f"{run['replans']}", file=sys.stderr, flush=True)
+                return run
+            low, high, runs = bracket(survives, resolution, args.most)
+            rows.append({"case": label, "loop": loop, "planned": bool(planned.success), "push_at": duration / 2,
+                         "survived": low, "failed": high, "runs": runs})
+    path = write_result("replan_push", {
+        "date": datetime.date.today().isoformat(), "machine": machine(), "code": code_version(),
+        "load_start": load_start, "load_end": load_average(), "wall": time.perf_counter() - started,
+        "period": args.period, "push_duration": PUSH_DURATION, "rows": rows})
+    for row in rows:
+        print(f"{row['case']}, {row['loop']} loop: survived {row['survived']:.2f} N s, failed {row['failed']:.2f} N s")
+    print(f"wrote {path}")
 
 
 if __name__ == "__main__":

@@ -17,13 +17,14 @@ from legplan.nav.simulate.mission import NavRunParams
 from legplan.nav.teb.params import TebParams
 from legplan.parameters import Interval, Parameters, inherit, param
 from legplan.sim.run import SimParams
+from legplan.dyn.replan import ReplanParams
 from legplan.solve.auglag import ALParams
 from legplan.solve.hinged import HingedParams
 from legplan.stepplan.params import StepPlanParams
 from legplan.stepseq.generate import GenerateParams
 
 PARAMETER_CLASSES = [GenerateParams, StepPlanParams, StepBaselineParams, NavParams, NavBaselineParams,
-                     TebParams, NavRunParams, DynParams, CostWeights, ALParams, HingedParams, SimParams]
+                     TebParams, NavRunParams, DynParams, CostWeights, ALParams, HingedParams, SimParams, ReplanParams]
 
 
 @dataclass(frozen=True)

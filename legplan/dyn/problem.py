@@ -186,7 +186,8 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         problem.range_times = np.union1d(problem.range_times, range_excess_times(problem, guess_values, -near_range))
     if timing is not None:
         problem.variables.append(timing.variable(durations))
-    context = BuildContext(problem, params, sample_times(form, params))
+    until = getattr(task, "sample_until", None)  # a replan's window (`legplan.dyn.replan`): no samples after it
+    context = BuildContext(problem, params, _window(sample_times(form, params), until), until=until)
     problem.constraints = declared_constraints(context)
     problem.costs = cost_blocks(form, terrain, model, params.costs, timing)
     if hasattr(task, "constrain"):  # its measured start state beyond what `Formulation.variables` fixes
@@ -208,13 +209,23 @@ class BuildContext:
     foot: object = None
     swing_times: np.ndarray | None = None
     range_times: np.ndarray | None = None
+    until: float | None = None
 
     def for_leg(self, leg: int) -> BuildContext:
         foot = self.problem.form.feet[leg]
-        swing_t = _swing_times(foot, self.params.swing_dt)
+        swing_t = _window(_swing_times(foot, self.params.swing_dt), self.until)
         rom_t = np.union1d(np.union1d(self.times["range"], swing_t),  # swing feet move fastest: also between
-                           self.problem.range_times)  # the dt_range points
+                           _window(self.problem.range_times, self.until))  # the dt_range points
         return replace(self, leg=leg, foot=foot, swing_times=swing_t, range_times=rom_t)
+
+
+def _window(times, until: float | None):
+    """Sample times (an array, or a dict of arrays) up to `until` (s; None: all)."""
+    if until is None:
+        return times
+    if isinstance(times, dict):
+        return {name: _window(t, until) for name, t in times.items()}
+    return times[times <= until + 1e-9]
 
 
 CONSTRAINTS: dict[str, tuple[bool, Callable[[BuildContext], list[Constraint]]]] = {}

@@ -15,9 +15,31 @@ position (`AIRBORNE_HOLD`, zero force, off the terrain constraint), then the res
 formulation's feet start in stance.
 
 The guess is the previous solution shifted in time (`ShiftedInit`): every node of the new splines
-takes the previous splines' value and rate at its own time t + τ. It solves a nearby problem, so the
-planner solves from it in one stage (`near_solution`, `legplan.dyn.planner.schedule`), then the range
-of motion stages a converged plan gets.
+takes the previous splines' value and rate at its own time t + τ, so after the phase holding t the
+new splines are the previous ones.
+
+What the measured state itself violates is not the replan's to undo at once: a foot outside its
+range-of-motion box at t (tracking error, a push) may stay outside by that excess, shrinking
+linearly to none over `ReplanParams.settle`; what is left of a swing at t has no swing-height rows.
+
+Optional receding horizon (`ReplanParams.horizon`, off by default: freezing the tail leaves the
+free part less room and the solve converges no faster), model predictive control with a terminal
+constraint: the feet move only within the first h seconds. Every foothold touched down at or after h (with the
+forces of its stance) and every swing apex at or after h keep the shifted previous value
+(`frozen_tail`), and so does the base from the first knot at or after the last time a free foot
+node reaches (a foothold until the end of its stance and the apex of its next swing), `Tail.until`.
+The base state there is the previous plan's (the terminal constraint), and what follows is the
+previous plan itself, which was feasible. The constraints are sampled only up to `Tail.until`:
+after it every sample reads frozen nodes alone.
+
+One solve, no stages: the constraints alone (`DynParams.projection_solver`, "projection") or the
+costs under them (`warm_solver`, "costs") from the shifted guess, capped at
+`ReplanParams.max_iterations` LM iterations. A replan succeeds when every constraint row it
+samples (in its window, with the relaxations above) is within the solver's `violation_tolerance`
+(CONVERGED). What it does not do, and the
+planner does: the range-of-motion exchange stages and the fallback stages from the heuristic guess;
+the independent check of a whole plan (`legplan.validate`) runs on `dyn replan`'s output, and in
+the simulator the execution judges it.
 """
 
 from __future__ import annotations
@@ -27,12 +49,15 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from legplan.dyn.costs import CostWeights
 from legplan.dyn.euler import rotation, world_rates
 from legplan.dyn.formulation import Formulation, Pose
 from legplan.dyn.gait import Gait
-from legplan.dyn.planner import PlanResult, plan
+from legplan.dyn.planner import PlanResult, StageOutcome, sample_solution
+from legplan.dyn.problem import build_problem
 from legplan.dyn.settings import DynParams
-from legplan.solve.auglag import Constraint
+from legplan.parameters import Parameters, param
+from legplan.solve.auglag import Constraint, solve_augmented_lagrangian
 from legplan.solve.lm import Status
 
 AIRBORNE_HOLD = 0.02
@@ -41,6 +66,72 @@ of its swing (at most half of what is left of the current phase)."""
 SHORT_FIRST = 0.3  # share of dt: a shorter first base polynomial of a replan is merged into the next
 PHASE_END = 1e-3  # s: a phase with less than this left at the replan time is taken as over
 NODE_INSIDE = 1e-9  # share of a segment: where a node's value and rate are read from the previous splines
+EPS = 1e-9  # s: times closer than this are equal
+
+
+@dataclass(frozen=True)
+class ReplanParams(Parameters):
+    """Settings of one replan (module docstring)."""
+
+    what = "replan"
+
+    horizon: float | None = param(None, "(0, inf)", doc=(
+        "s after the measured state within which footholds and swings move; the base moves until "
+        "their stances end, after that the previous plan is kept (`frozen_tail`, a terminal "
+        "constraint); None: the whole rest moves"))
+    max_iterations: int = param(25, "[1, 10000]", doc="LM iterations of a replan, at most")
+    track_unconverged: bool = param(True, (False, True), doc=(
+        "closed loop (`legplan.sim.replanning`): the controller tracks a replan that ran out of "
+        "iterations or stalled too (it starts from the measured state, the last plan does not); "
+        "False: only converged ones"))
+    settle: float = param(0.2, "(0, inf)", doc=(
+        "s: a measured foot outside its range-of-motion box (tracking error, a push) may stay "
+        "outside by its measured excess, shrinking linearly to none over this time"))
+
+
+@dataclass(frozen=True)
+class Tail:
+    """What a replan keeps of the previous plan (`frozen_tail`): per base, foot and force node
+    whether it is frozen, and `until`, the last time (s) a free node reaches (None: no tail)."""
+
+    until: float | None
+    base: np.ndarray
+    feet: np.ndarray
+    forces: np.ndarray
+
+
+def frozen_tail(form: Formulation, horizon: float | None) -> Tail:
+    """The nodes a replan keeps (module docstring): every foothold touched down at or after
+    `horizon` with its stance's forces, every swing apex at or after it, and the base from the first
+    knot at or after the last time a free foot node reaches (a foothold the apex of its next swing
+    and the end of its stance, a swing apex the swing's end), so that the free base can carry the
+    free feet's stances. None of it when that knot is the last."""
+    base = np.zeros(form.base.nodes, bool)
+    feet = np.zeros(form.motion_nodes, bool)
+    forces = np.zeros(form.force_nodes, bool)
+    if horizon is None:
+        return Tail(None, base, feet, forces)
+    reach = float(horizon)
+    for foot in form.feet:
+        stances = [p for p in foot.phases if p.stance]
+        swings = [p for p in foot.phases if not p.stance]
+        for k, (node, phase, ids) in enumerate(zip(foot.stance_nodes, stances, foot.force_nodes)):
+            if phase.t0 >= horizon - EPS:
+                feet[node] = True
+                forces[ids] = True
+            else:
+                apex = 0.5 * (swings[k].t0 + swings[k].t1) if k < len(swings) else form.duration
+                reach = max(reach, apex, phase.t1)
+        for node, phase in zip(foot.swing_nodes, swings):
+            if 0.5 * (phase.t0 + phase.t1) >= horizon - EPS:
+                feet[node] = True
+            else:
+                reach = max(reach, phase.t1)
+    k = int(np.searchsorted(form.knots, reach - EPS))
+    if k >= form.knots.size - 1:
+        return Tail(None, np.zeros_like(base), np.zeros_like(feet), np.zeros_like(forces))
+    base[k:] = True
+    return Tail(float(form.knots[k]), base, feet, forces)
 
 
 @dataclass(frozen=True)
@@ -135,7 +226,15 @@ class ReplanTask:
     state: MeasuredState
     gait_rest: Gait
     airborne: np.ndarray
+    horizon: float | None = None
+    settle: float = ReplanParams.settle
     strides: int = 0
+    tail: Tail | None = None  # set by `setup`
+
+    @property
+    def sample_until(self) -> float | None:
+        """The last constraint sample time (`build_problem`): where the free nodes stop reaching."""
+        return None if self.tail is None else self.tail.until
 
     @property
     def gait(self) -> str:
@@ -164,6 +263,7 @@ class ReplanTask:
         form = Formulation(self.gait_rest, params.dt, self.knots(params), aligned=params.phase_knots,
                            unloaded_polynomials=params.unloaded_polynomials,
                            unloaded_dt=params.unloaded_dt)
+        self.tail = frozen_tail(form, self.horizon)
         start, _, _ = self.com_state()
         return form, start, self.previous.goal_pose(), self.state.feet_pos.copy()
 
@@ -181,11 +281,16 @@ class ReplanTask:
 
     def constrain(self, problem) -> None:
         """The measured velocities on the first base node; a foot in the air held where it is, with
-        zero force, and its first stance node off the terrain constraint."""
+        zero force, its first stance node off the terrain constraint and the rest of its swing free
+        of the swing-height rows (what is left of a swing need not rise); the tail frozen."""
         _, velocity, rates = self.com_state()
         blocks = {v.name: v for v in problem.variables}
         blocks["base_lin"].value.reshape(-1, 2, 3)[0, 1] = velocity
         blocks["base_ang"].value.reshape(-1, 2, 3)[0, 1] = rates
+        if self.tail is not None:
+            for name, frozen in (("base_lin", self.tail.base), ("base_ang", self.tail.base),
+                                 ("feet", self.tail.feet), ("forces", self.tail.forces)):
+                blocks[name].fixed.reshape(-1, 2, 3)[frozen] = True
         feet = blocks["feet"]
         forces = blocks["forces"]
         for leg in np.flatnonzero(self.airborne):
@@ -202,6 +307,36 @@ class ReplanTask:
             lower, upper = c.lower.copy(), c.upper.copy()
             lower[0], upper[0] = -np.inf, np.inf  # the first stance node, in the air
             problem.constraints[on_terrain[leg]] = Constraint(c.block, lower, upper, c.name, c.scale)
+        self._settle_range(problem)
+        heights = [i for i, c in enumerate(problem.constraints) if c.name == "swing_height"]
+        if heights and self.airborne.any():
+            c = problem.constraints[heights[0]]
+            lower = c.lower.copy()
+            first = np.cumsum([0] + [2 * len(foot.swing_nodes) for foot in problem.form.feet])
+            for leg in np.flatnonzero(self.airborne):  # 2 rows per swing, feet in order
+                lower[first[leg]:first[leg] + 2] = -np.inf
+            problem.constraints[heights[0]] = Constraint(c.block, lower, c.upper, c.name, c.scale)
+
+
+    def _settle_range(self, problem) -> None:
+        """Widen each foot's range-of-motion box by the measured state's excess over it at time 0
+        (Rᵀ(p_i − c) − p̄_i of the measured base and feet, `RangeOfMotionBlock`'s rows), shrinking
+        linearly to none at `settle`: the measured state is no plan to be made feasible, the plan
+        leads the feet back into their boxes."""
+        pose, _, _ = self.com_state()
+        turn = rotation(pose.euler[None])[0]
+        offsets = (self.state.feet_pos - pose.position) @ turn - problem.model.nominal_feet
+        boxes = [i for i, c in enumerate(problem.constraints) if c.name == "range_of_motion"]
+        for leg, i in enumerate(boxes):  # one per leg, in leg order
+            c = problem.constraints[i]
+            if not c.block.times.size or c.block.times[0] > EPS:
+                continue
+            excess = np.maximum(np.abs(offsets[leg]) - c.upper[:3], 0.0)
+            if not excess.any():
+                continue
+            share = np.clip(1.0 - c.block.times / self.settle, 0.0, None)
+            widen = (share[:, None] * excess[None]).reshape(-1)
+            problem.constraints[i] = Constraint(c.block, c.lower - widen, c.upper + widen, c.name, c.scale)
 
 
 def euler_rates(euler: np.ndarray, omega: np.ndarray) -> np.ndarray:
@@ -286,29 +421,44 @@ class ReplanResult:
     def iterations(self) -> int:
         return int(self.plan.solve.iterations)
 
+    @property
+    def violation(self) -> float:
+        """The largest constraint violation of the replan's rows (in their own units)."""
+        return float(self.plan.solve.max_violation)
+
     def record(self) -> dict:
         return {**{f"state_{k}": v for k, v in self.state.record().items()}, "iterations": self.iterations,
                 "cpu_seconds": self.cpu_seconds, "wall_seconds": self.wall_seconds, "success": self.success,
-                "status": self.status.name.lower()}
+                "violation": self.violation, "status": self.status.name.lower()}
 
 
 def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain, params: DynParams = DynParams(),
-           warm_stage: str = "projection") -> ReplanResult:
+           warm_stage: str = "projection", settings: ReplanParams = ReplanParams()) -> ReplanResult:
     """Plan the rest of `previous` from `state` (module docstring), warm-started from `previous`
-    shifted to `state.t`. The remaining phases keep their durations (`optimize_phases` is off).
-    `warm_stage` is `DynParams.warm_stage` for the shifted guess: "projection" (default) solves the
-    constraints alone from it — the shifted solution already minimizes the costs, the measured state
-    only needs it made feasible again; "costs" solves the costs under the constraints too."""
+    shifted to `state.t`, moving it within `settings.horizon`. The remaining phases keep their
+    durations (`optimize_phases` is off). `warm_stage` "projection" (default) solves the constraints
+    alone from the shifted guess — it already minimizes the costs, the measured state only needs it
+    made feasible again; "costs" solves the costs under the constraints too (`warm_solver`)."""
     if isinstance(previous, PlanResult):
         previous = Previous.from_plan(previous)
     if state.feet_pos.shape[0] != previous.form.legs:
         raise ValueError(f"measured state: {state.feet_pos.shape[0]} feet, the plan has {previous.form.legs}")
+    if warm_stage not in ("projection", "costs"):
+        raise ValueError(f"warm_stage must be 'projection' or 'costs', got {warm_stage!r}")
     gait_rest, airborne = remaining_gait(previous.form.gait, state.t)
-    task = ReplanTask(previous, state, gait_rest, airborne)
+    task = ReplanTask(previous, state, gait_rest, airborne, settings.horizon, settings.settle)
+    costs = warm_stage == "costs"
+    solver = params.warm_solver if costs else params.projection_solver
+    stage_params = replace(params, optimize_phases=False, costs=params.costs if costs else CostWeights())
     cpu, wall = time.process_time(), time.perf_counter()
-    result = plan(task, model, terrain, replace(params, optimize_phases=False, warm_stage=warm_stage),
-                  ShiftedInit(previous, state.t))
+    problem = build_problem(task, model, terrain, stage_params, ShiftedInit(previous, state.t))
+    setup = time.perf_counter() - wall
+    solved = solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints,
+                                        replace(solver, max_iterations=settings.max_iterations))
+    samples = sample_solution(problem.form, solved.values, com_offset=problem.com_offset)
     if airborne.any():  # the hold of a foot in the air is no contact (zero force, off the terrain)
-        hold = result.samples["t"] < gait_rest.durations[0] - 1e-9
-        result.samples["contact"][np.ix_(hold, airborne)] = False
+        hold = samples["t"] < gait_rest.durations[0] - 1e-9
+        samples["contact"][np.ix_(hold, airborne)] = False
+    result = PlanResult(problem, [StageOutcome(warm_stage, solved.status, solved, problem, setup)], solved, samples,
+                        setup)
     return ReplanResult(state, result, time.process_time() - cpu, time.perf_counter() - wall)

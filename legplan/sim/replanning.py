@@ -3,12 +3,17 @@
 
     replanner = Replanner(Previous.from_record(task, model.com_offset), model, terrain, dyn_params, period=0.3)
     simulate(samples, robot, terrain_map, params, goal, replanner=replanner)
-    replanner.columns()        # one row per replan: time, measured state, iterations, CPU s, success
+    replanner.columns()        # one row per replan: time, measured state, iterations, CPU s, violation, success
 
 `legplan.sim.run.simulate` asks `due(t)` every control tick and, when due, calls the replanner with
-the simulated state; a converged replan (`legplan.dyn.replan.replan`) becomes the reference (its
-samples on the plan's clock) and the plan later replans start from; a failed one is recorded and the
-controller keeps the last good reference.
+the simulated state. The simulation waits for the replan (no latency: the new plan holds from the
+tick it was measured at); each replan's CPU seconds are recorded so that its latency shows. A
+converged replan (`legplan.dyn.replan.replan`) becomes the reference (its
+samples on the plan's clock) and the plan later replans start from. With
+`ReplanParams.track_unconverged` (default) so does one that ran out of iterations or stalled: it
+starts from the measured state, where the last reference starts from a state the robot has left (a
+push); only a numerical failure keeps the last reference. Every replan's status is recorded
+(`success` is convergence).
 """
 
 from __future__ import annotations
@@ -16,8 +21,9 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from legplan.dyn.replan import PHASE_END, MeasuredState, Previous, replan
+from legplan.dyn.replan import PHASE_END, MeasuredState, Previous, ReplanParams, replan
 from legplan.sim.run import REPLAN_UNITS
+from legplan.solve.lm import Status
 
 LAST_REPLAN = 0.3  # s: no replan starts closer than this to the plan's end (the closing Stand)
 
@@ -25,8 +31,10 @@ LAST_REPLAN = 0.3  # s: no replan starts closer than this to the plan's end (the
 class Replanner:
     """Replans every `period` s of the plan's clock (the first one `period` after the start)."""
 
-    def __init__(self, previous: Previous, model, terrain, params, period: float):
+    def __init__(self, previous: Previous, model, terrain, params, period: float,
+                 settings: ReplanParams = ReplanParams()):
         self.previous, self.model, self.terrain, self.params = previous, model, terrain, params
+        self.settings = settings
         self.period = float(period)
         self.next = self.period
         self.rows: list[dict] = []
@@ -43,12 +51,13 @@ class Replanner:
         shifted = MeasuredState(offset, state.base_pos, state.base_euler, state.base_vel, state.base_ang_vel,
                                 state.feet_pos)
         try:
-            out = replan(self.previous, shifted, self.model, self.terrain, self.params)
+            out = replan(self.previous, shifted, self.model, self.terrain, self.params, settings=self.settings)
         except ValueError:  # outside the plan
             return None
         self.rows.append({**state.record(), "iterations": out.iterations, "cpu_seconds": out.cpu_seconds,
-                          "success": out.success})
-        if not out.success:
+                          "violation": out.violation, "success": out.success})
+        if not (out.success or self.settings.track_unconverged and out.status in (Status.MAX_ITERATIONS,
+                                                                                   Status.STALLED)):
             return None
         self.previous = Previous.from_plan(out.plan)
         self._origin = t

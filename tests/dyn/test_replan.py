@@ -7,7 +7,10 @@ from legplan.dyn.euler import world_rates
 from legplan.dyn.gait import make_gait
 from legplan.dyn.planner import plan
 from legplan.dyn.problem import DynParams, DynTask
-from legplan.dyn.replan import MeasuredState, Previous, ShiftedInit, euler_rates, remaining_gait, replan
+from dataclasses import replace
+
+from legplan.dyn.replan import (MeasuredState, Previous, ReplanParams, ShiftedInit, euler_rates, frozen_tail,
+                                remaining_gait, replan)
 
 TASK = DynTask((0.0, 0.0, 0.0), (0.5, 0.1, 0.1), "walk", 2, 3.0)
 
@@ -116,3 +119,85 @@ def test_a_flying_trot_replans_on_its_short_polynomials(anymal, flat):
     check = check_trajectory(out.plan.samples, anymal, terrain_map, load_robot("anymal"),
                              node_times=out.plan.problem.form.knots)
     assert check.passed["newton_euler_force"] and check.passed["newton_euler_torque"], check.failures()
+
+
+def _state_in_swing(planned, share):
+    """The plan's own state `share` of the way through the first phase after the start with a foot in
+    the air."""
+    gait = planned.problem.form.gait
+    ends = np.concatenate([[0.0], np.cumsum(gait.durations)])
+    phase = next(k for k in range(1, len(gait.durations)) if not gait.stance[k].all())
+    return MeasuredState.from_samples(planned.samples, ends[phase] + share * gait.durations[phase])
+
+
+def test_frozen_tail_is_the_previous_plan(planned, anymal, flat):
+    """With a horizon, every node after it keeps the previous plan's value: the replanned samples
+    after `Tail.until` are the previous plan's, and the free part starts from the measured state."""
+    state = MeasuredState.from_samples(planned.samples, 0.6)
+    pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + [0.0, 0.2, 0.0],
+                           state.base_ang_vel, state.feet_pos)
+    out = replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(horizon=0.4))
+    assert out.success, out.plan.reason
+    tail = out.plan.problem.task.tail
+    assert tail.until is not None and 0.4 <= tail.until < TASK.duration - state.t
+    assert tail.base.any() and tail.feet.any() and not tail.base[0]
+    s = out.plan.samples
+    before = _previous_at(planned, out.plan, state.t)
+    after = s["t"] > tail.until + 0.01
+    assert after.sum() > 10
+    assert np.abs(s["base_pos"][after] - before["base_pos"][after]).max() < 1e-3
+    assert np.abs(s["feet_pos"][after] - before["feet_pos"][after]).max() < 1e-3
+    assert np.allclose(s["base_vel"][0], pushed.base_vel, atol=1e-9)
+    moved = (s["t"] > 0.05) & (s["t"] < tail.until)
+    assert np.abs(s["base_pos"][moved] - before["base_pos"][moved]).max() > 1e-3  # the push changed it
+    rows = {c.name: c.block.times for c in out.plan.problem.constraints if c.name == "range_of_motion"}
+    assert rows["range_of_motion"].max() <= tail.until + 1e-9  # no samples read frozen nodes alone
+
+
+def test_frozen_tail_without_horizon_is_empty(planned):
+    form = planned.problem.form
+    assert frozen_tail(form, None).until is None
+    assert frozen_tail(form, 10 * form.duration).until is None
+    tail = frozen_tail(form, 0.5)
+    knot = form.knots[np.argmax(tail.base)]
+    assert tail.until == pytest.approx(knot) and tail.base[form.knots >= knot - 1e-9].all()
+    assert not tail.base[form.knots < knot - 1e-9].any()
+
+
+@pytest.fixture(scope="module")
+def planned_apex(anymal, flat):
+    """The walk with swing apexes 5 cm above both footholds (`DynParams.swing_height_min`)."""
+    result = plan(TASK, anymal, flat, replace(DynParams(), swing_height_min=0.05))
+    assert result.success
+    return result
+
+
+def test_late_in_a_swing_the_rest_need_not_rise(planned_apex, anymal, flat):
+    """A foot near the end of its swing: what is left of it cannot rise 5 cm above both footholds, so
+    the replan drops that swing's height rows (and keeps the others)."""
+    params = replace(DynParams(), swing_height_min=0.05)
+    state = _state_in_swing(planned_apex, 0.85)
+    out = replan(planned_apex, state, anymal, flat, params)
+    assert out.success, out.plan.reason
+    heights = next(c for c in out.plan.problem.constraints if c.name == "swing_height")
+    dropped = ~np.isfinite(heights.lower)
+    assert 0 < dropped.sum() == 2 * int(remaining_gait(planned_apex.problem.form.gait, state.t)[1].sum())
+    assert np.all(heights.lower[~dropped] == 0.05)
+
+
+def test_a_measured_foot_outside_its_box_settles_back(planned, anymal, flat):
+    """The base measured 6 cm sideways of the plan puts the stance feet outside their range-of-motion
+    boxes: the replan's boxes at time 0 widen by that excess, shrinking to none at `settle`, and the
+    plan brings the feet back inside by then."""
+    state = MeasuredState.from_samples(planned.samples, 0.9)
+    moved = MeasuredState(state.t, state.base_pos + [0.0, 0.06, 0.0], state.base_euler, state.base_vel,
+                          state.base_ang_vel, state.feet_pos)
+    out = replan(planned, moved, anymal, flat, DynParams(), settings=ReplanParams(settle=0.25))
+    assert out.success, out.plan.reason
+    boxes = [c for c in out.plan.problem.constraints if c.name == "range_of_motion"]
+    widened = [c for c in boxes if c.upper[0] > c.upper[-1] + 1e-9]
+    assert widened  # some foot was outside at time 0
+    for c in widened:
+        late = c.block.times >= 0.25
+        assert np.allclose(c.upper.reshape(-1, 3)[late], c.upper[-3:])  # the plain box after `settle`
+        assert np.all(np.diff(c.upper.reshape(-1, 3)[~late], axis=0) <= 1e-12)  # shrinking

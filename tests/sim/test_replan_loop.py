@@ -1,8 +1,11 @@
 """`dyn simulate --replan PERIOD`: the closed loop replans from the simulated state every PERIOD and
 records every replan in sim.h5 (issue 39 item 3)."""
 
+import json
+
 import h5py
 import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from legplan.cli.main import cli
@@ -37,3 +40,63 @@ def json_replan(path):
     import json
     with h5py.File(path) as handle:
         return json.loads(handle.attrs["params"])["replan"]
+
+
+
+@pytest.mark.xfail(strict=True, reason=(
+    "on the formulation whose trots hold the dynamics between the knots (short polynomials in the "
+    "support pairs) the replans after this push mostly fail to converge and the closed loop falls; "
+    "it survived on the knot-only formulation (BENCHMARKS replan)"))
+def test_closed_loop_survives_a_push_the_open_loop_falls_under(flat, trot):
+    """The 1 m flat trot pushed sideways at half its duration (16 N s): executed as planned it
+    falls; replanned every 0.25 s from the simulated state it reaches the goal."""
+    from legplan.dyn.artefact import read_tasks
+    from legplan.dyn.replan_io import recorded_params
+    from legplan.sim.items import SimWorker, sim_items, simulate_item
+    from legplan.sim.run import SimParams
+
+    attrs, tasks = read_tasks(trot)
+    item = sim_items(tasks)[0]
+    params = SimParams(pushes=((1.2, 0.0, 160.0, 0.1),))
+    dyn = recorded_params(json.loads(attrs["params"]))
+    opened = simulate_item(SimWorker("anymal", str(flat[1]), params), item)
+    closed = simulate_item(SimWorker("anymal", str(flat[1]), params, replan=(0.25, dyn)), item)
+    assert not opened["success"] and opened["reason"].startswith("fell"), opened["reason"]
+    assert closed["success"], closed["reason"]
+    replans = closed["replans"]
+    assert replans["success"].size >= 7 and replans["success"].mean() > 0.5
+    assert np.all(replans["cpu_seconds"] > 0) and np.all(replans["violation"] >= 0)
+
+
+def test_an_unconverged_replan_is_tracked_only_when_asked(flat, trot):
+    """A replan cut at one LM iteration (MAX_ITERATIONS) from a pushed state: recorded as not
+    converged either way; handed to the controller with `track_unconverged`, not without."""
+    import pinocchio as pin
+
+    from legplan.dyn.artefact import read_tasks
+    from legplan.dyn.replan import Previous, ReplanParams
+    from legplan.dyn.replan_io import recorded_params
+    from legplan.dyn.tasks import centroidal_model
+    from legplan.dyn.terrain import TerrainModel
+    from legplan.robots import load_robot
+    from legplan.sim.replanning import Replanner
+
+    attrs, tasks = read_tasks(trot)
+    params = recorded_params(json.loads(attrs["params"]))
+    model = centroidal_model(load_robot("anymal"), params)
+    samples = tasks[0]["samples"]
+    k = int(np.argmin(np.abs(samples["t"] - 0.5)))
+    rot = pin.rpy.rpyToMatrix(*samples["base_euler"][k])
+    state = (samples["base_pos"][k], rot, samples["base_vel"][k] + [0.0, 0.4, 0.0], samples["base_ang_vel"][k],
+             samples["feet_pos"][k])
+    handed = {}
+    for track in (True, False):
+        settings = ReplanParams(max_iterations=1, track_unconverged=track)
+        replanner = Replanner(Previous.from_record(tasks[0], model.com_offset, params.dt), model,
+                              TerrainModel(flat[0]), params, 0.5, settings)
+        handed[track] = replanner(float(samples["t"][k]), *state)
+        assert replanner.columns()["success"].tolist() == [False]
+        assert replanner.columns()["iterations"].tolist() == [1]
+    assert handed[False] is None
+    assert np.allclose(handed[True]["base_vel"][0], state[2], atol=1e-9)
+    assert handed[True]["t"][0] == samples["t"][k]
