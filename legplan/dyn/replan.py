@@ -80,10 +80,11 @@ class ReplanParams(Parameters):
         "their stances end, after that the previous plan is kept (`frozen_tail`, a terminal "
         "constraint); None: the whole rest moves"))
     max_iterations: int = param(25, "[1, 10000]", doc="LM iterations of a replan, at most")
-    track_unconverged: bool = param(True, (False, True), doc=(
+    track_unconverged: bool = param(False, (False, True), doc=(
         "closed loop (`legplan.sim.replanning`): the controller tracks a replan that ran out of "
         "iterations or stalled too (it starts from the measured state, the last plan does not); "
-        "False: only converged ones"))
+        "False: only converged ones (a trot whose replan stalls keeps the last converged plan, where "
+        "tracking the stalled one leads the next replans further off)"))
     settle: float = param(0.2, "(0, inf)", doc=(
         "s: a measured foot outside its range-of-motion box (tracking error, a push) may stay "
         "outside by its measured excess, shrinking linearly to none over this time"))

@@ -10,7 +10,7 @@ the simulated state. The simulation waits for the replan (no latency: the new pl
 tick it was measured at); each replan's CPU seconds are recorded so that its latency shows. A
 converged replan (`legplan.dyn.replan.replan`) becomes the reference (its
 samples on the plan's clock) and the plan later replans start from. With
-`ReplanParams.track_unconverged` (default) so does one that ran out of iterations or stalled: it
+`ReplanParams.track_unconverged` so does one that ran out of iterations or stalled: it
 starts from the measured state, where the last reference starts from a state the robot has left (a
 push); only a numerical failure keeps the last reference. Every replan's status is recorded
 (`success` is convergence).

@@ -5,7 +5,6 @@ import json
 
 import h5py
 import numpy as np
-import pytest
 from click.testing import CliRunner
 
 from legplan.cli.main import cli
@@ -43,10 +42,6 @@ def json_replan(path):
 
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "on the formulation whose trots hold the dynamics between the knots (short polynomials in the "
-    "support pairs) the replans after this push mostly fail to converge and the closed loop falls; "
-    "it survived on the knot-only formulation (BENCHMARKS replan)"))
 def test_closed_loop_survives_a_push_the_open_loop_falls_under(flat, trot):
     """The 1 m flat trot pushed sideways at half its duration (16 N s): executed as planned it
     falls; replanned every 0.25 s from the simulated state it reaches the goal."""
