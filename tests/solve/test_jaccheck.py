@@ -34,3 +34,37 @@ def test_plain_function_form():
     assert check_jacobian(fn, np.array([1.5, 0.2])).max_rel_error < 1e-7
     np.testing.assert_allclose(numeric_jacobian(lambda x: fn(x)[0], [1.5, 0.2]), fn(np.array([1.5, 0.2]))[1],
                                rtol=1e-8)
+
+
+def _banded(missing=False):
+    """A chain r_i = x_i² x_{i+1} (bidiagonal Jacobian); `missing` drops ∂r_2/∂x_3 from the analytic one."""
+    def fn(x):
+        r = x[:-1] ** 2 * x[1:]
+        jac = sp.lil_matrix((x.size - 1, x.size))
+        for i in range(x.size - 1):
+            jac[i, i] = 2 * x[i] * x[i + 1]
+            if not (missing and i == 2):
+                jac[i, i + 1] = x[i] ** 2
+        return r, jac.tocsr()
+    return fn
+
+
+def test_grouped_columns_share_no_row_and_give_the_same_jacobian():
+    from legplan.solve.jaccheck import column_groups
+
+    fn, x = _banded(), np.linspace(0.5, 2.0, 9)
+    pattern = fn(x)[1].toarray() != 0
+    groups = column_groups(pattern)
+    assert len(groups) == 2 and sorted(np.concatenate(groups)) == list(range(9))
+    assert all(pattern[:, g].sum(axis=1).max() <= 1 for g in groups)
+    np.testing.assert_allclose(numeric_jacobian(lambda v: fn(v)[0], x, pattern=pattern),
+                               numeric_jacobian(lambda v: fn(v)[0], x), rtol=1e-9, atol=1e-12)
+
+
+def test_a_derivative_missing_from_the_pattern_still_fails_the_check():
+    """Grouping by the analytic pattern must not hide an entry the analytic Jacobian lacks."""
+    fn, x = _banded(missing=True), np.linspace(0.5, 2.0, 9)
+    block = FunctionBlock(["x"], 8, lambda v: (fn(v)[0], [fn(v)[1]]))
+    report = check_jacobian(block, [x])
+    assert not report.ok() and report.worst[1] == 2
+    assert report.max_abs_error > 0.5 * x[2] ** 2
