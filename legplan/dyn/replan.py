@@ -149,9 +149,10 @@ class MeasuredState:
     feet_pos: np.ndarray
 
     def __post_init__(self):
+        # copies: a simulator hands views of its live state (MuJoCo's qvel), which move on after the replan
         for name in ("base_pos", "base_euler", "base_vel", "base_ang_vel"):
-            object.__setattr__(self, name, np.asarray(getattr(self, name), float).reshape(3))
-        object.__setattr__(self, "feet_pos", np.asarray(self.feet_pos, float).reshape(-1, 3))
+            object.__setattr__(self, name, np.array(getattr(self, name), float).reshape(3))
+        object.__setattr__(self, "feet_pos", np.array(self.feet_pos, float).reshape(-1, 3))
         object.__setattr__(self, "t", float(self.t))
 
     @classmethod
@@ -270,12 +271,16 @@ class ReplanTask:
 
     def knots(self, params: DynParams) -> np.ndarray | None:
         """The previous plan's base knots after t, shifted to start at 0 (a first polynomial shorter
-        than `SHORT_FIRST` of `dt` merged into the next): the shifted guess is then the previous base
-        spline itself after its first polynomial. None (the formulation's own) with `phase_knots`."""
+        than `SHORT_FIRST` of `dt` merged into the next, unless it ends where the feet's contacts
+        change: a cubic across a lift-off into a flight cannot follow the forces there and then −g):
+        the shifted guess is then the previous base spline itself after its first polynomial. None
+        (the formulation's own) with `phase_knots`."""
         if params.phase_knots:
             return None
         later = self.previous.form.knots[self.previous.form.knots > self.state.t] - self.state.t
-        if later.size > 1 and later[0] < SHORT_FIRST * params.dt:
+        boundaries = np.cumsum(self.previous.form.gait.durations) - self.state.t
+        if (later.size > 1 and later[0] < SHORT_FIRST * params.dt
+                and not np.isclose(later[0], boundaries, rtol=0.0, atol=1e-9).any()):
             later = later[1:]
         later[-1] = self.gait_rest.duration
         return np.concatenate([[0.0], later])

@@ -121,6 +121,21 @@ def test_a_flying_trot_replans_on_its_short_polynomials(anymal, flat):
     assert check.passed["newton_euler_force"] and check.passed["newton_euler_torque"], check.failures()
 
 
+
+def test_a_replan_just_before_a_flight_keeps_a_knot_at_the_lift_off(anymal, flat):
+    """A replan 20 ms before a trot's support pair lifts off into a flight: the short first base
+    polynomial is not merged into the next (one cubic cannot follow the pair's forces and then −g
+    through the flight), and the replan from the plan's own state converges."""
+    trot = plan(DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "trot", 2, 2.4), anymal, flat, DynParams())
+    assert trot.success, trot.reason
+    gait = trot.problem.form.gait
+    ends = np.cumsum(gait.durations)
+    lift_off = next(ends[k] for k in range(1, len(ends) - 1) if not gait.stance[k + 1].any())
+    state = MeasuredState.from_samples(trot.samples, lift_off - 0.02)
+    out = replan(trot, state, anymal, flat, DynParams())
+    assert out.success, out.plan.reason
+    assert np.isclose(out.plan.problem.form.knots, lift_off - state.t, rtol=0.0, atol=1e-9).any()
+
 def _state_in_swing(planned, share):
     """The plan's own state `share` of the way through the first phase after the start with a foot in
     the air."""
@@ -201,3 +216,14 @@ def test_a_measured_foot_outside_its_box_settles_back(planned, anymal, flat):
         late = c.block.times >= 0.25
         assert np.allclose(c.upper.reshape(-1, 3)[late], c.upper[-3:])  # the plain box after `settle`
         assert np.all(np.diff(c.upper.reshape(-1, 3)[~late], axis=0) <= 1e-12)  # shrinking
+
+
+def test_measured_state_keeps_its_values_when_the_simulator_moves_on():
+    """A simulator hands views of its live state; the state (and what a replan records of it) is
+    the one at the replan, not whatever the buffers hold later."""
+    qvel, feet = np.array([0.4, 0.0, 0.0, 0.1, 0.2, 0.3]), np.zeros((4, 3))
+    state = MeasuredState(1.0, qvel[:3], np.zeros(3), qvel[:3], qvel[3:], feet)
+    qvel[:] = 0.0
+    feet[:] = 1.0
+    assert state.base_vel[0] == 0.4 and state.base_ang_vel[2] == 0.3 and np.all(state.feet_pos == 0.0)
+    assert state.record()["base_vel"][0] == 0.4
