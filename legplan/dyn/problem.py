@@ -144,10 +144,17 @@ def task_formulation(task: DynTask, params: DynParams, timed: bool = False) -> F
     gait = make_gait(task.gait, task.strides, task.duration)
     moving = params.optimize_phases or timed
     if moving and params.unloaded_polynomials is not None and unloaded_phases(gait).any():
-        return Formulation(gait, params.dt, knots=dense_knots(gait, params.dt, params.unloaded_polynomials,
-                                                              params.unloaded_dt))
-    return Formulation(gait, params.dt, aligned=params.phase_knots, unloaded_polynomials=params.unloaded_polynomials,
-                       unloaded_dt=params.unloaded_dt)
+        return gait_formulation(gait, params, dense_knots(gait, params.dt, params.unloaded_polynomials,
+                                                          params.unloaded_dt))
+    return gait_formulation(gait, params)
+
+
+def gait_formulation(gait, params: DynParams, knots: np.ndarray | None = None) -> Formulation:
+    """The `Formulation` of `gait` under the base-knot settings of `params` (`dt`, `phase_knots`,
+    `unloaded_polynomials`, `unloaded_dt`), or on the given `knots`: the one place a plan's and a
+    replan's layouts read those settings."""
+    return Formulation(gait, params.dt, knots, aligned=params.phase_knots,
+                       unloaded_polynomials=params.unloaded_polynomials, unloaded_dt=params.unloaded_dt)
 
 
 def sets_timing(initializer) -> bool:

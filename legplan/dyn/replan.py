@@ -54,7 +54,7 @@ from legplan.dyn.euler import rotation, world_rates
 from legplan.dyn.formulation import Formulation, Pose
 from legplan.dyn.gait import Gait
 from legplan.dyn.planner import PlanResult, StageOutcome, sample_solution
-from legplan.dyn.problem import build_problem
+from legplan.dyn.problem import build_problem, gait_formulation
 from legplan.dyn.settings import DynParams
 from legplan.parameters import Parameters, param
 from legplan.solve.auglag import Constraint, solve_augmented_lagrangian
@@ -262,9 +262,7 @@ class ReplanTask:
                 euler_rates(s.base_euler, s.base_ang_vel))
 
     def setup(self, model, terrain, params: DynParams):
-        form = Formulation(self.gait_rest, params.dt, self.knots(params), aligned=params.phase_knots,
-                           unloaded_polynomials=params.unloaded_polynomials,
-                           unloaded_dt=params.unloaded_dt)
+        form = gait_formulation(self.gait_rest, params, self.knots(params))
         self.tail = frozen_tail(form, self.horizon)
         start, _, _ = self.com_state()
         return form, start, self.previous.goal_pose(), self.state.feet_pos.copy()
