@@ -326,21 +326,36 @@ class ReplanTask:
         """Widen each foot's range-of-motion box by the measured state's excess over it at time 0
         (Rᵀ(p_i − c) − p̄_i of the measured base and feet, `RangeOfMotionBlock`'s rows), shrinking
         linearly to none at `settle`: the measured state is no plan to be made feasible, the plan
-        leads the feet back into their boxes."""
+        leads the feet back into their boxes; and by the displacement of a foothold kept to the end
+        (`_kept_footholds`)."""
         pose, _, _ = self.com_state()
         turn = rotation(pose.euler[None])[0]
         offsets = (self.state.feet_pos - pose.position) @ turn - problem.model.nominal_feet
+        kept = self._kept_footholds()
         boxes = [i for i, c in enumerate(problem.constraints) if c.name == "range_of_motion"]
         for leg, i in enumerate(boxes):  # one per leg, in leg order
             c = problem.constraints[i]
             if not c.block.times.size or c.block.times[0] > EPS:
                 continue
             excess = np.maximum(np.abs(offsets[leg]) - c.upper[:3], 0.0)
-            if not excess.any():
+            if not (excess.any() or kept[leg].any()):
                 continue
             share = np.clip(1.0 - c.block.times / self.settle, 0.0, None)
-            widen = (share[:, None] * excess[None]).reshape(-1)
+            widen = (share[:, None] * excess[None] + kept[leg][None]).reshape(-1)
             problem.constraints[i] = Constraint(c.block, c.lower - widen, c.upper + widen, c.name, c.scale)
+
+    def _kept_footholds(self) -> np.ndarray:
+        """Per leg (legs, 3): how far, in the goal's base frame, the measured foot stands from the
+        previous plan's foothold when it stays down to the end. The base ends at the goal, so that
+        displacement of a foot that does not step again can reach the last samples' boxes: the plan
+        cannot undo it, as it cannot undo a measured foot's excess at t."""
+        out = np.zeros((self.previous.form.legs, 3))
+        turn = rotation(self.previous.goal_pose().euler[None])[0]
+        nodes = self.previous.values["feet"].reshape(-1, 2, 3)
+        for leg in np.flatnonzero(self.gait_rest.stance.all(axis=0) & ~self.airborne):
+            planned = nodes[self.previous.form.feet[leg].stance_nodes[-1], 0]
+            out[leg] = np.abs((self.state.feet_pos[leg] - planned) @ turn)
+        return out
 
 
 def euler_rates(euler: np.ndarray, omega: np.ndarray) -> np.ndarray:

@@ -227,3 +227,25 @@ def test_measured_state_keeps_its_values_when_the_simulator_moves_on():
     feet[:] = 1.0
     assert state.base_vel[0] == 0.4 and state.base_ang_vel[2] == 0.3 and np.all(state.feet_pos == 0.0)
     assert state.record()["base_vel"][0] == 0.4
+
+
+SLIP = 0.14  # m: farther than the walk's last stance leaves the left front foot inside its box at the goal
+
+
+def test_a_foot_standing_to_the_end_off_its_planned_foothold_still_replans(planned, anymal, flat):
+    """After the last swing the goal pins the base's end while a foot that slipped `SLIP` stays where
+    it is: the replan widens that foot's box by the displacement it cannot undo (and no other) and
+    converges; without the widening the last samples' boxes are infeasible (the solve stalls)."""
+    gait = planned.problem.form.gait
+    ends = np.cumsum(gait.durations)
+    last_swing_end = ends[np.flatnonzero(~gait.stance.all(axis=1)).max()]
+    state = MeasuredState.from_samples(planned.samples, 0.5 * (last_swing_end + gait.duration))
+    feet = state.feet_pos.copy()
+    feet[0, 0] += SLIP
+    slipped = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel, state.base_ang_vel, feet)
+    out = replan(planned, slipped, anymal, flat, DynParams())
+    assert out.success, out.plan.reason
+    boxes = [c for c in out.plan.problem.constraints if c.name == "range_of_motion"]
+    nominal = next(c for c in planned.problem.constraints if c.name == "range_of_motion").upper[:3]
+    assert boxes[0].upper[-3] == pytest.approx(nominal[0] + SLIP, abs=0.01)
+    assert all(np.allclose(c.upper[-3:], nominal) for c in boxes[1:])
