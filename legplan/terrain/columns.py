@@ -71,7 +71,7 @@ class ColumnDistance:
 
     def values(self, points) -> np.ndarray:
         """Signed distance (m) at points (n, 3): positive in free space, negative inside terrain."""
-        return self.value_and_gradient(points)[0]
+        return self._evaluate(points, False)[0]
 
     def value_and_gradient(self, points) -> tuple[np.ndarray, np.ndarray]:
         """(values (n,), gradients (n, 3)) of the signed distance at points (n, 3), saturated at `reach`.
@@ -79,26 +79,33 @@ class ColumnDistance:
         The gradient is the unit vector from the nearest point (p − q)/‖p − q‖ outside and its
         negative inside (−∇ of the depth); (0, 0, 1) on the surface itself; 0 where saturated.
         """
+        return self._evaluate(points, True)
+
+    def _evaluate(self, points, gradient: bool):
         p = np.asarray(points, dtype=float).reshape(-1, 3)
         raw = np.rint((p[:, :2] - self._origin) / self.resolution).astype(np.intp)
-        g = np.clip(raw, 0, self._last)
+        g = np.minimum(np.maximum(raw, 0), self._last)
         own = g[:, 1] * self._shape[1] + g[:, 0]
         value = p[:, 2] - self._height[own]  # the own column, straight below (above) the point
-        grad = np.zeros((len(p), 3))
-        grad[:, 2] = 1.0
-        inside = value < 0.0
+        grad = None
+        if gradient:
+            grad = np.zeros((len(p), 3))
+            grad[:, 2] = 1.0
+        # a candidate can beat the own column only if the vertical gap exceeds its horizontal one (which also
+        # says on which side the point is: above its column for the first table, below for the second)
         for side, (rows, table, clear) in enumerate(zip(self._rows, self._tables, self._clear, strict=True)):
-            row = rows[own]
-            # a candidate can beat the own column only if the vertical gap exceeds its horizontal one
-            near = np.flatnonzero((row >= 0) & (inside == side) & (np.abs(value) > clear[own]))
+            near = np.flatnonzero((-value if side else value) > clear[own])
             if near.size:
                 xy = np.minimum(np.maximum(p[near, :2], self._origin), self._far)
-                value[near], grad[near] = _nearest(xy, p[near, 2], table, row[near], value[near], self.resolution)
-                grad[near, :2] *= raw[near] == g[near]  # 0 along a direction in which the point was moved
+                value[near], found = _nearest(xy, p[near, 2], table, rows[own[near]], value[near], self.resolution)
+                if gradient:
+                    grad[near] = found
+                    grad[near, :2] *= raw[near] == g[near]  # 0 along a direction in which the point was moved
         far = value > self.reach
         if far.any():
             value[far] = self.reach
-            grad[far] = 0.0
+            if gradient:
+                grad[far] = 0.0
         return value, grad
 
 def _nearest(xy, z, table, rows, own, r: float):
