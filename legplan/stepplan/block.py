@@ -58,6 +58,9 @@ class SampleConstraints:
         self.checked = np.flatnonzero(~np.isnan(margins))
         self._margins = margins[self.checked]
         self._radii = np.asarray(robot.spheres.radii, float)[self.checked]
+        # a terrain distance at or above margin + radius leaves a collision row at 0; with 1 nm to spare, a
+        # value known only to be above this bound gives the same 0 after rounding (`ColumnDistance.values`)
+        self._threshold = self._margins + self._radii + 1e-9
         self._relaxation(swing_ends, relax_radius)
         self._relaxed_index = np.full(len(self.checked), -1, np.intp)  # position among the relaxed rows, or −1
         self._relaxed_index[self.relaxed_rows] = np.arange(len(self.relaxed_rows))
@@ -153,17 +156,23 @@ class SampleConstraints:
         polygon = self.mode.polygon
         com = self.mode.com_margin - polygon.margins(points.com[:, :2])
         centres = points.spheres[:, self.checked]
-        if jacobians:
-            dist, grad = self.sdf.value_and_gradient(centres.reshape(-1, 3))
-        else:
-            dist = self.sdf.values(centres.reshape(-1, 3))
-        collision = self._margins - (dist.reshape(n, -1) - self._radii)
+        threshold = self._threshold  # distance from which a collision row is inactive (+ a margin for rounding)
         if self.relaxed_spheres.size:
             found = nearest_end(centres[:, self.relaxed_rows], self.relax_ends, jacobians)
             d, unit = found if jacobians else (found, None)
             margin, ramp = swing_foot_margin(d, self.relax_radii, self.mode.clearance + self.headroom, self.epsilon,
                                              self.relax_radius)
-            collision[:, self.relaxed_rows] += margin - self.mode.foot_clearance
+            relaxed = margin - self.mode.foot_clearance
+            threshold = np.broadcast_to(threshold, (n, len(self.checked))).copy()
+            threshold[:, self.relaxed_rows] += relaxed
+        bound = np.broadcast_to(threshold, (n, len(self.checked))).reshape(-1)
+        if jacobians:
+            dist, grad = self.sdf.value_and_gradient(centres.reshape(-1, 3), bound=bound)
+        else:
+            dist = self.sdf.values(centres.reshape(-1, 3), bound=bound)
+        collision = self._margins - (dist.reshape(n, -1) - self._radii)
+        if self.relaxed_spheres.size:
+            collision[:, self.relaxed_rows] += relaxed
         joints = X[:, nx - self.robot.n_joints:]
         limits = np.concatenate([joints, -joints], axis=1) + self._limits
         r = np.concatenate([f, slack, np.maximum(com, 0.0), np.maximum(collision, 0.0), np.maximum(limits, 0.0)],
