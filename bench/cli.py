@@ -52,8 +52,8 @@ iterations per degree and success, and the largest control-point difference (the
 
 Start-up floor: in the same run, the CPU of the interpreter alone (`python -c pass`) and of the
 interpreter importing only the libraries a `dyn plan` cannot do without (`FLOOR`: numpy, scipy.sparse,
-CHOLMOD, pinocchio, h5py, click, PyYAML); the start-up column minus the latter is what legplan's own
-modules and the deferrable imports cost.
+CHOLMOD, pinocchio, h5py, click, PyYAML, after legplan's package init as the command imports them); the
+start-up column minus the latter is what legplan's own modules and the deferrable imports cost.
 
 TOWR's figures are the issue's (TOWR rebuilt on this machine, process CPU, another — idle — day):
 TOWR cannot run here, so they are context for the reader, not a ratio taken in one run.
@@ -172,8 +172,9 @@ for line in sys.stdin:
                       "iterations": [int(d.iterations) for d in plan.degrees], "norm": float(plan.norm),
                       "control_points": np.asarray(plan.control_points).tolist()}), flush=True)
 """
-# Imports only the libraries a `dyn plan` cannot do without (the start-up floor; module docstring).
-FLOOR = "import numpy, scipy.sparse, sksparse.cholmod, pinocchio, h5py, click, yaml"
+# Imports only the libraries a `dyn plan` cannot do without, as legplan imports them (its package init
+# first: it keeps scipy.sparse from importing numpy's unused submodules) — the start-up floor.
+FLOOR = "import legplan, numpy, scipy.sparse, sksparse.cholmod, pinocchio, h5py, click, yaml"
 CONTROL_POINT_TOLERANCE = 1e-9  # largest control-point difference (x units) counted as the same swing
 
 
