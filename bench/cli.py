@@ -46,7 +46,14 @@ k-th of them, spread over the sequence) are planned by one long-lived process pe
 the planner call of `legplan step plan`, `plan_step`, on the tree's own code), item by item in
 alternation, order swapped every item; per item the CPU of the planning call and a digest of its
 result (control points, degree, norm, success), so the table says whether both trees planned the same
-swings bit for bit.
+swings bit for bit; where they did not, whether every swing reached the same degree with the same LM
+iterations per degree and success, and the largest control-point difference (the tolerance is
+`CONTROL_POINT_TOLERANCE`).
+
+Start-up floor: in the same run, the CPU of the interpreter alone (`python -c pass`) and of the
+interpreter importing only the libraries a `dyn plan` cannot do without (`FLOOR`: numpy, scipy.sparse,
+CHOLMOD, pinocchio, h5py, click, PyYAML, after legplan's package init as the command imports them); the
+start-up column minus the latter is what legplan's own modules and the deferrable imports cost.
 
 TOWR's figures are the issue's (TOWR rebuilt on this machine, process CPU, another — idle — day):
 TOWR cannot run here, so they are context for the reader, not a ratio taken in one run.
@@ -69,6 +76,8 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+
+import numpy as np
 
 from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result
 
@@ -159,8 +168,16 @@ for line in sys.stdin:
     cpu = time.process_time() - cpu
     digest = hashlib.sha256(np.ascontiguousarray(plan.control_points).tobytes() + repr(
         (plan.degree, plan.norm, plan.success, plan.reason)).encode()).hexdigest()[:16]
-    print(json.dumps({"cpu": cpu, "success": bool(plan.success), "digest": digest}), flush=True)
+    print(json.dumps({"cpu": cpu, "success": bool(plan.success), "digest": digest, "degree": int(plan.degree),
+                      "iterations": [int(d.iterations) for d in plan.degrees], "norm": float(plan.norm),
+                      "control_points": np.asarray(plan.control_points).tolist()}), flush=True)
 """
+# Imports only the libraries a `dyn plan` cannot do without, as legplan imports them (its package init
+# first: it keeps scipy.sparse from importing numpy's unused submodules), and ends as the console script
+# does (atexit handlers, no module teardown) — the start-up floor.
+FLOOR = ("import atexit, os, legplan, numpy, scipy.sparse, sksparse.cholmod, pinocchio, h5py, click, yaml\n"
+         "atexit._run_exitfuncs()\nos._exit(0)")
+CONTROL_POINT_TOLERANCE = 1e-9  # largest control-point difference (x units) counted as the same swing
 
 
 def child_cpu(argv, env) -> tuple[float, subprocess.CompletedProcess]:
@@ -278,9 +295,21 @@ def swings_comparison(trees: dict, map_path: Path, steps_path: Path, count: int)
     out = {"swings": chosen, "runs": runs, "median_cpu": {side: statistics.median(r["cpu"] for r in rs)
                                                           for side, rs in runs.items()}}
     sides = list(trees)
-    out["same_results"] = all(a["digest"] == b["digest"] for a, b in zip(runs[sides[0]], runs[sides[1]]))
+    pairs = list(zip(runs[sides[0]], runs[sides[1]]))
+    out["same_results"] = all(a["digest"] == b["digest"] for a, b in pairs)
+    out["same_path"] = all(a["degree"] == b["degree"] and a["iterations"] == b["iterations"]
+                           and a["success"] == b["success"] for a, b in pairs)
+    out["control_point_difference"] = max(
+        (float(np.max(np.abs(np.subtract(a["control_points"], b["control_points"]))))
+         if np.shape(a["control_points"]) == np.shape(b["control_points"]) else float("inf") for a, b in pairs),
+        default=0.0)
+    out["within_tolerance"] = out["same_path"] and out["control_point_difference"] <= CONTROL_POINT_TOLERANCE
+    for rs in runs.values():
+        for r in rs:
+            del r["control_points"]
     print("whole swings: " + "; ".join(f"{side} median {cpu:.3f} s" for side, cpu in out["median_cpu"].items())
-          + f"; same results: {out['same_results']}", flush=True)
+          + f"; same results: {out['same_results']}; same degrees, iterations, successes: {out['same_path']}, "
+          f"largest control-point difference {out['control_point_difference']:.2e}", flush=True)
     return out
 
 
@@ -292,7 +321,12 @@ def swings_markdown(result: dict) -> list[str]:
              f"swings: {', '.join(map(str, sw['swings']))}), each planned by one long-lived process per tree "
              "(`plan_step`, `legplan step plan`'s planner call), item by item in alternation; CPU of the planning "
              f"call, one BLAS thread; load average {min(loads):.1f}–{max(loads):.1f}. Results bit for bit the same "
-             f"(control points, degree, norm, status of every swing): {'yes' if sw['same_results'] else 'NO'}.", "",
+             f"(control points, degree, norm, status of every swing): {'yes' if sw['same_results'] else 'no'}"
+             + ("" if sw["same_results"] or "same_path" not in sw else
+                f"; the same degree, LM iterations per degree and success on every swing: "
+                f"{'yes' if sw['same_path'] else 'NO'}, control points within "
+                f"{sw['control_point_difference']:.1e} of each other (tolerance {CONTROL_POINT_TOLERANCE:g}: "
+                f"{'kept' if sw['within_tolerance'] else 'MISSED'})") + ".", "",
              "| code | median item CPU [s] | mean [s] | successes | ratio to before |", "|---|---|---|---|---|"]
     before = sw["median_cpu"]["before"]
     for side, rs in sw["runs"].items():
@@ -337,7 +371,12 @@ def markdown(result: dict) -> str:
              "`solve_augmented_lagrangian`; rest: whole − start-up − solve (robot, map, problem, sampling, "
              f"check, work file, traj.h5). `legplan --version`: {result['version_cpu']:.3f} s"
              + (f" (before: {result['version_cpu_before']:.3f} s)" if result["before"] else "") + ". "
-             "Every side runs from compiled bytecode (a cache folder of the run, filled by an untimed first "
+             + (f"Start-up floor, same run: the interpreter alone (`python -c pass`) "
+                f"{result['floor_cpu']['interpreter']:.3f} s; the interpreter importing only the libraries `dyn plan` "
+                f"cannot do without (`{FLOOR.splitlines()[0]}`, ending as the command does) "
+                f"{result['floor_cpu']['libraries']:.3f} s. "
+                if "floor_cpu" in result else "")
+             + "Every side runs from compiled bytecode (a cache folder of the run, filled by an untimed first "
              "run; without it a source tree recompiles what it imports on every run). 'this tree' runs are "
              "repeated runs on the same map: the filtered terrain grids come from `legplan.cache`'s store "
              "(a folder of the run, filled by the first run); 'empty store' is the first run on a map (store "
@@ -382,6 +421,7 @@ def main(argv=None) -> int:
     ap.add_argument("--step-sequence", type=Path, help="its generated steps.h5 (generated if not given)")
     ap.add_argument("--skip-dyn", action="store_true", help="only the --jobs comparison")
     ap.add_argument("--skip-jobs", action="store_true", help="only the dyn plan cases")
+    ap.add_argument("--before-code", default="", help="the revision of --before when it is an exported tree, not a checkout")
     ap.add_argument("--swings", type=int, default=12, help="whole swings planned side by side with --before (0: none)")
     args = ap.parse_args(argv)
     repeats = max(3, args.repeats)
@@ -399,8 +439,8 @@ def main(argv=None) -> int:
               "before": str(args.before) if args.before else None, "repeats": repeats,
               "load_start": load_average(), "towr_process_cpu_issue_38": TOWR_PROCESS_CPU, "cases": {}}
     if args.before is not None:
-        result["before_code"] = subprocess.run(["git", "-C", str(args.before), "rev-parse", "--short", "HEAD"],
-                                               capture_output=True, text=True).stdout.strip()
+        result["before_code"] = args.before_code or subprocess.run(
+            ["git", "-C", str(args.before), "rev-parse", "--short", "HEAD"], capture_output=True, text=True).stdout.strip()
     with tempfile.TemporaryDirectory() as tmp:
         work = Path(tmp)
         RUN_ENVIRONMENT.update(PYTHONPYCACHEPREFIX=str(work / "bytecode"), LEGPLAN_CACHE_DIR=str(work / "store"))
@@ -410,6 +450,11 @@ def main(argv=None) -> int:
                 cpu, _ = child_cpu([sys.executable, "-c", ENTRY, "--version"], environment(tree))
                 version[side].append(cpu)
         result["version_cpu"] = statistics.median(version["this tree"])
+        floor = {"interpreter": [], "libraries": []}  # the start-up floor (module docstring)
+        for _ in range(repeats):
+            for name, code in (("interpreter", "pass"), ("libraries", FLOOR)):
+                floor[name].append(child_cpu([sys.executable, "-c", code], environment(ROOT))[0])
+        result["floor_cpu"] = {name: statistics.median(v) for name, v in floor.items()}
         if args.before is not None:
             result["version_cpu_before"] = statistics.median(version["before"])
         maps = {}

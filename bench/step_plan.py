@@ -47,11 +47,12 @@ LABELS = {"steps_planned": "Steps planned", "steps_succeeded": "Steps succeeded"
           "mean_time": "Average planning time [s]", "median_time": "Median planning time [s]",
           "mean_time_below_50s": "Average, t < 50 s [s]", "mean_time_1s_to_50s": "Average, 1 s < t < 50 s [s]"}
 # where the time goes: (label, substring of "file:function" in the profile), cumulative seconds
-PROFILE_GROUPS = (("robot kinematics (pinocchio FK + Jacobians)", "robots/kinematics.py:_compute"),
-                  ("vector parametrization (tangent map, from_vector)", "robots/model.py:tangent_map"),
-                  ("terrain distance lookups", "columns.py:value_and_gradient"),
-                  ("constraint rows (contact terms + slacks)", "stepplan/block.py:evaluate"),
-                  ("structured JᵀJ (kron) terms", "solve/curve.py:normal_terms"),
+PROFILE_GROUPS = (("planner kinematics: points (stepplan.kinematics, all samples at once)", "stepplan/kinematics.py:points"),
+                  ("planner kinematics: Jacobians of stance feet and active spheres", "stepplan/kinematics.py:jacobians"),
+                  ("planner kinematics: CoM Jacobian", "stepplan/kinematics.py:com_jacobian"),
+                  ("terrain distance lookups", "columns.py:_evaluate"),
+                  ("constraint rows (values, and Jacobians where active)", "stepplan/block.py:_rows"),
+                  ("structured JᵀJ (kron) terms of the compact rows", "solve/curve.py:curve_terms"),
                   ("normal-equation assembly", "solve/problem.py:_finish"),
                   ("trial points (early-reject residual)", "solve/problem.py:trial_norm"),
                   ("Schur set-up per linearisation (eigh, U)", "solve/schur.py:set_matrix"),

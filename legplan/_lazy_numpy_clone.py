@@ -3,7 +3,8 @@
 scipy's vendored array-API namespace for numpy (`scipy._lib.array_api_compat.numpy`, imported by every
 scipy subpackage, scipy.sparse included) copies numpy's namespace with `from numpy import *` and a
 `hasattr` over `dir(numpy)`, which imports numpy's lazily loaded submodules — f2py (with argparse),
-testing (with unittest), ma, polynomial, ... — none of which legplan uses, at a cost of about a third
+testing (with unittest), ma, polynomial, strings, the numpy.core shim, ... — none of which legplan
+uses through scipy's namespace, at a cost of about a third
 of scipy.sparse's import time. `install()` hooks that one module's first import: while it runs, numpy
 lists none of those submodules, and afterwards the namespace gets them on first access (PEP 562
 `__getattr__` forwarding to numpy), so it still offers every name numpy does. Any surprise in the
@@ -18,7 +19,8 @@ import importlib.util
 import sys
 
 TARGET = "scipy._lib.array_api_compat.numpy"
-DEFERRED = frozenset({"f2py", "testing", "ma", "matlib", "ctypeslib", "polynomial", "rec", "char"})
+DEFERRED = frozenset({"f2py", "testing", "ma", "matlib", "ctypeslib", "polynomial", "rec", "char", "strings",
+                      "core"})
 
 
 class _Finder:

@@ -20,7 +20,6 @@ from __future__ import annotations
 import functools
 
 from dataclasses import dataclass
-from fractions import Fraction
 
 import numpy as np
 import scipy.sparse as sp
@@ -74,7 +73,7 @@ def hermite_gram(h: float, derivative: int = 0) -> np.ndarray:
     coeff = np.zeros((4, 4))
     for k in range(d, 4):
         coeff[k - d] = np.prod(np.arange(k - d + 1, k + 1)) * _MONOMIAL[k] if d else _MONOMIAL[k]
-    m = np.array([[float(Fraction(1, i + j + 1)) for j in range(4)] for i in range(4)])  # ∫ s^(i+j) ds
+    m = np.array([[1.0 / (i + j + 1) for j in range(4)] for i in range(4)])  # ∫ s^(i+j) ds, correctly rounded
     q = coeff.T @ m @ coeff * h / h ** (2 * d)  # dt = h ds, d/dt = (1/h) d/ds
     scale = np.array([1.0, h, 1.0, h])
     return q * np.outer(scale, scale)

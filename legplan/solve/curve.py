@@ -85,7 +85,11 @@ class SampledCurveBlock(StructuredBlock):
         return r.reshape(-1), jacs
 
     def normal_terms(self, values):
-        r, G, S = self._sample(values, True)
+        return self.curve_terms(*self._sample(values, True))
+
+    def curve_terms(self, r, G, S):
+        """`NormalTerms` of per-sample residuals r (n, m), G (n, m, dim), S (n, m, slack_dim) (rows whose
+        G and S are both zero may be left out: the products do not see them; the residual is r as given)."""
         B = self.basis
         n, k, d = B.shape[0], B.shape[1], self.dim
         gt = G.transpose(0, 2, 1)

@@ -20,48 +20,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from legplan.contact.terms import (ContactMode, collision_terms, com_terms, joint_limit_terms, nearest_end,
-                                   sphere_margins, stance_foot_terms, swing_foot_margin)
+from legplan.contact.terms import ContactMode, nearest_end, sphere_margins, swing_foot_margin
 from legplan.geometry.bezier import bernstein_matrix
 from legplan.solve.curve import SampledCurveBlock
-from legplan.solve.inequality import hinge
-
-
-def _hinge(g: np.ndarray, jac: np.ndarray | None):
-    """eq. (8b): g ≤ 0 as the residual max(g, 0), Jacobian rows scaled by the hinge slope."""
-    r, slope = hinge(g)
-    return r, (None if jac is None else jac * slope[..., None])
-
-
-class _ValuesOnly:
-    """The robot seen through `legplan.contact.terms` when only residual values are wanted.
-
-    LM evaluates every trial point without Jacobians (Algorithm 1, line 5), and most trial points
-    are rejected. The contact terms always return Jacobians, so this view gives them Jacobians of
-    zero width: `tangent_map` is (n, nv, 0) and the kinematic Jacobians are broadcast zeros, so every
-    J_x product is empty and only the values (one forward-kinematics pass, no Jacobians) cost time.
-    """
-
-    def __init__(self, robot):
-        self._robot = robot
-
-    def __getattr__(self, name):
-        return getattr(self._robot, name)
-
-    def _zeros(self, positions):
-        return np.broadcast_to(np.zeros(1), positions.shape + (self._robot.nv,))
-
-    def foot_jacobians(self, Q):
-        return self._zeros(self._robot.foot_positions(Q))
-
-    def sphere_jacobians(self, Q):
-        return self._zeros(self._robot.sphere_centres(Q))
-
-    def com_jacobian(self, Q):
-        return self._zeros(self._robot.com(Q))
-
-    def tangent_map(self, X):
-        return np.zeros((len(X), self._robot.nv, 0))
+from legplan.stepplan.kinematics import planner_kinematics
 
 
 class SampleConstraints:
@@ -69,27 +31,45 @@ class SampleConstraints:
 
     Rows per configuration, in order: stance-foot equality f − ξ (eq. (11a), 3 per stance leg);
     slack bound max(‖ξ_l‖ − ε, 0) per stance leg (eq. (11b)); CoM inside the support polygon, one
-    hinge per edge; sphere clearance vs the SDF, one hinge per checked sphere; joint limits, two
-    hinges per joint. Inequalities come from `legplan.contact.terms` (g ≤ 0) through eq. (8b); the
-    collision rows of swing-foot spheres get a margin relaxed near the swing footholds, which ramps
-    up to `mode.clearance` + `headroom`.
+    hinge per edge; sphere clearance vs the terrain distance, one hinge per checked sphere; joint
+    limits, two hinges per joint. The inequalities g ≤ 0 are those of `legplan.contact.terms`
+    (`com_terms`, `collision_terms` with `sphere_margins`, `joint_limit_terms`), turned into rows
+    max(g, 0) by eq. (8b); the collision rows of swing-foot spheres get a margin relaxed near the
+    swing footholds, which ramps up to `mode.clearance` + `headroom`.
+
+    The rows are formed here from the planner's batch kinematics (`legplan.stepplan.kinematics`:
+    every sample at once, Jacobians in x directly): an inactive hinge row has a zero Jacobian, so
+    sphere Jacobians are formed only for the (sample, sphere) pairs whose row is active.
     """
 
     def __init__(self, robot, sdf, mode: ContactMode, epsilon: float, *, swing_ends=None,
                  relax_radius: float = 0.05, headroom: float = 0.0):
         self.robot = robot
+        self.kinematics = planner_kinematics(robot)
         self.headroom = float(headroom)
-        self._values_only = _ValuesOnly(robot)
         self.sdf = sdf
         self.mode = mode
         self.epsilon = float(epsilon)
         self.legs = np.flatnonzero(mode.stance)
         self.slack_size = 3 * len(self.legs)
         self.nx = robot.nv
+        self._footholds = np.asarray(mode.footholds, float)[self.legs]
+        margins = sphere_margins(robot, mode)
+        self.checked = np.flatnonzero(~np.isnan(margins))
+        self._margins = margins[self.checked]
+        self._radii = np.asarray(robot.spheres.radii, float)[self.checked]
+        # a terrain distance at or above margin + radius leaves a collision row at 0; with 1 nm to spare, a
+        # value known only to be above this bound gives the same 0 after rounding (`ColumnDistance.values`)
+        self._threshold = self._margins + self._radii + 1e-9
         self._relaxation(swing_ends, relax_radius)
-        probe = self.evaluate(np.atleast_2d(robot.to_vector(robot.q_nominal[None])),
-                              np.zeros((1, self.slack_size)), False)[0]
-        self.size = probe.shape[1]
+        self._relaxed_index = np.full(len(self.checked), -1, np.intp)  # position among the relaxed rows, or −1
+        self._relaxed_index[self.relaxed_rows] = np.arange(len(self.relaxed_rows))
+        self._sphere_points = len(robot.legs) + self.checked  # their points in `kinematics.jacobians`
+        nj = robot.n_joints
+        self._joint_rows = np.concatenate([np.arange(nj), np.arange(nj)])
+        self._joint_sign = np.concatenate([np.ones(nj), -np.ones(nj)])
+        self._limits = np.concatenate([-np.asarray(robot.upper, float), np.asarray(robot.lower, float)])
+        self.size = 4 * len(self.legs) + len(mode.polygon.b) + len(self.checked) + 2 * nj
 
     def _relaxation(self, swing_ends, radius: float) -> None:
         """Collision rows of swing-foot spheres whose margin is relaxed near the swing footholds.
@@ -99,71 +79,126 @@ class SampleConstraints:
         slack bound: the tip may touch at either end, `mode.clearance` + `headroom` from
         `relax_radius` on.
         """
-        margins = sphere_margins(self.robot, self.mode)
-        checked = np.flatnonzero(~np.isnan(margins))
         spheres = self.robot.spheres
         legs = np.asarray(spheres.leg_index)
         swing_foot = np.asarray(spheres.is_foot, bool) & (legs >= 0)
         swing_foot &= ~np.where(legs >= 0, self.mode.stance[np.maximum(legs, 0)], False)
         self.relaxed_spheres = np.flatnonzero(swing_foot) if swing_ends is not None else np.zeros(0, int)
-        self.relaxed_rows = np.searchsorted(checked, self.relaxed_spheres)
+        self.relaxed_rows = np.searchsorted(self.checked, self.relaxed_spheres)
         self.relax_radius = float(radius)
         if self.relaxed_spheres.size:
             self.relax_ends = np.asarray(swing_ends, float)[:, self.relaxed_spheres]
             self.relax_radii = np.asarray(spheres.radii, float)[self.relaxed_spheres]
 
-    def _relaxed_margin(self, X, Q, jacobians: bool):
-        """Margin change (n, k) of the relaxed rows (relative to the term's margin `foot_clearance`)
-        and its Jacobian (n, k, nx) (see `_relaxation`)."""
-        found = nearest_end(self.robot.sphere_centres(Q)[:, self.relaxed_spheres], self.relax_ends, jacobians)
-        d, unit = found if jacobians else (found, None)
-        margin, slope = swing_foot_margin(d, self.relax_radii, self.mode.clearance + self.headroom, self.epsilon,
-                                          self.relax_radius)
-        delta = margin - self.mode.foot_clearance
-        if not jacobians:
-            return delta, None
-        jac_c = np.einsum("nkav,nvx->nkax", self.robot.sphere_jacobians(Q)[:, self.relaxed_spheres],
-                          self.robot.tangent_map(X))
-        return delta, np.einsum("nk,nka,nkax->nkx", slope, unit, jac_c)
+    def residuals(self, X: np.ndarray, Xi: np.ndarray) -> np.ndarray:
+        """r (n, m) at configurations X (n, nx) with slacks Xi (n, s)."""
+        return self._rows(np.atleast_2d(np.asarray(X, float)), Xi, False)[0]
+
+    def linearize(self, X: np.ndarray, Xi: np.ndarray):
+        """r (n, m) and the rows with a nonzero Jacobian in compact form (r_c, G_c, S_c) (n, m_c, ·): the
+        stance-foot and slack rows, the CoM rows, then per sample its active collision and joint-limit rows
+        packed (zero-padded to the largest count). Every row left out has zero G and S, so the products
+        GᵀG, Gᵀr, GᵀS, SᵀS and Sᵀr of the compact rows are those of all rows."""
+        X = np.atleast_2d(np.asarray(X, float))
+        r, parts = self._rows(X, Xi, True)
+        jf, jcom, samples, rows, vectors, direction = parts
+        n, nx, k = len(X), self.nx, len(self.legs)
+        counts = np.bincount(samples, minlength=n)
+        width = int(counts.max(initial=0))
+        rank = np.arange(len(samples)) - np.repeat(np.cumsum(counts) - counts, counts)
+        order = np.argsort(samples, kind="stable")
+        live_g = np.zeros((n, width, nx))
+        live_r = np.zeros((n, width))
+        live_g[samples[order], rank] = vectors[order]
+        live_r[samples[order], rank] = r[samples[order], rows[order]]
+        head = 4 * k + jcom.shape[1]
+        G = np.concatenate([jf, np.zeros((n, k, nx)), jcom, live_g], axis=1)
+        S = np.zeros((n, head + width, self.slack_size))
+        self._slack_jacobian(S, direction)
+        return r, (np.concatenate([r[:, :head], live_r], axis=1), G, S)
 
     def evaluate(self, X: np.ndarray, Xi: np.ndarray, jacobians: bool):
         """r (n, m) and, with `jacobians`, G (n, m, nx) and S (n, m, s)."""
-        robot, mode = (self.robot if jacobians else self._values_only), self.mode
-        X = np.atleast_2d(X)
-        n, nx = X.shape
-        k = len(self.legs)
-        Q = robot.from_vector(X)
-        robot.kinematics(Q, jacobians=jacobians)  # one batch pass; the terms below hit its cache
-        f, jf = stance_foot_terms(robot, X, mode, Q)
-        f = f - Xi
-        xi = Xi.reshape(n, k, 3)
-        norms = np.linalg.norm(xi, axis=2)
-        slack, _ = _hinge(norms - self.epsilon, None)
-        collision, jc = collision_terms(robot, X, mode, self.sdf, Q)
-        if self.relaxed_spheres.size:
-            delta, jd = self._relaxed_margin(X, Q, jacobians)
-            collision[:, self.relaxed_rows] += delta
-            if jacobians:
-                jc[:, self.relaxed_rows] += jd
-        ineq = [com_terms(robot, X, mode, Q), (collision, jc), joint_limit_terms(robot, X)]
-        hinged = [_hinge(g, j if jacobians else None) for g, j in ineq]
-        r = np.concatenate([f, slack] + [h for h, _ in hinged], axis=1)
+        X = np.atleast_2d(np.asarray(X, float))
+        r, parts = self._rows(X, Xi, jacobians)
         if not jacobians:
             return r, None, None
-        m = r.shape[1]
-        G = np.zeros((n, m, nx))
+        jf, jcom, samples, rows, vectors, direction = parts
+        n, m = r.shape
+        k = len(self.legs)
+        G = np.zeros((n, m, self.nx))
         G[:, :3 * k] = jf
-        row = 4 * k
-        for _, j in hinged:
-            G[:, row:row + j.shape[1]] = j
-            row += j.shape[1]
+        G[:, 4 * k:4 * k + jcom.shape[1]] = jcom
+        G[samples, rows] = vectors
         S = np.zeros((n, m, self.slack_size))
+        self._slack_jacobian(S, direction)
+        return r, G, S
+
+    def _slack_jacobian(self, S: np.ndarray, direction: np.ndarray) -> None:
+        """∂r/∂ξ into the first 4k rows of S: −I on the stance-foot rows, the unit ξ_l of an active slack row."""
+        k = len(self.legs)
         S[:, np.arange(3 * k), np.arange(3 * k)] = -1.0
-        direction = np.where(norms[..., None] > 0, xi / np.maximum(norms, 1e-300)[..., None], 0.0)
-        direction *= (slack > 0)[..., None]
         for leg in range(k):
             S[:, 3 * k + leg, 3 * leg:3 * leg + 3] = direction[:, leg]
-        return r, G, S
+
+    def _rows(self, X: np.ndarray, Xi: np.ndarray, jacobians: bool):
+        """r (n, m) and, with `jacobians`, its nonzero Jacobian parts: stance-foot rows (n, 3k, nx), CoM rows
+        (n, h, nx), the active collision and joint-limit rows as (samples, rows, vectors (K, nx)), and the
+        unit directions (n, k, 3) of the active slack rows."""
+        n, nx = X.shape
+        k = len(self.legs)
+        kin = self.kinematics
+        points = kin.points(X)
+        f = (points.feet[:, self.legs] - self._footholds).reshape(n, 3 * k) - Xi
+        xi = Xi.reshape(n, k, 3)
+        norms = np.sqrt(np.einsum("nki,nki->nk", xi, xi))
+        slack = np.maximum(norms - self.epsilon, 0.0)
+        polygon = self.mode.polygon
+        com = self.mode.com_margin - polygon.margins(points.com[:, :2])
+        centres = points.spheres[:, self.checked]
+        threshold = self._threshold  # distance from which a collision row is inactive (+ a margin for rounding)
+        if self.relaxed_spheres.size:
+            found = nearest_end(centres[:, self.relaxed_rows], self.relax_ends, jacobians)
+            d, unit = found if jacobians else (found, None)
+            margin, ramp = swing_foot_margin(d, self.relax_radii, self.mode.clearance + self.headroom, self.epsilon,
+                                             self.relax_radius)
+            relaxed = margin - self.mode.foot_clearance
+            threshold = np.broadcast_to(threshold, (n, len(self.checked))).copy()
+            threshold[:, self.relaxed_rows] += relaxed
+        bound = np.broadcast_to(threshold, (n, len(self.checked))).reshape(-1)
+        if jacobians:
+            dist, grad = self.sdf.value_and_gradient(centres.reshape(-1, 3), bound=bound)
+        else:
+            dist = self.sdf.values(centres.reshape(-1, 3), bound=bound)
+        collision = self._margins - (dist.reshape(n, -1) - self._radii)
+        if self.relaxed_spheres.size:
+            collision[:, self.relaxed_rows] += relaxed
+        joints = X[:, nx - self.robot.n_joints:]
+        limits = np.concatenate([joints, -joints], axis=1) + self._limits
+        r = np.concatenate([f, slack, np.maximum(com, 0.0), np.maximum(collision, 0.0), np.maximum(limits, 0.0)],
+                           axis=1)
+        if not jacobians:
+            return r, None
+        jf = kin.jacobians(points, np.repeat(np.arange(n), k), np.tile(self.legs, n)).reshape(n, 3 * k, nx)
+        # g = margin − (b − A·com): rows A·J_com where active
+        jcom = np.einsum("hk,nkx->nhx", polygon.A, kin.com_jacobian(points)[:, :2]) * (com > 0)[..., None]
+        row = 4 * k + len(polygon.b)
+        active, sphere = np.nonzero(collision > 0)
+        # d g / d centre = −∇dist, plus the ramp's slope along the unit vector from the nearer end (relaxed rows)
+        direction = -grad.reshape(n, -1, 3)[active, sphere]
+        if self.relaxed_spheres.size and active.size:
+            which = self._relaxed_index[sphere]
+            on = which >= 0
+            direction[on] += ramp[active[on], which[on], None] * unit[active[on], which[on]]
+        vectors = np.einsum("ka,kax->kx", direction, kin.jacobians(points, active, self._sphere_points[sphere]))
+        on_limit, limit = np.nonzero(limits > 0)
+        unit_rows = np.zeros((len(on_limit), nx))
+        unit_rows[np.arange(len(on_limit)), nx - self.robot.n_joints + self._joint_rows[limit]] = self._joint_sign[limit]
+        slack_direction = np.where(norms[..., None] > 0, xi / np.maximum(norms, 1e-300)[..., None], 0.0)
+        slack_direction *= (slack > 0)[..., None]
+        return r, (jf, jcom, np.concatenate([active, on_limit]),
+                   np.concatenate([row + sphere, row + len(self.checked) + limit]),
+                   np.concatenate([vectors, unit_rows]), slack_direction)
 
 
 class BezierConstraintBlock(SampledCurveBlock):
@@ -183,4 +218,15 @@ class BezierConstraintBlock(SampledCurveBlock):
                          constraints.size, constraints.slack_size)
 
     def sample(self, q, xi, jacobians, index):
+        if not jacobians:
+            return self.constraints.residuals(q, xi), None, None
         return self.constraints.evaluate(q, xi, jacobians)  # no per-sample data: rows depend on q_k, ξ_k only
+
+    def normal_terms(self, values):
+        """The structured normal terms of `SampledCurveBlock` from the rows with a nonzero Jacobian only
+        (`SampleConstraints.linearize`)."""
+        q = self.basis @ values[0].reshape(-1, self.dim)
+        r, compact = self.constraints.linearize(q, values[1].reshape(self.samples, self.slack_dim))
+        terms = self.curve_terms(*compact)
+        terms.residual = r.reshape(-1)
+        return terms

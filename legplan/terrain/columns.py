@@ -63,42 +63,61 @@ class ColumnDistance:
             self._rows.append(rows)
             self._tables.append(table)
             self._clear.append(clear)
+        centres, tops = self._tables[0]
+        # per row of the outside table: its highest candidate top (a point at z is at least z − top from it)
+        self._highest = np.where(centres[..., 0] < 1e8, tops, -np.inf).max(axis=1, initial=-np.inf)
 
     @classmethod
     def of(cls, terrain, reach: float) -> ColumnDistance:
         """The column distance of a `TerrainMap`."""
         return cls(terrain.height, terrain.grid.origin, terrain.grid.resolution, reach)
 
-    def values(self, points) -> np.ndarray:
-        """Signed distance (m) at points (n, 3): positive in free space, negative inside terrain."""
-        return self.value_and_gradient(points)[0]
+    def values(self, points, bound=None) -> np.ndarray:
+        """Signed distance (m) at points (n, 3): positive in free space, negative inside terrain.
 
-    def value_and_gradient(self, points) -> tuple[np.ndarray, np.ndarray]:
-        """(values (n,), gradients (n, 3)) of the signed distance at points (n, 3), saturated at `reach`.
+        With `bound` (n,), the distance is exact where it is below the bound; where it is not, the value
+        may be any number ≥ the bound (the search among the neighbouring columns is skipped where a lower
+        bound of their distance, the larger of their horizontal gap and the height above the highest
+        of them, already reaches `bound`)."""
+        return self._evaluate(points, False, bound)[0]
+
+    def value_and_gradient(self, points, bound=None) -> tuple[np.ndarray, np.ndarray]:
+        """(values (n,), gradients (n, 3)) of the signed distance at points (n, 3), saturated at `reach`
+        (`bound` as in `values`; the gradient of a value that is not exact is not either).
 
         The gradient is the unit vector from the nearest point (p − q)/‖p − q‖ outside and its
         negative inside (−∇ of the depth); (0, 0, 1) on the surface itself; 0 where saturated.
         """
+        return self._evaluate(points, True, bound)
+
+    def _evaluate(self, points, gradient: bool, bound=None):
         p = np.asarray(points, dtype=float).reshape(-1, 3)
         raw = np.rint((p[:, :2] - self._origin) / self.resolution).astype(np.intp)
-        g = np.clip(raw, 0, self._last)
+        g = np.minimum(np.maximum(raw, 0), self._last)
         own = g[:, 1] * self._shape[1] + g[:, 0]
         value = p[:, 2] - self._height[own]  # the own column, straight below (above) the point
-        grad = np.zeros((len(p), 3))
-        grad[:, 2] = 1.0
-        inside = value < 0.0
+        grad = None
+        if gradient:
+            grad = np.zeros((len(p), 3))
+            grad[:, 2] = 1.0
+        # a candidate can beat the own column only if the vertical gap exceeds its horizontal one (which also
+        # says on which side the point is: above its column for the first table, below for the second)
         for side, (rows, table, clear) in enumerate(zip(self._rows, self._tables, self._clear, strict=True)):
-            row = rows[own]
-            # a candidate can beat the own column only if the vertical gap exceeds its horizontal one
-            near = np.flatnonzero((row >= 0) & (inside == side) & (np.abs(value) > clear[own]))
+            near = np.flatnonzero((-value if side else value) > clear[own])
+            if bound is not None and not side and near.size:
+                lower = np.maximum(clear[own[near]], p[near, 2] - self._highest[rows[own[near]]])
+                near = near[np.minimum(value[near], lower) < bound[near]]
             if near.size:
                 xy = np.minimum(np.maximum(p[near, :2], self._origin), self._far)
-                value[near], grad[near] = _nearest(xy, p[near, 2], table, row[near], value[near], self.resolution)
-                grad[near, :2] *= raw[near] == g[near]  # 0 along a direction in which the point was moved
+                value[near], found = _nearest(xy, p[near, 2], table, rows[own[near]], value[near], self.resolution)
+                if gradient:
+                    grad[near] = found
+                    grad[near, :2] *= raw[near] == g[near]  # 0 along a direction in which the point was moved
         far = value > self.reach
         if far.any():
             value[far] = self.reach
-            grad[far] = 0.0
+            if gradient:
+                grad[far] = 0.0
         return value, grad
 
 def _nearest(xy, z, table, rows, own, r: float):

@@ -58,12 +58,13 @@ class SignedDistanceField:
     def z_levels(self) -> np.ndarray:
         return self.origin[2] + self.resolution * np.arange(self.data.shape[0])
 
-    def values(self, points) -> np.ndarray:
-        """Signed distance (m) at points (n, 3): positive in free space, negative inside terrain."""
+    def values(self, points, bound=None) -> np.ndarray:
+        """Signed distance (m) at points (n, 3): positive in free space, negative inside terrain (`bound`:
+        accepted for the interface of `ColumnDistance.values`; the lookup is exact everywhere)."""
         return self.value_and_gradient(points)[0]
 
-    def value_and_gradient(self, points) -> tuple[np.ndarray, np.ndarray]:
-        """(values (n,), gradients (n, 3)) of the trilinear interpolant at points (n, 3).
+    def value_and_gradient(self, points, bound=None) -> tuple[np.ndarray, np.ndarray]:
+        """(values (n,), gradients (n, 3)) of the trilinear interpolant at points (n, 3) (`bound`: as in `values`).
 
         The gradient is the exact derivative of the interpolant (piecewise, one-sided on cell faces).
         """

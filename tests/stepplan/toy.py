@@ -112,7 +112,7 @@ class ToyHill:
         d = xy - self.centre
         return self.h * np.exp(-(d ** 2).sum(-1) / (2 * self.s ** 2))
 
-    def value_and_gradient(self, points):
+    def value_and_gradient(self, points, bound=None):
         points = np.asarray(points, float)
         b = self.bump(points[:, :2])
         grad = np.zeros_like(points)
@@ -120,7 +120,7 @@ class ToyHill:
         grad[:, 2] = 1.0
         return points[:, 2] - b, grad
 
-    def values(self, points):
+    def values(self, points, bound=None):
         return self.value_and_gradient(points)[0]
 
 

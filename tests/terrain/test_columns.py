@@ -103,3 +103,22 @@ def test_candidate_tables_do_not_depend_on_the_pair_block(monkeypatch):
 
     assert len(arrays(whole)) == 8
     assert all(np.array_equal(x, y) for x, y in zip(arrays(whole), arrays(pieces), strict=True))
+
+
+def test_values_below_a_bound_are_exact_and_the_others_reach_it(scene):
+    """`bound`: the distance is exact where it is below the bound, at least the bound elsewhere; the
+    neighbour search is skipped for some points (what makes it cheaper), never for one below its bound."""
+    _, _, columns = scene
+    rng = np.random.default_rng(3)
+    points = np.column_stack([rng.uniform(-0.25, 0.25, (4000, 2)), rng.uniform(-0.05, 0.12, 4000)])
+    bound = rng.uniform(0.0, 0.05, 4000)
+    exact, gradient = columns.value_and_gradient(points)
+    values = columns.values(points, bound=bound)
+    below = exact < bound
+    assert below.sum() > 500 and (~below).sum() > 500
+    np.testing.assert_array_equal(values[below], exact[below])
+    assert np.all(values[~below] >= bound[~below])
+    assert np.count_nonzero(values != exact) > 50
+    bounded, bounded_gradient = columns.value_and_gradient(points, bound=bound)
+    np.testing.assert_array_equal(bounded, values)
+    np.testing.assert_array_equal(bounded_gradient[below], gradient[below])
