@@ -2,8 +2,9 @@
 
 Each block samples the splines of a `Formulation` at fixed times (sparse sampling matrices built
 once) and returns its values and one sparse Jacobian per variable it reads; bounds are attached by
-`legplan.solve.Constraint`. Nonlinear orientation and terrain terms are differentiated by complex
-step (`euler.complex_step`, exact to round-off), the rest analytically.
+`legplan.solve.Constraint`. The rotation of a vector, R(e)ᵀd and R(e)v, is differentiated by the
+closed-form ∂R/∂e (`euler.rotation_derivatives`); the other nonlinear orientation terms and the
+terrain terms by complex step (`euler.complex_step`, exact to round-off); the rest analytically.
 
 * `DynamicsBlock` — single-rigid-body Newton-Euler at every dynamics time (6 rows, N and N·m):
   m·p̈ + m·g·e_z − Σ f_i = 0 and I_W ω̇ + ω × I_W ω − Σ (p_i − p) × f_i = 0, I_W = R I_B Rᵀ.
@@ -29,7 +30,7 @@ from abc import abstractmethod
 import numpy as np
 import scipy.sparse as sp
 
-from legplan.dyn.euler import body_rates, complex_step, rotation
+from legplan.dyn.euler import body_rates, complex_step, rotation, rotation_derivatives
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import (PHASES, PhaseTiming, TimedControlPoints, TimedSamples, invalid_timing, phase_jacobian,
@@ -45,6 +46,12 @@ COLUMN_REACH = 0.1  # m beyond a leg sphere's radius up to which its distance to
 
 def _nodes(v: np.ndarray) -> np.ndarray:
     return np.asarray(v).reshape(-1, 3)
+
+
+def _in_base_jacobian(turns: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """∂(R(e)ᵀ d)/∂e (n, 3, 3), [:, i, k] the derivative of entry i w.r.t. e_k, for the rotation's
+    derivatives `turns` = `euler.rotation_derivatives(e)` and vectors d (n, 3)."""
+    return np.einsum("nkji,nj->nik", turns, d)
 
 
 class DynamicsBlock(ResidualBlock):
@@ -184,8 +191,10 @@ class RangeOfMotionBlock(ResidualBlock):
         p, e, q = sampled
         if not jacobians:
             return (self._in_base(e, q - p) - self.nominal).reshape(-1), None
-        x, (j_e,) = complex_step(self._in_base, (e, q - p), (0,))
-        rt = np.transpose(rotation(e), (0, 2, 1))
+        rot = rotation(e)
+        x = np.einsum("nji,nj->ni", rot, q - p)  # `_in_base`
+        j_e = _in_base_jacobian(rotation_derivatives(e), q - p)
+        rt = np.transpose(rot, (0, 2, 1))
         return (x - self.nominal).reshape(-1), self._jacobians(-rt, j_e, rt, values)
 
 
@@ -203,7 +212,7 @@ class LegClearanceBlock(RangeOfMotionBlock):
     not only the feet, off the terrain, the sides of steps included (ours: the paper keeps the legs
     clear through the swing height only, Sec. III-A2). The exact distance, rather than a bound of
     the columns near the sphere, lets a shank pass beside an edge it clears. The Jacobian is the
-    chain rule through ∂s/∂b (the legs' own), the rotation's derivative by complex step and the
+    chain rule through ∂s/∂b (the legs' own), the rotation's derivative ∂R/∂e and the
     distance's gradient (the unit vector from the nearest terrain point)."""
 
     def __init__(self, form: Formulation, leg: int, legs, terrain: TerrainModel, times: np.ndarray,
@@ -247,14 +256,14 @@ class LegClearanceBlock(RangeOfMotionBlock):
         if not jacobians:
             return value.reshape(-1), None
         k = self.rows
-        _, (db_de,) = complex_step(self._in_base, (e, q - p), (0,))  # (n, 3, 3)
+        turns = rotation_derivatives(e)
+        db_de = _in_base_jacobian(turns, q - p)  # (n, 3, 3)
         rt = np.transpose(rot, (0, 2, 1))
         rds = np.einsum("nij,nkjl->nkil", rot, ds)  # R ∂s/∂b
         dc_dq = rds @ rt[:, None]
         dc_dp = np.eye(3) - dc_dq
-        turned = lambda x: np.einsum("nij,nkj->nki", rotation(x), np.tile(lever, (len(x) // self.n, 1, 1))).reshape(len(x), -1)
-        _, (dr_de,) = complex_step(turned, (e,), (0,))  # ∂(R v)/∂e at v = s − o
-        dc_de = dr_de.reshape(self.n, k, 3, 3) + rds @ db_de[:, None]
+        dr_de = np.einsum("nlij,nkj->nkil", turns, lever)  # ∂(R v)/∂e at v = s − o, (n, k, 3, 3)
+        dc_de = dr_de + rds @ db_de[:, None]
         row = lambda d: np.einsum("nki,nkij->nkj", dh, d)
         return value.reshape(-1), self._jacobians(row(dc_dp), row(dc_de), row(dc_dq), values)
 
@@ -269,7 +278,7 @@ class JointTorqueBlock(RangeOfMotionBlock):
     the leg's configuration at that time, not one bound on the normal force for every stance and
     direction (ours: TOWR bounds f·n alone). The Jacobian: ∂τ/∂b (`ChainLegs.foot_torques`, through
     the IK) by the chain rule with ∂b/∂(p, e, p_i), ∂τ/∂g = J_fᵀ with g = Rᵀ f, the rotation's
-    derivative by complex step."""
+    derivative ∂R/∂e."""
 
     variables = ("base_lin", "base_ang", "feet", "forces")
 
@@ -312,8 +321,8 @@ class JointTorqueBlock(RangeOfMotionBlock):
         tau, d_b, d_g, self.joints = self.legs.foot_torques(self.leg, b, g, self.joints)
         if not jacobians:
             return tau.reshape(-1), None
-        _, (db_de,) = complex_step(self._in_base, (e, q - p), (0,))
-        _, (dg_de,) = complex_step(self._in_base, (e, f), (0,))
+        turns = rotation_derivatives(e)
+        db_de, dg_de = _in_base_jacobian(turns, q - p), _in_base_jacobian(turns, f)
         rt = np.transpose(rotation(e), (0, 2, 1))
         d_q = d_b @ rt
         d_f = d_g @ rt
