@@ -144,3 +144,17 @@ class NonzeroPattern:
         self._indptr = before[matrix.indptr].astype(matrix.indptr.dtype)
         self._indices = matrix.indices[self._take]
         self.version += 1
+
+
+def kept_indices(arrays) -> tuple:
+    """What `same_indices` compares later: each index array with a copy of its contents."""
+    return tuple((a, a.copy()) for a in arrays)
+
+
+def same_indices(kept: tuple, arrays) -> bool:
+    """Whether index arrays hold what they held when `kept_indices` took them: the same read-only
+    array object (a cached pattern nobody can change) without a look at its contents, else by
+    comparing the contents with the copy."""
+    return len(kept) == len(arrays) and all(
+        (a is original and not a.flags.writeable) or np.array_equal(copy, a)
+        for (original, copy), a in zip(kept, arrays))

@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from legplan.solve.assembly import CooAssembler, NonzeroPattern
+from legplan.solve.assembly import CooAssembler, NonzeroPattern, kept_indices, same_indices
 from legplan.solve.blocks import BlockDiagonal, Matrix, ResidualBlock, StructuredBlock, default_normal_terms
 from legplan.solve.variables import VariableBlock, VariableLayout
 
@@ -166,10 +166,9 @@ class Problem:
             term = term if term.format in ("csr", "csc") else sp.coo_matrix(term)
             pattern = (term.indptr, term.indices) if term.format != "coo" else (term.row, term.col)
             cached = self._index_cache.get(key + ("sparse",))
-            if cached is None or not (cached[0] == term.format and all(np.array_equal(a, b) for a, b in
-                                                                       zip(cached[1], pattern))):
+            if cached is None or not (cached[0] == term.format and same_indices(cached[1], pattern)):
                 coo = term.tocoo()
-                cached = self._index_cache[key + ("sparse",)] = (term.format, tuple(p.copy() for p in pattern),
+                cached = self._index_cache[key + ("sparse",)] = (term.format, kept_indices(pattern),
                                                                   self._mapped(coo.row, coo.col, rowmap, colmap))
             rows, cols, keep = cached[2]
             return rows, cols, term.data[keep]

@@ -67,3 +67,16 @@ def test_nonzero_pattern_keeps_every_entry_ever_nonzero_and_grows_only():
     fresh = pattern.reduced(with_values([0.0, 0.0, 9.0, 0.0, 0.0, 0.0]), structure=2)  # a new structure
     assert fresh.nnz == 1 and pattern.version == 3
     np.testing.assert_array_equal(fresh.toarray(), with_values([0, 0, 9.0, 0, 0, 0]).toarray())
+
+
+def test_same_indices_trusts_only_a_read_only_array_by_identity():
+    from legplan.solve.assembly import kept_indices, same_indices
+
+    frozen, mutable = np.arange(5), np.arange(5)
+    frozen.flags.writeable = False
+    kept = kept_indices((frozen, mutable))
+    assert same_indices(kept, (frozen, mutable))
+    mutable[0] = 7  # changed in place: the same object, other contents
+    assert not same_indices(kept, (frozen, mutable))
+    assert same_indices(kept_indices((frozen, mutable)), (frozen.copy(), mutable.copy()))  # equal copies
+    assert not same_indices(kept, (frozen,))
