@@ -79,9 +79,10 @@ class DynamicsBlock(ResidualBlock):
         self.columns = [3 * m.shape[1] for m in (self.base[0], self.base[0], self.feet[0], self.forces[0])]
         n, c = self.n, self.columns
         self.jacobians = [SampledJacobian([self.base[2], self.base[0]], 6, n, c[0]),
-                          SampledJacobian(self.base, 6, n, c[1]),
-                          SampledJacobian(self.feet, 6, n, c[2]),
+                          SampledJacobian(self.base, 3, n, c[1]),  # the angular rows only (`_angular_rows`)
+                          SampledJacobian(self.feet, 3, n, c[2]),  # the angular rows only
                           SampledJacobian(self.forces, 6, n, c[3])]
+        self._lifted: dict[int, tuple] = {}  # `_angular_rows`' row pointers by the pattern's
 
     def _retime(self, d: np.ndarray) -> bool:
         """Move the feet and force samples to the durations d; False if d is no valid timing."""
@@ -93,6 +94,22 @@ class DynamicsBlock(ResidualBlock):
             self.jacobians[2] = self.jacobians[2].with_matrices(self.feet)
             self.jacobians[3] = self.jacobians[3].with_matrices(self.forces)
         return valid
+
+    def _angular_rows(self, jac: sp.csr_matrix) -> sp.csr_matrix:
+        """The Jacobian of the angular rows (3 per time) as that of all 6 rows of each time: the
+        orientation and the feet enter the torque rows alone, so their linear rows hold no entry
+        (none is computed). Same data and indices; the row pointers of the interleaved rows are
+        derived once per pattern (kept while `jac.indptr` is the same read-only array)."""
+        ptr = jac.indptr
+        lifted = self._lifted.get(id(ptr))
+        if lifted is None or lifted[0] is not ptr or ptr.flags.writeable:
+            starts = ptr[:-1].reshape(self.n, 3)
+            rows = np.empty((self.n, 6), ptr.dtype)
+            rows[:, :3], rows[:, 3:] = starts[:, :1], starts  # the linear rows: empty, where the angular start
+            indptr = np.append(rows.reshape(-1), ptr[-1])
+            indptr.flags.writeable = False
+            self._lifted[id(ptr)] = lifted = (ptr, indptr)
+        return sp.csr_matrix((jac.data, jac.indices, lifted[1]), shape=(self.size, jac.shape[1]))
 
     def inertial_torque(self, e, ed, edd):
         """I_W ω̇ + ω × I_W ω = R (I_B ω̇_B + ω_B × I_B ω_B), rows (n, 3)."""
@@ -123,11 +140,11 @@ class DynamicsBlock(ResidualBlock):
         stack = lambda top, bottom: np.concatenate([top, bottom], axis=1)  # (n, 6, 3)
         f_skew = [skew(fi) for fi in f]
         lin_j, ang_j, feet_j, forces_j = self.jacobians
-        g_feet = [stack(zero, fs) for fs in f_skew]
         g_forces = [stack(-eye, -skew(q - p0)) for q in pf]
         out = [lin_j([stack(self.mass * eye, zero), stack(zero, -sum(f_skew))]),
-               ang_j([stack(zero, j_e), stack(zero, j_ed), stack(zero, j_edd)]), feet_j(g_feet), forces_j(g_forces)]
+               self._angular_rows(ang_j([j_e, j_ed, j_edd])), self._angular_rows(feet_j(f_skew)), forces_j(g_forces)]
         if self.timing is not None:
+            g_feet = [stack(zero, fs) for fs in f_skew]
             legs = len(self.feet)
             terms = [(g, s, values[2]) for g, s in zip(g_feet, self.samples[:legs])]
             terms += [(g, s, values[3]) for g, s in zip(g_forces, self.samples[legs:])]

@@ -152,9 +152,13 @@ def kept_indices(arrays) -> tuple:
 
 
 def same_indices(kept: tuple, arrays) -> bool:
-    """Whether index arrays hold what they held when `kept_indices` took them: the same read-only
-    array object (a cached pattern nobody can change) without a look at its contents, else by
-    comparing the contents with the copy."""
+    """Whether index arrays hold what they held when `kept_indices` took them: the memory of the
+    same read-only array (a cached pattern nobody can change; scipy hands out a new view of it with
+    every matrix) without a look at its contents, else by comparing the contents with the copy."""
     return len(kept) == len(arrays) and all(
-        (a is original and not a.flags.writeable) or np.array_equal(copy, a)
-        for (original, copy), a in zip(kept, arrays))
+        _same_memory(original, a) or np.array_equal(copy, a) for (original, copy), a in zip(kept, arrays))
+
+
+def _same_memory(original: np.ndarray, a: np.ndarray) -> bool:
+    return (not original.flags.writeable and a.dtype == original.dtype and a.shape == original.shape
+            and a.strides == original.strides and a.ctypes.data == original.ctypes.data)

@@ -80,3 +80,13 @@ def test_same_indices_trusts_only_a_read_only_array_by_identity():
     assert not same_indices(kept, (frozen, mutable))
     assert same_indices(kept_indices((frozen, mutable)), (frozen.copy(), mutable.copy()))  # equal copies
     assert not same_indices(kept, (frozen,))
+
+
+def test_same_indices_recognises_a_view_of_the_same_read_only_memory():
+    from legplan.solve.assembly import kept_indices, same_indices
+
+    frozen = np.arange(6)
+    frozen.flags.writeable = False
+    kept = kept_indices((frozen,))
+    assert same_indices(kept, (frozen[:],))  # scipy's matrices hold views such as this one
+    assert not same_indices(kept, (frozen[:5],)) and not same_indices(kept, (frozen[::2],))
