@@ -10,6 +10,7 @@
   bench/dyn.py); and bench/replan.py's warm replans (the 16-footstep single pallet walk with the
   paper's costs, replanned from its own state at `--replans` instants, unperturbed and pushed), CPU
   of `replan` (build and solve).
+* The whole `legplan dyn plan` command on the flat trot: CPU seconds of the process (issue 38).
 * Every round runs one child process per tree (the order alternates), one thread each, so both
   trees see the same machine load; the medians over rounds are reported with the load average.
 * The answers of both trees are compared entry by entry (every variable of every plan and replan):
@@ -97,7 +98,25 @@ def run_tree(tree: Path, cases: list[str], replans: int) -> dict:
         env = dict(os.environ, PYTHONPATH=str(tree))
         subprocess.run([sys.executable, __file__, "--child", str(tree), "--cases", ",".join(cases),
                         "--replans", str(replans), "--out", str(out)], env=env, check=True)
-        return pickle.loads(out.read_bytes())
+        result = pickle.loads(out.read_bytes())
+        result["command_cpu"] = command_cpu(tree, Path(tmp), env)
+        return result
+
+
+def command_cpu(tree: Path, tmp: Path, env: dict) -> float:
+    """CPU seconds (user + system) of the whole `legplan dyn plan` process on the flat trot (issue 38),
+    the map built beforehand (not counted)."""
+    import resource
+
+    legplan = [sys.executable, "-m", "legplan"]
+    subprocess.run(legplan + ["map", "build", str(tree / "maps" / "flat.yaml"), "-o", str(tmp / "flat.h5"), "-q"],
+                   env=env, check=True)
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    subprocess.run(legplan + ["dyn", "plan", str(tmp / "flat.h5"), "--gait", "trot", "--strides", "4", "--duration",
+                              "2.4", "--start", "0", "0", "0", "--goal", "1.0", "0", "0", "-o", str(tmp / "traj.h5"),
+                              "-q"], env=env, check=True)
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def largest_difference(a: dict, b: dict) -> float:
@@ -127,6 +146,7 @@ def summarize(rounds: list[dict[str, dict]], labels: tuple[str, str]) -> dict:
                                                        rounds[-1][after]["cases"][key]["values"])
         row["speedup"] = row[before]["solve_s"] / row[after]["solve_s"]
         cases[key] = row
+    command = {label: float(np.median([r[label]["command_cpu"] for r in rounds])) for label in labels}
     replans = {}
     if rounds[0][before]["replans"]:
         for label in labels:
@@ -139,7 +159,7 @@ def summarize(rounds: list[dict[str, dict]], labels: tuple[str, str]) -> dict:
                                             zip(rounds[-1][before]["replans"], rounds[-1][after]["replans"]))
         replans["same_iterations"] = all(x["iterations"] == y["iterations"] for x, y in
                                          zip(rounds[-1][before]["replans"], rounds[-1][after]["replans"]))
-    return {"cases": cases, "replans": replans}
+    return {"cases": cases, "replans": replans, "command_cpu": command}
 
 
 def markdown(r: dict) -> str:
@@ -166,6 +186,8 @@ def markdown(r: dict) -> str:
                      f"{ratio:.2f}× |")
     lines += ["", f"Median {after}/TOWR over the cases: {np.median(ratios):.2f}× (issue 34's target ≤ 0.5×; TOWR's figures "
               "are bench/dyn.py's reference column, measured on this machine on an idle day)."]
+    lines += ["", f"Whole `legplan dyn plan` process on the flat trot (CPU, start-up included; issue 38's target ≤ 1.0 s): "
+              f"{before} {r['command_cpu'][before]:.2f} s, {after} {r['command_cpu'][after]:.2f} s."]
     rp = r["replans"]
     if rp:
         lines += ["", f"Warm replans (bench/replan.py's set: {r['replans_count']} instants × unperturbed/pushed, CPU of "
@@ -211,7 +233,8 @@ def main() -> None:
             got[label] = run_tree(paths[label], cases, args.replans)
             solves = ", ".join(f"{key} {v['solve']:.2f}" for key, v in got[label]["cases"].items())
             print(f"round {k + 1} {label}: {solves}; replans median "
-                  f"{np.median([x['cpu'] for x in got[label]['replans']] or [np.nan]) * 1e3:.0f} ms", flush=True)
+                  f"{np.median([x['cpu'] for x in got[label]['replans']] or [np.nan]) * 1e3:.0f} ms; dyn plan command "
+                  f"{got[label]['command_cpu']:.2f} s CPU", flush=True)
         rounds.append(got)
     summary = summarize(rounds, labels)
     result = {"date": datetime.date.today().isoformat(), "machine": machine(), "code": code_version(),
