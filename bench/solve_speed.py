@@ -211,6 +211,7 @@ def main() -> None:
     parser.add_argument("--cases", default=",".join(TOWR_CASES))
     parser.add_argument("--replans", type=int, default=6, help="replan instants (0: no replans)")
     parser.add_argument("--no-append", action="store_true")
+    parser.add_argument("--result-name", default="solve_speed", help="bench/results/NAME.json")
     parser.add_argument("--child", type=Path, help=argparse.SUPPRESS)
     parser.add_argument("--out", type=Path, help=argparse.SUPPRESS)
     args = parser.parse_args()
@@ -242,7 +243,7 @@ def main() -> None:
               "replans_count": args.replans, "load_start": load_start, "load_end": load_average(), **summary}
     text = markdown(result)
     print(text)
-    write_result("solve_speed", result)
+    write_result(args.result_name, result)
     if not args.no_append:
         update_benchmarks("solve_speed", text)
 

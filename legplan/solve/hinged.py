@@ -16,11 +16,11 @@ the loop cannot cycle when many hinges cross at once.
 
 Every solve is a numeric factorization by CHOLMOD of J_RᵀJ_R + λI from the rows R of J that are
 plain or active (its AAᵀ mode: no product formed in Python), on one symbolic analysis of the whole
-J's pattern, at the first pass of a step. J is `Problem.nonzero_jacobian`: the entries that are zero
-by construction (most of a centroidal problem's) never enter the products, and its pattern, the
-entries ever nonzero, settles after a few linearizations, each change one new analysis. The later
-passes change a few rows, which
-the factor follows by CHOLMOD's rank updates (`CholmodSolver.refactor_rows`), and a pass whose
+J's pattern, at the first pass of a step. J is `Problem.nonzero_jacobian`: the entries that are
+zero by construction (zero blocks of per-sample Jacobians, forces fixed at zero in swing) never
+enter the products, and its pattern, the entries ever nonzero, settles after a few
+linearizations, each change one new analysis. The later passes change a few rows, which the
+factor follows by CHOLMOD's rank updates (`CholmodSolver.refactor_rows`), and a pass whose
 active set is the one last factorized reuses that factorization. λ follows the gain ratio
 ρ = actual / model decrease (Nielsen: λ ← λ·max(⅓, 1 − (2ρ − 1)³) on success, λ ← λ·ν, ν ← 2ν on
 failure).
