@@ -2,8 +2,9 @@
 
 Each block samples the splines of a `Formulation` at fixed times (sparse sampling matrices built
 once) and returns its values and one sparse Jacobian per variable it reads; bounds are attached by
-`legplan.solve.Constraint`. Nonlinear orientation and terrain terms are differentiated by complex
-step (`euler.complex_step`, exact to round-off), the rest analytically.
+`legplan.solve.Constraint`. The rotation of a vector, R(e)ᵀd and R(e)v, is differentiated by the
+closed-form ∂R/∂e (`euler.rotation_derivatives`); the other nonlinear orientation terms and the
+terrain terms by complex step (`euler.complex_step`, exact to round-off); the rest analytically.
 
 * `DynamicsBlock` — single-rigid-body Newton-Euler at every dynamics time (6 rows, N and N·m):
   m·p̈ + m·g·e_z − Σ f_i = 0 and I_W ω̇ + ω × I_W ω − Σ (p_i − p) × f_i = 0, I_W = R I_B Rᵀ.
@@ -29,7 +30,7 @@ from abc import abstractmethod
 import numpy as np
 import scipy.sparse as sp
 
-from legplan.dyn.euler import body_rates, complex_step, rotation
+from legplan.dyn.euler import body_rates, complex_step, rotation, rotation_derivatives
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import (PHASES, PhaseTiming, TimedControlPoints, TimedSamples, invalid_timing, phase_jacobian,
@@ -45,6 +46,12 @@ COLUMN_REACH = 0.1  # m beyond a leg sphere's radius up to which its distance to
 
 def _nodes(v: np.ndarray) -> np.ndarray:
     return np.asarray(v).reshape(-1, 3)
+
+
+def _in_base_jacobian(turns: np.ndarray, d: np.ndarray) -> np.ndarray:
+    """∂(R(e)ᵀ d)/∂e (n, 3, 3), [:, i, k] the derivative of entry i w.r.t. e_k, for the rotation's
+    derivatives `turns` = `euler.rotation_derivatives(e)` and vectors d (n, 3)."""
+    return np.einsum("nkji,nj->nik", turns, d)
 
 
 class DynamicsBlock(ResidualBlock):
@@ -72,9 +79,10 @@ class DynamicsBlock(ResidualBlock):
         self.columns = [3 * m.shape[1] for m in (self.base[0], self.base[0], self.feet[0], self.forces[0])]
         n, c = self.n, self.columns
         self.jacobians = [SampledJacobian([self.base[2], self.base[0]], 6, n, c[0]),
-                          SampledJacobian(self.base, 6, n, c[1]),
-                          SampledJacobian(self.feet, 6, n, c[2]),
+                          SampledJacobian(self.base, 3, n, c[1]),  # the angular rows only (`_angular_rows`)
+                          SampledJacobian(self.feet, 3, n, c[2]),  # the angular rows only
                           SampledJacobian(self.forces, 6, n, c[3])]
+        self._lifted: dict[int, tuple] = {}  # `_angular_rows`' row pointers by the pattern's
 
     def _retime(self, d: np.ndarray) -> bool:
         """Move the feet and force samples to the durations d; False if d is no valid timing."""
@@ -86,6 +94,22 @@ class DynamicsBlock(ResidualBlock):
             self.jacobians[2] = self.jacobians[2].with_matrices(self.feet)
             self.jacobians[3] = self.jacobians[3].with_matrices(self.forces)
         return valid
+
+    def _angular_rows(self, jac: sp.csr_matrix) -> sp.csr_matrix:
+        """The Jacobian of the angular rows (3 per time) as that of all 6 rows of each time: the
+        orientation and the feet enter the torque rows alone, so their linear rows hold no entry
+        (none is computed). Same data and indices; the row pointers of the interleaved rows are
+        derived once per pattern (kept while `jac.indptr` is the same read-only array)."""
+        ptr = jac.indptr
+        lifted = self._lifted.get(id(ptr))
+        if lifted is None or lifted[0] is not ptr or ptr.flags.writeable:
+            starts = ptr[:-1].reshape(self.n, 3)
+            rows = np.empty((self.n, 6), ptr.dtype)
+            rows[:, :3], rows[:, 3:] = starts[:, :1], starts  # the linear rows: empty, where the angular start
+            indptr = np.append(rows.reshape(-1), ptr[-1])
+            indptr.flags.writeable = False
+            self._lifted[id(ptr)] = lifted = (ptr, indptr)
+        return sp.csr_matrix((jac.data, jac.indices, lifted[1]), shape=(self.size, jac.shape[1]))
 
     def inertial_torque(self, e, ed, edd):
         """I_W ω̇ + ω × I_W ω = R (I_B ω̇_B + ω_B × I_B ω_B), rows (n, 3)."""
@@ -116,11 +140,11 @@ class DynamicsBlock(ResidualBlock):
         stack = lambda top, bottom: np.concatenate([top, bottom], axis=1)  # (n, 6, 3)
         f_skew = [skew(fi) for fi in f]
         lin_j, ang_j, feet_j, forces_j = self.jacobians
-        g_feet = [stack(zero, fs) for fs in f_skew]
         g_forces = [stack(-eye, -skew(q - p0)) for q in pf]
         out = [lin_j([stack(self.mass * eye, zero), stack(zero, -sum(f_skew))]),
-               ang_j([stack(zero, j_e), stack(zero, j_ed), stack(zero, j_edd)]), feet_j(g_feet), forces_j(g_forces)]
+               self._angular_rows(ang_j([j_e, j_ed, j_edd])), self._angular_rows(feet_j(f_skew)), forces_j(g_forces)]
         if self.timing is not None:
+            g_feet = [stack(zero, fs) for fs in f_skew]
             legs = len(self.feet)
             terms = [(g, s, values[2]) for g, s in zip(g_feet, self.samples[:legs])]
             terms += [(g, s, values[3]) for g, s in zip(g_forces, self.samples[legs:])]
@@ -184,8 +208,10 @@ class RangeOfMotionBlock(ResidualBlock):
         p, e, q = sampled
         if not jacobians:
             return (self._in_base(e, q - p) - self.nominal).reshape(-1), None
-        x, (j_e,) = complex_step(self._in_base, (e, q - p), (0,))
-        rt = np.transpose(rotation(e), (0, 2, 1))
+        rot = rotation(e)
+        x = np.einsum("nji,nj->ni", rot, q - p)  # `_in_base`
+        j_e = _in_base_jacobian(rotation_derivatives(e), q - p)
+        rt = np.transpose(rot, (0, 2, 1))
         return (x - self.nominal).reshape(-1), self._jacobians(-rt, j_e, rt, values)
 
 
@@ -203,7 +229,7 @@ class LegClearanceBlock(RangeOfMotionBlock):
     not only the feet, off the terrain, the sides of steps included (ours: the paper keeps the legs
     clear through the swing height only, Sec. III-A2). The exact distance, rather than a bound of
     the columns near the sphere, lets a shank pass beside an edge it clears. The Jacobian is the
-    chain rule through ∂s/∂b (the legs' own), the rotation's derivative by complex step and the
+    chain rule through ∂s/∂b (the legs' own), the rotation's derivative ∂R/∂e and the
     distance's gradient (the unit vector from the nearest terrain point)."""
 
     def __init__(self, form: Formulation, leg: int, legs, terrain: TerrainModel, times: np.ndarray,
@@ -247,14 +273,14 @@ class LegClearanceBlock(RangeOfMotionBlock):
         if not jacobians:
             return value.reshape(-1), None
         k = self.rows
-        _, (db_de,) = complex_step(self._in_base, (e, q - p), (0,))  # (n, 3, 3)
+        turns = rotation_derivatives(e)
+        db_de = _in_base_jacobian(turns, q - p)  # (n, 3, 3)
         rt = np.transpose(rot, (0, 2, 1))
         rds = np.einsum("nij,nkjl->nkil", rot, ds)  # R ∂s/∂b
         dc_dq = rds @ rt[:, None]
         dc_dp = np.eye(3) - dc_dq
-        turned = lambda x: np.einsum("nij,nkj->nki", rotation(x), np.tile(lever, (len(x) // self.n, 1, 1))).reshape(len(x), -1)
-        _, (dr_de,) = complex_step(turned, (e,), (0,))  # ∂(R v)/∂e at v = s − o
-        dc_de = dr_de.reshape(self.n, k, 3, 3) + rds @ db_de[:, None]
+        dr_de = np.einsum("nlij,nkj->nkil", turns, lever)  # ∂(R v)/∂e at v = s − o, (n, k, 3, 3)
+        dc_de = dr_de + rds @ db_de[:, None]
         row = lambda d: np.einsum("nki,nkij->nkj", dh, d)
         return value.reshape(-1), self._jacobians(row(dc_dp), row(dc_de), row(dc_dq), values)
 
@@ -269,7 +295,7 @@ class JointTorqueBlock(RangeOfMotionBlock):
     the leg's configuration at that time, not one bound on the normal force for every stance and
     direction (ours: TOWR bounds f·n alone). The Jacobian: ∂τ/∂b (`ChainLegs.foot_torques`, through
     the IK) by the chain rule with ∂b/∂(p, e, p_i), ∂τ/∂g = J_fᵀ with g = Rᵀ f, the rotation's
-    derivative by complex step."""
+    derivative ∂R/∂e."""
 
     variables = ("base_lin", "base_ang", "feet", "forces")
 
@@ -312,8 +338,8 @@ class JointTorqueBlock(RangeOfMotionBlock):
         tau, d_b, d_g, self.joints = self.legs.foot_torques(self.leg, b, g, self.joints)
         if not jacobians:
             return tau.reshape(-1), None
-        _, (db_de,) = complex_step(self._in_base, (e, q - p), (0,))
-        _, (dg_de,) = complex_step(self._in_base, (e, f), (0,))
+        turns = rotation_derivatives(e)
+        db_de, dg_de = _in_base_jacobian(turns, q - p), _in_base_jacobian(turns, f)
         rt = np.transpose(rotation(e), (0, 2, 1))
         d_q = d_b @ rt
         d_f = d_g @ rt

@@ -31,6 +31,25 @@ def rotation(e: np.ndarray) -> np.ndarray:
     return r
 
 
+def rotation_derivatives(e: np.ndarray) -> np.ndarray:
+    """∂R/∂e_k (n, 3, 3, 3), [:, k] the derivative of `rotation`'s R(e) w.r.t. e_k (roll, pitch, yaw):
+    the product rule on R = Rz(ψ) Ry(θ) Rx(φ), entry by entry (real e only)."""
+    cr, sr = np.cos(e[:, 0]), np.sin(e[:, 0])
+    cp, sp = np.cos(e[:, 1]), np.sin(e[:, 1])
+    cy, sy = np.cos(e[:, 2]), np.sin(e[:, 2])
+    d = np.zeros(e.shape[:1] + (3, 3, 3))
+    roll, pitch, yaw = d[:, 0], d[:, 1], d[:, 2]
+    roll[:, 0, 1], roll[:, 0, 2] = cy * sp * cr + sy * sr, -cy * sp * sr + sy * cr
+    roll[:, 1, 1], roll[:, 1, 2] = sy * sp * cr - cy * sr, -sy * sp * sr - cy * cr
+    roll[:, 2, 1], roll[:, 2, 2] = cp * cr, -cp * sr
+    pitch[:, 0, 0], pitch[:, 0, 1], pitch[:, 0, 2] = -cy * sp, cy * cp * sr, cy * cp * cr
+    pitch[:, 1, 0], pitch[:, 1, 1], pitch[:, 1, 2] = -sy * sp, sy * cp * sr, sy * cp * cr
+    pitch[:, 2, 0], pitch[:, 2, 1], pitch[:, 2, 2] = -cp, -sp * sr, -sp * cr
+    yaw[:, 0, 0], yaw[:, 0, 1], yaw[:, 0, 2] = -sy * cp, -sy * sp * sr - cy * cr, -sy * sp * cr + cy * sr
+    yaw[:, 1, 0], yaw[:, 1, 1], yaw[:, 1, 2] = cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr
+    return d
+
+
 def body_rates(e: np.ndarray, ed: np.ndarray, edd: np.ndarray | None = None):
     """ω_B (n, 3) and, given ë, ω̇_B (n, 3) from Euler angles, rates and accelerations."""
     cr, sr = np.cos(e[:, 0]), np.sin(e[:, 0])

@@ -176,7 +176,10 @@ def _jacobian_structure(rows: int, samples: int, columns: int, patterns: tuple) 
         keys.append((r.astype(np.int64) * columns + c).reshape(-1))
         entry_rows.append(entry_row)
     unique, slot = np.unique(np.concatenate(keys), return_inverse=True)
-    out = (entry_rows, slot, unique % columns, np.searchsorted(unique // columns, np.arange(samples * rows + 1)))
+    index = np.int32 if max(unique.size, columns, samples * rows) < np.iinfo(np.int32).max else np.int64
+    # in scipy's index dtype already: the CSR matrices share these (read-only) arrays, call after call
+    out = (entry_rows, slot, (unique % columns).astype(index),
+           np.searchsorted(unique // columns, np.arange(samples * rows + 1)).astype(index))
     for a in [*entry_rows, *out[1:]]:
         a.flags.writeable = False
     return out

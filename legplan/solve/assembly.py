@@ -87,6 +87,7 @@ class CooAssembler:
             slots = scattered_slots if len(parts) == len(scattered) else np.concatenate(
                 [self._piece_slots[k] for k in scattered if values[k] is not None])
             data = np.bincount(slots, weights=np.concatenate(parts), minlength=self._indices.size)
+            data = data.astype(float, copy=False)  # bincount of no weights counts (integers)
         else:
             data = np.zeros(self._indices.size)
         for k, start, stop in ranges:
@@ -108,3 +109,56 @@ class CooAssembler:
         scattered_slots = (np.concatenate([self._piece_slots[k] for k in scattered]) if scattered
                            else np.zeros(0, np.intp))
         return ranges, scattered, scattered_slots
+
+
+class NonzeroPattern:
+    """The entries of a compressed (CSR/CSC) matrix that have ever been nonzero, for a matrix whose
+    structural pattern is fixed but holds many entries that are zero by construction (a zero block
+    of a per-sample Jacobian, a force fixed at zero in swing, a sampling weight of zero).
+
+    `reduced` returns the matrix restricted to those entries: the same values (a dropped entry is
+    exactly zero), fewer of them, so that products, factorizations and matrix-vector products skip
+    them. The kept set only grows (an entry nonzero once stays in the pattern), so it settles after
+    a few evaluations and a factorization analysed on it is reused; `version` counts its changes.
+    A new structural pattern (`structure`, e.g. an assembler's version) starts it afresh.
+    """
+
+    def __init__(self):
+        self.version = 0
+        self._structure = None
+        self._kept: np.ndarray | None = None
+
+    def reduced(self, matrix: sp.csr_matrix | sp.csc_matrix, structure) -> sp.csr_matrix | sp.csc_matrix:
+        nonzero = matrix.data != 0.0  # NaN counts as nonzero: it stays visible to the caller
+        if self._structure != structure or self._kept is None or self._kept.size != nonzero.size:
+            self._structure = structure
+            self._update(matrix, nonzero)
+        elif np.any(nonzero & ~self._kept):
+            self._update(matrix, nonzero | self._kept)
+        return type(matrix)((matrix.data[self._take], self._indices, self._indptr), shape=matrix.shape)
+
+    def _update(self, matrix, kept: np.ndarray) -> None:
+        self._kept = kept
+        self._take = np.flatnonzero(kept)
+        before = np.concatenate([[0], np.cumsum(kept, dtype=np.int64)])
+        self._indptr = before[matrix.indptr].astype(matrix.indptr.dtype)
+        self._indices = matrix.indices[self._take]
+        self.version += 1
+
+
+def kept_indices(arrays) -> tuple:
+    """What `same_indices` compares later: each index array with a copy of its contents."""
+    return tuple((a, a.copy()) for a in arrays)
+
+
+def same_indices(kept: tuple, arrays) -> bool:
+    """Whether index arrays hold what they held when `kept_indices` took them: the memory of the
+    same read-only array (a cached pattern nobody can change; scipy hands out a new view of it with
+    every matrix) without a look at its contents, else by comparing the contents with the copy."""
+    return len(kept) == len(arrays) and all(
+        _same_memory(original, a) or np.array_equal(copy, a) for (original, copy), a in zip(kept, arrays))
+
+
+def _same_memory(original: np.ndarray, a: np.ndarray) -> bool:
+    return (not original.flags.writeable and a.dtype == original.dtype and a.shape == original.shape
+            and a.strides == original.strides and a.ctypes.data == original.ctypes.data)

@@ -39,6 +39,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from legplan.parameters import Parameters, param
+from legplan.solve.assembly import kept_indices, same_indices
 from legplan.solve.blocks import ResidualBlock
 from legplan.solve.hinged import HingedParams, solve_hinged_lm
 from legplan.solve.linsolve import make_solver
@@ -193,9 +194,8 @@ class _RowPicker:
             return factor[:, None] * np.asarray(jac, float)[self.pick]
         jac = jac if jac.format == "csr" else sp.csr_matrix(jac)
         if self.pattern is None or not (self.pattern[0] == jac.shape
-                                        and np.array_equal(self.pattern[1], jac.indptr)
-                                        and np.array_equal(self.pattern[2], jac.indices)):
-            self.pattern = (jac.shape, jac.indptr.copy(), jac.indices.copy(),
+                                        and same_indices(self.pattern[1], (jac.indptr, jac.indices))):
+            self.pattern = (jac.shape, kept_indices((jac.indptr, jac.indices)), None,
                             *_picked_pattern(jac.shape, jac.indptr.dtype.str, jac.indptr.tobytes(),
                                              jac.indices.dtype.str, jac.indices.tobytes(), self.pick.tobytes()))
         _, _, _, source, indices, indptr, row = self.pattern

@@ -16,8 +16,11 @@ the loop cannot cycle when many hinges cross at once.
 
 Every solve is a numeric factorization by CHOLMOD of J_RᵀJ_R + λI from the rows R of J that are
 plain or active (its AAᵀ mode: no product formed in Python), on one symbolic analysis of the whole
-J's pattern per problem, at the first pass of a step; the later passes change a few rows, which
-the factor follows by CHOLMOD's rank updates (`CholmodSolver.refactor_rows`), and a pass whose
+J's pattern, at the first pass of a step. J is `Problem.nonzero_jacobian`: the entries that are
+zero by construction (zero blocks of per-sample Jacobians, forces fixed at zero in swing) never
+enter the products, and its pattern, the entries ever nonzero, settles after a few
+linearizations, each change one new analysis. The later passes change a few rows, which the
+factor follows by CHOLMOD's rank updates (`CholmodSolver.refactor_rows`), and a pass whose
 active set is the one last factorized reuses that factorization. λ follows the gain ratio
 ρ = actual / model decrease (Nielsen: λ ← λ·max(⅓, 1 − (2ρ − 1)³) on success, λ ← λ·ν, ν ← 2ν on
 failure).
@@ -101,7 +104,7 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
                         accepted, rejected, timings, test)
 
     t0 = time.perf_counter()
-    v, J = problem.jacobian(theta)
+    v, J = problem.nonzero_jacobian(theta)
     timings.evaluate += time.perf_counter() - t0
     norm = initial = hinged_norm(v, hinged)
     model = None
@@ -145,7 +148,7 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
             if stop:
                 return finish(stop, it + 1, norm)
             t0 = time.perf_counter()
-            v, J = problem.jacobian(theta)
+            v, J = problem.nonzero_jacobian(theta)
             model = None
             timings.evaluate += time.perf_counter() - t0
         else:
@@ -215,10 +218,10 @@ class _HingeModel:
     a pass whose active set is the last factorized one reuses its factorization and candidate."""
 
     def __init__(self, J, v: np.ndarray, hinged: np.ndarray, n: int):
-        Js = sp.csr_matrix(J, copy=True)
-        d2 = np.bincount(Js.indices, weights=Js.data ** 2, minlength=n)
+        J = sp.csr_matrix(J)
+        d2 = np.bincount(J.indices, weights=J.data ** 2, minlength=n)
         self.scale = np.where(d2 > MARQUARDT_FLOOR * d2.max(initial=0.0), 1.0 / np.sqrt(np.where(d2 > 0, d2, 1.0)), 1.0)
-        Js.data *= self.scale[Js.indices]
+        Js = sp.csr_matrix((J.data * self.scale[J.indices], J.indices, J.indptr), shape=J.shape)
         self.J, self.v, self.hinged = Js, v, hinged
 
     def step(self, solver, lam: float, iterations: int, timings: Timings) -> np.ndarray | None:

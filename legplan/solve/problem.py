@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from legplan.solve.assembly import CooAssembler
+from legplan.solve.assembly import CooAssembler, NonzeroPattern, kept_indices, same_indices
 from legplan.solve.blocks import BlockDiagonal, Matrix, ResidualBlock, StructuredBlock, default_normal_terms
 from legplan.solve.variables import VariableBlock, VariableLayout
 
@@ -87,6 +87,7 @@ class Problem:
         self._jac_assembler = None
         self._jact_assembler = None
         self._hess_assembler = None
+        self._nonzero = NonzeroPattern()
 
     @property
     def layout(self) -> VariableLayout:
@@ -165,10 +166,9 @@ class Problem:
             term = term if term.format in ("csr", "csc") else sp.coo_matrix(term)
             pattern = (term.indptr, term.indices) if term.format != "coo" else (term.row, term.col)
             cached = self._index_cache.get(key + ("sparse",))
-            if cached is None or not (cached[0] == term.format and all(np.array_equal(a, b) for a, b in
-                                                                       zip(cached[1], pattern))):
+            if cached is None or not (cached[0] == term.format and same_indices(cached[1], pattern)):
                 coo = term.tocoo()
-                cached = self._index_cache[key + ("sparse",)] = (term.format, tuple(p.copy() for p in pattern),
+                cached = self._index_cache[key + ("sparse",)] = (term.format, kept_indices(pattern),
                                                                   self._mapped(coo.row, coo.col, rowmap, colmap))
             rows, cols, keep = cached[2]
             return rows, cols, term.data[keep]
@@ -244,6 +244,22 @@ class Problem:
         """h(θ) and the stacked weighted Jacobian J (CSC, pattern cached across calls)."""
         h, rows, cols, vals = self._jacobian_triplets(theta)
         return h, self._jac_assembler.assemble_parts(rows, cols, vals)
+
+    def nonzero_jacobian(self, theta: np.ndarray) -> tuple[np.ndarray, sp.csr_matrix]:
+        """h(θ) and the stacked weighted J as CSR on the entries that were ever nonzero in this
+        problem's evaluations (`assembly.NonzeroPattern`): the values of `jacobian`, without the
+        entries that are zero by construction. Its pattern changes only when an entry becomes
+        nonzero for the first time (`nonzero_version`), so a factorization analysed on it holds."""
+        layout = self.layout
+        h, rows, cols, vals = self._jacobian_triplets(theta)
+        Jt = self._jact_assembler.assemble_parts(cols, rows, vals)  # Jᵀ in CSC: J in CSR
+        J = sp.csr_matrix((Jt.data, Jt.indices, Jt.indptr), shape=(h.size, layout.n))
+        return h, self._nonzero.reduced(J, self._jact_assembler.version)
+
+    @property
+    def nonzero_version(self) -> int:
+        """Changes whenever the pattern of `nonzero_jacobian` changes."""
+        return self._nonzero.version
 
     def _jacobian_triplets(self, theta: np.ndarray):
         """h(θ) and the COO pieces (rows, cols, values) of the stacked weighted J."""

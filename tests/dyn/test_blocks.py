@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from legplan.dyn.costs import CostWeights, integral_costs
-from legplan.dyn.euler import body_rates, complex_step, rotation, world_rates
+from legplan.dyn.euler import body_rates, complex_step, rotation, rotation_derivatives, world_rates
 from legplan.dyn.init import heuristic
 from legplan.dyn.legs import ChainLegs
 from legplan.dyn.problem import PAPER_COSTS, DynParams, DynTask, build_problem
@@ -247,6 +247,18 @@ def test_euler_rates_match_rotation_derivative():
     assert (w_plus - w_minus) / (2 * h) == pytest.approx(wd, abs=1e-5)
     wb = body_rates(e, ed)
     assert np.einsum("nij,nj->ni", rotation(e), wb) == pytest.approx(w)
+
+
+def test_rotation_derivatives_match_central_differences_and_complex_step():
+    e = np.random.default_rng(4).normal(size=(6, 3)) * 1.5
+    turns = rotation_derivatives(e)
+    h = 1e-6
+    for k in range(3):
+        step = np.zeros(3)
+        step[k] = h
+        assert turns[:, k] == pytest.approx((rotation(e + step) - rotation(e - step)) / (2 * h), abs=1e-8)
+    _, (exact,) = complex_step(lambda x: rotation(x).reshape(len(x), 9), (e,), (0,))
+    assert np.moveaxis(turns, 1, 3).reshape(6, 9, 3) == pytest.approx(exact, abs=1e-14)
 
 
 def test_complex_step_is_exact_for_a_polynomial():

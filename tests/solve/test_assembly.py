@@ -39,3 +39,54 @@ def test_one_piece_in_csc_order_is_copied_not_aliased():
     H = CooAssembler((3, 3)).assemble_parts([rows], [cols], [values])
     values[:] = 0.0
     np.testing.assert_array_equal(H.toarray(), [[1, 0, 4], [0, 3, 0], [2, 0, 0]])
+
+
+def test_nonzero_pattern_keeps_every_entry_ever_nonzero_and_grows_only():
+    from legplan.solve.assembly import NonzeroPattern
+
+    structure = sp.csr_matrix(np.array([[1.0, 1.0, 0.0], [0.0, 1.0, 1.0], [1.0, 0.0, 1.0]]))
+    pattern = NonzeroPattern()
+
+    def with_values(values):
+        m = structure.copy()
+        m.data = np.asarray(values, float)
+        return m
+
+    first = with_values([2.0, 0.0, 0.0, 3.0, -0.0, 4.0])  # explicit zeros (one negative) dropped
+    reduced = pattern.reduced(first, structure=1)
+    np.testing.assert_array_equal(reduced.toarray(), first.toarray())
+    assert reduced.nnz == 3 and pattern.version == 1
+    again = pattern.reduced(with_values([5.0, 0.0, 0.0, 6.0, 0.0, 7.0]), structure=1)
+    assert again.nnz == 3 and pattern.version == 1  # same pattern: a factorization analysed on it holds
+    grown = with_values([5.0, 1.0, 0.0, 0.0, 0.0, np.nan])  # an entry nonzero for the first time
+    reduced = pattern.reduced(grown, structure=1)
+    assert pattern.version == 2 and reduced.nnz == 4  # the earlier nonzero entries stay, as zeros now
+    np.testing.assert_array_equal(reduced.toarray(), grown.toarray())  # NaN kept: the caller sees it
+    later = pattern.reduced(with_values([1.0, 0.0, 0.0, 0.0, 0.0, 0.0]), structure=1)
+    assert later.nnz == 4 and pattern.version == 2
+    fresh = pattern.reduced(with_values([0.0, 0.0, 9.0, 0.0, 0.0, 0.0]), structure=2)  # a new structure
+    assert fresh.nnz == 1 and pattern.version == 3
+    np.testing.assert_array_equal(fresh.toarray(), with_values([0, 0, 9.0, 0, 0, 0]).toarray())
+
+
+def test_same_indices_trusts_only_a_read_only_array_by_identity():
+    from legplan.solve.assembly import kept_indices, same_indices
+
+    frozen, mutable = np.arange(5), np.arange(5)
+    frozen.flags.writeable = False
+    kept = kept_indices((frozen, mutable))
+    assert same_indices(kept, (frozen, mutable))
+    mutable[0] = 7  # changed in place: the same object, other contents
+    assert not same_indices(kept, (frozen, mutable))
+    assert same_indices(kept_indices((frozen, mutable)), (frozen.copy(), mutable.copy()))  # equal copies
+    assert not same_indices(kept, (frozen,))
+
+
+def test_same_indices_recognises_a_view_of_the_same_read_only_memory():
+    from legplan.solve.assembly import kept_indices, same_indices
+
+    frozen = np.arange(6)
+    frozen.flags.writeable = False
+    kept = kept_indices((frozen,))
+    assert same_indices(kept, (frozen[:],))  # scipy's matrices hold views such as this one
+    assert not same_indices(kept, (frozen[:5],)) and not same_indices(kept, (frozen[::2],))

@@ -170,3 +170,44 @@ def test_model_step_never_raises_the_model_and_reaches_its_minimum(seed):
     best = scipy.optimize.minimize(lambda d: _model_value(Js, v, hinged, lam, d), np.zeros(n), jac=grad,
                                    method="L-BFGS-B", options={"maxiter": 20000, "ftol": 1e-15, "gtol": 1e-12})
     assert _model_value(Js, v, hinged, lam, step) <= best.fun + 1e-6 * max(1.0, abs(best.fun))
+
+
+def test_factorizing_on_the_entries_ever_nonzero_gives_the_answer_of_the_whole_pattern(monkeypatch):
+    """`solve_hinged_lm` factorizes `Problem.nonzero_jacobian` (explicit zeros left out, the pattern
+    growing as entries turn nonzero); with the whole structural pattern instead, the same steps:
+    equal iterations, answers equal to round-off (the fill-reducing order differs)."""
+    import scipy.sparse as sp
+
+    rng = np.random.default_rng(5)
+    n, m = 40, 60
+    A = sp.random(m, n, density=0.2, random_state=rng, format="csr")  # the declared pattern
+    rows, cols = np.repeat(np.arange(m), np.diff(A.indptr)), A.indices
+    kind = rng.integers(0, 3, A.nnz)  # 0: c·x_j², 1: b·x_j, 2: a structural zero (never nonzero)
+    coef = rng.normal(size=A.nnz)
+    targets = rng.normal(size=m)
+
+    def fn(x):  # x starts at zero on even columns: their quadratic entries turn nonzero later
+        terms = np.where(kind == 0, coef * x[cols] ** 2, np.where(kind == 1, coef * x[cols], 0.0))
+        values = np.where(kind == 0, 2.0 * coef * x[cols], np.where(kind == 1, coef, 0.0))
+        r = np.bincount(rows, weights=terms, minlength=m) - targets
+        return r, [sp.csr_matrix((values, A.indices, A.indptr), shape=A.shape)]
+
+    class Hinged(FunctionBlock):
+        hinged = np.arange(m) % 3 == 0
+
+    def solve():
+        p = Problem([VariableBlock("x", np.where(np.arange(n) % 2 == 0, 0.0, 0.5))])
+        p.add_residual(Hinged(("x",), m, fn))
+        start = p.nonzero_jacobian(p.layout.initial())[1].nnz
+        return p, start, solve_hinged_lm(p, HingedParams(max_iterations=40, tolerance=1e-12))
+
+    problem, start, reduced = solve()
+    _, J = problem.jacobian(problem.layout.initial())
+    assert problem.nonzero_version >= 2  # the pattern grew during the solve
+    assert start < problem.nonzero_jacobian(reduced.theta)[1].nnz < J.nnz
+    monkeypatch.setattr(Problem, "nonzero_jacobian", lambda self, theta: (lambda hj: (hj[0], sp.csr_matrix(hj[1])))(
+        self.jacobian(theta)))
+    _, _, whole = solve()
+    assert reduced.iterations == whole.iterations and reduced.status is whole.status
+    np.testing.assert_allclose(reduced.theta, whole.theta, rtol=1e-9, atol=1e-12)
+    assert reduced.iterations > 3 and reduced.norm < 0.5 * reduced.initial_norm  # a solve of some length

@@ -42,6 +42,27 @@ def test_blocks_and_stacked_assembly_agree_and_match_jacobian():
         np.testing.assert_allclose(only_j.gradient, J.T @ h, atol=1e-12)
 
 
+def test_nonzero_jacobian_has_the_values_of_jacobian_on_the_entries_ever_nonzero():
+    for fixed in (None, [False, True, False, True]):
+        problem, _, _ = _quadratic_problem(fixed=fixed, weight=np.arange(1.0, 7.0))
+        zero_x = np.zeros(problem.layout.n)  # x = 0: the coupling row's ∂/∂y entry x[0] is zero
+        zero_x[-2:] = [2.0, 3.0]  # y ≠ 0: its block's own (value-dependent) pattern stays whole
+        theta = zero_x
+        h, J = problem.jacobian(theta)
+        h_nz, J_nz = problem.nonzero_jacobian(theta)
+        assert sp.isspmatrix_csr(J_nz) and J_nz.nnz == np.count_nonzero(J.toarray()) < J.nnz
+        np.testing.assert_array_equal(h_nz, h)
+        np.testing.assert_array_equal(J_nz.toarray(), J.toarray())
+        version = problem.nonzero_version
+        theta = np.linspace(-1, 1, problem.layout.n)  # now nonzero: the pattern grows, once
+        h, J = problem.jacobian(theta)
+        h_nz, J_nz = problem.nonzero_jacobian(theta)
+        np.testing.assert_array_equal(J_nz.toarray(), J.toarray())
+        assert problem.nonzero_version == version + 1
+        problem.nonzero_jacobian(zero_x)  # zero again: kept, pattern unchanged
+        assert problem.nonzero_version == version + 1 and problem.nonzero_jacobian(theta)[1].nnz == J_nz.nnz
+
+
 def test_weights_scale_rows():
     problem, A, b = _quadratic_problem(weight=2.0)
     h = problem.residual(np.zeros(problem.layout.n))
