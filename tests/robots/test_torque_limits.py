@@ -73,3 +73,20 @@ def test_torque_limits_above_the_urdf_stay_refused(tmp_path, limits):
     full = {leg: [40.0, 40.0, 40.0] for leg in ("lf", "rf", "lh", "rh")} | limits
     with pytest.raises(SpecError, match=r"centroidal\.torque_limits\.lf"):
         _anymal_with(tmp_path, full)
+
+
+def test_robot_show_names_where_the_limits_come_from(anymal, tmp_path):
+    """`robot show` prints the limits the robot has and their source: the URDF's efforts for the
+    shipped anymal, robot.yaml's for a copy that names them."""
+    import json
+
+    from click.testing import CliRunner
+
+    from legplan.cli.main import cli
+
+    text = CliRunner().invoke(cli, ["robot", "show", "anymal"]).output
+    assert "torque limits lf [N m, URDF efforts]: haa_lf 40, hfe_lf 40, kfe_lf 40" in text, text
+    written = _anymal_with(tmp_path, {leg: [30.0, 31.0, 32.0] for leg in ("lf", "rf", "lh", "rh")})
+    shown = json.loads(CliRunner().invoke(cli, ["robot", "show", str(written.yaml_path), "--json"]).output)
+    assert shown["centroidal"]["torque_limits_from"] == "robot.yaml"
+    assert shown["centroidal"]["torque_limits"]["rh"] == [30.0, 31.0, 32.0]
