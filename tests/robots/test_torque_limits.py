@@ -90,3 +90,13 @@ def test_robot_show_names_where_the_limits_come_from(anymal, tmp_path):
     shown = json.loads(CliRunner().invoke(cli, ["robot", "show", str(written.yaml_path), "--json"]).output)
     assert shown["centroidal"]["torque_limits_from"] == "robot.yaml"
     assert shown["centroidal"]["torque_limits"]["rh"] == [30.0, 31.0, 32.0]
+
+
+def test_robot_check_raises_no_scalar_force_warning_where_the_joints_bound_the_forces(anymal):
+    """The shipped anymal's 1000 N max_normal_force is more than its 40 N m joints give at the
+    stance, but the joints' limits bound the planned forces through the legs: no warning."""
+    from legplan.robots.check import check_robot
+    from legplan.robots.rigid_body import leg_forces
+
+    assert anymal.centroidal.max_normal_force > leg_forces(anymal).force.min()
+    assert not [f for f in check_robot(anymal) if f.subject == "centroidal.max_normal_force"]
