@@ -166,12 +166,17 @@ def robot_summary(robot) -> dict:
                                  "limits": vars(nav.limits)}
     c = robot.centroidal
     if c is not None:
+        from legplan.robots import torque_limits
+
+        limits = torque_limits(robot)
         summary["centroidal"] = {"mass": c.mass, "inertia": c.inertia.tolist(), "com_offset": c.com_offset.tolist(),
                                  "nominal_feet": dict(zip(c.legs, c.nominal_feet.tolist())),
                                  "range_of_motion": c.range_of_motion.tolist(), "base_height": c.base_height,
                                  "max_normal_force": c.max_normal_force, "friction": c.friction,
-                                 "torque_limits": None if c.torque_limits is None else
-                                 {leg: limits.tolist() for leg, limits in zip(c.legs, c.torque_limits)}}
+                                 "torque_limits": None if limits is None else
+                                 {leg.name: values.tolist() for leg, values in zip(robot.legs, limits)},
+                                 "torque_limits_from": None if limits is None else
+                                 "robot.yaml" if c.torque_limits is not None else "URDF efforts"}
     return summary
 
 
@@ -236,11 +241,12 @@ def show_command(robot, png, overwrite, as_json):
         for leg, foot in c["nominal_feet"].items():
             click.echo(f"    nominal foot {leg}: {foot} m")
         if c["torque_limits"] is None:
-            click.echo("    torque limits: none (the forces bounded by the max normal force and friction alone)")
+            click.echo("    torque limits: none (placeholder efforts: the forces bounded by the max normal force and "
+                       "friction alone)")
         else:
             joints = {leg["name"]: leg["joints"] for leg in info["legs"]}
             for leg, limits in c["torque_limits"].items():
                 shown = ", ".join(f"{joint} {limit:g}" for joint, limit in zip(joints[leg], limits))
-                click.echo(f"    torque limits {leg} [N m]: {shown}")
+                click.echo(f"    torque limits {leg} [N m, {c['torque_limits_from']}]: {shown}")
     if png:
         click.echo(f"  stance picture: {png}")

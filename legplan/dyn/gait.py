@@ -15,6 +15,15 @@ unscaled durations TOWR uses (s):
   0.1; the closing stride is one diagonal stance of 0.4. N = 4 gives 14 footsteps, N = 2 gives 6.
 
 Stand is 0.3 s of four-leg support. Legs are ordered lf, rf, lh, rh (the centroidal model's order).
+
+A slow trot (`line_support`): scaled to a long duration, TOWR's trot stands on each diagonal pair
+for longer than a robot can balance on the line between two feet (about the base's inverted-pendulum
+time √(h/g): deviations grow as e^{t/√(h/g)} while no moment can be exerted about that line). With
+`line_support` (s) shorter than the scaled pair, every pair lasts `line_support` and the rest of its
+half stride (the pair's excess and the flight) becomes four-leg support: the slow trot with
+overlapping pairs, pair, all four, other pair, all four; the closing pair's excess joins the last
+Stand. Each diagonal pair still swings together; a trot scaled to pairs within the bound is
+unchanged.
 Each foot's schedule merges consecutive phases with the same contact state (`foot_phases`).
 """
 
@@ -91,13 +100,43 @@ class Gait:
         return sum(not p.stance for leg in range(self.stance.shape[1]) for p in self.foot_phases(leg))
 
 
-def make_gait(name: str, strides: int, duration: float) -> Gait:
-    """Stand, (strides − 1) strides, the closing stride, Stand; durations scaled to `duration`."""
+def make_gait(name: str, strides: int, duration: float, line_support: float | None = None) -> Gait:
+    """Stand, (strides − 1) strides, the closing stride, Stand; durations scaled to `duration`; a
+    trot's diagonal pairs at most `line_support` seconds long (module docstring; None: as scaled)."""
     if name not in _STRIDES:
         raise ValueError(f"unknown gait {name!r} (known: {', '.join(GAITS)})")
     if strides < 1 or not duration > 0:
         raise ValueError("need strides ≥ 1 and duration > 0")
+    if line_support is not None and not line_support > 0:
+        raise ValueError("need line_support > 0")
     stride, closing = _STRIDES[name]
     phases = _STAND + stride * (strides - 1) + closing + _STAND
-    durations = np.array([d for d, _ in phases])
-    return Gait(name, durations * (duration / durations.sum()), np.array([s for _, s in phases], bool))
+    durations = np.array([d for d, _ in phases]) * (duration / sum(d for d, _ in phases))
+    stance = np.array([s for _, s in phases], bool)
+    if name == "trot" and line_support is not None:
+        durations, stance = _overlapping_pairs(durations, stance, line_support)
+    return Gait(name, durations, stance)
+
+
+def _overlapping_pairs(durations: np.ndarray, stance: np.ndarray, longest: float):
+    """A scaled trot whose pairs last longer than `longest` (s) as the slow trot of the module
+    docstring: each pair cut to `longest`, its excess and the flight after it four-leg support (the
+    closing pair's excess added to the last Stand); unchanged when every pair is within it."""
+    pairs = stance.sum(axis=1) == 2
+    if durations[pairs].max(initial=0.0) <= longest:
+        return durations, stance
+    durations, stance = durations.copy(), stance.copy()
+    flights = stance.sum(axis=1) == 0
+    stance[flights] = True
+    excess = np.where(pairs, durations - longest, 0.0)
+    durations[pairs] = longest
+    after = np.flatnonzero(pairs) + 1          # each pair's next phase: a flight made four-leg, or the last Stand
+    np.add.at(durations, after, excess[pairs])
+    merged_d, merged_s = [durations[0]], [stance[0]]
+    for d, s in zip(durations[1:], stance[1:]):   # a four-leg phase after a four-leg phase: one phase
+        if s.all() and merged_s[-1].all():
+            merged_d[-1] += d
+        else:
+            merged_d.append(d)
+            merged_s.append(s)
+    return np.array(merged_d), np.array(merged_s)

@@ -136,12 +136,14 @@ def sample_times(form: Formulation, params: DynParams) -> dict:
             "range": rom}
 
 
-def task_formulation(task: DynTask, params: DynParams, timed: bool = False) -> Formulation:
+def task_formulation(task: DynTask, params: DynParams, timed: bool = False,
+                     base_height: float | None = None) -> Formulation:
     """The `Formulation` of a task's gait under `params` (its base knots: `DynParams.dt`,
-    `phase_knots`, `unloaded_polynomials`): the one variable layout of the task. `timed`: an
-    initializer sets the phase durations (`sets_timing`), so that, as with `optimize_phases`, the
+    `phase_knots`, `unloaded_polynomials`; a trot's pairs at most `DynParams.line_support` × √(h/g)
+    for the model's `base_height` h, none without it): the one variable layout of the task. `timed`:
+    an initializer sets the phase durations (`sets_timing`), so that, as with `optimize_phases`, the
     phases need not stay at the gait's boundaries and the knots are dense everywhere."""
-    gait = make_gait(task.gait, task.strides, task.duration)
+    gait = make_gait(task.gait, task.strides, task.duration, line_support_time(params, base_height))
     moving = params.optimize_phases or timed
     if moving and params.unloaded_polynomials is not None and unloaded_phases(gait).any():
         return gait_formulation(gait, params, dense_knots(gait, params.dt, params.unloaded_polynomials,
@@ -155,6 +157,14 @@ def gait_formulation(gait, params: DynParams, knots: np.ndarray | None = None) -
     replan's layouts read those settings."""
     return Formulation(gait, params.dt, knots, aligned=params.phase_knots,
                        unloaded_polynomials=params.unloaded_polynomials, unloaded_dt=params.unloaded_dt)
+
+
+def line_support_time(params: DynParams, base_height: float | None) -> float | None:
+    """The longest diagonal-pair stance (s) of a trot, `DynParams.line_support` × √(h/g); None when
+    off or no base height h is given."""
+    if params.line_support is None or base_height is None:
+        return None
+    return float(params.line_support * np.sqrt(base_height / GRAVITY))
 
 
 def sets_timing(initializer) -> bool:
@@ -174,7 +184,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
         form, start, goal, feet0 = task.setup(model, terrain, params)
         model = about_com(model)
     else:
-        form = task_formulation(task, params, timed=sets_timing(initializer))
+        form = task_formulation(task, params, timed=sets_timing(initializer), base_height=model.base_height)
         start, goal = task_poses(task, model, terrain)
         model = about_com(model)
         feet0 = start_feet(model, start, terrain)
@@ -352,8 +362,10 @@ def _force(c: BuildContext) -> list[Constraint]:
 @constraint("joint_torque", per_leg=True)
 def _joint_torque(c: BuildContext) -> list[Constraint]:
     """The leg's joint torques inside its `Centroidal.torque_limits` less `DynParams.torque_margin`,
-    at the dynamics samples (knots and between) inside its stance phases (all of them when the
-    phases move); none for a model without torque limits (TOWR's scalar bound alone)."""
+    at the dynamics samples (knots and between) of its stance phases, their ends included (a stance
+    at the motion's start or end carries its load there; the check judges every sample of a stance),
+    all of them when the phases move; none for a model without torque limits (TOWR's scalar bound
+    alone)."""
     p, model = c.problem, c.problem.model
     limits = getattr(model, "torque_limits", None)
     if limits is None:
@@ -365,7 +377,7 @@ def _joint_torque(c: BuildContext) -> list[Constraint]:
         inside = np.zeros(t.size, bool)
         for phase in c.foot.phases:
             if phase.stance:
-                inside |= (t > phase.t0) & (t < phase.t0 + phase.duration)
+                inside |= (t >= phase.t0) & (t <= phase.t0 + phase.duration)
         t = t[inside]
     if not t.size:
         return []

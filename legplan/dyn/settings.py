@@ -120,6 +120,13 @@ class DynParams(Parameters):
         "terrain's envelope at the range-of-motion samples (LegClearanceBlock): on by default, since the "
         "independent check judges every leg sphere against the terrain, with a margin for the tracking "
         "error of the executing controller; None = off"))
+    line_support: float | None = param(1.6, "(0, inf)", doc=(
+        "× √(h/g) (h the model's base height): the longest a trot stands on one diagonal pair; a trot "
+        "scaled to longer pairs gets four-leg support in place of the pairs' excess and its flights "
+        "(`legplan.dyn.gait`, a slow trot with overlapping pairs), below the independent check's "
+        "`line_support` bound, since the executing controller cannot balance longer on the line "
+        "between two feet; above the pairs of the flying trots that execute (a flying trot within it "
+        "keeps its flights); None = the pairs as scaled"))
     torque_margin: float = param(0.05, "[0, 1)", doc=(
         "share of each joint's torque limit (Centroidal.torque_limits) the planned forces leave free "
         "(JointTorqueBlock): for what the legs' own motion and the controller's corrections need on "

@@ -36,6 +36,7 @@ from legplan.dyn.problem import DynTask
 from legplan.dyn.terrain import TerrainModel
 from legplan.errors import LegplanError, SpecError
 from legplan.parameters import COORDINATE, DURATION, YAW
+from legplan.robots.rigid_body import torque_limits
 from legplan.specio import FieldReader, read_csv_table, read_yaml
 
 POSE_FIELDS = ("start_x", "start_y", "start_yaw", "goal_x", "goal_y", "goal_yaw")
@@ -172,8 +173,10 @@ def check_sizes(tasks: list[DynTask], params, source: str | os.PathLike | None, 
 
 
 def centroidal_model(robot, params=None, costs: str = "--costs"):
-    """The `centroidal:` model of a loaded robot with the legs' chains (`Centroidal.leg_chains`, for
-    its torque limits) and the kinematics its legs' spheres are placed by
+    """The `centroidal:` model of a loaded robot with the joint torque limits the robot has
+    (`legplan.robots.torque_limits`: robot.yaml's, else the URDF's efforts, so that the planner keeps
+    |Jᵀf| inside what the check judges and the simulator's motors give), the legs' chains
+    (`Centroidal.leg_chains`, for those limits) and the kinematics its legs' spheres are placed by
     in the planner's leg clearance: the planar closed form (`legplan.robots.planar_legs`, cheaper)
     where the legs have it, else the legs' chains (`legplan.dyn.legs.ChainLegs`, any serial leg); or
     a one-line error naming its robot.yaml; with `params` (`DynParams`) asking for leg clearance, one
@@ -186,10 +189,12 @@ def centroidal_model(robot, params=None, costs: str = "--costs"):
                            "quadrupeds (four legs: left front, right front, left hind, right hind)")
     chains = ChainLegs.of_robot(robot)
     legs = robot.centroidal.leg_kinematics or chains  # the closed form where it exists
+    limits = torque_limits(robot)
     if params is not None and params.leg_clearance is not None and legs is None:
         raise LegplanError(f"{costs}: field 'leg_clearance': {robot.yaml_path}'s legs are not serial chains of "
                            "revolute joints from the base, whose spheres the planner can place (legplan.dyn.legs)")
     if robot.centroidal.torque_limits is not None and chains is None:
         raise LegplanError(f"{robot.yaml_path}: field 'centroidal.torque_limits': the legs are not serial chains of "
                            "revolute joints from the base, whose torques the planner can place (legplan.dyn.legs)")
-    return replace(robot.centroidal, leg_kinematics=legs, leg_chains=chains)
+    return replace(robot.centroidal, leg_kinematics=legs, leg_chains=chains,
+                   torque_limits=limits if chains is not None else None)

@@ -348,8 +348,10 @@ class LearnedInit:
         base knots of `params`, a `DynParams`, default its defaults) is not the one this network was
         trained for."""
         from legplan.dyn.problem import DynParams, task_formulation
+        from legplan.robots import load_robot
 
-        form = task_formulation(task, params or DynParams(), timed=self.sets_timing)
+        height = load_robot(self.space.get("robot", "anymal")).centroidal.base_height   # the space's robot (its default)
+        form = task_formulation(task, params or DynParams(), timed=self.sets_timing, base_height=height)
         check_layout(self.layout, layout_of(form, phases=True), self.path)
 
     @property

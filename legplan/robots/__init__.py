@@ -16,9 +16,10 @@ _HOMES = {
     "Centroidal": "centroidal", "Kinematics": "kinematics", "KinematicsWorkspace": "kinematics",
     "KinodynamicLimits": "navigation", "Leg": "spec", "Navigation": "navigation",
     "ReachResult": "legik", "RobotEntry": "registry", "RobotModel": "model", "RobotSpec": "spec",
-    "SphereSet": "spec", "leg_reach": "legik", "list_robots": "registry", "load_robot": "registry",
+    "SphereSet": "spec", "joint_efforts": "rigid_body", "leg_reach": "legik", "list_robots": "registry", "load_robot": "registry",
     "read_navigation": "navigation", "read_spec": "spec", "resolve_robot": "registry",
     "robot_search_path": "registry", "shipped_robots_dir": "registry", "survey_robots": "registry",
+    "torque_limits": "rigid_body",
 }
 __all__ = sorted(_HOMES)
 

@@ -18,9 +18,9 @@ Warnings:
 - a link inertia that is not physically consistent: mass <= 0, principal moments not positive or
   breaking the triangle inequality (I1 + I2 >= I3 for every order); links lighter than
   `FRAME_LINK_MASS` of the robot (frames, sensors) are not checked, one note lists them;
-- centroidal.max_normal_force above what the joint efforts allow at the nominal stance when no
-  `torque_limits` bound the forces through the legs (those above the URDF's efforts are errors), or
-  efforts that are placeholders (`legplan.robots.rigid_body.leg_forces`).
+- efforts that are placeholders (`legplan.robots.rigid_body.leg_forces`): then nothing but
+  centroidal.max_normal_force bounds the forces (otherwise the joints' limits bound them through the
+  legs, `legplan.robots.torque_limits`; `torque_limits` above the URDF's efforts are errors).
 """
 
 from __future__ import annotations
@@ -41,7 +41,6 @@ from legplan.robots.urdf import read_urdf_links
 FOOT_FAR_END_TOLERANCE = 0.1   # of the last segment's length
 INERTIA_TOLERANCE = 1e-9       # kg m^2, slack of the triangle inequality
 FRAME_LINK_MASS = 1e-3         # of the robot's mass: lighter links are frames, their inertia unchecked
-FORCE_SLACK = 0.05             # relative, max_normal_force above the effort-backed force before a warning
 SEVERITIES = ("error", "warning", "note")
 
 
@@ -171,11 +170,6 @@ def _centroidal(robot) -> list[Finding]:
         findings.append(Finding("warning", "centroidal.max_normal_force", f"{c.max_normal_force:g} N is not backed "
                                 f"by the URDF: the efforts of {shown} are placeholders (missing, or a leg would push "
                                 f"{forces.force.max():.0f} N, more than 10 robot weights)"))
-    elif c.torque_limits is None and c.max_normal_force > (1 + FORCE_SLACK) * forces.force.min():
-        k = int(np.argmin(forces.force))
-        findings.append(Finding("warning", "centroidal.max_normal_force", f"{c.max_normal_force:g} N is more than "
-                                f"the {forces.force[k]:.0f} N leg {robot.legs[k].name}'s joint efforts allow at the "
-                                f"nominal stance (limited by joint '{forces.joint[k]}')"))
     if robot.n_legs == 4:
         data = robot.model.createData()
         pin.forwardKinematics(robot.model, data, robot.q_nominal)

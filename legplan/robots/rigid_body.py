@@ -117,6 +117,30 @@ def torque_limits_of(robot) -> tuple | None:
     return tuple(efforts[list(leg.joint_idx_v)] for leg in robot.legs)
 
 
+def torque_limits(robot) -> tuple | None:
+    """The joint torque limits `robot` (a `RobotModel`) has, per leg (`robot.legs` order; N m, each
+    leg's joints in order): robot.yaml's `centroidal.torque_limits` where given, else the URDF's joint
+    efforts (`torque_limits_of`); None when neither bounds the joints (no `centroidal` section and
+    placeholder efforts, or placeholder efforts alone). The one rule the planner's torque polytope
+    (`legplan.dyn.tasks.centroidal_model`), the independent check's `joint_torque` and the
+    simulator's motors (`joint_efforts`) all read, so that a plan the check passes asks no joint for
+    more than the simulated robot gives."""
+    written = None if robot.centroidal is None else robot.centroidal.torque_limits
+    if written is not None:
+        order = list(robot.centroidal.legs)
+        return tuple(np.asarray(written[order.index(leg.name)], float) for leg in robot.legs)
+    return torque_limits_of(robot)
+
+
+def joint_efforts(robot) -> np.ndarray:
+    """Per actuated joint (`robot.joint_names` order) its torque limit (N m): the legs' joints'
+    `torque_limits`, every other joint its URDF effort (a placeholder effort stays as written)."""
+    efforts = np.array(robot.model.effortLimit, float)
+    for leg, limits in zip(robot.legs, torque_limits(robot) or ()):
+        efforts[list(leg.joint_idx_v)] = limits
+    return efforts[6:]
+
+
 @dataclass(frozen=True)
 class LegForces:
     """Per leg: `force` (N) the largest vertical push inside the effort limits, `joint` the joint

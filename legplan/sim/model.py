@@ -10,9 +10,10 @@ every inertial as written. The editable `MjSpec` then gets what a URDF cannot sa
 robot folder, the map and `ModelOptions` — nothing per robot:
 
 - a free joint on the root link (the URDF's floating base);
-- one torque motor per actuated joint (gear 1), its control range the URDF `effort` limit (pinocchio's
-  `effortLimit`), or an `ModelOptions.effort` override (a placeholder such as Solo12's 1000 N m
-  replaced by the real motor's); MuJoCo's URDF parser also puts that limit on the joint
+- one torque motor per actuated joint (gear 1), its control range the joint's torque limit
+  (`legplan.robots.joint_efforts`: robot.yaml's `centroidal.torque_limits`, else the URDF `effort`,
+  the limits the planner and the independent check hold the plan to), or an `ModelOptions.effort`
+  override (a placeholder such as Solo12's 1000 N m replaced by the real motor's); MuJoCo's URDF parser also puts that limit on the joint
   (`actfrcrange`), which is kept equal to the motor's. A joint with no positive effort and no
   override cannot be driven: `LegplanError`;
 - the joints' velocity limits (URDF `velocity`, or a `ModelOptions.velocity` override): MuJoCo has
@@ -50,6 +51,7 @@ import pinocchio as pin
 
 from legplan.errors import LegplanError
 from legplan.parameters import Parameters, param
+from legplan.robots import joint_efforts
 from legplan.sim.urdf_text import prepare_urdf
 
 PHYSICS_DT = 0.0005            # s
@@ -158,7 +160,7 @@ def joint_limits(robot, options: ModelOptions) -> tuple[np.ndarray, np.ndarray, 
     """Effort (N m) and velocity (rad/s, inf: not enforced) limits per joint with `options`'
     overrides, and the warnings (module docstring)."""
     names = robot.joint_names
-    effort = options.effort_scale * joint_overrides(names, robot.model.effortLimit[6:], options.effort, "--effort")
+    effort = options.effort_scale * joint_overrides(names, joint_efforts(robot), options.effort, "--effort")
     for name, limit in zip(names, effort):
         if not limit > 0:
             raise LegplanError(f"{robot.urdf_path}: joint {name}: effort limit {limit:g} N m cannot drive it; "

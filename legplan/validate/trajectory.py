@@ -50,11 +50,13 @@ of `CheckTolerances`: the largest value ≤ it, or for those in `MINIMA` the sma
   joint_torque              max over stance feet and their legs' joints of |τ_j| / τ_max,j, τ = Jᵀ f
                             the torques that hold the foot's force f (J the foot's Jacobian by
                             pinocchio at the IK solution, world-aligned; statics of massless legs)
-                            against the URDF's effort limits τ_max (joints without a positive one are
-                            left out): ≤ 1 + `torque` for a model that bounds its forces by the
-                            joints (`Centroidal.torque_limits`), a plan that needs more torque than the
-                            robot has fails; TOWR's scalar model (max_normal_force alone) promises no
-                            torques, its ratio is recorded with the bound ∞
+                            against the torque limits the robot has (`legplan.robots.torque_limits`:
+                            robot.yaml's `torque_limits`, else the URDF's efforts, the limits the
+                            simulator's motors apply), whatever model planned it: ≤ 1 + `torque`, a
+                            plan that needs more torque than the robot has fails. A robot whose
+                            efforts are placeholders and that names no limits has its ratio to the
+                            URDF's efforts recorded with the bound ∞ (joints without a positive
+                            effort are left out)
   line_support              the longest phase in which the same one or two feet carry the base
                             (a trot's diagonal pair, a walk's two-foot exchange), in units of
                             τ = √(h/g), h the nominal base height: on a line or a point of support
@@ -75,7 +77,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
-from legplan.robots import leg_reach
+from legplan.robots import leg_reach, torque_limits
 from legplan.terrain.columns import ColumnDistance
 
 GRAVITY = 9.81
@@ -112,7 +114,7 @@ class CheckTolerances:
     range_of_motion: float = 1e-3
     leg_reach: float = 1e-4
     torque: float = 1e-3
-    """Relative: joint torques up to (1 + this) × the URDF's effort limits."""
+    """Relative: joint torques up to (1 + this) × the robot's torque limits."""
     line_support: float = 1.7
     """The longest phase on the same one or two feet, × √(h/g) (module docstring): a deviation
     grows e^1.7 ≈ 5.5-fold in it. Between the longest line support of a trot that executed and the
@@ -136,9 +138,10 @@ class CentroidalCheck:
         return all(self.passed.values())
 
     def failures(self) -> list[str]:
-        """'metric worst > tolerance unit' for every judged metric that failed, in `UNITS` order."""
+        """'metric worst > tolerance unit' for every judged metric that failed, in `UNITS` order (no
+        unit for the dimensionless ratios)."""
         return [f"{name} {self.worst[name]:.4g} {'<' if name in MINIMA else '>'} {self.tolerance[name]:.4g} "
-                f"{self.units.get(name, '')}".rstrip()
+                f"{'' if self.units.get(name) == '1' else self.units.get(name, '')}".rstrip()
                 for name in self.worst if name in self.passed and not self.passed[name]]
 
     def as_dict(self) -> dict[str, float | bool]:
@@ -191,7 +194,8 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
     worst.update(reach)
     kinematics = _kinematics(robot, p, rot, joints)
     worst.update(_spheres(robot, columns, kinematics.sphere_centres))
-    worst["joint_torque"] = _joint_torque(robot, model, kinematics.foot_jacobians, forces, contact)
+    limits = torque_limits(robot)
+    worst["joint_torque"] = _joint_torque(robot, model, limits, kinematics.foot_jacobians, forces, contact)
     worst["line_support"] = _line_support(t, contact) / np.sqrt(_base_height(model, robot) / GRAVITY)
 
     between = tolerances.between
@@ -205,7 +209,7 @@ def check_trajectory(samples: dict, model, terrain_map, robot, tolerances: Check
                  "trunk_penetration": tolerances.penetration, "range_of_motion": tolerances.range_of_motion,
                  "leg_reach": tolerances.leg_reach, "joint_limit_margin": 0.0,
                  "leg_penetration": tolerances.penetration,
-                 "joint_torque": np.inf if getattr(model, "torque_limits", None) is None else 1.0 + tolerances.torque,
+                 "joint_torque": np.inf if limits is None else 1.0 + tolerances.torque,
                  "line_support": tolerances.line_support}
     worst = {name: float(worst[name]) for name in UNITS}
     passed = {name: bool(worst[name] >= bound if name in MINIMA else worst[name] <= bound)
@@ -338,15 +342,16 @@ def _kinematics(robot, p, rot, joints):
     return robot.kinematics(Q)
 
 
-def _joint_torque(robot, model, jacobians, forces, contact) -> float:
+def _joint_torque(robot, model, limits, jacobians, forces, contact) -> float:
     """Largest |Jᵀ f|_j / τ_max,j over the stance feet's legs (forces and contact from `model.legs`
-    to `robot.legs` order by name), joints with a positive finite effort limit."""
+    to `robot.legs` order by name), τ_max the per-leg `limits` (`robot.legs` order; None: the URDF's
+    efforts), joints with a positive finite limit."""
     efforts = np.asarray(robot.model.effortLimit, float)
     worst = 0.0
     for k, leg in enumerate(robot.legs):
         m = model.legs.index(leg.name)
         columns = list(leg.joint_idx_v)
-        limit = efforts[columns]
+        limit = efforts[columns] if limits is None else np.asarray(limits[k], float)
         judged = np.isfinite(limit) & (limit > 0)
         tau = np.einsum("naj,na->nj", jacobians[:, k][:, :, columns], forces[:, m])[contact[:, m]]
         worst = max(worst, _max(np.abs(tau[:, judged]) / limit[judged]))

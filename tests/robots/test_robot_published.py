@@ -8,7 +8,7 @@ import numpy as np
 import pinocchio as pin
 import pytest
 
-from legplan.robots import load_robot
+from legplan.robots import joint_efforts, load_robot, torque_limits
 from legplan.robots.check import check_robot
 from legplan.robots.draft import write_draft
 from legplan.robots.rigid_body import GRAVITY
@@ -127,6 +127,8 @@ def test_solo12_placeholder_efforts_are_flagged_and_the_force_capped(drafted):
     robot = load_robot(path)
     assert robot.centroidal.max_normal_force == math.floor(4 * robot.mass * GRAVITY)
     assert robot.centroidal.torque_limits is None          # placeholders bound nothing
+    assert torque_limits(robot) is None                     # nor does the planner, the check or the simulator
+    np.testing.assert_array_equal(joint_efforts(robot), robot.model.effortLimit[6:])
     flagged = [f for f in check_robot(robot) if f.subject == "centroidal.max_normal_force"]
     assert [f.severity for f in flagged] == ["warning"] and "placeholders" in flagged[0].message
 

