@@ -125,8 +125,9 @@ def test_a_flying_trot_replans_on_its_short_polynomials(anymal, flat):
 def test_a_replan_just_before_a_flight_keeps_a_knot_at_the_lift_off(anymal, flat):
     """A replan 20 ms before a trot's support pair lifts off into a flight: the short first base
     polynomial is not merged into the next (one cubic cannot follow the pair's forces and then −g
-    through the flight), and the replan from the plan's own state converges."""
-    trot = plan(DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "trot", 2, 2.4), anymal, flat, DynParams())
+    through the flight), and the replan from the plan's own state converges. (Four strides in 2.4 s:
+    pairs short enough to keep their flights, `DynParams.line_support`.)"""
+    trot = plan(DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "trot", 4, 2.4), anymal, flat, DynParams())
     assert trot.success, trot.reason
     gait = trot.problem.form.gait
     ends = np.cumsum(gait.durations)
