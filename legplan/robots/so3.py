@@ -15,14 +15,15 @@ from __future__ import annotations
 import numpy as np
 
 
+_SKEW = np.zeros((3, 9))  # w @ _SKEW = [w]x flattened row-major
+_SKEW[2, 1], _SKEW[1, 2], _SKEW[2, 3], _SKEW[0, 5], _SKEW[1, 6], _SKEW[0, 7] = -1, 1, 1, -1, -1, 1
+
+
 def skew(w: np.ndarray) -> np.ndarray:
-    """(..., 3) -> (..., 3, 3) cross-product matrices [w]x."""
+    """(..., 3) -> (..., 3, 3) cross-product matrices [w]x (one product with a constant matrix: the
+    step planner forms them for every sample and joint)."""
     w = np.asarray(w, float)
-    out = np.zeros(w.shape[:-1] + (3, 3))
-    out[..., 0, 1], out[..., 0, 2] = -w[..., 2], w[..., 1]
-    out[..., 1, 0], out[..., 1, 2] = w[..., 2], -w[..., 0]
-    out[..., 2, 0], out[..., 2, 1] = -w[..., 1], w[..., 0]
-    return out
+    return (w @ _SKEW).reshape(w.shape[:-1] + (3, 3))
 
 
 def quat_to_rotvec(quat: np.ndarray) -> np.ndarray:

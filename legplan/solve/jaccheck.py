@@ -79,7 +79,7 @@ def numeric_jacobian(fn: Callable[[np.ndarray], np.ndarray], x: np.ndarray, step
     f0 = np.asarray(fn(x), float)
     out = np.zeros((f0.size, x.size))
     if pattern is None:
-        groups, owner = [np.array([j]) for j in range(x.size)], None
+        groups = [np.array([j]) for j in range(x.size)]
     else:
         pattern = sp.csc_matrix(pattern, dtype=bool)
         groups = column_groups(pattern)

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from legplan.robots.so3 import right_jacobian
+from legplan.robots.so3 import right_jacobian, skew
 
 _ANGLE_SERIES = 1e-4  # below this rotation angle (rad) exp(ω) uses its Taylor series
 
@@ -47,15 +47,6 @@ class Points:
     state: object = None
 
 
-_SKEW = np.zeros((3, 9))  # ω @ _SKEW = [ω]× flattened row-major
-_SKEW[2, 1], _SKEW[1, 2], _SKEW[2, 3], _SKEW[0, 5], _SKEW[1, 6], _SKEW[0, 7] = -1, 1, 1, -1, -1, 1
-
-
-def skew_matrices(v: np.ndarray) -> np.ndarray:
-    """[v]× (..., 3, 3) of vectors (..., 3)."""
-    return (v @ _SKEW).reshape(v.shape[:-1] + (3, 3))
-
-
 def rotation_matrices(omega: np.ndarray) -> np.ndarray:
     """exp(ω) = I + (sin θ/θ) [ω]× + ((1 − cos θ)/θ²) [ω]×² (n, 3, 3) of rotation vectors (n, 3), θ = ‖ω‖
     (Taylor series of the two factors below θ = `_ANGLE_SERIES`)."""
@@ -68,7 +59,7 @@ def rotation_matrices(omega: np.ndarray) -> np.ndarray:
         t = np.where(small, 1.0, np.sqrt(theta2))
         a = np.where(small, 1.0 - theta2 / 6.0, np.sin(t) / t)
         b = np.where(small, 0.5 - theta2 / 24.0, (1.0 - np.cos(t)) / (t * t))
-    K = skew_matrices(omega)
+    K = skew(omega)
     return np.eye(3) + a[:, None, None] * K + b[:, None, None] * (K @ K)
 
 
@@ -197,7 +188,7 @@ class ChainKinematics:
             M, a = model.jointPlacements[int(j)], axes[j]
             F[row, :, :3], F[row, :, 3] = M.rotation, M.translation
             if revolute[j]:
-                K = skew_matrices(a)
+                K = skew(a)
                 B[row, :, :3] = M.rotation @ K
                 C[row, :, :3] = M.rotation @ K @ K
             else:
@@ -255,12 +246,12 @@ class ChainKinematics:
         lever = state.attached[samples, which] - points.X[samples, :3]  # (K, 3) p − p_base
         out = np.zeros((len(samples), 3, self.nx + 1))  # the last column is scratch for padding
         out[:, 0, 0] = out[:, 1, 1] = out[:, 2, 2] = 1.0
-        out[:, :, 3:6] = skew_matrices(-lever) @ self._left_jacobians(points)[samples]  # −[p − p_base]× J_l(ω)
+        out[:, :, 3:6] = skew(-lever) @ self._left_jacobians(points)[samples]  # −[p − p_base]× J_l(ω)
         base = state.base[samples]
         frames = state.T[samples[:, None], self._chain_slot[which]]  # (K, D, 3, 4) in the base frame
         axis = (frames[..., :3] @ self._chain_axis[which][..., None])[..., 0]  # (K, D, 3)
         arm = (lever[:, None, :] @ base)[:, 0, None, :] - frames[..., 3]  # p − o in the base frame
-        joint = np.where(self._chain_revolute[which][..., None], (skew_matrices(axis) @ arm[..., None])[..., 0], axis)
+        joint = np.where(self._chain_revolute[which][..., None], (skew(axis) @ arm[..., None])[..., 0], axis)
         out[np.arange(len(samples))[:, None], :, self._chain_column[which]] = joint @ base.transpose(0, 2, 1)
         return out[:, :, :self.nx]
 
@@ -271,12 +262,12 @@ class ChainKinematics:
         n = len(X)
         out = np.zeros((n, 3, self.nx))
         out[:, 0, 0] = out[:, 1, 1] = out[:, 2, 2] = 1.0
-        out[:, :, 3:6] = skew_matrices(X[:, :3] - points.com) @ self._left_jacobians(points)
+        out[:, :, 3:6] = skew(X[:, :3] - points.com) @ self._left_jacobians(points)
         frames = state.T[:, self._slot[self._joints]]  # (n, J, 3, 4) in the base frame
         axis = (frames[..., :3] @ self._axes[..., None])[..., 0]  # (n, J, 3)
         sums = (state.stacked @ self._moved).reshape(n, 3, -1).transpose(0, 2, 1)  # (n, J, 3)
         moved = sums - self._moved_weight[:, None] * frames[..., 3]
-        joint = np.where(self._revolute[self._joints][:, None], (skew_matrices(axis) @ moved[..., None])[..., 0],
+        joint = np.where(self._revolute[self._joints][:, None], (skew(axis) @ moved[..., None])[..., 0],
                          self._moved_weight[:, None] * axis)
         out[:, :, self._joint_columns] = state.base @ joint.transpose(0, 2, 1)
         return out
