@@ -29,6 +29,9 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from legplan.robots.kinematics import one_dof_axis
+from legplan.robots.so3 import rotvec_to_matrix
+
 IK_ITERATIONS = 30
 IK_TOLERANCE = 1e-13  # m: foot position error at which the IK stops (Newton: one step more than 1e-10)
 IK_DAMPING = 1e-10  # λ of the damped steps (m²): only where the leg is stretched or folded flat
@@ -59,7 +62,7 @@ class _Chain:
         p, r = np.zeros((n, 3)), np.broadcast_to(np.eye(3), (n, 3, 3))
         for j in range(count):
             p = p + r @ self.translations[j]
-            r = r @ self.rotations[j] @ _axis_rotation(self.axes[j], q[:, j])
+            r = r @ self.rotations[j] @ rotvec_to_matrix(q[:, j, None] * self.axes[j])
             origin[:, j], rot[:, j] = p, r
         return origin, rot, np.einsum("njab,jb->nja", rot, self.axes)
 
@@ -98,7 +101,7 @@ class ChainLegs:
         """The chains of a `RobotModel` (legs in its order); None unless every leg is a serial
         chain of revolute joints from the base carrying its foot."""
         model = robot.model
-        data = model.createData()
+        neutral = pin.neutral(model)
         spheres = robot.spheres
         chains = []
         for k, leg in enumerate(robot.legs):
@@ -106,7 +109,8 @@ class ChainLegs:
             parents = [model.parents[i] for i in ids]
             if parents[0] != 1 or any(p != i for p, i in zip(parents[1:], ids[:-1])):
                 return None
-            axes = [_local_axis(model, data, i) for i in ids]
+            kinds = [one_dof_axis(model.joints[i], neutral) for i in ids]
+            axes = [kind[1] if kind is not None and kind[0] else None for kind in kinds]
             if any(a is None for a in axes):
                 return None
             foot = model.frames[leg.foot_frame_id]
@@ -189,25 +193,3 @@ def _damped_pinv(jac: np.ndarray) -> np.ndarray:
     return jt @ np.linalg.inv(jac @ jt + IK_DAMPING * np.eye(3))
 
 
-def _axis_rotation(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
-    """Rotations (n, 3, 3) by `angle` (n,) about the unit `axis` (Rodrigues)."""
-    k = np.array([[0.0, -axis[2], axis[1]], [axis[2], 0.0, -axis[0]], [-axis[1], axis[0], 0.0]])
-    s, c = np.sin(angle)[:, None, None], np.cos(angle)[:, None, None]
-    return np.eye(3) + s * k + (1.0 - c) * (k @ k)
-
-
-def _local_axis(model: pin.Model, data: pin.Data, joint: int) -> np.ndarray | None:
-    """The unit rotation axis of a one-degree-of-freedom revolute joint in its own frame (from the
-    motion of a small turn), None for any other joint."""
-    if model.nqs[joint] != 1 or model.nvs[joint] != 1:
-        return None
-    q = pin.neutral(model)
-    pin.forwardKinematics(model, data, q)
-    before = data.oMi[joint].copy()
-    q[model.idx_qs[joint]] += 1e-6
-    pin.forwardKinematics(model, data, q)
-    motion = pin.log6(before.inverse() * data.oMi[joint])
-    if np.linalg.norm(motion.linear) > 1e-9 * max(np.linalg.norm(motion.angular), 1e-300):
-        return None
-    axis = motion.angular
-    return axis / np.linalg.norm(axis)

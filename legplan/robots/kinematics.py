@@ -169,3 +169,28 @@ def _read_only(array: np.ndarray) -> np.ndarray:
     """Results are cached and shared between calls: callers must not modify them in place."""
     array.setflags(write=False)
     return array
+
+
+def one_dof_axis(joint: pin.JointModel, q: np.ndarray) -> tuple[bool, np.ndarray] | None:
+    """(revolute?, unit axis in the joint's frame) of a one-degree-of-freedom joint whose motion is
+    exp(S q) for a pure rotation or a pure translation S, read from pinocchio's joint model (checked at
+    one joint value of the configuration `q`); None for any other joint (several dofs, helical, ...)."""
+    if joint.nq != 1 or joint.nv != 1:
+        return None
+    data = joint.createData()
+    probe = q.copy()
+    probe[joint.idx_q] = 0.7
+    joint.calc(data, probe)
+    S = np.asarray(data.S).reshape(6)
+    lin, ang = S[:3], S[3:]
+    if np.linalg.norm(lin) < 1e-12 and abs(np.linalg.norm(ang) - 1.0) < 1e-12:
+        expected = pin.SE3(pin.AngleAxis(0.7, ang).matrix(), np.zeros(3))
+        revolute, axis = True, ang
+    elif np.linalg.norm(ang) < 1e-12 and abs(np.linalg.norm(lin) - 1.0) < 1e-12:
+        expected = pin.SE3(np.eye(3), 0.7 * lin)
+        revolute, axis = False, lin
+    else:
+        return None
+    if not np.allclose(data.M.homogeneous, expected.homogeneous, rtol=0, atol=1e-12):
+        return None
+    return revolute, axis.copy()

@@ -30,9 +30,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from legplan.robots.so3 import right_jacobian, skew
-
-_ANGLE_SERIES = 1e-4  # below this rotation angle (rad) exp(ω) uses its Taylor series
+from legplan.robots.kinematics import one_dof_axis
+from legplan.robots.so3 import right_jacobian, rotvec_to_matrix, skew
 
 
 @dataclass
@@ -45,22 +44,6 @@ class Points:
     spheres: np.ndarray
     com: np.ndarray
     state: object = None
-
-
-def rotation_matrices(omega: np.ndarray) -> np.ndarray:
-    """exp(ω) = I + (sin θ/θ) [ω]× + ((1 − cos θ)/θ²) [ω]×² (n, 3, 3) of rotation vectors (n, 3), θ = ‖ω‖
-    (Taylor series of the two factors below θ = `_ANGLE_SERIES`)."""
-    theta2 = np.einsum("ni,ni->n", omega, omega)
-    if theta2.min(initial=np.inf) >= _ANGLE_SERIES ** 2:
-        theta = np.sqrt(theta2)
-        a, b = np.sin(theta) / theta, (1.0 - np.cos(theta)) / theta2
-    else:
-        small = theta2 < _ANGLE_SERIES ** 2
-        t = np.where(small, 1.0, np.sqrt(theta2))
-        a = np.where(small, 1.0 - theta2 / 6.0, np.sin(t) / t)
-        b = np.where(small, 0.5 - theta2 / 24.0, (1.0 - np.cos(t)) / (t * t))
-    K = skew(omega)
-    return np.eye(3) + a[:, None, None] * K + b[:, None, None] * (K @ K)
 
 
 @dataclass(frozen=True)
@@ -161,7 +144,7 @@ class ChainKinematics:
             joint = model.joints[j]
             if joint.nq != 1 or joint.nv != 1 or model.parents[j] == 0:
                 return None
-            kind = _one_axis(joint, q)
+            kind = one_dof_axis(joint, q)
             if kind is None:
                 return None
             revolute[j], axes[j] = kind
@@ -224,7 +207,7 @@ class ChainKinematics:
         T = self.placements(X)
         n = len(X)
         stacked = T.transpose(0, 2, 1, 3).reshape(n * 3, -1)  # row (sample, axis), column (slot, 4)
-        base = rotation_matrices(X[:, 3:6])
+        base = rotvec_to_matrix(X[:, 3:6])
         attached = (base @ (stacked @ self._attach).reshape(n, 3, -1) + X[:, :3, None]).transpose(0, 2, 1)
         f, p = self._n_feet, self._n_points
         return Points(X, attached[:, :f], attached[:, f:p], attached[:, p], _ChainState(T, stacked, base, attached))
@@ -282,30 +265,6 @@ class _ChainState:
     base: np.ndarray  # (n, 3, 3) base orientation R(ω)
     attached: np.ndarray  # (n, points + 1, 3) feet, spheres, CoM in the world
     left: np.ndarray | None = None  # J_l(ω) (n, 3, 3), formed on first use
-
-
-def _one_axis(joint, q) -> tuple[bool, np.ndarray] | None:
-    """(revolute?, unit axis in the joint frame) of a one-dof joint whose motion is exp(S q) for a pure
-    rotation or translation S; None for any other joint (checked at one joint value)."""
-    import pinocchio as pin
-
-    data = joint.createData()
-    probe = q.copy()
-    probe[joint.idx_q] = 0.7
-    joint.calc(data, probe)
-    S = np.asarray(data.S).reshape(6)
-    lin, ang = S[:3], S[3:]
-    if np.linalg.norm(lin) < 1e-12 and abs(np.linalg.norm(ang) - 1.0) < 1e-12:
-        expected = pin.SE3(pin.AngleAxis(0.7, ang).matrix(), np.zeros(3))
-        revolute, axis = True, ang
-    elif np.linalg.norm(ang) < 1e-12 and abs(np.linalg.norm(lin) - 1.0) < 1e-12:
-        expected = pin.SE3(np.eye(3), 0.7 * lin)
-        revolute, axis = False, lin
-    else:
-        return None
-    if not np.allclose(data.M.homogeneous, expected.homogeneous, rtol=0, atol=1e-12):
-        return None
-    return revolute, axis.copy()
 
 
 class RobotPoints:

@@ -6,6 +6,8 @@ import pinocchio as pin
 import pytest
 from robot_helpers import random_configurations
 
+from legplan.robots.kinematics import one_dof_axis
+
 
 def _oMf_points(robot, q):
     """Feet, sphere centres and CoM from pin.forwardKinematics + updateFramePlacements + oMf."""
@@ -144,3 +146,22 @@ def test_attached_points_are_the_einsum_bit_for_bit():
         offsets = rng.normal(size=(p, 3))
         expected = np.einsum("npij,pj->npi", H[..., :3, :3], offsets) + H[..., :3, 3]
         assert np.array_equal(_attached(H, offsets), expected)
+
+
+def test_one_dof_axis_is_the_motion_of_a_small_turn(any_robot):
+    """Each leg joint's axis from pinocchio's joint model is the direction its frame turns about (or
+    moves along) when only that joint moves; the free flyer is not a one-dof joint."""
+    model, data = any_robot.model, any_robot.model.createData()
+    q = pin.neutral(model)
+    assert one_dof_axis(model.joints[1], q) is None
+    for j in range(2, model.njoints):
+        revolute, axis = one_dof_axis(model.joints[j], q)
+        pin.forwardKinematics(model, data, q)
+        before = data.oMi[j].copy()
+        moved = q.copy()
+        moved[model.idx_qs[j]] += 1e-6
+        pin.forwardKinematics(model, data, moved)
+        motion = pin.log6(before.inverse() * data.oMi[j])
+        turn, shift = (motion.angular, motion.linear) if revolute else (motion.linear, motion.angular)
+        np.testing.assert_allclose(turn / 1e-6, axis, atol=1e-8)
+        np.testing.assert_allclose(shift, 0.0, atol=1e-12)

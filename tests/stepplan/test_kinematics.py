@@ -7,7 +7,7 @@ import pytest
 from legplan.contact.terms import collision_terms, com_terms, joint_limit_terms, stance_foot_terms
 from legplan.robots import load_robot
 from legplan.stepplan.block import SampleConstraints
-from legplan.stepplan.kinematics import ChainKinematics, RobotPoints, planner_kinematics, rotation_matrices
+from legplan.stepplan.kinematics import ChainKinematics, RobotPoints, planner_kinematics
 from legplan.stepplan.params import StepPlanParams
 from legplan.stepplan.planner import contact_mode
 
@@ -61,12 +61,6 @@ def test_jacobians_of_some_pairs_are_those_rows():
     samples, which = rng.integers(0, 9, 17), rng.integers(0, robot.n_legs + len(robot.spheres.radii), 17)
     every = chain.jacobians(points, np.repeat(np.arange(9), 34), np.tile(np.arange(34), 9)).reshape(9, 34, 3, -1)
     np.testing.assert_array_equal(chain.jacobians(points, samples, which), every[samples, which])
-
-
-def test_rotation_matrices_are_pinocchio_exp3():
-    omega = _vectors(load_robot("scarab2"), 30, 4)[:, 3:6]
-    expected = np.array([pin.exp3(w) for w in omega])
-    np.testing.assert_allclose(rotation_matrices(omega), expected, rtol=0, atol=1e-14)
 
 
 class _Spherical:
