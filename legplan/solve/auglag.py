@@ -316,10 +316,13 @@ def least_squares_multipliers(problem: Problem, rows: Sequence[_AugmentedRows], 
     first-order estimate at θ: y = argmin ‖∇f + J_Aᵀ y‖ over the rows A active at θ (equalities, and
     bound rows within `active_tolerance` of their bound or beyond), with y ≥ 0 on bound rows
     (Nocedal & Wright, eq. (18.21)). J_A are the scaled constraint rows s·∂c/∂θ, ∇f = J_fᵀ r_f of
-    the cost rows. The sign condition by an active-set loop: solve on A (CHOLMOD on J_A J_Aᵀ,
-    regularized by 1e-10 of its largest diagonal entry, so redundant rows get the least-norm split),
+    the cost rows. The sign condition by an active-set loop: solve on A (regularized by 1e-10 of the largest
+    diagonal entry of J_A J_Aᵀ, so redundant rows get the least-norm split),
     drop the bound rows whose y came out negative, repeat (at most `MULTIPLIER_PASSES` times; then
-    the remaining negatives are clipped; clipping alone can leave an estimate worse than zero)."""
+    the remaining negatives are clipped; clipping alone can leave an estimate worse than zero).
+    Each pass is the regularized least-norm solution y = −(J_A J_Aᵀ + δI)⁻¹ J_A ∇f, formed on the smaller
+    side of the push-through identity (`_least_norm_multipliers`): the dynamics' many sample rows over
+    few coefficients make J_A J_Aᵀ far larger (and denser) than J_Aᵀ J_A."""
     for r in rows:
         r.mu, r.y = 1.0, np.zeros(r.size)
     v, J = problem.jacobian(theta)
@@ -343,9 +346,8 @@ def least_squares_multipliers(problem: Problem, rows: Sequence[_AugmentedRows], 
             break
         keep = active[pick]
         A.data = values * keep[row_of_entry]
-        solver.set_jacobian(A.T)
-        solver.refactor(1e-10 * max(float(diagonal[keep].max()), 1e-300))
-        y[pick] = np.where(keep, solver.solve(-(A @ g)), 0.0)
+        delta = 1e-10 * max(float(diagonal[keep].max()), 1e-300)
+        y[pick] = np.where(keep, _least_norm_multipliers(solver, A, g, delta), 0.0)
         wrong = hinged & (y < 0.0)
         if not wrong.any():
             break
@@ -355,6 +357,20 @@ def least_squares_multipliers(problem: Problem, rows: Sequence[_AugmentedRows], 
     for r in rows:
         r.y = y[offset:offset + r.size].copy()
         offset += r.size
+
+
+def _least_norm_multipliers(solver, A: sp.csr_matrix, g: np.ndarray, delta: float) -> np.ndarray:
+    """y = −(A Aᵀ + δI)⁻¹ A g, the regularized least-norm solution of Aᵀ y = −g, factorized on the
+    smaller side: (A Aᵀ + δI)⁻¹ A = A (Aᵀ A + δI)⁻¹ (push-through identity), so with more rows than
+    columns y = −A (Aᵀ A + δI)⁻¹ g. CHOLMOD's AAᵀ mode either way (`set_jacobian` of J factorizes
+    JᵀJ + βI), the same analysis for every pass of one estimate."""
+    if A.shape[0] > A.shape[1]:
+        solver.set_jacobian(A)
+        solver.refactor(delta)
+        return -(A @ solver.solve(g))
+    solver.set_jacobian(A.T)
+    solver.refactor(delta)
+    return solver.solve(-(A @ g))
 
 
 def evaluate_costs(costs: Sequence[CostTerm], values) -> dict[str, float]:

@@ -1,6 +1,7 @@
 """Augmented Lagrangian over the hinged LM: equality and bound constraints, costs, stalls."""
 
 import numpy as np
+import scipy.sparse as sp
 import pytest
 
 from legplan.solve import FunctionBlock, Status, VariableBlock
@@ -149,3 +150,22 @@ def test_problem_structure_cache_is_emptied_when_a_block_is_added():
     problem.structure_cache["normal_pattern"] = object()
     problem.add_residual(LinearBlock(("x",), [np.ones((1, 2))]))
     assert problem.structure_cache == {}
+
+
+@pytest.mark.parametrize("shape", [(40, 7), (7, 40)])
+def test_least_norm_multipliers_agree_on_either_side_of_the_push_through_identity(shape):
+    """Tall (many sample rows over few coefficients) and wide: −(A Aᵀ + δI)⁻¹ A g, dense, with a zero
+    row (a dropped bound row), a zero column (a variable no active row touches) and duplicated rows."""
+    from legplan.solve.auglag import _least_norm_multipliers
+    from legplan.solve.linsolve import make_solver
+
+    rng = np.random.default_rng(4)
+    dense = rng.normal(size=shape) * (rng.random(shape) < 0.4)
+    dense[1] = 0.0
+    dense[:, 2] = 0.0
+    dense[3] = dense[4]
+    g, delta = rng.normal(size=shape[1]), 1e-6
+    expected = -np.linalg.solve(dense @ dense.T + delta * np.eye(shape[0]), dense @ g)
+    got = _least_norm_multipliers(make_solver("cholmod"), sp.csr_matrix(dense), g, delta)
+    np.testing.assert_allclose(got, expected, rtol=1e-7, atol=1e-9)
+    assert got[1] == 0.0 and got[3] == pytest.approx(got[4], rel=1e-9)
