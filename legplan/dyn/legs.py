@@ -55,34 +55,41 @@ class _Chain:
         """Joint frames for joints q (n, J): origins (n, J, 3), rotations (n, J, 3, 3) in the base
         frame, and the world axes (n, J, 3)."""
         n, count = q.shape
-        origin, rot = np.zeros((n, count, 3)), np.zeros((n, count, 3, 3))
+        origin, rot, axes = np.zeros((n, count, 3)), np.zeros((n, count, 3, 3)), np.zeros((n, count, 3))
         p, r = np.zeros((n, 3)), np.broadcast_to(np.eye(3), (n, 3, 3))
         for j in range(count):
             p = p + r @ self.translations[j]
             r = r @ self.rotations[j] @ _axis_rotation(self.axes[j], q[:, j])
-            origin[:, j], rot[:, j] = p, r
-        return origin, rot, np.einsum("njab,jb->nja", rot, self.axes)
+            origin[:, j], rot[:, j], axes[:, j] = p, r, r @ self.axes[j]
+        return origin, rot, axes
 
     def point(self, frames, joint: int, offset: np.ndarray):
         """A point fixed to `joint` at `offset` (its frame): position (n, 3) and Jacobian (n, 3, J)."""
         origin, rot, axes = frames
         x = origin[:, joint] + rot[:, joint] @ offset
         jac = np.zeros(x.shape + (origin.shape[1],))
-        for j in range(joint + 1):
-            jac[:, :, j] = np.cross(axes[:, j], x - origin[:, j])
+        jac[:, :, :joint + 1] = np.swapaxes(_cross(axes[:, :joint + 1], x[:, None] - origin[:, :joint + 1]), 1, 2)
         return x, jac
 
     def solve(self, feet: np.ndarray, q: np.ndarray) -> np.ndarray:
         """Joints (n, J) that put the foot at `feet` (n, 3, base frame), from q (n, J)."""
+        return self.solve_frames(feet, q)[0]
+
+    def solve_frames(self, feet: np.ndarray, q: np.ndarray):
+        """`solve`'s joints q with their `kinematics` frames and the foot's `point` (position,
+        Jacobian) there: those of the IK's last iterate when it converged, computed again when it
+        did not."""
         q = q.copy()
         for _ in range(IK_ITERATIONS):
-            x, jac = self.point(self.kinematics(q), self.foot_joint, self.foot_offset)
+            frames = self.kinematics(q)
+            x, jac = self.point(frames, self.foot_joint, self.foot_offset)
             error = feet - x
             if np.abs(error).max(initial=0.0) < IK_TOLERANCE:
-                break
+                return q, frames, x, jac
             step = (_damped_pinv(jac) @ error[..., None])[..., 0]
             q += step * np.minimum(1.0, IK_STEP / np.maximum(np.abs(step).max(axis=1, keepdims=True), 1e-300))
-        return q
+        frames = self.kinematics(q)
+        return (q, frames) + self.point(frames, self.foot_joint, self.foot_offset)
 
 
 class ChainLegs:
@@ -135,42 +142,39 @@ class ChainLegs:
         """The nominal joints of a leg for n samples (an IK start)."""
         return np.tile(self.chains[leg].nominal, (n, 1))
 
-    def foot_torques(self, leg: int, feet: np.ndarray, forces: np.ndarray, q: np.ndarray):
+    def foot_torques(self, leg: int, feet: np.ndarray, forces: np.ndarray, q: np.ndarray, derivatives: bool = True):
         """Joint torques τ = J_fᵀ g (n, J) that hold the leg's foot at `feet` (n, 3, base frame)
         against forces g (n, 3, base frame) at the foot, J_f the foot's point Jacobian at the joints
         of the IK started from q (n, J) (statics: the torque the joints give for the force, legs
         without mass); ∂τ/∂foot (n, J, 3) by the implicit function theorem through the IK,
-        ∂τ/∂g = J_fᵀ (n, J, 3), and the joints (n, J). With r_i = x − o_i (x the foot, o_i joint
-        i's origin) and a_i its axis, τ_i = g · (a_i × r_i); a turn of joint k < i turns a_i and r_i
-        about a_k, of k ≥ i moves x alone: ∂τ_i/∂q_k = g · ((a_k × a_i) × r_i + a_i × (a_k × r_i))
-        for k < i, g · (a_i × (a_k × r_k)) for k ≥ i."""
+        ∂τ/∂g = J_fᵀ (n, J, 3) (both None without `derivatives`), and the joints (n, J). With
+        r_i = x − o_i (x the foot, o_i joint i's origin) and a_i its axis, τ_i = g · (a_i × r_i) =
+        g · c_i, c_i the foot Jacobian's column i; a turn of joint k turns a_i and r_i about a_k when
+        k < i and moves x alone when k ≥ i, so ∂c_i/∂q_k = (a_k × a_i) × r_i + a_i × (a_k × r_i) =
+        a_k × c_i (Jacobi's identity) for k < i, a_i × (a_k × r_k) = a_i × c_k for k ≥ i: ∂τ_i/∂q_k =
+        g · (a_m × c_M), m = min(i, k), M = max(i, k) (the symmetric Hessian of g · x)."""
         chain = self.chains[leg]
-        q = chain.solve(np.asarray(feet, float), q)
-        origin, rot, axes = frames = chain.kinematics(q)
-        x, jac = chain.point(frames, chain.foot_joint, chain.foot_offset)
+        q, (origin, rot, axes), x, jac = chain.solve_frames(np.asarray(feet, float), q)
         forces = np.asarray(forces, float)
-        count = q.shape[1]
         tau = np.einsum("nai,na->ni", jac, forces)
-        r = x[:, None] - origin  # (n, J, 3)
-        moved = np.cross(axes[:, :, None], r[:, None])  # [n, k, i] = a_k × r_i
-        turned = np.cross(np.cross(axes[:, :, None], axes[:, None]), r[:, None])  # (a_k × a_i) × r_i
-        before = np.cross(axes[:, None], moved)  # [n, k, i] = a_i × (a_k × r_i)
-        tip = np.cross(axes[:, None], np.diagonal(moved, axis1=1, axis2=2).transpose(0, 2, 1)[:, :, None])  # a_i × (a_k × r_k)
+        if not derivatives:
+            return tau, None, None, q
+        count = q.shape[1]
+        columns = np.swapaxes(jac, 1, 2)  # (n, J, 3): c_i, zero past the foot's joint
+        # g · (a_m × c_M) = c_M · (g × a_m)
+        ga = _cross(forces[:, None], axes)  # (n, J, 3): g × a_m
         k, i = np.meshgrid(np.arange(count), np.arange(count), indexing="ij")
-        lower = (k < i)[None, :, :, None]
-        reach = (np.arange(count) <= chain.foot_joint)  # joints past the foot's move nothing
-        terms = np.where(lower, turned + before, tip) * (reach[None, :, None, None] & reach[None, None, :, None])
-        d_tau_dq = np.einsum("nkia,na->nik", terms, forces)  # (n, i, k)
-        return tau, d_tau_dq @ _damped_pinv(jac), np.swapaxes(jac, 1, 2), q
+        low, high = np.minimum(k, i), np.maximum(k, i)
+        reach = np.arange(count) <= chain.foot_joint  # joints past the foot's move nothing
+        d_tau_dq = np.einsum("nija,nija->nij", columns[:, high.T], ga[:, low.T]) * (reach[:, None] & reach[None, :])
+        return tau, d_tau_dq @ _damped_pinv(jac), columns, q
 
     def sphere_centres(self, leg: int, feet: np.ndarray, q: np.ndarray):
         """Centres (n, k, 3) of the leg's k spheres in the base frame with its foot at `feet` (n, 3,
         base frame), their Jacobians ∂centre/∂foot (n, k, 3, 3), and the joints (n, J) of the IK
         started from q (n, J)."""
         chain = self.chains[leg]
-        q = chain.solve(np.asarray(feet, float), q)
-        frames = chain.kinematics(q)
-        _, foot_jac = chain.point(frames, chain.foot_joint, chain.foot_offset)
+        q, frames, _, foot_jac = chain.solve_frames(np.asarray(feet, float), q)
         dq = _damped_pinv(foot_jac)  # (n, J, 3): ∂q/∂foot
         centres, jacobians = [], []
         for joint, offset in zip(chain.sphere_joint, chain.sphere_offset):
@@ -183,10 +187,23 @@ class ChainLegs:
         return np.stack(centres, axis=1), np.stack(jacobians, axis=1), q
 
 
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b over the last axis, broadcast, by its components (numpy's `cross` moves and copies axes,
+    several times the arithmetic for a few hundred vectors); the same floating-point operations."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+
+
 def _damped_pinv(jac: np.ndarray) -> np.ndarray:
-    """Jᵀ(J Jᵀ + λI)⁻¹ of Jacobians (n, 3, J)."""
+    """Jᵀ(J Jᵀ + λI)⁻¹ of Jacobians (n, 3, J), the symmetric 3 × 3 inverse by its adjugate (LAPACK's
+    batched inverse costs a call per sample)."""
     jt = np.swapaxes(jac, 1, 2)
-    return jt @ np.linalg.inv(jac @ jt + IK_DAMPING * np.eye(3))
+    a = jac @ jt + IK_DAMPING * np.eye(3)
+    rows = [a[:, 0], a[:, 1], a[:, 2]]
+    adjugate = np.stack([_cross(rows[1], rows[2]), _cross(rows[2], rows[0]), _cross(rows[0], rows[1])], axis=2)
+    determinant = np.einsum("ni,ni->n", rows[0], adjugate[:, :, 0])
+    return jt @ (adjugate / determinant[:, None, None])
 
 
 def _axis_rotation(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
