@@ -55,13 +55,13 @@ class _Chain:
         """Joint frames for joints q (n, J): origins (n, J, 3), rotations (n, J, 3, 3) in the base
         frame, and the world axes (n, J, 3)."""
         n, count = q.shape
-        origin, rot, axes = np.zeros((n, count, 3)), np.zeros((n, count, 3, 3)), np.zeros((n, count, 3))
+        origin, rot = np.zeros((n, count, 3)), np.zeros((n, count, 3, 3))
         p, r = np.zeros((n, 3)), np.broadcast_to(np.eye(3), (n, 3, 3))
         for j in range(count):
             p = p + r @ self.translations[j]
             r = r @ self.rotations[j] @ _axis_rotation(self.axes[j], q[:, j])
-            origin[:, j], rot[:, j], axes[:, j] = p, r, r @ self.axes[j]
-        return origin, rot, axes
+            origin[:, j], rot[:, j] = p, r
+        return origin, rot, np.einsum("njab,jb->nja", rot, self.axes)
 
     def point(self, frames, joint: int, offset: np.ndarray):
         """A point fixed to `joint` at `offset` (its frame): position (n, 3) and Jacobian (n, 3, J)."""
@@ -147,12 +147,11 @@ class ChainLegs:
         against forces g (n, 3, base frame) at the foot, J_f the foot's point Jacobian at the joints
         of the IK started from q (n, J) (statics: the torque the joints give for the force, legs
         without mass); ∂τ/∂foot (n, J, 3) by the implicit function theorem through the IK,
-        ∂τ/∂g = J_fᵀ (n, J, 3) (both None without `derivatives`), and the joints (n, J). With
-        r_i = x − o_i (x the foot, o_i joint i's origin) and a_i its axis, τ_i = g · (a_i × r_i) =
-        g · c_i, c_i the foot Jacobian's column i; a turn of joint k turns a_i and r_i about a_k when
-        k < i and moves x alone when k ≥ i, so ∂c_i/∂q_k = (a_k × a_i) × r_i + a_i × (a_k × r_i) =
-        a_k × c_i (Jacobi's identity) for k < i, a_i × (a_k × r_k) = a_i × c_k for k ≥ i: ∂τ_i/∂q_k =
-        g · (a_m × c_M), m = min(i, k), M = max(i, k) (the symmetric Hessian of g · x)."""
+        ∂τ/∂g = J_fᵀ (n, J, 3) (both None without `derivatives`: a residual alone), and the joints
+        (n, J). With r_i = x − o_i (x the foot, o_i joint i's origin) and a_i its axis,
+        τ_i = g · (a_i × r_i); a turn of joint k < i turns a_i and r_i about a_k, of k ≥ i moves x
+        alone: ∂τ_i/∂q_k = g · ((a_k × a_i) × r_i + a_i × (a_k × r_i)) for k < i, g · (a_i × (a_k × r_k))
+        for k ≥ i."""
         chain = self.chains[leg]
         q, (origin, rot, axes), x, jac = chain.solve_frames(np.asarray(feet, float), q)
         forces = np.asarray(forces, float)
@@ -160,14 +159,17 @@ class ChainLegs:
         if not derivatives:
             return tau, None, None, q
         count = q.shape[1]
-        columns = np.swapaxes(jac, 1, 2)  # (n, J, 3): c_i, zero past the foot's joint
-        # g · (a_m × c_M) = c_M · (g × a_m)
-        ga = _cross(forces[:, None], axes)  # (n, J, 3): g × a_m
+        r = x[:, None] - origin  # (n, J, 3)
+        moved = _cross(axes[:, :, None], r[:, None])  # [n, k, i] = a_k × r_i
+        turned = _cross(_cross(axes[:, :, None], axes[:, None]), r[:, None])  # (a_k × a_i) × r_i
+        before = _cross(axes[:, None], moved)  # [n, k, i] = a_i × (a_k × r_i)
+        tip = _cross(axes[:, None], np.diagonal(moved, axis1=1, axis2=2).transpose(0, 2, 1)[:, :, None])  # a_i × (a_k × r_k)
         k, i = np.meshgrid(np.arange(count), np.arange(count), indexing="ij")
-        low, high = np.minimum(k, i), np.maximum(k, i)
-        reach = np.arange(count) <= chain.foot_joint  # joints past the foot's move nothing
-        d_tau_dq = np.einsum("nija,nija->nij", columns[:, high.T], ga[:, low.T]) * (reach[:, None] & reach[None, :])
-        return tau, d_tau_dq @ _damped_pinv(jac), columns, q
+        lower = (k < i)[None, :, :, None]
+        reach = (np.arange(count) <= chain.foot_joint)  # joints past the foot's move nothing
+        terms = np.where(lower, turned + before, tip) * (reach[None, :, None, None] & reach[None, None, :, None])
+        d_tau_dq = np.einsum("nkia,na->nik", terms, forces)  # (n, i, k)
+        return tau, d_tau_dq @ _damped_pinv(jac), np.swapaxes(jac, 1, 2), q
 
     def sphere_centres(self, leg: int, feet: np.ndarray, q: np.ndarray):
         """Centres (n, k, 3) of the leg's k spheres in the base frame with its foot at `feet` (n, 3,
@@ -196,14 +198,9 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 
 def _damped_pinv(jac: np.ndarray) -> np.ndarray:
-    """Jᵀ(J Jᵀ + λI)⁻¹ of Jacobians (n, 3, J), the symmetric 3 × 3 inverse by its adjugate (LAPACK's
-    batched inverse costs a call per sample)."""
+    """Jᵀ(J Jᵀ + λI)⁻¹ of Jacobians (n, 3, J)."""
     jt = np.swapaxes(jac, 1, 2)
-    a = jac @ jt + IK_DAMPING * np.eye(3)
-    rows = [a[:, 0], a[:, 1], a[:, 2]]
-    adjugate = np.stack([_cross(rows[1], rows[2]), _cross(rows[2], rows[0]), _cross(rows[0], rows[1])], axis=2)
-    determinant = np.einsum("ni,ni->n", rows[0], adjugate[:, :, 0])
-    return jt @ (adjugate / determinant[:, None, None])
+    return jt @ np.linalg.inv(jac @ jt + IK_DAMPING * np.eye(3))
 
 
 def _axis_rotation(axis: np.ndarray, angle: np.ndarray) -> np.ndarray:
