@@ -2,12 +2,15 @@
 38, 39: the cost of an LM iteration and of building the problem).
 
     OMP_NUM_THREADS=1 .venv/bin/python bench/solve_speed.py --before /path/to/tree [--after .] [--rounds 3]
-                                       [--cases flat_trot,...] [--replans 6] [--no-append]
+                                       [--cases flat_trot,...] [--replans 6] [--model scalar|planner]
+                                       [--no-command] [--section solve_speed] [--no-append]
 
 * Cases: bench/dyn.py's five TOWR cases, planned by `legplan.dyn.planner.plan` with `DynParams()`
   from the heuristic, CPU seconds (process time) of the solve (every `solve_augmented_lagrangian`)
   and of the whole `plan` call, as bench/dyn.py measures them (its `plan_once`, from each tree's own
-  bench/dyn.py); and bench/replan.py's warm replans (the 16-footstep single pallet walk with the
+  bench/dyn.py), on TOWR's scalar model (`--model scalar`, `robot.centroidal`, as bench/dyn.py) or
+  on the planner's own (`--model planner`: `legplan.dyn.tasks.centroidal_model`, the joint-torque
+  rows included, as `legplan dyn plan` solves); and bench/replan.py's warm replans (the 16-footstep single pallet walk with the
   paper's costs, replanned from its own state at `--replans` instants, unperturbed and pushed), CPU
   of `replan` (build and solve).
 * The whole `legplan dyn plan` command on the flat trot: CPU seconds of the process (issue 38).
@@ -43,9 +46,11 @@ from common import ROOT, code_version, load_average, machine, update_benchmarks,
 TOWR_CASES = ("flat_trot", "flat_walk", "single_walk", "single_trot", "double_walk")
 REPLAN_TASK = ((-1.0, 0.0, 0.0), (0.6, 0.0, 0.0))
 PUSH_VELOCITY = 0.1  # m/s, as bench/replan.py
+MODELS = {"scalar": "TOWR's scalar model (`robot.centroidal`), as bench/dyn.py",
+          "planner": "the planner's model (`centroidal_model`: the URDF's joint torque limits as rows)"}
 
 
-def child(tree: Path, cases: list[str], replans: int, out: Path) -> None:
+def child(tree: Path, cases: list[str], replans: int, out: Path, model_kind: str = "scalar") -> None:
     """Run in a child process whose sys.path starts with `tree`: plan the cases and the replans,
     pickle CPU times, iterations and answers to `out`."""
     import time
@@ -59,13 +64,19 @@ def child(tree: Path, cases: list[str], replans: int, out: Path) -> None:
 
     assert Path(bench_dyn.__file__).resolve().is_relative_to(tree.resolve()), bench_dyn.__file__
     robot = load_robot("anymal")
+    if model_kind == "planner":
+        from legplan.dyn.tasks import centroidal_model
+
+        case_model = centroidal_model(robot)
+    else:
+        case_model = robot.centroidal
     result = {"cases": {}, "replans": []}
     terrains = {}
     for key in cases:
         case = next(c for c in bench_dyn.CASES if c["key"] == key)
         if case["map"] not in terrains:
             terrains[case["map"]] = TerrainModel(build_map(tree / "maps" / f"{case['map']}.yaml"))
-        res, total, solve = bench_dyn.plan_once(case, robot.centroidal, terrains[case["map"]], DynParams())
+        res, total, solve = bench_dyn.plan_once(case, case_model, terrains[case["map"]], DynParams())
         result["cases"][key] = {"solve": solve, "total": total, "iterations": int(res.solve.iterations),
                                 "violation": float(res.solve.max_violation), "status": res.status.name,
                                 "values": {k: np.array(v) for k, v in res.solve.values.items()}}
@@ -92,14 +103,14 @@ def child(tree: Path, cases: list[str], replans: int, out: Path) -> None:
     out.write_bytes(pickle.dumps(result))
 
 
-def run_tree(tree: Path, cases: list[str], replans: int) -> dict:
+def run_tree(tree: Path, cases: list[str], replans: int, model_kind: str = "scalar", command: bool = True) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "out.pkl"
         env = dict(os.environ, PYTHONPATH=str(tree))
         subprocess.run([sys.executable, __file__, "--child", str(tree), "--cases", ",".join(cases),
-                        "--replans", str(replans), "--out", str(out)], env=env, check=True)
+                        "--replans", str(replans), "--model", model_kind, "--out", str(out)], env=env, check=True)
         result = pickle.loads(out.read_bytes())
-        result["command_cpu"] = command_cpu(tree, Path(tmp), env)
+        result["command_cpu"] = command_cpu(tree, Path(tmp), env) if command else float("nan")
         return result
 
 
@@ -164,12 +175,13 @@ def summarize(rounds: list[dict[str, dict]], labels: tuple[str, str]) -> dict:
 
 def markdown(r: dict) -> str:
     before, after = r["labels"]
-    lines = [f"## solve_speed — the centroidal solve, two trees side by side (`bench/solve_speed.py`, {r['date']}, "
+    lines = [f"## {r.get('section', 'solve_speed')} — the centroidal solve, two trees side by side (`bench/solve_speed.py`, {r['date']}, "
              f"{r['machine']}, load average {r['load_start']:.1f} at start, {r['load_end']:.1f} at end: shared machine, "
              "timings noisy)", "",
              f"`{before}` = {r['trees'][before]}, `{after}` = {r['trees'][after]}; {r['rounds']} rounds, each one child "
              "process per tree in alternating order, one thread; medians over rounds of CPU seconds (process time). "
-             "Solve = every `solve_augmented_lagrangian` of `plan` (`DynParams()`, heuristic start), as bench/dyn.py; "
+             f"Solve = every `solve_augmented_lagrangian` of `plan` (`DynParams()`, heuristic start) on "
+             f"{MODELS[r.get('model', 'scalar')]}; "
              "largest difference = the largest absolute difference of any variable entry between the two trees' answers "
              "(m, rad, N; the solver's violation tolerance is 1e-3).", "",
              f"| case | solve {before} (s) | solve {after} (s) | speed-up | whole plan {before} / {after} (s) | "
@@ -186,8 +198,9 @@ def markdown(r: dict) -> str:
                      f"{ratio:.2f}× |")
     lines += ["", f"Median {after}/TOWR over the cases: {np.median(ratios):.2f}× (issue 34's target ≤ 0.5×; TOWR's figures "
               "are bench/dyn.py's reference column, measured on this machine on an idle day)."]
-    lines += ["", f"Whole `legplan dyn plan` process on the flat trot (CPU, start-up included; issue 38's target ≤ 1.0 s): "
-              f"{before} {r['command_cpu'][before]:.2f} s, {after} {r['command_cpu'][after]:.2f} s."]
+    if np.isfinite(r["command_cpu"][after]):
+        lines += ["", f"Whole `legplan dyn plan` process on the flat trot (CPU, start-up included; issue 38's target ≤ "
+                  f"1.0 s): {before} {r['command_cpu'][before]:.2f} s, {after} {r['command_cpu'][after]:.2f} s."]
     rp = r["replans"]
     if rp:
         lines += ["", f"Warm replans (bench/replan.py's set: {r['replans_count']} instants × unperturbed/pushed, CPU of "
@@ -210,6 +223,9 @@ def main() -> None:
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--cases", default=",".join(TOWR_CASES))
     parser.add_argument("--replans", type=int, default=6, help="replan instants (0: no replans)")
+    parser.add_argument("--model", choices=tuple(MODELS), default="scalar", help="the cases' centroidal model")
+    parser.add_argument("--no-command", action="store_true", help="skip the whole `dyn plan` command's CPU")
+    parser.add_argument("--section", default="solve_speed", help="the BENCHMARKS.md section it replaces")
     parser.add_argument("--no-append", action="store_true")
     parser.add_argument("--result-name", default="solve_speed", help="bench/results/NAME.json")
     parser.add_argument("--child", type=Path, help=argparse.SUPPRESS)
@@ -217,7 +233,7 @@ def main() -> None:
     args = parser.parse_args()
     cases = [c for c in args.cases.split(",") if c]
     if args.child is not None:
-        child(args.child, cases, args.replans, args.out)
+        child(args.child, cases, args.replans, args.out, args.model)
         return
     if args.before is None:
         parser.error("--before is required")
@@ -231,7 +247,7 @@ def main() -> None:
         order = labels if k % 2 == 0 else labels[::-1]
         got = {}
         for label in order:
-            got[label] = run_tree(paths[label], cases, args.replans)
+            got[label] = run_tree(paths[label], cases, args.replans, args.model, not args.no_command)
             solves = ", ".join(f"{key} {v['solve']:.2f}" for key, v in got[label]["cases"].items())
             print(f"round {k + 1} {label}: {solves}; replans median "
                   f"{np.median([x['cpu'] for x in got[label]['replans']] or [np.nan]) * 1e3:.0f} ms; dyn plan command "
@@ -239,13 +255,13 @@ def main() -> None:
         rounds.append(got)
     summary = summarize(rounds, labels)
     result = {"date": datetime.date.today().isoformat(), "machine": machine(), "code": code_version(),
-              "trees": trees, "labels": labels, "rounds": args.rounds,
+              "trees": trees, "labels": labels, "rounds": args.rounds, "model": args.model, "section": args.section,
               "replans_count": args.replans, "load_start": load_start, "load_end": load_average(), **summary}
     text = markdown(result)
     print(text)
     write_result(args.result_name, result)
     if not args.no_append:
-        update_benchmarks("solve_speed", text)
+        update_benchmarks(args.section, text)
 
 
 if __name__ == "__main__":

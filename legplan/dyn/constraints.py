@@ -335,7 +335,7 @@ class JointTorqueBlock(RangeOfMotionBlock):
         f = self.force @ forces
         b = self._in_base(e, q - p) + self.offset
         g = self._in_base(e, f)
-        tau, d_b, d_g, self.joints = self.legs.foot_torques(self.leg, b, g, self.joints)
+        tau, d_b, d_g, self.joints = self.legs.foot_torques(self.leg, b, g, self.joints, derivatives=jacobians)
         if not jacobians:
             return tau.reshape(-1), None
         turns = rotation_derivatives(e)

@@ -216,8 +216,9 @@ def dense_knots(gait: Gait, dt: float, unloaded_polynomials: int, unloaded_dt: f
     (its duration / `unloaded_polynomials`, at most `dt` and `unloaded_dt`): for phase durations that the optimizer moves
     (`DynParams.optimize_phases`), where knots fixed at the initial phase boundaries would end up
     inside the moved phases, short polynomials everywhere follow the summed force wherever its phases
-    go (the summed force is smooth across a boundary: each foot's force leaves and reaches zero with
-    zero slope)."""
+    go (a foot's force leaves and reaches zero at a free rate, so the summed force has a corner at a
+    boundary; the Newton–Euler rows between the knots bound how far a short polynomial's linear
+    acceleration may miss it, `DynParams.dynamics_band`)."""
     unloaded = unloaded_phases(gait)
     spacing = min(dt, float(gait.durations[unloaded].min()) / unloaded_polynomials) if unloaded.any() else dt
     if unloaded.any() and unloaded_dt is not None:

@@ -71,21 +71,28 @@ class _Chain:
         origin, rot, axes = frames
         x = origin[:, joint] + rot[:, joint] @ offset
         jac = np.zeros(x.shape + (origin.shape[1],))
-        for j in range(joint + 1):
-            jac[:, :, j] = np.cross(axes[:, j], x - origin[:, j])
+        jac[:, :, :joint + 1] = np.swapaxes(_cross(axes[:, :joint + 1], x[:, None] - origin[:, :joint + 1]), 1, 2)
         return x, jac
 
     def solve(self, feet: np.ndarray, q: np.ndarray) -> np.ndarray:
         """Joints (n, J) that put the foot at `feet` (n, 3, base frame), from q (n, J)."""
+        return self.solve_frames(feet, q)[0]
+
+    def solve_frames(self, feet: np.ndarray, q: np.ndarray):
+        """`solve`'s joints q with their `kinematics` frames and the foot's `point` (position,
+        Jacobian) there: those of the IK's last iterate when it converged, computed again when it
+        did not."""
         q = q.copy()
         for _ in range(IK_ITERATIONS):
-            x, jac = self.point(self.kinematics(q), self.foot_joint, self.foot_offset)
+            frames = self.kinematics(q)
+            x, jac = self.point(frames, self.foot_joint, self.foot_offset)
             error = feet - x
             if np.abs(error).max(initial=0.0) < IK_TOLERANCE:
-                break
+                return q, frames, x, jac
             step = (_damped_pinv(jac) @ error[..., None])[..., 0]
             q += step * np.minimum(1.0, IK_STEP / np.maximum(np.abs(step).max(axis=1, keepdims=True), 1e-300))
-        return q
+        frames = self.kinematics(q)
+        return (q, frames) + self.point(frames, self.foot_joint, self.foot_offset)
 
 
 class ChainLegs:
@@ -139,27 +146,28 @@ class ChainLegs:
         """The nominal joints of a leg for n samples (an IK start)."""
         return np.tile(self.chains[leg].nominal, (n, 1))
 
-    def foot_torques(self, leg: int, feet: np.ndarray, forces: np.ndarray, q: np.ndarray):
+    def foot_torques(self, leg: int, feet: np.ndarray, forces: np.ndarray, q: np.ndarray, derivatives: bool = True):
         """Joint torques τ = J_fᵀ g (n, J) that hold the leg's foot at `feet` (n, 3, base frame)
         against forces g (n, 3, base frame) at the foot, J_f the foot's point Jacobian at the joints
         of the IK started from q (n, J) (statics: the torque the joints give for the force, legs
         without mass); ∂τ/∂foot (n, J, 3) by the implicit function theorem through the IK,
-        ∂τ/∂g = J_fᵀ (n, J, 3), and the joints (n, J). With r_i = x − o_i (x the foot, o_i joint
-        i's origin) and a_i its axis, τ_i = g · (a_i × r_i); a turn of joint k < i turns a_i and r_i
-        about a_k, of k ≥ i moves x alone: ∂τ_i/∂q_k = g · ((a_k × a_i) × r_i + a_i × (a_k × r_i))
-        for k < i, g · (a_i × (a_k × r_k)) for k ≥ i."""
+        ∂τ/∂g = J_fᵀ (n, J, 3) (both None without `derivatives`: a residual alone), and the joints
+        (n, J). With r_i = x − o_i (x the foot, o_i joint i's origin) and a_i its axis,
+        τ_i = g · (a_i × r_i); a turn of joint k < i turns a_i and r_i about a_k, of k ≥ i moves x
+        alone: ∂τ_i/∂q_k = g · ((a_k × a_i) × r_i + a_i × (a_k × r_i)) for k < i, g · (a_i × (a_k × r_k))
+        for k ≥ i."""
         chain = self.chains[leg]
-        q = chain.solve(np.asarray(feet, float), q)
-        origin, rot, axes = frames = chain.kinematics(q)
-        x, jac = chain.point(frames, chain.foot_joint, chain.foot_offset)
+        q, (origin, rot, axes), x, jac = chain.solve_frames(np.asarray(feet, float), q)
         forces = np.asarray(forces, float)
-        count = q.shape[1]
         tau = np.einsum("nai,na->ni", jac, forces)
+        if not derivatives:
+            return tau, None, None, q
+        count = q.shape[1]
         r = x[:, None] - origin  # (n, J, 3)
-        moved = np.cross(axes[:, :, None], r[:, None])  # [n, k, i] = a_k × r_i
-        turned = np.cross(np.cross(axes[:, :, None], axes[:, None]), r[:, None])  # (a_k × a_i) × r_i
-        before = np.cross(axes[:, None], moved)  # [n, k, i] = a_i × (a_k × r_i)
-        tip = np.cross(axes[:, None], np.diagonal(moved, axis1=1, axis2=2).transpose(0, 2, 1)[:, :, None])  # a_i × (a_k × r_k)
+        moved = _cross(axes[:, :, None], r[:, None])  # [n, k, i] = a_k × r_i
+        turned = _cross(_cross(axes[:, :, None], axes[:, None]), r[:, None])  # (a_k × a_i) × r_i
+        before = _cross(axes[:, None], moved)  # [n, k, i] = a_i × (a_k × r_i)
+        tip = _cross(axes[:, None], np.diagonal(moved, axis1=1, axis2=2).transpose(0, 2, 1)[:, :, None])  # a_i × (a_k × r_k)
         k, i = np.meshgrid(np.arange(count), np.arange(count), indexing="ij")
         lower = (k < i)[None, :, :, None]
         reach = (np.arange(count) <= chain.foot_joint)  # joints past the foot's move nothing
@@ -172,9 +180,7 @@ class ChainLegs:
         base frame), their Jacobians ∂centre/∂foot (n, k, 3, 3), and the joints (n, J) of the IK
         started from q (n, J)."""
         chain = self.chains[leg]
-        q = chain.solve(np.asarray(feet, float), q)
-        frames = chain.kinematics(q)
-        _, foot_jac = chain.point(frames, chain.foot_joint, chain.foot_offset)
+        q, frames, _, foot_jac = chain.solve_frames(np.asarray(feet, float), q)
         dq = _damped_pinv(foot_jac)  # (n, J, 3): ∂q/∂foot
         centres, jacobians = [], []
         for joint, offset in zip(chain.sphere_joint, chain.sphere_offset):
@@ -185,6 +191,14 @@ class ChainLegs:
         if not centres:
             return np.zeros((n, 0, 3)), np.zeros((n, 0, 3, 3)), q
         return np.stack(centres, axis=1), np.stack(jacobians, axis=1), q
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """a × b over the last axis, broadcast, by its components (numpy's `cross` moves and copies axes,
+    several times the arithmetic for a few hundred vectors); the same floating-point operations."""
+    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
+    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
+    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def _damped_pinv(jac: np.ndarray) -> np.ndarray:

@@ -72,14 +72,18 @@ class PhaseTiming:
         return foot_durations(self.form)
 
     def admissible(self, d: np.ndarray) -> np.ndarray:
-        """d with every phase at least `minimum` long, each foot's last one included (a foot whose
-        durations leave less is scaled down): a network's prediction made a timing."""
+        """d with every phase at least `minimum` long, each foot's last one included (of a foot whose
+        durations leave less, the parts above the minimum are scaled down, so that the start is
+        inside the variable's bounds and the last phase's row): a network's prediction, or a gait
+        whose phases are shorter than the minimum, made a timing. A foot with more phases than
+        the minimum leaves room for gets them equal."""
         d = np.maximum(np.asarray(d, float), self.minimum)
         for leg in range(len(self.counts)):
             part = d[self.offsets[leg]:self.offsets[leg + 1]]
             room = self.duration - self.minimum
             if part.sum() > room:
-                part *= room / part.sum()
+                excess, spare = part - self.minimum, room - self.minimum * part.size
+                part[:] = self.minimum + excess * (spare / excess.sum()) if spare > 0 else room / part.size
         return d
 
     def variable(self, value: np.ndarray | None = None) -> VariableBlock:

@@ -32,6 +32,14 @@ residual evaluation), gives the acceleration a = −(JᵀJ + λI)⁻¹ Jᵀ r_vv
 factorization (rows E ∪ A), and the trial point is θ + d + ½a when 2‖a‖ ≤ α‖d‖ (α =
 `geodesic_acceleration`, 0.75 as the paper recommends; 0 switches it off).
 
+Box bounds of the variables (`VariableBlock.lower`/`upper`): a variable on a bound that the
+descent direction −Jᵀh points out of is held there for the step (`held_at_bounds`: its column and
+its scale zero, the active set of bound-constrained Gauss–Newton), the trial point is clipped to the
+box and ρ compares the decrease with the model's at the clipped step; the gradient test reads the
+gradient of the variables not held. A step computed for all variables and clipped afterwards moves
+the free ones as if the held one had moved too, predicts a decrease it does not make and, rejected,
+drives λ up while the point sits on the bound.
+
 Stops (`_Stopping`, the result's `status` and `stopped_by`): ‖h‖ < `tolerance` or, given
 `row_tolerance`, every row within its own, |h_i| ≤ row_tolerance_i (converged: tested on the trial
 residual, so the point that meets it costs no Jacobian); an accepted step lowering ‖h‖² by less
@@ -108,14 +116,15 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
     timings.evaluate += time.perf_counter() - t0
     norm = initial = hinged_norm(v, hinged)
     model = None
+    held = held_at_bounds(layout, theta, J, v, hinged)
     stopping = _Stopping(params, hinged, row_tolerance)
     for it in range(params.max_iterations + 1):
-        stop = stopping.at_point(it, norm, v, J, lam)
+        stop = stopping.at_point(it, norm, v, J, lam, held)
         if stop:
             return finish(stop, it, norm)
         if model is None:
             t0 = time.perf_counter()
-            model = _HingeModel(J, v, hinged, layout.n)
+            model = _HingeModel(J, v, hinged, layout.n, held)
             timings.assemble += time.perf_counter() - t0
         step = model.step(solver, lam, params.active_set_iterations, timings)
         if step is None:
@@ -124,7 +133,8 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
             continue
         scaled_step = step
         step = model.scale * step
-        predicted = norm ** 2 - hinged_norm(v + J @ step, hinged) ** 2
+        taken = layout.project(theta + step) - theta if layout.bounded else step  # clipped to the box
+        predicted = norm ** 2 - hinged_norm(v + J @ taken, hinged) ** 2
         if params.geodesic_acceleration > 0.0:
             t0 = time.perf_counter()
             probe = problem.residual(layout.project(theta + GEODESIC_PROBE * step))
@@ -150,6 +160,7 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
             t0 = time.perf_counter()
             v, J = problem.nonzero_jacobian(theta)
             model = None
+            held = held_at_bounds(layout, theta, J, v, hinged)
             timings.evaluate += time.perf_counter() - t0
         else:
             lam, nu = lam * nu, 2 * nu
@@ -166,7 +177,9 @@ class _Stopping:
         self.params, self.hinged, self.row_tolerance = params, hinged, row_tolerance
         self.initial_gradient = None
 
-    def at_point(self, it: int, norm: float, v: np.ndarray, J, lam: float) -> tuple[Status, str, str] | None:
+    def at_point(self, it: int, norm: float, v: np.ndarray, J, lam: float,
+                 held: np.ndarray | None = None) -> tuple[Status, str, str] | None:
+        """`held`: the variables a bound holds (`held_at_bounds`), whose gradient is no descent left."""
         p = self.params
         if not np.isfinite(norm) or not np.all(np.isfinite(J.data)):
             return Status.NUMERICAL_FAILURE, "", "residual or Jacobian not finite at the current point"
@@ -174,7 +187,8 @@ class _Stopping:
         stop = self._within_tolerance(norm, h)
         if stop:
             return stop
-        gradient = float(np.abs(J.T @ h).max(initial=0.0))  # inactive hinged rows contribute nothing
+        g = J.T @ h  # inactive hinged rows contribute nothing
+        gradient = float(np.abs(g if held is None else np.where(held, 0.0, g)).max(initial=0.0))
         if self.initial_gradient is None:
             self.initial_gradient = gradient
         if gradient <= p.gradient_tolerance * self.initial_gradient:
@@ -217,10 +231,12 @@ class _HingeModel:
     product in Python. Later passes update the factor by the rows that changed (`refactor_rows`), and
     a pass whose active set is the last factorized one reuses its factorization and candidate."""
 
-    def __init__(self, J, v: np.ndarray, hinged: np.ndarray, n: int):
+    def __init__(self, J, v: np.ndarray, hinged: np.ndarray, n: int, held: np.ndarray | None = None):
         J = sp.csr_matrix(J)
         d2 = np.bincount(J.indices, weights=J.data ** 2, minlength=n)
         self.scale = np.where(d2 > MARQUARDT_FLOOR * d2.max(initial=0.0), 1.0 / np.sqrt(np.where(d2 > 0, d2, 1.0)), 1.0)
+        if held is not None:  # a zero column and a zero scale: the step leaves these variables where they are
+            self.scale[held] = 0.0
         Js = sp.csr_matrix((J.data * self.scale[J.indices], J.indices, J.indptr), shape=J.shape)
         self.J, self.v, self.hinged = Js, v, hinged
 
@@ -271,6 +287,16 @@ class _HingeModel:
         rows = ~self.hinged | self.active
         second = np.where(rows, 2.0 / h * difference, 0.0)
         return -solver.solve(self.J.T @ second)
+
+
+def held_at_bounds(layout, theta: np.ndarray, J, v: np.ndarray, hinged: np.ndarray) -> np.ndarray | None:
+    """The variables on a bound of their box that the descent direction −Jᵀh points out of (None
+    when no variable has a bound): a step keeps them there and the others take the model's step
+    for the free variables alone (module docstring; Voglis and Lagaris's dogbox does the same)."""
+    if not layout.bounded:
+        return None
+    gradient = J.T @ np.where(hinged, np.maximum(v, 0.0), v)
+    return ((theta <= layout.lower) & (gradient > 0.0)) | ((theta >= layout.upper) & (gradient < 0.0))
 
 
 def _model_line_search(a: np.ndarray, b: np.ndarray, hinged: np.ndarray, lam: float, d: np.ndarray,

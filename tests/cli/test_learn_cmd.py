@@ -203,10 +203,6 @@ def test_dyn_plan_takes_the_learned_initializer_and_refuses_another_layout(train
     assert bad.exit_code == 2 and "init.h5" in bad.output and not (tmp_path / "u.h5").exists()
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 34: with the planner inside the URDF's joint efforts (robots.torque_limits) and the phase "
-    "durations optimized, none of the 3 tiny 1.2 s trots converges (stalled on the dynamics rows at 0.5; "
-    "with the scalar model task 1 converges in 30 iterations, with fixed timing in 10)"))
 def test_phase_durations_flow_through_dataset_train_and_plan(trained, tmp_path):
     """With --optimize-phases the dataset's y holds the durations (the fifth category), the network
     learns them, and `dyn plan --init` keeps the plan at its predicted timing; an init whose phase

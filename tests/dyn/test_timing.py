@@ -276,7 +276,8 @@ def test_an_invalid_timing_gives_nan_residuals_and_refuses_jacobians(timed_probl
 
 def test_admissible_durations_respect_the_minimum_and_end_within_the_motion():
     """A network's predicted durations made a timing: short phases raised to the minimum, a foot whose
-    phases leave less than the minimum for its last one scaled down, valid ones left as they are."""
+    phases leave less than the minimum for its last one has their parts above the minimum scaled
+    down (every phase stays at the minimum or above), valid ones left as they are."""
     _, timing = _timing("walk")
     d = timing.initial()
     assert np.array_equal(timing.admissible(d), d)
@@ -288,9 +289,19 @@ def test_admissible_durations_respect_the_minimum_and_end_within_the_motion():
     for leg in range(4):
         part = fixed[timing.offsets[leg]:timing.offsets[leg + 1]]
         assert timing.duration - part.sum() >= timing.minimum - 1e-9
-    second = fixed[timing.offsets[1]:timing.offsets[2]]
-    assert np.allclose(second / second.sum(), d[timing.offsets[1]:timing.offsets[2]] / d[timing.offsets[1]:timing.offsets[2]].sum())
+    second, before = fixed[timing.offsets[1]:timing.offsets[2]], 3.0 * d[timing.offsets[1]:timing.offsets[2]]
+    assert timing.duration - second.sum() == pytest.approx(timing.minimum)
+    assert np.allclose((second - timing.minimum) / (second - timing.minimum).sum(),
+                       (before - timing.minimum) / (before - timing.minimum).sum())
     timing.formulation(fixed)  # a valid formulation (positive segments)
+    tight = d.copy()  # a phase just under the minimum and a foot that overruns: none ends under it
+    part = slice(timing.offsets[1], timing.offsets[2])
+    first, rest = timing.offsets[1], slice(timing.offsets[1] + 1, timing.offsets[2])
+    tight[first] = 0.95 * timing.minimum
+    tight[rest] *= (1.05 * (timing.duration - timing.minimum) - tight[first]) / tight[rest].sum()
+    fixed = timing.admissible(tight)
+    assert fixed[part].min() >= timing.minimum - 1e-12
+    assert timing.duration - fixed[part].sum() == pytest.approx(timing.minimum)
 
 
 def test_a_guess_with_durations_sets_the_timing_optimized_or_fixed(anymal, flat):
@@ -313,3 +324,23 @@ def test_a_guess_with_durations_sets_the_timing_optimized_or_fixed(anymal, flat)
     np.testing.assert_allclose(timed.timing.initial(), d, atol=1e-9)
     plain = build_problem(task, anymal, flat, DynParams(), heuristic)  # no durations: the gait's timing
     np.testing.assert_array_equal(plain.form.gait.durations, make_gait("walk", 2, 3.0).durations)
+
+
+def test_a_torque_limited_trot_with_its_phase_durations_optimized_converges(flat):
+    """Issue 34: the learn tests' tiny trot (2 strides in 1.2 s) inside the URDF's joint efforts
+    with the durations optimized. Its gait has phases at the shortest duration allowed
+    (`DynParams.phase_min`) and the solution keeps one there: the solver holds that duration on its
+    bound and steps the others (`legplan.solve.hinged.held_at_bounds`), where a step clipped to the
+    bound afterwards stalled on the dynamics rows."""
+    from legplan.dyn.planner import plan
+    from legplan.dyn.tasks import centroidal_model
+    from legplan.robots import load_robot
+
+    model = centroidal_model(load_robot("anymal"))
+    assert model.torque_limits is not None
+    params = replace(DynParams(optimize_phases=True), iteration_budget=60)
+    result = plan(DynTask((-0.35, -0.03, 0.02), (0.0, 0.0, 0.0), "trot", 2, 1.2), model, flat, params)
+    assert result.success, result.reason
+    durations = result.solve.values[PHASES]
+    assert durations.min() == pytest.approx(params.phase_min, abs=1e-9)  # a duration on its bound
+    assert result.solve.violations["joint_torque"] <= params.solver.violation_tolerance

@@ -211,3 +211,20 @@ def test_factorizing_on_the_entries_ever_nonzero_gives_the_answer_of_the_whole_p
     assert reduced.iterations == whole.iterations and reduced.status is whole.status
     np.testing.assert_allclose(reduced.theta, whole.theta, rtol=1e-9, atol=1e-12)
     assert reduced.iterations > 3 and reduced.norm < 0.5 * reduced.initial_norm  # a solve of some length
+
+
+@pytest.mark.parametrize("start", [[0.0, 2.0], [0.5, 2.0]], ids=["on_the_bound", "inside"])
+def test_a_variable_its_bound_holds_leaves_the_step_to_the_others(start):
+    """Linear least squares with nearly parallel columns whose unconstrained minimum lies beyond the
+    box (x0 ≥ 0): the bound-constrained minimum is x0 = 0 and x1 the least squares of the second
+    column alone. The step is the model's for the free variable only (`held_at_bounds`); a step for
+    both clipped afterwards moves x1 as if x0 had moved too and creeps along the bound."""
+    A = np.array([[1.0, 1.0], [1.0, 1.1], [0.0, 0.1]])
+    b = np.array([1.0, 0.8, 0.5])
+    assert np.linalg.lstsq(A, b, rcond=None)[0][0] < 0.0  # the premise: the bound is active
+    p = Problem([VariableBlock("x", start, lower=[0.0, -np.inf])])
+    p.add_residual(LinearBlock(("x",), [A], b))
+    r = solve_hinged_lm(p, HingedParams(tolerance=0.0, max_iterations=30))
+    assert r.status is Status.CONVERGED and r.iterations <= 8, r.reason
+    a = A[:, 1]
+    assert r.values["x"] == pytest.approx([0.0, a @ b / (a @ a)], abs=1e-10)
