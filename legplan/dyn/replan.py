@@ -81,13 +81,13 @@ class ReplanParams(Parameters):
         "their stances end, after that the previous plan is kept (`frozen_tail`, a terminal "
         "constraint); None: the whole rest moves"))
     max_iterations: int = param(25, "[1, 10000]", doc="LM iterations of a replan, at most")
-    track_violation: float = param(0.02, "[0, inf]", doc=(
+    track_violation: float = param(float("inf"), "[0, inf]", doc=(
         "closed loop (`legplan.sim.replanning`): the controller also tracks a replan that ran out of "
         "iterations or stalled when its largest constraint violation, each row in the solver's "
         "scale (`ReplanResult.scaled_violation`: forces per the robot's weight, lengths per 10 cm, "
-        "accelerations per g), is within this: it starts from the measured state, the last plan from a "
-        "state the robot has left (a push); a replan far from feasible leads the next ones further off, "
-        "so the last plan is kept then. 0: converged replans only; inf: every one"))
+        "accelerations per g), is within this; inf (default): every one, since it starts from the "
+        "measured state and the last plan from a state the robot has left (a push); 0: converged "
+        "replans only"))
     step_adaptation: float = param(0.0, "[0, inf)", doc=(
         "× the capture-point shift of the next foothold of every foot in the replan's guess "
         "(`capture_step` of the CoM's horizontal velocity error against the previous plan at t): a "

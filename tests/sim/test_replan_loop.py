@@ -43,12 +43,10 @@ def json_replan(path):
 
 
 
-@pytest.mark.xfail(strict=True, reason=(
-    "issue 39: planned inside the URDF's joint efforts, the 1 m flat trot's open loop survives 21 N s and "
-    "falls at 22; the closed loop (replans every 0.25 s) falls at 22 too (at 1.98 s, the open loop at 1.98 s)"))
 def test_closed_loop_survives_a_push_the_open_loop_falls_under(flat, trot):
     """The 1 m flat trot pushed sideways at half its duration (22 N s): executed as planned it
-    falls; replanned every 0.25 s from the simulated state it reaches the goal."""
+    falls; replanned every 0.25 s from the simulated state, every replan tracked (the ones that did
+    not converge too: they start from where the push left the robot), it reaches the goal."""
     from legplan.dyn.artefact import read_tasks
     from legplan.dyn.replan_io import recorded_params
     from legplan.sim.items import SimWorker, sim_items, simulate_item
@@ -64,6 +62,7 @@ def test_closed_loop_survives_a_push_the_open_loop_falls_under(flat, trot):
     assert closed["success"], closed["reason"]
     replans = closed["replans"]
     assert replans["success"].size >= 7 and replans["success"].mean() > 0.5
+    assert replans["tracked"].all() and not replans["success"].all()
     assert np.all(replans["cpu_seconds"] > 0) and np.all(replans["violation"] >= 0)
 
 
