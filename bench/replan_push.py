@@ -9,10 +9,14 @@ latency modelled); the CPU seconds of each replan are recorded (median, largest)
 shows.
 
     OMP_NUM_THREADS=1 .venv/bin/python bench/replan_push.py [--cases flat_trot pallet_walk] [--period 0.25]
+        [--loops open closed] [--track-violation X] [--step-adaptation G] [--result NAME]
+
+`--track-violation` and `--step-adaptation` set the closed loop's `ReplanParams` (recorded in the
+JSON as `replan_settings`).
 
 Cases: the 1 m flat trot (4 strides, 2.4 s) and the (-1.0, 0.3, 0.3) → (0.6, 0, 0) single pallet
 walk (4 strides, 5.5 s) of `bench/sim.py`, planned with `DynParams()` (no costs). Writes
-bench/results/replan_push.json (`bench/replan.py`'s BENCHMARKS.md section cites it).
+bench/results/<NAME>.json (default replan_push.json) (`bench/replan.py`'s BENCHMARKS.md section cites it).
 """
 
 from __future__ import annotations
