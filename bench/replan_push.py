@@ -9,10 +9,14 @@ latency modelled); the CPU seconds of each replan are recorded (median, largest)
 shows.
 
     OMP_NUM_THREADS=1 .venv/bin/python bench/replan_push.py [--cases flat_trot pallet_walk] [--period 0.25]
+        [--loops open closed] [--track-violation X] [--step-adaptation G] [--result NAME]
+
+`--track-violation` and `--step-adaptation` set the closed loop's `ReplanParams` (recorded in the
+JSON as `replan_settings`).
 
 Cases: the 1 m flat trot (4 strides, 2.4 s) and the (-1.0, 0.3, 0.3) → (0.6, 0, 0) single pallet
 walk (4 strides, 5.5 s) of `bench/sim.py`, planned with `DynParams()` (no costs). Writes
-bench/results/replan_push.json (`bench/replan.py`'s BENCHMARKS.md section cites it).
+bench/results/<NAME>.json (default replan_push.json) (`bench/replan.py`'s BENCHMARKS.md section cites it).
 """
 
 from __future__ import annotations
@@ -65,11 +69,15 @@ def main() -> None:
     parser.add_argument("--period", type=float, default=0.25, help="s between replans")
     parser.add_argument("--most", type=float, default=64.0, help="N s: stop doubling once this survives")
     parser.add_argument("--loops", nargs="+", choices=("open", "closed"), default=["open", "closed"])
+    parser.add_argument("--resolution", type=float, default=None, help="N s: bisection stop (default: the case's)")
+    parser.add_argument("--track-violation", type=float, default=None, help="ReplanParams.track_violation")
+    parser.add_argument("--step-adaptation", type=float, default=None, help="ReplanParams.step_adaptation")
+    parser.add_argument("--result", default="replan_push", help="bench/results/<name>.json")
     args = parser.parse_args()
 
     from legplan.dyn.planner import plan
     from legplan.dyn.problem import DynParams, DynTask
-    from legplan.dyn.replan import Previous
+    from legplan.dyn.replan import Previous, ReplanParams
     from legplan.dyn.terrain import TerrainModel
     from legplan.robots import load_robot
     from legplan.sim.replanning import Replanner
@@ -80,9 +88,12 @@ def main() -> None:
     started = time.perf_counter()
     robot = load_robot("anymal")
     params = DynParams()
+    chosen = {"track_violation": args.track_violation, "step_adaptation": args.step_adaptation}
+    settings = ReplanParams(**{k: v for k, v in chosen.items() if v is not None})
     rows = []
     for name in args.cases:
         map_name, label, (start, goal), gait, duration, resolution = CASES[name]
+        resolution = args.resolution or resolution
         terrain_map = build_map(ROOT / "maps" / f"{map_name}.yaml")
         terrain = TerrainModel(terrain_map)
         planned = plan(DynTask(start, goal, gait, 4, duration), robot.centroidal, terrain, params)
@@ -90,7 +101,8 @@ def main() -> None:
         for loop in args.loops:
             def survives(impulse: float) -> dict:
                 pushes = ((duration / 2, 0.0, impulse / PUSH_DURATION, PUSH_DURATION),) if impulse > 0 else ()
-                replanner = (Replanner(Previous.from_plan(planned), robot.centroidal, terrain, params, args.period)
+                replanner = (Replanner(Previous.from_plan(planned), robot.centroidal, terrain, params, args.period,
+                                       settings)
                              if loop == "closed" else None)
                 result = simulate(planned.samples, robot, terrain_map, SimParams(pushes=pushes), goal=goal,
                                   replanner=replanner)
@@ -98,18 +110,19 @@ def main() -> None:
                 cpu = np.asarray(replans.get("cpu_seconds", []), float)
                 run = {"impulse": impulse, "success": result.success, "reason": result.reason,
                        "replans": int(cpu.size), "replans_converged": int(np.sum(replans.get("success", []))),
+                       "replans_tracked": int(np.sum(replans.get("tracked", []))),
                        "replan_cpu_median": float(np.median(cpu)) if cpu.size else None,
                        "replan_cpu_max": float(cpu.max()) if cpu.size else None, "wall": result.wall}
                 print(f"  {label} {loop} {impulse:.2f} N s: {result.reason}; replans {run['replans_converged']}/"
-                      f"{run['replans']}", file=sys.stderr, flush=True)
+                      f"{run['replans']} (tracked {run['replans_tracked']})", file=sys.stderr, flush=True)
                 return run
             low, high, runs = bracket(survives, resolution, args.most)
             rows.append({"case": label, "loop": loop, "planned": bool(planned.success), "push_at": duration / 2,
                          "survived": low, "failed": high, "runs": runs})
-    path = write_result("replan_push", {
+    path = write_result(args.result, {
         "date": datetime.date.today().isoformat(), "machine": machine(), "code": code_version(),
         "load_start": load_start, "load_end": load_average(), "wall": time.perf_counter() - started,
-        "period": args.period, "push_duration": PUSH_DURATION, "rows": rows})
+        "period": args.period, "replan_settings": vars(settings), "push_duration": PUSH_DURATION, "rows": rows})
     for row in rows:
         print(f"{row['case']}, {row['loop']} loop: survived {row['survived']:.2f} N s, failed {row['failed']:.2f} N s")
     print(f"wrote {path}")

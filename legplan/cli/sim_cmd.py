@@ -78,7 +78,8 @@ class JointValue(click.ParamType):
 @click.option("--replan", "replan_period", type=number(DURATION), default=None, metavar="PERIOD",
               help="Closed loop: replan the rest of the motion from the simulated state every PERIOD s "
                    "(legplan.dyn.replan) and track the new plan; the simulation waits for each replan; every "
-                   "replan (state, iterations, CPU seconds, violation, success) recorded in sim.h5's replans/.")
+                   "replan (state, iterations, CPU seconds, violation, success, tracked) recorded in sim.h5's "
+                   "replans/.")
 @output_opt
 @overwrite_opt
 @batch_opts

@@ -49,6 +49,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from legplan.dyn.constraints import GRAVITY
 from legplan.dyn.costs import CostWeights
 from legplan.dyn.euler import rotation, world_rates
 from legplan.dyn.formulation import Formulation, Pose
@@ -80,11 +81,17 @@ class ReplanParams(Parameters):
         "their stances end, after that the previous plan is kept (`frozen_tail`, a terminal "
         "constraint); None: the whole rest moves"))
     max_iterations: int = param(25, "[1, 10000]", doc="LM iterations of a replan, at most")
-    track_unconverged: bool = param(False, (False, True), doc=(
-        "closed loop (`legplan.sim.replanning`): the controller tracks a replan that ran out of "
-        "iterations or stalled too (it starts from the measured state, the last plan does not); "
-        "False: only converged ones (a trot whose replan stalls keeps the last converged plan, where "
-        "tracking the stalled one leads the next replans further off)"))
+    track_violation: float = param(float("inf"), "[0, inf]", doc=(
+        "closed loop (`legplan.sim.replanning`): the controller also tracks a replan that ran out of "
+        "iterations or stalled when its largest constraint violation, each row in the solver's "
+        "scale (`ReplanResult.scaled_violation`: forces per the robot's weight, lengths per 10 cm, "
+        "accelerations per g), is within this; inf (default): every one, since it starts from the "
+        "measured state and the last plan from a state the robot has left (a push); 0: converged "
+        "replans only"))
+    step_adaptation: float = param(0.0, "[0, inf)", doc=(
+        "× the capture-point shift of the next foothold of every foot in the replan's guess "
+        "(`capture_step` of the CoM's horizontal velocity error against the previous plan at t): a "
+        "pushed base needs its next steps where they can stop it; 0: the previous footholds"))
     settle: float = param(0.2, "(0, inf)", doc=(
         "s: a measured foot outside its range-of-motion box (tracking error, a push) may stay "
         "outside by its measured excess, shrinking linearly to none over this time"))
@@ -358,6 +365,17 @@ class ReplanTask:
         return out
 
 
+def capture_step(error, time_constant: float, limit, gain: float = 1.0) -> np.ndarray:
+    """The horizontal shift (3,) of a foothold for a base velocity error (3,) (m/s): `gain` × the
+    capture-point offset τ·e of the linear inverted pendulum (τ = √(h/g); Pratt et al. 2006,
+    Raibert's foot placement), each horizontal axis within `limit` (the range of motion's
+    half-widths), none vertically. The controller's foothold feedback and the replan's step
+    adaptation both place feet by it."""
+    shift = gain * time_constant * np.asarray(error, float)
+    shift[2] = 0.0
+    return np.clip(shift, -np.asarray(limit, float), np.asarray(limit, float))
+
+
 def euler_rates(euler: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """ė of a world angular velocity ω at Euler angles e (`euler.world_rates` is linear in ė)."""
     m = np.column_stack([world_rates(euler[None], np.eye(3)[k][None])[0] for k in range(3)])
@@ -371,8 +389,9 @@ class ShiftedInit:
 
     near_solution = True
 
-    def __init__(self, previous: Previous, t: float):
+    def __init__(self, previous: Previous, t: float, step: np.ndarray | None = None):
         self.previous, self.t = previous, float(t)
+        self.step = np.zeros(2) if step is None else np.asarray(step, float)[:2]
 
     def __call__(self, form: Formulation, model, terrain, start, goal, start_feet) -> dict[str, np.ndarray]:
         prev = self.previous
@@ -388,8 +407,24 @@ class ShiftedInit:
                 nodes, times = _node_times(spline)
                 out[offset + nodes] = _sample(lambda tt, d: matrix(leg, tt, d), values,
                                               self._at(times)).reshape(-1, 2, 3)
+        if self.step.any():
+            self._adapt_steps(form, terrain, feet)
         guess["feet"], guess["forces"] = feet.reshape(-1), forces.reshape(-1)
         return guess
+
+    def _adapt_steps(self, form: Formulation, terrain, feet: np.ndarray) -> None:
+        """Move every foot's next foothold (its second stance: the first is where it stands or is
+        held) horizontally by `step` onto the terrain there, and the apex of the swing before it
+        by half that (the capture point, Pratt et al. 2006: one step there stops the pushed base;
+        later steps keep the previous plan's, which lead to the goal)."""
+        for foot in form.feet:
+            if len(foot.stance_nodes) < 2:
+                continue
+            node = foot.stance_nodes[1]
+            xy = feet[node, 0, :2] + self.step
+            feet[node, 0, :2] = xy
+            feet[node, 0, 2] = float(terrain.height(xy[:1], xy[1:])[0])
+            feet[foot.swing_nodes[0], 0, :2] += 0.5 * self.step
 
     def _at(self, times: np.ndarray) -> np.ndarray:
         return np.clip(self.t + np.asarray(times, float), 0.0, self.previous.form.duration)
@@ -427,6 +462,10 @@ class ReplanResult:
     plan: PlanResult
     cpu_seconds: float
     wall_seconds: float
+    scaled_violation: float = float("nan")
+    """The largest constraint violation, each row times its solver scale (`Constraint.scale`):
+    rows of different units (N, m, m/s²) on one scale, so that one bound judges how near a
+    replan came to feasible (`ReplanParams.track_violation`)."""
 
     @property
     def success(self) -> bool:
@@ -448,16 +487,18 @@ class ReplanResult:
     def record(self) -> dict:
         return {**{f"state_{k}": v for k, v in self.state.record().items()}, "iterations": self.iterations,
                 "cpu_seconds": self.cpu_seconds, "wall_seconds": self.wall_seconds, "success": self.success,
-                "violation": self.violation, "status": self.status.name.lower()}
+                "violation": self.violation, "scaled_violation": self.scaled_violation,
+                "status": self.status.name.lower()}
 
 
 def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain, params: DynParams = DynParams(),
            warm_stage: str = "projection", settings: ReplanParams = ReplanParams()) -> ReplanResult:
     """Plan the rest of `previous` from `state` (module docstring), warm-started from `previous`
-    shifted to `state.t`, moving it within `settings.horizon`. The remaining phases keep their
-    durations (`optimize_phases` is off). `warm_stage` "projection" (default) solves the constraints
-    alone from the shifted guess — it already minimizes the costs, the measured state only needs it
-    made feasible again; "costs" solves the costs under the constraints too (`warm_solver`)."""
+    shifted to `state.t` (its next footholds moved by `settings.step_adaptation`), moving it within
+    `settings.horizon`. The remaining phases keep their durations (`optimize_phases` is off).
+    `warm_stage` "projection" (default) solves the constraints alone from the shifted guess — it
+    already minimizes the costs, the measured state only needs it made feasible again; "costs"
+    solves the costs under the constraints too (`warm_solver`)."""
     if isinstance(previous, PlanResult):
         previous = Previous.from_plan(previous)
     if state.feet_pos.shape[0] != previous.form.legs:
@@ -470,7 +511,8 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
     solver = params.warm_solver if costs else params.projection_solver
     stage_params = replace(params, optimize_phases=False, costs=params.costs if costs else CostWeights())
     cpu, wall = time.process_time(), time.perf_counter()
-    problem = build_problem(task, model, terrain, stage_params, ShiftedInit(previous, state.t))
+    guess = ShiftedInit(previous, state.t, adapted_step(previous, task, model, settings))
+    problem = build_problem(task, model, terrain, stage_params, guess)
     setup = time.perf_counter() - wall
     solved = solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints,
                                         replace(solver, max_iterations=settings.max_iterations))
@@ -480,4 +522,29 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
         samples["contact"][np.ix_(hold, airborne)] = False
     result = PlanResult(problem, [StageOutcome(warm_stage, solved.status, solved, problem, setup)], solved, samples,
                         setup)
-    return ReplanResult(state, result, time.process_time() - cpu, time.perf_counter() - wall)
+    return ReplanResult(state, result, time.process_time() - cpu, time.perf_counter() - wall,
+                        scaled_violation(problem.constraints, solved.values))
+
+
+def adapted_step(previous: Previous, task: ReplanTask, model, settings: ReplanParams) -> np.ndarray:
+    """The step adaptation of a replan (`ReplanParams.step_adaptation`): `capture_step` of the
+    measured CoM velocity's error against the previous plan's at t, within the range of motion."""
+    if settings.step_adaptation == 0.0:
+        return np.zeros(3)
+    at = np.array([min(task.state.t, previous.form.duration)])
+    planned = (previous.form.base_matrix(at, 1) @ previous.values["base_lin"].reshape(-1, 3))[0]
+    _, measured, _ = task.com_state()
+    limit = np.r_[np.asarray(model.range_of_motion, float)[:2], 0.0]
+    return capture_step(measured - planned, float(np.sqrt(model.base_height / GRAVITY)), limit,
+                        settings.step_adaptation)
+
+
+def scaled_violation(constraints, values: dict[str, np.ndarray]) -> float:
+    """The largest row violation of `constraints` at `values`, each row times its scale."""
+    worst = 0.0
+    for k in constraints:
+        if not k.block.size:
+            continue
+        c = np.asarray(k.block.evaluate([values[v] for v in k.block.variables], False)[0], float)
+        worst = max(worst, float(np.max(k.violation(c) * k.scale)))
+    return worst

@@ -57,6 +57,8 @@ import numpy as np
 import pinocchio as pin
 import proxsuite
 
+from legplan.dyn.replan import capture_step
+
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 FACETS = [(np.cos(a), np.sin(a)) for a in np.arange(8) * np.pi / 4]
 """Directions of the friction pyramid's facets in the tangent plane: an octagon inscribed in the cone."""
@@ -262,9 +264,7 @@ class WholeBodyController:
         """The shift (3,) of a swing foot's foothold (module docstring): `step_feedback` × √(h/g) ×
         the horizontal base velocity error, each axis inside the range of motion's half-width."""
         error = np.asarray(velocity, float) - np.asarray(planned_velocity, float)
-        shift = self.gains.step_feedback * self.time_constant * error
-        shift[2] = 0.0
-        return np.clip(shift, -self.step_limit, self.step_limit)
+        return capture_step(error, self.time_constant, self.step_limit, self.gains.step_feedback)
 
     @staticmethod
     def _solve(qp: QP):

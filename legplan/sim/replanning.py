@@ -8,12 +8,12 @@
 `legplan.sim.run.simulate` asks `due(t)` every control tick and, when due, calls the replanner with
 the simulated state. The simulation waits for the replan (no latency: the new plan holds from the
 tick it was measured at); each replan's CPU seconds are recorded so that its latency shows. A
-converged replan (`legplan.dyn.replan.replan`) becomes the reference (its
-samples on the plan's clock) and the plan later replans start from. With
-`ReplanParams.track_unconverged` so does one that ran out of iterations or stalled: it
-starts from the measured state, where the last reference starts from a state the robot has left (a
-push); only a numerical failure keeps the last reference. Every replan's status is recorded
-(`success` is convergence).
+converged replan (`legplan.dyn.replan.replan`) becomes the reference (its samples on the plan's
+clock) and the plan later replans start from; so does one that ran out of iterations or stalled
+near feasible (`ReplanParams.track_violation`, in the solver's row scale): it starts from the
+measured state, where the last reference starts from a state the robot has left (a push). A replan
+further off, or a numerical failure, keeps the last reference. Every replan's status is recorded
+(`success` is convergence, `tracked` whether the controller took it).
 """
 
 from __future__ import annotations
@@ -54,10 +54,12 @@ class Replanner:
             out = replan(self.previous, shifted, self.model, self.terrain, self.params, settings=self.settings)
         except ValueError:  # outside the plan
             return None
+        tracked = out.success or (out.status in (Status.MAX_ITERATIONS, Status.STALLED)
+                                  and out.scaled_violation <= self.settings.track_violation)
         self.rows.append({**state.record(), "iterations": out.iterations, "cpu_seconds": out.cpu_seconds,
-                          "violation": out.violation, "success": out.success})
-        if not (out.success or self.settings.track_unconverged and out.status in (Status.MAX_ITERATIONS,
-                                                                                   Status.STALLED)):
+                          "violation": out.violation, "scaled_violation": out.scaled_violation,
+                          "success": out.success, "tracked": tracked})
+        if not tracked:
             return None
         self.previous = Previous.from_plan(out.plan)
         self._origin = t

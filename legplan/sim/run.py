@@ -129,10 +129,11 @@ SERIES_UNITS = {"t": "s", "base_pos": "m", "base_quat": "(x, y, z, w)", "base_ve
                 "foot_forces": "N (world, on the foot)", "position_error": "m", "orientation_error": "rad"}
 REPLAN_UNITS = {"t": "s", "base_pos": "m", "base_euler": "rad", "base_vel": "m/s (world)",
                 "base_ang_vel": "rad/s (world)", "feet_pos": "m", "iterations": "", "cpu_seconds": "s",
-                "violation": "", "success": ""}
+                "violation": "", "scaled_violation": "", "success": "", "tracked": ""}
 """The columns of `SimResult.replans`, one row per replan (`legplan.sim.replanning.Replanner`): the
-measured state it started from, LM iterations, CPU seconds, its largest violation, whether it
-converged."""
+measured state it started from, LM iterations, CPU seconds, its largest violation (rows in their
+own units, and in the solver's scale), whether it converged and whether the controller tracked
+it."""
 
 
 def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(), goal=None,

@@ -250,3 +250,77 @@ def test_a_foot_standing_to_the_end_off_its_planned_foothold_still_replans(plann
     nominal = next(c for c in planned.problem.constraints if c.name == "range_of_motion").upper[:3]
     assert boxes[0].upper[-3] == pytest.approx(nominal[0] + SLIP, abs=0.01)
     assert all(np.allclose(c.upper[-3:], nominal) for c in boxes[1:])
+
+
+class _Rows:
+    """A residual block c(x) = x on one variable, for the scaled violation."""
+
+    def __init__(self, name, size):
+        self.variables, self.size = [name], size
+
+    def evaluate(self, values, jacobians):
+        return np.asarray(values[0], float), None
+
+
+def test_scaled_violation_weighs_every_row_by_its_scale():
+    """Rows of different units on one scale: 3 N over a bound scaled per 300 N weighs 0.01, 2 mm
+    over a bound scaled per 0.1 m weighs 0.02; rows within their bounds weigh nothing."""
+    from legplan.dyn.replan import scaled_violation
+    from legplan.solve.auglag import Constraint
+
+    force = Constraint(_Rows("f", 2), -np.inf, 100.0, "force", scale=1.0 / 300.0)
+    length = Constraint(_Rows("p", 3), [-0.1, -0.1, 0.0], 0.1, "range", scale=1.0 / 0.1)
+    values = {"f": np.array([103.0, 50.0]), "p": np.array([0.0, -0.102, 0.05])}
+    assert scaled_violation([force, length], values) == pytest.approx(0.02)
+    values["p"][1] = 0.0
+    assert scaled_violation([force, length], values) == pytest.approx(0.01)
+    values["f"][0] = 99.0
+    assert scaled_violation([force, length], values) == 0.0
+
+
+def test_capture_step_is_the_pendulum_offset_within_the_box():
+    from legplan.dyn.replan import capture_step
+
+    tau = np.sqrt(0.42 / 9.81)
+    limit = np.array([0.15, 0.10, 0.0])
+    shift = capture_step([0.2, -0.3, 0.5], tau, limit)
+    assert np.allclose(shift, [0.2 * tau, -0.3 * tau, 0.0])
+    assert np.allclose(capture_step([2.0, -3.0, 0.0], tau, limit, gain=0.5), [0.15, -0.10, 0.0])
+    assert not capture_step([0.0, 0.0, 1.0], tau, limit).any()
+
+
+def test_step_adaptation_moves_each_next_foothold_onto_the_terrain(planned, anymal, step):
+    """The guess's second stance of every foot moves by the step (z the terrain's height there),
+    the apex before it by half; the first stance and the later nodes stay the previous plan's."""
+    from legplan.dyn.formulation import Formulation
+
+    previous = Previous.from_plan(planned)
+    t = 1.0
+    rest, _ = remaining_gait(previous.form.gait, t)
+    form = Formulation(rest, 0.1)
+    shift = np.array([0.6, -0.05])  # onto the 10 cm step for the feet that land at x >= 0.5 - 0.6
+    kept = ShiftedInit(previous, t)(form, anymal, step, None, None, None)["feet"].reshape(-1, 2, 3)
+    moved = ShiftedInit(previous, t, shift)(form, anymal, step, None, None, None)["feet"].reshape(-1, 2, 3)
+    changed = np.zeros(len(kept), bool)
+    for foot in form.feet:
+        node, apex = foot.stance_nodes[1], foot.swing_nodes[0]
+        xy = kept[node, 0, :2] + shift
+        assert np.allclose(moved[node, 0, :2], xy)
+        assert moved[node, 0, 2] == pytest.approx(float(step.height(xy[:1], xy[1:])[0]))
+        assert np.allclose(moved[apex, 0, :2], kept[apex, 0, :2] + 0.5 * shift)
+        changed[[node, apex]] = True
+    assert np.array_equal(moved[~changed], kept[~changed])
+    assert np.array_equal(moved[:, 1], kept[:, 1])
+
+
+def test_a_pushed_replan_with_step_adaptation_starts_from_the_measured_state(planned, anymal, flat):
+    """With `step_adaptation` the replan still starts where the robot is and ends at the goal."""
+    state = MeasuredState.from_samples(planned.samples, 1.0)
+    pushed = MeasuredState(state.t, state.base_pos + [0.0, 0.02, 0.0], state.base_euler,
+                           state.base_vel + [0.0, 0.3, 0.0], state.base_ang_vel, state.feet_pos)
+    out = replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(step_adaptation=1.0))
+    assert out.success, out.plan.reason
+    assert 0.0 <= out.scaled_violation <= 1e-3 * 10.0  # converged: rows within 1e-3 in their units, scales ≤ 10
+    s = out.plan.samples
+    assert np.allclose(s["base_vel"][0], pushed.base_vel, atol=1e-9)
+    assert np.allclose(s["base_pos"][-1, :2], planned.samples["base_pos"][-1, :2], atol=1e-6)
