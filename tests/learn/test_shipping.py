@@ -101,3 +101,21 @@ def test_dyn_plan_refuses_a_task_outside_the_shipped_space_before_writing(traine
     assert result.exit_code == 2, result.output
     assert "start x = -1 lies outside the range it was trained on" in result.output
     assert not out.exists()
+
+
+def test_the_shipped_single_pallet_walk_initializer_plans_a_held_out_task_by_name(tmp_path):
+    """`dyn plan --init single_pallet_walk` from a fresh checkout: the shipped network (held-out results
+    of another seed in its provenance) plans a held-out task of its space, and the check passes."""
+    (record,) = [r for r in shipped_records() if r["name"] == "single_pallet_walk"]
+    assert record["held_out"]["tasks"] == 100 and record["held_out"]["seed"] != record["trained"]["seed"]
+    map_path = tmp_path / "single_pallet.h5"
+    built = CliRunner().invoke(cli, ["map", "build", "single_pallet", "-o", str(map_path), "-q"])
+    assert built.exit_code == 0, built.output
+    out = tmp_path / "traj.h5"
+    result = CliRunner().invoke(cli, ["dyn", "plan", str(map_path), "--gait", "walk", "--strides", "4", "--duration",
+                                      "5.5", "--costs", "paper", "--start", "-0.672", "-0.136", "0.052",
+                                      "--goal", "0.6", "0", "0", "--init", "single_pallet_walk", "-o", str(out)])
+    assert result.exit_code == 0, result.output
+    assert "1/1 tasks planned" in result.output and "check passed" in result.output
+    iterations = int(result.output.split(" iterations,")[0].rsplit(" ", 1)[-1])
+    assert iterations <= 25  # N_θ, the budget of a learned start (Algorithm 1)
