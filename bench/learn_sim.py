@@ -1,7 +1,7 @@
 """Fig. 8 of the TOWR-costs paper with its simulator: plans after k LM iterations, executed in MuJoCo.
 
     .venv/bin/python bench/learn_sim.py [--run bench/results/learn] [--space tasks/single_pallet_walk.yaml]
-                                        [--tasks 30] [--jobs 2]
+                                        [--tasks 30] [--jobs 2] [--init NAME_OR_H5 --tasks-seed 1]
 
 The paper's Fig. 8 counts a plan as a success when its whole-body controller, in simulation, walks
 it to the goal; `bench/learn.py` reads Fig. 8 without the simulator (converged, or feasible, within
@@ -9,7 +9,7 @@ k iterations). Here, for the first --tasks held-out tasks of a `bench/learn.py` 
 heldout_heuristic.h5: seed 1) and every budget k = 0 … 100 (N_θ = 25, N_h = 100):
 
 1. `plan` with at most k LM iterations in all (`DynParams.iteration_budget`), from the Heuristic and
-   from the last cycle's init.h5 — warm stage costs with the phase durations fixed at the network's
+   from the last cycle's init.h5 (or `--init`: a shipped initializer's name or an init.h5) — warm stage costs with the phase durations fixed at the network's
    timing (the paper's dotted curve) and optimized (solid), and the projection — whatever stage the
    planner stopped in; k = 0 executes the initializer's raw guess (the paper: "executable without
    any further optimization" more than half the time);
@@ -17,6 +17,10 @@ heldout_heuristic.h5: seed 1) and every budget k = 0 … 100 (N_θ = 25, N_h = 1
    its URDF torque limits, μ as planned) with the task's goal: a success when the robot reaches it
    (10 cm, 0.2 rad, after 0.5 s settling) without falling, as the paper's "trials that did not reach
    the goal state were marked as failures".
+
+With `--tasks-seed S` the held-out tasks are drawn from the space by the library's sampler
+(`legplan.learn.dataset.dataset_items`, seed S) instead of read from the run's heldout_heuristic.h5,
+so a shipped initializer needs no `bench/learn.py` run.
 
 Items run through the batch layer (`--jobs` worker processes). Writes bench/results/learn_sim.json
 and the learn_sim section of BENCHMARKS.md.
@@ -97,19 +101,32 @@ def main() -> None:
     parser.add_argument("--space", default="tasks/single_pallet_walk.yaml")
     parser.add_argument("--tasks", type=int, default=30)
     parser.add_argument("--jobs", type=int, default=2)
+    parser.add_argument("--init", help="a shipped initializer's name or an init.h5 (default: the run's last cycle)")
+    parser.add_argument("--tasks-seed", type=int, help="draw the held-out tasks from the space with this seed")
     args = parser.parse_args()
     run_dir = (ROOT / args.run).resolve()
-    inits = sorted((run_dir / "cycle").glob("init_*.h5"), key=lambda p: int(p.stem.split("_")[1]))
-    if not inits:
-        sys.exit(f"{run_dir / 'cycle'}: no init_*.h5 (run bench/learn.py --out {args.run} first)")
-    last = str(inits[-1])
-    cycle = len(inits)
+    if args.init:
+        last, name = args.init, f"LearnedInit {Path(args.init).stem}"
+    else:
+        inits = sorted((run_dir / "cycle").glob("init_*.h5"), key=lambda p: int(p.stem.split("_")[1]))
+        if not inits:
+            sys.exit(f"{run_dir / 'cycle'}: no init_*.h5 (run bench/learn.py --out {args.run} first)")
+        last, name = str(inits[-1]), f"LearnedInit cycle {len(inits)}"
     rows = [("Heuristic", "heuristic", "costs", False),
-            (f"LearnedInit cycle {cycle}, phases fixed (dotted)", last, "costs", False),
-            (f"LearnedInit cycle {cycle}, phases optimized (solid)", last, "costs", True),
-            (f"LearnedInit cycle {cycle}, projection", last, "projection", False)]
-    with h5py.File(run_dir / "heldout_heuristic.h5", "r") as f:
-        tasks = f["tasks"][()][:args.tasks]
+            (f"{name}, phases fixed (dotted)", last, "costs", False),
+            (f"{name}, phases optimized (solid)", last, "costs", True),
+            (f"{name}, projection", last, "projection", False)]
+    if args.tasks_seed is not None:
+        from legplan.learn.dataset import dataset_items
+        from legplan.learn.space import read_space
+
+        tasks = np.array([[*task.start, *task.goal] for _, task, _ in dataset_items(read_space(str(ROOT / args.space)), args.tasks,
+                                                          args.tasks_seed)])
+        source = f"drawn with seed {args.tasks_seed}"
+    else:
+        with h5py.File(run_dir / "heldout_heuristic.h5", "r") as f:
+            tasks = f["tasks"][()][:args.tasks]
+        source = f"of the `bench/learn.py` run in `{run_dir.name}` (seed 1)"
     items = [(r, init, stage, phases, k, i, tasks[i]) for r, (_, init, stage, phases) in enumerate(rows)
              for k in BUDGETS for i in range(len(tasks))]
     started, code, t0 = load_average(), code_version(), time.perf_counter()
@@ -125,7 +142,7 @@ def main() -> None:
         executor.close()
     result = {"date": datetime.date.today().isoformat(), "machine": machine(), "code": code,
               "load_average_start": started, "load_average_end": load_average(), "space": args.space,
-              "run": str(run_dir), "tasks": len(tasks), "jobs": args.jobs, "wall_seconds": time.perf_counter() - t0,
+              "run": str(run_dir), "tasks": len(tasks), "task_source": source, "jobs": args.jobs, "wall_seconds": time.perf_counter() - t0,
               "rows": summarize(records, rows)}
     write_result("learn_sim", result)
     update_benchmarks("learn_sim", "\n".join(section(result)))
@@ -154,8 +171,9 @@ def section(result: dict) -> list[str]:
     lines = [f"## Learned initialization in simulation: Fig. 8 (`bench/learn_sim.py`, {result['date']})", "",
              f"{result['machine']}, code {result['code']}, load average {result['load_average_start']:.1f} at start, "
              f"{result['load_average_end']:.1f} at end, `--jobs {result['jobs']}`, {result['wall_seconds'] / 60:.0f} min. "
-             f"Task space `{result['space']}`; the first {result['tasks']} held-out tasks (seed 1) and the networks of "
-             f"the `bench/learn.py` run in `{Path(result['run']).name}`. Each plan: `plan` with at most k LM "
+             f"Task space `{result['space']}`; the first {result['tasks']} held-out tasks "
+             f"{result.get('task_source', 'of the `bench/learn.py` run in `' + Path(result['run']).name + '` (seed 1)')}"
+             f"; initializer rows as labelled. Each plan: `plan` with at most k LM "
              "iterations in all, whatever stage it stopped in, then executed in MuJoCo by the whole-body "
              "controller; success = the goal reached (10 cm, 0.2 rad) without a fall. In brackets: the fraction "
              "of the plans that had converged (violation ≤ 1e-3 and, with costs, settled) within k.", "",
