@@ -9,13 +9,16 @@ latency modelled); the CPU seconds of each replan are recorded (median, largest)
 shows.
 
     OMP_NUM_THREADS=1 .venv/bin/python bench/replan_push.py [--cases flat_trot pallet_walk] [--period 0.25]
-        [--loops open closed] [--track-violation X] [--step-adaptation G] [--result NAME]
+        [--loops open closed] [--track-violation X] [--step-adaptation G] [--model planner|scalar] [--result NAME]
 
 `--track-violation` and `--step-adaptation` set the closed loop's `ReplanParams` (recorded in the
 JSON as `replan_settings`).
 
 Cases: the 1 m flat trot (4 strides, 2.4 s) and the (-1.0, 0.3, 0.3) → (0.6, 0, 0) single pallet
-walk (4 strides, 5.5 s) of `bench/sim.py`, planned with `DynParams()` (no costs). Writes
+walk (4 strides, 5.5 s) of `bench/sim.py`, planned with `DynParams()` (no costs) on the planner's
+model (`--model planner`, `legplan.dyn.tasks.centroidal_model`: the joint torque limits as rows, as
+`legplan dyn plan` and `dyn simulate --replan` plan and replan) or TOWR's scalar model (`--model
+scalar`, `robot.centroidal`, what this bench used before the torque rows). Writes
 bench/results/<NAME>.json (default replan_push.json) (`bench/replan.py`'s BENCHMARKS.md section cites it).
 """
 
@@ -72,12 +75,15 @@ def main() -> None:
     parser.add_argument("--resolution", type=float, default=None, help="N s: bisection stop (default: the case's)")
     parser.add_argument("--track-violation", type=float, default=None, help="ReplanParams.track_violation")
     parser.add_argument("--step-adaptation", type=float, default=None, help="ReplanParams.step_adaptation")
+    parser.add_argument("--model", choices=("planner", "scalar"), default="planner",
+                        help="planner: centroidal_model (torque rows), as the CLI; scalar: robot.centroidal")
     parser.add_argument("--result", default="replan_push", help="bench/results/<name>.json")
     args = parser.parse_args()
 
     from legplan.dyn.planner import plan
     from legplan.dyn.problem import DynParams, DynTask
     from legplan.dyn.replan import Previous, ReplanParams
+    from legplan.dyn.tasks import centroidal_model
     from legplan.dyn.terrain import TerrainModel
     from legplan.robots import load_robot
     from legplan.sim.replanning import Replanner
@@ -88,6 +94,7 @@ def main() -> None:
     started = time.perf_counter()
     robot = load_robot("anymal")
     params = DynParams()
+    model = centroidal_model(robot, params) if args.model == "planner" else robot.centroidal
     chosen = {"track_violation": args.track_violation, "step_adaptation": args.step_adaptation}
     settings = ReplanParams(**{k: v for k, v in chosen.items() if v is not None})
     rows = []
@@ -96,12 +103,12 @@ def main() -> None:
         resolution = args.resolution or resolution
         terrain_map = build_map(ROOT / "maps" / f"{map_name}.yaml")
         terrain = TerrainModel(terrain_map)
-        planned = plan(DynTask(start, goal, gait, 4, duration), robot.centroidal, terrain, params)
+        planned = plan(DynTask(start, goal, gait, 4, duration), model, terrain, params)
         print(f"{label}: plan {planned.status.name}", file=sys.stderr, flush=True)
         for loop in args.loops:
             def survives(impulse: float) -> dict:
                 pushes = ((duration / 2, 0.0, impulse / PUSH_DURATION, PUSH_DURATION),) if impulse > 0 else ()
-                replanner = (Replanner(Previous.from_plan(planned), robot.centroidal, terrain, params, args.period,
+                replanner = (Replanner(Previous.from_plan(planned), model, terrain, params, args.period,
                                        settings)
                              if loop == "closed" else None)
                 result = simulate(planned.samples, robot, terrain_map, SimParams(pushes=pushes), goal=goal,
@@ -122,7 +129,7 @@ def main() -> None:
     path = write_result(args.result, {
         "date": datetime.date.today().isoformat(), "machine": machine(), "code": code_version(),
         "load_start": load_start, "load_end": load_average(), "wall": time.perf_counter() - started,
-        "period": args.period, "replan_settings": vars(settings), "push_duration": PUSH_DURATION, "rows": rows})
+        "period": args.period, "model": args.model, "replan_settings": vars(settings), "push_duration": PUSH_DURATION, "rows": rows})
     for row in rows:
         print(f"{row['case']}, {row['loop']} loop: survived {row['survived']:.2f} N s, failed {row['failed']:.2f} N s")
     print(f"wrote {path}")

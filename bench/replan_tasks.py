@@ -3,10 +3,13 @@
 reported beside it.
 
     OMP_NUM_THREADS=1 .venv/bin/python bench/replan_tasks.py [--tasks 100] [--first 0] [--seed 0] [--period 0.25]
+                                                             [--model planner|scalar]
 
 * Tasks: the first --tasks of `tasks/single_pallet_walk.yaml` drawn with `--seed` by the library's
   sampler (`legplan.learn.dataset.dataset_items`), the tasks `bench/pallet_tasks.py` runs; planned
-  with `DynParams()` and the heuristic initializer.
+  with `DynParams()` and the heuristic initializer, on the planner's model (`--model planner`,
+  `legplan.dyn.tasks.centroidal_model`, as `legplan dyn plan` and `dyn simulate --replan`) or TOWR's
+  scalar model (`--model scalar`, `robot.centroidal`).
 * Push per task, from `numpy.random.default_rng(seed + 1000 + index)`: a horizontal force on the
   trunk for `PUSH_DURATION` from a uniform time in [0.25, 0.75] of the plan, its impulse uniform in
   --impulse (default `IMPULSE`) N s, along ±y (sign uniform).
@@ -46,11 +49,14 @@ def main() -> None:
     parser.add_argument("--period", type=float, default=0.25)
     parser.add_argument("--impulse", type=float, nargs=2, default=IMPULSE, metavar=("LOW", "HIGH"),
                         help="N s: the random push's impulse range")
+    parser.add_argument("--model", choices=("planner", "scalar"), default="planner",
+                        help="planner: centroidal_model (torque rows), as the CLI; scalar: robot.centroidal")
     args = parser.parse_args()
 
     from legplan.dyn.planner import plan
     from legplan.dyn.problem import DynParams
     from legplan.dyn.replan import Previous
+    from legplan.dyn.tasks import centroidal_model
     from legplan.dyn.terrain import TerrainModel
     from legplan.learn.dataset import dataset_items, load_terrain_map
     from legplan.learn.space import read_space
@@ -64,6 +70,7 @@ def main() -> None:
     terrain = TerrainModel(terrain_map)
     robot = load_robot("anymal")
     params = DynParams()
+    model = centroidal_model(robot, params) if args.model == "planner" else robot.centroidal
     rows = []
     for index, task, _ in dataset_items(space, args.tasks, args.seed)[args.first:]:
         index = int(index)
@@ -71,13 +78,13 @@ def main() -> None:
         at = float(rng.uniform(0.25, 0.75) * task.duration)
         impulse = float(rng.uniform(*args.impulse))
         force = float(rng.choice([-1.0, 1.0])) * impulse / PUSH_DURATION
-        planned = plan(task, robot.centroidal, terrain, params)
+        planned = plan(task, model, terrain, params)
         row = {"index": index, "planned": bool(planned.success), "push_at": at, "push_fy": force,
                "impulse": impulse}
         if planned.success:
             sim_params = SimParams(pushes=((at, 0.0, force, PUSH_DURATION),))
             for loop in ("open", "closed"):
-                replanner = (Replanner(Previous.from_plan(planned), robot.centroidal, terrain, params, args.period)
+                replanner = (Replanner(Previous.from_plan(planned), model, terrain, params, args.period)
                              if loop == "closed" else None)
                 result = simulate(planned.samples, robot, terrain_map, sim_params, goal=task.goal,
                                   replanner=replanner)
@@ -93,7 +100,7 @@ def main() -> None:
         write_result("replan_tasks", {
             "date": datetime.date.today().isoformat(), "machine": machine(), "code": code_version(),
             "load_start": load_start, "load_end": load_average(), "wall": time.perf_counter() - started,
-            "seed": args.seed, "first": args.first, "period": args.period, "impulse": list(args.impulse),
+            "seed": args.seed, "first": args.first, "model": args.model, "period": args.period, "impulse": list(args.impulse),
             "push_duration": PUSH_DURATION, "rows": rows, **summary})
     print(summarize(rows))
 

@@ -5,8 +5,9 @@ tracking of planned trajectories with vs without the TOWR-costs paper's costs (i
 
 * Tasks: flat ground (trot, 4 strides, 2.4 s: 1 m, 0.5 m, 0.6 m diagonal, 1 m with a 0.5 rad turn) and
   the Single Pallet (walk, 4 strides, 5.5 s, from (-1.0, 0.3, 0.3) and (-0.8, -0.2, 0) to (0.6, 0, 0),
-  the paper's Sec. V-2 task), each planned by `legplan.dyn.planner.plan` without costs (TOWR's
-  formulation, `DynParams()`) and with them (`PAPER`), the pallet tasks also with the paper's settings
+  the paper's Sec. V-2 task), each planned by `legplan.dyn.planner.plan` on the planner's model
+  (`legplan.dyn.tasks.centroidal_model`: the URDF's joint torque limits as rows, as `legplan dyn
+  plan`) without costs (TOWR's formulation, `DynParams()`) and with them (`PAPER`), the pallet tasks also with the paper's settings
   and the legs kept 6 cm off the terrain (`leg_clearance`, ours), then executed by `legplan.sim.simulate`
   (ANYmal at its URDF's 40 N m, μ = 0.5 as planned). Success, fall time, rms/max base position and
   orientation tracking errors, peak torque and torque saturation per run; a failed run is executed
@@ -51,6 +52,7 @@ from common import ROOT, code_version, load_average, machine, update_benchmarks,
 
 from legplan.dyn.planner import plan
 from legplan.dyn.problem import PAPER, DynParams, DynTask
+from legplan.dyn.tasks import centroidal_model
 from legplan.dyn.terrain import TerrainModel
 from legplan.robots import load_robot
 from legplan.sim.controller import WholeBodyController, solve_qp
@@ -109,7 +111,8 @@ def limits_bench(robot, maps):
     for map_name, label, (start, goal), gait, duration, perturbation in LIMIT_CASES:
         terrain = TerrainModel(maps[map_name])
         for costs in ("none", "paper"):
-            planned = plan(DynTask(start, goal, gait, 4, duration), robot.centroidal, terrain, SETTINGS[costs])
+            planned = plan(DynTask(start, goal, gait, 4, duration), centroidal_model(robot, SETTINGS[costs]), terrain,
+                           SETTINGS[costs])
             result = simulate(planned.samples, robot, maps[map_name], SimParams(**perturbation), goal=goal)
             print(f"{label}, costs {costs}: {result.reason}; speed × {result.peak_speed_ratio:.2f} of the limit",
                   file=sys.stderr)
@@ -126,7 +129,8 @@ def push_bench(robot, maps):
     for map_name, label, (start, goal), gait, duration, resolution, settings in PUSH_CASES:
         terrain = TerrainModel(maps[map_name])
         for costs in settings:
-            planned = plan(DynTask(start, goal, gait, 4, duration), robot.centroidal, terrain, SETTINGS[costs])
+            planned = plan(DynTask(start, goal, gait, 4, duration), centroidal_model(robot, SETTINGS[costs]), terrain,
+                           SETTINGS[costs])
             print(f"{label}, costs {costs}: plan {'ok' if planned.success else 'FAILED'}", file=sys.stderr)
             low, high, runs = largest_push(robot, maps[map_name], planned.samples, goal, duration / 2, resolution)
             rows.append({"case": label, "costs": costs, "planned": bool(planned.success), "push_at": duration / 2,
@@ -141,7 +145,7 @@ def run_tasks(robot, terrain_map, tasks, gait, duration, labels):
         for label in labels:
             params = SETTINGS[label]
             task = DynTask(start, goal, gait, 4, duration)
-            planned = plan(task, robot.centroidal, terrain, params)
+            planned = plan(task, centroidal_model(robot, params), terrain, params)
             row = {"map": terrain_map.name, "start": start, "goal": goal, "costs": label,
                    "planned": bool(planned.success)}
             cpu = time.process_time()
