@@ -22,6 +22,7 @@ from __future__ import annotations
 import argparse
 import csv
 import datetime
+import json
 import os
 import sys
 from pathlib import Path
@@ -73,7 +74,12 @@ def main() -> None:
     parser.add_argument("--costs", nargs="+", default=["none", "paper"])
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--work", default="outputs/exec_cases", help="folder of the CSVs and artefacts")
+    parser.add_argument("--from-json", action="store_true", help="rewrite the section from bench/results/exec_cases.json")
     args = parser.parse_args()
+    if args.from_json:
+        result = json.loads((ROOT / "bench" / "results" / "exec_cases.json").read_text())
+        update_benchmarks("exec_cases", "\n".join(section(result)))
+        return
     wanted = [c for c in CASES if not args.cases or c["key"] in args.cases.split(",")]
     work = (ROOT / args.work).resolve()
     work.mkdir(parents=True, exist_ok=True)
@@ -122,7 +128,9 @@ def section(result: dict) -> list[str]:
              "| τ saturated |", "|---|---|---|---|---|---|---|---|---|---|"]
     for r in rows:
         planned = "yes" if r["planned"] else ("failed: check" if r["solved"] else "not solved")
-        if r["executed"]:
+        if not r["planned"]:
+            outcome = "skipped"
+        elif r["executed"]:
             outcome = "yes"
         elif r["fell"]:
             outcome = f"fell at {r['fall_time']:.2f} s"
