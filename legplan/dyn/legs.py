@@ -11,8 +11,11 @@ chain for many samples at once:
 * forward kinematics: T_j = T_{j−1} M_j Rot(a_j, q_j) from the base, points x = T_j x_local;
 * inverse kinematics from the foot: damped Gauss–Newton on the joints, q ← q + Jᵀ(J Jᵀ + λI)⁻¹(b − x_foot(q))
   (a step scaled down to at most `IK_STEP` per joint),
-  started from the previous solution of the same samples (the nominal joints at first), so the
-  knee keeps the side of the nominal stance;
+  started from the previous solution of the same samples (the nominal joints at first); a
+  solution outside the robot's planning joint limits (a far target can carry the damped steps
+  through the stretched leg, and the knee then bends the other way, which the robot cannot) is
+  solved again from the nominal joints, so the knee keeps the side of the nominal stance, the
+  side the independent check's IK (`legplan.robots.legik`) and the robot take;
 * derivative of a sphere centre s(q(b)) by the implicit function theorem: ∂s/∂b = J_s ∂q/∂b with
   ∂q/∂b = J_fᵀ(J_f J_fᵀ)⁻¹ (J_f⁻¹ for a three-joint leg), J_s and J_f the point Jacobians
   a_j × (x − p_j) of the joints up to the point's own.
@@ -53,6 +56,8 @@ class _Chain:
     sphere_offset: np.ndarray  # (K, 3)
     sphere_radius: np.ndarray  # (K,)
     nominal: np.ndarray       # (J,)
+    lower: np.ndarray         # (J,) planning joint limits
+    upper: np.ndarray         # (J,)
 
     def kinematics(self, q: np.ndarray):
         """Joint frames for joints q (n, J): origins (n, J, 3), rotations (n, J, 3, 3) in the base
@@ -81,7 +86,19 @@ class _Chain:
     def solve_frames(self, feet: np.ndarray, q: np.ndarray):
         """`solve`'s joints q with their `kinematics` frames and the foot's `point` (position,
         Jacobian) there: those of the IK's last iterate when it converged, computed again when it
-        did not."""
+        did not. Samples whose joints leave the planning limits are solved again from the nominal
+        joints (module docstring)."""
+        solved = self._iterate(feet, q)
+        q = solved[0]
+        outside = ((q < self.lower) | (q > self.upper)).any(axis=1)
+        if outside.any():
+            again = self._iterate(feet[outside], np.tile(self.nominal, (int(outside.sum()), 1)))
+            for whole, part in zip((q, *solved[1], *solved[2:]), (again[0], *again[1], *again[2:])):
+                whole[outside] = part
+        return solved
+
+    def _iterate(self, feet: np.ndarray, q: np.ndarray):
+        """Damped Gauss–Newton from q: (joints, frames, foot position, foot Jacobian)."""
         q = q.copy()
         for _ in range(IK_ITERATIONS):
             frames = self.kinematics(q)
@@ -135,7 +152,9 @@ class ChainLegs:
                 sphere_offset=np.array([f.placement.act(np.asarray(spheres.offsets[s], float))
                                         for f, s in zip(frames, picked)]).reshape(-1, 3),
                 sphere_radius=np.asarray(spheres.radii, float)[picked],
-                nominal=np.array([robot.q_nominal[model.idx_qs[i]] for i in ids])))
+                nominal=np.array([robot.q_nominal[model.idx_qs[i]] for i in ids]),
+                lower=np.array([robot.lower[model.idx_qs[i] - 7] for i in ids]),
+                upper=np.array([robot.upper[model.idx_qs[i] - 7] for i in ids])))
         return cls(chains)
 
     def spheres_of(self, leg: int) -> np.ndarray:

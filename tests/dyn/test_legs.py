@@ -54,6 +54,40 @@ def test_chain_spheres_and_ik_match_pinocchio(robot):
         np.testing.assert_allclose(jac, numeric, atol=1e-7)
 
 
+def test_ik_started_on_the_other_knee_side_returns_to_the_robots_side(robot):
+    """A warm start with the knee bent the other way (outside the planning limits: where a far
+    target once carried the damped steps) is solved again from the nominal joints: the joints come
+    back inside the limits, on the nominal knee side, equal to the independent check's IK
+    (`leg_reach`) for the same feet, and the foot torques are pinocchio's Jᵀf there."""
+    from legplan.robots.legik import leg_reach
+
+    legs = ChainLegs.of_robot(robot)
+    k = [leg.name for leg in robot.legs].index("rh")
+    leg = robot.legs[k]
+    Q = np.tile(robot.q_nominal, (3, 1))
+    Q[:, :7] = [0, 0, 0, 0, 0, 0, 1]
+    Q[:, 7:] += 0.1 * np.random.default_rng(5).standard_normal((3, Q.shape[1] - 7))
+    data = robot.model.createData()
+    feet = np.zeros((3, robot.n_legs, 3))
+    for n, q in enumerate(Q):
+        pin.framesForwardKinematics(robot.model, data, q)
+        feet[n] = [data.oMf[other.foot_frame_id].translation for other in robot.legs]
+    wrong = _leg_joints(robot, leg, Q).copy()
+    wrong[:, 1:] *= -1.0   # HFE and KFE mirrored: the knee bent the other way
+    assert np.all((wrong[:, 2] < legs.chains[k].lower[2]) | (wrong[:, 2] > legs.chains[k].upper[2]))
+    force = np.array([-40.0, 30.0, 200.0])
+    tau, _, _, joints = legs.foot_torques(k, feet[:, k], np.tile(force, (3, 1)), wrong, derivatives=False)
+    assert np.all((joints >= legs.chains[k].lower) & (joints <= legs.chains[k].upper))
+    np.testing.assert_allclose(joints, _leg_joints(robot, leg, Q), atol=1e-8)
+    reach = leg_reach(robot, np.zeros((3, 3)), np.tile(np.eye(3), (3, 1, 1)), feet)
+    np.testing.assert_allclose(joints, reach.joints[:, list(leg.joint_idx)], atol=1e-6)
+    expected = []
+    for q in Q:
+        jac = pin.computeFrameJacobian(robot.model, data, q, leg.foot_frame_id, pin.LOCAL_WORLD_ALIGNED)[:3]
+        expected.append(jac[:, list(leg.joint_idx_v)].T @ force)
+    np.testing.assert_allclose(tau, np.array(expected), atol=1e-8)
+
+
 def test_chain_legs_agree_with_the_planar_closed_form(robot):
     """On the planar ANYmal legs the two kinematics place the spheres alike, for feet anywhere in
     their range-of-motion boxes (all reachable, robots/anymal/robot.yaml)."""
