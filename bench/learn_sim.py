@@ -103,6 +103,8 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=2)
     parser.add_argument("--init", help="a shipped initializer's name or an init.h5 (default: the run's last cycle)")
     parser.add_argument("--tasks-seed", type=int, help="draw the held-out tasks from the space with this seed")
+    parser.add_argument("--rows", default="heuristic,fixed,optimized,projection",
+                        help="comma-separated rows to run: heuristic, fixed (phases), optimized (phases), projection")
     args = parser.parse_args()
     run_dir = (ROOT / args.run).resolve()
     if args.init:
@@ -112,10 +114,11 @@ def main() -> None:
         if not inits:
             sys.exit(f"{run_dir / 'cycle'}: no init_*.h5 (run bench/learn.py --out {args.run} first)")
         last, name = str(inits[-1]), f"LearnedInit cycle {len(inits)}"
-    rows = [("Heuristic", "heuristic", "costs", False),
-            (f"{name}, phases fixed (dotted)", last, "costs", False),
-            (f"{name}, phases optimized (solid)", last, "costs", True),
-            (f"{name}, projection", last, "projection", False)]
+    every = {"heuristic": ("Heuristic", "heuristic", "costs", False),
+             "fixed": (f"{name}, phases fixed (dotted)", last, "costs", False),
+             "optimized": (f"{name}, phases optimized (solid)", last, "costs", True),
+             "projection": (f"{name}, projection", last, "projection", False)}
+    rows = [every[key] for key in args.rows.split(",")]
     if args.tasks_seed is not None:
         from legplan.learn.dataset import dataset_items
         from legplan.learn.space import read_space
