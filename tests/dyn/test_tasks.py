@@ -108,7 +108,7 @@ def test_leg_clearance_needs_legs_the_planner_can_place(tmp_path, monkeypatch):
 
     robot = load_robot("anymal")
     assert centroidal_model(robot, replace(PAPER, leg_clearance=0.05)).leg_kinematics is robot.centroidal.leg_kinematics
-    other = SimpleNamespace(**{k: getattr(robot, k) for k in ("model", "legs", "n_legs", "spheres", "q_nominal", "yaml_path",
+    other = SimpleNamespace(**{k: getattr(robot, k) for k in ("model", "legs", "n_legs", "spheres", "q_nominal", "lower", "upper", "yaml_path",
                                                                    "foot_jacobians", "mass")},
                             centroidal=replace(robot.centroidal, leg_kinematics=None))  # no closed form
     assert isinstance(centroidal_model(other, replace(PAPER, leg_clearance=0.05)).leg_kinematics, ChainLegs)
