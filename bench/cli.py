@@ -39,7 +39,8 @@ millisecond steps) and whole swings (bench/step_plan.py's `merge_swings`: every 
 the ≥ 0.2 s items of the target). Wall time and process CPU of each, --jobs 1 and --jobs 2 in
 alternation, median of --jobs-repeats runs; the speed-up is the ratio of the median wall times.
 On a machine whose two cores are busy with other work no pool can approach 2×: the load average
-is recorded with it.
+is recorded with it. With --before, that tree's commands run the same comparison, interleaved with
+this tree's runs (its --jobs 2 is its own batch layer's).
 
 Whole swings, this tree against --before: with --before, --swings N whole swings of that scenario (every
 k-th of them, spread over the sequence) are planned by one long-lived process per tree (`SWING_WORKER`:
@@ -188,11 +189,38 @@ def child_cpu(argv, env) -> tuple[float, subprocess.CompletedProcess]:
 
 def child_run(argv, env) -> tuple[float, float, subprocess.CompletedProcess]:
     """(CPU seconds, wall seconds, result) of running `argv` to its end, its children included. It
-    runs in the tree of `env`'s PYTHONPATH: `python -c` puts the working directory first on sys.path."""
+    runs in the tree of `env`'s PYTHONPATH: `python -c` puts the working directory first on sys.path.
+
+    Every process the command started counts, also those it leaves to end after it (a `--jobs N`
+    fork server and the workers it reaped): this process is a child subreaper (`main`), so they come
+    back to it when the command ends, and their CPU time is added once they are reaped here."""
     before, wall = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter()
     done = subprocess.run(argv, env=env, cwd=env["PYTHONPATH"], capture_output=True, text=True)
-    after, wall = resource.getrusage(resource.RUSAGE_CHILDREN), time.perf_counter() - wall
+    wall = time.perf_counter() - wall
+    reap_orphans()
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), wall, done
+
+
+def reap_orphans(timeout: float = 10.0) -> None:
+    """Wait (up to `timeout` s) for the processes left to this child subreaper to end, and reap them."""
+    deadline = time.monotonic() + timeout
+    while True:
+        try:
+            pid, _ = os.waitpid(-1, os.WNOHANG)
+        except ChildProcessError:  # none left
+            return
+        if pid == 0:
+            if time.monotonic() > deadline:
+                return
+            time.sleep(0.01)
+
+
+def become_subreaper() -> None:
+    """Orphans of the commands run from here come back to this process (Linux `PR_SET_CHILD_SUBREAPER`)."""
+    import ctypes
+
+    ctypes.CDLL(None, use_errno=True).prctl(36, 1)  # PR_SET_CHILD_SUBREAPER
 
 
 # Set by `main` to folders of the run: the bytecode cache and legplan.cache's store (module docstring).
@@ -236,9 +264,10 @@ def medians(runs: list[dict]) -> dict:
             "runs_whole": [r["whole"] for r in runs], "exit": [r["exit"] for r in runs]}
 
 
-def jobs_comparison(work: Path, step_range: str, repeats: int, map_path=None, steps_path=None) -> dict:
+def jobs_comparison(work: Path, step_range: str, repeats: int, map_path=None, steps_path=None, trees=None) -> dict:
     """`legplan step plan --steps step_range` with --jobs 1 and --jobs 2 in alternation, on the pairs
-    as generated and on whole swings (see the module docstring)."""
+    as generated and on whole swings (see the module docstring), for every tree of `trees` (default: this
+    one), the trees' runs interleaved so that they see the same load."""
     from step_plan import merge_swings, scenario
 
     from legplan.robots import load_robot
@@ -246,33 +275,36 @@ def jobs_comparison(work: Path, step_range: str, repeats: int, map_path=None, st
     from legplan.terrain import load_map
     from legplan.validate.checks import Validator
 
+    trees = trees or {"this tree": ROOT}
     if map_path is None or steps_path is None:
         map_path, steps_path = scenario(work, "scarab2", (-0.6, 0.0, 0.0), (0.6, 0.0, 0.0))
     swings = merge_swings(read_steps(steps_path))
     swings_path = work / "swings.h5"
     checks = Validator(load_robot(swings.robot), load_map(map_path)).check(swings.q, swings.stance, swings.footholds)
     write_steps(swings_path, swings, checks)
-    out = {"steps": step_range, "variants": {}}
+    out = {"steps": step_range, "variants": {}, "others": {side: {} for side in trees if side != "this tree"}}
     for variant, path in (("as generated", steps_path), ("whole swings", swings_path)):
-        runs = {1: [], 2: []}
+        runs = {(side, jobs): [] for side in trees for jobs in (1, 2)}
         for i in range(repeats):
-            for jobs in ((1, 2) if i % 2 == 0 else (2, 1)):
+            for side, jobs in (list(runs) if i % 2 == 0 else list(runs)[::-1]):
+                motion = work / f"motion-{side.replace(' ', '-')}-{jobs}.h5"
                 argv = [sys.executable, "-c", ENTRY, "step", "plan", str(map_path), str(path), "--steps", step_range,
-                        "--jobs", str(jobs), "-o", str(work / f"motion{jobs}.h5"), "--overwrite", "-q"]
-                cpu, wall, done = child_run(argv, environment(ROOT))
-                runs[jobs].append({"cpu": cpu, "wall": wall, "exit": done.returncode,
-                                   "load": load_average()})
+                        "--jobs", str(jobs), "-o", str(motion), "--overwrite", "-q"]
+                cpu, wall, done = child_run(argv, environment(trees[side]))
+                runs[(side, jobs)].append({"cpu": cpu, "wall": wall, "exit": done.returncode, "load": load_average()})
         import h5py
-        with h5py.File(work / "motion1.h5", "r") as f:
-            seconds = [float(f["steps"][k].attrs["seconds"]) for k in sorted(f["steps"])]
-        entry = {str(jobs): {"wall": statistics.median(r["wall"] for r in rs), "cpu": statistics.median(r["cpu"] for r in rs),
-                             "runs": rs} for jobs, rs in runs.items()}
-        entry["speedup"] = entry["1"]["wall"] / entry["2"]["wall"]
-        entry["item_seconds_jobs1_last_run"] = seconds
-        out["variants"][variant] = entry
-        print(f"step plan --steps {step_range} {variant}: --jobs 1 wall {entry['1']['wall']:.2f} s cpu "
-              f"{entry['1']['cpu']:.2f} s; --jobs 2 wall {entry['2']['wall']:.2f} s cpu {entry['2']['cpu']:.2f} s; "
-              f"speed-up {entry['speedup']:.2f}x", flush=True)
+        for side in trees:
+            with h5py.File(work / f"motion-{side.replace(' ', '-')}-1.h5", "r") as f:
+                seconds = [float(f["steps"][k].attrs["seconds"]) for k in sorted(f["steps"])]
+            entry = {str(jobs): {"wall": statistics.median(r["wall"] for r in runs[(side, jobs)]),
+                                 "cpu": statistics.median(r["cpu"] for r in runs[(side, jobs)]),
+                                 "runs": runs[(side, jobs)]} for jobs in (1, 2)}
+            entry["speedup"] = entry["1"]["wall"] / entry["2"]["wall"]
+            entry["item_seconds_jobs1_last_run"] = seconds
+            (out["variants"] if side == "this tree" else out["others"][side])[variant] = entry
+            print(f"step plan --steps {step_range} {variant}, {side}: --jobs 1 wall {entry['1']['wall']:.2f} s cpu "
+                  f"{entry['1']['cpu']:.2f} s; --jobs 2 wall {entry['2']['wall']:.2f} s cpu {entry['2']['cpu']:.2f} s; "
+                  f"speed-up {entry['speedup']:.2f}x", flush=True)
     return out
 
 
@@ -339,19 +371,23 @@ def swings_markdown(result: dict) -> list[str]:
 def jobs_markdown(result: dict) -> list[str]:
     jobs, earlier = result["jobs"], result.get("jobs_from")
     run = f"run of {earlier['date']}, code {earlier['code']}, not repeated here" if earlier else "same run"
+    sides = {"this tree": jobs["variants"], **jobs.get("others", {})}
     lines = ["", f"### `legplan step plan --steps {jobs['steps']}`: --jobs 2 against --jobs 1 ({run})", "",
              "Gap-crossing scenario (scarab2, maps/gap_crossing.yaml, generated sequence), the whole command, "
-             "--jobs 1 and --jobs 2 in alternation, median of "
+             "--jobs 1 and --jobs 2 in alternation" + (", the trees' runs interleaved" if len(sides) > 1 else "")
+             + ", median of "
              f"{len(next(iter(jobs['variants'].values()))['1']['runs'])} runs; load average during the runs in the "
              "last column (2 cores shared with other sessions: with both busy, no pool can approach 2×).", "",
-             "| variant | median item [s] (--jobs 1, wall) | --jobs 1 wall [s] | --jobs 1 CPU [s] | --jobs 2 wall [s] | "
+             "| variant | code | median item [s] (--jobs 1, wall) | --jobs 1 wall [s] | --jobs 1 CPU [s] | --jobs 2 wall [s] | "
              "--jobs 2 CPU [s] | speed-up (wall) | load |",
-             "|---|---|---|---|---|---|---|---|"]
-    for variant, e in jobs["variants"].items():
-        loads = [r["load"] for rs in (e["1"]["runs"], e["2"]["runs"]) for r in rs]
-        lines.append(f"| {variant} | {statistics.median(e['item_seconds_jobs1_last_run']):.3f} | {e['1']['wall']:.2f} | "
-                     f"{e['1']['cpu']:.2f} | {e['2']['wall']:.2f} | {e['2']['cpu']:.2f} | {e['speedup']:.2f}× | "
-                     f"{min(loads):.1f}–{max(loads):.1f} |")
+             "|---|---|---|---|---|---|---|---|---|"]
+    for variant in jobs["variants"]:
+        for side, variants in sides.items():
+            e = variants[variant]
+            loads = [r["load"] for rs in (e["1"]["runs"], e["2"]["runs"]) for r in rs]
+            lines.append(f"| {variant} | {side} | {statistics.median(e['item_seconds_jobs1_last_run']):.3f} | "
+                         f"{e['1']['wall']:.2f} | {e['1']['cpu']:.2f} | {e['2']['wall']:.2f} | {e['2']['cpu']:.2f} | "
+                         f"{e['speedup']:.2f}× | {min(loads):.1f}–{max(loads):.1f} |")
     return lines
 
 
@@ -425,6 +461,7 @@ def main(argv=None) -> int:
     ap.add_argument("--swings", type=int, default=12, help="whole swings planned side by side with --before (0: none)")
     args = ap.parse_args(argv)
     repeats = max(3, args.repeats)
+    become_subreaper()  # the CPU of --jobs workers forked by a fork server counts (`child_run`)
 
     sys.path.insert(0, str(ROOT / "bench"))
     from dyn import CASES  # noqa: E402  (the cases, one list for both benchmarks)
@@ -498,7 +535,7 @@ def main(argv=None) -> int:
             result["swings"] = swings_comparison(trees, step_map, step_sequence, args.swings)
         if not args.skip_jobs:
             result["jobs"] = jobs_comparison(work, args.jobs_steps, max(1, args.jobs_repeats), step_map,
-                                             step_sequence)
+                                             step_sequence, trees)
         else:  # the last run's --jobs comparison stays in the section, marked as that run's
             previous = ROOT / "bench" / "results" / "cli.json"
             earlier = json.loads(previous.read_text()) if previous.exists() else {}

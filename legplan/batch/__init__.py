@@ -30,7 +30,7 @@ A command with `--jobs N` calls `prestart(jobs, scheduler, modules)` before it r
 pool's worker processes boot and import `modules` meanwhile, and `run_batch` takes them over.
 
 Backends (`Backend(jobs, scheduler)`, the CLI's `--jobs`, `--scheduler`): `jobs` 1 in-process;
-`jobs` N a pool of N spawned processes; `scheduler="local"` a dask LocalCluster of `jobs` one-thread
+`jobs` N a pool of N processes (forked by one fork server that imported the libraries once); `scheduler="local"` a dask LocalCluster of `jobs` one-thread
 workers on 127.0.0.1; `scheduler="tcp://host:port"` a running dask scheduler (its workers need
 legplan installed, the input paths readable and, for one BLAS thread each, `--nthreads 1`).
 Every worker runs BLAS/OpenMP on one thread (`legplan.batch.task`).

@@ -4,7 +4,7 @@ Each executor's `run(task, todo)` takes `(position, item)` pairs and yields `(po
 items finish (completion order); `close()` releases its workers. `Backend(jobs, scheduler).start()`
 picks one: `scheduler` "local" (a dask LocalCluster of `jobs` one-thread worker processes on
 127.0.0.1) or an address such as "tcp://host:8786" (a running dask scheduler); otherwise `jobs` 1
-runs in this process and `jobs` N in N spawned worker processes.
+runs in this process and `jobs` N in N worker processes (`_worker_context`).
 """
 
 from __future__ import annotations
@@ -20,9 +20,9 @@ from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from legplan.batch.task import Task, one_thread_environment
+from legplan.batch.task import THREAD_VARIABLES, Task, one_thread_environment
 from legplan.errors import LegplanError
-from legplan.interrupts import die_with_parent
+from legplan.interrupts import PARENT_ENV, die_with_parent
 
 if TYPE_CHECKING:
     from concurrent.futures import ProcessPoolExecutor
@@ -43,13 +43,15 @@ class InProcess:
         pass
 
 
-def _init_pool_worker(parent: int, modules: Sequence[str] = ()) -> None:
+def _init_pool_worker(parent: int | None, modules: Sequence[str] = ()) -> None:
     """In each pool process: one BLAS/OpenMP thread, Ctrl-C left to the parent (which stops the
     pool), and death with the parent (Linux), so a killed batch leaves no orphaned workers; then
-    the `modules` the items will need are imported (see `prestart`)."""
+    the `modules` the items will need are imported (see `prestart`). `parent` None: the process was
+    forked by the fork server (`_worker_context`), its parent, which ends with the command (should
+    it have ended already, the worker ends when it finds the command's pipes closed)."""
     one_thread_environment()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    die_with_parent(parent)
+    die_with_parent(os.getppid() if parent is None else parent)
     for name in modules:
         importlib.import_module(name)
 
@@ -59,11 +61,44 @@ def _started() -> None:
 
 
 def _new_pool(jobs: int, modules: Sequence[str] = ()) -> ProcessPoolExecutor:
-    import multiprocessing  # a pool only: `--jobs 1` starts without it (start-up time)
     from concurrent.futures import ProcessPoolExecutor
 
-    return ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("spawn"),
-                               initializer=_init_pool_worker, initargs=(os.getpid(), tuple(modules)))
+    context, parent = _worker_context(modules)
+    return ProcessPoolExecutor(jobs, mp_context=context, initializer=_init_pool_worker,
+                               initargs=(parent, tuple(modules)))
+
+
+def _worker_context(modules: Sequence[str]):
+    """The start method of pool workers and the parent they check (`_init_pool_worker`).
+
+    Where the platform has one, a fork server: one process started (spawned, so nothing of this
+    process's open files or threads is inherited) with one BLAS/OpenMP thread, that imports
+    `modules` once, then forks every worker of every pool of this command. A worker is then ready
+    as soon as it is forked, instead of each booting an interpreter and importing the libraries
+    itself. The server dies with the command (`legplan.batch.serverguard`; call this from the thread
+    that runs the batch, as `run_batch` and `prestart` do), and its workers with it. Elsewhere each
+    worker is spawned."""
+    import multiprocessing  # a pool only: `--jobs 1` starts without it (start-up time)
+
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        return multiprocessing.get_context("spawn"), os.getpid()
+    from multiprocessing import forkserver
+
+    context = multiprocessing.get_context("forkserver")
+    # read when the server starts; the guard first: the server dies with this process
+    context.set_forkserver_preload(["legplan.batch.serverguard", "legplan.batch.backends", *modules])
+    saved = {name: os.environ.get(name) for name in (*THREAD_VARIABLES, PARENT_ENV)}
+    one_thread_environment()  # the server's environment, before it loads numpy's BLAS
+    os.environ[PARENT_ENV] = str(os.getpid())
+    try:
+        forkserver.ensure_running()
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+    return context, None
 
 
 _prestarted: dict[int, ProcessPoolExecutor] = {}
@@ -78,7 +113,7 @@ def prestart(jobs: int, scheduler: str | None, modules: Sequence[str]) -> None:
         return
     pool = _new_pool(jobs, modules)
     for _ in range(jobs):
-        pool.submit(_started)  # a pool spawns its processes as items arrive
+        pool.submit(_started)  # a pool starts its processes as items arrive
     _prestarted[jobs] = pool
 
 
@@ -97,8 +132,8 @@ def _stop(pool: ProcessPoolExecutor) -> None:
 
 
 class ProcessPool:
-    """`--jobs N`: N worker processes (spawned, so nothing of the parent's open files or threads is
-    inherited), at most 2N items in flight (one queued per worker, so no worker waits for the parent
+    """`--jobs N`: N worker processes (`_worker_context`: none inherits the command's open files or
+    threads), at most 2N items in flight (one queued per worker, so no worker waits for the parent
     to hand it the next). When a worker dies the pool breaks and every item in flight is suspect:
     each is rerun alone in a fresh pool, where a death is its own; an item that lost `LOST_WORKERS`
     workers so is recorded as failed. The others go on in a fresh pool."""

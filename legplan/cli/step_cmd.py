@@ -69,7 +69,9 @@ def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, scheduler, resu
     """
     from legplan.batch import prestart
 
-    prestart(jobs, scheduler, ("legplan.stepplan.batch", "legplan.robots.model", "legplan.validate.checks"))
+    # what an item imports: the planner, the robot, the check, and the scipy parts they load on first use
+    prestart(jobs, scheduler, ("legplan.stepplan.batch", "legplan.robots.model", "legplan.validate.checks",
+                               "scipy.linalg", "scipy.spatial.transform"))
     from legplan.artefacts import check_output
     from legplan.batch import Task
     from legplan.cli.batching import run_stage

@@ -75,6 +75,8 @@ class ChainKinematics:
         self.nx = robot.nv
         self._levels = levels
         self._local = local  # (F, B, C, D or None) (slots − 1, 3, 4) of slots 1, 2, ..., and their x entries
+        F, B, C, D, _ = local  # per slot the rows (B, C, F[, D]) of its local placement's coefficients
+        self._basis = np.stack([B, C, F] + ([] if D is None else [D]), axis=1).reshape(len(F), -1, 12)
         nj = model.njoints
         self._slot = slot  # (njoints,) slot of each joint (universe: −1)
         slots = int(slot.max()) + 1
@@ -181,22 +183,29 @@ class ChainKinematics:
 
     def placements(self, X: np.ndarray) -> np.ndarray:
         """Placements [R | t] (n, slots, 3, 4) of the base (the identity) and every joint in the base frame,
-        in slot order."""
-        F, B, C, D, columns = self._local
-        q = X[:, columns, None, None]
-        T = np.empty((len(X), len(F) + 1, 3, 4))
+        in slot order. The local placements are one product per joint of the coefficients (sin q, 1 − cos q,
+        1, q) with the stacked constants (B, C, F, D); a level is placed on its parents by the three
+        rank-one terms of the 3 × 3 · 3 × 4 products (a batched matmul of so small matrices costs more)."""
+        basis, columns = self._basis, self._local[4]
+        q = X[:, columns].T  # (joints, n)
+        n, count = len(X), len(columns)
+        coefficients = np.empty((count, n, basis.shape[1]))
+        np.sin(q, out=coefficients[..., 0])
+        coefficients[..., 1] = 1.0 - np.cos(q)
+        coefficients[..., 2] = 1.0
+        if basis.shape[1] > 3:
+            coefficients[..., 3] = q
+        T = np.empty((n, count + 1, 3, 4))
         T[:, 0] = np.eye(3, 4)
-        local = T[:, 1:]  # the local placements first; the first level hangs from the base: they are its placements
-        np.multiply(np.sin(q), B, out=local)
-        local += F
-        local += (1.0 - np.cos(q)) * C
-        if D is not None:
-            local += q * D
+        T[:, 1:] = (coefficients @ basis).reshape(count, n, 3, 4).transpose(1, 0, 2, 3)
         for above, level in zip(self._levels, self._levels[1:]):
             parent = T[:, above.start:above.stop]
             if level.parents is not None:
                 parent = parent[:, level.parents]
-            world = parent[..., :3] @ T[:, level.start:level.stop]
+            local = T[:, level.start:level.stop]
+            world = parent[..., :, 0, None] * local[..., 0, None, :]
+            world += parent[..., :, 1, None] * local[..., 1, None, :]
+            world += parent[..., :, 2, None] * local[..., 2, None, :]
             world[..., 3] += parent[..., 3]
             T[:, level.start:level.stop] = world
         return T
@@ -206,7 +215,7 @@ class ChainKinematics:
         of the stacked placements with `_attach`, then placed by the base, p = R(ω) p_b + p_base."""
         T = self.placements(X)
         n = len(X)
-        stacked = T.transpose(0, 2, 1, 3).reshape(n * 3, -1)  # row (sample, axis), column (slot, 4)
+        stacked = T.transpose(0, 2, 1, 3).reshape(n * 3, -1)  # row (sample, axis), column (slot, 4): no copy
         base = rotvec_to_matrix(X[:, 3:6])
         attached = (base @ (stacked @ self._attach).reshape(n, 3, -1) + X[:, :3, None]).transpose(0, 2, 1)
         f, p = self._n_feet, self._n_points

@@ -7,7 +7,7 @@ import pytest
 from legplan.batch import Backend, Task, run_batch, work_path
 from legplan.batch.workfile import read_record, write_record
 from legplan.errors import LegplanError
-from toytasks import Context, computed, failed, square
+from toytasks import Context, computed, failed, square, whose
 
 ITEMS = list(range(8))
 
@@ -68,6 +68,23 @@ def test_prestarted_workers_are_taken_over_by_the_pool(tmp_path):
     assert 2 not in backends._prestarted and pool._shutdown_thread
     prestart(1, None, ("toytasks",)), prestart(2, "local", ("toytasks",))
     assert not backends._prestarted  # in-process and dask batches start no pool
+
+
+def test_pool_workers_are_forked_by_one_server_started_by_the_command(tmp_path):
+    """`--jobs N` workers are forked by one fork server (libraries imported once), itself a child of the
+    command, and the command's environment is left as it was."""
+    import os
+    from pathlib import Path
+
+    environment = dict(os.environ)
+    task = Task(run=whose, failed=failed, setup=Context, args=(str(tmp_path / "calls.log"),))
+    records = run(tmp_path, Backend(jobs=2), task=task, items=list(range(6)))
+    assert [int(r["index"]) for r in records] == list(range(6))
+    servers = {int(r["parent"]) for r in records}
+    assert len(servers) == 1 and os.getpid() not in servers and os.getpid() not in {int(r["pid"]) for r in records}
+    server_parent = int(Path(f"/proc/{servers.pop()}/stat").read_text().rsplit(")", 1)[1].split()[1])
+    assert server_parent == os.getpid()
+    assert dict(os.environ) == environment
 
 
 def test_pool_gives_the_in_process_records_and_survives_a_dying_worker(tmp_path):

@@ -38,6 +38,19 @@ def test_swing_over_hill_converges_and_holds_on_dense_samples(toy_robot, swing_o
     assert np.any(toy_robot.foot_positions(straight)[:, 0, 2] < hill.bump(np.array([[0.3, 0.15]]))[0] - 0.01)
 
 
+def test_dense_and_sparse_factorisations_of_the_reduced_system_plan_the_same_step(toy_robot, swing_over_hill):
+    """The default linear solver (LAPACK Cholesky of the Schur-reduced system) changes rounding only:
+    the same degrees, LM iterations and outcome as CHOLMOD, control points within 1e-9."""
+    hill, q0, q1, stance, feet = swing_over_hill
+    plans = {solver: plan_step(toy_robot, hill, q0, q1, stance, feet,
+                               StepPlanParams(samples=40, linear_solver=solver)) for solver in ("dense", "cholmod")}
+    assert StepPlanParams().linear_solver == "dense"
+    dense, sparse = plans["dense"], plans["cholmod"]
+    assert dense.success and sparse.success and dense.degree == sparse.degree >= 2
+    assert [d.iterations for d in dense.degrees] == [d.iterations for d in sparse.degrees]
+    assert np.abs(dense.control_points - sparse.control_points).max() <= 1e-9
+
+
 def test_failure_is_reported_with_reason(toy_robot, swing_over_hill):
     hill, q0, q1, stance, feet = swing_over_hill
     plan = plan_step(toy_robot, hill, q0, q1, stance, feet, StepPlanParams(samples=20, max_degree=1))
