@@ -241,14 +241,14 @@ class LegClearanceBlock(RangeOfMotionBlock):
         self.distance = terrain.column_distance(float(self.radius.max(initial=0.0)) + COLUMN_REACH)
         self.rows = self.radius.size
         self.size = self.rows * self.n
-        self.joints = legs.nominal(leg, self.n) if hasattr(legs, "nominal") else None  # IK warm start
+        self.joints = legs.workspace(leg, self.n) if hasattr(legs, "workspace") else None  # IK warm start
         self.base_jacobian = SampledJacobian([self.base], self.rows, self.n, self.columns[0])
         self.foot_jacobian = SampledJacobian([self.foot], self.rows, self.n, self.columns[2])
 
     def _spheres(self, b):
         """Sphere centres s (n, k, 3) and ∂s/∂b (n, k, 3, 3) in the base frame for feet b (n, 3)."""
         if self.joints is not None:
-            centres, jac, self.joints = self.legs.sphere_centres(self.leg, b, self.joints)
+            centres, jac, _ = self.legs.sphere_centres(self.leg, b, self.joints)
             return centres, jac
         centres, columns = complex_step(lambda x: self.legs.sphere_centres(self.leg, x).reshape(len(x), -1), (b,), (0,))
         return centres.reshape(len(b), -1, 3), columns[0].reshape(len(b), -1, 3, 3)
@@ -304,8 +304,8 @@ class JointTorqueBlock(RangeOfMotionBlock):
         super().__init__(form, leg, np.zeros(3), times, timing)
         self.leg, self.legs = leg, legs
         self.offset = np.asarray(com_offset, float)
-        self.joints = legs.nominal(leg, self.n)
-        self.rows = self.joints.shape[1]
+        self.joints = legs.workspace(leg, self.n)  # the IK's warm start
+        self.rows = self.joints.q.shape[1]
         self.size = self.rows * self.n
         if timing is None:
             self.variables = JointTorqueBlock.variables
@@ -335,7 +335,7 @@ class JointTorqueBlock(RangeOfMotionBlock):
         f = self.force @ forces
         b = self._in_base(e, q - p) + self.offset
         g = self._in_base(e, f)
-        tau, d_b, d_g, self.joints = self.legs.foot_torques(self.leg, b, g, self.joints, derivatives=jacobians)
+        tau, d_b, d_g, _ = self.legs.foot_torques(self.leg, b, g, self.joints, derivatives=jacobians)
         if not jacobians:
             return tau.reshape(-1), None
         turns = rotation_derivatives(e)

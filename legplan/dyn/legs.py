@@ -12,7 +12,10 @@ chain for many samples at once:
 * inverse kinematics from the foot: damped Gauss–Newton on the joints, q ← q + Jᵀ(J Jᵀ + λI)⁻¹(b − x_foot(q))
   (a step scaled down to at most `IK_STEP` per joint),
   started from the previous solution of the same samples (the nominal joints at first), so the
-  knee keeps the side of the nominal stance;
+  knee keeps the side of the nominal stance; a block keeps that solution in its `LegIKData`
+  workspace (Pinocchio's data beside the immutable chain) with the frames, the foot's point and
+  Jacobian and the damped pseudo-inverse there, so the next solve's first iteration reads them
+  instead of computing them again (the same numbers);
 * derivative of a sphere centre s(q(b)) by the implicit function theorem: ∂s/∂b = J_s ∂q/∂b with
   ∂q/∂b = J_fᵀ(J_f J_fᵀ)⁻¹ (J_f⁻¹ for a three-joint leg), J_s and J_f the point Jacobians
   a_j × (x − p_j) of the joints up to the point's own.
@@ -78,21 +81,54 @@ class _Chain:
         """Joints (n, J) that put the foot at `feet` (n, 3, base frame), from q (n, J)."""
         return self.solve_frames(feet, q)[0]
 
-    def solve_frames(self, feet: np.ndarray, q: np.ndarray):
+    def solve_frames(self, feet: np.ndarray, start):
         """`solve`'s joints q with their `kinematics` frames and the foot's `point` (position,
         Jacobian) there: those of the IK's last iterate when it converged, computed again when it
-        did not."""
-        q = q.copy()
+        did not. `start`: the first joints (n, J), or a `LegIKData` workspace, which the IK starts
+        from (its first iteration at its cached frames) and leaves holding this solve."""
+        data = start if isinstance(start, LegIKData) else LegIKData(np.asarray(start, float))
+        q = data.q.copy()
+        cached = data.frames is not None
         for _ in range(IK_ITERATIONS):
-            frames = self.kinematics(q)
-            x, jac = self.point(frames, self.foot_joint, self.foot_offset)
+            if cached:  # the last solve's kinematics at these very joints
+                frames, x, jac, pinv = data.frames, data.foot, data.jac, data.pinv
+                cached = False
+            else:
+                frames = self.kinematics(q)
+                x, jac = self.point(frames, self.foot_joint, self.foot_offset)
+                pinv = None
             error = feet - x
             if np.abs(error).max(initial=0.0) < IK_TOLERANCE:
+                data.keep(q, frames, x, jac, pinv)
                 return q, frames, x, jac
-            step = (_damped_pinv(jac) @ error[..., None])[..., 0]
+            step = ((_damped_pinv(jac) if pinv is None else pinv) @ error[..., None])[..., 0]
             q += step * np.minimum(1.0, IK_STEP / np.maximum(np.abs(step).max(axis=1, keepdims=True), 1e-300))
         frames = self.kinematics(q)
-        return (q, frames) + self.point(frames, self.foot_joint, self.foot_offset)
+        x, jac = self.point(frames, self.foot_joint, self.foot_offset)
+        data.keep(q, frames, x, jac, None)
+        return q, frames, x, jac
+
+
+class LegIKData:
+    """The IK workspace of one leg's samples in one block (the chain itself stays immutable): the
+    joints of the last solve, which the next one starts from (the nominal joints at first), and
+    the chain's frames, the foot's point and Jacobian, and its damped pseudo-inverse (once asked
+    for, `pinv_of`) at those joints."""
+
+    def __init__(self, q: np.ndarray):
+        self.q = q
+        self.frames = self.foot = self.jac = self.pinv = None
+
+    def keep(self, q, frames, foot, jac, pinv) -> None:
+        self.q, self.frames, self.foot, self.jac, self.pinv = q, frames, foot, jac, pinv
+
+    def pinv_of(self, jac: np.ndarray) -> np.ndarray:
+        """`_damped_pinv(jac)`, kept for the next solve when `jac` is the workspace's own."""
+        if jac is not self.jac:
+            return _damped_pinv(jac)
+        if self.pinv is None:
+            self.pinv = _damped_pinv(jac)
+        return self.pinv
 
 
 class ChainLegs:
@@ -146,10 +182,14 @@ class ChainLegs:
         """The nominal joints of a leg for n samples (an IK start)."""
         return np.tile(self.chains[leg].nominal, (n, 1))
 
-    def foot_torques(self, leg: int, feet: np.ndarray, forces: np.ndarray, q: np.ndarray, derivatives: bool = True):
+    def workspace(self, leg: int, n: int) -> LegIKData:
+        """An IK workspace for n samples of a leg, starting from its nominal joints."""
+        return LegIKData(self.nominal(leg, n))
+
+    def foot_torques(self, leg: int, feet: np.ndarray, forces: np.ndarray, q, derivatives: bool = True):
         """Joint torques τ = J_fᵀ g (n, J) that hold the leg's foot at `feet` (n, 3, base frame)
         against forces g (n, 3, base frame) at the foot, J_f the foot's point Jacobian at the joints
-        of the IK started from q (n, J) (statics: the torque the joints give for the force, legs
+        of the IK started from q (n, J, or a `LegIKData` workspace) (statics: the torque the joints give for the force, legs
         without mass); ∂τ/∂foot (n, J, 3) by the implicit function theorem through the IK,
         ∂τ/∂g = J_fᵀ (n, J, 3) (both None without `derivatives`: a residual alone), and the joints
         (n, J). With r_i = x − o_i (x the foot, o_i joint i's origin) and a_i its axis,
@@ -157,7 +197,8 @@ class ChainLegs:
         alone: ∂τ_i/∂q_k = g · ((a_k × a_i) × r_i + a_i × (a_k × r_i)) for k < i, g · (a_i × (a_k × r_k))
         for k ≥ i."""
         chain = self.chains[leg]
-        q, (origin, rot, axes), x, jac = chain.solve_frames(np.asarray(feet, float), q)
+        data = q if isinstance(q, LegIKData) else LegIKData(np.asarray(q, float))
+        q, (origin, rot, axes), x, jac = chain.solve_frames(np.asarray(feet, float), data)
         forces = np.asarray(forces, float)
         tau = np.einsum("nai,na->ni", jac, forces)
         if not derivatives:
@@ -173,15 +214,16 @@ class ChainLegs:
         reach = (np.arange(count) <= chain.foot_joint)  # joints past the foot's move nothing
         terms = np.where(lower, turned + before, tip) * (reach[None, :, None, None] & reach[None, None, :, None])
         d_tau_dq = np.einsum("nkia,na->nik", terms, forces)  # (n, i, k)
-        return tau, d_tau_dq @ _damped_pinv(jac), np.swapaxes(jac, 1, 2), q
+        return tau, d_tau_dq @ data.pinv_of(jac), np.swapaxes(jac, 1, 2), q
 
     def sphere_centres(self, leg: int, feet: np.ndarray, q: np.ndarray):
         """Centres (n, k, 3) of the leg's k spheres in the base frame with its foot at `feet` (n, 3,
         base frame), their Jacobians ∂centre/∂foot (n, k, 3, 3), and the joints (n, J) of the IK
-        started from q (n, J)."""
+        started from q (n, J, or a `LegIKData` workspace)."""
         chain = self.chains[leg]
-        q, frames, _, foot_jac = chain.solve_frames(np.asarray(feet, float), q)
-        dq = _damped_pinv(foot_jac)  # (n, J, 3): ∂q/∂foot
+        data = q if isinstance(q, LegIKData) else LegIKData(np.asarray(q, float))
+        q, frames, _, foot_jac = chain.solve_frames(np.asarray(feet, float), data)
+        dq = data.pinv_of(foot_jac)  # (n, J, 3): ∂q/∂foot
         centres, jacobians = [], []
         for joint, offset in zip(chain.sphere_joint, chain.sphere_offset):
             x, jac = chain.point(frames, int(joint), offset)
