@@ -8,7 +8,8 @@ parent joint's frame (`Model.jointPlacements`) and its rotation axis in its own 
 and per foot the joint that carries it and the offset in that joint's frame — and evaluates the
 chain for many samples at once:
 
-* forward kinematics: T_j = T_{j−1} M_j Rot(a_j, q_j) from the base, points x = T_j x_local;
+* forward kinematics: T_j = T_{j−1} M_j Rot(a_j, q_j) from the base (Rodrigues' formula about the
+  joint's unit axis), points x = T_j x_local;
 * inverse kinematics from the foot: damped Gauss–Newton on the joints, q ← q + Jᵀ(J Jᵀ + λI)⁻¹(b − x_foot(q))
   (a step scaled down to at most `IK_STEP` per joint),
   started from the previous solution of the same samples (the nominal joints at first), so the
@@ -27,13 +28,14 @@ leg the URDF describes (hip offsets, tilted axes, more than three joints).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
 import pinocchio as pin
 
 from legplan.robots.kinematics import one_dof_axis
-from legplan.robots.so3 import rotvec_to_matrix
+from legplan.robots.so3 import skew
 
 IK_ITERATIONS = 30
 IK_TOLERANCE = 1e-13  # m: foot position error at which the IK stops (Newton: one step more than 1e-10)
@@ -59,15 +61,29 @@ class _Chain:
 
     def kinematics(self, q: np.ndarray):
         """Joint frames for joints q (n, J): origins (n, J, 3), rotations (n, J, 3, 3) in the base
-        frame, and the world axes (n, J, 3)."""
+        frame, and the world axes (n, J, 3). Joint j's rotation R_j = R_{j−1} M_j Rot(a_j, q_j) with
+        Rodrigues' Rot(a, q) = I + sin q [a]× + (1 − cos q) [a]×² (unit a), its origin
+        o_j = o_{j−1} + R_{j−1} t_j and its axis R_j a_j = R_{j−1} M_j a_j: every term R_{j−1} times a
+        constant of the chain (`_products`), one matrix product per joint for all samples."""
         n, count = q.shape
-        origin, rot = np.zeros((n, count, 3)), np.zeros((n, count, 3, 3))
-        p, r = np.zeros((n, 3)), np.broadcast_to(np.eye(3), (n, 3, 3))
-        for j in range(count):
-            p = p + r @ self.translations[j]
-            r = r @ self.rotations[j] @ rotvec_to_matrix(q[:, j, None] * self.axes[j])
-            origin[:, j], rot[:, j] = p, r
-        return origin, rot, np.einsum("njab,jb->nja", rot, self.axes)
+        origin, rot, axes = np.empty((n, count, 3)), np.empty((n, count, 3, 3)), np.empty((n, count, 3))
+        s, c = np.sin(q), 1.0 - np.cos(q)
+        for j, constants in enumerate(self._products):
+            if j == 0:  # R_{−1} = I: the constants themselves
+                terms, origin[:, 0] = np.broadcast_to(constants, (n, 3, 11)), self.translations[0]
+            else:
+                terms = (rot[:, j - 1].reshape(-1, 3) @ constants).reshape(n, 3, 11)
+                origin[:, j] = origin[:, j - 1] + terms[:, :, 10]
+            rot[:, j] = terms[:, :, 0:3] + s[:, j, None, None] * terms[:, :, 3:6] + c[:, j, None, None] * terms[:, :, 6:9]
+            axes[:, j] = terms[:, :, 9]
+        return origin, rot, axes
+
+    @functools.cached_property
+    def _products(self) -> list[np.ndarray]:
+        """Per joint the (3, 11) constants [M_j | M_j[a_j]× | M_j[a_j]×² | M_j a_j | t_j] of `kinematics`."""
+        k = skew(self.axes)
+        return [np.hstack([m, m @ kj, m @ kj @ kj, (m @ a)[:, None], t[:, None]])
+                for m, kj, a, t in zip(self.rotations, k, self.axes, self.translations)]
 
     def point(self, frames, joint: int, offset: np.ndarray):
         """A point fixed to `joint` at `offset` (its frame): position (n, 3) and Jacobian (n, 3, J)."""
@@ -192,29 +208,22 @@ class ChainLegs:
         of the IK started from q (n, J, or a `LegIKData` workspace) (statics: the torque the joints give for the force, legs
         without mass); ∂τ/∂foot (n, J, 3) by the implicit function theorem through the IK,
         ∂τ/∂g = J_fᵀ (n, J, 3) (both None without `derivatives`: a residual alone), and the joints
-        (n, J). With r_i = x − o_i (x the foot, o_i joint i's origin) and a_i its axis,
-        τ_i = g · (a_i × r_i); a turn of joint k < i turns a_i and r_i about a_k, of k ≥ i moves x
-        alone: ∂τ_i/∂q_k = g · ((a_k × a_i) × r_i + a_i × (a_k × r_i)) for k < i, g · (a_i × (a_k × r_k))
-        for k ≥ i."""
+        (n, J). With r_i = x − o_i (x the foot, o_i joint i's origin), a_i its axis and c_i = a_i × r_i
+        the foot Jacobian's column, τ_i = g · c_i; a turn of joint k < i turns a_i and r_i about a_k
+        (∂c_i/∂q_k = a_k × c_i), of k ≥ i moves x alone (a_i × (a_k × r_k) = a_i × c_k), so
+        ∂τ_i/∂q_k = a_min(i,k) · (c_max(i,k) × g): the upper triangle of m_pq = a_p · (c_q × g),
+        mirrored. Columns past the foot's joint are zero, and so are their rows and columns here."""
         chain = self.chains[leg]
         data = q if isinstance(q, LegIKData) else LegIKData(np.asarray(q, float))
-        q, (origin, rot, axes), x, jac = chain.solve_frames(np.asarray(feet, float), data)
+        q, (_, _, axes), _, jac = chain.solve_frames(np.asarray(feet, float), data)
         forces = np.asarray(forces, float)
         tau = np.einsum("nai,na->ni", jac, forces)
         if not derivatives:
             return tau, None, None, q
-        count = q.shape[1]
-        r = x[:, None] - origin  # (n, J, 3)
-        moved = _cross(axes[:, :, None], r[:, None])  # [n, k, i] = a_k × r_i
-        turned = _cross(_cross(axes[:, :, None], axes[:, None]), r[:, None])  # (a_k × a_i) × r_i
-        before = _cross(axes[:, None], moved)  # [n, k, i] = a_i × (a_k × r_i)
-        tip = _cross(axes[:, None], np.diagonal(moved, axis1=1, axis2=2).transpose(0, 2, 1)[:, :, None])  # a_i × (a_k × r_k)
-        k, i = np.meshgrid(np.arange(count), np.arange(count), indexing="ij")
-        lower = (k < i)[None, :, :, None]
-        reach = (np.arange(count) <= chain.foot_joint)  # joints past the foot's move nothing
-        terms = np.where(lower, turned + before, tip) * (reach[None, :, None, None] & reach[None, None, :, None])
-        d_tau_dq = np.einsum("nkia,na->nik", terms, forces)  # (n, i, k)
-        return tau, d_tau_dq @ data.pinv_of(jac), np.swapaxes(jac, 1, 2), q
+        columns = np.swapaxes(jac, 1, 2)  # (n, J, 3): c_i
+        m = axes @ np.swapaxes(_cross(columns, forces[:, None]), 1, 2)  # [n, p, q] = a_p · (c_q × g)
+        d_tau_dq = np.triu(m) + np.swapaxes(np.triu(m, 1), 1, 2)  # (n, i, k)
+        return tau, d_tau_dq @ data.pinv_of(jac), columns, q
 
     def sphere_centres(self, leg: int, feet: np.ndarray, q: np.ndarray):
         """Centres (n, k, 3) of the leg's k spheres in the base frame with its foot at `feet` (n, 3,
