@@ -255,6 +255,27 @@ def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def _damped_pinv(jac: np.ndarray) -> np.ndarray:
     """Jᵀ(J Jᵀ + λI)⁻¹ of Jacobians (n, 3, J)."""
     jt = np.swapaxes(jac, 1, 2)
-    return jt @ np.linalg.inv(jac @ jt + IK_DAMPING * np.eye(3))
+    return jt @ _inverse3(jac @ jt + IK_DAMPING * np.eye(3))
 
 
+def _inverse3(a: np.ndarray) -> np.ndarray:
+    """Inverses (n, 3, 3) of symmetric positive definite 3 × 3 matrices (J Jᵀ + λI) by Cholesky,
+    A = L Lᵀ, A⁻¹ = L⁻ᵀ L⁻¹, written out on n-vectors (LAPACK pays a call per matrix); backward
+    stable like a pivoted LU, where the cofactor formula is not for a nearly singular A."""
+    l00 = np.sqrt(a[:, 0, 0])
+    l10, l20 = a[:, 1, 0] / l00, a[:, 2, 0] / l00
+    l11 = np.sqrt(a[:, 1, 1] - l10 * l10)
+    l21 = (a[:, 2, 1] - l20 * l10) / l11
+    l22 = np.sqrt(a[:, 2, 2] - l20 * l20 - l21 * l21)
+    m00, m11, m22 = 1.0 / l00, 1.0 / l11, 1.0 / l22  # M = L⁻¹, lower triangular
+    m10 = -l10 * m00 * m11
+    m21 = -l21 * m11 * m22
+    m20 = -(l20 * m00 + l21 * m10) * m22
+    out = np.empty_like(a)  # Mᵀ M
+    out[:, 0, 0] = m00 * m00 + m10 * m10 + m20 * m20
+    out[:, 1, 1] = m11 * m11 + m21 * m21
+    out[:, 2, 2] = m22 * m22
+    out[:, 0, 1] = out[:, 1, 0] = m10 * m11 + m20 * m21
+    out[:, 0, 2] = out[:, 2, 0] = m20 * m22
+    out[:, 1, 2] = out[:, 2, 1] = m21 * m22
+    return out
