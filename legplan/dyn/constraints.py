@@ -3,8 +3,9 @@
 Each block samples the splines of a `Formulation` at fixed times (sparse sampling matrices built
 once) and returns its values and one sparse Jacobian per variable it reads; bounds are attached by
 `legplan.solve.Constraint`. The rotation of a vector, R(e)ᵀd and R(e)v, is differentiated by the
-closed-form ∂R/∂e (`euler.rotation_derivatives`); the other nonlinear orientation terms and the
-terrain terms by complex step (`euler.complex_step`, exact to round-off); the rest analytically.
+closed-form ∂R/∂e (`euler.rotation_derivatives`), the inertial torque through the body rates'
+closed-form Jacobians (`euler.body_rate_derivatives`); the terrain terms by complex step
+(`euler.complex_step`, exact to round-off); the rest analytically.
 
 * `DynamicsBlock` — single-rigid-body Newton-Euler at every dynamics time (6 rows, N and N·m):
   m·p̈ + m·g·e_z − Σ f_i = 0 and I_W ω̇ + ω × I_W ω − Σ (p_i − p) × f_i = 0, I_W = R I_B Rᵀ.
@@ -30,7 +31,7 @@ from abc import abstractmethod
 import numpy as np
 import scipy.sparse as sp
 
-from legplan.dyn.euler import body_rates, complex_step, rotation, rotation_derivatives
+from legplan.dyn.euler import body_rate_derivatives, body_rates, complex_step, rotation, rotation_derivatives
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import (PHASES, PhaseTiming, TimedControlPoints, TimedSamples, invalid_timing, phase_jacobian,
@@ -118,6 +119,22 @@ class DynamicsBlock(ResidualBlock):
         u = wdb @ self.inertia.T + np.cross(wb, iw)
         return np.einsum("nij,nj->ni", rotation(e), u)
 
+    def inertial_torque_jacobians(self, e, ed, edd):
+        """`inertial_torque` τ = R u, u = I ω̇_B + ω_B × I ω_B, with ∂τ/∂e, ∂τ/∂ė, ∂τ/∂ë (n, 3, 3):
+        ∂u/∂x = I ∂ω̇_B/∂x + ([ω_B]× I − [I ω_B]×) ∂ω_B/∂x by the chain rule through the body rates'
+        Jacobians (`euler.body_rate_derivatives`), and ∂τ/∂e_k = R ∂u/∂e_k + ∂R/∂e_k u."""
+        wb, wdb, dw_de, dw_ded, dwd_de, dwd_ded, dwd_dedd = body_rate_derivatives(e, ed, edd)
+        inertia = self.inertia
+        iw = wb @ inertia.T
+        u = wdb @ inertia.T + np.cross(wb, iw)
+        gyro = skew(wb) @ inertia - skew(iw)  # ∂(ω × I ω)/∂ω
+        rot = rotation(e)
+        torque = np.einsum("nij,nj->ni", rot, u)
+        d_e = rot @ (inertia @ dwd_de + gyro @ dw_de) + np.einsum("nkij,nj->nik", rotation_derivatives(e), u)
+        d_ed = rot @ (inertia @ dwd_ded + gyro @ dw_ded)
+        d_edd = rot @ (inertia @ dwd_dedd)
+        return torque, (d_e, d_ed, d_edd)
+
     def evaluate(self, values, jacobians):
         if self.timing is not None and not self._retime(values[4]):
             return invalid_timing(self, jacobians)
@@ -129,7 +146,7 @@ class DynamicsBlock(ResidualBlock):
         linear = self.mass * p2 - sum(f)
         linear[:, 2] += self.mass * GRAVITY
         if jacobians:
-            torque, (j_e, j_ed, j_edd) = complex_step(self.inertial_torque, (e, ed, edd), (0, 1, 2))
+            torque, (j_e, j_ed, j_edd) = self.inertial_torque_jacobians(e, ed, edd)
         else:
             torque = self.inertial_torque(e, ed, edd)
         angular = torque - sum(np.cross(q - p0, fi) for q, fi in zip(pf, f))
