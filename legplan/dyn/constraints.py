@@ -37,6 +37,7 @@ from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import (PHASES, PhaseTiming, TimedControlPoints, TimedSamples, invalid_timing, phase_jacobian,
                                 refresh)
 from legplan.geometry.hermite import SampledJacobian, hermite_weights, kron_dim
+from legplan.geometry.sparse import wrapped
 from legplan.robots.so3 import skew
 from legplan.solve import ResidualBlock
 from legplan.solve.blocks import LinearBlock
@@ -110,7 +111,7 @@ class DynamicsBlock(ResidualBlock):
             indptr = np.append(rows.reshape(-1), ptr[-1])
             indptr.flags.writeable = False
             self._lifted[id(ptr)] = lifted = (ptr, indptr)
-        return sp.csr_matrix((jac.data, jac.indices, lifted[1]), shape=(self.size, jac.shape[1]))
+        return wrapped(sp.csr_matrix, jac.data, jac.indices, lifted[1], (self.size, jac.shape[1]))
 
     def inertial_torque(self, e, ed, edd):
         """I_W ω̇ + ω × I_W ω = R (I_B ω̇_B + ω_B × I_B ω_B), rows (n, 3)."""

@@ -24,6 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from legplan.geometry.sparse import wrapped
+
 # x(s) = Σ_k s^k (_MONOMIAL[k] · (p_a, h v_a, p_b, h v_b)): monomial coefficients of the basis
 _MONOMIAL = np.array([[1, 0, 0, 0],
                       [0, 1, 0, 0],
@@ -229,4 +231,4 @@ class SampledJacobian:
         data = np.bincount(self.slot, weights=values.real, minlength=size)
         if np.iscomplexobj(values):
             data = data + 1j * np.bincount(self.slot, weights=values.imag, minlength=size)
-        return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
+        return wrapped(sp.csr_matrix, data, self.indices, self.indptr, self.shape)

@@ -13,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from legplan.geometry.sparse import wrapped
+
 
 class CooAssembler:
     """Sum COO triplets into a CSC matrix of fixed `shape`; re-analyse only when indices change."""
@@ -180,7 +182,7 @@ class NonzeroGather:
         data = np.concatenate(values) if len(values) != 1 else np.asarray(values[0], float)
         if np.any((data != 0.0) & self._outside):  # a new nonzero (or NaN): the pattern grows
             return None
-        return fmt((data[self._gather] + 0.0, pattern._indices, pattern._indptr), shape=assembler.shape[::-1])
+        return wrapped(fmt, data[self._gather] + 0.0, pattern._indices, pattern._indptr, assembler.shape[::-1])
 
 
 def kept_indices(arrays) -> tuple:

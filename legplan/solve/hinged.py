@@ -57,6 +57,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from legplan.geometry.sparse import wrapped
 from legplan.parameters import Parameters, param
 from legplan.solve.linsolve import CholmodSolver, NotPositiveDefiniteError
 from legplan.solve.lm import MARQUARDT_FLOOR, LMResult, Status, Timings
@@ -237,7 +238,7 @@ class _HingeModel:
         self.scale = np.where(d2 > MARQUARDT_FLOOR * d2.max(initial=0.0), 1.0 / np.sqrt(np.where(d2 > 0, d2, 1.0)), 1.0)
         if held is not None:  # a zero column and a zero scale: the step leaves these variables where they are
             self.scale[held] = 0.0
-        Js = sp.csr_matrix((J.data * self.scale[J.indices], J.indices, J.indptr), shape=J.shape)
+        Js = wrapped(sp.csr_matrix, J.data * self.scale[J.indices], J.indices, J.indptr, J.shape)
         self.J, self.v, self.hinged = Js, v, hinged
 
     def step(self, solver, lam: float, iterations: int, timings: Timings) -> np.ndarray | None:
