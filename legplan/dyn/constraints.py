@@ -4,8 +4,9 @@ Each block samples the splines of a `Formulation` at fixed times (sparse samplin
 once) and returns its values and one sparse Jacobian per variable it reads; bounds are attached by
 `legplan.solve.Constraint`. The rotation of a vector, R(e)ᵀd and R(e)v, is differentiated by the
 closed-form ∂R/∂e (`euler.rotation_derivatives`), the inertial torque through the body rates'
-closed-form Jacobians (`euler.body_rate_derivatives`); the terrain terms by complex step
-(`euler.complex_step`, exact to round-off); the rest analytically.
+closed-form Jacobians (`euler.body_rate_derivatives`), the terrain heights and slopes by their
+bilinear gradients; the terrain normals (friction) by complex step (`euler.complex_step`, exact to
+round-off); the rest analytically.
 
 * `DynamicsBlock` — single-rigid-body Newton-Euler at every dynamics time (6 rows, N and N·m):
   m·p̈ + m·g·e_z − Σ f_i = 0 and I_W ω̇ + ω × I_W ω − Σ (p_i − p) × f_i = 0, I_W = R I_B Rᵀ.
@@ -371,7 +372,8 @@ class JointTorqueBlock(RangeOfMotionBlock):
 
 class FootTerrainBlock(ResidualBlock):
     """One row per foot position sampled by `matrix` (rows of the ``feet`` node array): a terrain
-    function of the position, `_row(q)` for q (n, 3), differentiated by complex step."""
+    function of the position, `_row(q)` for q (n, 3), differentiated by `_row_jacobian` (complex
+    step unless a block gives its gradient)."""
 
     variables = ("feet",)
 
@@ -399,17 +401,23 @@ class FootTerrainBlock(ResidualBlock):
     def _column(self, q):
         return self._row(q)[:, None]
 
+    def _row_jacobian(self, q):
+        """The row values (n,) and their Jacobians (n, 1, 3) at foot positions q: by complex step
+        here, in closed form where a block knows its function's gradient."""
+        r, (j,) = complex_step(self._column, (q,), (0,))
+        return r[:, 0], j
+
     def evaluate(self, values, jacobians):
         if self.samples is not None and not self._retime(values[1]):
             return invalid_timing(self, jacobians)
         q = self.matrix @ _nodes(values[0])
         if not jacobians:
             return self._row(q), None
-        r, (j,) = complex_step(self._column, (q,), (0,))
+        r, j = self._row_jacobian(q)
         out = [self.jacobian([j])]
         if self.samples is not None:
             out.append(phase_jacobian([(j, self.samples, values[0])], self.size, self.samples.timing.size))
-        return r[:, 0], out
+        return r, out
 
 
 class TerrainHeightBlock(FootTerrainBlock):
@@ -419,9 +427,15 @@ class TerrainHeightBlock(FootTerrainBlock):
     def __init__(self, terrain: TerrainModel, matrix: sp.csr_matrix, envelope: bool = False):
         super().__init__(terrain, matrix)
         self.height = terrain.envelope if envelope else terrain.height
+        self.height_gradient = terrain.envelope_gradient if envelope else terrain.height_gradient
 
     def _row(self, q):
         return q[:, 2] - self.height(q[:, 0], q[:, 1])
+
+    def _row_jacobian(self, q):
+        """z − h and (−∂h/∂x, −∂h/∂y, 1): the bilinear surface's exact gradient."""
+        h, hx, hy = self.height_gradient(q[:, 0], q[:, 1])
+        return q[:, 2] - h, np.stack([-hx, -hy, np.ones_like(hx)], axis=-1)[:, None]
 
 
 class StanceSlopeBlock(FootTerrainBlock):
@@ -430,6 +444,10 @@ class StanceSlopeBlock(FootTerrainBlock):
 
     def _row(self, q):
         return self.terrain.stance_slope(q[:, 0], q[:, 1])
+
+    def _row_jacobian(self, q):
+        value, gx, gy = self.terrain.stance_slope_gradient(q[:, 0], q[:, 1])
+        return value, np.stack([gx, gy, np.zeros_like(gx)], axis=-1)[:, None]
 
 
 FRICTION_FACES = 8
