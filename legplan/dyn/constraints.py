@@ -264,11 +264,14 @@ class LegClearanceBlock(RangeOfMotionBlock):
         self.base_jacobian = SampledJacobian([self.base], self.rows, self.n, self.columns[0])
         self.foot_jacobian = SampledJacobian([self.foot], self.rows, self.n, self.columns[2])
 
-    def _spheres(self, b):
-        """Sphere centres s (n, k, 3) and ∂s/∂b (n, k, 3, 3) in the base frame for feet b (n, 3)."""
+    def _spheres(self, b, derivatives: bool = True):
+        """Sphere centres s (n, k, 3) and ∂s/∂b (n, k, 3, 3) in the base frame for feet b (n, 3) (None
+        without `derivatives`: the closed form evaluated once, not by complex step)."""
         if self.joints is not None:
             centres, jac, _ = self.legs.sphere_centres(self.leg, b, self.joints)
             return centres, jac
+        if not derivatives:
+            return self.legs.sphere_centres(self.leg, b), None
         centres, columns = complex_step(lambda x: self.legs.sphere_centres(self.leg, x).reshape(len(x), -1), (b,), (0,))
         return centres.reshape(len(b), -1, 3), columns[0].reshape(len(b), -1, 3, 3)
 
@@ -285,7 +288,7 @@ class LegClearanceBlock(RangeOfMotionBlock):
         p, e, q = sampled
         rot = rotation(e)
         b = self._in_base(e, q - p) + self.offset
-        s, ds = self._spheres(b)
+        s, ds = self._spheres(b, jacobians)
         lever = s - self.offset
         c = p[:, None] + np.einsum("nij,nkj->nki", rot, lever)
         value, dh = self._clearance(c)  # and ∂row/∂c
