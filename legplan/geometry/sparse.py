@@ -14,10 +14,10 @@ import scipy.sparse as sp
 
 def wrapped(kind, data: np.ndarray, indices: np.ndarray, indptr: np.ndarray, shape: tuple[int, int]):
     """`kind((data, indices, indptr), shape=shape)` (sp.csr_matrix or sp.csc_matrix) without scipy's
-    checks of the index arrays — their dtype range, contents and format, a few tens of microseconds
-    per matrix, paid for every per-block Jacobian of every evaluation: for index arrays computed once
-    per pattern (a cached structure, read-only) and valid by construction. The arrays are shared, not
-    copied. Index arrays of different dtypes, or data not matching them, take scipy's constructor."""
+    checks of the index arrays (dtype range, contents, format), which would otherwise be paid for
+    every per-block Jacobian of every evaluation: for index arrays computed once per pattern (a
+    cached structure, read-only) and valid by construction. The arrays are shared, not copied. Index
+    arrays of different dtypes, or data not matching them, take scipy's constructor."""
     if not (indices.dtype == indptr.dtype and indices.dtype in (np.int32, np.int64) and data.ndim == 1
             and data.shape == indices.shape and indptr.size == (shape[0] if kind is sp.csr_matrix else shape[1]) + 1):
         return kind((data, indices, indptr), shape=shape)
