@@ -3,8 +3,10 @@
 Each block samples the splines of a `Formulation` at fixed times (sparse sampling matrices built
 once) and returns its values and one sparse Jacobian per variable it reads; bounds are attached by
 `legplan.solve.Constraint`. The rotation of a vector, R(e)ᵀd and R(e)v, is differentiated by the
-closed-form ∂R/∂e (`euler.rotation_derivatives`); the other nonlinear orientation terms and the
-terrain terms by complex step (`euler.complex_step`, exact to round-off); the rest analytically.
+closed-form ∂R/∂e (`euler.rotation_derivatives`), the inertial torque through the body rates'
+closed-form Jacobians (`euler.body_rate_derivatives`), the terrain heights and slopes by their
+bilinear gradients; the terrain normals (friction) by complex step (`euler.complex_step`, exact to
+round-off); the rest analytically.
 
 * `DynamicsBlock` — single-rigid-body Newton-Euler at every dynamics time (6 rows, N and N·m):
   m·p̈ + m·g·e_z − Σ f_i = 0 and I_W ω̇ + ω × I_W ω − Σ (p_i − p) × f_i = 0, I_W = R I_B Rᵀ.
@@ -30,12 +32,13 @@ from abc import abstractmethod
 import numpy as np
 import scipy.sparse as sp
 
-from legplan.dyn.euler import body_rates, complex_step, rotation, rotation_derivatives
+from legplan.dyn.euler import body_rate_derivatives, body_rates, complex_step, rotation, rotation_derivatives
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import (PHASES, PhaseTiming, TimedControlPoints, TimedSamples, invalid_timing, phase_jacobian,
                                 refresh)
 from legplan.geometry.hermite import SampledJacobian, hermite_weights, kron_dim
+from legplan.geometry.sparse import wrapped
 from legplan.robots.so3 import skew
 from legplan.solve import ResidualBlock
 from legplan.solve.blocks import LinearBlock
@@ -109,7 +112,7 @@ class DynamicsBlock(ResidualBlock):
             indptr = np.append(rows.reshape(-1), ptr[-1])
             indptr.flags.writeable = False
             self._lifted[id(ptr)] = lifted = (ptr, indptr)
-        return sp.csr_matrix((jac.data, jac.indices, lifted[1]), shape=(self.size, jac.shape[1]))
+        return wrapped(sp.csr_matrix, jac.data, jac.indices, lifted[1], (self.size, jac.shape[1]))
 
     def inertial_torque(self, e, ed, edd):
         """I_W ω̇ + ω × I_W ω = R (I_B ω̇_B + ω_B × I_B ω_B), rows (n, 3)."""
@@ -117,6 +120,22 @@ class DynamicsBlock(ResidualBlock):
         iw = wb @ self.inertia.T
         u = wdb @ self.inertia.T + np.cross(wb, iw)
         return np.einsum("nij,nj->ni", rotation(e), u)
+
+    def inertial_torque_jacobians(self, e, ed, edd):
+        """`inertial_torque` τ = R u, u = I ω̇_B + ω_B × I ω_B, with ∂τ/∂e, ∂τ/∂ė, ∂τ/∂ë (n, 3, 3):
+        ∂u/∂x = I ∂ω̇_B/∂x + ([ω_B]× I − [I ω_B]×) ∂ω_B/∂x by the chain rule through the body rates'
+        Jacobians (`euler.body_rate_derivatives`), and ∂τ/∂e_k = R ∂u/∂e_k + ∂R/∂e_k u."""
+        wb, wdb, dw_de, dw_ded, dwd_de, dwd_ded, dwd_dedd = body_rate_derivatives(e, ed, edd)
+        inertia = self.inertia
+        iw = wb @ inertia.T
+        u = wdb @ inertia.T + np.cross(wb, iw)
+        gyro = skew(wb) @ inertia - skew(iw)  # ∂(ω × I ω)/∂ω
+        rot = rotation(e)
+        torque = np.einsum("nij,nj->ni", rot, u)
+        d_e = rot @ (inertia @ dwd_de + gyro @ dw_de) + np.einsum("nkij,nj->nik", rotation_derivatives(e), u)
+        d_ed = rot @ (inertia @ dwd_ded + gyro @ dw_ded)
+        d_edd = rot @ (inertia @ dwd_dedd)
+        return torque, (d_e, d_ed, d_edd)
 
     def evaluate(self, values, jacobians):
         if self.timing is not None and not self._retime(values[4]):
@@ -129,7 +148,7 @@ class DynamicsBlock(ResidualBlock):
         linear = self.mass * p2 - sum(f)
         linear[:, 2] += self.mass * GRAVITY
         if jacobians:
-            torque, (j_e, j_ed, j_edd) = complex_step(self.inertial_torque, (e, ed, edd), (0, 1, 2))
+            torque, (j_e, j_ed, j_edd) = self.inertial_torque_jacobians(e, ed, edd)
         else:
             torque = self.inertial_torque(e, ed, edd)
         angular = torque - sum(np.cross(q - p0, fi) for q, fi in zip(pf, f))
@@ -241,15 +260,18 @@ class LegClearanceBlock(RangeOfMotionBlock):
         self.distance = terrain.column_distance(float(self.radius.max(initial=0.0)) + COLUMN_REACH)
         self.rows = self.radius.size
         self.size = self.rows * self.n
-        self.joints = legs.nominal(leg, self.n) if hasattr(legs, "nominal") else None  # IK warm start
+        self.joints = legs.workspace(leg, self.n) if hasattr(legs, "workspace") else None  # IK warm start
         self.base_jacobian = SampledJacobian([self.base], self.rows, self.n, self.columns[0])
         self.foot_jacobian = SampledJacobian([self.foot], self.rows, self.n, self.columns[2])
 
-    def _spheres(self, b):
-        """Sphere centres s (n, k, 3) and ∂s/∂b (n, k, 3, 3) in the base frame for feet b (n, 3)."""
+    def _spheres(self, b, derivatives: bool = True):
+        """Sphere centres s (n, k, 3) and ∂s/∂b (n, k, 3, 3) in the base frame for feet b (n, 3) (None
+        without `derivatives`: the closed form evaluated once, not by complex step)."""
         if self.joints is not None:
-            centres, jac, self.joints = self.legs.sphere_centres(self.leg, b, self.joints)
+            centres, jac, _ = self.legs.sphere_centres(self.leg, b, self.joints)
             return centres, jac
+        if not derivatives:
+            return self.legs.sphere_centres(self.leg, b), None
         centres, columns = complex_step(lambda x: self.legs.sphere_centres(self.leg, x).reshape(len(x), -1), (b,), (0,))
         return centres.reshape(len(b), -1, 3), columns[0].reshape(len(b), -1, 3, 3)
 
@@ -266,7 +288,7 @@ class LegClearanceBlock(RangeOfMotionBlock):
         p, e, q = sampled
         rot = rotation(e)
         b = self._in_base(e, q - p) + self.offset
-        s, ds = self._spheres(b)
+        s, ds = self._spheres(b, jacobians)
         lever = s - self.offset
         c = p[:, None] + np.einsum("nij,nkj->nki", rot, lever)
         value, dh = self._clearance(c)  # and ∂row/∂c
@@ -304,8 +326,8 @@ class JointTorqueBlock(RangeOfMotionBlock):
         super().__init__(form, leg, np.zeros(3), times, timing)
         self.leg, self.legs = leg, legs
         self.offset = np.asarray(com_offset, float)
-        self.joints = legs.nominal(leg, self.n)
-        self.rows = self.joints.shape[1]
+        self.joints = legs.workspace(leg, self.n)  # the IK's warm start
+        self.rows = self.joints.q.shape[1]
         self.size = self.rows * self.n
         if timing is None:
             self.variables = JointTorqueBlock.variables
@@ -335,7 +357,7 @@ class JointTorqueBlock(RangeOfMotionBlock):
         f = self.force @ forces
         b = self._in_base(e, q - p) + self.offset
         g = self._in_base(e, f)
-        tau, d_b, d_g, self.joints = self.legs.foot_torques(self.leg, b, g, self.joints, derivatives=jacobians)
+        tau, d_b, d_g, _ = self.legs.foot_torques(self.leg, b, g, self.joints, derivatives=jacobians)
         if not jacobians:
             return tau.reshape(-1), None
         turns = rotation_derivatives(e)
@@ -353,7 +375,8 @@ class JointTorqueBlock(RangeOfMotionBlock):
 
 class FootTerrainBlock(ResidualBlock):
     """One row per foot position sampled by `matrix` (rows of the ``feet`` node array): a terrain
-    function of the position, `_row(q)` for q (n, 3), differentiated by complex step."""
+    function of the position, `_row(q)` for q (n, 3), differentiated by `_row_jacobian` (complex
+    step unless a block gives its gradient)."""
 
     variables = ("feet",)
 
@@ -381,17 +404,23 @@ class FootTerrainBlock(ResidualBlock):
     def _column(self, q):
         return self._row(q)[:, None]
 
+    def _row_jacobian(self, q):
+        """The row values (n,) and their Jacobians (n, 1, 3) at foot positions q: by complex step
+        here, in closed form where a block knows its function's gradient."""
+        r, (j,) = complex_step(self._column, (q,), (0,))
+        return r[:, 0], j
+
     def evaluate(self, values, jacobians):
         if self.samples is not None and not self._retime(values[1]):
             return invalid_timing(self, jacobians)
         q = self.matrix @ _nodes(values[0])
         if not jacobians:
             return self._row(q), None
-        r, (j,) = complex_step(self._column, (q,), (0,))
+        r, j = self._row_jacobian(q)
         out = [self.jacobian([j])]
         if self.samples is not None:
             out.append(phase_jacobian([(j, self.samples, values[0])], self.size, self.samples.timing.size))
-        return r[:, 0], out
+        return r, out
 
 
 class TerrainHeightBlock(FootTerrainBlock):
@@ -401,9 +430,15 @@ class TerrainHeightBlock(FootTerrainBlock):
     def __init__(self, terrain: TerrainModel, matrix: sp.csr_matrix, envelope: bool = False):
         super().__init__(terrain, matrix)
         self.height = terrain.envelope if envelope else terrain.height
+        self.height_gradient = terrain.envelope_gradient if envelope else terrain.height_gradient
 
     def _row(self, q):
         return q[:, 2] - self.height(q[:, 0], q[:, 1])
+
+    def _row_jacobian(self, q):
+        """z − h and (−∂h/∂x, −∂h/∂y, 1): the bilinear surface's exact gradient."""
+        h, hx, hy = self.height_gradient(q[:, 0], q[:, 1])
+        return q[:, 2] - h, np.stack([-hx, -hy, np.ones_like(hx)], axis=-1)[:, None]
 
 
 class StanceSlopeBlock(FootTerrainBlock):
@@ -412,6 +447,10 @@ class StanceSlopeBlock(FootTerrainBlock):
 
     def _row(self, q):
         return self.terrain.stance_slope(q[:, 0], q[:, 1])
+
+    def _row_jacobian(self, q):
+        value, gx, gy = self.terrain.stance_slope_gradient(q[:, 0], q[:, 1])
+        return value, np.stack([gx, gy, np.zeros_like(gx)], axis=-1)[:, None]
 
 
 FRICTION_FACES = 8

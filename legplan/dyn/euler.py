@@ -6,8 +6,9 @@ spline (Winkler et al. 2018, Sec. III): ω_B = E_B(e) ė with
     E_B = [[1, 0, −sθ], [0, cφ, sφ cθ], [0, −sφ, cφ cθ]],    ω̇_B = E_B ë + Ė_B ė,
 
 and the world angular velocity ω = R ω_B. Every function is batched over rows (n, 3) and written with
-holomorphic operations only, so `complex_step` differentiates it exactly (to round-off): the
-Jacobians of the nonlinear orientation terms come from there, the rest of each block is analytic.
+holomorphic operations only, so `complex_step` differentiates it exactly (to round-off), where a
+block still uses it; `rotation_derivatives` and `body_rate_derivatives` give ∂R/∂e and the body
+rates' Jacobians in closed form.
 """
 
 from __future__ import annotations
@@ -64,6 +65,35 @@ def body_rates(e: np.ndarray, ed: np.ndarray, edd: np.ndarray | None = None):
                    cr * pdd + sr * cp * ydd - sr * rd * pd + (cr * cp * rd - sr * sp * pd) * yd,
                    -sr * pdd + cr * cp * ydd - cr * rd * pd + (-sr * cp * rd - cr * sp * pd) * yd], axis=1)
     return w, wd
+
+
+def body_rate_derivatives(e: np.ndarray, ed: np.ndarray, edd: np.ndarray):
+    """`body_rates`' ω_B, ω̇_B (n, 3) with their Jacobians (n, 3, 3): ∂ω_B/∂e, ∂ω_B/∂ė (= E_B),
+    ∂ω̇_B/∂e, ∂ω̇_B/∂ė and ∂ω̇_B/∂ë (= E_B), differentiated entry by entry (no yaw appears: its
+    column of ∂/∂e is zero; a roll turns (ω_y, ω_z) and (ω̇_y, ω̇_z) by 90°)."""
+    cr, sr = np.cos(e[:, 0]), np.sin(e[:, 0])
+    cp, sp = np.cos(e[:, 1]), np.sin(e[:, 1])
+    rd, pd, yd = ed[:, 0], ed[:, 1], ed[:, 2]
+    w, wd = body_rates(e, ed, edd)
+    rdd, pdd, ydd = edd[:, 0], edd[:, 1], edd[:, 2]
+    n = e.shape[0]
+    E = np.zeros((n, 3, 3))  # E_B
+    E[:, 0, 0], E[:, 0, 2] = 1.0, -sp
+    E[:, 1, 1], E[:, 1, 2] = cr, sr * cp
+    E[:, 2, 1], E[:, 2, 2] = -sr, cr * cp
+    dw_de = np.zeros((n, 3, 3))
+    dw_de[:, 0, 1] = -cp * yd
+    dw_de[:, 1, 0], dw_de[:, 1, 1] = w[:, 2], -sr * sp * yd
+    dw_de[:, 2, 0], dw_de[:, 2, 1] = -w[:, 1], -cr * sp * yd
+    dwd_de = np.zeros((n, 3, 3))
+    dwd_de[:, 0, 1] = -cp * ydd + sp * pd * yd
+    dwd_de[:, 1, 0], dwd_de[:, 1, 1] = wd[:, 2], -sr * sp * ydd - (cr * sp * rd + sr * cp * pd) * yd
+    dwd_de[:, 2, 0], dwd_de[:, 2, 1] = -wd[:, 1], -cr * sp * ydd + (sr * sp * rd - cr * cp * pd) * yd
+    dwd_ded = np.zeros((n, 3, 3))
+    dwd_ded[:, 0, 1], dwd_ded[:, 0, 2] = -cp * yd, -cp * pd
+    dwd_ded[:, 1, 0], dwd_ded[:, 1, 1], dwd_ded[:, 1, 2] = dw_de[:, 1, 0], -sr * rd - sr * sp * yd, cr * cp * rd - sr * sp * pd
+    dwd_ded[:, 2, 0], dwd_ded[:, 2, 1], dwd_ded[:, 2, 2] = dw_de[:, 2, 0], -cr * rd - cr * sp * yd, -sr * cp * rd - cr * sp * pd
+    return w, wd, dw_de, E, dwd_de, dwd_ded, E
 
 
 def world_rates(e: np.ndarray, ed: np.ndarray, edd: np.ndarray | None = None):

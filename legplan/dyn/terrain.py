@@ -88,6 +88,15 @@ class TerrainModel:
         √2 cells of it (a cell within `radius` of a point is within that of each of the four cell
         centres around the point; radius 0 is the 3 × 3 neighbourhood). A sphere of that radius whose
         centre is its radius above h̄_r clears every column. The filtered grid is kept per radius."""
+        grid = self._envelope_grid(radius)
+        return lambda x, y: self._bilinear(grid, x, y)
+
+    def envelope_gradient(self, x, y):
+        """(h̄, ∂h̄/∂x, ∂h̄/∂y) of `envelope` at (x, y), real."""
+        return self._bilinear(self._envelope_grid(0.0), x, y, gradient=True)
+
+    def _envelope_grid(self, radius: float) -> np.ndarray:
+        """The maximum-filtered heightmap under `envelope_within(radius)`, kept per radius."""
         grids = self.__dict__.setdefault("_envelopes", {})
         if radius not in grids:
             reach = radius / self.resolution + np.sqrt(2.0)
@@ -95,8 +104,7 @@ class TerrainModel:
             i, j = np.abs(np.mgrid[-span:span + 1, -span:span + 1])
             footprint = np.hypot(np.maximum(i - 0.5, 0.0), np.maximum(j - 0.5, 0.0)) <= reach
             grids[radius] = filtered("maximum_filter", self.height_grid, footprint=footprint, mode="nearest")
-        grid = grids[radius]
-        return lambda x, y: self._bilinear(grid, x, y)
+        return grids[radius]
 
     def column_distance(self, reach: float):
         """The exact signed distance to the column solid of the heightmap, exact up to `reach` (m)
@@ -126,6 +134,10 @@ class TerrainModel:
     def stance_slope(self, x, y):
         """Slope of the Gaussian-smoothed heightmap at (x, y) (module docstring), real or complex."""
         return self._bilinear(self.slope_grid, x, y)
+
+    def stance_slope_gradient(self, x, y):
+        """(slope, ∂/∂x, ∂/∂y) of `stance_slope` at (x, y), real."""
+        return self._bilinear(self.slope_grid, x, y, gradient=True)
 
     def edge_distance(self, x, y):
         """Distance (m) from (x, y) to the nearest edge cell (inf on a map without edges)."""

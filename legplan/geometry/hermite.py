@@ -24,6 +24,8 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from legplan.geometry.sparse import wrapped
+
 # x(s) = Σ_k s^k (_MONOMIAL[k] · (p_a, h v_a, p_b, h v_b)): monomial coefficients of the basis
 _MONOMIAL = np.array([[1, 0, 0, 0],
                       [0, 1, 0, 0],
@@ -138,6 +140,18 @@ class NodeSpline:
         idx = np.flatnonzero(hermite)
         w = hermite_weights(frac[idx], (self.ends - self.starts)[seg[idx]], derivative)
         cols = np.stack([2 * a[idx], 2 * a[idx] + 1, 2 * b[idx], 2 * b[idx] + 1], axis=1)
+        if np.all(a[idx] < b[idx]) and max(frac.size, 2 * self.nodes) < np.iinfo(np.int32).max:
+            # every row's columns distinct and increasing: the canonical CSR at once, as scipy's
+            # COO conversion would give it (its int32 indices, rows in order), without the sort
+            count = np.where(hermite, 4, 1 if derivative == 0 else 0)
+            indptr = np.zeros(frac.size + 1, np.int32)
+            np.cumsum(count, out=indptr[1:])
+            indices, data = np.empty(indptr[-1], np.int32), np.empty(indptr[-1])
+            slots = indptr[idx][:, None] + np.arange(4)
+            indices[slots], data[slots] = cols, w
+            const = np.flatnonzero(~hermite) if derivative == 0 else np.zeros(0, int)
+            indices[indptr[const]], data[indptr[const]] = 2 * a[const], 1.0
+            return sp.csr_matrix((data, indices, indptr), shape=(frac.size, 2 * self.nodes))
         rows, vals = [np.repeat(idx, 4)], [w.reshape(-1)]
         cols = [cols.reshape(-1)]
         if derivative == 0:  # a constant segment holds its node's value; its derivatives vanish
@@ -229,4 +243,4 @@ class SampledJacobian:
         data = np.bincount(self.slot, weights=values.real, minlength=size)
         if np.iscomplexobj(values):
             data = data + 1j * np.bincount(self.slot, weights=values.imag, minlength=size)
-        return sp.csr_matrix((data, self.indices, self.indptr), shape=self.shape)
+        return wrapped(sp.csr_matrix, data, self.indices, self.indptr, self.shape)

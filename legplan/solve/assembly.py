@@ -13,6 +13,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.sparse as sp
 
+from legplan.geometry.sparse import wrapped
+
 
 class CooAssembler:
     """Sum COO triplets into a CSC matrix of fixed `shape`; re-analyse only when indices change."""
@@ -67,9 +69,7 @@ class CooAssembler:
         values are summed into their slots. A piece whose slots are consecutive (e.g. a product
         already in CSC order) is added as a slice, the others by one `np.bincount`.
         """
-        pieces = self._pieces
-        if not (pieces is not None and len(pieces[0]) == len(rows) and len(pieces[1]) == len(cols)
-                and all(a is b for a, b in zip(pieces[0], rows)) and all(a is b for a, b in zip(pieces[1], cols))):
+        if not self.holds(rows, cols):
             index = [np.concatenate(p).astype(np.int64, copy=False) if p else np.zeros(0, np.int64)
                      for p in (rows, cols)]
             if not (self._rows is not None and self._rows.size == index[0].size
@@ -94,6 +94,12 @@ class CooAssembler:
             if values[k] is not None:
                 data[start:stop] += values[k]
         return sp.csc_matrix((data, self._indices, self._indptr), shape=self.shape)
+
+    def holds(self, rows: list[np.ndarray], cols: list[np.ndarray]) -> bool:
+        """Whether the index pieces are the very arrays of the last `assemble_parts` (its plan holds)."""
+        pieces = self._pieces
+        return (pieces is not None and len(pieces[0]) == len(rows) and len(pieces[1]) == len(cols)
+                and all(a is b for a, b in zip(pieces[0], rows)) and all(a is b for a, b in zip(pieces[1], cols)))
 
     def _piece_plan(self, sizes: list[int]):
         """Per piece: a slice of the CSC data if its slots are consecutive, else bincount slots."""
@@ -144,6 +150,39 @@ class NonzeroPattern:
         self._indptr = before[matrix.indptr].astype(matrix.indptr.dtype)
         self._indices = matrix.indices[self._take]
         self.version += 1
+
+
+class NonzeroGather:
+    """`NonzeroPattern.reduced` of what `CooAssembler.assemble_parts` would assemble, taken straight
+    from the triplet pieces: while the pieces are the assembler's last ones (`CooAssembler.holds`),
+    no two triplets share an entry (the slots are a permutation of the pattern) and no entry outside
+    the kept set is nonzero, the reduced matrix's data is one gather of the concatenated values (the
+    same numbers; a −0 becomes 0, as the sum into zeros makes it), with no scatter into the whole
+    pattern. `reduced` returns None otherwise: the caller assembles and reduces, then calls `follow`."""
+
+    def __init__(self):
+        self._key = None
+
+    def follow(self, assembler: CooAssembler, pattern: NonzeroPattern) -> None:
+        """Take the gather of the assembler's current pieces and the pattern's kept entries."""
+        slot = assembler._slot
+        self._key = None
+        if slot.size != assembler._indices.size or pattern._kept is None or pattern._kept.size != slot.size:
+            return  # duplicates (summed): the assembler's scatter is needed
+        position = np.empty(slot.size, np.intp)
+        position[slot] = np.arange(slot.size)
+        self._gather = position[pattern._take]
+        self._outside = ~pattern._kept[slot]  # per triplet: not (yet) in the kept set
+        self._key = (assembler, assembler.version, pattern, pattern.version)
+
+    def reduced(self, assembler: CooAssembler, pattern: NonzeroPattern, rows, cols, values, fmt=sp.csr_matrix):
+        if self._key != (assembler, assembler.version, pattern, pattern.version) or not assembler.holds(rows, cols) \
+                or any(v is None for v in values):
+            return None
+        data = np.concatenate(values) if len(values) != 1 else np.asarray(values[0], float)
+        if np.any((data != 0.0) & self._outside):  # a new nonzero (or NaN): the pattern grows
+            return None
+        return wrapped(fmt, data[self._gather] + 0.0, pattern._indices, pattern._indptr, assembler.shape[::-1])
 
 
 def kept_indices(arrays) -> tuple:

@@ -38,6 +38,7 @@ import numpy as np
 
 import scipy.sparse as sp
 
+from legplan.geometry.sparse import wrapped
 from legplan.parameters import Parameters, param
 from legplan.solve.assembly import kept_indices, same_indices
 from legplan.solve.blocks import ResidualBlock
@@ -199,7 +200,7 @@ class _RowPicker:
                             *_picked_pattern(jac.shape, jac.indptr.dtype.str, jac.indptr.tobytes(),
                                              jac.indices.dtype.str, jac.indices.tobytes(), self.pick.tobytes()))
         _, _, _, source, indices, indptr, row = self.pattern
-        return sp.csr_matrix((jac.data[source] * factor[row], indices, indptr), shape=(self.pick.size, jac.shape[1]))
+        return wrapped(sp.csr_matrix, jac.data[source] * factor[row], indices, indptr, (self.pick.size, jac.shape[1]))
 
 
 @functools.lru_cache(maxsize=256)

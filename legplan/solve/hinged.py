@@ -57,6 +57,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
+from legplan.geometry.sparse import wrapped
 from legplan.parameters import Parameters, param
 from legplan.solve.linsolve import CholmodSolver, NotPositiveDefiniteError
 from legplan.solve.lm import MARQUARDT_FLOOR, LMResult, Status, Timings
@@ -237,7 +238,7 @@ class _HingeModel:
         self.scale = np.where(d2 > MARQUARDT_FLOOR * d2.max(initial=0.0), 1.0 / np.sqrt(np.where(d2 > 0, d2, 1.0)), 1.0)
         if held is not None:  # a zero column and a zero scale: the step leaves these variables where they are
             self.scale[held] = 0.0
-        Js = sp.csr_matrix((J.data * self.scale[J.indices], J.indices, J.indptr), shape=J.shape)
+        Js = wrapped(sp.csr_matrix, J.data * self.scale[J.indices], J.indices, J.indptr, J.shape)
         self.J, self.v, self.hinged = Js, v, hinged
 
     def step(self, solver, lam: float, iterations: int, timings: Timings) -> np.ndarray | None:
@@ -249,16 +250,16 @@ class _HingeModel:
         for _ in range(iterations):
             if factored is None or not np.array_equal(active, factored):
                 t0 = time.perf_counter()
-                rows = ~hinged | active
-                gradient = self.J.T @ np.where(rows, v, 0.0)
+                rows = np.flatnonzero(~hinged | active)
+                gradient = self._transposed_product(rows, v)
                 t1 = time.perf_counter()
                 timings.assemble += t1 - t0
                 try:
                     if factored is None:
-                        solver.set_jacobian(self.J, np.flatnonzero(rows))
+                        solver.set_jacobian(self.J, rows)
                         solver.refactor(lam)
                     else:  # the same J and λ: few rows change from pass to pass
-                        solver.refactor_rows(self.J, np.flatnonzero(rows))
+                        solver.refactor_rows(self.J, rows)
                 except NotPositiveDefiniteError:
                     timings.factorize += time.perf_counter() - t1
                     return None
@@ -284,9 +285,13 @@ class _HingeModel:
         """Geodesic acceleration a = −(JᵀJ + λI)⁻¹ Jᵀ r_vv (scaled variables) of the last step, with
         r_vv ≈ (2/h)·difference the second directional derivative of the plain and active rows
         (difference = (r(θ + h·d) − r(θ))/h − J d); reuses the step's factorization."""
-        rows = ~self.hinged | self.active
-        second = np.where(rows, 2.0 / h * difference, 0.0)
-        return -solver.solve(self.J.T @ second)
+        rows = np.flatnonzero(~self.hinged | self.active)
+        return -solver.solve(self._transposed_product(rows, 2.0 / h * difference))
+
+    def _transposed_product(self, rows: np.ndarray, x: np.ndarray) -> np.ndarray:
+        """J_Rᵀ x_R for the rows R alone (the plain and active rows, a small part of J): the same sums
+        in the same order as Jᵀ x with x zero off R, without the pass over the other rows."""
+        return self.J[rows].T @ x[rows]
 
 
 def held_at_bounds(layout, theta: np.ndarray, J, v: np.ndarray, hinged: np.ndarray) -> np.ndarray | None:

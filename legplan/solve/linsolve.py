@@ -94,6 +94,7 @@ class CholmodSolver(LinearSolver):
         self.ordering_method = ordering_method
         self._factor = None
         self._pattern: tuple | None = None
+        self._pending: tuple | None = None  # (J, rows) whose J[rows]ᵀ the next refactorisation takes
         self.analyses = 0  # how many patterns it took (one analysis each, or a copy from `ANALYSES`)
         self.updates = 0  # how many `refactor_rows` calls were rank updates
 
@@ -110,7 +111,8 @@ class CholmodSolver(LinearSolver):
         self._set(_transposed(J), transposed_jacobian=True)
         self._rows = None
         if rows is not None:
-            self._matrix, self._rows = _transposed(J[rows]), np.asarray(rows)
+            self._rows = np.asarray(rows)
+            self._pending = (J, self._rows)  # J[rows], taken when a factorization needs it
 
     def refactor_rows(self, J, rows: np.ndarray) -> None:
         """The factorisation of J_RᵀJ_R + βI for the rows R of the same J as the last `set_jacobian(J,
@@ -124,7 +126,7 @@ class CholmodSolver(LinearSolver):
         member[self._rows] -= 1
         member[rows] += 1  # 1: joins, −1: leaves
         added, removed = np.flatnonzero(member > 0), np.flatnonzero(member < 0)
-        self._matrix, self._rows = _transposed(J[rows]), rows
+        self._rows, self._pending = rows, (J, rows)  # J[rows] only if it comes to a refactorisation
         if self.mode == "simplicial" and added.size + removed.size <= UPDATE_ROWS:
             if added.size:
                 self._factor.update_inplace(_transposed(J[added]))
@@ -154,7 +156,7 @@ class CholmodSolver(LinearSolver):
                 self._factor = self._analyze(canonical, transposed_jacobian)
                 ANALYSES.add(key, self._factor.copy())
             self.analyses += 1
-        self._matrix = A
+        self._matrix, self._pending = A, None
         self._transposed_jacobian = transposed_jacobian
 
     def _analyze(self, A: sp.csc_matrix, transposed_jacobian: bool):
@@ -171,6 +173,9 @@ class CholmodSolver(LinearSolver):
 
     def refactor(self, beta):
         self._beta = beta
+        if self._pending is not None:
+            J, rows = self._pending
+            self._matrix, self._pending = _transposed(J[rows]), None
         try:
             if self._transposed_jacobian:
                 self._factor.cholesky_AAt_inplace(self._matrix, beta=beta)

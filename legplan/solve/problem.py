@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from legplan.solve.assembly import CooAssembler, NonzeroPattern, kept_indices, same_indices
+from legplan.solve.assembly import CooAssembler, NonzeroGather, NonzeroPattern, kept_indices, same_indices
 from legplan.solve.blocks import BlockDiagonal, Matrix, ResidualBlock, StructuredBlock, default_normal_terms
 from legplan.solve.variables import VariableBlock, VariableLayout
 
@@ -88,6 +88,7 @@ class Problem:
         self._jact_assembler = None
         self._hess_assembler = None
         self._nonzero = NonzeroPattern()
+        self._nonzero_gather = NonzeroGather()
 
     @property
     def layout(self) -> VariableLayout:
@@ -252,9 +253,13 @@ class Problem:
         nonzero for the first time (`nonzero_version`), so a factorization analysed on it holds."""
         layout = self.layout
         h, rows, cols, vals = self._jacobian_triplets(theta)
-        Jt = self._jact_assembler.assemble_parts(cols, rows, vals)  # Jᵀ in CSC: J in CSR
-        J = sp.csr_matrix((Jt.data, Jt.indices, Jt.indptr), shape=(h.size, layout.n))
-        return h, self._nonzero.reduced(J, self._jact_assembler.version)
+        J = self._nonzero_gather.reduced(self._jact_assembler, self._nonzero, cols, rows, vals)
+        if J is None:  # a new pattern or a new nonzero: assembled in full, then reduced
+            Jt = self._jact_assembler.assemble_parts(cols, rows, vals)  # Jᵀ in CSC: J in CSR
+            J = sp.csr_matrix((Jt.data, Jt.indices, Jt.indptr), shape=(h.size, layout.n))
+            J = self._nonzero.reduced(J, self._jact_assembler.version)
+            self._nonzero_gather.follow(self._jact_assembler, self._nonzero)
+        return h, J
 
     @property
     def nonzero_version(self) -> int:

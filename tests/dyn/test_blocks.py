@@ -261,6 +261,40 @@ def test_rotation_derivatives_match_central_differences_and_complex_step():
     assert np.moveaxis(turns, 1, 3).reshape(6, 9, 3) == pytest.approx(exact, abs=1e-14)
 
 
+def test_body_rate_and_inertial_torque_derivatives_match_central_differences_and_complex_step():
+    """`body_rate_derivatives` and `DynamicsBlock.inertial_torque_jacobians` (closed form) against
+    central differences of `body_rates` / `inertial_torque`, and against complex step (exact)."""
+    from legplan.dyn.constraints import DynamicsBlock
+    from legplan.dyn.euler import body_rate_derivatives
+
+    rng = np.random.default_rng(8)
+    e, ed, edd = rng.normal(size=(3, 7, 3)) * 1.2
+    block = DynamicsBlock.__new__(DynamicsBlock)  # the inertia alone: what the torque reads
+    block.inertia = np.array([[0.9, 0.02, -0.05], [0.02, 1.8, 0.01], [-0.05, 0.01, 2.2]])
+    stacked = lambda a, b, c: np.hstack(body_rates(a, b, c))
+    w, wd, *rates = body_rate_derivatives(e, ed, edd)
+    assert np.hstack([w, wd]) == pytest.approx(stacked(e, ed, edd), abs=1e-15)
+    torque, torque_jacobians = block.inertial_torque_jacobians(e, ed, edd)
+    assert torque == pytest.approx(block.inertial_torque(e, ed, edd), abs=1e-13)
+    # per argument: ∂(ω, ω̇)/∂x stacked as rows (ω̇ has no ë-free part), and ∂τ/∂x
+    rate_jacobians = [np.concatenate([rates[0], rates[2]], axis=1), np.concatenate([rates[1], rates[3]], axis=1),
+                      np.concatenate([np.zeros_like(rates[4]), rates[4]], axis=1)]
+    h = 1e-6
+    args = (e, ed, edd)
+    for m in range(3):
+        for k in range(3):
+            plus, minus = [a.copy() for a in args], [a.copy() for a in args]
+            plus[m][:, k] += h
+            minus[m][:, k] -= h
+            rate_fd = (stacked(*plus) - stacked(*minus)) / (2 * h)
+            torque_fd = (block.inertial_torque(*plus) - block.inertial_torque(*minus)) / (2 * h)
+            assert rate_jacobians[m][:, :, k] == pytest.approx(rate_fd, abs=1e-7)
+            assert torque_jacobians[m][:, :, k] == pytest.approx(torque_fd, abs=1e-6)
+    _, exact = complex_step(block.inertial_torque, args, (0, 1, 2))
+    for got, want in zip(torque_jacobians, exact):
+        assert got == pytest.approx(want, abs=1e-12)
+
+
 def test_complex_step_is_exact_for_a_polynomial():
     x = np.array([[1.0, 2.0, 3.0], [0.5, -1.0, 2.0]])
     value, (jac,) = complex_step(lambda a: (a ** 3)[:, :2], (x,), (0,))

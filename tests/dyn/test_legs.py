@@ -157,3 +157,54 @@ def test_a_plan_about_an_offset_com_passes_the_independent_check(robot):
     origin = dataclasses.replace(model, com_offset=np.zeros(3))
     wrong = check_trajectory(result.samples, origin, terrain, robot, node_times=result.problem.form.knots)
     assert "newton_euler_torque_nodes" in {f.split()[0] for f in wrong.failures()}
+
+
+def test_ik_workspace_gives_what_a_fresh_start_gives(robot):
+    """A `LegIKData` workspace carried over a sequence of targets (as a block's evaluations move
+    its feet): every solve returns the same joints, torques and derivatives as a solve started
+    from the workspace's joints alone, to the last bit; the workspace holds the last solve."""
+    legs = ChainLegs.of_robot(robot)
+    rng = np.random.default_rng(5)
+    n, leg = 7, 2
+    chain = legs.chains[leg]
+    nominal_feet = chain.point(chain.kinematics(legs.nominal(leg, n)), chain.foot_joint, chain.foot_offset)[0]
+    data = legs.workspace(leg, n)
+    forces = rng.standard_normal((n, 3)) * 100
+    for step, derivatives in ((0.0, True), (0.02, False), (0.0, True), (0.05, True), (1e-4, False)):
+        feet = nominal_feet + step * rng.standard_normal((n, 3))
+        start = data.q.copy()
+        fresh = legs.foot_torques(leg, feet, forces, start, derivatives=derivatives)
+        kept = legs.foot_torques(leg, feet, forces, data, derivatives=derivatives)
+        for a, b in zip(fresh, kept):
+            if a is None:
+                assert b is None
+            else:
+                np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(data.q, fresh[3])
+        x = chain.point(chain.kinematics(data.q), chain.foot_joint, chain.foot_offset)[0]
+        np.testing.assert_allclose(x, feet, atol=1e-12)
+    c_fresh = legs.sphere_centres(leg, nominal_feet, data.q.copy())
+    c_kept = legs.sphere_centres(leg, nominal_feet, data)
+    for a, b in zip(c_fresh, c_kept):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_damped_pinv_as_accurate_as_lapack_near_singular_legs():
+    """`_damped_pinv`'s written-out Cholesky inverse of A = J Jᵀ + λI: for well-conditioned J equal to
+    LAPACK's to round-off, and for nearly rank-deficient J (a stretched or folded leg, cond(A) up to
+    1e10) with a residual ‖A A⁻¹ − I‖ within the backward-stable bound c·cond(A)·ε, as LAPACK's
+    own (the cofactor formula misses it by orders of magnitude there)."""
+    from legplan.dyn.legs import IK_DAMPING, _damped_pinv, _inverse3
+
+    rng = np.random.default_rng(11)
+    for spread in (1.0, 1e-3, 1e-5):
+        jac = 0.3 * rng.standard_normal((200, 3, 3))
+        jac[:, 2] = jac[:, 0] + spread * jac[:, 2]
+        jt = np.swapaxes(jac, 1, 2)
+        a = jac @ jt + IK_DAMPING * np.eye(3)
+        residual = lambda inverse: np.abs(a @ inverse - np.eye(3)).max(axis=(1, 2))
+        lapack, ours = np.linalg.inv(a), _inverse3(a)
+        bound = 30 * np.linalg.cond(a) * np.finfo(float).eps
+        assert np.all(residual(lapack) <= bound) and np.all(residual(ours) <= bound)
+        if spread == 1.0:
+            np.testing.assert_allclose(_damped_pinv(jac), jt @ lapack, rtol=1e-8, atol=1e-12)

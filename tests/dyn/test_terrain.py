@@ -56,3 +56,30 @@ def test_envelope_within_a_radius_bounds_every_column_that_reaches_within_it(rad
         gap = np.hypot(np.maximum(np.abs(x - px) - 0.005, 0.0), np.maximum(np.abs(y - py) - 0.005, 0.0))
         assert value >= terrain.height_grid[gap <= radius].max() - 1e-12
         assert value <= terrain.height_grid[gap <= radius + 0.03].max() + 1e-12
+
+
+def test_terrain_rows_closed_form_jacobians_match_complex_step_and_differences(pallet_edge):
+    """The foot-terrain rows' closed-form Jacobians (height, envelope, stance slope: their bilinear
+    gradients) against the blocks' generic complex step and against central differences away from
+    cell lines, for feet on the flat, on the edge and off the map."""
+    import scipy.sparse as sp
+
+    from legplan.dyn.constraints import FootTerrainBlock, StanceSlopeBlock, TerrainHeightBlock
+
+    rng = np.random.default_rng(12)
+    lo, hi = pallet_edge.origin, pallet_edge.origin + pallet_edge.resolution * (np.array(pallet_edge.shape[::-1]) - 1)
+    xy = rng.uniform(lo - 0.05, hi + 0.05, size=(300, 2))
+    q = np.column_stack([xy, rng.uniform(0.0, 0.3, 300)])
+    eye = sp.identity(len(q), format="csr")
+    for block in (TerrainHeightBlock(pallet_edge, eye), TerrainHeightBlock(pallet_edge, eye, envelope=True),
+                  StanceSlopeBlock(pallet_edge, eye)):
+        value, jac = block._row_jacobian(q)
+        reference, exact = FootTerrainBlock._row_jacobian(block, q)
+        np.testing.assert_allclose(value, reference, atol=1e-12)
+        np.testing.assert_allclose(jac, exact, atol=1e-12)
+        h = 1e-7
+        central = np.stack([(block._row(q + h * e) - block._row(q - h * e)) / (2 * h) for e in np.eye(3)], axis=-1)
+        cell = (q[:, :2] - pallet_edge.origin) / pallet_edge.resolution
+        away = np.all(np.abs(cell - np.round(cell)) > 1e-4, axis=1)  # no cell line within the step
+        assert away.sum() > 200
+        np.testing.assert_allclose(jac[away, 0], central[away], atol=1e-5)

@@ -63,3 +63,34 @@ def test_sampled_jacobian_matches_dense_kron():
         assert j.has_sorted_indices and j.nnz == pattern.nnz * 6  # canonical CSR, explicit zeros kept
     complex_j = jacobian([g * (1 + 2j), g1 * (1 + 2j)])
     assert complex_j.toarray() == pytest.approx(expect * (1 + 2j))
+
+
+def test_sampling_matrix_is_scipys_canonical_csr_of_the_weights():
+    """`NodeSpline.matrix_at` (built in CSR directly) equals scipy's COO → CSR conversion of the
+    Hermite weights and constant entries, array by array (int32 indices, row pointers, values), for
+    every derivative, with samples on segment boundaries and in constant segments."""
+    from legplan.geometry.hermite import NodeSpline, Segment, hermite_weights
+
+    rng = np.random.default_rng(6)
+    spline = NodeSpline([Segment(0, 0.3, 0, 1), Segment(0.3, 0.5, 1), Segment(0.5, 0.9, 1, 2),
+                         Segment(0.9, 1.4, 2, 3), Segment(1.4, 2.0, 3)], 4)
+    t = np.sort(np.concatenate([rng.uniform(0, 2.0, 40), [0.0, 0.3, 0.5, 0.9, 2.0]]))
+    seg = spline.segment_index(t)
+    frac = np.clip((t - spline.starts[seg]) / (spline.ends - spline.starts)[seg], 0, 1)
+    for derivative in range(3):
+        m = spline.matrix_at(seg, frac, derivative)
+        rows, cols, vals = [], [], []
+        for i, (k, s) in enumerate(zip(seg, frac)):
+            a, b = spline.node_a[k], spline.node_b[k]
+            if b >= 0:
+                w = hermite_weights(np.array([s]), spline.ends[k] - spline.starts[k], derivative)[0]
+                rows += [i] * 4
+                cols += [2 * a, 2 * a + 1, 2 * b, 2 * b + 1]
+                vals += list(w)
+            elif derivative == 0:
+                rows.append(i), cols.append(2 * a), vals.append(1.0)
+        expected = sp.coo_matrix((vals, (rows, cols)), shape=(t.size, 8)).tocsr()
+        np.testing.assert_allclose(m.data, expected.data, rtol=1e-13, atol=1e-15)  # one sample at a time here
+        for name in ("indices", "indptr"):
+            np.testing.assert_array_equal(getattr(m, name), getattr(expected, name))
+        assert m.indices.dtype == expected.indices.dtype and m.indptr.dtype == expected.indptr.dtype

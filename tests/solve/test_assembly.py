@@ -90,3 +90,52 @@ def test_same_indices_recognises_a_view_of_the_same_read_only_memory():
     kept = kept_indices((frozen,))
     assert same_indices(kept, (frozen[:],))  # scipy's matrices hold views such as this one
     assert not same_indices(kept, (frozen[:5],)) and not same_indices(kept, (frozen[::2],))
+
+
+def test_nonzero_gather_gives_the_assembled_and_reduced_matrix():
+    """`NonzeroGather` against `CooAssembler.assemble_parts` + `NonzeroPattern.reduced` on pieces of
+    distinct triplets with entries zero by construction: equal arrays (data, indices, indptr) on every
+    call it answers; None (the full path then) for a new nonzero, a NaN, other pieces, duplicates."""
+    from legplan.solve.assembly import CooAssembler, NonzeroGather, NonzeroPattern
+
+    rng = np.random.default_rng(4)
+    shape = (30, 40)  # the assembler's (Jᵀ) shape
+    keys = rng.choice(shape[0] * shape[1], 300, replace=False)
+    rows, cols = [np.array(x) for x in np.array_split(keys // shape[1], 5)], \
+        [np.array(x) for x in np.array_split(keys % shape[1], 5)]
+    zero = rng.random(300) < 0.3  # zero until the growth below
+    split = lambda v: list(np.array_split(v, 5))
+    assembler, pattern, gather = CooAssembler(shape), NonzeroPattern(), NonzeroGather()
+
+    def full(values):
+        m = assembler.assemble_parts(rows, cols, split(values))
+        return pattern.reduced(sp.csr_matrix((m.data, m.indices, m.indptr), shape=shape[::-1]), assembler.version)
+
+    values = np.where(zero, 0.0, rng.standard_normal(300))
+    assert gather.reduced(assembler, pattern, rows, cols, split(values)) is None  # nothing followed yet
+    full(values)
+    gather.follow(assembler, pattern)
+    for k in range(4):
+        values = np.where(zero, 0.0, rng.standard_normal(300))
+        values[zero & (rng.random(300) < 0.5)] = -0.0
+        got = gather.reduced(assembler, pattern, rows, cols, split(values))
+        expected = full(values)
+        for a in ("data", "indices", "indptr"):
+            np.testing.assert_array_equal(getattr(got, a), getattr(expected, a))
+        assert not np.any(np.signbit(got.data) & (got.data == 0))
+    nan = np.where(zero, 0.0, 1.0)
+    nan[np.flatnonzero(zero)[0]] = np.nan
+    assert gather.reduced(assembler, pattern, rows, cols, split(nan)) is None  # NaN outside: the caller sees it
+    grown = rng.standard_normal(300)
+    assert gather.reduced(assembler, pattern, rows, cols, split(grown)) is None  # new nonzeros
+    full(grown)
+    gather.follow(assembler, pattern)
+    assert gather.reduced(assembler, pattern, rows, cols, split(grown)) is not None
+    assert gather.reduced(assembler, pattern, [r.copy() for r in rows], cols, split(grown)) is None  # other pieces
+    twice = [np.concatenate([rows[0], rows[0][:1]])] + rows[1:], [np.concatenate([cols[0], cols[0][:1]])] + cols[1:]
+    doubled = CooAssembler(shape)
+    m = doubled.assemble_parts(*twice, [np.ones(r.size) for r in twice[0]])
+    other = NonzeroPattern()
+    other.reduced(sp.csr_matrix((m.data, m.indices, m.indptr), shape=shape[::-1]), doubled.version)
+    gather.follow(doubled, other)
+    assert gather.reduced(doubled, other, *twice, [np.ones(r.size) for r in twice[0]]) is None  # summed duplicates
