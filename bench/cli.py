@@ -80,7 +80,7 @@ from pathlib import Path
 
 import numpy as np
 
-from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result
+from common import ROOT, become_subreaper, code_version, load_average, machine, reap_orphans, update_benchmarks, write_result
 
 # Issue 38: TOWR's whole-process CPU (s) on this machine's idle day, same cases (another day's figures).
 TOWR_PROCESS_CPU = {"flat_trot": 0.80, "flat_walk": 1.87, "single_walk": 2.58, "single_trot": 6.92,
@@ -200,27 +200,6 @@ def child_run(argv, env) -> tuple[float, float, subprocess.CompletedProcess]:
     reap_orphans()
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime), wall, done
-
-
-def reap_orphans(timeout: float = 10.0) -> None:
-    """Wait (up to `timeout` s) for the processes left to this child subreaper to end, and reap them."""
-    deadline = time.monotonic() + timeout
-    while True:
-        try:
-            pid, _ = os.waitpid(-1, os.WNOHANG)
-        except ChildProcessError:  # none left
-            return
-        if pid == 0:
-            if time.monotonic() > deadline:
-                return
-            time.sleep(0.01)
-
-
-def become_subreaper() -> None:
-    """Orphans of the commands run from here come back to this process (Linux `PR_SET_CHILD_SUBREAPER`)."""
-    import ctypes
-
-    ctypes.CDLL(None, use_errno=True).prctl(36, 1)  # PR_SET_CHILD_SUBREAPER
 
 
 # Set by `main` to folders of the run: the bytecode cache and legplan.cache's store (module docstring).

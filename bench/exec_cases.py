@@ -28,7 +28,7 @@ import sys
 from pathlib import Path
 
 import h5py
-from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result
+from common import ROOT, become_subreaper, code_version, load_average, machine, update_benchmarks, write_result
 from dyn import CASES
 from pallet_tasks import count, legplan_command, run_timed
 
@@ -80,6 +80,7 @@ def main() -> None:
         result = json.loads((ROOT / "bench" / "results" / "exec_cases.json").read_text())
         update_benchmarks("exec_cases", "\n".join(section(result)))
         return
+    become_subreaper()  # the --jobs workers' CPU counts (`pallet_tasks.run_timed`)
     wanted = [c for c in CASES if not args.cases or c["key"] in args.cases.split(",")]
     work = (ROOT / args.work).resolve()
     work.mkdir(parents=True, exist_ok=True)

@@ -38,7 +38,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result
+from common import ROOT, become_subreaper, code_version, load_average, machine, reap_orphans, update_benchmarks, write_result
 
 CONTACT_FORCE = 1.0  # N: a simulated foot force above this counts as a contact
 MISMATCH_SECONDS = 0.1  # a foot's contact differing from the plan's this long: the execution left the plan
@@ -52,12 +52,15 @@ def legplan_command() -> str:
 
 
 def run_timed(args: list[str], log: Path) -> dict:
-    """Run one CLI command (stderr to `log`); its exit code, wall and CPU (children's user + sys) seconds."""
+    """Run one CLI command (stderr to `log`); its exit code, wall and CPU (children's user + sys)
+    seconds, the `--jobs` workers included: the caller is a child subreaper (`become_subreaper`),
+    so the fork server and its workers, which the command does not reap, come back here."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     with open(log, "w") as err:
         code = subprocess.run(args, stdout=err, stderr=subprocess.STDOUT).returncode
     wall = time.perf_counter() - t0
+    reap_orphans()
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
     print(f"{' '.join(Path(a).name if i == 0 else a for i, a in enumerate(args))}: exit {code}, "
@@ -180,6 +183,7 @@ def main() -> None:
     parser.add_argument("--load-end", type=float, help="with --adopt: the load average when its last command ended")
     parser.add_argument("--started", help="with --adopt: when that run started (YYYY-MM-DD HH:MM UTC)")
     args = parser.parse_args()
+    become_subreaper()
     work = (ROOT / args.work).resolve()
     if args.recount:
         return recount(work, args.costs)
