@@ -47,13 +47,13 @@ from legplan.dyn.costs import CostWeights
 from legplan.dyn.euler import rotation, world_rates
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.init import heuristic
-from legplan.dyn.problem import DynParams, DynTask, DynProblem, build_problem, cost_blocks, range_excess_times
+from legplan.dyn.problem import (SAMPLE_DT, DynParams, DynProblem, DynTask, build_problem, cost_blocks,
+                                 range_excess_times)
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import PHASES
 from legplan.solve.auglag import ALParams, ALResult, evaluate_costs, solve_augmented_lagrangian
 from legplan.solve.lm import Status, Timings
 
-SAMPLE_DT = 0.01  # s, the artefact's sampling of the solution
 POLISH_OUTER = 2  # outer iterations of the costs when polishing a projected plan
 POLISH_RESERVE = 3  # LM iterations of the budget the polishing costs leave for the projection after them
 RANGE_ROUNDS = 3  # "range of motion" stages after a successful plan, at most

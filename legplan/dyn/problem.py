@@ -75,6 +75,7 @@ class DynProblem:
     """The CoM in the base frame (m): the base spline is the CoM's, `model` is `about_com`'s."""
 
 
+SAMPLE_DT = 0.01  # s: the plan's samples, written to traj.h5 and judged by the independent check
 RANGE_CHECK_DT = 0.001  # s: the grid on which `range_excess_times` looks for a foot outside its box
 
 
@@ -343,8 +344,11 @@ def _swing_above_terrain(c: BuildContext) -> list[Constraint]:
     p = c.problem
     if not c.swing_times.size:
         return []
-    swing = p.form.foot_matrix(c.leg, c.swing_times) if p.timing is None else \
-        TimedSamples(p.timing, "motion", c.leg, c.swing_times, moving=True)  # they move with their swing
+    if p.timing is None:  # fixed phases: also at the samples the plan is written and checked at
+        times = np.union1d(c.swing_times, _window(_grid_times(c.foot, SAMPLE_DT), c.until))
+        swing = p.form.foot_matrix(c.leg, times)
+    else:
+        swing = TimedSamples(p.timing, "motion", c.leg, c.swing_times, moving=True)  # they move with their swing
     return [Constraint(TerrainHeightBlock(p.terrain, swing, envelope=True), c.params.swing_clearance, np.inf,
                        name="swing_above_terrain", scale=1.0 / LENGTH)]
 
@@ -461,6 +465,19 @@ def _swing_height_cost(form, terrain, model, w: CostWeights, timing) -> list[Cos
     if not (w.swing_height > 0 and form.footsteps):
         return []
     return [CostTerm("swing_height", swing_height(form), w.swing_height)]
+
+
+def _grid_times(foot, dt: float) -> np.ndarray:
+    """The times k·dt of the plan's sampling (`planner.sample_solution`, the samples the independent
+    check judges) strictly inside each swing: a foot crossing an edge between the swing's own
+    samples is held above the terrain at the times it is checked at too."""
+    out = []
+    for p in foot.phases:
+        if not p.stance:
+            first = int(np.floor(p.t0 / dt + 1e-9)) + 1
+            last = int(np.ceil((p.t0 + p.duration) / dt - 1e-9)) - 1
+            out.append(np.arange(first, last + 1) * dt)
+    return np.concatenate(out) if out else np.zeros(0)
 
 
 def _swing_times(foot, dt: float) -> np.ndarray:
