@@ -3,9 +3,10 @@
 Phase-based parametrization of Winkler et al. (2018), as summarized in the TOWR-costs paper:
 
 * base linear position and Euler angles: cubic Hermite node splines, the duration split into equal
-  polynomials of at most ``dt`` (TOWR's), or with `aligned` every whole-body phase of the gait so
-  (`phase_knots`); a gait with `unloaded_phases` (a trot's support pairs, whose summed force rises
-  from zero and falls back to it) gets phase-aligned knots and at least `unloaded_polynomials` equal
+  polynomials of at most ``dt`` (TOWR's), or with `aligned`, or for a gait whose feet make or break
+  contact in pairs (`pair_switches`), every whole-body phase of the gait so (`phase_knots`); a gait
+  with `unloaded_phases` (a trot's support pairs, whose summed force rises from zero and falls back
+  to it) gets phase-aligned knots and at least `unloaded_polynomials` equal
   polynomials in each of those phases: the base acceleration, linear on a polynomial, then follows
   the summed force between the knots, where the dynamics are sampled (the single-rigid-body
   dynamics of Winkler et al. 2018, eq. (1), on the TOWR-costs paper's collocation, Sec. III-A, with
@@ -79,6 +80,7 @@ class Formulation:
             if unloaded_polynomials is not None and unloaded_phases(gait).any():
                 knots = phase_knots(gait, dt, unloaded_polynomials, unloaded_dt)
             else:
+                aligned = aligned or (unloaded_polynomials is not None and bool(pair_switches(gait).any()))
                 knots = phase_knots(gait, dt) if aligned else np.linspace(0.0, self.duration, count + 1)
         self.knots = np.asarray(knots, float)
         count = self.knots.size - 1
@@ -225,6 +227,20 @@ def dense_knots(gait: Gait, dt: float, unloaded_polynomials: int, unloaded_dt: f
         spacing = min(spacing, unloaded_dt)
     count = max(1, int(np.ceil(gait.duration / spacing - 1e-9)))
     return np.linspace(0.0, gait.duration, count + 1)
+
+
+def pair_switches(gait: Gait) -> np.ndarray:
+    """Per interior phase boundary: whether two or more feet make or break contact at it together (a
+    trot's diagonal pairs, which a slow trot hands over through four-leg support, `gait.make_gait`'s
+    `line_support`). There the summed contact force's slope jumps by two feet's free rates at once
+    (each foot's force leaves and reaches zero at a free rate, module docstring), which the linear
+    acceleration of a base polynomial spanning the boundary cannot follow while the Newton–Euler rows
+    hold exactly at its knots (Winkler et al. 2018, eq. (1)): such a gait gets knots at every phase
+    boundary (`phase_knots`), as a gait with `unloaded_phases` does (both only in the planner's
+    formulation: `unloaded_polynomials` None keeps TOWR's even knots). A walk changes one foot at a
+    time and keeps even knots."""
+    stance = np.asarray(gait.stance, bool)
+    return (stance[1:] != stance[:-1]).sum(axis=1) >= 2
 
 
 def unloaded_phases(gait: Gait) -> np.ndarray:

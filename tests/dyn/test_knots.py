@@ -114,3 +114,21 @@ def test_heuristic_base_hops_with_its_forces(anymal, flat):
     walk = build_problem(DynTask((0.0, 0.0, 0.0), (1.0, 0.0, 0.0), "walk", 4, 3.5), anymal, flat, DynParams(), heuristic)
     lin = next(v.value for v in walk.variables if v.name == "base_lin").reshape(-1, 2, 3)
     np.testing.assert_allclose(lin[:, 0, 2], lin[0, 0, 2]) and np.testing.assert_allclose(lin[:, 1, 2], 0.0)
+
+
+def test_a_slow_trots_pairs_hand_over_at_knots_and_a_walk_keeps_even_knots():
+    """A trot cut to `line_support` hands its diagonal pairs over through four-leg support: no phase is
+    unloaded, yet two feet make or break contact at every boundary (`pair_switches`), so every
+    boundary is a knot; a walk changes one foot at a time and keeps TOWR's even knots."""
+    from legplan.dyn.formulation import pair_switches
+
+    slow = make_gait("trot", 4, 3.5, line_support=0.343)
+    assert (slow.stance.sum(axis=1) == 4).sum() > 2 and not unloaded_phases(slow).any()
+    assert pair_switches(slow).all()
+    knots = Formulation(slow, 0.1, unloaded_polynomials=8).knots
+    bounds = np.concatenate([[0.0], np.cumsum(slow.durations)])
+    assert np.abs(knots[:, None] - bounds[None]).min(axis=0).max() < 1e-12
+    assert np.diff(knots).max() <= 0.1 + 1e-12
+    walk = make_gait("walk", 4, 5.5, line_support=0.343)
+    assert not pair_switches(walk).any()
+    assert Formulation(walk, 0.1, unloaded_polynomials=8).knots == pytest.approx(np.linspace(0.0, 5.5, 56))
