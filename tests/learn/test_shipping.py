@@ -103,18 +103,28 @@ def test_dyn_plan_refuses_a_task_outside_the_shipped_space_before_writing(traine
     assert not out.exists()
 
 
-def test_the_shipped_single_pallet_walk_initializer_plans_a_held_out_task_by_name(tmp_path):
-    """`dyn plan --init single_pallet_walk` from a fresh checkout: the shipped network (held-out results
-    of another seed in its provenance) plans a held-out task of its space, and the check passes."""
-    (record,) = [r for r in shipped_records() if r["name"] == "single_pallet_walk"]
+SHIPPED_CASES = {
+    # space: map, gait, strides, duration, a held-out task's start (tasks of seed 1 by `learn dataset`)
+    "single_pallet_walk": ("single_pallet", "walk", "4", "5.5", ("-0.672", "-0.136", "0.052")),
+    "flat_trot": ("flat", "trot", "4", "3.5", ("-0.455", "-0.136", "0.052")),
+}
+
+
+@pytest.mark.parametrize("space", sorted(SHIPPED_CASES))
+def test_a_shipped_initializer_plans_a_held_out_task_by_name(space, tmp_path):
+    """`dyn plan --init SPACE` from a fresh checkout: the shipped network (held-out results of another
+    seed in its provenance) plans a held-out task of its space, and the check passes."""
+    map_name, gait, strides, duration, start = SHIPPED_CASES[space]
+    (record,) = [r for r in shipped_records() if r["name"] == space]
     assert record["held_out"]["tasks"] == 100 and record["held_out"]["seed"] != record["trained"]["seed"]
-    map_path = tmp_path / "single_pallet.h5"
-    built = CliRunner().invoke(cli, ["map", "build", "single_pallet", "-o", str(map_path), "-q"])
+    map_path = tmp_path / f"{map_name}.h5"
+    built = CliRunner().invoke(cli, ["map", "build", map_name, "-o", str(map_path), "-q"])
     assert built.exit_code == 0, built.output
     out = tmp_path / "traj.h5"
-    result = CliRunner().invoke(cli, ["dyn", "plan", str(map_path), "--gait", "walk", "--strides", "4", "--duration",
-                                      "5.5", "--costs", "paper", "--start", "-0.672", "-0.136", "0.052",
-                                      "--goal", "0.6", "0", "0", "--init", "single_pallet_walk", "-o", str(out)])
+    goal = ("0.6", "0", "0") if space == "single_pallet_walk" else ("0", "0", "0")
+    result = CliRunner().invoke(cli, ["dyn", "plan", str(map_path), "--gait", gait, "--strides", strides, "--duration",
+                                      duration, "--costs", "paper", "--start", *start, "--goal", *goal,
+                                      "--init", space, "-o", str(out)])
     assert result.exit_code == 0, result.output
     assert "1/1 tasks planned" in result.output and "check passed" in result.output
     iterations = int(result.output.split(" iterations,")[0].rsplit(" ", 1)[-1])
