@@ -23,7 +23,8 @@ With `--tasks-seed S` the held-out tasks are drawn from the space by the library
 so a shipped initializer needs no `bench/learn.py` run.
 
 Items run through the batch layer (`--jobs` worker processes). Writes bench/results/learn_sim.json
-and the learn_sim section of BENCHMARKS.md.
+and the learn_sim section of BENCHMARKS.md (another space than the single pallet walk:
+learn_sim_<space name>, its own JSON and section).
 """
 
 from __future__ import annotations
@@ -147,8 +148,9 @@ def main() -> None:
               "load_average_start": started, "load_average_end": load_average(), "space": args.space,
               "run": str(run_dir), "tasks": len(tasks), "task_source": source, "jobs": args.jobs, "wall_seconds": time.perf_counter() - t0,
               "rows": summarize(records, rows)}
-    write_result("learn_sim", result)
-    update_benchmarks("learn_sim", "\n".join(section(result)))
+    name = "learn_sim" if Path(args.space).stem == "single_pallet_walk" else f"learn_sim_{Path(args.space).stem}"
+    write_result(name, result)
+    update_benchmarks(name, "\n".join(section(result)))
     print("\n".join(section(result)))
 
 
