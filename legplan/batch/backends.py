@@ -14,6 +14,7 @@ import importlib
 import logging
 import os
 import signal
+import threading
 import uuid
 from collections import Counter, deque
 from collections.abc import Iterator, Sequence
@@ -101,27 +102,68 @@ def _worker_context(modules: Sequence[str]):
     return context, None
 
 
-_prestarted: dict[int, ProcessPoolExecutor] = {}
+@dataclass
+class _Prestarted:
+    """A pool whose workers a helper thread is starting (`prestart`)."""
+
+    pool: ProcessPoolExecutor
+    jobs: int
+    thread: threading.Thread | None = None
+    error: BaseException | None = None
+
+    def start(self) -> None:
+        self.thread = threading.Thread(target=self._start_workers, name="legplan-prestart", daemon=True)
+        self.thread.start()
+
+    def _start_workers(self) -> None:
+        try:
+            for _ in range(self.jobs):
+                self.pool.submit(_started)  # a pool starts its processes as items arrive
+        except BaseException as exc:  # noqa: BLE001  (reported by the pool that replaces this one)
+            self.error = exc
+
+    def take(self) -> ProcessPoolExecutor | None:
+        """The pool once every worker has been started; None when starting them failed (the batch's
+        own pool then meets, and reports, the same failure)."""
+        self.thread.join()
+        if self.error is None:
+            return self.pool
+        log.debug("prestarted workers failed: %r", self.error)
+        _stop(self.pool)
+        return None
+
+
+_prestarted: dict[int, _Prestarted] = {}
 
 
 def prestart(jobs: int, scheduler: str | None, modules: Sequence[str]) -> None:
     """Start the `jobs` worker processes of `--jobs N` (N > 1, no scheduler) now and have each import
     `modules`: a command calls this before it reads its inputs, so the workers boot (interpreter,
     imports) while it reads; the next `ProcessPool` of as many workers takes them over. Unused
-    workers are stopped when the process exits."""
+    workers are stopped when the process exits.
+
+    It returns at once: the fork server is spawned from this thread (it dies with this thread,
+    `_worker_context`), and the workers are asked for from a helper thread, since starting a worker
+    waits until the server has imported `modules`."""
     if jobs < 2 or scheduler is not None or jobs in _prestarted:
         return
-    pool = _new_pool(jobs, modules)
-    for _ in range(jobs):
-        pool.submit(_started)  # a pool starts its processes as items arrive
-    _prestarted[jobs] = pool
+    entry = _Prestarted(_new_pool(jobs, modules), jobs)
+    entry.start()
+    _prestarted[jobs] = entry
+
+
+def _take_prestarted(jobs: int) -> ProcessPoolExecutor | None:
+    entry = _prestarted.pop(jobs, None)
+    return None if entry is None else entry.take()
 
 
 @atexit.register
 def _stop_prestarted() -> None:
     while _prestarted:
-        _, pool = _prestarted.popitem()
-        _stop(pool)
+        _, entry = _prestarted.popitem()
+        pool = entry.take()
+        if pool is not None:
+            _stop(pool)
 
 
 def _stop(pool: ProcessPoolExecutor) -> None:
@@ -165,7 +207,7 @@ class ProcessPool:
         from concurrent.futures.process import BrokenProcessPool
 
         workers = min(limit, self.jobs)
-        pool = _prestarted.pop(workers, None) or _new_pool(workers)
+        pool = _take_prestarted(workers) or _new_pool(workers)
         running: dict = {}
         try:
             while source or running:

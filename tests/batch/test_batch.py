@@ -62,12 +62,44 @@ def test_prestarted_workers_are_taken_over_by_the_pool(tmp_path):
     (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
     reference = run(tmp_path / "a")
     prestart(2, None, ("toytasks",))
-    pool = backends._prestarted[2]
+    pool = backends._prestarted[2].pool
     records = run(tmp_path / "b", backend=Backend(jobs=2))
     assert_same_records(reference, records)
     assert 2 not in backends._prestarted and pool._shutdown_thread
     prestart(1, None, ("toytasks",)), prestart(2, "local", ("toytasks",))
     assert not backends._prestarted  # in-process and dask batches start no pool
+
+
+PRESTART_SCRIPT = """
+import os, sys
+from pathlib import Path
+from legplan.batch import Backend, Task, backends, prestart, run_batch
+from toytasks import Context, failed, square
+gate, out = Path(os.environ["LEGPLAN_TEST_GATE"]), Path(sys.argv[1])
+prestart(2, None, ("gatedimport",))
+waiting = backends._prestarted[2].thread.is_alive()  # the server is still importing: the gate is shut
+gate.write_text("open")
+task = Task(run=square, failed=failed, setup=Context, args=(str(out.parent / "calls.log"),))
+with run_batch(task, [0, 1, 2], output=out, identity={"stage": "toy"}, backend=Backend(jobs=2)) as records:
+    print(waiting, [r["value"] for r in records])
+"""
+
+
+def test_prestart_returns_while_the_fork_server_is_still_importing(tmp_path):
+    """`prestart` does not wait for the fork server's imports (the command reads its inputs
+    meanwhile); its workers then run the batch. A fresh process, so that its fork server is new."""
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    here = Path(__file__).parent
+    env = {**os.environ, "LEGPLAN_TEST_GATE": str(tmp_path / "gate"),
+           "PYTHONPATH": os.pathsep.join([str(here), str(here.parents[1]), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-c", PRESTART_SCRIPT, str(tmp_path / "out.h5")], env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["True", "[0.0,", "1.0,", "4.0]"]
 
 
 def test_pool_workers_are_forked_by_one_server_started_by_the_command(tmp_path):
