@@ -349,7 +349,9 @@ def swings_comparison(trees: dict, map_path: Path, steps_path: Path, count: int)
 def swings_markdown(result: dict) -> list[str]:
     sw = result["swings"]
     loads = [r["load"] for rs in sw["runs"].values() for r in rs]
-    lines = ["", f"### Step planning, whole swings: this tree against {result['before']} (same run)", "",
+    earlier = result.get("swings_from")
+    run = f"run of {earlier['date']}, code {earlier['code']}, not repeated here" if earlier else "same run"
+    lines = ["", f"### Step planning, whole swings: this tree against {sw.get('before', result['before'])} ({run})", "",
              f"{len(sw['swings'])} whole swings of the gap-crossing scenario (scarab2, every k-th of the sequence's "
              f"swings: {', '.join(map(str, sw['swings']))}), each planned by one long-lived process per tree "
              "(`plan_step`, `legplan step plan`'s planner call), item by item in alternation; CPU of the planning "
@@ -539,6 +541,14 @@ def main(argv=None) -> int:
             step_map, step_sequence = scenario(work, "scarab2", (-0.6, 0.0, 0.0), (0.6, 0.0, 0.0))
         if args.swings and args.before is not None:
             result["swings"] = swings_comparison(trees, step_map, step_sequence, args.swings)
+            result["swings"]["before"] = str(args.before)
+        else:  # the last run's whole-swing comparison stays in the section, marked as that run's
+            previous = ROOT / "bench" / "results" / "cli.json"
+            earlier = json.loads(previous.read_text()) if previous.exists() else {}
+            if earlier.get("swings"):
+                result["swings"] = {"before": earlier.get("before"), **earlier["swings"]}
+                result["swings_from"] = earlier.get("swings_from") or {"date": earlier.get("date"),
+                                                                       "code": earlier.get("code")}
         if not args.skip_jobs:
             result["jobs"] = jobs_comparison(work, args.jobs_steps, max(1, args.jobs_repeats), step_map,
                                              step_sequence, trees)
