@@ -161,8 +161,11 @@ def _share_task(task: Task | None) -> None:
             except Exception:  # noqa: BLE001  (the pool itself reports an unpicklable task)
                 data = b""
         partial = path.with_name(path.name + ".part")
-        partial.write_bytes(data)
-        os.replace(partial, path)  # the server sees the whole file or none
+        try:
+            partial.write_bytes(data)
+            os.replace(partial, path)  # the server sees the whole file or none
+        except OSError:  # the server also goes on, without a task, when the folder is gone
+            shutil.rmtree(path.parent, ignore_errors=True)
 
 
 def prestart(jobs: int, scheduler: str | None, modules: Sequence[str]) -> None:
@@ -178,9 +181,12 @@ def prestart(jobs: int, scheduler: str | None, modules: Sequence[str]) -> None:
         return
     import tempfile
 
-    warm = Path(tempfile.mkdtemp(prefix="legplan-warm-")) / "task"
-    _warm_files.append(warm)
-    entry = _Prestarted(_new_pool(jobs, modules, str(warm)), jobs, warm=warm)
+    try:
+        warm = Path(tempfile.mkdtemp(prefix="legplan-warm-")) / "task"
+        _warm_files.append(warm)
+    except OSError:  # no temporary folder: the workers build their own contexts
+        warm = None
+    entry = _Prestarted(_new_pool(jobs, modules, None if warm is None else str(warm)), jobs, warm=warm)
     entry.start()
     _prestarted[jobs] = entry
 

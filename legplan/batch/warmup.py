@@ -1,12 +1,13 @@
 """The last import of a prestarted `--jobs N` fork server: the batch's task context, built once.
 
 `backends.prestart` names a file in `$LEGPLAN_WARM_TASK` while it starts the server; the command
-writes the pickled `Task` there once it runs its batch (or an empty file when it runs none) and this
-import waits for it, so the server has imported every module of its preload list meanwhile, while
-the command read its inputs. The server then builds the task's context (robot, terrain, validator,
-...) once (`task.build_shared`), and every worker it forks afterwards starts with it instead of
-building its own. A task that cannot be unpickled or set up here leaves the workers to build (and
-report) it themselves.
+writes the pickled `Task` there once it runs its batch (an empty file when it runs none; it removes
+the file's folder when it cannot write it) and this import waits for it, so the server has imported
+every module of its preload list meanwhile, while the command read its inputs. The server then
+builds the task's context (robot, terrain, validator, ...) once (`task.build_shared`), and every
+worker it forks afterwards starts with it instead of building its own. A task that cannot be
+unpickled or set up here, or that never came, leaves the workers to build (and report) it
+themselves.
 """
 
 import logging
@@ -20,10 +21,15 @@ POLL_SECONDS = 0.005
 
 
 def _wait_and_build(path: str) -> None:
-    while not os.path.exists(path):  # the server dies with the command, so this wait ends
+    # the server dies with the command, so this wait ends; a command that cannot write the file
+    # removes its folder instead
+    while not os.path.exists(path) and os.path.isdir(os.path.dirname(path)):
         time.sleep(POLL_SECONDS)
-    with open(path, "rb") as stream:
-        data = stream.read()
+    try:
+        with open(path, "rb") as stream:
+            data = stream.read()
+    except OSError:
+        return
     if data:
         try:
             build_shared(pickle.loads(data))

@@ -143,6 +143,18 @@ def test_prestarted_server_builds_the_task_context_once_for_its_workers(tmp_path
     assert len((tmp_path / "other.log").read_text().split()) == len({pid for _, pid, _ in other})
 
 
+def test_a_task_file_that_cannot_be_written_leaves_the_workers_to_build_their_contexts(tmp_path):
+    """When the command cannot write the task for its fork server, the server goes on without it and
+    each worker builds the context itself (the batch neither hangs nor fails)."""
+    script = "from pathlib import Path\n" \
+             "def refuse(self, data):\n    raise OSError(28, 'No space left on device')\n" \
+             "Path.write_bytes = refuse\n" + SHARED_SCRIPT
+    lines = run_script(script, tmp_path / "setup.log", tmp_path / "out.h5")
+    rows = [tuple(map(int, entry.split(","))) for entry in lines[0].split()]
+    assert [built == pid for built, pid, _ in rows] == [True] * 6  # each built in the worker that ran it
+    assert len((tmp_path / "setup.log").read_text().split()) == len({pid for _, pid, _ in rows})
+
+
 def test_a_prestarted_server_that_never_gets_a_task_lets_the_command_end(tmp_path):
     """A command that prestarts workers and then stops before its batch (bad input) ends at once:
     the fork server, still waiting for the task, is told there is none."""
