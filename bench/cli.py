@@ -39,7 +39,8 @@ millisecond steps) and whole swings (bench/step_plan.py's `merge_swings`: every 
 the ≥ 0.2 s items of the target). Wall time and process CPU of each, --jobs 1 and --jobs 2 in
 alternation, median of --jobs-repeats runs; the speed-up is the ratio of the median wall times.
 On a machine whose two cores are busy with other work no pool can approach 2×: the load average
-is recorded with it. With --before, that tree's commands run the same comparison, interleaved with
+is recorded with it. Also the wall time until `prestart` (`PRESTART`) returns to the command: the
+part of the pool's start the command waits for before it can read its inputs. With --before, that tree's commands run the same comparison, interleaved with
 this tree's runs (its --jobs 2 is its own batch layer's).
 
 Whole swings, this tree against --before: with --before, --swings N whole swings of that scenario (every
@@ -173,6 +174,18 @@ for line in sys.stdin:
                       "iterations": [int(d.iterations) for d in plan.degrees], "norm": float(plan.norm),
                       "control_points": np.asarray(plan.control_points).tolist()}), flush=True)
 """
+# Wall seconds until `prestart` (what `step plan --jobs 2` calls before it reads its inputs) returns
+# control to the command, with step plan's preload list; the process then ends as the command does.
+PRESTART = r"""
+import atexit, os, sys, time
+from legplan.batch import prestart
+start = time.perf_counter()
+prestart(2, None, ("legplan.stepplan.batch", "legplan.robots.model", "legplan.validate.checks", "scipy.linalg",
+                   "scipy.spatial.transform"))
+print(time.perf_counter() - start, flush=True)
+atexit._run_exitfuncs()
+os._exit(0)
+"""
 # Imports only the libraries a `dyn plan` cannot do without, as legplan imports them (its package init
 # first: it keeps scipy.sparse from importing numpy's unused submodules), and ends as the console script
 # does (atexit handlers, no module teardown) — the start-up floor.
@@ -262,6 +275,15 @@ def jobs_comparison(work: Path, step_range: str, repeats: int, map_path=None, st
     checks = Validator(load_robot(swings.robot), load_map(map_path)).check(swings.q, swings.stance, swings.footholds)
     write_steps(swings_path, swings, checks)
     out = {"steps": step_range, "variants": {}, "others": {side: {} for side in trees if side != "this tree"}}
+    prestart = {side: [] for side in trees}  # the wall time until `prestart` returns (module docstring)
+    for i in range(max(3, repeats)):
+        for side in (list(trees) if i % 2 == 0 else list(trees)[::-1]):
+            _, _, done = child_run([sys.executable, "-c", PRESTART], environment(trees[side]))
+            prestart[side].append(float(done.stdout.split()[0]) if done.returncode == 0 and done.stdout.split()
+                                  else float("nan"))
+    out["prestart_wall"] = {side: statistics.median(v) for side, v in prestart.items()}
+    print("prestart returns after: " + "; ".join(f"{side} {v:.3f} s" for side, v in out["prestart_wall"].items()),
+          flush=True)
     for variant, path in (("as generated", steps_path), ("whole swings", swings_path)):
         runs = {(side, jobs): [] for side in trees for jobs in (1, 2)}
         for i in range(repeats):
@@ -327,7 +349,9 @@ def swings_comparison(trees: dict, map_path: Path, steps_path: Path, count: int)
 def swings_markdown(result: dict) -> list[str]:
     sw = result["swings"]
     loads = [r["load"] for rs in sw["runs"].values() for r in rs]
-    lines = ["", f"### Step planning, whole swings: this tree against {result['before']} (same run)", "",
+    earlier = result.get("swings_from")
+    run = f"run of {earlier['date']}, code {earlier['code']}, not repeated here" if earlier else "same run"
+    lines = ["", f"### Step planning, whole swings: this tree against {sw.get('before', result['before'])} ({run})", "",
              f"{len(sw['swings'])} whole swings of the gap-crossing scenario (scarab2, every k-th of the sequence's "
              f"swings: {', '.join(map(str, sw['swings']))}), each planned by one long-lived process per tree "
              "(`plan_step`, `legplan step plan`'s planner call), item by item in alternation; CPU of the planning "
@@ -360,6 +384,11 @@ def jobs_markdown(result: dict) -> list[str]:
              "| variant | code | median item [s] (--jobs 1, wall) | --jobs 1 wall [s] | --jobs 1 CPU [s] | --jobs 2 wall [s] | "
              "--jobs 2 CPU [s] | speed-up (wall) | load |",
              "|---|---|---|---|---|---|---|---|---|"]
+    if "prestart_wall" in jobs:
+        lines[5:5] = ["Before the items: `prestart` (called by `step plan --jobs 2` before it reads its inputs, step "
+                      "plan's preload list), wall time until it returns to the command, median of "
+                      f"{max(3, len(next(iter(jobs['variants'].values()))['1']['runs']))} runs: "
+                      + "; ".join(f"{side} {value:.3f} s" for side, value in jobs["prestart_wall"].items()) + ".", ""]
     for variant in jobs["variants"]:
         for side, variants in sides.items():
             e = variants[variant]
@@ -512,6 +541,14 @@ def main(argv=None) -> int:
             step_map, step_sequence = scenario(work, "scarab2", (-0.6, 0.0, 0.0), (0.6, 0.0, 0.0))
         if args.swings and args.before is not None:
             result["swings"] = swings_comparison(trees, step_map, step_sequence, args.swings)
+            result["swings"]["before"] = str(args.before)
+        else:  # the last run's whole-swing comparison stays in the section, marked as that run's
+            previous = ROOT / "bench" / "results" / "cli.json"
+            earlier = json.loads(previous.read_text()) if previous.exists() else {}
+            if earlier.get("swings"):
+                result["swings"] = {"before": earlier.get("before"), **earlier["swings"]}
+                result["swings_from"] = earlier.get("swings_from") or {"date": earlier.get("date"),
+                                                                       "code": earlier.get("code")}
         if not args.skip_jobs:
             result["jobs"] = jobs_comparison(work, args.jobs_steps, max(1, args.jobs_repeats), step_map,
                                              step_sequence, trees)

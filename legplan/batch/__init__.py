@@ -26,8 +26,10 @@ Contract of the task (`Task`):
 * Same items in the same order, same records in the same order, whatever the backend or `--jobs`
   (records are ordered by item position, never by completion); only clock values may differ.
 
-A command with `--jobs N` calls `prestart(jobs, scheduler, modules)` before it reads its inputs: the
-pool's worker processes boot and import `modules` meanwhile, and `run_batch` takes them over.
+A command with `--jobs N` calls `prestart(jobs, scheduler, modules)` before it reads its inputs and
+goes on at once: the fork server boots and imports `modules` meanwhile, then waits for the batch's
+`Task`, which `run_batch` hands it (`legplan.batch.warmup`); it builds the task's context once and
+forks the workers with it, and `run_batch` takes them over.
 
 Backends (`Backend(jobs, scheduler)`, the CLI's `--jobs`, `--scheduler`): `jobs` 1 in-process;
 `jobs` N a pool of N processes (forked by one fork server that imported the libraries once); `scheduler="local"` a dask LocalCluster of `jobs` one-thread

@@ -13,14 +13,18 @@ import atexit
 import importlib
 import logging
 import os
+import pickle
+import shutil
 import signal
+import threading
 import uuid
 from collections import Counter, deque
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import TYPE_CHECKING
 
-from legplan.batch.task import THREAD_VARIABLES, Task, one_thread_environment
+from legplan.batch.task import THREAD_VARIABLES, WARM_ENV, Task, one_thread_environment
 from legplan.errors import LegplanError
 from legplan.interrupts import PARENT_ENV, die_with_parent
 
@@ -60,15 +64,15 @@ def _started() -> None:
     """The no-op item that makes a pool spawn a worker process."""
 
 
-def _new_pool(jobs: int, modules: Sequence[str] = ()) -> ProcessPoolExecutor:
+def _new_pool(jobs: int, modules: Sequence[str] = (), warm: str | None = None) -> ProcessPoolExecutor:
     from concurrent.futures import ProcessPoolExecutor
 
-    context, parent = _worker_context(modules)
+    context, parent = _worker_context(modules, warm)
     return ProcessPoolExecutor(jobs, mp_context=context, initializer=_init_pool_worker,
                                initargs=(parent, tuple(modules)))
 
 
-def _worker_context(modules: Sequence[str]):
+def _worker_context(modules: Sequence[str], warm: str | None = None):
     """The start method of pool workers and the parent they check (`_init_pool_worker`).
 
     Where the platform has one, a fork server: one process started (spawned, so nothing of this
@@ -76,8 +80,9 @@ def _worker_context(modules: Sequence[str]):
     `modules` once, then forks every worker of every pool of this command. A worker is then ready
     as soon as it is forked, instead of each booting an interpreter and importing the libraries
     itself. The server dies with the command (`legplan.batch.serverguard`; call this from the thread
-    that runs the batch, as `run_batch` and `prestart` do), and its workers with it. Elsewhere each
-    worker is spawned."""
+    that runs the batch, as `run_batch` and `prestart` do), and its workers with it. With `warm` (a
+    file the command will write, `prestart`), a server started now also builds the batch's task
+    context before it forks any worker (`legplan.batch.warmup`). Elsewhere each worker is spawned."""
     import multiprocessing  # a pool only: `--jobs 1` starts without it (start-up time)
 
     if "forkserver" not in multiprocessing.get_all_start_methods():
@@ -86,10 +91,14 @@ def _worker_context(modules: Sequence[str]):
 
     context = multiprocessing.get_context("forkserver")
     # read when the server starts; the guard first: the server dies with this process
-    context.set_forkserver_preload(["legplan.batch.serverguard", "legplan.batch.backends", *modules])
-    saved = {name: os.environ.get(name) for name in (*THREAD_VARIABLES, PARENT_ENV)}
+    context.set_forkserver_preload(["legplan.batch.serverguard", "legplan.batch.backends", *modules,
+                                    *(["legplan.batch.warmup"] if warm else [])])
+    saved = {name: os.environ.get(name) for name in (*THREAD_VARIABLES, PARENT_ENV, WARM_ENV)}
     one_thread_environment()  # the server's environment, before it loads numpy's BLAS
     os.environ[PARENT_ENV] = str(os.getpid())
+    os.environ.pop(WARM_ENV, None)
+    if warm:
+        os.environ[WARM_ENV] = warm
     try:
         forkserver.ensure_running()
     finally:
@@ -101,27 +110,100 @@ def _worker_context(modules: Sequence[str]):
     return context, None
 
 
-_prestarted: dict[int, ProcessPoolExecutor] = {}
+@dataclass
+class _Prestarted:
+    """A pool whose workers a helper thread is starting (`prestart`)."""
+
+    pool: ProcessPoolExecutor
+    jobs: int
+    warm: Path | None = None
+    thread: threading.Thread | None = None
+    error: BaseException | None = None
+
+    def start(self) -> None:
+        self.thread = threading.Thread(target=self._start_workers, name="legplan-prestart", daemon=True)
+        self.thread.start()
+
+    def _start_workers(self) -> None:
+        try:
+            for _ in range(self.jobs):
+                self.pool.submit(_started)  # a pool starts its processes as items arrive
+        except BaseException as exc:  # noqa: BLE001  (reported by the pool that replaces this one)
+            self.error = exc
+
+    def take(self) -> ProcessPoolExecutor | None:
+        """The pool once every worker has been started; None when starting them failed (the batch's
+        own pool then meets, and reports, the same failure)."""
+        self.thread.join()
+        if self.warm is not None:  # read by the server before it forked the first worker
+            shutil.rmtree(self.warm.parent, ignore_errors=True)
+        if self.error is None:
+            return self.pool
+        log.debug("prestarted workers failed: %r", self.error)
+        _stop(self.pool)
+        return None
+
+
+_prestarted: dict[int, _Prestarted] = {}
+_warm_files: list[Path] = []  # the files a prestarted fork server waits for (`legplan.batch.warmup`)
+
+
+def _share_task(task: Task | None) -> None:
+    """Write `task` (None: no task) to the file a prestarted fork server waits for, once: the server
+    then builds its context for every worker it forks. Called before any pool is used (the server
+    forks nothing before it has read the file)."""
+    while _warm_files:
+        path = _warm_files.pop()
+        data = b""
+        if task is not None:
+            try:
+                data = pickle.dumps(task, protocol=4)
+            except Exception:  # noqa: BLE001  (the pool itself reports an unpicklable task)
+                data = b""
+        partial = path.with_name(path.name + ".part")
+        try:
+            partial.write_bytes(data)
+            os.replace(partial, path)  # the server sees the whole file or none
+        except OSError:  # the server also goes on, without a task, when the folder is gone
+            shutil.rmtree(path.parent, ignore_errors=True)
 
 
 def prestart(jobs: int, scheduler: str | None, modules: Sequence[str]) -> None:
     """Start the `jobs` worker processes of `--jobs N` (N > 1, no scheduler) now and have each import
     `modules`: a command calls this before it reads its inputs, so the workers boot (interpreter,
     imports) while it reads; the next `ProcessPool` of as many workers takes them over. Unused
-    workers are stopped when the process exits."""
+    workers are stopped when the process exits.
+
+    It returns at once: the fork server is spawned from this thread (it dies with this thread,
+    `_worker_context`), and the workers are asked for from a helper thread, since starting a worker
+    waits until the server has imported `modules`."""
     if jobs < 2 or scheduler is not None or jobs in _prestarted:
         return
-    pool = _new_pool(jobs, modules)
-    for _ in range(jobs):
-        pool.submit(_started)  # a pool starts its processes as items arrive
-    _prestarted[jobs] = pool
+    import tempfile
+
+    try:
+        warm = Path(tempfile.mkdtemp(prefix="legplan-warm-")) / "task"
+        _warm_files.append(warm)
+    except OSError:  # no temporary folder: the workers build their own contexts
+        warm = None
+    entry = _Prestarted(_new_pool(jobs, modules, None if warm is None else str(warm)), jobs, warm=warm)
+    entry.start()
+    _prestarted[jobs] = entry
+
+
+def _take_prestarted(jobs: int) -> ProcessPoolExecutor | None:
+    entry = _prestarted.pop(jobs, None)
+    return None if entry is None else entry.take()
 
 
 @atexit.register
 def _stop_prestarted() -> None:
+    _share_task(None)  # a server still waiting for a task goes on (and its workers start) without one
     while _prestarted:
-        _, pool = _prestarted.popitem()
-        _stop(pool)
+        _, entry = _prestarted.popitem()
+        pool = entry.take()
+        if pool is not None:
+            _stop(pool)
 
 
 def _stop(pool: ProcessPoolExecutor) -> None:
@@ -142,6 +224,7 @@ class ProcessPool:
         self.jobs = jobs
 
     def run(self, task: Task, todo) -> Iterator[tuple[int, dict]]:
+        _share_task(task)
         queue, suspects, lost = deque(todo), deque(), Counter()
         while queue or suspects:
             alone = bool(suspects)
@@ -165,7 +248,7 @@ class ProcessPool:
         from concurrent.futures.process import BrokenProcessPool
 
         workers = min(limit, self.jobs)
-        pool = _prestarted.pop(workers, None) or _new_pool(workers)
+        pool = _take_prestarted(workers) or _new_pool(workers)
         running: dict = {}
         try:
             while source or running:

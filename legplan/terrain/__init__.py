@@ -4,17 +4,20 @@
     values, gradients = terrain.sdf.value_and_gradient(points)      # points (n, 3), trilinear
     values, gradients = ColumnDistance.of(terrain, reach).value_and_gradient(points)   # exact up to reach
     save_map(terrain, "map.h5"); terrain = load_map("map.h5")
+
+Names are imported on first use (PEP 562 `__getattr__`): a command that loads a map.h5 does not
+import the map specs' primitives and parser (`spec`, `primitives`), which only `build_map` needs.
 """
 
-from legplan.terrain.columns import ColumnDistance
-from legplan.terrain.grid import Grid2D
-from legplan.terrain.layers import (CostmapParams, FootholdParams, costmap_from_distance, foothold_mask,
-                                    obstacle_distance, occupancy_grid)
-from legplan.terrain.sdf import SignedDistanceField, heightmap_sdf
-from legplan.terrain.spec import build_map
-from legplan.terrain.terrain_map import (SdfParams, TerrainMap, load_map, save_map,
-                                         terrain_from_heightmap)
+from legplan.lazy_exports import lazy_exports
 
-__all__ = ["ColumnDistance", "CostmapParams", "FootholdParams", "Grid2D", "SdfParams", "SignedDistanceField",
-           "TerrainMap", "build_map", "costmap_from_distance", "foothold_mask", "heightmap_sdf", "load_map",
-           "obstacle_distance", "occupancy_grid", "save_map", "terrain_from_heightmap"]
+_HOMES = {
+    "ColumnDistance": "columns", "CostmapParams": "layers", "FootholdParams": "layers", "Grid2D": "grid",
+    "SdfParams": "terrain_map", "SignedDistanceField": "sdf", "TerrainMap": "terrain_map", "build_map": "spec",
+    "costmap_from_distance": "layers", "foothold_mask": "layers", "heightmap_sdf": "sdf", "load_map": "terrain_map",
+    "obstacle_distance": "layers", "occupancy_grid": "layers", "save_map": "terrain_map",
+    "terrain_from_heightmap": "terrain_map",
+}
+__all__ = sorted(_HOMES)
+
+__getattr__, __dir__ = lazy_exports(__name__, _HOMES)

@@ -81,18 +81,20 @@ class Validator:
         self._upper = np.asarray(robot.upper, float)
 
     def kinematics(self, Q):
-        """Foot positions (n, L, 3), sphere centres (n, S, 3) and CoM (n, 3) by pinocchio FK."""
+        """Foot positions (n, L, 3), sphere centres (n, S, 3) and CoM (n, 3) by pinocchio FK: one joint
+        pass per configuration, then the placements of the frames the check reads and the CoM from
+        it (`pin.updateFramePlacement`, `pin.centerOfMass` on the joint placements in `data`)."""
         Q = np.atleast_2d(np.asarray(Q, float))
         n = len(Q)
         frames = self._frames_all
         placements = np.empty((n, len(frames), 4, 4))
         com = np.empty((n, 3))
         model, data = self.model, self.data
+        forward, place, centre = pin.forwardKinematics, pin.updateFramePlacement, pin.centerOfMass
         for i, q in enumerate(Q):
-            pin.framesForwardKinematics(model, data, q)
-            oMf = data.oMf.tolist()
-            placements[i] = [oMf[f].homogeneous for f in frames]
-            com[i] = pin.centerOfMass(model, data, q, False)
+            forward(model, data, q)
+            placements[i] = [place(model, data, f).homogeneous for f in frames]
+            com[i] = centre(model, data, pin.KinematicLevel.POSITION, False)
         feet = placements[:, self._foot_slot][..., :3, 3]
         sph = placements[:, self._sphere_slot]
         centres = np.einsum("nsij,sj->nsi", sph[..., :3, :3], self._offsets) + sph[..., :3, 3]
@@ -127,20 +129,23 @@ class Validator:
 
     @staticmethod
     def _com_margins(com, anchors, stance) -> np.ndarray:
-        """Signed distance of each CoM to its support polygon; polygons cached per stance layout."""
+        """Signed distance of each CoM to its support polygon. The configurations are grouped by
+        their stance anchors (rounded to 1e-9 m): one polygon per group, built from the group's first
+        configuration, and the distances of the whole group at once."""
         out = np.full(len(com), -np.inf)
-        cache: dict[bytes, object] = {}
-        for i in range(len(com)):
-            pts = anchors[i, stance[i], :2]
-            key = np.round(pts, 9).tobytes()
-            if key not in cache:
+        for pattern in np.unique(stance, axis=0):
+            rows = np.flatnonzero((stance == pattern).all(axis=1))
+            pts = anchors[rows][:, pattern, :2].reshape(len(rows), -1)
+            keys = np.ascontiguousarray(np.round(pts, 9))  # the rounded bytes decide, as a dict key would
+            keys = keys.view(np.dtype((np.void, keys.dtype.itemsize * keys.shape[1]))).ravel()
+            _, first, group = np.unique(keys, return_index=True, return_inverse=True)
+            for g, row in enumerate(rows[first]):
                 try:
-                    cache[key] = support_polygon(pts)
+                    poly = support_polygon(anchors[row, pattern, :2])
                 except ValueError:
-                    cache[key] = None
-            poly = cache[key]
-            if poly is not None:
-                out[i] = poly.signed_distance(com[i:i + 1, :2])[0]
+                    continue
+                members = rows[group.ravel() == g]
+                out[members] = poly.signed_distance(com[members, :2])
         return out
 
     def _clearance(self, centres, stance):

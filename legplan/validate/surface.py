@@ -126,7 +126,12 @@ class SurfaceMesh:
 
 
 def column_surface(height: np.ndarray, origin: np.ndarray, r: float):
-    """Vertices (4 ny nx, 3) and triangles (t, 3) of the tops and walls of the column solid."""
+    """Vertices (v, 3) and triangles (t, 3) of the tops and walls of the column solid.
+
+    Column tops of one height that together form a rectangle (`top_rectangles`) are one pair of
+    triangles on the rectangle's outer corners: the same surface with far fewer triangles and
+    vertices (only those the triangles use are kept), so FCL builds its bounding-volume tree in a
+    fraction of the time on maps with flat areas."""
     ny, nx = height.shape
     iy, ix = np.mgrid[0:ny, 0:nx]
     cx = origin[0] + r * ix
@@ -136,8 +141,11 @@ def column_surface(height: np.ndarray, origin: np.ndarray, r: float):
         corners.append(np.stack([cx + sx * r / 2, cy + sy * r / 2, height], axis=-1))
     vertices = np.stack(corners, axis=2).reshape(-1, 3)  # index 4 * cell + corner
     cell = (iy * nx + ix) * 4
-    tops = np.concatenate([np.stack([cell, cell + 1, cell + 2], -1).reshape(-1, 3),
-                           np.stack([cell, cell + 2, cell + 3], -1).reshape(-1, 3)])
+    y0, x0, y1, x1 = top_rectangles(height).T
+    low_left, low_right = cell[y0, x0], cell[y0, x1 - 1] + 1
+    up_right, up_left = cell[y1 - 1, x1 - 1] + 2, cell[y1 - 1, x0] + 3
+    tops = np.concatenate([np.stack([low_left, low_right, up_right], -1),
+                           np.stack([low_left, up_right, up_left], -1)])
     walls = []
     # wall between (iy, ix) and (iy, ix + 1): their shared edge is corner 1-2 of the left cell and
     # corner 0-3 of the right cell
@@ -151,4 +159,23 @@ def column_surface(height: np.ndarray, origin: np.ndarray, r: float):
     a, b = low[differ], up[differ]
     walls += [np.stack([a + 3, a + 2, b + 1], -1), np.stack([a + 3, b + 1, b], -1)]
     triangles = np.concatenate([tops] + walls).astype(np.int64)
-    return vertices, triangles
+    used, triangles = np.unique(triangles, return_inverse=True)
+    return vertices[used], triangles.reshape(-1, 3)
+
+
+def top_rectangles(height: np.ndarray) -> np.ndarray:
+    """Rectangles (k, 4) of cells [y0:y1, x0:x1] of equal height that tile the grid: runs of equal
+    height along each row, merged with the identical runs (same columns, same height) of the rows
+    after it."""
+    ny, nx = height.shape
+    done, growing = [], {}  # growing: (x0, x1, height) -> first row
+    for y, row in enumerate(height):
+        starts = np.flatnonzero(np.r_[True, row[1:] != row[:-1]])
+        ends = np.r_[starts[1:], nx]
+        keys = [(a, b, float(row[a])) for a, b in zip(starts.tolist(), ends.tolist())]
+        current = {key: growing.pop(key, y) for key in keys}
+        done += [(first, a, y, b) for (a, b, _), first in growing.items()]
+        growing = current
+    done += [(first, a, ny, b) for (a, b, _), first in growing.items()]
+    return np.asarray(done, dtype=np.int64).reshape(-1, 4)
+

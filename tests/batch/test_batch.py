@@ -62,12 +62,104 @@ def test_prestarted_workers_are_taken_over_by_the_pool(tmp_path):
     (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
     reference = run(tmp_path / "a")
     prestart(2, None, ("toytasks",))
-    pool = backends._prestarted[2]
+    pool = backends._prestarted[2].pool
     records = run(tmp_path / "b", backend=Backend(jobs=2))
     assert_same_records(reference, records)
     assert 2 not in backends._prestarted and pool._shutdown_thread
     prestart(1, None, ("toytasks",)), prestart(2, "local", ("toytasks",))
     assert not backends._prestarted  # in-process and dask batches start no pool
+
+
+def run_script(script, *args):
+    import os
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    here = Path(__file__).parent
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(here), str(here.parents[1]), os.environ.get("PYTHONPATH", "")])}
+    done = subprocess.run([sys.executable, "-c", script, *map(str, args)], env=env, capture_output=True, text=True,
+                          timeout=120)
+    assert done.returncode == 0, done.stderr
+    return done.stdout.splitlines()
+
+
+PRESTART_SCRIPT = """
+import os, sys
+from pathlib import Path
+from legplan.batch import Backend, Task, backends, prestart, run_batch
+from toytasks import Context, failed, square
+gate, out = Path(os.environ["LEGPLAN_TEST_GATE"]), Path(sys.argv[1])
+prestart(2, None, ("gatedimport",))
+waiting = backends._prestarted[2].thread.is_alive()  # the server is still importing: the gate is shut
+gate.write_text("open")
+task = Task(run=square, failed=failed, setup=Context, args=(str(out.parent / "calls.log"),))
+with run_batch(task, [0, 1, 2], output=out, identity={"stage": "toy"}, backend=Backend(jobs=2)) as records:
+    print(waiting, [r["value"] for r in records])
+"""
+
+
+def test_prestart_returns_while_the_fork_server_is_still_importing(tmp_path):
+    """`prestart` does not wait for the fork server's imports (the command reads its inputs
+    meanwhile); its workers then run the batch. A fresh process, so that its fork server is new."""
+    import os
+
+    os.environ["LEGPLAN_TEST_GATE"] = str(tmp_path / "gate")
+    try:
+        lines = run_script(PRESTART_SCRIPT, tmp_path / "out.h5")
+    finally:
+        del os.environ["LEGPLAN_TEST_GATE"]
+    assert lines == ["True [0.0, 1.0, 4.0]"]
+
+
+SHARED_SCRIPT = """
+import sys
+from legplan.batch import Backend, Task, prestart, run_batch
+from sharedtasks import Logged, built_by, failed
+log, out = sys.argv[1], sys.argv[2]
+prestart(2, None, ("sharedtasks",))
+task = Task(run=built_by, failed=failed, setup=Logged, args=(log,))
+with run_batch(task, list(range(6)), output=out, identity={"stage": "toy"}, backend=Backend(jobs=2)) as records:
+    print(" ".join(f"{r['built_by']},{r['pid']},{r['parent']}" for r in records))
+if len(sys.argv) > 3:  # a second batch of another task on the same server: its workers build their own
+    other = Task(run=built_by, failed=failed, setup=Logged, args=(sys.argv[3],))
+    with run_batch(other, [0, 1], output=out, identity={"stage": "toy2"}, backend=Backend(jobs=2)) as records:
+        print(" ".join(f"{r['built_by']},{r['pid']},{r['parent']}" for r in records))
+"""
+
+
+def test_prestarted_server_builds_the_task_context_once_for_its_workers(tmp_path):
+    """After `prestart`, the fork server builds the batch's task context once and every worker forked
+    from it runs with that context (`setup` runs once, in the server); a later task of the same
+    command, unknown to the server, gets contexts built by the workers as before."""
+    lines = run_script(SHARED_SCRIPT, tmp_path / "setup.log", tmp_path / "out.h5", tmp_path / "other.log")
+    rows = [tuple(map(int, entry.split(","))) for entry in lines[0].split()]
+    builders = [int(pid) for pid in (tmp_path / "setup.log").read_text().split()]
+    servers = {parent for _, _, parent in rows}
+    assert len(builders) == 1 and servers == set(builders)  # built once, by the server that forked the workers
+    assert {built for built, _, _ in rows} == set(builders) and all(pid != builders[0] for _, pid, _ in rows)
+    other = [tuple(map(int, entry.split(","))) for entry in lines[1].split()]
+    assert all(built == pid for built, pid, _ in other)  # built in the worker that ran the item
+    assert len((tmp_path / "other.log").read_text().split()) == len({pid for _, pid, _ in other})
+
+
+def test_a_task_file_that_cannot_be_written_leaves_the_workers_to_build_their_contexts(tmp_path):
+    """When the command cannot write the task for its fork server, the server goes on without it and
+    each worker builds the context itself (the batch neither hangs nor fails)."""
+    script = "from pathlib import Path\n" \
+             "def refuse(self, data):\n    raise OSError(28, 'No space left on device')\n" \
+             "Path.write_bytes = refuse\n" + SHARED_SCRIPT
+    lines = run_script(script, tmp_path / "setup.log", tmp_path / "out.h5")
+    rows = [tuple(map(int, entry.split(","))) for entry in lines[0].split()]
+    assert [built == pid for built, pid, _ in rows] == [True] * 6  # each built in the worker that ran it
+    assert len((tmp_path / "setup.log").read_text().split()) == len({pid for _, pid, _ in rows})
+
+
+def test_a_prestarted_server_that_never_gets_a_task_lets_the_command_end(tmp_path):
+    """A command that prestarts workers and then stops before its batch (bad input) ends at once:
+    the fork server, still waiting for the task, is told there is none."""
+    lines = run_script("from legplan.batch import prestart\nprestart(2, None, ('sharedtasks',))\nprint('ok')")
+    assert lines == ["ok"]
 
 
 def test_pool_workers_are_forked_by_one_server_started_by_the_command(tmp_path):

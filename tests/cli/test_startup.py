@@ -56,12 +56,12 @@ assert CliRunner().invoke(cli, ["--version"]).exit_code == 0
 # step-sequence and learned-initializer packages, Cython (scipy's test utilities look for it),
 # importlib.resources with zipfile (the shipped robots are a folder of the package), the solvers'
 # Jacobian checker, numpy.strings and the numpy.core shim (scipy's numpy namespace), fractions and decimal
-# (the Hermite Gram matrices are plain divisions).
+# (the Hermite Gram matrices are plain divisions), the map specs' parser and primitives (a map.h5 is read).
 NOT_FOR_DYN_PLAN = ("matplotlib", "mujoco", "dask", "distributed", "sklearn", "ompl", "proxsuite", "scipy.spatial", "scipy.linalg",
                     "scipy.optimize", "numpy.f2py", "numpy.testing", "unittest", "multiprocessing",
                     "concurrent.futures.process", "fcl", "legplan.stepseq", "legplan.learn.network", "Cython", "cython",
                     "importlib.resources", "zipfile", "legplan.solve.jaccheck", "numpy.strings", "numpy.core",
-                    "fractions", "decimal")
+                    "fractions", "decimal", "legplan.terrain.spec", "legplan.terrain.primitives")
 # ... and, once a run on the same map has stored the filtered terrain grids (legplan.cache), the
 # filters' library.
 NOT_FOR_DYN_PLAN_AGAIN = ("scipy.ndimage", "scipy.special")

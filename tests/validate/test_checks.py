@@ -65,6 +65,33 @@ def test_com_margin_against_independent_polygon_and_sign(scarab, flat_terrain):
     assert checks.com_margin[1] < -0.2
 
 
+def test_com_margin_of_many_configurations_equals_each_ones_own_polygon(scarab, flat_terrain):
+    """The margins of a batch (grouped by stance and footholds) are those of every configuration's
+    own support polygon: mixed stance layouts, footholds shared by some configurations, moved for
+    others, and a stance of one foot (no polygon: -inf)."""
+    from legplan.geometry.polygon import support_polygon
+
+    validator = Validator(scarab, flat_terrain)
+    rng = np.random.default_rng(3)
+    n, legs = 40, scarab.n_legs
+    Q = np.repeat(scarab.q_nominal[None], n, axis=0)
+    Q[:, :2] += rng.uniform(-0.05, 0.05, (n, 2))
+    stance = np.ones((n, legs), bool)
+    stance[10:20, 1] = False
+    stance[20:30, [0, 3]] = False
+    stance[30, :] = False
+    stance[30, 2] = True  # one stance foot
+    footholds = np.repeat(scarab.foot_positions(scarab.q_nominal)[0][None], n, axis=0)
+    footholds[25:29, 4, :2] += 0.03  # the same layout, another foothold for a few
+    checks = validator.check(Q, stance, footholds)
+    for i in range(n):
+        if stance[i].sum() < 2:
+            assert checks.com_margin[i] == -np.inf
+            continue
+        own = support_polygon(footholds[i, stance[i], :2]).signed_distance(checks.com[i:i + 1, :2])[0]
+        assert checks.com_margin[i] == pytest.approx(own, abs=1e-12)
+
+
 def test_joint_excess_and_valid(scarab, flat_terrain):
     validator = Validator(scarab, flat_terrain)
     q = scarab.q_nominal.copy()

@@ -49,3 +49,46 @@ def test_point_beside_a_wall_measures_horizontal_distance_to_the_column_face():
     assert d == pytest.approx(np.hypot(0.03, 0.03), abs=1e-9)
     # inside the ground column, 2 cm below its top and 5 cm from the wall: -0.02
     assert mesh.signed_distance(np.array([[0.88, 0.5, 0.08]]))[0] == pytest.approx(-0.02, abs=1e-9)
+
+
+def _column_solid_distance(height, origin, r, points):
+    """Unsigned distance of points (n, 3) to the column solid's surface, by brute force over every
+    column top (a square) and every wall between neighbouring columns of different height (a
+    vertical rectangle): an independent reference for the merged triangle mesh."""
+    ny, nx = height.shape
+    iy, ix = np.mgrid[0:ny, 0:nx]
+    cx, cy = origin[0] + r * ix.ravel(), origin[1] + r * iy.ravel()
+    p = points[:, None, :]
+    dx = np.maximum(np.abs(p[..., 0] - cx) - r / 2, 0.0)
+    dy = np.maximum(np.abs(p[..., 1] - cy) - r / 2, 0.0)
+    best = np.sqrt(dx ** 2 + dy ** 2 + (p[..., 2] - height.ravel()) ** 2).min(axis=1)
+    for axis in (0, 1):  # walls facing x (between columns ix, ix + 1), then y
+        a = height[:, :-1] if axis == 0 else height[:-1, :]
+        b = height[:, 1:] if axis == 0 else height[1:, :]
+        jy, jx = np.nonzero(a != b)
+        wx, wy = origin[0] + r * jx, origin[1] + r * jy
+        lo, hi = np.minimum(a, b)[jy, jx], np.maximum(a, b)[jy, jx]
+        if axis == 0:
+            across, along = p[..., 0] - (wx + r / 2), np.maximum(np.abs(p[..., 1] - wy) - r / 2, 0.0)
+        else:
+            across, along = p[..., 1] - (wy + r / 2), np.maximum(np.abs(p[..., 0] - wx) - r / 2, 0.0)
+        dz = np.maximum(np.maximum(lo - p[..., 2], p[..., 2] - hi), 0.0)
+        if len(jx):
+            best = np.minimum(best, np.sqrt(across ** 2 + along ** 2 + dz ** 2).min(axis=1))
+    return best
+
+
+@pytest.mark.parametrize("kind", ["steps", "levels", "noise"])
+def test_fcl_distance_equals_the_column_solid_surface_distance(kind):
+    """The mesh merges equal column tops into rectangles; FCL's distances to it are those to the
+    column solid's surface (tops and walls), on maps with large flat areas, a few levels, and none."""
+    rng = np.random.default_rng(5)
+    height = {"steps": _step_map()[::3, ::3], "levels": rng.integers(0, 3, (14, 18)) * 0.05,
+              "noise": rng.normal(0.0, 0.02, (12, 12))}[kind]
+    origin, r = np.array([0.1, -0.2]), 0.06
+    mesh = SurfaceMesh(height, origin=origin, resolution=r)
+    ny, nx = height.shape
+    points = rng.uniform([origin[0], origin[1], height.min() - 0.1],
+                         [origin[0] + r * (nx - 1), origin[1] + r * (ny - 1), height.max() + 0.2], size=(300, 3))
+    np.testing.assert_allclose(np.abs(mesh.fcl_distance(points)), _column_solid_distance(height, origin, r, points),
+                               atol=1e-9)
