@@ -192,7 +192,10 @@ class SampleConstraints:
             which = self._relaxed_index[sphere]
             on = which >= 0
             direction[on] += ramp[active[on], which[on], None] * unit[active[on], which[on]]
-        vectors = np.einsum("ka,kax->kx", direction, kin.jacobians(points, active, self._sphere_points[sphere]))
+        if active.size:  # most linearisation points have no active collision row
+            vectors = np.einsum("ka,kax->kx", direction, kin.jacobians(points, active, self._sphere_points[sphere]))
+        else:
+            vectors = np.zeros((0, nx))
         on_limit, limit = np.nonzero(limits > 0)
         unit_rows = np.zeros((len(on_limit), nx))
         unit_rows[np.arange(len(on_limit)), nx - self.robot.n_joints + self._joint_rows[limit]] = self._joint_sign[limit]
