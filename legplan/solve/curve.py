@@ -55,18 +55,24 @@ class SampledCurveBlock(StructuredBlock):
         xi = values[1].reshape(n, self.slack_dim) if self.slack_dim else None
         return self.sample(q, xi, jacobians, slice(None))
 
-    def residual_chunks(self, values):
-        """Residuals of interleaved sample groups: 1/8, 1/8, 1/4 and 1/2 of the samples, spread
-        along the curve, so a trial point that is worse overall is usually detected early."""
+    def sample_groups(self) -> list[np.ndarray]:
+        """The sample numbers of `residual_chunks`' groups, in their order: 1/8, 1/8, 1/4 and 1/2 of
+        the samples, interleaved along the curve."""
         n = self.basis.shape[0]
         if self._chunks is None or self._chunks[0] != n:
             order = np.concatenate([np.arange(k, n, 8) for k in range(8)])
             ends = [np.arange(k, n, 8).size for k in range(8)]
             cuts = np.cumsum(ends)[[0, 1, 3, 7]]
             self._chunks = (n, np.split(order, cuts[:-1]))
+        return self._chunks[1]
+
+    def residual_chunks(self, values):
+        """Residuals of interleaved sample groups (`sample_groups`), spread along the curve, so a
+        trial point that is worse overall is usually detected early."""
+        n = self.basis.shape[0]
         points = values[0].reshape(-1, self.dim)
         xi = values[1].reshape(n, self.slack_dim) if self.slack_dim else None
-        for idx in self._chunks[1]:
+        for idx in self.sample_groups():
             if idx.size:
                 yield self.sample(self.basis[idx] @ points, None if xi is None else xi[idx], False, idx)[0].reshape(-1)
 

@@ -90,17 +90,18 @@ class SampleConstraints:
             self.relax_ends = np.asarray(swing_ends, float)[:, self.relaxed_spheres]
             self.relax_radii = np.asarray(spheres.radii, float)[self.relaxed_spheres]
 
-    def residuals(self, X: np.ndarray, Xi: np.ndarray) -> np.ndarray:
-        """r (n, m) at configurations X (n, nx) with slacks Xi (n, s)."""
-        return self._rows(np.atleast_2d(np.asarray(X, float)), Xi, False)[0]
+    def residuals(self, X: np.ndarray, Xi: np.ndarray, points=None) -> np.ndarray:
+        """r (n, m) at configurations X (n, nx) with slacks Xi (n, s); `points`: the planner kinematics'
+        points of X if already at hand (`kinematics.points(X)`)."""
+        return self._rows(np.atleast_2d(np.asarray(X, float)), Xi, False, points)[0]
 
-    def linearize(self, X: np.ndarray, Xi: np.ndarray):
+    def linearize(self, X: np.ndarray, Xi: np.ndarray, points=None):
         """r (n, m) and the rows with a nonzero Jacobian in compact form (r_c, G_c, S_c) (n, m_c, ·): the
         stance-foot and slack rows, the CoM rows, then per sample its active collision and joint-limit rows
         packed (zero-padded to the largest count). Every row left out has zero G and S, so the products
-        GᵀG, Gᵀr, GᵀS, SᵀS and Sᵀr of the compact rows are those of all rows."""
+        GᵀG, Gᵀr, GᵀS, SᵀS and Sᵀr of the compact rows are those of all rows. `points` as in `residuals`."""
         X = np.atleast_2d(np.asarray(X, float))
-        r, parts = self._rows(X, Xi, True)
+        r, parts = self._rows(X, Xi, True, points)
         jf, jcom, samples, rows, vectors, direction = parts
         n, nx, k = len(X), self.nx, len(self.legs)
         counts = np.bincount(samples, minlength=n)
@@ -141,14 +142,15 @@ class SampleConstraints:
         for leg in range(k):
             S[:, 3 * k + leg, 3 * leg:3 * leg + 3] = direction[:, leg]
 
-    def _rows(self, X: np.ndarray, Xi: np.ndarray, jacobians: bool):
+    def _rows(self, X: np.ndarray, Xi: np.ndarray, jacobians: bool, points=None):
         """r (n, m) and, with `jacobians`, its nonzero Jacobian parts: stance-foot rows (n, 3k, nx), CoM rows
         (n, h, nx), the active collision and joint-limit rows as (samples, rows, vectors (K, nx)), and the
         unit directions (n, k, 3) of the active slack rows."""
         n, nx = X.shape
         k = len(self.legs)
         kin = self.kinematics
-        points = kin.points(X)
+        if points is None:
+            points = kin.points(X)
         f = (points.feet[:, self.legs] - self._footholds).reshape(n, 3 * k) - Xi
         xi = Xi.reshape(n, k, 3)
         norms = np.sqrt(np.einsum("nki,nki->nk", xi, xi))
@@ -190,7 +192,10 @@ class SampleConstraints:
             which = self._relaxed_index[sphere]
             on = which >= 0
             direction[on] += ramp[active[on], which[on], None] * unit[active[on], which[on]]
-        vectors = np.einsum("ka,kax->kx", direction, kin.jacobians(points, active, self._sphere_points[sphere]))
+        if active.size:  # most linearisation points have no active collision row
+            vectors = np.einsum("ka,kax->kx", direction, kin.jacobians(points, active, self._sphere_points[sphere]))
+        else:
+            vectors = np.zeros((0, nx))
         on_limit, limit = np.nonzero(limits > 0)
         unit_rows = np.zeros((len(on_limit), nx))
         unit_rows[np.arange(len(on_limit)), nx - self.robot.n_joints + self._joint_rows[limit]] = self._joint_sign[limit]
@@ -207,6 +212,10 @@ class BezierConstraintBlock(SampledCurveBlock):
     Variables: "P", all d + 1 control points (row-major (d+1) × nx; give p_0 and p_d as fixed
     entries of the `VariableBlock`), and "xi", the per-sample slacks. The structured normal terms
     (Σ_k kron(b_k b_kᵀ, G_kᵀG_k), …) come from `legplan.solve.SampledCurveBlock`.
+
+    A trial point of LM is evaluated at every sample in one call of the rows (`residual_chunks`) and
+    its kinematics kept: an accepted trial is the next linearisation point (`normal_terms`), which
+    then forms only the Jacobians and the terrain gradients.
     """
 
     def __init__(self, constraints: SampleConstraints, degree: int, t):
@@ -216,6 +225,26 @@ class BezierConstraintBlock(SampledCurveBlock):
         self.samples = len(self.t)
         super().__init__(("P", "xi"), bernstein_matrix(self.degree, self.t), constraints.nx,
                          constraints.size, constraints.slack_size)
+        self._trial: tuple[np.ndarray, object] | None = None  # control points of the last trial, their points
+
+    def residual_chunks(self, values):
+        """The residuals of `sample_groups`, in their order, from one evaluation of every sample.
+
+        The rows cost a fixed number of array operations per call whatever the number of samples, so one
+        call over all samples costs less than the groups' calls even when a rejected trial would stop
+        after the first group; the groups' partial sums, and so LM's accept/reject decision and ‖h‖, are
+        those of `SampledCurveBlock.residual_chunks` (the rows of a sample do not depend on the others)."""
+        q = self.basis @ values[0].reshape(-1, self.dim)
+        points = self.constraints.kinematics.points(q)
+        r = self.constraints.residuals(q, values[1].reshape(self.samples, self.slack_dim), points)
+        self._trial = (np.array(values[0], float), points)
+        for idx in self.sample_groups():
+            yield r[idx].reshape(-1)
+
+    def _kept_points(self, P: np.ndarray):
+        """The kinematics of the last trial if it was at control points `P` (then forgotten), else None."""
+        trial, self._trial = self._trial, None
+        return trial[1] if trial is not None and np.array_equal(trial[0], P) else None
 
     def sample(self, q, xi, jacobians, index):
         if not jacobians:
@@ -226,7 +255,8 @@ class BezierConstraintBlock(SampledCurveBlock):
         """The structured normal terms of `SampledCurveBlock` from the rows with a nonzero Jacobian only
         (`SampleConstraints.linearize`)."""
         q = self.basis @ values[0].reshape(-1, self.dim)
-        r, compact = self.constraints.linearize(q, values[1].reshape(self.samples, self.slack_dim))
+        r, compact = self.constraints.linearize(q, values[1].reshape(self.samples, self.slack_dim),
+                                                self._kept_points(values[0]))
         terms = self.curve_terms(*compact)
         terms.residual = r.reshape(-1)
         return terms

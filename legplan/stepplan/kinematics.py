@@ -185,7 +185,9 @@ class ChainKinematics:
         """Placements [R | t] (n, slots, 3, 4) of the base (the identity) and every joint in the base frame,
         in slot order. The local placements are one product per joint of the coefficients (sin q, 1 − cos q,
         1, q) with the stacked constants (B, C, F, D); a level is placed on its parents by the three
-        rank-one terms of the 3 × 3 · 3 × 4 products (a batched matmul of so small matrices costs more)."""
+        rank-one terms of the 3 × 3 · 3 × 4 products (a batched matmul of so small matrices costs more),
+        formed entry by entry over all joints of the level and all samples at once (layout (3, 4, joints,
+        n)), so that every array operation runs over one long contiguous axis."""
         basis, columns = self._basis, self._local[4]
         q = X[:, columns].T  # (joints, n)
         n, count = len(X), len(columns)
@@ -195,19 +197,20 @@ class ChainKinematics:
         coefficients[..., 2] = 1.0
         if basis.shape[1] > 3:
             coefficients[..., 3] = q
+        entries = np.ascontiguousarray((coefficients @ basis).reshape(count, n, 3, 4).transpose(2, 3, 0, 1))
+        for above, level in zip(self._levels, self._levels[1:]):  # entries[:, :, j] is slot j + 1
+            parent = entries[:, :, above.start - 1:above.stop - 1]
+            if level.parents is not None:
+                parent = parent[:, :, level.parents]
+            local = entries[:, :, level.start - 1:level.stop - 1]
+            world = parent[:, 0, None] * local[0]
+            world += parent[:, 1, None] * local[1]
+            world += parent[:, 2, None] * local[2]
+            world[:, 3] += parent[:, 3]
+            local[...] = world
         T = np.empty((n, count + 1, 3, 4))
         T[:, 0] = np.eye(3, 4)
-        T[:, 1:] = (coefficients @ basis).reshape(count, n, 3, 4).transpose(1, 0, 2, 3)
-        for above, level in zip(self._levels, self._levels[1:]):
-            parent = T[:, above.start:above.stop]
-            if level.parents is not None:
-                parent = parent[:, level.parents]
-            local = T[:, level.start:level.stop]
-            world = parent[..., :, 0, None] * local[..., 0, None, :]
-            world += parent[..., :, 1, None] * local[..., 1, None, :]
-            world += parent[..., :, 2, None] * local[..., 2, None, :]
-            world[..., 3] += parent[..., 3]
-            T[:, level.start:level.stop] = world
+        T[:, 1:] = entries.transpose(3, 2, 0, 1)
         return T
 
     def points(self, X: np.ndarray) -> Points:

@@ -5,6 +5,7 @@ import pytest
 
 from legplan.geometry.bezier import elevate
 from legplan.solve import check_jacobian, check_normal_terms
+from legplan.solve.curve import SampledCurveBlock
 from legplan.stepplan.block import BezierConstraintBlock, SampleConstraints
 from legplan.stepplan.params import StepPlanParams
 from legplan.stepplan.planner import contact_mode
@@ -55,3 +56,39 @@ def test_residual_chunks_cover_every_sample_once(toy_robot, swing_over_hill):
     assert len(chunks) == 4 and sum(len(c) for c in chunks) == block.samples
     np.testing.assert_allclose(np.sort(np.concatenate(chunks), axis=0), np.sort(r, axis=0), rtol=0, atol=1e-15)
     assert sum(float(np.sum(c * c)) for c in chunks) == pytest.approx(float(np.sum(r * r)), rel=1e-13)
+
+
+def test_trial_in_one_call_is_the_groups_of_the_sampled_curve(toy_robot, swing_over_hill):
+    """The block evaluates a trial at every sample at once: its groups, in order, must be exactly those
+    that `SampledCurveBlock.residual_chunks` forms group by group (so LM's decisions cannot change)."""
+    block, P, xi, _ = _block(toy_robot, swing_over_hill, samples=21)
+    values = [P.reshape(-1), xi]
+    ours = list(block.residual_chunks(values))
+    theirs = list(SampledCurveBlock.residual_chunks(block, values))
+    assert len(ours) == len(theirs) == 4
+    for a, b in zip(ours, theirs, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_linearisation_at_the_trial_reuses_its_kinematics(toy_robot, swing_over_hill, monkeypatch):
+    """After a trial at P the normal terms at P are those of a fresh evaluation, without a second
+    kinematics pass; at other control points the kinematics are formed again."""
+    block, P, xi, sc = _block(toy_robot, swing_over_hill, samples=21)
+    values = [P.reshape(-1), xi]
+    fresh = block.normal_terms(values)
+    list(block.residual_chunks(values))
+    calls = []
+    points = sc.kinematics.points
+    monkeypatch.setattr(sc.kinematics, "points", lambda X: calls.append(len(X)) or points(X))
+    reused = block.normal_terms(values)
+    assert calls == []
+    np.testing.assert_array_equal(reused.residual, fresh.residual)
+    for key, term in fresh.hessian.items():
+        a, b = reused.hessian[key], term
+        np.testing.assert_array_equal(getattr(a, "blocks", a), getattr(b, "blocks", b))
+    for a, b in zip(reused.gradient, fresh.gradient, strict=True):
+        np.testing.assert_array_equal(a, b)
+    list(block.residual_chunks(values))
+    calls.clear()
+    block.normal_terms([values[0] + 1e-3, xi])
+    assert calls == [block.samples]
