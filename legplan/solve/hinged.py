@@ -32,6 +32,12 @@ residual evaluation), gives the acceleration a = −(JᵀJ + λI)⁻¹ Jᵀ r_vv
 factorization (rows E ∪ A), and the trial point is θ + d + ½a when 2‖a‖ ≤ α‖d‖ (α =
 `geodesic_acceleration`, 0.75 as the paper recommends; 0 switches it off).
 
+Rows that share a Jacobian row up to sign (`Problem.row_map`: the two bounds of one constraint row,
+l ≤ c ≤ u, whose derivatives are ±∂c) keep their own residuals and hinges; J holds the shared row
+once, J_full = diag(s)·J[jrow], and the products J d, Jᵀx and the factorization of J_RᵀJ_R read it
+through that map (a row active on both sides enters the factorization twice, as it would twice
+stored).
+
 Box bounds of the variables (`VariableBlock.lower`/`upper`): a variable on a bound that the
 descent direction −Jᵀh points out of is held there for the step (`held_at_bounds`: its column and
 its scale zero, the active set of bound-constrained Gauss–Newton), the trial point is clipped to the
@@ -112,20 +118,21 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
         return LMResult(theta, layout.values(theta), status, reason, it, norm, initial, hist_h, hist_l,
                         accepted, rejected, timings, test)
 
+    rows = problem.row_map()
     t0 = time.perf_counter()
     v, J = problem.nonzero_jacobian(theta)
     timings.evaluate += time.perf_counter() - t0
     norm = initial = hinged_norm(v, hinged)
     model = None
-    held = held_at_bounds(layout, theta, J, v, hinged)
-    stopping = _Stopping(params, hinged, row_tolerance)
+    held = held_at_bounds(layout, theta, J, v, hinged, rows)
+    stopping = _Stopping(params, hinged, row_tolerance, rows)
     for it in range(params.max_iterations + 1):
         stop = stopping.at_point(it, norm, v, J, lam, held)
         if stop:
             return finish(stop, it, norm)
         if model is None:
             t0 = time.perf_counter()
-            model = _HingeModel(J, v, hinged, layout.n, held)
+            model = _HingeModel(J, v, hinged, layout.n, held, rows)
             timings.assemble += time.perf_counter() - t0
         step = model.step(solver, lam, params.active_set_iterations, timings)
         if step is None:
@@ -135,12 +142,13 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
         scaled_step = step
         step = model.scale * step
         taken = layout.project(theta + step) - theta if layout.bounded else step  # clipped to the box
-        predicted = norm ** 2 - hinged_norm(v + J @ taken, hinged) ** 2
+        predicted = norm ** 2 - hinged_norm(v + _times(J, taken, rows), hinged) ** 2
         if params.geodesic_acceleration > 0.0:
             t0 = time.perf_counter()
             probe = problem.residual(layout.project(theta + GEODESIC_PROBE * step))
             timings.evaluate += time.perf_counter() - t0
-            acceleration = model.acceleration(solver, (probe - v) / GEODESIC_PROBE - J @ step, GEODESIC_PROBE)
+            acceleration = model.acceleration(solver, (probe - v) / GEODESIC_PROBE - _times(J, step, rows),
+                                              GEODESIC_PROBE)
             if 2.0 * np.linalg.norm(acceleration) <= params.geodesic_acceleration * np.linalg.norm(scaled_step):
                 step = step + 0.5 * model.scale * acceleration
         trial = layout.project(theta + step)
@@ -161,7 +169,7 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
             t0 = time.perf_counter()
             v, J = problem.nonzero_jacobian(theta)
             model = None
-            held = held_at_bounds(layout, theta, J, v, hinged)
+            held = held_at_bounds(layout, theta, J, v, hinged, rows)
             timings.evaluate += time.perf_counter() - t0
         else:
             lam, nu = lam * nu, 2 * nu
@@ -174,8 +182,8 @@ class _Stopping:
     """The stop tests of `solve_hinged_lm` (module docstring) as (status, parameter, reason), None to go
     on: `at_point` before a step from the current point, `after_step` at an accepted trial point."""
 
-    def __init__(self, params: HingedParams, hinged: np.ndarray, row_tolerance: np.ndarray | None):
-        self.params, self.hinged, self.row_tolerance = params, hinged, row_tolerance
+    def __init__(self, params: HingedParams, hinged: np.ndarray, row_tolerance: np.ndarray | None, rows=None):
+        self.params, self.hinged, self.row_tolerance, self.rows = params, hinged, row_tolerance, rows
         self.initial_gradient = None
 
     def at_point(self, it: int, norm: float, v: np.ndarray, J, lam: float,
@@ -188,7 +196,7 @@ class _Stopping:
         stop = self._within_tolerance(norm, h)
         if stop:
             return stop
-        g = J.T @ h  # inactive hinged rows contribute nothing
+        g = _transposed_times(J, h, self.rows)  # inactive hinged rows contribute nothing
         gradient = float(np.abs(g if held is None else np.where(held, 0.0, g)).max(initial=0.0))
         if self.initial_gradient is None:
             self.initial_gradient = gradient
@@ -232,9 +240,14 @@ class _HingeModel:
     product in Python. Later passes update the factor by the rows that changed (`refactor_rows`), and
     a pass whose active set is the last factorized one reuses its factorization and candidate."""
 
-    def __init__(self, J, v: np.ndarray, hinged: np.ndarray, n: int, held: np.ndarray | None = None):
+    def __init__(self, J, v: np.ndarray, hinged: np.ndarray, n: int, held: np.ndarray | None = None, rows=None):
         J = sp.csr_matrix(J)
-        d2 = np.bincount(J.indices, weights=J.data ** 2, minlength=n)
+        self.rows = rows
+        if rows is None:
+            d2 = np.bincount(J.indices, weights=J.data ** 2, minlength=n)
+        else:  # a shared row counts once per residual row it stands for
+            count = np.bincount(rows[0], minlength=J.shape[0]).astype(float)
+            d2 = np.bincount(J.indices, weights=J.data ** 2 * np.repeat(count, np.diff(J.indptr)), minlength=n)
         self.scale = np.where(d2 > MARQUARDT_FLOOR * d2.max(initial=0.0), 1.0 / np.sqrt(np.where(d2 > 0, d2, 1.0)), 1.0)
         if held is not None:  # a zero column and a zero scale: the step leaves these variables where they are
             self.scale[held] = 0.0
@@ -252,6 +265,7 @@ class _HingeModel:
                 t0 = time.perf_counter()
                 rows = np.flatnonzero(~hinged | active)
                 gradient = self._transposed_product(rows, v)
+                rows = self._jacobian_rows(rows)
                 t1 = time.perf_counter()
                 timings.assemble += t1 - t0
                 try:
@@ -269,7 +283,7 @@ class _HingeModel:
                 timings.solve += time.perf_counter() - t2
                 factored = active
             direction = candidate - step
-            change = self.J @ direction
+            change = _times(self.J, direction, self.rows)
             t = _model_line_search(model_v, change, hinged, lam, step, direction)
             if t == 0.0:
                 break
@@ -290,18 +304,44 @@ class _HingeModel:
 
     def _transposed_product(self, rows: np.ndarray, x: np.ndarray) -> np.ndarray:
         """J_Rᵀ x_R for the rows R alone (the plain and active rows, a small part of J): the same sums
-        in the same order as Jᵀ x with x zero off R, without the pass over the other rows."""
-        return self.J[rows].T @ x[rows]
+        in the same order as Jᵀ x with x zero off R, without the pass over the other rows. Residual
+        rows that share a Jacobian row (`Problem.row_map`) add their signed x into it first."""
+        if self.rows is None:
+            return self.J[rows].T @ x[rows]
+        jrow, sign = self.rows[0][rows], self.rows[1][rows]
+        shared = np.unique(jrow)
+        coefficient = np.bincount(jrow, weights=sign * x[rows], minlength=self.J.shape[0])
+        return self.J[shared].T @ coefficient[shared]
+
+    def _jacobian_rows(self, rows: np.ndarray) -> np.ndarray:
+        """The rows of J to factorize for the residual rows R: R itself, or with shared Jacobian rows
+        the row of each residual row, sorted (a row active on both sides twice: J_RᵀJ_R counts it
+        twice)."""
+        return rows if self.rows is None else np.sort(self.rows[0][rows])
 
 
-def held_at_bounds(layout, theta: np.ndarray, J, v: np.ndarray, hinged: np.ndarray) -> np.ndarray | None:
+def held_at_bounds(layout, theta: np.ndarray, J, v: np.ndarray, hinged: np.ndarray, rows=None) -> np.ndarray | None:
     """The variables on a bound of their box that the descent direction −Jᵀh points out of (None
     when no variable has a bound): a step keeps them there and the others take the model's step
-    for the free variables alone (module docstring; Voglis and Lagaris's dogbox does the same)."""
+    for the free variables alone (module docstring; Voglis and Lagaris's dogbox does the same).
+    `rows`: the problem's `row_map` (None: J's rows are the residual rows)."""
     if not layout.bounded:
         return None
-    gradient = J.T @ np.where(hinged, np.maximum(v, 0.0), v)
+    gradient = _transposed_times(J, np.where(hinged, np.maximum(v, 0.0), v), rows)
     return ((theta <= layout.lower) & (gradient > 0.0)) | ((theta >= layout.upper) & (gradient < 0.0))
+
+
+def _times(J, d: np.ndarray, rows) -> np.ndarray:
+    """J_full d for J_full = diag(sign)·J[jrow] (`rows` = (jrow, sign) of `Problem.row_map`), or J d."""
+    product = J @ d
+    return product if rows is None else rows[1] * product[rows[0]]
+
+
+def _transposed_times(J, x: np.ndarray, rows) -> np.ndarray:
+    """J_fullᵀ x for J_full = diag(sign)·J[jrow] (`rows` as `_times`), or Jᵀ x."""
+    if rows is None:
+        return J.T @ x
+    return J.T @ np.bincount(rows[0], weights=rows[1] * x, minlength=J.shape[0])
 
 
 def _model_line_search(a: np.ndarray, b: np.ndarray, hinged: np.ndarray, lam: float, d: np.ndarray,

@@ -115,13 +115,17 @@ class CholmodSolver(LinearSolver):
             self._pending = (J, self._rows)  # J[rows], taken when a factorization needs it
 
     def refactor_rows(self, J, rows: np.ndarray) -> None:
-        """The factorisation of J_RᵀJ_R + βI for the rows R of the same J as the last `set_jacobian(J,
-        rows)`, at the last β: when at most `UPDATE_ROWS` rows join or leave, by CHOLMOD's rank updates
+        """The factorisation of J_RᵀJ_R + βI for the rows R (sorted; a row given twice counts twice)
+        of the same J as the last `set_jacobian(J, rows)`, at the last β: when at most `UPDATE_ROWS` rows join or leave, by CHOLMOD's rank updates
         of the current factor (cholmod_updown, simplicial LDLᵀ; the joining rows first, so the matrix
         grows before it shrinks), else, or when an update leaves a pivot ≤ 0, a refactorisation.
         Measured on a 1069-variable pallet problem: 0.03 ms a row against 3.5 ms a refactorisation,
         the solutions equal to 1e-12 (relative)."""
         J, rows = sp.csr_matrix(J), np.asarray(rows)
+        if _repeats(rows) or _repeats(self._rows):  # a row taken twice (sorted rows): refactorized
+            self._rows, self._pending = rows, (J, rows)
+            self.refactor(self._beta)
+            return
         member = np.zeros(J.shape[0], np.int8)
         member[self._rows] -= 1
         member[rows] += 1  # 1: joins, −1: leaves
@@ -217,6 +221,11 @@ class AnalysisCache:
 
 
 ANALYSES = AnalysisCache()
+
+
+def _repeats(rows: np.ndarray) -> bool:
+    """Whether sorted row indices hold one twice."""
+    return rows.size > 1 and bool(np.any(rows[1:] == rows[:-1]))
 
 
 def _canonical(A: sp.csc_matrix) -> sp.csc_matrix:

@@ -169,3 +169,57 @@ def test_least_norm_multipliers_agree_on_either_side_of_the_push_through_identit
     got = _least_norm_multipliers(make_solver("cholmod"), sp.csr_matrix(dense), g, delta)
     np.testing.assert_allclose(got, expected, rtol=1e-7, atol=1e-9)
     assert got[1] == 0.0 and got[3] == pytest.approx(got[4], rel=1e-9)
+
+
+def _four_rows(x):
+    """c(x) = [x0² + x1², x0·x1, sin x0 + x1, x0 − x1] and its Jacobian."""
+    return (np.array([x[0] ** 2 + x[1] ** 2, x[0] * x[1], np.sin(x[0]) + x[1], x[0] - x[1]]),
+            [np.array([[2 * x[0], 2 * x[1]], [x[1], x[0]], [np.cos(x[0]), 1.0], [1.0, -1.0]])])
+
+
+# one equality, one two-sided, one upper-only and one lower-only row
+_LOWER, _UPPER = np.array([1.0, -0.2, -np.inf, -1.0]), np.array([1.0, 0.2, 3.0, np.inf])
+
+
+def test_two_sided_rows_share_one_jacobian_row_that_gives_each_bounds_derivative():
+    """A row bounded on both sides is two residual rows (its upper and its lower bound) on one
+    Jacobian row: diag(sign)·J[jrow] (`Problem.row_map`) is the finite-difference Jacobian of every
+    residual row, at several μ and multipliers; J has one row fewer than the residual."""
+    from legplan.solve import Problem
+    from legplan.solve.auglag import _AugmentedRows
+    from legplan.solve.jaccheck import numeric_jacobian
+
+    k = Constraint(FunctionBlock(("x",), 4, _four_rows), _LOWER, _UPPER, scale=[1.0, 2.0, 0.5, 3.0])
+    problem = Problem([VariableBlock("x", [0.3, -0.4])])
+    rows = problem.add_residual(_AugmentedRows(k))
+    jrow, sign = problem.row_map()
+    assert rows.size == 5 and jrow.tolist() == [0, 1, 2, 1, 3] and sign.tolist() == [1, 1, 1, -1, 1]
+    rng = np.random.default_rng(2)
+    for mu in (1.0, 1e3):
+        rows.mu, rows.y = mu, np.abs(rng.standard_normal(rows.size))
+        theta = rng.standard_normal(2)
+        v, J = problem.jacobian(theta)
+        assert J.shape == (4, 2)
+        full = sign[:, None] * J.toarray()[jrow]
+        assert v == pytest.approx(problem.residual(theta))
+        np.testing.assert_allclose(full, numeric_jacobian(problem.residual, theta), rtol=1e-6, atol=1e-6 * np.sqrt(mu))
+
+
+@pytest.mark.parametrize("target", [(2.0, 1.5), (2.0, -1.5)])  # x0·x1 at its upper, at its lower bound
+def test_two_sided_rows_solve_as_the_two_bounds_given_apart(target):
+    """The same constrained problem with each two-sided row once (a shared Jacobian row) and with
+    its bounds as two one-sided constraints (a Jacobian row each): the same solution up to
+    round-off, the same iteration counts, with either bound of the two-sided row active."""
+    cost = LinearBlock(("x",), [np.eye(2)], np.array(target))
+    block = FunctionBlock(("x",), 4, _four_rows)
+    together = [Constraint(block, _LOWER, _UPPER)]
+    apart = [Constraint(block, np.where(_LOWER == _UPPER, _LOWER, -np.inf), _UPPER),
+             Constraint(block, np.where(_LOWER == _UPPER, -np.inf, _LOWER), np.inf)]
+    runs = [solve_augmented_lagrangian([VariableBlock("x", [0.9, 0.1])], [CostTerm("target", cost, 1.0)], k,
+                                       ALParams(mu_init=10.0)) for k in (together, apart)]
+    for r in runs:
+        assert r.success, r.reason
+    x = runs[0].values["x"]
+    assert x[0] * x[1] == pytest.approx(0.2 * np.sign(target[1]), abs=2e-3)  # the bound the target pulls to
+    assert x == pytest.approx(runs[1].values["x"], abs=1e-12)
+    assert runs[0].iterations == runs[1].iterations and runs[0].outer_iterations == runs[1].outer_iterations
