@@ -223,3 +223,18 @@ def test_two_sided_rows_solve_as_the_two_bounds_given_apart(target):
     assert x[0] * x[1] == pytest.approx(0.2 * np.sign(target[1]), abs=2e-3)  # the bound the target pulls to
     assert x == pytest.approx(runs[1].values["x"], abs=1e-12)
     assert runs[0].iterations == runs[1].iterations and runs[0].outer_iterations == runs[1].outer_iterations
+
+
+def test_two_sided_rows_with_a_variable_held_at_its_box_solve_as_the_bounds_given_apart():
+    """min ‖x − (2, 4)‖² with x0 ≤ 1.5 (the variable's box, held there) and −1 ≤ x0 − x1 ≤ 1 (its
+    lower bound active): x = (1.5, 2.5), the same with the two bounds as separate constraints."""
+    cost = LinearBlock(("x",), [np.eye(2)], np.array([2.0, 4.0]))
+    block = LinearBlock(("x",), [np.array([[1.0, -1.0]])])
+    runs = []
+    for k in ([Constraint(block, -1.0, 1.0)], [Constraint(block, -np.inf, 1.0), Constraint(block, -1.0, np.inf)]):
+        variables = [VariableBlock("x", [0.0, 0.0], upper=[1.5, np.inf])]
+        runs.append(solve_augmented_lagrangian(variables, [CostTerm("target", cost, 1.0)], k, ALParams(mu_init=10.0)))
+        assert runs[-1].success, runs[-1].reason
+    assert runs[0].values["x"] == pytest.approx([1.5, 2.5], abs=2e-3)
+    assert runs[0].values["x"] == pytest.approx(runs[1].values["x"], abs=1e-12)
+    assert runs[0].iterations == runs[1].iterations
