@@ -229,9 +229,13 @@ def _picked_pattern(shape, ptr_dtype, ptr, idx_dtype, idx, pick) -> tuple:
     entry numbers of the picked rows' entries, their CSR indices and indptr, and their rows (read-only,
     shared). Cached by content: the same constraints recur in every stage's problem and every task."""
     indptr, indices, pick = np.frombuffer(ptr, ptr_dtype), np.frombuffer(idx, idx_dtype), np.frombuffer(pick, np.int64)
-    numbers = sp.csr_matrix((np.arange(1.0, indices.size + 1.0), indices, indptr), shape=shape)[pick]
-    out = (numbers.data.astype(np.int64) - 1, numbers.indices, numbers.indptr,
-           np.repeat(np.arange(pick.size), np.diff(numbers.indptr)))
+    index = np.int32 if max(*shape, indices.size) <= np.iinfo(np.int32).max else np.int64  # scipy's choice
+    count = np.diff(indptr.astype(np.int64))[pick]
+    picked_ptr = np.zeros(pick.size + 1, np.int64)
+    np.cumsum(count, out=picked_ptr[1:])
+    row = np.repeat(np.arange(pick.size), count)
+    source = indptr[pick].astype(np.int64)[row] + (np.arange(picked_ptr[-1]) - picked_ptr[row])  # each row's run
+    out = (source, indices[source].astype(index), picked_ptr.astype(index), row)
     for a in out:
         a.flags.writeable = False
     return out

@@ -238,3 +238,26 @@ def test_two_sided_rows_with_a_variable_held_at_its_box_solve_as_the_bounds_give
     assert runs[0].values["x"] == pytest.approx([1.5, 2.5], abs=2e-3)
     assert runs[0].values["x"] == pytest.approx(runs[1].values["x"], abs=1e-12)
     assert runs[0].iterations == runs[1].iterations
+
+
+def test_picked_pattern_is_scipys_row_selection():
+    """`_picked_pattern` (each picked row's run of entries, written down) gives what scipy's row
+    indexing J[pick] gives, array by array and dtype by dtype: the entry numbers (J's entries
+    numbered 1.., picked), indices and row pointers; rows picked twice, none, empty rows, 32- and
+    64-bit index arrays."""
+    from legplan.solve.auglag import _picked_pattern
+
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        m, n = int(rng.integers(1, 40)), int(rng.integers(1, 30))
+        J = sp.random(m, n, density=rng.uniform(0.0, 0.5), format="csr", random_state=int(rng.integers(1 << 30)))
+        if rng.random() < 0.3:
+            J.indices, J.indptr = J.indices.astype(np.int64), J.indptr.astype(np.int64)
+        pick = rng.integers(0, m, int(rng.integers(0, 2 * m + 1))).astype(np.int64)
+        source, indices, indptr, row = _picked_pattern.__wrapped__(
+            J.shape, J.indptr.dtype.str, J.indptr.tobytes(), J.indices.dtype.str, J.indices.tobytes(), pick.tobytes())
+        numbers = sp.csr_matrix((np.arange(1.0, J.nnz + 1.0), J.indices, J.indptr), shape=J.shape)[pick]
+        expect = (numbers.data.astype(np.int64) - 1, numbers.indices, numbers.indptr,
+                  np.repeat(np.arange(pick.size), np.diff(numbers.indptr)))
+        for got, want in zip((source, indices, indptr, row), expect):
+            assert got.dtype == want.dtype and np.array_equal(got, want)
