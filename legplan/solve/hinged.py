@@ -34,9 +34,10 @@ factorization (rows E ∪ A), and the trial point is θ + d + ½a when 2‖a‖ 
 
 Rows that share a Jacobian row up to sign (`Problem.row_map`: the two bounds of one constraint row,
 l ≤ c ≤ u, whose derivatives are ±∂c) keep their own residuals and hinges; J holds the shared row
-once, J_full = diag(s)·J[jrow], and the products J d, Jᵀx and the factorization of J_RᵀJ_R read it
-through that map (a row active on both sides enters the factorization twice, as it would twice
-stored).
+once, J_full = diag(s)·J[jrow], and every product with J_full (J d, Jᵀx, the Marquardt scale, the
+rows of J_RᵀJ_R and its rank updates) reads J through that map, row by row in the residual rows'
+order: the same sums in the same order as with J_full stored (a sign changes no product's
+magnitude), on about half the entries where most rows are bounded on both sides.
 
 Box bounds of the variables (`VariableBlock.lower`/`upper`): a variable on a bound that the
 descent direction −Jᵀh points out of is held there for the step (`held_at_bounds`: its column and
@@ -245,9 +246,9 @@ class _HingeModel:
         self.rows = rows
         if rows is None:
             d2 = np.bincount(J.indices, weights=J.data ** 2, minlength=n)
-        else:  # a shared row counts once per residual row it stands for
-            count = np.bincount(rows[0], minlength=J.shape[0]).astype(float)
-            d2 = np.bincount(J.indices, weights=J.data ** 2 * np.repeat(count, np.diff(J.indptr)), minlength=n)
+        else:  # over J_full's entries in its order: a shared row once per residual row it stands for
+            full = J[rows[0]]
+            d2 = np.bincount(full.indices, weights=full.data ** 2, minlength=n)
         self.scale = np.where(d2 > MARQUARDT_FLOOR * d2.max(initial=0.0), 1.0 / np.sqrt(np.where(d2 > 0, d2, 1.0)), 1.0)
         if held is not None:  # a zero column and a zero scale: the step leaves these variables where they are
             self.scale[held] = 0.0
@@ -265,15 +266,15 @@ class _HingeModel:
                 t0 = time.perf_counter()
                 rows = np.flatnonzero(~hinged | active)
                 gradient = self._transposed_product(rows, v)
-                rows = self._jacobian_rows(rows)
+                keys, rows = (None, rows) if self.rows is None else (rows, self.rows[0][rows])  # J's rows
                 t1 = time.perf_counter()
                 timings.assemble += t1 - t0
                 try:
                     if factored is None:
-                        solver.set_jacobian(self.J, rows)
+                        solver.set_jacobian(self.J, rows, keys)
                         solver.refactor(lam)
                     else:  # the same J and λ: few rows change from pass to pass
-                        solver.refactor_rows(self.J, rows)
+                        solver.refactor_rows(self.J, rows, keys)
                 except NotPositiveDefiniteError:
                     timings.factorize += time.perf_counter() - t1
                     return None
@@ -304,20 +305,8 @@ class _HingeModel:
 
     def _transposed_product(self, rows: np.ndarray, x: np.ndarray) -> np.ndarray:
         """J_Rᵀ x_R for the rows R alone (the plain and active rows, a small part of J): the same sums
-        in the same order as Jᵀ x with x zero off R, without the pass over the other rows. Residual
-        rows that share a Jacobian row (`Problem.row_map`) add their signed x into it first."""
-        if self.rows is None:
-            return self.J[rows].T @ x[rows]
-        jrow, sign = self.rows[0][rows], self.rows[1][rows]
-        shared = np.unique(jrow)
-        coefficient = np.bincount(jrow, weights=sign * x[rows], minlength=self.J.shape[0])
-        return self.J[shared].T @ coefficient[shared]
-
-    def _jacobian_rows(self, rows: np.ndarray) -> np.ndarray:
-        """The rows of J to factorize for the residual rows R: R itself, or with shared Jacobian rows
-        the row of each residual row, sorted (a row active on both sides twice: J_RᵀJ_R counts it
-        twice)."""
-        return rows if self.rows is None else np.sort(self.rows[0][rows])
+        in the same order as Jᵀ x with x zero off R, without the pass over the other rows."""
+        return _rows_transposed_times(self.J, rows, x, self.rows)
 
 
 def held_at_bounds(layout, theta: np.ndarray, J, v: np.ndarray, hinged: np.ndarray, rows=None) -> np.ndarray | None:
@@ -337,11 +326,20 @@ def _times(J, d: np.ndarray, rows) -> np.ndarray:
     return product if rows is None else rows[1] * product[rows[0]]
 
 
+def _rows_transposed_times(J, picked: np.ndarray, x: np.ndarray, rows) -> np.ndarray:
+    """J_full[R]ᵀ x[R] for the residual rows R = `picked` (increasing): J[jrow[R]]ᵀ (sign·x)[R], each
+    term ±(a·x) as J_full's, summed in R's order (`rows` as `_times`; None: J[R]ᵀ x[R])."""
+    if rows is None:
+        return J[picked].T @ x[picked]
+    return J[rows[0][picked]].T @ (rows[1][picked] * x[picked])
+
+
 def _transposed_times(J, x: np.ndarray, rows) -> np.ndarray:
-    """J_fullᵀ x for J_full = diag(sign)·J[jrow] (`rows` as `_times`), or Jᵀ x."""
+    """J_fullᵀ x (`rows` as `_times`; None: Jᵀ x): over the rows where x is not zero, the terms a zero
+    adds leaving every sum as it is."""
     if rows is None:
         return J.T @ x
-    return J.T @ np.bincount(rows[0], weights=rows[1] * x, minlength=J.shape[0])
+    return _rows_transposed_times(J, np.flatnonzero(x != 0.0), x, rows)
 
 
 def _model_line_search(a: np.ndarray, b: np.ndarray, hinged: np.ndarray, lam: float, d: np.ndarray,
