@@ -32,7 +32,7 @@ from abc import abstractmethod
 import numpy as np
 import scipy.sparse as sp
 
-from legplan.dyn.euler import body_rate_derivatives, body_rates, complex_step, rotation, rotation_derivatives
+from legplan.dyn.euler import body_rate_derivatives, body_rates, complex_step, cross, rotation, rotation_derivatives
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import (PHASES, PhaseTiming, TimedControlPoints, TimedSamples, invalid_timing, phase_jacobian,
@@ -118,7 +118,7 @@ class DynamicsBlock(ResidualBlock):
         """I_W ω̇ + ω × I_W ω = R (I_B ω̇_B + ω_B × I_B ω_B), rows (n, 3)."""
         wb, wdb = body_rates(e, ed, edd)
         iw = wb @ self.inertia.T
-        u = wdb @ self.inertia.T + np.cross(wb, iw)
+        u = wdb @ self.inertia.T + cross(wb, iw)
         return np.einsum("nij,nj->ni", rotation(e), u)
 
     def inertial_torque_jacobians(self, e, ed, edd):
@@ -128,7 +128,7 @@ class DynamicsBlock(ResidualBlock):
         wb, wdb, dw_de, dw_ded, dwd_de, dwd_ded, dwd_dedd = body_rate_derivatives(e, ed, edd)
         inertia = self.inertia
         iw = wb @ inertia.T
-        u = wdb @ inertia.T + np.cross(wb, iw)
+        u = wdb @ inertia.T + cross(wb, iw)
         gyro = skew(wb) @ inertia - skew(iw)  # ∂(ω × I ω)/∂ω
         rot = rotation(e)
         torque = np.einsum("nij,nj->ni", rot, u)
@@ -151,7 +151,7 @@ class DynamicsBlock(ResidualBlock):
             torque, (j_e, j_ed, j_edd) = self.inertial_torque_jacobians(e, ed, edd)
         else:
             torque = self.inertial_torque(e, ed, edd)
-        angular = torque - sum(np.cross(q - p0, fi) for q, fi in zip(pf, f))
+        angular = torque - sum(cross(q - p0, fi) for q, fi in zip(pf, f))
         r = np.hstack([linear, angular]).reshape(-1)
         if not jacobians:
             return r, None
@@ -202,8 +202,9 @@ class RangeOfMotionBlock(ResidualBlock):
         return valid
 
     @staticmethod
-    def _in_base(e, d):
-        return np.einsum("nji,nj->ni", rotation(e), d)
+    def _in_base(e, d, rot=None):
+        """Rᵀd per sample for Euler angles e (or their rotations `rot`, computed once by the caller)."""
+        return np.einsum("nji,nj->ni", rotation(e) if rot is None else rot, d)
 
     def _sampled(self, values):
         """Base position p, Euler angles e and foot q at the samples (n, 3) each; None for an
@@ -287,7 +288,7 @@ class LegClearanceBlock(RangeOfMotionBlock):
             return invalid_timing(self, jacobians)
         p, e, q = sampled
         rot = rotation(e)
-        b = self._in_base(e, q - p) + self.offset
+        b = self._in_base(e, q - p, rot) + self.offset
         s, ds = self._spheres(b, jacobians)
         lever = s - self.offset
         c = p[:, None] + np.einsum("nij,nkj->nki", rot, lever)
@@ -355,14 +356,15 @@ class JointTorqueBlock(RangeOfMotionBlock):
         lin, ang, feet, forces = (_nodes(v) for v in values[:4])
         p, e, q = self.base @ lin, self.base @ ang, self.foot @ feet
         f = self.force @ forces
-        b = self._in_base(e, q - p) + self.offset
-        g = self._in_base(e, f)
+        rot = rotation(e)
+        b = self._in_base(e, q - p, rot) + self.offset
+        g = self._in_base(e, f, rot)
         tau, d_b, d_g, _ = self.legs.foot_torques(self.leg, b, g, self.joints, derivatives=jacobians)
         if not jacobians:
             return tau.reshape(-1), None
         turns = rotation_derivatives(e)
         db_de, dg_de = _in_base_jacobian(turns, q - p), _in_base_jacobian(turns, f)
-        rt = np.transpose(rotation(e), (0, 2, 1))
+        rt = np.transpose(rot, (0, 2, 1))
         d_q = d_b @ rt
         d_f = d_g @ rt
         out = [self.base_jacobian([-d_q]), self.base_jacobian([d_b @ db_de + d_g @ dg_de]), self.foot_jacobian([d_q]),

@@ -39,6 +39,7 @@ import scipy.sparse as sp
 
 from legplan.dyn.gait import FootPhase, Gait
 from legplan.geometry.hermite import NodeSpline, Segment
+from legplan.geometry.sparse import wrapped
 from legplan.solve import VariableBlock
 
 FORCE_POLYNOMIALS = 3  # per stance phase (TOWR default)
@@ -292,6 +293,7 @@ def _foot_nodes(phases: list[FootPhase], motion_offset: int, force_offset: int) 
 
 
 def _embed(m: sp.csr_matrix, offset: int, total: int) -> sp.csr_matrix:
-    """Shift the columns of a per-foot matrix into the all-feet node array (2 columns per node)."""
+    """Shift the columns of a per-foot matrix into the all-feet node array (2 columns per node): the
+    same valid index arrays, shifted (`wrapped`: no check of them again)."""
     m = sp.csr_matrix(m)
-    return sp.csr_matrix((m.data, m.indices + 2 * offset, m.indptr), shape=(m.shape[0], 2 * total))
+    return wrapped(sp.csr_matrix, m.data, m.indices + 2 * offset, m.indptr, (m.shape[0], 2 * total))

@@ -37,6 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 import pinocchio as pin
 
+from legplan.dyn.euler import cross
 from legplan.robots.kinematics import one_dof_axis
 from legplan.robots.so3 import skew
 
@@ -95,7 +96,7 @@ class _Chain:
         origin, rot, axes = frames
         x = origin[:, joint] + rot[:, joint] @ offset
         jac = np.zeros(x.shape + (origin.shape[1],))
-        jac[:, :, :joint + 1] = np.swapaxes(_cross(axes[:, :joint + 1], x[:, None] - origin[:, :joint + 1]), 1, 2)
+        jac[:, :, :joint + 1] = np.swapaxes(cross(axes[:, :joint + 1], x[:, None] - origin[:, :joint + 1]), 1, 2)
         return x, jac
 
     def solve(self, feet: np.ndarray, q: np.ndarray) -> np.ndarray:
@@ -242,7 +243,7 @@ class ChainLegs:
         if not derivatives:
             return tau, None, None, q
         columns = np.swapaxes(jac, 1, 2)  # (n, J, 3): c_i
-        m = axes @ np.swapaxes(_cross(columns, forces[:, None]), 1, 2)  # [n, p, q] = a_p · (c_q × g)
+        m = axes @ np.swapaxes(cross(columns, forces[:, None]), 1, 2)  # [n, p, q] = a_p · (c_q × g)
         d_tau_dq = np.triu(m) + np.swapaxes(np.triu(m, 1), 1, 2)  # (n, i, k)
         return tau, d_tau_dq @ data.pinv_of(jac), columns, q
 
@@ -263,14 +264,6 @@ class ChainLegs:
         if not centres:
             return np.zeros((n, 0, 3)), np.zeros((n, 0, 3, 3)), q
         return np.stack(centres, axis=1), np.stack(jacobians, axis=1), q
-
-
-def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """a × b over the last axis, broadcast, by its components (numpy's `cross` moves and copies axes,
-    several times the arithmetic for a few hundred vectors); the same floating-point operations."""
-    a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
-    b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
 
 
 def _damped_pinv(jac: np.ndarray) -> np.ndarray:

@@ -394,7 +394,7 @@ def _joint_torque(c: BuildContext) -> list[Constraint]:
 def _leg_clearance(c: BuildContext) -> list[Constraint]:
     """Left out on a level map, where no terrain rises to the legs (the check still judges them)."""
     p, model = c.problem, c.problem.model
-    if c.params.leg_clearance is None or not np.ptp(p.terrain.height_grid) > 0:
+    if c.params.leg_clearance is None or p.terrain.level:
         return []
     if model.leg_kinematics is None:
         raise ValueError("DynParams.leg_clearance needs the robot's legs (Centroidal.leg_kinematics)")

@@ -46,6 +46,7 @@ class TerrainModel:
         edge[1:, :] |= jump_y
         edge[:-1, :] |= jump_y
         self.has_edges = bool(edge.any())
+        self.level = not np.ptp(h) > 0  # no terrain rises anywhere (read by every build of a problem)
         smooth = filtered("gaussian_filter", h, SLOPE_SMOOTHING / self.resolution, mode="nearest")
         gy, gx = np.gradient(smooth, self.resolution)
         self.slope_grid = np.hypot(gx, gy)

@@ -179,7 +179,19 @@ def _jacobian_structure(rows: int, samples: int, columns: int, patterns: tuple) 
     (dtype and bytes each): the sample row of every matrix entry, the CSR slot of every product entry,
     the CSR indices and indptr (read-only, shared). Cached by content: every problem built for a task
     space samples its splines alike, and a stage's problem repeats the last one's, so most blocks of a
-    new problem find their structure here (it was a third of a problem's first Jacobian)."""
+    new problem find their structure here (it was a third of a problem's first Jacobian). When every
+    matrix has one and the same pattern with increasing columns in each row (a spline sampled once,
+    or its derivatives), that structure is written down directly (`_one_pattern_structure`)."""
+    if len(set(patterns)) == 1:
+        direct = _one_pattern_structure(rows, samples, columns, *patterns[0], len(patterns))
+        if direct is not None:
+            return direct
+    return _sorted_structure(rows, samples, columns, patterns)
+
+
+def _sorted_structure(rows: int, samples: int, columns: int, patterns: tuple) -> tuple:
+    """`_jacobian_structure` for any patterns: every product entry's key (row, column), sorted and
+    merged (`np.unique`)."""
     entry_rows, keys = [], []
     for ptr_dtype, ptr, idx_dtype, idx in patterns:
         indptr, indices = np.frombuffer(ptr, ptr_dtype), np.frombuffer(idx, idx_dtype)
@@ -195,6 +207,39 @@ def _jacobian_structure(rows: int, samples: int, columns: int, patterns: tuple) 
     out = (entry_rows, slot, (unique % columns).astype(index),
            np.searchsorted(unique // columns, np.arange(samples * rows + 1)).astype(index))
     for a in [*entry_rows, *out[1:]]:
+        a.flags.writeable = False
+    return out
+
+
+def _one_pattern_structure(rows: int, samples: int, columns: int, ptr_dtype, ptr, idx_dtype, idx,
+                           terms: int) -> tuple | None:
+    """`_jacobian_structure` of `terms` matrices of one CSR pattern whose columns increase within each
+    row (None otherwise), without a sort: no two entries coincide within a term, so the product's
+    row (i, a) (sample i, residual row a) holds, in order, the 3 columns 3j + b of each entry j of
+    sample i, entry e of that sample at slot 3·rows·p_i + 3·a·n_i + 3·(e − p_i) + b (p_i its first
+    entry, n_i its count); the terms' entries share these slots."""
+    indptr, indices = np.frombuffer(ptr, ptr_dtype), np.frombuffer(idx, idx_dtype)
+    if indices.size > 1:
+        increasing = indices[1:] > indices[:-1]
+        starts = indptr[1:-1]
+        increasing[starts[(starts > 0) & (starts < indices.size)] - 1] = True  # pairs across rows
+        if not increasing.all():
+            return None
+    count = np.diff(indptr).astype(np.int64)
+    first = indptr[:-1].astype(np.int64)
+    entry_row = np.repeat(np.arange(samples), count)
+    size = 3 * rows * indices.size
+    index = np.int32 if max(size, columns, samples * rows) < np.iinfo(np.int32).max else np.int64
+    start = 3 * rows * first[entry_row] + 3 * (np.arange(indices.size) - first[entry_row])
+    slot = (start[:, None, None] + (3 * count[entry_row])[:, None, None] * np.arange(rows)[None, :, None]
+            + np.arange(3)[None, None, :]).reshape(-1).astype(np.intp)
+    out_indices = np.empty(size, index)
+    out_indices[slot] = np.broadcast_to((3 * indices.astype(np.int64))[:, None, None] + np.arange(3),
+                                        (indices.size, rows, 3)).reshape(-1)
+    out_indptr = np.append((3 * rows * first[:, None] + 3 * count[:, None] * np.arange(rows)).reshape(-1),
+                           size).astype(index)
+    out = ([entry_row] * terms, np.tile(slot, terms), out_indices, out_indptr)
+    for a in [entry_row, *out[1:]]:
         a.flags.writeable = False
     return out
 

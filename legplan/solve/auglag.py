@@ -146,7 +146,11 @@ class ALResult:
 class _AugmentedRows(ResidualBlock):
     """√μ·(w(c − l) + y/μ) on equality rows, √μ·(w(c − u) + y_u/μ) and √μ·(w(l − c) + y_l/μ) on the
     bounded rows, which are hinged (`hinged`: the residual is max(0, ·) there): the augmented
-    Lagrangian of one `Constraint` as least-squares rows, w its row scale."""
+    Lagrangian of one `Constraint` as least-squares rows, w its row scale.
+
+    A row bounded on both sides has two residual rows whose derivatives are ±√μ·w·∂c: they share
+    one Jacobian row (`jacobian_rows`, `jacobian_sign`: the lower bound's is the upper's negated),
+    so its derivative is picked, stored and multiplied once (`Problem.row_map`)."""
 
     def __init__(self, constraint: Constraint):
         self.constraint = constraint
@@ -161,6 +165,20 @@ class _AugmentedRows(ResidualBlock):
         self.mu = 1.0
         self.y = np.zeros(self.size)
         self._pickers: list[_RowPicker] = []
+        # Jacobian rows: the equality and upper-bound rows, then the lower-bound rows without an upper
+        # bound; a lower-bound row with one shares that row, negated
+        before = self.rows[0].size + self.rows[1].size
+        upper_at = np.full(constraint.block.size, -1, np.int64)
+        upper_at[self.rows[1]] = self.rows[0].size + np.arange(self.rows[1].size)
+        shared = upper_at[self.rows[2]]
+        own = shared < 0
+        lower_rows = np.where(own, before + np.cumsum(own) - 1, shared)
+        if not own.all():
+            self.jacobian_rows = np.concatenate([np.arange(before), lower_rows])
+            self.jacobian_sign = np.where(np.concatenate([np.ones(before, bool), own]), 1.0, -1.0)
+            self._jacobian_pick = np.concatenate([np.arange(before), before + np.flatnonzero(own)])
+        else:
+            self._jacobian_pick = None
 
     def evaluate(self, values, jacobians):
         c, jacs = self.constraint.block.evaluate(values, jacobians)
@@ -168,8 +186,10 @@ class _AugmentedRows(ResidualBlock):
         r = factor * (np.asarray(c, float)[self.pick] - self.bound) + self.y / np.sqrt(self.mu)
         if not jacobians:
             return r, None
+        pick = self._jacobian_pick
         if not self._pickers:
-            self._pickers = [_RowPicker(self.pick) for _ in jacs]
+            self._pickers = [_RowPicker(self.pick if pick is None else self.pick[pick]) for _ in jacs]
+        factor = factor if pick is None else factor[pick]
         return r, [picker(j, factor) for picker, j in zip(self._pickers, jacs)]
 
     def update(self, c: np.ndarray) -> None:
@@ -209,9 +229,13 @@ def _picked_pattern(shape, ptr_dtype, ptr, idx_dtype, idx, pick) -> tuple:
     entry numbers of the picked rows' entries, their CSR indices and indptr, and their rows (read-only,
     shared). Cached by content: the same constraints recur in every stage's problem and every task."""
     indptr, indices, pick = np.frombuffer(ptr, ptr_dtype), np.frombuffer(idx, idx_dtype), np.frombuffer(pick, np.int64)
-    numbers = sp.csr_matrix((np.arange(1.0, indices.size + 1.0), indices, indptr), shape=shape)[pick]
-    out = (numbers.data.astype(np.int64) - 1, numbers.indices, numbers.indptr,
-           np.repeat(np.arange(pick.size), np.diff(numbers.indptr)))
+    index = np.int32 if max(*shape, indices.size) <= np.iinfo(np.int32).max else np.int64  # scipy's choice
+    count = np.diff(indptr.astype(np.int64))[pick]
+    picked_ptr = np.zeros(pick.size + 1, np.int64)
+    np.cumsum(count, out=picked_ptr[1:])
+    row = np.repeat(np.arange(pick.size), count)
+    source = indptr[pick].astype(np.int64)[row] + (np.arange(picked_ptr[-1]) - picked_ptr[row])  # each row's run
+    out = (source, indices[source].astype(index), picked_ptr.astype(index), row)
     for a in out:
         a.flags.writeable = False
     return out
@@ -330,6 +354,10 @@ def least_squares_multipliers(problem: Problem, rows: Sequence[_AugmentedRows], 
     m = sum(r.size for r in rows)
     k = v.size - m
     J = sp.csr_matrix(J)
+    shared = problem.row_map()
+    if shared is not None:  # one row per residual row: diag(sign)·J[jrow]
+        J = J[shared[0]]
+        J.data *= np.repeat(shared[1], np.diff(J.indptr))
     g = J[:k].T @ v[:k]
     Jc = J[k:]
     hinged = problem.hinge_mask()[k:]

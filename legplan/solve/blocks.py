@@ -49,10 +49,17 @@ class ResidualBlock(ABC):
 
     variables: tuple[str, ...]
     size: int
+    jacobian_rows: np.ndarray | None = None
+    """Optional (size,) ints: the row of the block's Jacobians that holds each residual row's
+    derivative, times `jacobian_sign` (±1 per residual row). Rows whose derivatives are equal up to
+    sign (the two bounds of one constraint row) then share one Jacobian row, which the solver
+    evaluates, stores and multiplies once (`Problem.row_map`). None: row i is Jacobian row i."""
+    jacobian_sign: np.ndarray | None = None
 
     @abstractmethod
     def evaluate(self, values: Sequence[np.ndarray], jacobians: bool) -> tuple[np.ndarray, list[Matrix] | None]:
-        """Residual (size,) and, if `jacobians`, one (size × len(values[i])) Jacobian per variable."""
+        """Residual (size,) and, if `jacobians`, one Jacobian per variable: (size × len(values[i])),
+        or with `jacobian_rows` (max(jacobian_rows) + 1 rows × len(values[i]))."""
 
     def residual_chunks(self, values: Sequence[np.ndarray]) -> Iterator[np.ndarray]:
         """The residual in pieces whose squared norms add up to ‖r‖² (any partition, any order).

@@ -32,6 +32,13 @@ residual evaluation), gives the acceleration a = −(JᵀJ + λI)⁻¹ Jᵀ r_vv
 factorization (rows E ∪ A), and the trial point is θ + d + ½a when 2‖a‖ ≤ α‖d‖ (α =
 `geodesic_acceleration`, 0.75 as the paper recommends; 0 switches it off).
 
+Rows that share a Jacobian row up to sign (`Problem.row_map`: the two bounds of one constraint row,
+l ≤ c ≤ u, whose derivatives are ±∂c) keep their own residuals and hinges; J holds the shared row
+once, J_full = diag(s)·J[jrow], and every product with J_full (J d, Jᵀx, the Marquardt scale, the
+rows of J_RᵀJ_R and its rank updates) reads J through that map, row by row in the residual rows'
+order: the same sums in the same order as with J_full stored (a sign changes no product's
+magnitude), on about half the entries where most rows are bounded on both sides.
+
 Box bounds of the variables (`VariableBlock.lower`/`upper`): a variable on a bound that the
 descent direction −Jᵀh points out of is held there for the step (`held_at_bounds`: its column and
 its scale zero, the active set of bound-constrained Gauss–Newton), the trial point is clipped to the
@@ -112,20 +119,21 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
         return LMResult(theta, layout.values(theta), status, reason, it, norm, initial, hist_h, hist_l,
                         accepted, rejected, timings, test)
 
+    rows = problem.row_map()
     t0 = time.perf_counter()
     v, J = problem.nonzero_jacobian(theta)
     timings.evaluate += time.perf_counter() - t0
     norm = initial = hinged_norm(v, hinged)
     model = None
-    held = held_at_bounds(layout, theta, J, v, hinged)
-    stopping = _Stopping(params, hinged, row_tolerance)
+    held = held_at_bounds(layout, theta, J, v, hinged, rows)
+    stopping = _Stopping(params, hinged, row_tolerance, rows)
     for it in range(params.max_iterations + 1):
         stop = stopping.at_point(it, norm, v, J, lam, held)
         if stop:
             return finish(stop, it, norm)
         if model is None:
             t0 = time.perf_counter()
-            model = _HingeModel(J, v, hinged, layout.n, held)
+            model = _HingeModel(J, v, hinged, layout.n, held, rows)
             timings.assemble += time.perf_counter() - t0
         step = model.step(solver, lam, params.active_set_iterations, timings)
         if step is None:
@@ -135,12 +143,13 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
         scaled_step = step
         step = model.scale * step
         taken = layout.project(theta + step) - theta if layout.bounded else step  # clipped to the box
-        predicted = norm ** 2 - hinged_norm(v + J @ taken, hinged) ** 2
+        predicted = norm ** 2 - hinged_norm(v + _times(J, taken, rows), hinged) ** 2
         if params.geodesic_acceleration > 0.0:
             t0 = time.perf_counter()
             probe = problem.residual(layout.project(theta + GEODESIC_PROBE * step))
             timings.evaluate += time.perf_counter() - t0
-            acceleration = model.acceleration(solver, (probe - v) / GEODESIC_PROBE - J @ step, GEODESIC_PROBE)
+            acceleration = model.acceleration(solver, (probe - v) / GEODESIC_PROBE - _times(J, step, rows),
+                                              GEODESIC_PROBE)
             if 2.0 * np.linalg.norm(acceleration) <= params.geodesic_acceleration * np.linalg.norm(scaled_step):
                 step = step + 0.5 * model.scale * acceleration
         trial = layout.project(theta + step)
@@ -161,7 +170,7 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
             t0 = time.perf_counter()
             v, J = problem.nonzero_jacobian(theta)
             model = None
-            held = held_at_bounds(layout, theta, J, v, hinged)
+            held = held_at_bounds(layout, theta, J, v, hinged, rows)
             timings.evaluate += time.perf_counter() - t0
         else:
             lam, nu = lam * nu, 2 * nu
@@ -174,8 +183,8 @@ class _Stopping:
     """The stop tests of `solve_hinged_lm` (module docstring) as (status, parameter, reason), None to go
     on: `at_point` before a step from the current point, `after_step` at an accepted trial point."""
 
-    def __init__(self, params: HingedParams, hinged: np.ndarray, row_tolerance: np.ndarray | None):
-        self.params, self.hinged, self.row_tolerance = params, hinged, row_tolerance
+    def __init__(self, params: HingedParams, hinged: np.ndarray, row_tolerance: np.ndarray | None, rows=None):
+        self.params, self.hinged, self.row_tolerance, self.rows = params, hinged, row_tolerance, rows
         self.initial_gradient = None
 
     def at_point(self, it: int, norm: float, v: np.ndarray, J, lam: float,
@@ -188,7 +197,7 @@ class _Stopping:
         stop = self._within_tolerance(norm, h)
         if stop:
             return stop
-        g = J.T @ h  # inactive hinged rows contribute nothing
+        g = _transposed_times(J, h, self.rows)  # inactive hinged rows contribute nothing
         gradient = float(np.abs(g if held is None else np.where(held, 0.0, g)).max(initial=0.0))
         if self.initial_gradient is None:
             self.initial_gradient = gradient
@@ -232,9 +241,14 @@ class _HingeModel:
     product in Python. Later passes update the factor by the rows that changed (`refactor_rows`), and
     a pass whose active set is the last factorized one reuses its factorization and candidate."""
 
-    def __init__(self, J, v: np.ndarray, hinged: np.ndarray, n: int, held: np.ndarray | None = None):
+    def __init__(self, J, v: np.ndarray, hinged: np.ndarray, n: int, held: np.ndarray | None = None, rows=None):
         J = sp.csr_matrix(J)
-        d2 = np.bincount(J.indices, weights=J.data ** 2, minlength=n)
+        self.rows = rows
+        if rows is None:
+            d2 = np.bincount(J.indices, weights=J.data ** 2, minlength=n)
+        else:  # over J_full's entries in its order: a shared row once per residual row it stands for
+            full = J[rows[0]]
+            d2 = np.bincount(full.indices, weights=full.data ** 2, minlength=n)
         self.scale = np.where(d2 > MARQUARDT_FLOOR * d2.max(initial=0.0), 1.0 / np.sqrt(np.where(d2 > 0, d2, 1.0)), 1.0)
         if held is not None:  # a zero column and a zero scale: the step leaves these variables where they are
             self.scale[held] = 0.0
@@ -252,14 +266,15 @@ class _HingeModel:
                 t0 = time.perf_counter()
                 rows = np.flatnonzero(~hinged | active)
                 gradient = self._transposed_product(rows, v)
+                keys, rows = (None, rows) if self.rows is None else (rows, self.rows[0][rows])  # J's rows
                 t1 = time.perf_counter()
                 timings.assemble += t1 - t0
                 try:
                     if factored is None:
-                        solver.set_jacobian(self.J, rows)
+                        solver.set_jacobian(self.J, rows, keys)
                         solver.refactor(lam)
                     else:  # the same J and λ: few rows change from pass to pass
-                        solver.refactor_rows(self.J, rows)
+                        solver.refactor_rows(self.J, rows, keys)
                 except NotPositiveDefiniteError:
                     timings.factorize += time.perf_counter() - t1
                     return None
@@ -269,7 +284,7 @@ class _HingeModel:
                 timings.solve += time.perf_counter() - t2
                 factored = active
             direction = candidate - step
-            change = self.J @ direction
+            change = _times(self.J, direction, self.rows)
             t = _model_line_search(model_v, change, hinged, lam, step, direction)
             if t == 0.0:
                 break
@@ -291,17 +306,40 @@ class _HingeModel:
     def _transposed_product(self, rows: np.ndarray, x: np.ndarray) -> np.ndarray:
         """J_Rᵀ x_R for the rows R alone (the plain and active rows, a small part of J): the same sums
         in the same order as Jᵀ x with x zero off R, without the pass over the other rows."""
-        return self.J[rows].T @ x[rows]
+        return _rows_transposed_times(self.J, rows, x, self.rows)
 
 
-def held_at_bounds(layout, theta: np.ndarray, J, v: np.ndarray, hinged: np.ndarray) -> np.ndarray | None:
+def held_at_bounds(layout, theta: np.ndarray, J, v: np.ndarray, hinged: np.ndarray, rows=None) -> np.ndarray | None:
     """The variables on a bound of their box that the descent direction −Jᵀh points out of (None
     when no variable has a bound): a step keeps them there and the others take the model's step
-    for the free variables alone (module docstring; Voglis and Lagaris's dogbox does the same)."""
+    for the free variables alone (module docstring; Voglis and Lagaris's dogbox does the same).
+    `rows`: the problem's `row_map` (None: J's rows are the residual rows)."""
     if not layout.bounded:
         return None
-    gradient = J.T @ np.where(hinged, np.maximum(v, 0.0), v)
+    gradient = _transposed_times(J, np.where(hinged, np.maximum(v, 0.0), v), rows)
     return ((theta <= layout.lower) & (gradient > 0.0)) | ((theta >= layout.upper) & (gradient < 0.0))
+
+
+def _times(J, d: np.ndarray, rows) -> np.ndarray:
+    """J_full d for J_full = diag(sign)·J[jrow] (`rows` = (jrow, sign) of `Problem.row_map`), or J d."""
+    product = J @ d
+    return product if rows is None else rows[1] * product[rows[0]]
+
+
+def _rows_transposed_times(J, picked: np.ndarray, x: np.ndarray, rows) -> np.ndarray:
+    """J_full[R]ᵀ x[R] for the residual rows R = `picked` (increasing): J[jrow[R]]ᵀ (sign·x)[R], each
+    term ±(a·x) as J_full's, summed in R's order (`rows` as `_times`; None: J[R]ᵀ x[R])."""
+    if rows is None:
+        return J[picked].T @ x[picked]
+    return J[rows[0][picked]].T @ (rows[1][picked] * x[picked])
+
+
+def _transposed_times(J, x: np.ndarray, rows) -> np.ndarray:
+    """J_fullᵀ x (`rows` as `_times`; None: Jᵀ x): over the rows where x is not zero, the terms a zero
+    adds leaving every sum as it is."""
+    if rows is None:
+        return J.T @ x
+    return _rows_transposed_times(J, np.flatnonzero(x != 0.0), x, rows)
 
 
 def _model_line_search(a: np.ndarray, b: np.ndarray, hinged: np.ndarray, lam: float, d: np.ndarray,

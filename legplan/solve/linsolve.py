@@ -101,37 +101,48 @@ class CholmodSolver(LinearSolver):
     def set_matrix(self, H):
         self._set(sp.csc_matrix(H), transposed_jacobian=False)
 
-    def set_jacobian(self, J, rows=None):
+    def set_jacobian(self, J, rows=None, keys=None):
         """CHOLMOD's AAᵀ factorisation with A = Jᵀ: JᵀJ + βI is factorised from J (its CSR arrays are
         those of Jᵀ in CSC), never formed here; the ordering is analysed on the pattern of JᵀJ. With
-        `rows`, A holds those rows only, on the analysis of the whole J's pattern: the product of any
-        subset of J's rows has a subset of its pattern, which CHOLMOD's numeric factorisation takes
-        (checked against dense solves in the tests), so the hinged LM's active sets share one analysis."""
+        `rows`, A holds those rows only, in that order, on the analysis of the whole J's pattern: the
+        product of any subset of J's rows has a subset of its pattern, which CHOLMOD's numeric
+        factorisation takes (checked against dense solves in the tests), so the hinged LM's active
+        sets share one analysis. `keys` (distinct, increasing, one per entry of `rows`) name the
+        residual rows that `rows` stand for when residual rows share a row of J (`Problem.row_map`;
+        a row of J may then be given twice); `refactor_rows` follows the set by them."""
         J = sp.csr_matrix(J)
         self._set(_transposed(J), transposed_jacobian=True)
-        self._rows = None
+        self._rows = self._keys = None
         if rows is not None:
             self._rows = np.asarray(rows)
+            self._keys = self._rows if keys is None else np.asarray(keys)
             self._pending = (J, self._rows)  # J[rows], taken when a factorization needs it
 
-    def refactor_rows(self, J, rows: np.ndarray) -> None:
-        """The factorisation of J_RᵀJ_R + βI for the rows R of the same J as the last `set_jacobian(J,
-        rows)`, at the last β: when at most `UPDATE_ROWS` rows join or leave, by CHOLMOD's rank updates
-        of the current factor (cholmod_updown, simplicial LDLᵀ; the joining rows first, so the matrix
-        grows before it shrinks), else, or when an update leaves a pivot ≤ 0, a refactorisation.
-        Measured on a 1069-variable pallet problem: 0.03 ms a row against 3.5 ms a refactorisation,
-        the solutions equal to 1e-12 (relative)."""
+    def refactor_rows(self, J, rows: np.ndarray, keys: np.ndarray | None = None) -> None:
+        """The factorisation of J_RᵀJ_R + βI for the rows R (sorted, or in the order of their `keys`
+        as `set_jacobian`) of the same J as the last `set_jacobian(J, rows)`, at the last β: when at
+        most `UPDATE_ROWS` rows join or leave, by CHOLMOD's rank updates of the current factor
+        (cholmod_updown, simplicial LDLᵀ; the joining rows first, in the order of their keys, so the
+        matrix grows before it shrinks), else, or when an update leaves a pivot ≤ 0, a
+        refactorisation. Measured on a 1069-variable pallet problem: 0.03 ms a row against 3.5 ms a
+        refactorisation, the solutions equal to 1e-12 (relative)."""
         J, rows = sp.csr_matrix(J), np.asarray(rows)
-        member = np.zeros(J.shape[0], np.int8)
-        member[self._rows] -= 1
-        member[rows] += 1  # 1: joins, −1: leaves
+        keys = rows if keys is None else np.asarray(keys)
+        before_rows, before_keys = self._rows, self._keys
+        self._rows, self._keys, self._pending = rows, keys, (J, rows)  # J[rows] only if it comes to a refactorisation
+        if _repeats(keys) or _repeats(before_keys):  # a row of J taken twice under one key: refactorized
+            self.refactor(self._beta)
+            return
+        member = np.zeros(int(max(keys.max(initial=-1), before_keys.max(initial=-1))) + 1, np.int8)
+        member[before_keys] -= 1
+        member[keys] += 1  # 1: joins, −1: leaves
         added, removed = np.flatnonzero(member > 0), np.flatnonzero(member < 0)
-        self._rows, self._pending = rows, (J, rows)  # J[rows] only if it comes to a refactorisation
         if self.mode == "simplicial" and added.size + removed.size <= UPDATE_ROWS:
             if added.size:
-                self._factor.update_inplace(_transposed(J[added]))
+                self._factor.update_inplace(_transposed(J[rows[np.searchsorted(keys, added)]]))
             if removed.size:
-                self._factor.update_inplace(_transposed(J[removed]), subtract=True)
+                self._factor.update_inplace(_transposed(J[before_rows[np.searchsorted(before_keys, removed)]]),
+                                            subtract=True)
             if np.all(self._factor.D() > 0):
                 self.updates += 1
                 return
@@ -217,6 +228,11 @@ class AnalysisCache:
 
 
 ANALYSES = AnalysisCache()
+
+
+def _repeats(rows: np.ndarray) -> bool:
+    """Whether sorted row indices hold one twice."""
+    return rows.size > 1 and bool(np.any(rows[1:] == rows[:-1]))
 
 
 def _canonical(A: sp.csc_matrix) -> sp.csc_matrix:

@@ -75,6 +75,8 @@ class Problem:
             raise ValueError(f"weight must be a scalar or have {block.size} entries, got shape {w.shape}")
         if w.ndim and isinstance(block, StructuredBlock):
             raise ValueError("a StructuredBlock accepts only a scalar weight")
+        if w.ndim and block.jacobian_rows is not None:
+            raise ValueError("a block with shared Jacobian rows (`jacobian_rows`) accepts only a scalar weight")
         self._blocks.append((block, float(w) if not w.ndim else w))
         self._invalidate()
         return block
@@ -84,6 +86,8 @@ class Problem:
         self._index_cache.clear()
         self.structure_cache.clear()
         self._offsets = None
+        self._jacobian_offsets = None
+        self._row_map = None
         self._jac_assembler = None
         self._jact_assembler = None
         self._hess_assembler = None
@@ -96,11 +100,28 @@ class Problem:
             self._layout = VariableLayout(self._variables)
             sizes = [b.size for b, _ in self._blocks]
             self._offsets = np.concatenate([[0], np.cumsum(sizes, dtype=np.int64)])
-            self._jac_assembler = CooAssembler((int(self._offsets[-1]), self._layout.n))
-            self._jact_assembler = CooAssembler((self._layout.n, int(self._offsets[-1])))
+            rows = [b.size if b.jacobian_rows is None else int(np.max(b.jacobian_rows, initial=-1)) + 1
+                    for b, _ in self._blocks]
+            self._jacobian_offsets = np.concatenate([[0], np.cumsum(rows, dtype=np.int64)])
+            if any(b.jacobian_rows is not None for b, _ in self._blocks):
+                jrow = [np.arange(lo, hi) if b.jacobian_rows is None else lo + np.asarray(b.jacobian_rows, np.int64)
+                        for (b, _), lo, hi in zip(self._blocks, self._jacobian_offsets[:-1], self._jacobian_offsets[1:])]
+                sign = [np.ones(b.size) if b.jacobian_sign is None else np.asarray(b.jacobian_sign, float)
+                        for b, _ in self._blocks]
+                self._row_map = (np.concatenate(jrow), np.concatenate(sign))
+            m = int(self._jacobian_offsets[-1])
+            self._jac_assembler = CooAssembler((m, self._layout.n))
+            self._jact_assembler = CooAssembler((self._layout.n, m))
             self._hess_assembler = CooAssembler((self._layout.n, self._layout.n))
             self._diagonal = np.arange(self._layout.n)  # one object: the assembler sees a cached index piece
         return self._layout
+
+    def row_map(self) -> tuple[np.ndarray, np.ndarray] | None:
+        """(jrow, sign): residual row i's derivative is sign_i times row jrow_i of the stacked J of
+        `jacobian` and `nonzero_jacobian`, which hold each shared Jacobian row once (blocks'
+        `jacobian_rows`); None when every residual row is its own Jacobian row."""
+        _ = self.layout
+        return self._row_map
 
     @property
     def blocks(self) -> list[ResidualBlock]:
@@ -242,7 +263,8 @@ class Problem:
         return sp.coo_matrix((data, (template.row, template.col)), shape=template.shape)
 
     def jacobian(self, theta: np.ndarray) -> tuple[np.ndarray, sp.csc_matrix]:
-        """h(θ) and the stacked weighted Jacobian J (CSC, pattern cached across calls)."""
+        """h(θ) and the stacked weighted Jacobian J (CSC, pattern cached across calls; its rows per
+        `row_map`)."""
         h, rows, cols, vals = self._jacobian_triplets(theta)
         return h, self._jac_assembler.assemble_parts(rows, cols, vals)
 
@@ -256,7 +278,7 @@ class Problem:
         J = self._nonzero_gather.reduced(self._jact_assembler, self._nonzero, cols, rows, vals)
         if J is None:  # a new pattern or a new nonzero: assembled in full, then reduced
             Jt = self._jact_assembler.assemble_parts(cols, rows, vals)  # Jᵀ in CSC: J in CSR
-            J = sp.csr_matrix((Jt.data, Jt.indices, Jt.indptr), shape=(h.size, layout.n))
+            J = sp.csr_matrix((Jt.data, Jt.indices, Jt.indptr), shape=(int(self._jacobian_offsets[-1]), layout.n))
             J = self._nonzero.reduced(J, self._jact_assembler.version)
             self._nonzero_gather.follow(self._jact_assembler, self._nonzero)
         return h, J
@@ -274,7 +296,7 @@ class Problem:
         for k, (block, _) in enumerate(self._blocks):
             r, jacs = self._weighted_linearization(values, k)
             residuals.append(r)
-            rowmap = np.arange(self._offsets[k], self._offsets[k + 1])
+            rowmap = np.arange(self._jacobian_offsets[k], self._jacobian_offsets[k + 1])
             for i, (name, jac) in enumerate(zip(block.variables, jacs)):
                 rr, cc, vv = self._coo(("J", k, i), jac, rowmap, layout.columns[name])
                 rows.append(rr), cols.append(cc), vals.append(vv)
@@ -285,6 +307,8 @@ class Problem:
         ``"jacobian"``)."""
         if assembly not in ASSEMBLY_MODES:
             raise ValueError(f"assembly must be one of {ASSEMBLY_MODES}, got {assembly!r}")
+        if self.row_map() is not None:
+            raise ValueError("normal equations of blocks with shared Jacobian rows: use nonzero_jacobian")
         layout = self.layout
         n = layout.n
         diag = self._diagonal

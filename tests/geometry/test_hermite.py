@@ -94,3 +94,31 @@ def test_sampling_matrix_is_scipys_canonical_csr_of_the_weights():
         for name in ("indices", "indptr"):
             np.testing.assert_array_equal(getattr(m, name), getattr(expected, name))
         assert m.indices.dtype == expected.indices.dtype and m.indptr.dtype == expected.indptr.dtype
+
+
+def test_sampled_jacobian_structure_of_one_pattern_is_the_sorted_one():
+    """The structure written down for matrices of one pattern (`_one_pattern_structure`) is, array by
+    array and dtype by dtype, the one sorted from every entry's key (`_sorted_structure`): empty
+    rows, empty matrices, one to three terms; a row whose columns do not increase is refused."""
+    from legplan.geometry.hermite import _one_pattern_structure, _sorted_structure
+
+    rng = np.random.default_rng(3)
+    for _ in range(200):
+        samples, nodes = int(rng.integers(1, 25)), int(rng.integers(1, 15))
+        m = sp.random(samples, nodes, density=rng.uniform(0.0, 0.6), format="csr",
+                      random_state=int(rng.integers(1 << 30)))
+        m.sort_indices()
+        rows, terms = int(rng.integers(1, 7)), int(rng.integers(1, 4))
+        pattern = (m.indptr.dtype.str, m.indptr.tobytes(), m.indices.dtype.str, m.indices.tobytes())
+        direct = _one_pattern_structure(rows, samples, 3 * nodes, *pattern, terms)
+        sorted_ = _sorted_structure(rows, samples, 3 * nodes, (pattern,) * terms)
+        assert len(direct[0]) == terms and all(np.array_equal(a, b) for a, b in zip(direct[0], sorted_[0]))
+        for a, b in zip(direct[1:], sorted_[1:]):
+            assert a.dtype == b.dtype and np.array_equal(a, b)
+        long_rows = np.flatnonzero(np.diff(m.indptr) > 1)
+        if long_rows.size:
+            swapped = m.indices.copy()
+            k = m.indptr[long_rows[0]]
+            swapped[[k, k + 1]] = swapped[[k + 1, k]]
+            assert _one_pattern_structure(rows, samples, 3 * nodes, pattern[0], pattern[1], pattern[2],
+                                          swapped.tobytes(), 1) is None

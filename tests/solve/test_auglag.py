@@ -169,3 +169,97 @@ def test_least_norm_multipliers_agree_on_either_side_of_the_push_through_identit
     got = _least_norm_multipliers(make_solver("cholmod"), sp.csr_matrix(dense), g, delta)
     np.testing.assert_allclose(got, expected, rtol=1e-7, atol=1e-9)
     assert got[1] == 0.0 and got[3] == pytest.approx(got[4], rel=1e-9)
+
+
+def _four_rows(x):
+    """c(x) = [x0² + x1², x0·x1, sin x0 + x1, x0 − x1] and its Jacobian."""
+    return (np.array([x[0] ** 2 + x[1] ** 2, x[0] * x[1], np.sin(x[0]) + x[1], x[0] - x[1]]),
+            [np.array([[2 * x[0], 2 * x[1]], [x[1], x[0]], [np.cos(x[0]), 1.0], [1.0, -1.0]])])
+
+
+# one equality, one two-sided, one upper-only and one lower-only row
+_LOWER, _UPPER = np.array([1.0, -0.2, -np.inf, -1.0]), np.array([1.0, 0.2, 3.0, np.inf])
+
+
+def test_two_sided_rows_share_one_jacobian_row_that_gives_each_bounds_derivative():
+    """A row bounded on both sides is two residual rows (its upper and its lower bound) on one
+    Jacobian row: diag(sign)·J[jrow] (`Problem.row_map`) is the finite-difference Jacobian of every
+    residual row, at several μ and multipliers; J has one row fewer than the residual."""
+    from legplan.solve import Problem
+    from legplan.solve.auglag import _AugmentedRows
+    from legplan.solve.jaccheck import numeric_jacobian
+
+    k = Constraint(FunctionBlock(("x",), 4, _four_rows), _LOWER, _UPPER, scale=[1.0, 2.0, 0.5, 3.0])
+    problem = Problem([VariableBlock("x", [0.3, -0.4])])
+    rows = problem.add_residual(_AugmentedRows(k))
+    jrow, sign = problem.row_map()
+    assert rows.size == 5 and jrow.tolist() == [0, 1, 2, 1, 3] and sign.tolist() == [1, 1, 1, -1, 1]
+    rng = np.random.default_rng(2)
+    for mu in (1.0, 1e3):
+        rows.mu, rows.y = mu, np.abs(rng.standard_normal(rows.size))
+        theta = rng.standard_normal(2)
+        v, J = problem.jacobian(theta)
+        assert J.shape == (4, 2)
+        full = sign[:, None] * J.toarray()[jrow]
+        assert v == pytest.approx(problem.residual(theta))
+        np.testing.assert_allclose(full, numeric_jacobian(problem.residual, theta), rtol=1e-6, atol=1e-6 * np.sqrt(mu))
+
+
+@pytest.mark.parametrize("target", [(2.0, 1.5), (2.0, -1.5)])  # x0·x1 at its upper, at its lower bound
+def test_two_sided_rows_solve_as_the_two_bounds_given_apart(target):
+    """The same constrained problem with each two-sided row once (a shared Jacobian row) and with
+    its bounds as two one-sided constraints (a Jacobian row each, the residual rows in the same
+    order): the same solution bit for bit (the map changes no sum), with either bound of the
+    two-sided row active."""
+    cost = LinearBlock(("x",), [np.eye(2)], np.array(target))
+    block = FunctionBlock(("x",), 4, _four_rows)
+    together = [Constraint(block, _LOWER, _UPPER)]
+    apart = [Constraint(block, np.where(_LOWER == _UPPER, _LOWER, -np.inf), _UPPER),
+             Constraint(block, np.where(_LOWER == _UPPER, -np.inf, _LOWER), np.inf)]
+    runs = [solve_augmented_lagrangian([VariableBlock("x", [0.9, 0.1])], [CostTerm("target", cost, 1.0)], k,
+                                       ALParams(mu_init=10.0)) for k in (together, apart)]
+    for r in runs:
+        assert r.success, r.reason
+    x = runs[0].values["x"]
+    assert x[0] * x[1] == pytest.approx(0.2 * np.sign(target[1]), abs=2e-3)  # the bound the target pulls to
+    assert np.array_equal(x, runs[1].values["x"])
+    assert runs[0].iterations == runs[1].iterations and runs[0].outer_iterations == runs[1].outer_iterations
+
+
+def test_two_sided_rows_with_a_variable_held_at_its_box_solve_as_the_bounds_given_apart():
+    """min ‖x − (2, 4)‖² with x0 ≤ 1.5 (the variable's box, held there) and −1 ≤ x0 − x1 ≤ 1 (its
+    lower bound active): x = (1.5, 2.5), bit for bit the same with the two bounds as separate
+    constraints."""
+    cost = LinearBlock(("x",), [np.eye(2)], np.array([2.0, 4.0]))
+    block = LinearBlock(("x",), [np.array([[1.0, -1.0]])])
+    runs = []
+    for k in ([Constraint(block, -1.0, 1.0)], [Constraint(block, -np.inf, 1.0), Constraint(block, -1.0, np.inf)]):
+        variables = [VariableBlock("x", [0.0, 0.0], upper=[1.5, np.inf])]
+        runs.append(solve_augmented_lagrangian(variables, [CostTerm("target", cost, 1.0)], k, ALParams(mu_init=10.0)))
+        assert runs[-1].success, runs[-1].reason
+    assert runs[0].values["x"] == pytest.approx([1.5, 2.5], abs=2e-3)
+    assert np.array_equal(runs[0].values["x"], runs[1].values["x"])
+    assert runs[0].iterations == runs[1].iterations
+
+
+def test_picked_pattern_is_scipys_row_selection():
+    """`_picked_pattern` (each picked row's run of entries, written down) gives what scipy's row
+    indexing J[pick] gives, array by array and dtype by dtype: the entry numbers (J's entries
+    numbered 1.., picked), indices and row pointers; rows picked twice, none, empty rows, 32- and
+    64-bit index arrays."""
+    from legplan.solve.auglag import _picked_pattern
+
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        m, n = int(rng.integers(1, 40)), int(rng.integers(1, 30))
+        J = sp.random(m, n, density=rng.uniform(0.0, 0.5), format="csr", random_state=int(rng.integers(1 << 30)))
+        if rng.random() < 0.3:
+            J.indices, J.indptr = J.indices.astype(np.int64), J.indptr.astype(np.int64)
+        pick = rng.integers(0, m, int(rng.integers(0, 2 * m + 1))).astype(np.int64)
+        source, indices, indptr, row = _picked_pattern.__wrapped__(
+            J.shape, J.indptr.dtype.str, J.indptr.tobytes(), J.indices.dtype.str, J.indices.tobytes(), pick.tobytes())
+        numbers = sp.csr_matrix((np.arange(1.0, J.nnz + 1.0), J.indices, J.indptr), shape=J.shape)[pick]
+        expect = (numbers.data.astype(np.int64) - 1, numbers.indices, numbers.indptr,
+                  np.repeat(np.arange(pick.size), np.diff(numbers.indptr)))
+        for got, want in zip((source, indices, indptr, row), expect):
+            assert got.dtype == want.dtype and np.array_equal(got, want)

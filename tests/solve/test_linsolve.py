@@ -307,3 +307,56 @@ def test_canonical_form_falls_back_to_the_whole_pattern_when_hashes_collide(monk
     assert linsolve._canonical(A).shape[1] < A.shape[1]  # repeated patterns (the identity's empty rows)
     monkeypatch.setattr(linsolve, "_column_weights", lambda n: np.zeros(n, np.uint64))  # every hash equal
     assert linsolve._canonical(A) is A
+
+
+def test_rows_given_twice_count_twice_in_set_jacobian_and_refactor_rows():
+    """Sorted rows with repeats (a two-sided constraint row active on both sides, `Problem.row_map`):
+    J_RᵀJ_R counts a repeated row twice, through `set_jacobian` and through `refactor_rows` (which
+    refactorizes when either set repeats a row), on the analysis of the whole J."""
+    rng = np.random.default_rng(7)
+    J = sp.csr_matrix(sp.random(60, 12, density=0.2, random_state=rng) + sp.eye(60, 12))
+    b = rng.standard_normal(12)
+    beta = 1e-3
+    solver = CholmodSolver()
+
+    def expect(rows):
+        Jr = J[rows].toarray()  # repeated rows stay repeated
+        return np.linalg.solve(Jr.T @ Jr + beta * np.eye(12), b)
+
+    rows = np.sort(np.r_[np.arange(0, 60, 2), [4, 10]])  # rows 4 and 10 twice
+    solver.set_jacobian(J, rows)
+    solver.refactor(beta)
+    np.testing.assert_allclose(solver.solve(b), expect(rows), rtol=1e-9)
+    for rows in (np.arange(0, 60, 3), np.sort(np.r_[np.arange(0, 60, 3), [9]]), np.arange(1, 60, 2)):
+        solver.refactor_rows(J, rows)
+        np.testing.assert_allclose(solver.solve(b), expect(rows), rtol=1e-9)
+
+
+def test_rows_named_by_keys_follow_the_set_by_its_keys():
+    """Residual rows that share rows of J (`keys` name them; a row of J under two keys counts
+    twice): `refactor_rows` adds and removes by key, by rank updates when few change, and solves as
+    the dense J_RᵀJ_R + βI of the rows in key order."""
+    rng = np.random.default_rng(8)
+    J = sp.csr_matrix(sp.random(40, 10, density=0.25, random_state=rng) + sp.eye(40, 10))
+    jrow = np.r_[np.arange(40), np.arange(0, 40, 2)]  # keys 40.. stand for the even rows again
+    b = rng.standard_normal(10)
+    beta = 1e-2
+    solver = CholmodSolver()
+
+    def expect(keys):
+        Jr = J[jrow[keys]].toarray()
+        return np.linalg.solve(Jr.T @ Jr + beta * np.eye(10), b)
+
+    keys = np.flatnonzero(rng.random(60) < 0.5)
+    solver.set_jacobian(J, jrow[keys], keys)
+    solver.refactor(beta)
+    np.testing.assert_allclose(solver.solve(b), expect(keys), rtol=1e-9)
+    for _ in range(4):
+        member = np.isin(np.arange(60), keys)
+        flip = rng.choice(60, 3, replace=False)
+        member[flip] = ~member[flip]
+        keys = np.flatnonzero(member)
+        updates = solver.updates
+        solver.refactor_rows(J, jrow[keys], keys)
+        assert solver.updates == updates + 1  # three keys changed: rank updates
+        np.testing.assert_allclose(solver.solve(b), expect(keys), rtol=1e-9)
