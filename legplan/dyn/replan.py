@@ -99,9 +99,10 @@ class ReplanParams(Parameters):
         "closed loop (`legplan.sim.replanning`): m, the base's distance from the tracked plan "
         "beyond which a replan starts at once, not only every period (event-triggered model "
         "predictive control); None: off"))
-    tube_velocity: float | None = param(None, "(0, inf)", doc=(
+    tube_velocity: float | None = param(0.3, "(0, inf)", doc=(
         "closed loop: m/s, the base's velocity error against the tracked plan beyond which a "
-        "replan starts at once (a push shows in the velocity first); None: off"))
+        "replan starts at once (a push shows in the velocity first; the unpushed plans' tracking "
+        "stays within it); None: off"))
     trigger_gap: float = param(0.05, "(0, inf)", doc=(
         "closed loop: s, the shortest time from one replan to a replan the tube triggers (a "
         "state that stays outside the tube, e.g. while a push lasts, replans at most this often)"))

@@ -45,8 +45,9 @@ def json_replan(path):
 
 def test_closed_loop_survives_a_push_the_open_loop_falls_under(flat, trot):
     """The 1 m flat trot pushed sideways at half its duration (22 N s): executed as planned it
-    falls; replanned every 0.25 s from the simulated state, every replan tracked (the ones that did
-    not converge too: they start from where the push left the robot), it reaches the goal."""
+    falls; replanned every 0.25 s and at once when the push drives the base out of the default
+    velocity tube, every replan tracked (the ones that did not converge too: they start from where
+    the push left the robot), it reaches the goal."""
     from legplan.dyn.artefact import read_tasks
     from legplan.dyn.replan_io import recorded_params
     from legplan.sim.items import SimWorker, sim_items, simulate_item
@@ -64,6 +65,8 @@ def test_closed_loop_survives_a_push_the_open_loop_falls_under(flat, trot):
     assert replans["success"].size >= 7 and replans["success"].mean() > 0.5
     assert replans["tracked"].all() and not replans["success"].all()
     assert np.all(replans["cpu_seconds"] > 0) and np.all(replans["violation"] >= 0)
+    pushed = replans["t"][replans["trigger"] == b"tube"]
+    assert pushed.size and 1.2 < pushed[0] < 1.3  # answered while the push lasts
 
 
 def test_an_unconverged_replan_is_tracked_when_near_feasible(flat, trot):
@@ -109,7 +112,7 @@ def test_an_unconverged_replan_is_tracked_when_near_feasible(flat, trot):
 
 
 def test_a_replan_is_due_when_the_base_leaves_the_tube(flat, trot):
-    """Event-triggered replans: off by default (only the period); with a tube, a position or velocity
+    """Event-triggered replans: with the tube off only the period; with a tube, a position or velocity
     error beyond it makes a replan due at once, not again within `trigger_gap`, and the period
     restarts at it; the replan's row records its trigger and why its solve stopped."""
     import pinocchio as pin
@@ -130,8 +133,9 @@ def test_a_replan_is_due_when_the_base_leaves_the_tube(flat, trot):
         return Replanner(Previous.from_record(tasks[0], model.com_offset, params.dt), model, TerrainModel(flat[0]),
                          params, 0.5, ReplanParams(**settings))
 
-    plain = replanner()
-    assert plain.due(0.3, 1.0, 5.0) is None and plain.due(0.5) == "period"
+    off = replanner(tube_velocity=None)
+    assert off.due(0.3, 1.0, 5.0) is None and off.due(0.5) == "period"
+    assert replanner().due(0.3, 0.0, 5.0) == "tube"  # the default watches the velocity
     tube = replanner(tube_position=0.05, tube_velocity=0.2, trigger_gap=0.1)
     assert tube.due(0.3, 0.04, 0.19) is None
     assert tube.due(0.3, 0.06, 0.0) == "tube" and tube.due(0.3, 0.0, 0.21) == "tube"
