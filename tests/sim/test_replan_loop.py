@@ -66,7 +66,7 @@ def test_closed_loop_survives_a_push_the_open_loop_falls_under(flat, trot):
     assert replans["tracked"].all() and not replans["success"].all()
     assert np.all(replans["cpu_seconds"] > 0) and np.all(replans["violation"] >= 0)
     pushed = replans["t"][replans["trigger"] == b"tube"]
-    assert pushed.size and 1.2 < pushed[0] < 1.3  # answered while the push lasts
+    assert pushed.size and 1.2 < pushed[0] <= 1.31  # answered by the push's end, not at the next period (1.5 s)
 
 
 def test_an_unconverged_replan_is_tracked_when_near_feasible(flat, trot):
