@@ -12,14 +12,18 @@ replanner with the simulated state. A replan is due every `period` s ("period") 
 model predictive control, as soon as the base leaves the tube `ReplanParams.tube_position` /
 `tube_velocity` around the tracked plan ("tube"; at most every `trigger_gap` s): a push is answered
 when it happens, not up to a period later, while the period still bounds how long a slow drift
-goes unanswered. The periods restart at a triggered replan. The simulation waits for the replan (no latency: the new plan holds from the
+goes unanswered. The periods restart at a triggered replan.
+
+The simulation waits for the replan (no latency: the new plan holds from the
 tick it was measured at); each replan's CPU seconds are recorded so that its latency shows. A
 converged replan (`legplan.dyn.replan.replan`) becomes the reference (its samples on the plan's
 clock) and the plan later replans start from; so does one that ran out of iterations or stalled
 near feasible (`ReplanParams.track_violation`, in the solver's row scale): it starts from the
 measured state, where the last reference starts from a state the robot has left (a push). A replan
-further off, or a numerical failure, keeps the last reference. Every replan's status is recorded
-(`success` is convergence, `tracked` whether the controller took it).
+further off, or a numerical failure, keeps the last reference. Every replan is recorded: `trigger`
+what started it, `success` convergence, `status` why its solve stopped (converged; max_iterations,
+the `ReplanParams.max_iterations` budget; stalled, the solver's stall test; numerical_failure),
+`tracked` whether the controller took it.
 """
 
 from __future__ import annotations

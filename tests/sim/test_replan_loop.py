@@ -164,3 +164,20 @@ def test_replan_parameters_on_the_command_line(flat, trot, tmp_path):
     assert bad.exit_code == 2 and "tube_velocity" in bad.output and not out.exists()
     unknown = invoke("dyn", "simulate", trot, flat[1], "--replan", "0.5", "--param", "tube=1", "-o", out, "-q")
     assert unknown.exit_code == 2 and "tube" in unknown.output and not out.exists()
+
+
+def test_the_worker_hands_its_replan_parameters_to_the_closed_loop(flat, trot):
+    """`dyn simulate --replan --param` reaches the `Replanner` through the batch worker."""
+    from legplan.dyn.artefact import read_tasks
+    from legplan.dyn.replan import ReplanParams
+    from legplan.dyn.replan_io import recorded_params
+    from legplan.sim.items import SimWorker
+    from legplan.sim.run import SimParams
+
+    attrs, tasks = read_tasks(trot)
+    dyn = recorded_params(json.loads(attrs["params"]))
+    chosen = ReplanParams(tube_velocity=None, tube_position=0.04, max_iterations=7)
+    worker = SimWorker("anymal", str(flat[1]), SimParams(), replan=(0.25, dyn, chosen))
+    assert worker.replanner(tasks[0]).settings == chosen
+    default = SimWorker("anymal", str(flat[1]), SimParams(), replan=(0.25, dyn))
+    assert default.replanner(tasks[0]).settings == ReplanParams()
