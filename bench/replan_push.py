@@ -9,10 +9,12 @@ latency modelled); the CPU seconds of each replan are recorded (median, largest)
 shows.
 
     OMP_NUM_THREADS=1 .venv/bin/python bench/replan_push.py [--cases flat_trot pallet_walk] [--period 0.25]
-        [--loops open closed] [--track-violation X] [--step-adaptation G] [--model planner|scalar] [--result NAME]
+        [--loops open closed] [--track-violation X] [--step-adaptation G] [--param KEY=VALUE ...]
+        [--model planner|scalar] [--result NAME]
 
-`--track-violation` and `--step-adaptation` set the closed loop's `ReplanParams` (recorded in the
-JSON as `replan_settings`).
+`--track-violation`, `--step-adaptation` and `--param` (any `ReplanParams` field, e.g.
+`tube_velocity=0.3` for event-triggered replans) set the closed loop's `ReplanParams` (recorded in
+the JSON as `replan_settings`); each run records its replans' triggers.
 
 Cases: the 1 m flat trot (4 strides, 2.4 s) and the (-1.0, 0.3, 0.3) → (0.6, 0, 0) single pallet
 walk (4 strides, 5.5 s) of `bench/sim.py`, planned with `DynParams()` (no costs) on the planner's
@@ -75,6 +77,8 @@ def main() -> None:
     parser.add_argument("--resolution", type=float, default=None, help="N s: bisection stop (default: the case's)")
     parser.add_argument("--track-violation", type=float, default=None, help="ReplanParams.track_violation")
     parser.add_argument("--step-adaptation", type=float, default=None, help="ReplanParams.step_adaptation")
+    parser.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
+                        help="a ReplanParams field (legplan.dyn.replan), e.g. tube_velocity=0.3; repeatable")
     parser.add_argument("--model", choices=("planner", "scalar"), default="planner",
                         help="planner: centroidal_model (torque rows), as the CLI; scalar: robot.centroidal")
     parser.add_argument("--result", default="replan_push", help="bench/results/<name>.json")
@@ -88,6 +92,7 @@ def main() -> None:
     from legplan.robots import load_robot
     from legplan.sim.replanning import Replanner
     from legplan.sim.run import SimParams, simulate
+    from legplan.specio import apply_overrides
     from legplan.terrain.spec import build_map
 
     load_start = load_average()
@@ -96,7 +101,8 @@ def main() -> None:
     params = DynParams()
     model = centroidal_model(robot, params) if args.model == "planner" else robot.centroidal
     chosen = {"track_violation": args.track_violation, "step_adaptation": args.step_adaptation}
-    settings = ReplanParams(**{k: v for k, v in chosen.items() if v is not None})
+    settings = apply_overrides(ReplanParams(**{k: v for k, v in chosen.items() if v is not None}),
+                               dict(item.split("=", 1) for item in args.param), "--param", "replan")
     rows = []
     for name in args.cases:
         map_name, label, (start, goal), gait, duration, resolution = CASES[name]
@@ -118,6 +124,7 @@ def main() -> None:
                 run = {"impulse": impulse, "success": result.success, "reason": result.reason,
                        "replans": int(cpu.size), "replans_converged": int(np.sum(replans.get("success", []))),
                        "replans_tracked": int(np.sum(replans.get("tracked", []))),
+                       "replans_tube": int(np.sum(np.asarray(replans.get("trigger", []), bytes) == b"tube")),
                        "replan_cpu_median": float(np.median(cpu)) if cpu.size else None,
                        "replan_cpu_max": float(cpu.max()) if cpu.size else None, "wall": result.wall}
                 print(f"  {label} {loop} {impulse:.2f} N s: {result.reason}; replans {run['replans_converged']}/"

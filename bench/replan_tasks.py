@@ -4,6 +4,7 @@ reported beside it.
 
     OMP_NUM_THREADS=1 .venv/bin/python bench/replan_tasks.py [--tasks 100] [--first 0] [--seed 0] [--period 0.25]
                                                              [--model planner|scalar]
+                                                             [--param KEY=VALUE ...] [--result NAME]
 
 * Tasks: the first --tasks of `tasks/single_pallet_walk.yaml` drawn with `--seed` by the library's
   sampler (`legplan.learn.dataset.dataset_items`), the tasks `bench/pallet_tasks.py` runs; planned
@@ -14,10 +15,10 @@ reported beside it.
   trunk for `PUSH_DURATION` from a uniform time in [0.25, 0.75] of the plan, its impulse uniform in
   --impulse (default `IMPULSE`) N s, along ±y (sign uniform).
 * Each planned task is executed open loop and closed loop (replanning every --period s; the
-  simulation waits for each replan). Executed = the goal reached without a fall. Counted over the
-  tasks whose plan succeeded.
+  simulation waits for each replan; `--param`: `ReplanParams` fields, e.g. `tube_velocity=0.3`).
+  Executed = the goal reached without a fall. Counted over the tasks whose plan succeeded.
 
-Writes bench/results/replan_tasks.json; `bench/replan.py`'s BENCHMARKS.md section cites it.
+Writes bench/results/<NAME>.json (default replan_tasks: a run of a chunk with --first names its own); `bench/replan.py`'s BENCHMARKS.md section cites it.
 """
 
 from __future__ import annotations
@@ -49,13 +50,16 @@ def main() -> None:
     parser.add_argument("--period", type=float, default=0.25)
     parser.add_argument("--impulse", type=float, nargs=2, default=IMPULSE, metavar=("LOW", "HIGH"),
                         help="N s: the random push's impulse range")
+    parser.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
+                        help="a ReplanParams field (legplan.dyn.replan), e.g. tube_velocity=0.3; repeatable")
+    parser.add_argument("--result", default="replan_tasks", help="bench/results/<name>.json")
     parser.add_argument("--model", choices=("planner", "scalar"), default="planner",
                         help="planner: centroidal_model (torque rows), as the CLI; scalar: robot.centroidal")
     args = parser.parse_args()
 
     from legplan.dyn.planner import plan
     from legplan.dyn.problem import DynParams
-    from legplan.dyn.replan import Previous
+    from legplan.dyn.replan import Previous, ReplanParams
     from legplan.dyn.tasks import centroidal_model
     from legplan.dyn.terrain import TerrainModel
     from legplan.learn.dataset import dataset_items, load_terrain_map
@@ -63,6 +67,7 @@ def main() -> None:
     from legplan.robots import load_robot
     from legplan.sim.replanning import Replanner
     from legplan.sim.run import SimParams, simulate
+    from legplan.specio import apply_overrides
 
     load_start, started = load_average(), time.perf_counter()
     space = read_space(ROOT / SPACE)
@@ -71,6 +76,7 @@ def main() -> None:
     robot = load_robot("anymal")
     params = DynParams()
     model = centroidal_model(robot, params) if args.model == "planner" else robot.centroidal
+    settings = apply_overrides(ReplanParams, dict(item.split("=", 1) for item in args.param), "--param", "replan")
     rows = []
     for index, task, _ in dataset_items(space, args.tasks, args.seed)[args.first:]:
         index = int(index)
@@ -84,24 +90,26 @@ def main() -> None:
         if planned.success:
             sim_params = SimParams(pushes=((at, 0.0, force, PUSH_DURATION),))
             for loop in ("open", "closed"):
-                replanner = (Replanner(Previous.from_plan(planned), model, terrain, params, args.period)
+                replanner = (Replanner(Previous.from_plan(planned), model, terrain, params, args.period, settings)
                              if loop == "closed" else None)
                 result = simulate(planned.samples, robot, terrain_map, sim_params, goal=task.goal,
                                   replanner=replanner)
                 cpu = np.asarray(result.replans.get("cpu_seconds", []), float)
                 row[loop] = {"success": result.success, "reason": result.reason, "replans": int(cpu.size),
                              "replans_converged": int(np.sum(result.replans.get("success", []))),
+                             "replans_tube": int(np.sum(np.asarray(result.replans.get("trigger", []), bytes)
+                                                        == b"tube")),
                              "replan_cpu": cpu.tolist()}
         rows.append(row)
         print(f"task {index}: push {impulse:.1f} N s at {at:.2f} s; planned {row['planned']}"
               + "".join(f"; {loop} {'ok' if row[loop]['success'] else row[loop]['reason'][:40]}"
                         for loop in ("open", "closed") if loop in row), file=sys.stderr, flush=True)
         summary = summarize(rows)
-        write_result("replan_tasks", {
+        write_result(args.result, {
             "date": datetime.date.today().isoformat(), "machine": machine(), "code": code_version(),
             "load_start": load_start, "load_end": load_average(), "wall": time.perf_counter() - started,
             "seed": args.seed, "first": args.first, "model": args.model, "period": args.period, "impulse": list(args.impulse),
-            "push_duration": PUSH_DURATION, "rows": rows, **summary})
+            "replan_settings": vars(settings), "push_duration": PUSH_DURATION, "rows": rows, **summary})
     print(summarize(rows))
 
 

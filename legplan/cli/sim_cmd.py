@@ -23,7 +23,7 @@ import click
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
 from legplan.cli.options import (NumbersOption, batch_opts, input_artefact, number, output_opt, overwrite_opt,
-                                 verbosity_opts)
+                                 param_opt, verbosity_opts)
 from legplan.errors import LegplanError
 from legplan.parameters import DURATION, FACTOR, FRICTION, WAIT
 
@@ -80,13 +80,17 @@ class JointValue(click.ParamType):
                    "(legplan.dyn.replan) and track the new plan; the simulation waits for each replan; every "
                    "replan (state, iterations, CPU seconds, violation, success, tracked) recorded in sim.h5's "
                    "replans/.")
+@param_opt("With --replan: a replan parameter (legplan.dyn.replan.ReplanParams), e.g. --param "
+           "tube_velocity=0.3 (replan at once when the base's velocity error exceeds it) or "
+           "--param max_iterations=15.")
 @output_opt
 @overwrite_opt
 @batch_opts
 @verbosity_opts
 @click.pass_context
 def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_scale, mass_scale, urdf_collision,
-                 package_paths, efforts, velocities, replan_period, output, overwrite, jobs, scheduler, resume):
+                 package_paths, efforts, velocities, replan_period, params, output, overwrite, jobs, scheduler,
+                 resume):
     """Execute every trajectory of TRAJ on MAP in MuJoCo under the whole-body controller; write sim.h5.
 
     Success: no fall (base below half its nominal height above the terrain, tilted > 0.8 rad, or the
@@ -110,6 +114,12 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_sc
     from legplan.sim.run import SimParams
     from legplan.terrain import load_map
 
+    from legplan.dyn.replan import ReplanParams
+    from legplan.specio import apply_overrides
+
+    if params and replan_period is None:
+        raise click.UsageError("--param sets replan parameters: it needs --replan PERIOD")
+    replan_settings = apply_overrides(ReplanParams, params, "--param", "replan")
     check_output(output, overwrite)
     attrs, tasks = read_tasks(traj_path)
     if not tasks:
@@ -132,7 +142,7 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_sc
     options = ModelOptions(urdf_collision=urdf_collision,
                            package_paths=tuple(os.path.abspath(p) for p in package_paths),
                            effort=tuple(efforts), velocity=tuple(velocities))
-    params = SimParams(settle=settle, friction=friction, friction_scale=friction_scale, mass_scale=mass_scale,
+    sim_params = SimParams(settle=settle, friction=friction, friction_scale=friction_scale, mass_scale=mass_scale,
                        pushes=tuple(tuple(p) for p in pushes), model=options)
     model = build_model(robot, terrain_map, robot.centroidal.friction if friction is None else friction, options)
     for warning in model.warnings:
@@ -147,9 +157,11 @@ def simulate_cmd(ctx, traj_path, map_path, settle, friction, pushes, friction_sc
 
         from legplan.dyn.replan_io import recorded_params
 
-        replan = (replan_period, recorded_params(json.loads(attrs.get("params", "{}"))))
+        replan = (replan_period, recorded_params(json.loads(attrs.get("params", "{}"))), replan_settings)
         settings["replan"] = replan_period
-    task = Task(simulate_item, failed_item, SimWorker, (str(attrs["robot"]), os.path.abspath(map_path), params, replan))
+        settings["replan_params"] = dict(params)
+    task = Task(simulate_item, failed_item, SimWorker,
+                (str(attrs["robot"]), os.path.abspath(map_path), sim_params, replan))
     records, _ = run_stage(task, sim_items(tasks), "dyn simulate", output=output,
                            identity={"stage": "dyn simulate", "params": settings}, inputs=[traj_path, map_path],
                            jobs=jobs, scheduler=scheduler, resume=resume, overwrite=overwrite,

@@ -95,6 +95,17 @@ class ReplanParams(Parameters):
     settle: float = param(0.2, "(0, inf)", doc=(
         "s: a measured foot outside its range-of-motion box (tracking error, a push) may stay "
         "outside by its measured excess, shrinking linearly to none over this time"))
+    tube_position: float | None = param(None, "(0, inf)", doc=(
+        "closed loop (`legplan.sim.replanning`): m, the base's distance from the tracked plan "
+        "beyond which a replan starts at once, not only every period (event-triggered model "
+        "predictive control); None: off"))
+    tube_velocity: float | None = param(0.3, "(0, inf)", doc=(
+        "closed loop: m/s, the base's velocity error against the tracked plan beyond which a "
+        "replan starts at once (a push shows in the velocity first; the unpushed plans' tracking "
+        "stays within it); None: off"))
+    trigger_gap: float = param(0.05, "(0, inf)", doc=(
+        "closed loop: s, the shortest time from one replan to a replan the tube triggers (a "
+        "state that stays outside the tube, e.g. while a push lasts, replans at most this often)"))
 
 
 @dataclass(frozen=True)
@@ -484,11 +495,16 @@ class ReplanResult:
         """The largest constraint violation of the replan's rows (in their own units)."""
         return float(self.plan.solve.max_violation)
 
+    @property
+    def reason(self) -> str:
+        """Why the solve stopped (the solver's own words: converged, stalled, iteration budget)."""
+        return str(self.plan.solve.reason)
+
     def record(self) -> dict:
         return {**{f"state_{k}": v for k, v in self.state.record().items()}, "iterations": self.iterations,
                 "cpu_seconds": self.cpu_seconds, "wall_seconds": self.wall_seconds, "success": self.success,
                 "violation": self.violation, "scaled_violation": self.scaled_violation,
-                "status": self.status.name.lower()}
+                "status": self.status.name.lower(), "reason": self.reason}
 
 
 def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain, params: DynParams = DynParams(),

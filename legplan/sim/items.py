@@ -24,19 +24,19 @@ class SimWorker:
         self.robot = load_robot(robot_name)
         self.terrain_map = load_map(map_path)
         self.params = params
-        self.replan = replan  # (period s, the plan's DynParams) with `dyn simulate --replan`, else None
+        self.replan = replan  # (period s, the plan's DynParams[, ReplanParams]) with `dyn simulate --replan`
 
     def replanner(self, task: dict):
         """The closed loop's `legplan.sim.replanning.Replanner` of a traj task (with `replan`)."""
-        from legplan.dyn.replan import Previous
+        from legplan.dyn.replan import Previous, ReplanParams
         from legplan.dyn.tasks import centroidal_model
         from legplan.dyn.terrain import TerrainModel
         from legplan.sim.replanning import Replanner
 
-        period, params = self.replan
+        period, params, *settings = self.replan
         model = centroidal_model(self.robot, params)
         return Replanner(Previous.from_record(task, model.com_offset, params.dt), model,
-                         TerrainModel(self.terrain_map), params, period)
+                         TerrainModel(self.terrain_map), params, period, *(settings or [ReplanParams()]))
 
 
 def sim_items(tasks: list[dict]) -> list[tuple]:

@@ -1,19 +1,29 @@
 """Closed loop in the simulator: replan the rest of the motion from the measured state every period
-(issue 39 item 3) and hand the controller the new plan as its reference.
+and whenever the state leaves a tube around the tracked plan (issue 39 item 3), and hand the
+controller the new plan as its reference.
 
     replanner = Replanner(Previous.from_record(task, model.com_offset), model, terrain, dyn_params, period=0.3)
     simulate(samples, robot, terrain_map, params, goal, replanner=replanner)
-    replanner.columns()        # one row per replan: time, measured state, iterations, CPU s, violation, success
+    replanner.columns()        # one row per replan: time, trigger, measured state, iterations, CPU s, status
 
-`legplan.sim.run.simulate` asks `due(t)` every control tick and, when due, calls the replanner with
-the simulated state. The simulation waits for the replan (no latency: the new plan holds from the
+`legplan.sim.run.simulate` asks `due(t, position_error, velocity_error)` every control tick (the
+base's distance and velocity error against the tracked reference) and, when due, calls the
+replanner with the simulated state. A replan is due every `period` s ("period") and, event-triggered
+model predictive control, as soon as the base leaves the tube `ReplanParams.tube_position` /
+`tube_velocity` around the tracked plan ("tube"; at most every `trigger_gap` s): a push is answered
+when it happens, not up to a period later, while the period still bounds how long a slow drift
+goes unanswered. The periods restart at a triggered replan.
+
+The simulation waits for the replan (no latency: the new plan holds from the
 tick it was measured at); each replan's CPU seconds are recorded so that its latency shows. A
 converged replan (`legplan.dyn.replan.replan`) becomes the reference (its samples on the plan's
 clock) and the plan later replans start from; so does one that ran out of iterations or stalled
 near feasible (`ReplanParams.track_violation`, in the solver's row scale): it starts from the
 measured state, where the last reference starts from a state the robot has left (a push). A replan
-further off, or a numerical failure, keeps the last reference. Every replan's status is recorded
-(`success` is convergence, `tracked` whether the controller took it).
+further off, or a numerical failure, keeps the last reference. Every replan is recorded: `trigger`
+what started it, `success` convergence, `status` why its solve stopped (converged; max_iterations,
+the `ReplanParams.max_iterations` budget; stalled, the solver's stall test; numerical_failure),
+`tracked` whether the controller took it.
 """
 
 from __future__ import annotations
@@ -22,7 +32,7 @@ import numpy as np
 import pinocchio as pin
 
 from legplan.dyn.replan import PHASE_END, MeasuredState, Previous, ReplanParams, replan
-from legplan.sim.run import REPLAN_UNITS
+from legplan.sim.run import REPLAN_UNITS, TEXT_COLUMNS
 from legplan.solve.lm import Status
 
 LAST_REPLAN = 0.3  # s: no replan starts closer than this to the plan's end (the closing Stand)
@@ -39,13 +49,25 @@ class Replanner:
         self.next = self.period
         self.rows: list[dict] = []
 
-    def due(self, t: float) -> bool:
-        return t >= self.next - 1e-9 and t - self._origin < self.previous.form.duration - LAST_REPLAN - PHASE_END
+    def due(self, t: float, position_error: float = 0.0, velocity_error: float = 0.0) -> str | None:
+        """Why a replan is due at t — "period", "tube" (the base `position_error` m or
+        `velocity_error` m/s from the tracked plan beyond the tube) — or None."""
+        if t - self._origin >= self.previous.form.duration - LAST_REPLAN - PHASE_END:
+            return None
+        if t >= self.next - 1e-9:
+            return "period"
+        s = self.settings
+        outside = ((s.tube_position is not None and position_error > s.tube_position)
+                   or (s.tube_velocity is not None and velocity_error > s.tube_velocity))
+        return "tube" if outside and t - self._last >= s.trigger_gap - 1e-9 else None
 
-    def __call__(self, t: float, base_pos, base_rot, base_vel, base_ang_vel, feet_pos) -> dict | None:
-        """Replan from the measured state (world frame; `feet_pos` the contact points under the feet);
-        the new plan's samples on the plan's clock, or None when the replan failed."""
-        self.next += self.period
+    def __call__(self, t: float, base_pos, base_rot, base_vel, base_ang_vel, feet_pos,
+                 trigger: str = "period") -> dict | None:
+        """Replan from the measured state (world frame; `feet_pos` the contact points under the feet)
+        for `trigger` (`due`); the new plan's samples on the plan's clock, or None when the replan
+        failed or was not tracked (the controller keeps its reference)."""
+        self.next = self.next + self.period if trigger == "period" else t + self.period
+        self._last = t
         state = MeasuredState(t, base_pos, pin.rpy.matrixToRpy(base_rot), base_vel, base_ang_vel, feet_pos)
         offset = t - self._origin
         shifted = MeasuredState(offset, state.base_pos, state.base_euler, state.base_vel, state.base_ang_vel,
@@ -56,9 +78,10 @@ class Replanner:
             return None
         tracked = out.success or (out.status in (Status.MAX_ITERATIONS, Status.STALLED)
                                   and out.scaled_violation <= self.settings.track_violation)
-        self.rows.append({**state.record(), "iterations": out.iterations, "cpu_seconds": out.cpu_seconds,
-                          "violation": out.violation, "scaled_violation": out.scaled_violation,
-                          "success": out.success, "tracked": tracked})
+        self.rows.append({**state.record(), "trigger": trigger, "iterations": out.iterations,
+                          "cpu_seconds": out.cpu_seconds, "violation": out.violation,
+                          "scaled_violation": out.scaled_violation, "success": out.success,
+                          "status": out.status.name.lower(), "tracked": tracked})
         if not tracked:
             return None
         self.previous = Previous.from_plan(out.plan)
@@ -68,9 +91,11 @@ class Replanner:
         return samples
 
     _origin = 0.0  # the plan's clock at the start of `previous`
+    _last = -np.inf  # the plan's clock at the last replan
 
     def columns(self) -> dict[str, np.ndarray]:
-        """One row per replan (`REPLAN_UNITS`); empty when none ran."""
+        """One row per replan (`REPLAN_UNITS`; words as bytes, which HDF5 stores); empty when none ran."""
         if not self.rows:
             return {}
-        return {name: np.asarray([row[name] for row in self.rows]) for name in REPLAN_UNITS}
+        return {name: np.asarray([row[name] for row in self.rows], dtype="S" if name in TEXT_COLUMNS else None)
+                for name in REPLAN_UNITS}

@@ -127,13 +127,16 @@ class SimResult:
 SERIES_UNITS = {"t": "s", "base_pos": "m", "base_quat": "(x, y, z, w)", "base_vel": "m/s (world)",
                 "base_ang_vel": "rad/s (world)", "joint_pos": "rad", "joint_vel": "rad/s", "torque": "N m",
                 "foot_forces": "N (world, on the foot)", "position_error": "m", "orientation_error": "rad"}
-REPLAN_UNITS = {"t": "s", "base_pos": "m", "base_euler": "rad", "base_vel": "m/s (world)",
+REPLAN_UNITS = {"t": "s", "trigger": "", "base_pos": "m", "base_euler": "rad", "base_vel": "m/s (world)",
                 "base_ang_vel": "rad/s (world)", "feet_pos": "m", "iterations": "", "cpu_seconds": "s",
-                "violation": "", "scaled_violation": "", "success": "", "tracked": ""}
-"""The columns of `SimResult.replans`, one row per replan (`legplan.sim.replanning.Replanner`): the
-measured state it started from, LM iterations, CPU seconds, its largest violation (rows in their
-own units, and in the solver's scale), whether it converged and whether the controller tracked
-it."""
+                "violation": "", "scaled_violation": "", "success": "", "status": "", "tracked": ""}
+"""The columns of `SimResult.replans`, one row per replan (`legplan.sim.replanning.Replanner`): its
+time and trigger ("period" or "tube"), the measured state it started from, LM iterations, CPU
+seconds, its largest violation (rows in their own units, and in the solver's scale), whether it
+converged, why the solve stopped (`status`: converged, max_iterations, stalled, numerical_failure)
+and whether the controller tracked it."""
+TEXT_COLUMNS = ("trigger", "status")
+"""The `REPLAN_UNITS` columns that hold words (bytes in sim.h5)."""
 
 
 def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(), goal=None,
@@ -170,9 +173,15 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
     for tick in range(ticks):
         t = start + tick * CONTROL_DT
         q, v = _pinocchio_state(data, sim)
-        if replanner is not None and replanner.due(t):
-            reference = _replanned(replanner, t, data, sim, q, v, terrain, params.lift_rate) or reference
         ref = reference.at(t)
+        if replanner is not None:
+            trigger = replanner.due(t, float(np.linalg.norm(q[:3] - ref.pos)),
+                                    float(np.linalg.norm(data.qvel[:3] - ref.vel)))
+            if trigger:
+                replanned = _replanned(replanner, t, data, sim, q, v, terrain, params.lift_rate, trigger)
+                if replanned is not None:
+                    reference = replanned
+                    ref = reference.at(t)
         if not params.zero_torque:
             tau = controller.torques(q, v, ref, touching(data, sim))
         peak = max(peak, float(np.abs(tau).max()))
@@ -239,14 +248,14 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
                      replans=replanner.columns() if replanner is not None else {})
 
 
-def _replanned(replanner, t: float, data, sim, q, v, terrain: TerrainModel, lift_rate: float):
-    """The `Reference` of a replan from the simulated state at t (the feet as the contact points
-    under the foot spheres), or None when it failed."""
+def _replanned(replanner, t: float, data, sim, q, v, terrain: TerrainModel, lift_rate: float, trigger: str):
+    """The `Reference` of a replan for `trigger` from the simulated state at t (the feet as the
+    contact points under the foot spheres), or None when it failed."""
     rot = pin.Quaternion(q[3:7]).normalized().matrix()
     centres = data.geom_xpos[sim.foot_geoms]
     normal = terrain.basis(centres[:, 0], centres[:, 1])[0]
     feet = centres - np.asarray(sim.foot_radius, float)[:, None] * normal
-    samples = replanner(t, q[:3], rot, data.qvel[:3], rot @ v[3:6], feet)
+    samples = replanner(t, q[:3], rot, data.qvel[:3], rot @ v[3:6], feet, trigger)
     return None if samples is None else Reference(samples, sim.foot_radius, terrain, lift_rate)
 
 

@@ -45,8 +45,9 @@ def json_replan(path):
 
 def test_closed_loop_survives_a_push_the_open_loop_falls_under(flat, trot):
     """The 1 m flat trot pushed sideways at half its duration (22 N s): executed as planned it
-    falls; replanned every 0.25 s from the simulated state, every replan tracked (the ones that did
-    not converge too: they start from where the push left the robot), it reaches the goal."""
+    falls; replanned every 0.25 s and at once when the push drives the base out of the default
+    velocity tube, every replan tracked (the ones that did not converge too: they start from where
+    the push left the robot), it reaches the goal."""
     from legplan.dyn.artefact import read_tasks
     from legplan.dyn.replan_io import recorded_params
     from legplan.sim.items import SimWorker, sim_items, simulate_item
@@ -64,6 +65,8 @@ def test_closed_loop_survives_a_push_the_open_loop_falls_under(flat, trot):
     assert replans["success"].size >= 7 and replans["success"].mean() > 0.5
     assert replans["tracked"].all() and not replans["success"].all()
     assert np.all(replans["cpu_seconds"] > 0) and np.all(replans["violation"] >= 0)
+    pushed = replans["t"][replans["trigger"] == b"tube"]
+    assert pushed.size and 1.2 < pushed[0] <= 1.31  # answered by the push's end, not at the next period (1.5 s)
 
 
 def test_an_unconverged_replan_is_tracked_when_near_feasible(flat, trot):
@@ -106,3 +109,75 @@ def test_an_unconverged_replan_is_tracked_when_near_feasible(flat, trot):
     assert run(1.01 * scaled)[0] is not None
     assert run(0.99 * scaled)[0] is None
     assert run(0.0)[0] is None
+
+
+def test_a_replan_is_due_when_the_base_leaves_the_tube(flat, trot):
+    """Event-triggered replans: with the tube off only the period; with a tube, a position or velocity
+    error beyond it makes a replan due at once, not again within `trigger_gap`, and the period
+    restarts at it; the replan's row records its trigger and why its solve stopped."""
+    import pinocchio as pin
+
+    from legplan.dyn.artefact import read_tasks
+    from legplan.dyn.replan import Previous, ReplanParams
+    from legplan.dyn.replan_io import recorded_params
+    from legplan.dyn.tasks import centroidal_model
+    from legplan.dyn.terrain import TerrainModel
+    from legplan.robots import load_robot
+    from legplan.sim.replanning import Replanner
+
+    attrs, tasks = read_tasks(trot)
+    params = recorded_params(json.loads(attrs["params"]))
+    model = centroidal_model(load_robot("anymal"), params)
+
+    def replanner(**settings):
+        return Replanner(Previous.from_record(tasks[0], model.com_offset, params.dt), model, TerrainModel(flat[0]),
+                         params, 0.5, ReplanParams(**settings))
+
+    off = replanner(tube_velocity=None)
+    assert off.due(0.3, 1.0, 5.0) is None and off.due(0.5) == "period"
+    assert replanner().due(0.3, 0.0, 5.0) == "tube"  # the default watches the velocity
+    tube = replanner(tube_position=0.05, tube_velocity=0.2, trigger_gap=0.1)
+    assert tube.due(0.3, 0.04, 0.19) is None
+    assert tube.due(0.3, 0.06, 0.0) == "tube" and tube.due(0.3, 0.0, 0.21) == "tube"
+    samples = tasks[0]["samples"]
+    k = int(np.argmin(np.abs(samples["t"] - 0.3)))
+    t = float(samples["t"][k])
+    handed = tube(t, samples["base_pos"][k], pin.rpy.rpyToMatrix(*samples["base_euler"][k]),
+                  samples["base_vel"][k] + [0.0, 0.3, 0.0], samples["base_ang_vel"][k], samples["feet_pos"][k],
+                  "tube")
+    assert handed is not None
+    assert tube.due(t + 0.09, 0.0, 1.0) is None and tube.due(t + 0.11, 0.0, 1.0) == "tube"
+    assert tube.due(t + 0.49) is None and tube.due(t + 0.5) == "period"
+    columns = tube.columns()
+    assert columns["trigger"].tolist() == [b"tube"]
+    assert columns["status"][0] in (b"converged", b"max_iterations", b"stalled")
+    assert (columns["status"][0] == b"converged") == bool(columns["success"][0])
+
+
+def test_replan_parameters_on_the_command_line(flat, trot, tmp_path):
+    """`dyn simulate --param` sets `ReplanParams` of the closed loop: refused without --replan and out
+    of its range or unknown (exit 2, nothing written)."""
+    out = tmp_path / "sim.h5"
+    alone = invoke("dyn", "simulate", trot, flat[1], "--param", "tube_velocity=0.3", "-o", out, "-q")
+    assert alone.exit_code == 2 and "--replan" in alone.output and not out.exists()
+    bad = invoke("dyn", "simulate", trot, flat[1], "--replan", "0.5", "--param", "tube_velocity=-1", "-o", out, "-q")
+    assert bad.exit_code == 2 and "tube_velocity" in bad.output and not out.exists()
+    unknown = invoke("dyn", "simulate", trot, flat[1], "--replan", "0.5", "--param", "tube=1", "-o", out, "-q")
+    assert unknown.exit_code == 2 and "tube" in unknown.output and not out.exists()
+
+
+def test_the_worker_hands_its_replan_parameters_to_the_closed_loop(flat, trot):
+    """`dyn simulate --replan --param` reaches the `Replanner` through the batch worker."""
+    from legplan.dyn.artefact import read_tasks
+    from legplan.dyn.replan import ReplanParams
+    from legplan.dyn.replan_io import recorded_params
+    from legplan.sim.items import SimWorker
+    from legplan.sim.run import SimParams
+
+    attrs, tasks = read_tasks(trot)
+    dyn = recorded_params(json.loads(attrs["params"]))
+    chosen = ReplanParams(tube_velocity=None, tube_position=0.04, max_iterations=7)
+    worker = SimWorker("anymal", str(flat[1]), SimParams(), replan=(0.25, dyn, chosen))
+    assert worker.replanner(tasks[0]).settings == chosen
+    default = SimWorker("anymal", str(flat[1]), SimParams(), replan=(0.25, dyn))
+    assert default.replanner(tasks[0]).settings == ReplanParams()
