@@ -10,6 +10,7 @@ from click.testing import CliRunner
 
 from legplan.artefacts import read_summary, write_artefact, write_dataset
 from legplan.cli.main import cli
+from legplan.shipped import list_shipped_initializers
 from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
 from pictures import drawn, pixels, share
 
@@ -149,7 +150,8 @@ def test_a_plan_that_fails_its_check_exits_1(planned, tmp_path):
     (["--goal", "3", "0", "0"], "command line: field 'goal' (3, 0, 0) puts the base at (3.000, 0.000) off the map"),
     (["--start", "1", "0.5", "0"], "command line: field 'start' (1, 0.5, 0) is in a wall of the map"),
     (["--robot", "scarab2"], "robots/scarab2/robot.yaml: field 'centroidal' is missing"),
-    (["--init", "learned"], "--init: unknown initializer 'learned' (known: heuristic, an INIT.h5, or a shipped one: single_pallet_walk)"),
+    (["--init", "learned"], "--init: unknown initializer 'learned' (known: heuristic, an INIT.h5, or a shipped one: "
+                            + ", ".join(list_shipped_initializers()) + ")"),
     (["--costs", "cheap"], "--costs: 'cheap' is neither a preset (paper, none) nor a file"),
     (["--costs", "COSTS"], "costs.yaml: field 'speed' is unknown"),
     (["--tasks", "TASKS"], "dyn plan: give either --tasks or --start/--goal, not both"),
