@@ -194,8 +194,8 @@ def prestart(jobs: int, scheduler: str | None, modules: Sequence[str]) -> None:
 
 
 def fork_workers(jobs: int, scheduler: str | None, task: Task) -> None:
-    """Build `task`'s context in this process, then (`jobs` > 1, no scheduler) fork the `jobs` workers
-    of `--jobs N` from it now; the next `ProcessPool` of as many workers takes them over.
+    """Without a dask `scheduler`: build `task`'s context in this process, then (`jobs` > 1) fork the
+    `jobs` workers of `--jobs N` from it now; the next `ProcessPool` of as many workers takes them over.
 
     A command calls this once it has read its inputs and made its batch's `Task`, before it starts
     any thread (a progress display): every worker then starts with the imports, the inputs and the
@@ -208,13 +208,15 @@ def fork_workers(jobs: int, scheduler: str | None, task: Task) -> None:
     which record the reason per item."""
     import multiprocessing
 
+    if scheduler is not None:  # dask workers build their own
+        return
     try:
         task.context()
     except Exception:  # noqa: BLE001  (each item then reports it, as `Task.__call__` does)
         log.debug("task context not built before the batch", exc_info=True)
         return
-    if (jobs < 2 or scheduler is not None or jobs in _prestarted or threading.active_count() > 1
-            or "fork" not in multiprocessing.get_all_start_methods()):
+    forkable = "fork" in multiprocessing.get_all_start_methods()
+    if jobs < 2 or jobs in _prestarted or threading.active_count() > 1 or not forkable:
         return
     from concurrent.futures import ProcessPoolExecutor
 

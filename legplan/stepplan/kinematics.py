@@ -209,7 +209,7 @@ class ChainKinematics:
             world += parent[:, 2, None] * local[2]
             world[:, 3] += parent[:, 3]
             local[...] = world
-        rows = np.empty((n, 3, count + 1, 4))  # stored row-major by (sample, axis), so `points` stacks them without a copy
+        rows = np.empty((n, 3, count + 1, 4))  # by (sample, axis): `points` stacks them without a copy
         rows[:, :, 0] = np.eye(3, 4)
         rows[:, :, 1:] = entries.transpose(3, 0, 2, 1)
         return rows.transpose(0, 2, 1, 3)

@@ -198,6 +198,25 @@ def test_forked_workers_run_with_the_context_the_command_built(tmp_path):
     assert builders[0] == command and set(builders[1:]) == {str(pid) for _, pid, _ in rows}
 
 
+def test_fork_workers_with_one_job_builds_the_context_once_and_with_dask_none(tmp_path):
+    """`fork_workers` with --jobs 1 builds the context the in-process items then use (setup runs once,
+    before the batch); with a dask scheduler it builds nothing (the dask workers build their own)."""
+    import os
+
+    from legplan.batch import backends, fork_workers
+    from sharedtasks import Logged, built_by
+    from sharedtasks import failed as failed_shared
+
+    fork_workers(2, "local", Task(run=built_by, failed=failed_shared, setup=Logged, args=(str(tmp_path / "dask.log"),)))
+    assert not (tmp_path / "dask.log").exists() and not backends._prestarted
+    one = Task(run=built_by, failed=failed_shared, setup=Logged, args=(str(tmp_path / "one.log"),))
+    fork_workers(1, None, one)
+    assert (tmp_path / "one.log").read_text().split() == [str(os.getpid())] and not backends._prestarted
+    records = run(tmp_path, task=one, items=[0, 1, 2])
+    assert [int(r["built_by"]) for r in records] == [os.getpid()] * 3
+    assert (tmp_path / "one.log").read_text().split() == [str(os.getpid())]
+
+
 def test_pool_workers_are_forked_by_one_server_started_by_the_command(tmp_path):
     """`--jobs N` workers are forked by one fork server (libraries imported once), itself a child of the
     command, and the command's environment is left as it was."""
