@@ -107,9 +107,7 @@ class SampledCurveBlock(StructuredBlock):
         if self.slack_dim:
             s = self.slack_dim
             st = S.transpose(0, 2, 1)
-            # C-ordered so that the reshape below needs no copy
-            coupling = np.multiply(B.T[:, None, :, None], (gt @ S).transpose(1, 0, 2)[None], order="C")
-            hessian[(0, 1)] = coupling.reshape(k * d, n * s)
+            hessian[(0, 1)] = (B.T[:, None, :, None] * (gt @ S).transpose(1, 0, 2)[None]).reshape(k * d, n * s)
             hessian[(1, 1)] = BlockDiagonal(st @ S)
             gradient.append((st @ r[:, :, None]).reshape(-1))
         return NormalTerms(r.reshape(-1), hessian, gradient)

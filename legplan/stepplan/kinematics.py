@@ -187,8 +187,7 @@ class ChainKinematics:
         1, q) with the stacked constants (B, C, F, D); a level is placed on its parents by the three
         rank-one terms of the 3 × 3 · 3 × 4 products (a batched matmul of so small matrices costs more),
         formed entry by entry over all joints of the level and all samples at once (layout (3, 4, joints,
-        n)), so that every array operation runs over one long contiguous axis. The result is a view of
-        an array laid out (n, 3, slots, 4)."""
+        n)), so that every array operation runs over one long contiguous axis."""
         basis, columns = self._basis, self._local[4]
         q = X[:, columns].T  # (joints, n)
         n, count = len(X), len(columns)
@@ -209,10 +208,10 @@ class ChainKinematics:
             world += parent[:, 2, None] * local[2]
             world[:, 3] += parent[:, 3]
             local[...] = world
-        rows = np.empty((n, 3, count + 1, 4))  # by (sample, axis): `points` stacks them without a copy
-        rows[:, :, 0] = np.eye(3, 4)
-        rows[:, :, 1:] = entries.transpose(3, 0, 2, 1)
-        return rows.transpose(0, 2, 1, 3)
+        T = np.empty((n, count + 1, 3, 4))
+        T[:, 0] = np.eye(3, 4)
+        T[:, 1:] = entries.transpose(3, 2, 0, 1)
+        return T
 
     def points(self, X: np.ndarray) -> Points:
         """Feet, sphere centres and CoM at the vectors X (n, nx): the points in the base frame, one product
