@@ -206,8 +206,6 @@ def fork_workers(jobs: int, scheduler: str | None, task: Task) -> None:
     would stay held in the worker), or a `prestart` pool waits, the workers are started as before
     (`prestart`, or the batch's own pool); a context that cannot be built is left to the workers,
     which record the reason per item."""
-    import multiprocessing
-
     if scheduler is not None:  # dask workers build their own
         return
     try:
@@ -215,8 +213,11 @@ def fork_workers(jobs: int, scheduler: str | None, task: Task) -> None:
     except Exception:  # noqa: BLE001  (each item then reports it, as `Task.__call__` does)
         log.debug("task context not built before the batch", exc_info=True)
         return
-    forkable = "fork" in multiprocessing.get_all_start_methods()
-    if jobs < 2 or jobs in _prestarted or threading.active_count() > 1 or not forkable:
+    if jobs < 2 or jobs in _prestarted or threading.active_count() > 1:
+        return
+    import multiprocessing  # a pool only: `--jobs 1` starts without it (start-up time)
+
+    if "fork" not in multiprocessing.get_all_start_methods():
         return
     from concurrent.futures import ProcessPoolExecutor
 
