@@ -188,6 +188,7 @@ def main(argv=None) -> int:
                   **run(map_path, steps_path, [int(c) for c in args.cuts.split(",") if c], [int(w) for w in args.stall_window.split(",") if w],
                       args.swings)}
     result["summary"] = summarise(result)
+    del result["degree_two_norms"]  # read into the summary; ~100 values per swing
     write_result("swing_stops", result)
     print(markdown(result))
     if not args.no_append:
