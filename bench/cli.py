@@ -39,9 +39,11 @@ millisecond steps) and whole swings (bench/step_plan.py's `merge_swings`: every 
 the ≥ 0.2 s items of the target). Wall time and process CPU of each, --jobs 1 and --jobs 2 in
 alternation, median of --jobs-repeats runs; the speed-up is the ratio of the median wall times.
 On a machine whose two cores are busy with other work no pool can approach 2×: the load average
-is recorded with it. Also the wall time until `prestart` (`PRESTART`) returns to the command: the
-part of the pool's start the command waits for before it can read its inputs. With --before, that tree's commands run the same comparison, interleaved with
-this tree's runs (its --jobs 2 is its own batch layer's).
+is recorded with it. (`step plan --jobs N` forks its workers from the command once it has read its
+inputs and built the task context, `legplan.batch.fork_workers`; a tree that prestarts a fork server
+instead pays for the server's imports and context in its --jobs 2 CPU column.) With --before, that
+tree's commands run the same comparison, interleaved with this tree's runs (its --jobs 2 is its own
+batch layer's).
 
 Whole swings, this tree against --before: with --before, --swings N whole swings of that scenario (every
 k-th of them, spread over the sequence) are planned by one long-lived process per tree (`SWING_WORKER`:
@@ -174,18 +176,6 @@ for line in sys.stdin:
                       "iterations": [int(d.iterations) for d in plan.degrees], "norm": float(plan.norm),
                       "control_points": np.asarray(plan.control_points).tolist()}), flush=True)
 """
-# Wall seconds until `prestart` (what `step plan --jobs 2` calls before it reads its inputs) returns
-# control to the command, with step plan's preload list; the process then ends as the command does.
-PRESTART = r"""
-import atexit, os, sys, time
-from legplan.batch import prestart
-start = time.perf_counter()
-prestart(2, None, ("legplan.stepplan.batch", "legplan.robots.model", "legplan.validate.checks", "scipy.linalg",
-                   "scipy.spatial.transform"))
-print(time.perf_counter() - start, flush=True)
-atexit._run_exitfuncs()
-os._exit(0)
-"""
 # Imports only the libraries a `dyn plan` cannot do without, as legplan imports them (its package init
 # first: it keeps scipy.sparse from importing numpy's unused submodules), and ends as the console script
 # does (atexit handlers, no module teardown) — the start-up floor.
@@ -275,15 +265,6 @@ def jobs_comparison(work: Path, step_range: str, repeats: int, map_path=None, st
     checks = Validator(load_robot(swings.robot), load_map(map_path)).check(swings.q, swings.stance, swings.footholds)
     write_steps(swings_path, swings, checks)
     out = {"steps": step_range, "variants": {}, "others": {side: {} for side in trees if side != "this tree"}}
-    prestart = {side: [] for side in trees}  # the wall time until `prestart` returns (module docstring)
-    for i in range(max(3, repeats)):
-        for side in (list(trees) if i % 2 == 0 else list(trees)[::-1]):
-            _, _, done = child_run([sys.executable, "-c", PRESTART], environment(trees[side]))
-            prestart[side].append(float(done.stdout.split()[0]) if done.returncode == 0 and done.stdout.split()
-                                  else float("nan"))
-    out["prestart_wall"] = {side: statistics.median(v) for side, v in prestart.items()}
-    print("prestart returns after: " + "; ".join(f"{side} {v:.3f} s" for side, v in out["prestart_wall"].items()),
-          flush=True)
     for variant, path in (("as generated", steps_path), ("whole swings", swings_path)):
         runs = {(side, jobs): [] for side in trees for jobs in (1, 2)}
         for i in range(repeats):

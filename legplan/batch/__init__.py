@@ -29,7 +29,10 @@ Contract of the task (`Task`):
 A command with `--jobs N` calls `prestart(jobs, scheduler, modules)` before it reads its inputs and
 goes on at once: the fork server boots and imports `modules` meanwhile, then waits for the batch's
 `Task`, which `run_batch` hands it (`legplan.batch.warmup`); it builds the task's context once and
-forks the workers with it, and `run_batch` takes them over.
+forks the workers with it, and `run_batch` takes them over. A command whose inputs are quick to read
+calls `fork_workers(jobs, scheduler, task)` instead, once its `Task` is made: the context is built in
+the command itself and the workers are forked from it (no fork server, no imports, no second
+context), before the command starts any thread.
 
 Backends (`Backend(jobs, scheduler)`, the CLI's `--jobs`, `--scheduler`): `jobs` 1 in-process;
 `jobs` N a pool of N processes (forked by one fork server that imported the libraries once); `scheduler="local"` a dask LocalCluster of `jobs` one-thread
@@ -43,9 +46,9 @@ refused with the reason); without it an existing work file is an error unless `o
 exception or interrupt (KeyboardInterrupt) in or under `run_batch` keeps the work file.
 """
 
-from legplan.batch.backends import Backend, prestart
+from legplan.batch.backends import Backend, fork_workers, prestart
 from legplan.batch.run import run_batch
 from legplan.batch.task import Task
 from legplan.batch.workfile import work_path
 
-__all__ = ["Backend", "Task", "prestart", "run_batch", "work_path"]
+__all__ = ["Backend", "Task", "fork_workers", "prestart", "run_batch", "work_path"]

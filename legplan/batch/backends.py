@@ -55,6 +55,7 @@ def _init_pool_worker(parent: int | None, modules: Sequence[str] = ()) -> None:
     it have ended already, the worker ends when it finds the command's pipes closed)."""
     one_thread_environment()
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)  # a forked worker must not inherit the command's handler
     die_with_parent(os.getppid() if parent is None else parent)
     for name in modules:
         importlib.import_module(name)
@@ -134,7 +135,8 @@ class _Prestarted:
     def take(self) -> ProcessPoolExecutor | None:
         """The pool once every worker has been started; None when starting them failed (the batch's
         own pool then meets, and reports, the same failure)."""
-        self.thread.join()
+        if self.thread is not None:
+            self.thread.join()
         if self.warm is not None:  # read by the server before it forked the first worker
             shutil.rmtree(self.warm.parent, ignore_errors=True)
         if self.error is None:
@@ -189,6 +191,40 @@ def prestart(jobs: int, scheduler: str | None, modules: Sequence[str]) -> None:
     entry = _Prestarted(_new_pool(jobs, modules, None if warm is None else str(warm)), jobs, warm=warm)
     entry.start()
     _prestarted[jobs] = entry
+
+
+def fork_workers(jobs: int, scheduler: str | None, task: Task) -> None:
+    """Without a dask `scheduler`: build `task`'s context in this process, then (`jobs` > 1) fork the
+    `jobs` workers of `--jobs N` from it now; the next `ProcessPool` of as many workers takes them over.
+
+    A command calls this once it has read its inputs and made its batch's `Task`, before it starts
+    any thread (a progress display): every worker then starts with the imports, the inputs and the
+    context this process holds (copied on write), so no worker boots an interpreter, imports or
+    builds the context, and the items start as soon as `--jobs 1` would start its first one. With
+    `jobs` 1 it only builds the context (`Task.provide`). Where processes cannot be forked, or when
+    this process already runs other threads (a fork copies no thread, and a lock one of them holds
+    would stay held in the worker), or a `prestart` pool waits, the workers are started as before
+    (`prestart`, or the batch's own pool); a context that cannot be built is left to the workers,
+    which record the reason per item."""
+    if scheduler is not None:  # dask workers build their own
+        return
+    try:
+        task.context()
+    except Exception:  # noqa: BLE001  (each item then reports it, as `Task.__call__` does)
+        log.debug("task context not built before the batch", exc_info=True)
+        return
+    if jobs < 2 or jobs in _prestarted or threading.active_count() > 1:
+        return
+    import multiprocessing  # a pool only: `--jobs 1` starts without it (start-up time)
+
+    if "fork" not in multiprocessing.get_all_start_methods():
+        return
+    from concurrent.futures import ProcessPoolExecutor
+
+    pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork"),
+                               initializer=_init_pool_worker, initargs=(os.getpid(), ()))
+    pool.submit(_started)  # a fork pool forks all its workers at the first item, in this thread
+    _prestarted[jobs] = _Prestarted(pool, jobs)
 
 
 def _take_prestarted(jobs: int) -> ProcessPoolExecutor | None:

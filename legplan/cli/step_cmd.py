@@ -67,13 +67,8 @@ def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, scheduler, resu
 
     Each worker plans on one core (one BLAS thread); use --jobs or --scheduler for parallelism.
     """
-    from legplan.batch import prestart
-
-    # what an item imports: the planner, the robot, the check, and the scipy parts they load on first use
-    prestart(jobs, scheduler, ("legplan.stepplan.batch", "legplan.robots.model", "legplan.validate.checks",
-                               "scipy.linalg", "scipy.spatial.transform"))
     from legplan.artefacts import check_output
-    from legplan.batch import Task
+    from legplan.batch import Task, fork_workers
     from legplan.cli.batching import run_stage
     from legplan.cli.console import status, stderr_line
     from legplan.stepplan.batch import StepWorker, failed_item, plan_item, step_items, write_motion
@@ -83,6 +78,7 @@ def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, scheduler, resu
     settings = StepPlanParams.from_overrides(params)
     seq, indices = read_step_pairs(map_path, steps_path, step_range)
     task = Task(plan_item, failed_item, StepWorker, (seq.robot, os.path.abspath(map_path), settings))
+    fork_workers(jobs, scheduler, task)  # the context built here; --jobs N workers forked from this process
     inputs = [map_path, steps_path]
     records, summary = run_stage(
         task, step_items(seq, indices), "planning steps", output=output,

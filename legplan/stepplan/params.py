@@ -29,7 +29,10 @@ Extras (not in Table I, chosen here):
 * `stall_window` (default 0 = off, Algorithm 1 as published): opt-in stall stop of SolveLM, a
   departure from Algorithm 1 — a degree is abandoned (next degree, Algorithm 1 line 4) once the
   decrease of ‖F̃‖ over the last `stall_window` iterations, extrapolated geometrically, cannot reach
-  ε_num before MaxIt (`legplan.solve.LMParams.stall_window`). Use `--param stall_window=10`.
+  ε_num before MaxIt (`legplan.solve.LMParams.stall_window`). Use `--param stall_window=10`. It
+  changes the start of every later degree, so most swings then end at a higher degree:
+  `bench/swing_stops.py` sets it, and degree-2 passes cut at a fixed iteration (what any early
+  termination test of that pass gives), against Algorithm 1 on every whole swing.
 * `linear_solver`, `assembly`: passed to `legplan.solve.LMParams` (`assembly="blocks"` uses the
   structured JᵀJ of the Bézier block; "stacked" forms JᵀJ from the sparse Jacobian — the general path).
   `linear_solver="dense"`: LM eliminates the slacks (Schur complement), and what is left, (d − 1)·nx

@@ -162,6 +162,61 @@ def test_a_prestarted_server_that_never_gets_a_task_lets_the_command_end(tmp_pat
     assert lines == ["ok"]
 
 
+FORKED_SCRIPT = """
+import os, sys, threading
+from legplan.batch import Backend, Task, backends, fork_workers, run_batch
+from sharedtasks import Logged, built_by, failed
+log, out, threaded = sys.argv[1], sys.argv[2], sys.argv[3] == "threaded"
+if threaded:  # a thread already running: no fork from this process
+    stop = threading.Event()
+    threading.Thread(target=stop.wait, daemon=True).start()
+task = Task(run=built_by, failed=failed, setup=Logged, args=(log,))
+fork_workers(2, None, task)
+print(os.getpid(), 2 in backends._prestarted)
+with run_batch(task, list(range(6)), output=out, identity={"stage": "toy"}, backend=Backend(jobs=2)) as records:
+    print(" ".join(f"{r['built_by']},{r['pid']},{r['parent']}" for r in records))
+print(not backends._prestarted)
+"""
+
+
+def test_forked_workers_run_with_the_context_the_command_built(tmp_path):
+    """`fork_workers`: the command builds the task context once and the `--jobs 2` workers are forked
+    from it, so `setup` runs once, in the command, and no worker builds it again; with a thread
+    already running in the command, the workers come from the fork server and build their own."""
+    lines = run_script(FORKED_SCRIPT, tmp_path / "setup.log", tmp_path / "out.h5", "plain")
+    command, forked = lines[0].split()
+    rows = [tuple(map(int, entry.split(","))) for entry in lines[1].split()]
+    assert forked == "True" and lines[2] == "True"  # the pool was taken over, none is left waiting
+    assert (tmp_path / "setup.log").read_text().split() == [command]  # built once, in the command
+    assert {(built, parent) for built, _, parent in rows} == {(int(command), int(command))}
+    assert len({pid for _, pid, _ in rows}) <= 2 and int(command) not in {pid for _, pid, _ in rows}
+    lines = run_script(FORKED_SCRIPT, tmp_path / "setup2.log", tmp_path / "out2.h5", "threaded")
+    command, forked = lines[0].split()
+    rows = [tuple(map(int, entry.split(","))) for entry in lines[1].split()]
+    assert forked == "False" and all(built == pid != int(command) for built, pid, _ in rows)
+    builders = (tmp_path / "setup2.log").read_text().split()
+    assert builders[0] == command and set(builders[1:]) == {str(pid) for _, pid, _ in rows}
+
+
+def test_fork_workers_with_one_job_builds_the_context_once_and_with_dask_none(tmp_path):
+    """`fork_workers` with --jobs 1 builds the context the in-process items then use (setup runs once,
+    before the batch); with a dask scheduler it builds nothing (the dask workers build their own)."""
+    import os
+
+    from legplan.batch import backends, fork_workers
+    from sharedtasks import Logged, built_by
+    from sharedtasks import failed as failed_shared
+
+    fork_workers(2, "local", Task(run=built_by, failed=failed_shared, setup=Logged, args=(str(tmp_path / "dask.log"),)))
+    assert not (tmp_path / "dask.log").exists() and not backends._prestarted
+    one = Task(run=built_by, failed=failed_shared, setup=Logged, args=(str(tmp_path / "one.log"),))
+    fork_workers(1, None, one)
+    assert (tmp_path / "one.log").read_text().split() == [str(os.getpid())] and not backends._prestarted
+    records = run(tmp_path, task=one, items=[0, 1, 2])
+    assert [int(r["built_by"]) for r in records] == [os.getpid()] * 3
+    assert (tmp_path / "one.log").read_text().split() == [str(os.getpid())]
+
+
 def test_pool_workers_are_forked_by_one_server_started_by_the_command(tmp_path):
     """`--jobs N` workers are forked by one fork server (libraries imported once), itself a child of the
     command, and the command's environment is left as it was."""

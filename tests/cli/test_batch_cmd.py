@@ -66,6 +66,16 @@ def test_pool_and_local_cluster_give_the_in_process_artefact(scene, tmp_path, ba
     assert sorted(p.name for p in tmp_path.iterdir()) == ["motion.h5"]
 
 
+def test_workers_forked_by_the_command_give_the_in_process_artefact(scene, tmp_path):
+    """`legplan step plan --jobs 2` as its own process (no other thread: the workers are forked from the
+    command, `legplan.batch.fork_workers`) writes the in-process motion.h5, clocks aside."""
+    output = tmp_path / "motion.h5"
+    done = subprocess.run([*plan_argv(scene, output, "--jobs", "2"), "-q"], capture_output=True, text=True)
+    assert done.returncode == scene[3], done.stderr
+    assert_same(scene[2], output)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["motion.h5"]
+
+
 def test_killed_run_resumes_without_recomputing_finished_items(scene, tmp_path):
     output = tmp_path / "motion.h5"
     process = start_until_done(plan_argv(scene, output), 2)
