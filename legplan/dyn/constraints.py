@@ -374,6 +374,22 @@ class JointTorqueBlock(RangeOfMotionBlock):
                                       self.size, self.timing.size))
         return tau.reshape(-1), out
 
+    def residual_rows(self, values, rows):
+        """The torques of the samples that hold `rows` alone, by an IK of those samples from the
+        workspace's joints (the workspace itself left as it is: the next whole evaluation starts
+        where the last one ended)."""
+        if self.timing is not None:
+            return super().residual_rows(values, rows)
+        samples, at = np.unique(rows // self.rows, return_inverse=True)
+        lin, ang, feet, forces = (_nodes(v) for v in values[:4])
+        base, foot = self.base[samples], self.foot[samples]
+        p, e, q, f = base @ lin, base @ ang, foot @ feet, self.force[samples] @ forces
+        rot = rotation(e)
+        b = self._in_base(e, q - p, rot) + self.offset
+        g = self._in_base(e, f, rot)
+        tau = self.legs.foot_torques(self.leg, b, g, self.joints.q[samples], derivatives=False)[0]
+        return tau[at, rows % self.rows]
+
 
 class FootTerrainBlock(ResidualBlock):
     """One row per foot position sampled by `matrix` (rows of the ``feet`` node array): a terrain

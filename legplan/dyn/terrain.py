@@ -63,13 +63,29 @@ class TerrainModel:
         return np.all((xy >= lo) & (xy <= hi), axis=1)
 
     def _bilinear(self, grid: np.ndarray, x, y, gradient: bool = False):
-        """`Grid2D.bilinear` of one of this model's grids at arrays x, y (real or complex), shaped as x."""
+        """`Grid2D.bilinear` of one of this model's grids at arrays x, y (real or complex), shaped as x.
+        A grid of one finite value (a level map's height, envelope and slope) is that value with zero
+        gradient everywhere, without the interpolation (whose weights sum to one up to rounding)."""
         shape = np.shape(x)
+        constant = self._constant_value(grid)
+        if constant is not None:
+            value = np.full(shape, constant, dtype=np.result_type(x, y, float))
+            return (value, np.zeros(shape), np.zeros(shape)) if gradient else value
         out = self.grid.bilinear(grid, np.stack([np.ravel(x), np.ravel(y)], axis=-1), gradient)
         if not gradient:
             return out.reshape(shape)
         value, g = out
         return value.reshape(shape), g[:, 0].reshape(shape), g[:, 1].reshape(shape)
+
+    def _constant_value(self, grid: np.ndarray) -> float | None:
+        """The one value of a grid of this model whose cells all hold the same finite number (None
+        otherwise), judged once per grid (the model's grids are never modified)."""
+        known = self.__dict__.setdefault("_constants", {})
+        if id(grid) not in known or known[id(grid)][0] is not grid:
+            flat = grid.ravel()
+            one = flat.size and np.isfinite(flat[0]) and not np.any(flat != flat[0])
+            known[id(grid)] = (grid, float(flat[0]) if one else None)
+        return known[id(grid)][1]
 
     def height(self, x, y):
         """h(x, y) for arrays x, y (real or complex)."""
@@ -143,3 +159,4 @@ class TerrainModel:
     def edge_distance(self, x, y):
         """Distance (m) from (x, y) to the nearest edge cell (inf on a map without edges)."""
         return self._bilinear(self.edge_distance_grid, x, y)
+

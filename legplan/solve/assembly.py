@@ -144,21 +144,28 @@ class NonzeroPattern:
         return type(matrix)((matrix.data[self._take], self._indices, self._indptr), shape=matrix.shape)
 
     def _update(self, matrix, kept: np.ndarray) -> None:
+        self.grow(kept, matrix.indptr, matrix.indices)
+
+    def grow(self, kept: np.ndarray, indptr: np.ndarray, indices: np.ndarray) -> None:
+        """Keep the entries `kept` (a superset of the kept ones) of the pattern (indptr, indices) it
+        follows: `reduced`'s update, for a caller that knows the new nonzeros without the matrix."""
         self._kept = kept
         self._take = np.flatnonzero(kept)
         before = np.concatenate([[0], np.cumsum(kept, dtype=np.int64)])
-        self._indptr = before[matrix.indptr].astype(matrix.indptr.dtype)
-        self._indices = matrix.indices[self._take]
+        self._indptr = before[indptr].astype(indptr.dtype)
+        self._indices = indices[self._take]
         self.version += 1
 
 
 class NonzeroGather:
     """`NonzeroPattern.reduced` of what `CooAssembler.assemble_parts` would assemble, taken straight
-    from the triplet pieces: while the pieces are the assembler's last ones (`CooAssembler.holds`),
-    no two triplets share an entry (the slots are a permutation of the pattern) and no entry outside
-    the kept set is nonzero, the reduced matrix's data is one gather of the concatenated values (the
-    same numbers; a −0 becomes 0, as the sum into zeros makes it), with no scatter into the whole
-    pattern. `reduced` returns None otherwise: the caller assembles and reduces, then calls `follow`."""
+    from the triplet pieces: while the pieces are the assembler's last ones (`CooAssembler.holds`)
+    and no two triplets share an entry (the slots are a permutation of the pattern), the reduced
+    matrix's data is one gather of the concatenated values (the same numbers; a −0 becomes 0, as the
+    sum into zeros makes it), with no scatter into the whole pattern. Triplets nonzero outside the
+    kept set (or NaN) grow the pattern from the triplets themselves (`NonzeroPattern.grow`: the kept
+    set and the arrays the assembled matrix would give it). `reduced` returns None otherwise: the
+    caller assembles and reduces, then calls `follow`."""
 
     def __init__(self):
         self._key = None
@@ -171,6 +178,8 @@ class NonzeroGather:
             return  # duplicates (summed): the assembler's scatter is needed
         position = np.empty(slot.size, np.intp)
         position[slot] = np.arange(slot.size)
+        self._slot = slot
+        self._position = position
         self._gather = position[pattern._take]
         self._outside = ~pattern._kept[slot]  # per triplet: not (yet) in the kept set
         self._key = (assembler, assembler.version, pattern, pattern.version)
@@ -180,8 +189,14 @@ class NonzeroGather:
                 or any(v is None for v in values):
             return None
         data = np.concatenate(values) if len(values) != 1 else np.asarray(values[0], float)
-        if np.any((data != 0.0) & self._outside):  # a new nonzero (or NaN): the pattern grows
-            return None
+        new = (data != 0.0) & self._outside
+        if np.any(new):  # a new nonzero (or NaN): the pattern grows by those entries
+            kept = pattern._kept.copy()
+            kept[self._slot[new]] = True
+            pattern.grow(kept, assembler._indptr, assembler._indices)
+            self._gather = self._position[pattern._take]
+            self._outside = ~kept[self._slot]
+            self._key = (assembler, assembler.version, pattern, pattern.version)
         return wrapped(fmt, data[self._gather] + 0.0, pattern._indices, pattern._indptr, assembler.shape[::-1])
 
 

@@ -192,6 +192,14 @@ class _AugmentedRows(ResidualBlock):
         factor = factor if pick is None else factor[pick]
         return r, [picker(j, factor) for picker, j in zip(self._pickers, jacs)]
 
+    def residual_rows(self, values, rows):
+        """`evaluate`'s rows `rows` from the constraint rows they bound alone (a row bounded on both
+        sides is evaluated once for both)."""
+        needed, at = np.unique(self.pick[rows], return_inverse=True)
+        c = np.asarray(self.constraint.block.residual_rows(values, needed), float)[at]
+        factor = np.sqrt(self.mu) * self.sign[rows] * self.constraint.scale[self.pick[rows]]
+        return factor * (c - self.bound[rows]) + self.y[rows] / np.sqrt(self.mu)
+
     def update(self, c: np.ndarray) -> None:
         """First-order multiplier update at the subproblem's solution (of the scaled rows); the
         multipliers of bound rows stay ≥ 0."""

@@ -61,6 +61,13 @@ class ResidualBlock(ABC):
         """Residual (size,) and, if `jacobians`, one Jacobian per variable: (size × len(values[i])),
         or with `jacobian_rows` (max(jacobian_rows) + 1 rows × len(values[i]))."""
 
+    def residual_rows(self, values: Sequence[np.ndarray], rows: np.ndarray) -> np.ndarray:
+        """The residual's rows `rows` (increasing indices) alone, as `evaluate` gives them, for a
+        caller that reads no other row (the hinged LM's curvature probe reads the plain and active
+        rows). Default: the whole residual, picked; a block whose rows are cheaper one by one (a
+        leg's IK per sample) evaluates only what they need."""
+        return np.asarray(self.evaluate(values, False)[0], float).reshape(-1)[rows]
+
     def residual_chunks(self, values: Sequence[np.ndarray]) -> Iterator[np.ndarray]:
         """The residual in pieces whose squared norms add up to ‖r‖² (any partition, any order).
 

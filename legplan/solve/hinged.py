@@ -28,7 +28,7 @@ failure).
 Geodesic acceleration (Transtrum & Sethna, "Improvements to the Levenberg-Marquardt algorithm for
 nonlinear least-squares minimization", 2012, eq. (14)): the step d is a velocity along the model;
 the residuals' curvature along it, r_vv ≈ (2/h)((r(θ + hd) − r(θ))/h − Jd) with h = 0.1 (one more
-residual evaluation), gives the acceleration a = −(JᵀJ + λI)⁻¹ Jᵀ r_vv from the step's own
+residual evaluation, of the plain and active rows alone: `Problem.residual_rows`), gives the acceleration a = −(JᵀJ + λI)⁻¹ Jᵀ r_vv from the step's own
 factorization (rows E ∪ A), and the trial point is θ + d + ½a when 2‖a‖ ≤ α‖d‖ (α =
 `geodesic_acceleration`, 0.75 as the paper recommends; 0 switches it off).
 
@@ -146,7 +146,7 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
         predicted = norm ** 2 - hinged_norm(v + _times(J, taken, rows), hinged) ** 2
         if params.geodesic_acceleration > 0.0:
             t0 = time.perf_counter()
-            probe = problem.residual(layout.project(theta + GEODESIC_PROBE * step))
+            probe = problem.residual_rows(layout.project(theta + GEODESIC_PROBE * step), model.rows_read())
             timings.evaluate += time.perf_counter() - t0
             acceleration = model.acceleration(solver, (probe - v) / GEODESIC_PROBE - _times(J, step, rows),
                                               GEODESIC_PROBE)
@@ -296,11 +296,16 @@ class _HingeModel:
         self.active = active  # at the step's end (the factorized set, unless the passes ran out)
         return step
 
+    def rows_read(self) -> np.ndarray:
+        """The rows (bool) whose values `acceleration` reads: the plain and active ones of the last step."""
+        return ~self.hinged | self.active
+
     def acceleration(self, solver, difference: np.ndarray, h: float) -> np.ndarray:
         """Geodesic acceleration a = −(JᵀJ + λI)⁻¹ Jᵀ r_vv (scaled variables) of the last step, with
         r_vv ≈ (2/h)·difference the second directional derivative of the plain and active rows
-        (difference = (r(θ + h·d) − r(θ))/h − J d); reuses the step's factorization."""
-        rows = np.flatnonzero(~self.hinged | self.active)
+        (difference = (r(θ + h·d) − r(θ))/h − J d, read on `rows_read` alone); reuses the step's
+        factorization."""
+        rows = np.flatnonzero(self.rows_read())
         return -solver.solve(self._transposed_product(rows, 2.0 / h * difference))
 
     def _transposed_product(self, rows: np.ndarray, x: np.ndarray) -> np.ndarray:

@@ -143,6 +143,22 @@ class Problem:
         parts = [w * self._checked(b, b.evaluate(self._block_values(values, b), False)[0]) for b, w in self._blocks]
         return np.concatenate(parts) if parts else np.zeros(0)
 
+    def residual_rows(self, theta: np.ndarray, needed: np.ndarray) -> np.ndarray:
+        """h(θ) on the rows where `needed` (bool, one per row) holds, zero elsewhere: a block without
+        a needed row is not evaluated, one with some gives those (`ResidualBlock.residual_rows`)."""
+        values = self.layout.values(theta)
+        out = np.zeros(int(self._offsets[-1]))
+        for (block, w), lo, hi in zip(self._blocks, self._offsets[:-1], self._offsets[1:]):
+            rows = np.flatnonzero(needed[lo:hi])
+            if not rows.size:
+                continue
+            args = self._block_values(values, block)
+            if rows.size == hi - lo:
+                out[lo:hi] = w * self._checked(block, block.evaluate(args, False)[0])
+            else:
+                out[lo + rows] = (w if np.ndim(w) == 0 else w[rows]) * block.residual_rows(args, rows)
+        return out
+
     def trial_norm(self, theta: np.ndarray, bound: float) -> float:
         """‖h(θ)‖ if it is below `bound`; otherwise some value ≥ `bound` (or NaN if h is not finite).
 

@@ -198,15 +198,18 @@ def _candidate_pairs(height: np.ndarray, mask: np.ndarray, reach_cells: float, k
                for dy in range(-k, k + 1) for dx in range(-k, k + 1) if dx or dy]
     offsets = [o for o in offsets if not o[2] > reach_cells] if len(my) else []
     cells, candidates, gaps = [np.zeros(0, np.int64)], [np.zeros(0, np.int64)], [np.zeros(0)]
+    flat = height.reshape(-1)
+    own = my.astype(np.int64) * nx + mx  # the candidates' flat indices and heights
+    tops = flat[own]
     group = max(1, PAIR_BLOCK // max(len(my), 1))  # offsets per group: a bounded (offsets × candidates) block
     for start in range(0, len(offsets), group):
         dy, dx, gap = (np.array(v) for v in zip(*offsets[start:start + group]))
         # cells (iy, ix) whose neighbour (iy + dy, ix + dx) is a candidate
         inside = ((my >= dy[:, None]) & (my < ny + dy[:, None]) & (mx >= dx[:, None]) & (mx < nx + dx[:, None]))
         o, c = np.nonzero(inside)  # offset-major, candidates in row-major order within an offset
-        cy, cx, oy, ox = my[c], mx[c], dy[o], dx[o]
-        ok = keep(height[cy, cx], height[cy - oy, cx - ox])
-        cells.append((cy[ok] - oy[ok]) * nx + (cx[ok] - ox[ok]))
-        candidates.append(cy[ok] * nx + cx[ok])
+        cell = own[c] - (dy * nx + dx)[o]  # flat index of (iy − dy, ix − dx): inside the grid
+        ok = keep(tops[c], flat[cell])
+        cells.append(cell[ok])
+        candidates.append(own[c[ok]])
         gaps.append(gap[o[ok]])
     return np.concatenate(cells), np.concatenate(candidates), np.concatenate(gaps)

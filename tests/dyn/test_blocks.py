@@ -329,3 +329,29 @@ def test_stance_width_block_matches_finite_differences_and_vanishes_at_the_nomin
     values["base_ang"].reshape(-1, 2, 3)[:, 0, 2] += 0.6  # yawed
     report = check_jacobian(block, {v: values[v] for v in block.variables})
     assert report.ok(atol=1e-6, rtol=1e-5), report
+
+
+def test_joint_torque_rows_alone_equal_the_whole_evaluation_and_leave_the_workspace(anymal_torques, step):
+    """`JointTorqueBlock.residual_rows` (the IK of the samples holding the rows alone, the curvature
+    probe's evaluation) gives the whole evaluation's values on those rows, and leaves the IK's warm
+    start where the last whole evaluation put it; with moving phases it is the whole evaluation
+    picked (which moves the warm start as every whole evaluation does)."""
+    for optimize_phases in (False, True):
+        params = replace(PALLET_PARAMS, optimize_phases=optimize_phases)
+        problem = build_problem(DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "walk", 2, 3.0), anymal_torques, step,
+                                params, heuristic)
+        start = _perturbed(problem, seed=2, scale=0.005)
+        moved = _perturbed(problem, seed=5, scale=0.005)
+        rng = np.random.default_rng(7)
+        for k in (k for k in problem.constraints if k.name == "joint_torque"):
+            block = k.block
+            block.evaluate([start[v] for v in block.variables], True)
+            kept = block.joints.q.copy()
+            rows = np.sort(rng.choice(block.size, 7, replace=False))
+            rows[1] = rows[0] + 1 if rows[0] % block.rows < block.rows - 1 else rows[1]  # two rows of one sample
+            rows = np.unique(rows)
+            alone = block.residual_rows([moved[v] for v in block.variables], rows)
+            assert np.array_equal(block.joints.q, kept) != optimize_phases
+            whole = block.evaluate([moved[v] for v in block.variables], False)[0]
+            np.testing.assert_allclose(alone, whole[rows], rtol=1e-9, atol=1e-9)
+            assert np.abs(whole[rows]).max() > 1.0  # torques (N m), not zeros

@@ -83,3 +83,34 @@ def test_terrain_rows_closed_form_jacobians_match_complex_step_and_differences(p
         away = np.all(np.abs(cell - np.round(cell)) > 1e-4, axis=1)  # no cell line within the step
         assert away.sum() > 200
         np.testing.assert_allclose(jac[away, 0], central[away], atol=1e-5)
+
+
+@pytest.mark.parametrize("ground", [0.0, 0.37])
+def test_a_level_map_gives_its_height_and_zero_gradients_as_the_interpolation_does(ground):
+    """On a level map every grid of the model is one value: height, envelope, slope and their
+    gradients are those of the bilinear interpolation (the same numbers at height 0, within rounding
+    elsewhere), at real and complex points inside and outside the grid; a grid that is not level
+    keeps the interpolation."""
+    grid = Grid2D(origin=(-0.3, -0.2), resolution=0.02, shape=(21, 31))
+    level = TerrainModel(terrain_from_heightmap(np.full(grid.shape, ground), grid, name="level"))
+    x, y = np.linspace(-0.5, 0.5, 23), np.linspace(-0.3, 0.3, 23)  # some outside, some on cell centres
+    interpolated = lambda g, xs, ys, d=False: grid.bilinear(g, np.stack([xs, ys], axis=-1), d)
+    for name, function, g in (("height", level.height, level.height_grid), ("slope", level.stance_slope, level.slope_grid),
+                              ("envelope", level.envelope, level._envelope_grid(0.0))):
+        got = function(x.reshape(1, -1), y.reshape(1, -1))
+        assert got.shape == (1, 23) and got.dtype == float, name
+        np.testing.assert_allclose(got[0], interpolated(g, x, y), rtol=1e-15, atol=0.0)
+        if ground == 0.0:
+            np.testing.assert_array_equal(got[0], interpolated(g, x, y))
+        stepped = function(x + 1e-20j, y)
+        assert stepped.dtype == complex and np.all(stepped.imag == 0.0) and np.all(stepped.real == got[0])
+    for (h, hx, hy), value in ((level.height_gradient(x, y), ground), (level.envelope_gradient(x, y), ground),
+                               (level.stance_slope_gradient(x, y), 0.0)):
+        assert np.all(h == value) and not hx.any() and not hy.any() and hx.shape == x.shape
+    _, g = interpolated(level.height_grid, x, y, True)
+    assert not g.any()  # the interpolation's gradient of a level grid: zero as well
+    ramp = np.full(grid.shape, ground)
+    ramp[:, 20:] += 0.05
+    sloped = TerrainModel(terrain_from_heightmap(ramp, grid, name="ramp"))
+    np.testing.assert_array_equal(sloped.height(x, y), interpolated(sloped.height_grid, x, y))
+    assert sloped.height_gradient(x, y)[1].any()

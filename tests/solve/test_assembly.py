@@ -95,7 +95,9 @@ def test_same_indices_recognises_a_view_of_the_same_read_only_memory():
 def test_nonzero_gather_gives_the_assembled_and_reduced_matrix():
     """`NonzeroGather` against `CooAssembler.assemble_parts` + `NonzeroPattern.reduced` on pieces of
     distinct triplets with entries zero by construction: equal arrays (data, indices, indptr) on every
-    call it answers; None (the full path then) for a new nonzero, a NaN, other pieces, duplicates."""
+    call it answers, also where a new nonzero or a NaN grows the pattern (grown from the triplets, the
+    pattern's version moving as the full path's); None (the full path then) for other pieces and
+    duplicates."""
     from legplan.solve.assembly import CooAssembler, NonzeroGather, NonzeroPattern
 
     rng = np.random.default_rng(4)
@@ -123,14 +125,28 @@ def test_nonzero_gather_gives_the_assembled_and_reduced_matrix():
         for a in ("data", "indices", "indptr"):
             np.testing.assert_array_equal(getattr(got, a), getattr(expected, a))
         assert not np.any(np.signbit(got.data) & (got.data == 0))
+    # growth: the same arrays as the full path's on a twin that follows the full path alone
+    twin_assembler, twin = CooAssembler(shape), NonzeroPattern()
+
+    def twin_full(values):
+        m = twin_assembler.assemble_parts(rows, cols, split(values))
+        return twin.reduced(sp.csr_matrix((m.data, m.indices, m.indptr), shape=shape[::-1]), twin_assembler.version)
+
+    twin_full(np.where(zero, 0.0, 1.0))
     nan = np.where(zero, 0.0, 1.0)
-    nan[np.flatnonzero(zero)[0]] = np.nan
-    assert gather.reduced(assembler, pattern, rows, cols, split(nan)) is None  # NaN outside: the caller sees it
+    nan[np.flatnonzero(zero)[0]] = np.nan  # NaN outside: kept, so the caller sees it
+    some = np.where(zero & (rng.random(300) < 0.5), rng.standard_normal(300), np.where(zero, 0.0, 1.0))
     grown = rng.standard_normal(300)
-    assert gather.reduced(assembler, pattern, rows, cols, split(grown)) is None  # new nonzeros
-    full(grown)
-    gather.follow(assembler, pattern)
-    assert gather.reduced(assembler, pattern, rows, cols, split(grown)) is not None
+    for values in (nan, some, grown):
+        version = pattern.version
+        got = gather.reduced(assembler, pattern, rows, cols, split(values))
+        expected = twin_full(values)
+        assert pattern.version == version + 1 and twin.version == pattern.version
+        for a in ("data", "indices", "indptr"):
+            np.testing.assert_array_equal(getattr(got, a), getattr(expected, a))
+    assert got.nnz == 300
+    again = gather.reduced(assembler, pattern, rows, cols, split(grown))
+    assert again is not None and pattern.version == version + 1  # settled: no growth
     assert gather.reduced(assembler, pattern, [r.copy() for r in rows], cols, split(grown)) is None  # other pieces
     twice = [np.concatenate([rows[0], rows[0][:1]])] + rows[1:], [np.concatenate([cols[0], cols[0][:1]])] + cols[1:]
     doubled = CooAssembler(shape)

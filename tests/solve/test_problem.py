@@ -5,6 +5,7 @@ import pytest
 import scipy.sparse as sp
 
 from legplan.solve import FunctionBlock, LMParams, Problem, Status, VariableBlock, solve_lm
+from legplan.solve.blocks import ResidualBlock
 import testproblems as tp
 
 
@@ -133,3 +134,45 @@ def test_sparse_jtj_entry_cancelling_to_zero_keeps_pattern_and_values(assembly):
         J = fn(theta)[1][0].toarray()
         assert ne.hessian.nnz == 4  # full 2×2 pattern, cancelled or not
         np.testing.assert_allclose(ne.hessian.toarray(), J.T @ J, rtol=1e-15, atol=0)
+
+
+def test_residual_rows_give_the_needed_rows_and_skip_blocks_without_one():
+    """`Problem.residual_rows`: the residual's values on the needed rows (scalar and per-row
+    weights, a block's own `residual_rows` for a part of its rows, the augmented Lagrangian's bound
+    rows), zero elsewhere; a block without a needed row is not evaluated."""
+    from legplan.solve.auglag import Constraint, _AugmentedRows
+
+    class Counted(ResidualBlock):
+        def __init__(self, name, size, matrix):
+            self.variables, self.size, self.matrix, self.calls = (name,), size, matrix, 0
+
+        def evaluate(self, values, jacobians):
+            self.calls += 1
+            x = values[0]
+            return np.sin(self.matrix @ x) + x.sum(), ([np.cos(self.matrix @ x)[:, None] * self.matrix + 1.0]
+                                                       if jacobians else None)
+
+    rng = np.random.default_rng(1)
+    a, b = VariableBlock("a", rng.standard_normal(4)), VariableBlock("b", rng.standard_normal(3))
+    first, second, third = (Counted("a", 5, rng.standard_normal((5, 4))), Counted("b", 6, rng.standard_normal((6, 3))),
+                            Counted("a", 4, rng.standard_normal((4, 4))))
+    bounded = _AugmentedRows(Constraint(third, np.array([-1.0, -np.inf, 0.0, -0.5]), np.array([1.0, 0.5, 0.0, np.inf]),
+                                        name="bounded", scale=np.array([1.0, 2.0, 3.0, 4.0])))
+    bounded.mu, bounded.y = 4.0, rng.random(bounded.size)
+    problem = Problem([a, b])
+    problem.add_residual(first, 0.5)
+    problem.add_residual(second, rng.random(6) + 0.5)
+    problem.add_residual(bounded)
+    theta = problem.layout.initial() + 0.1
+    whole = problem.residual(theta)
+    sizes = (5, 6, bounded.size)
+    for needed_blocks in ((True, False, True), (False, True, False)):
+        needed = np.concatenate([rng.random(n) < 0.5 if on else np.zeros(n, bool) for n, on in zip(sizes, needed_blocks)])
+        needed[0] = needed_blocks[0]
+        needed[5] = needed_blocks[1]
+        needed[11] = needed_blocks[2]
+        calls = [first.calls, second.calls, third.calls]
+        got = problem.residual_rows(theta, needed)
+        np.testing.assert_allclose(got[needed], whole[needed], rtol=1e-15, atol=1e-15)
+        assert not got[~needed].any()
+        assert [first.calls - calls[0], second.calls - calls[1], third.calls - calls[2]] == [int(on) for on in needed_blocks]
