@@ -26,13 +26,15 @@ Contract of the task (`Task`):
 * Same items in the same order, same records in the same order, whatever the backend or `--jobs`
   (records are ordered by item position, never by completion); only clock values may differ.
 
-A command with `--jobs N` calls `prestart(jobs, scheduler, modules)` before it reads its inputs and
-goes on at once: the fork server boots and imports `modules` meanwhile, then waits for the batch's
-`Task`, which `run_batch` hands it (`legplan.batch.warmup`); it builds the task's context once and
-forks the workers with it, and `run_batch` takes them over. A command whose inputs are quick to read
-calls `fork_workers(jobs, scheduler, task)` instead, once its `Task` is made: the context is built in
-the command itself and the workers are forked from it (no fork server, no imports, no second
-context), before the command starts any thread.
+Every CLI stage starts its `--jobs N` workers one way: `run_stage` calls `fork_workers(jobs, scheduler,
+task)` once the command has read its inputs and made its `Task` (a command that loaded the context's
+robot, map, ... to check its inputs hands them over first, `Task.provide`): the context is built in
+the command and the workers are forked from it (no fork server, no imports, no second context),
+before the command starts any thread. `prestart(jobs, scheduler, modules)` is for a caller whose
+inputs take long to read and whose context the command does not need itself: called before it reads
+them, a fork server boots and imports `modules` meanwhile, then waits for the batch's `Task`, which
+`run_batch` hands it (`legplan.batch.warmup`); it builds the context once and forks the workers with
+it, and `run_batch` takes them over.
 
 Backends (`Backend(jobs, scheduler)`, the CLI's `--jobs`, `--scheduler`): `jobs` 1 in-process;
 `jobs` N a pool of N processes (forked by one fork server that imported the libraries once); `scheduler="local"` a dask LocalCluster of `jobs` one-thread

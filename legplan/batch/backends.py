@@ -224,6 +224,7 @@ def fork_workers(jobs: int, scheduler: str | None, task: Task) -> None:
     pool = ProcessPoolExecutor(jobs, mp_context=multiprocessing.get_context("fork"),
                                initializer=_init_pool_worker, initargs=(os.getpid(), ()))
     pool.submit(_started)  # a fork pool forks all its workers at the first item, in this thread
+    log.debug("task context: %d workers forked from process %d", jobs, os.getpid())
     _prestarted[jobs] = _Prestarted(pool, jobs)
 
 

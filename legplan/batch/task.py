@@ -70,6 +70,8 @@ class Task:
         if getattr(_local, "key", None) != (self.setup, self.args):
             _local.key, _local.value = None, None  # drop the old context before building the new one
             shared = _take_shared(self)
+            if shared is None and self.setup is not None:
+                log.debug("task context: built in process %d", os.getpid())
             _local.value = shared if shared is not None or self.setup is None else self.setup(*self.args)
             _local.key = (self.setup, self.args)
             _limit_loaded_libraries()
@@ -83,7 +85,9 @@ class Task:
     def provide(self, context) -> None:
         """Make `context` this task's context in the calling thread, as if `setup(*args)` had built it:
         a caller that has already loaded what `setup` loads (to check its inputs) hands it over, so
-        `--jobs 1` does not load it twice. Pool and dask workers still build their own."""
+        `--jobs 1` does not load it twice, and the `--jobs N` workers forked from this thread afterwards
+        (`legplan.batch.fork_workers`) start with it. Other pool and dask workers build their own."""
+        log.debug("task context: provided in process %d", os.getpid())
         _local.key, _local.value = (self.setup, self.args), context
         _limit_loaded_libraries()
 

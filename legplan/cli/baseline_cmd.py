@@ -117,7 +117,7 @@ def step_cmd(ctx, map_path, steps_path, step_range, time_budget, space, seed, ou
 
     check_output(output, overwrite)
     params = StepBaselineParams(time_budget=time_budget, space=space, seed=seed)
-    seq, indices = read_step_pairs(map_path, steps_path, step_range)
+    seq, indices, _, _ = read_step_pairs(map_path, steps_path, step_range)
     task = Task(plan_item, failed_item, StepBaselineWorker, (seq.robot, os.path.abspath(map_path), params))
     inputs = [map_path, steps_path]
     records, summary = run_stage(

@@ -4,6 +4,10 @@
                                  inputs=[...], jobs=jobs, scheduler=scheduler, resume=resume,
                                  overwrite=overwrite, publish=lambda records: write_motion(output, records, ...))
 
+Every such stage starts its `--jobs N` workers the same way: `run_stage` builds the task's context in
+the command (its inputs already read) and forks the workers from it (`legplan.batch.fork_workers`)
+before it starts the progress bar's thread.
+
 Ctrl-C (exit 130) or SIGTERM (exit 143) stops the batch, publishes nothing, keeps OUTPUT.work and
 says that the same command with `--resume` continues it.
 """
@@ -20,10 +24,11 @@ def run_stage(task, items: Sequence, description: str, *, output, identity: Mapp
     """Run `task` over `items` on the backend of `--jobs`/`--scheduler`, then `publish(records)`
     (the stage's atomic writer); returns (records in item order, what `publish` returned)."""
     from legplan.artefacts.provenance import inputs_read_once
-    from legplan.batch import Backend, run_batch, work_path
+    from legplan.batch import Backend, fork_workers, run_batch, work_path
     from legplan.interrupts import Terminated
 
     backend = Backend(jobs, scheduler)
+    fork_workers(jobs, scheduler, task)  # before any thread: the workers start with the command's context
     try:
         with inputs_read_once(), progress_bar(f"{description} ({backend.describe()})") as progress, \
                 run_batch(task, items, output=output, identity=identity, inputs=inputs, backend=backend,

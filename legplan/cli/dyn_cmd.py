@@ -57,10 +57,6 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     """Plan every task on MAP; write traj.h5, each task with its solver outcome and independent check.
 
     Exit 1 when any task failed (its reason is recorded)."""
-    from legplan.batch import prestart
-
-    prestart(jobs, scheduler, ("legplan.dyn.items", "legplan.dyn.planner", "legplan.robots.model",
-                               "legplan.validate.trajectory"))
     from legplan.artefacts import check_output
     from legplan.artefacts.identity import check_same_map
     from legplan.batch import Task
@@ -107,7 +103,7 @@ def plan_cmd(ctx, map_path, robot, gait, strides, duration, start, goal, tasks_p
     settings = {**settings_record(costs, init, params), **{k: v for k, v in options.items() if v is not None}}
     inputs = [path for path in (map_path, tasks_path, costs_file(costs)) if path is not None]
     task = Task(plan_item, failed_item, DynWorker, (robot, os.path.abspath(map_path), params, init_fn))
-    task.provide(DynWorker.of(loaded, model, terrain_map, terrain, params, init_fn))  # --jobs 1: loaded once
+    task.provide(DynWorker.of(loaded, model, terrain_map, terrain, params, init_fn))  # loaded once (run_stage forks)
     reference = robot_reference(loaded)   # the name, or the robot.yaml's path when given by path
     records, _ = run_stage(task, task_items(tasks), "dyn plan", output=output,
                            identity={"stage": "dyn plan", "params": settings}, inputs=inputs, jobs=jobs,

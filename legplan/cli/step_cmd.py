@@ -16,21 +16,23 @@ def command():
 
 
 def read_step_pairs(map_path: str, steps_path: str, step_range: str | None):
-    """The step sequence of STEPS and the indices of its consecutive pairs selected by `--steps`;
-    MAP must read as a valid map artefact. Shared by `step plan` and `baseline step`."""
+    """The step sequence of STEPS, the indices of its consecutive pairs selected by `--steps`, and the
+    robot and map as read to check them (loaded once: a command's task context takes them over); MAP
+    must read as a valid map artefact. Shared by `step plan` and `baseline step`."""
     from legplan.artefacts.identity import check_same_map
     from legplan.robots.identity import check_same_robot
     from legplan.robots import load_robot
     from legplan.stepseq.sequence import read_steps
     from legplan.terrain import load_map
 
-    load_map(map_path)  # every layer checked (finite, shapes) before any work
+    terrain_map = load_map(map_path)  # every layer checked (finite, shapes) before any work
     seq = read_steps(steps_path)
     check_same_map(steps_path, map_path)
-    check_same_robot(steps_path, seq.robot_sha256, load_robot(seq.robot))
+    robot = load_robot(seq.robot)
+    check_same_robot(steps_path, seq.robot_sha256, robot)
     if len(seq) < 2:
         raise LegplanError(f"{steps_path}: field 'q' needs at least 2 configurations, got {len(seq)}")
-    return seq, _parse_range(step_range, len(seq) - 1, steps_path)
+    return seq, _parse_range(step_range, len(seq) - 1, steps_path), robot, terrain_map
 
 
 def _parse_range(text: str | None, pairs: int, steps_path: str) -> range:
@@ -68,7 +70,7 @@ def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, scheduler, resu
     Each worker plans on one core (one BLAS thread); use --jobs or --scheduler for parallelism.
     """
     from legplan.artefacts import check_output
-    from legplan.batch import Task, fork_workers
+    from legplan.batch import Task
     from legplan.cli.batching import run_stage
     from legplan.cli.console import status, stderr_line
     from legplan.stepplan.batch import StepWorker, failed_item, plan_item, step_items, write_motion
@@ -76,9 +78,9 @@ def plan_cmd(ctx, map_path, steps_path, output, overwrite, jobs, scheduler, resu
 
     check_output(output, overwrite)
     settings = StepPlanParams.from_overrides(params)
-    seq, indices = read_step_pairs(map_path, steps_path, step_range)
+    seq, indices, robot, terrain_map = read_step_pairs(map_path, steps_path, step_range)
     task = Task(plan_item, failed_item, StepWorker, (seq.robot, os.path.abspath(map_path), settings))
-    fork_workers(jobs, scheduler, task)  # the context built here; --jobs N workers forked from this process
+    task.provide(StepWorker.of(robot, terrain_map, settings))  # the robot and map read once
     inputs = [map_path, steps_path]
     records, summary = run_stage(
         task, step_items(seq, indices), "planning steps", output=output,

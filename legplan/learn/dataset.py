@@ -69,21 +69,19 @@ class DatasetWorker:
         from legplan.dyn.terrain import TerrainModel
         from legplan.robots import load_robot
 
-        self.model = centroidal_model(load_robot(space.robot))
-        self.terrain = TerrainModel(load_terrain_map(space))
         self.params = solver_params(space.costs, iterations, warm_stage, optimize_phases)
+        self.model = centroidal_model(load_robot(space.robot), self.params, space.costs)
+        self.terrain = TerrainModel(load_terrain_map(space))
         self.initializer = initializer(init)
 
 
-def dataset_items(space: TaskSpace, n: int, seed: int) -> list[tuple[int, object, np.ndarray]]:
-    """`n` tasks of the space from `numpy.random.default_rng(seed)`: (index, DynTask, x) items."""
-    from legplan.dyn.settings import dyn_params
-    from legplan.dyn.tasks import centroidal_model
-    from legplan.dyn.terrain import TerrainModel
-    from legplan.robots import load_robot
-
-    model = centroidal_model(load_robot(space.robot), dyn_params(space.costs), space.costs)
-    tasks = sample_tasks(space, n, np.random.default_rng(seed), model, TerrainModel(load_terrain_map(space)))
+def dataset_items(space: TaskSpace, n: int, seed: int, worker: DatasetWorker | None = None
+                  ) -> list[tuple[int, object, np.ndarray]]:
+    """`n` tasks of the space from `numpy.random.default_rng(seed)`: (index, DynTask, x) items, placed
+    with the model and terrain of `worker` (None: a worker of the space's heuristic)."""
+    if worker is None:
+        worker = DatasetWorker(space, "heuristic", None)
+    tasks = sample_tasks(space, n, np.random.default_rng(seed), worker.model, worker.terrain)
     return [(i, task, task_vector(task.start, task.goal)) for i, task in enumerate(tasks)]
 
 
@@ -106,14 +104,16 @@ def make_dataset(space: TaskSpace, space_path, count: int, seed: int, init, iter
     process by default, or the command's `run_stage` with its backend, progress bar and `--resume`."""
     from legplan.batch import Task
 
-    items = dataset_items(space, count, seed)
     learned = is_learned(init)
     init = os.fspath(init)
+    args = (space, os.path.abspath(init) if learned else init, iterations, warm_stage, optimize_phases)
+    worker = DatasetWorker(*args)
+    items = dataset_items(space, count, seed, worker)
     settings = {"space": space.record(), "n": count, "init": init, "iterations": iterations, "warm_stage": warm_stage,
                 "optimize_phases": optimize_phases}
     inputs = [space_path, space.map] + ([init] if learned else [])
-    task = Task(solve_item, failed_item, DatasetWorker,
-                (space, os.path.abspath(init) if learned else init, iterations, warm_stage, optimize_phases))
+    task = Task(solve_item, failed_item, DatasetWorker, args)
+    task.provide(worker)  # the robot, terrain and initializer loaded once; the run's workers start with them
     records, _ = run(task, items, f"learn dataset {os.path.basename(output)}", output=output,
                      identity={"stage": "learn dataset", "seed": seed, **settings}, inputs=inputs,
                      publish=lambda records: write_dataset(output, space, records, settings, seed, inputs, overwrite))

@@ -343,6 +343,12 @@ class LearnedInit:
     def __setstate__(self, state):
         self.__init__(state["path"])
 
+    def __eq__(self, other):  # the same file: a task's copy in a worker is the task the command built
+        return isinstance(other, LearnedInit) and other.path == self.path
+
+    def __hash__(self):
+        return hash(self.path)
+
     def check_task(self, task, params=None) -> None:
         """Before planning: one-line error when a `DynTask`'s variable layout (gait, strides, duration,
         base knots of `params`, a `DynParams`, default its defaults) is not the one this network was

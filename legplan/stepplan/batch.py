@@ -52,10 +52,21 @@ class StepWorker:
     def __init__(self, robot_name: str, map_path: str, params: StepPlanParams):
         from legplan.robots import load_robot
         from legplan.terrain import load_map
+
+        self._hold(load_robot(robot_name), load_map(map_path), params)
+
+    @classmethod
+    def of(cls, robot, terrain, params: StepPlanParams) -> StepWorker:
+        """A worker on the robot and map the caller has already loaded (what `__init__` would load)."""
+        worker = cls.__new__(cls)
+        worker._hold(robot, terrain, params)
+        return worker
+
+    def _hold(self, robot, terrain, params: StepPlanParams) -> None:
         from legplan.validate.checks import Validator
 
-        self.robot = load_robot(robot_name)
-        self.terrain = load_map(map_path)
+        self.robot = robot
+        self.terrain = terrain
         self.distance = terrain_distance(self.robot, self.terrain, params)
         self.validator = Validator(self.robot, self.terrain)
         self.params = params

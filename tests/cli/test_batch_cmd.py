@@ -15,6 +15,7 @@ import h5py
 import pytest
 from click.testing import CliRunner
 
+from jobs_support import assert_forked_from_command
 from test_reproducible import assert_same
 
 from legplan.cli.main import cli
@@ -67,12 +68,11 @@ def test_pool_and_local_cluster_give_the_in_process_artefact(scene, tmp_path, ba
 
 
 def test_workers_forked_by_the_command_give_the_in_process_artefact(scene, tmp_path):
-    """`legplan step plan --jobs 2` as its own process (no other thread: the workers are forked from the
-    command, `legplan.batch.fork_workers`) writes the in-process motion.h5, clocks aside."""
+    """`legplan step plan --jobs 2` as its own process: the workers are forked from the command with
+    the context it built from the robot and map it read to check its inputs, and it writes the
+    in-process motion.h5, clocks aside."""
     output = tmp_path / "motion.h5"
-    done = subprocess.run([*plan_argv(scene, output, "--jobs", "2"), "-q"], capture_output=True, text=True)
-    assert done.returncode == scene[3], done.stderr
-    assert_same(scene[2], output)
+    assert_forked_from_command(["step", "plan", scene[0], scene[1], *FAST], output, scene[2], scene[3])
     assert sorted(p.name for p in tmp_path.iterdir()) == ["motion.h5"]
 
 

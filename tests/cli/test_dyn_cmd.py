@@ -12,6 +12,7 @@ from legplan.artefacts import read_summary, write_artefact, write_dataset
 from legplan.cli.main import cli
 from legplan.shipped import list_shipped_initializers
 from legplan.terrain import Grid2D, save_map, terrain_from_heightmap
+from jobs_support import assert_forked_from_command
 from pictures import drawn, pixels, share
 
 TROT = ["--gait", "walk", "--strides", "2", "--duration", "3.0", "--start", "0", "0", "0", "--goal", "0.6", "0", "0"]
@@ -122,6 +123,19 @@ def test_tasks_file_records_an_infeasible_task_as_failed(planned, tmp_path):
         summary = read_summary(f)
     assert summary["succeeded"][0] == 0 and np.isnan(summary["peak_force"][0])
     assert not (tmp_path / "tasks.h5.work").exists()
+
+
+def test_tasks_with_two_jobs_are_planned_by_workers_forked_from_the_command(planned, tmp_path):
+    """`dyn plan --tasks` with --jobs 2: the workers are forked from the command with the context it
+    built while checking its inputs, and write the --jobs 1 traj.h5 (a failed task's record too)."""
+    _, map_path, _ = planned
+    tasks = tmp_path / "tasks.csv"
+    tasks.write_text("start_x,start_y,start_yaw,goal_x,goal_y,goal_yaw,gait,strides,duration\n"
+                     "0,0,0,0.6,0,0,walk,2,3.0\n0,0,0,1.5,0,0,walk,1,0.8\n0,0,0,0.3,0,0,walk,2,3.0\n")
+    argv = ["dyn", "plan", map_path, "--tasks", tasks]
+    result = invoke(*argv, "-o", tmp_path / "one.h5", "-q")
+    assert result.exit_code == 1, result.output + str(result.exception)
+    assert_forked_from_command(argv, tmp_path / "two.h5", tmp_path / "one.h5", exit_code=1)
 
 
 def test_a_plan_that_fails_its_check_exits_1(planned, tmp_path):

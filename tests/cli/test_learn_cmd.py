@@ -10,6 +10,7 @@ from click.testing import CliRunner
 
 from legplan.artefacts import read_summary
 from legplan.cli.main import cli
+from jobs_support import assert_forked_from_command
 
 ROOT = Path(__file__).resolve().parents[2]
 TINY = ROOT / "tests" / "data" / "learn_flat_trot.yaml"  # flat 2-stride trots, 1.2 s, no costs
@@ -42,6 +43,14 @@ def test_dataset_records_tasks_solutions_and_outcomes(trained):
         assert (f["cost"][()] == 0).all()  # costs: none
         assert np.allclose(f["tasks"][:, 3:], 0.0) and np.all(f["x"][:, 0] <= -0.29)
         assert read_summary(f)["success_rate"][0] == 1.0
+
+
+def test_dataset_with_two_jobs_is_solved_by_workers_forked_from_the_command(trained, tmp_path):
+    """`learn dataset --jobs 2`: the workers are forked from the command with the context it built
+    while sampling the tasks, and write the --jobs 1 dataset.h5 of the same seed."""
+    tmp, space = trained
+    argv = ["learn", "dataset", space, "--n", 6, "--seed", 1, "--iterations", 50]
+    assert_forked_from_command(argv, tmp_path / "d0.h5", tmp / "d0.h5")
 
 
 def test_train_writes_an_init_that_plans_the_next_dataset(trained):

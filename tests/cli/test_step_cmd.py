@@ -70,3 +70,20 @@ def test_bad_input_exit_2_without_output(inputs, args, message):
     result = CliRunner().invoke(cli, ["step", "plan", str(map_path), str(steps_path), "-o", str(out), *args])
     assert result.exit_code == 2 and message in result.stderr
     assert not out.exists()
+
+
+def test_plan_reads_the_robot_and_the_map_once(inputs, monkeypatch):
+    """`step plan` checks its inputs with the robot and map it reads, and its items are planned on those
+    same objects (`Task.provide`): neither file is loaded a second time."""
+    import legplan.robots
+    import legplan.terrain
+
+    tmp, map_path, steps_path = inputs
+    loads = []
+    for module, name in ((legplan.robots, "load_robot"), (legplan.terrain, "load_map")):
+        original = getattr(module, name)
+        monkeypatch.setattr(module, name, lambda *a, _f=original, _n=name, **k: loads.append(_n) or _f(*a, **k))
+    result = CliRunner().invoke(cli, ["step", "plan", str(map_path), str(steps_path), "-o", str(tmp / "once.h5"),
+                                      "--steps", "1:2", "--param", "max_degree=1", "--param", "samples=20", "-q"])
+    assert result.exit_code == 1, result.output + str(result.exception)  # max_degree 1: the step fails, recorded
+    assert sorted(loads) == ["load_map", "load_robot"]
