@@ -89,3 +89,14 @@ def test_queries_from_a_movingai_scen_file(tmp_path, block_map):
     result = run("nav", "search", map_path, "--queries", scen, "--robot", "jueying_mini",
                  "-o", tmp_path / "x.h5", "--start", 1, 1)
     assert result.exit_code == 2 and not (tmp_path / "x.h5").exists()
+
+
+def test_a_batch_with_two_jobs_is_searched_by_workers_forked_from_the_command(tmp_path, block_map):
+    from jobs_support import assert_forked_from_command
+
+    queries = tmp_path / "queries.csv"
+    queries.write_text("start_x,start_y,start_vx,start_vy,goal_x,goal_y,goal_vx,goal_vy\n"
+                       "1,1,0,0,7,4,0,0\n4,2,0,0,7,4,0,0\n1,4,0,0,6,1,0,0\n")
+    argv = ["nav", "search", block_map, "--queries", queries, "--param", "weight=2"]
+    assert run(*argv, "-o", tmp_path / "one.h5", "-q").exit_code == 1
+    assert_forked_from_command(argv, tmp_path / "two.h5", tmp_path / "one.h5", exit_code=1)
