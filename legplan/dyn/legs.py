@@ -194,7 +194,8 @@ class ChainLegs:
     def of_robot(cls, robot, closed_form: bool = True) -> ChainLegs | None:
         """The chains of a `RobotModel` (legs in its order); None unless every leg is a serial
         chain of revolute joints from the base carrying its foot. With `closed_form` the IK starts
-        from the planar closed form where `PlanarLegs.of_robot` gives one (module docstring)."""
+        from the planar closed form where the legs have one (`PlanarLegs.of_robot` of the joints
+        alone, wherever the collision spheres sit; module docstring)."""
         model = robot.model
         neutral = pin.neutral(model)
         spheres = robot.spheres
@@ -226,7 +227,7 @@ class ChainLegs:
                 nominal=np.array([robot.q_nominal[model.idx_qs[i]] for i in ids]),
                 lower=np.array([robot.lower[model.idx_qs[i] - 7] for i in ids]),
                 upper=np.array([robot.upper[model.idx_qs[i] - 7] for i in ids])))
-        planar = PlanarLegs.of_robot(robot) if closed_form else None
+        planar = PlanarLegs.of_robot(robot, spheres=False) if closed_form else None
         if planar is not None:
             chains = [replace(c, closed_form=functools.partial(planar.joints, k)) for k, c in enumerate(chains)]
         return cls(chains)

@@ -70,9 +70,10 @@ class PlanarLegs:
     reference: np.ndarray
 
     @classmethod
-    def of_robot(cls, robot) -> PlanarLegs | None:
+    def of_robot(cls, robot, spheres: bool = True) -> PlanarLegs | None:
         """The closed-form legs of a `RobotModel` (module docstring); None unless every leg is an
-        HAA-x, HFE-y, KFE-y chain with knee and foot in one plane."""
+        HAA-x, HFE-y, KFE-y chain with knee and foot in one plane and, with `spheres`, every leg
+        sphere but the foot on the thigh or shank (without: the joints alone, no spheres read)."""
         model, data = robot.model, robot.model.createData()
         q = robot.q_nominal.copy()
         q[:7] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
@@ -85,7 +86,7 @@ class PlanarLegs:
         pin.updateFramePlacements(model, data)
         rows = {name: [] for name in ("haa", "hip", "lateral", "thigh", "shank", "knee_side", "thigh_direction",
                                       "shank_direction", "axis_sign", "reference")}
-        spheres = {name: [] for name in ("leg", "link", "offset", "radius", "index")}
+        picked = {name: [] for name in ("leg", "link", "offset", "radius", "index")}
         scratch = model.createData()  # the turned configurations' FK, one workspace for every joint
         for k, (leg, (haa, hfe, kfe)) in enumerate(zip(robot.legs, joints)):
             axes = [_joint_axis(model, data, q, j, scratch) for j in (haa, hfe, kfe)]
@@ -113,21 +114,22 @@ class PlanarLegs:
             rows["shank_direction"].append((f2 - k2) / shank)
             rows["axis_sign"].append(np.sign([axes[0][0], axes[1][1], axes[2][1]]))
             rows["reference"].append([q[model.idx_qs[j]] for j in (haa, hfe, kfe)])
-            for s in np.flatnonzero((np.asarray(robot.spheres.leg_index) == k) & ~np.asarray(robot.spheres.is_foot)):
+            on_leg = (np.asarray(robot.spheres.leg_index) == k) & ~np.asarray(robot.spheres.is_foot)
+            for s in np.flatnonzero(on_leg) if spheres else ():
                 frame = model.frames[int(robot.spheres.frame_ids[s])]
                 parent = frame.parentJoint
                 if parent not in (hfe, kfe):
                     return None
                 centre = data.oMf[int(robot.spheres.frame_ids[s])].act(robot.spheres.offsets[s]) - origin
-                spheres["leg"].append(k)
-                spheres["link"].append(0 if parent == hfe else 1)
-                spheres["offset"].append(centre - (hip if parent == hfe else knee))
-                spheres["radius"].append(robot.spheres.radii[s])
-                spheres["index"].append(s)
+                picked["leg"].append(k)
+                picked["link"].append(0 if parent == hfe else 1)
+                picked["offset"].append(centre - (hip if parent == hfe else knee))
+                picked["radius"].append(robot.spheres.radii[s])
+                picked["index"].append(s)
         return cls(**{name: np.array(value, float) for name, value in rows.items()},
-                   sphere_leg=np.array(spheres["leg"], int), sphere_link=np.array(spheres["link"], int),
-                   sphere_offset=np.array(spheres["offset"], float).reshape(-1, 3),
-                   sphere_radius=np.array(spheres["radius"], float), sphere_index=np.array(spheres["index"], int))
+                   sphere_leg=np.array(picked["leg"], int), sphere_link=np.array(picked["link"], int),
+                   sphere_offset=np.array(picked["offset"], float).reshape(-1, 3),
+                   sphere_radius=np.array(picked["radius"], float), sphere_index=np.array(picked["index"], int))
 
     def spheres_of(self, leg: int) -> np.ndarray:
         """Indices (into the `sphere_*` arrays) of the spheres of one leg."""
