@@ -311,8 +311,9 @@ class LegClearanceBlock(RangeOfMotionBlock):
 class JointTorqueBlock(RangeOfMotionBlock):
     """Per sample time, the torques of leg `leg`'s joints that hold its foot's force:
     τ = J_f(q)ᵀ Rᵀ f, with q the joints that put the foot at b = Rᵀ(p_i − p) + o in the base frame (p
-    the CoM, o its offset in the base frame) by the leg's own kinematics (`legplan.dyn.legs.ChainLegs`,
-    IK warm-started from the last evaluation) and J_f the foot's point Jacobian there (statics of
+    the CoM, o its offset in the base frame) by the leg's own kinematics (`legplan.dyn.legs.ChainLegs`:
+    IK started from the planar closed form `PlanarLegs.joints` on HAA/HFE/KFE legs, else warm-started
+    from the last evaluation) and J_f the foot's point Jacobian there (statics of
     massless legs, the torques the joints give for the contact force). Bounded by the joints' torque
     limits (`Centroidal.torque_limits`) it keeps every force inside the polytope |J_fᵀ g| ≤ τ_max of
     the leg's configuration at that time, not one bound on the normal force for every stance and

@@ -19,7 +19,15 @@ chain for many samples at once:
   side the independent check's IK (`legplan.robots.legik`) and the robot take; a block keeps that
   solution in its `LegIKData` workspace (Pinocchio's data beside the immutable chain) with the
   frames, the foot's point and Jacobian and the damped pseudo-inverse there, so the next solve's
-  first iteration reads them instead of computing them again (the same numbers);
+  first iteration reads them instead of computing them again (the same numbers). Where the leg
+  has the planar closed form (`PlanarLegs.joints`: an HAA/HFE/KFE leg, knee on the nominal side)
+  the iteration starts from its joints instead: they meet the IK's tolerance at once (one
+  kinematics evaluation, which the foot's Jacobian needs anyway) or after a Newton step or two
+  where round-off or a slightly tilted axis leaves more, and land on the solution the warm start
+  keeps. A foot out of the closed form's reach starts from the previous solution as before (the
+  chain's least-squares answer). One difference: on a leg whose planning limits admit the knee
+  bent both ways, a warm start the damped steps carried across keeps the flipped knee, which the
+  closed form does not follow;
 * derivative of a sphere centre s(q(b)) by the implicit function theorem: ∂s/∂b = J_s ∂q/∂b with
   ∂q/∂b = J_fᵀ(J_f J_fᵀ)⁻¹ (J_f⁻¹ for a three-joint leg), J_s and J_f the point Jacobians
   a_j × (x − p_j) of the joints up to the point's own.
@@ -32,13 +40,14 @@ leg the URDF describes (hip offsets, tilted axes, more than three joints).
 from __future__ import annotations
 
 import functools
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pinocchio as pin
 
 from legplan.dyn.euler import cross
 from legplan.robots.kinematics import one_dof_axis
+from legplan.robots.planar_legs import PlanarLegs
 from legplan.robots.so3 import skew
 
 IK_ITERATIONS = 30
@@ -64,6 +73,7 @@ class _Chain:
     nominal: np.ndarray       # (J,)
     lower: np.ndarray         # (J,) planning joint limits
     upper: np.ndarray         # (J,)
+    closed_form: object = None  # feet (n, 3) -> joints (n, J), NaN rows out of its reach (`PlanarLegs.joints`)
 
     def kinematics(self, q: np.ndarray):
         """Joint frames for joints q (n, J): origins (n, J, 3), rotations (n, J, 3, 3) in the base
@@ -111,6 +121,11 @@ class _Chain:
         whose joints leave the planning limits are solved again from the nominal joints (module
         docstring)."""
         data = start if isinstance(start, LegIKData) else LegIKData(np.asarray(start, float))
+        if self.closed_form is not None:
+            closed = self.closed_form(feet)
+            reached = np.isfinite(closed).all(axis=1)
+            if reached.any():  # start there (module docstring); the cached frames are the old start's
+                data.keep(np.where(reached[:, None], closed, data.q), None, None, None, None)
         q, frames, x, jac = self._iterate(feet, data)
         outside = ((q < self.lower) | (q > self.upper)).any(axis=1)
         if outside.any():
@@ -176,9 +191,11 @@ class ChainLegs:
         self.sphere_radius = np.concatenate([c.sphere_radius for c in chains])
 
     @classmethod
-    def of_robot(cls, robot) -> ChainLegs | None:
+    def of_robot(cls, robot, closed_form: bool = True) -> ChainLegs | None:
         """The chains of a `RobotModel` (legs in its order); None unless every leg is a serial
-        chain of revolute joints from the base carrying its foot."""
+        chain of revolute joints from the base carrying its foot. With `closed_form` the IK starts
+        from the planar closed form where the legs have one (`PlanarLegs.of_robot` of the joints
+        alone, wherever the collision spheres sit; module docstring)."""
         model = robot.model
         neutral = pin.neutral(model)
         spheres = robot.spheres
@@ -210,6 +227,9 @@ class ChainLegs:
                 nominal=np.array([robot.q_nominal[model.idx_qs[i]] for i in ids]),
                 lower=np.array([robot.lower[model.idx_qs[i] - 7] for i in ids]),
                 upper=np.array([robot.upper[model.idx_qs[i] - 7] for i in ids])))
+        planar = PlanarLegs.of_robot(robot, spheres=False) if closed_form else None
+        if planar is not None:
+            chains = [replace(c, closed_form=functools.partial(planar.joints, k)) for k, c in enumerate(chains)]
         return cls(chains)
 
     def spheres_of(self, leg: int) -> np.ndarray:

@@ -17,6 +17,14 @@ form (the leg's inverse kinematics, knee on the side it has in the nominal stanc
 * A sphere on the thigh (shank) turns with it about y: its offset from the hip (knee) in the nominal
   stance, rotated in the x-z plane by the angle from the nominal thigh (shank) direction to the
   current one, then everything by α about x.
+* The joint angles (`joints`): HAA s₀ α (s_j = ±1 the sign of joint j's axis along x or y); a turn
+  θ about +y takes an in-plane direction's angle φ (from x towards z) to φ − θ, so with Δφ₁ (Δφ₂)
+  the angle from the nominal thigh (shank) direction to the current one, HFE q₁⁰ − s₁ Δφ₁ and KFE
+  q₂⁰ − s₂ (Δφ₂ − Δφ₁) (q⁰ the nominal joints, the second wrapped to (−π, π]). This is the
+  inverse kinematics with the knee on the nominal side and the foot below the HAA axis, the
+  solution `legplan.dyn.legs.ChainLegs` keeps; it is NaN where the foot is out of reach (b² at or
+  below `REACH_FLOOR`, or the foot within w of the HAA axis), where the chain's least-squares
+  answer applies.
 
 Only +, ·, / and √ appear, so the function takes complex arguments and the planner differentiates
 it by complex step. The geometry is read from the robot's URDF at the nominal stance (HAA at 0);
@@ -41,7 +49,9 @@ class PlanarLegs:
     the in-plane thigh `thigh` l₁ and `shank` l₂, the knee side `knee_side` σ, and the nominal
     in-plane thigh and shank directions (x, z). Per collision sphere of a leg (not its foot):
     `sphere_leg`, `sphere_link` (0 thigh, 1 shank), `sphere_offset` from the hip or knee in the
-    nominal stance (3,), `sphere_radius`, `sphere_index` into the robot's sphere set."""
+    nominal stance (3,), `sphere_radius`, `sphere_index` into the robot's sphere set. Per leg and
+    joint (HAA, HFE, KFE) the sign `axis_sign` of its axis along x, y, y and the angle `reference`
+    the geometry was read at (HAA 0, HFE and KFE nominal)."""
 
     haa: np.ndarray
     hip: np.ndarray
@@ -56,11 +66,14 @@ class PlanarLegs:
     sphere_offset: np.ndarray
     sphere_radius: np.ndarray
     sphere_index: np.ndarray
+    axis_sign: np.ndarray
+    reference: np.ndarray
 
     @classmethod
-    def of_robot(cls, robot) -> PlanarLegs | None:
+    def of_robot(cls, robot, spheres: bool = True) -> PlanarLegs | None:
         """The closed-form legs of a `RobotModel` (module docstring); None unless every leg is an
-        HAA-x, HFE-y, KFE-y chain with knee and foot in one plane."""
+        HAA-x, HFE-y, KFE-y chain with knee and foot in one plane and, with `spheres`, every leg
+        sphere but the foot on the thigh or shank (without: the joints alone, no spheres read)."""
         model, data = robot.model, robot.model.createData()
         q = robot.q_nominal.copy()
         q[:7] = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0]
@@ -72,8 +85,8 @@ class PlanarLegs:
         pin.forwardKinematics(model, data, q)
         pin.updateFramePlacements(model, data)
         rows = {name: [] for name in ("haa", "hip", "lateral", "thigh", "shank", "knee_side", "thigh_direction",
-                                      "shank_direction")}
-        spheres = {name: [] for name in ("leg", "link", "offset", "radius", "index")}
+                                      "shank_direction", "axis_sign", "reference")}
+        picked = {name: [] for name in ("leg", "link", "offset", "radius", "index")}
         scratch = model.createData()  # the turned configurations' FK, one workspace for every joint
         for k, (leg, (haa, hfe, kfe)) in enumerate(zip(robot.legs, joints)):
             axes = [_joint_axis(model, data, q, j, scratch) for j in (haa, hfe, kfe)]
@@ -99,29 +112,32 @@ class PlanarLegs:
             rows["knee_side"].append(side)
             rows["thigh_direction"].append((k2 - h2) / np.sqrt(thigh))
             rows["shank_direction"].append((f2 - k2) / shank)
-            for s in np.flatnonzero((np.asarray(robot.spheres.leg_index) == k) & ~np.asarray(robot.spheres.is_foot)):
+            rows["axis_sign"].append(np.sign([axes[0][0], axes[1][1], axes[2][1]]))
+            rows["reference"].append([q[model.idx_qs[j]] for j in (haa, hfe, kfe)])
+            on_leg = (np.asarray(robot.spheres.leg_index) == k) & ~np.asarray(robot.spheres.is_foot)
+            for s in np.flatnonzero(on_leg) if spheres else ():
                 frame = model.frames[int(robot.spheres.frame_ids[s])]
                 parent = frame.parentJoint
                 if parent not in (hfe, kfe):
                     return None
                 centre = data.oMf[int(robot.spheres.frame_ids[s])].act(robot.spheres.offsets[s]) - origin
-                spheres["leg"].append(k)
-                spheres["link"].append(0 if parent == hfe else 1)
-                spheres["offset"].append(centre - (hip if parent == hfe else knee))
-                spheres["radius"].append(robot.spheres.radii[s])
-                spheres["index"].append(s)
+                picked["leg"].append(k)
+                picked["link"].append(0 if parent == hfe else 1)
+                picked["offset"].append(centre - (hip if parent == hfe else knee))
+                picked["radius"].append(robot.spheres.radii[s])
+                picked["index"].append(s)
         return cls(**{name: np.array(value, float) for name, value in rows.items()},
-                   sphere_leg=np.array(spheres["leg"], int), sphere_link=np.array(spheres["link"], int),
-                   sphere_offset=np.array(spheres["offset"], float).reshape(-1, 3),
-                   sphere_radius=np.array(spheres["radius"], float), sphere_index=np.array(spheres["index"], int))
+                   sphere_leg=np.array(picked["leg"], int), sphere_link=np.array(picked["link"], int),
+                   sphere_offset=np.array(picked["offset"], float).reshape(-1, 3),
+                   sphere_radius=np.array(picked["radius"], float), sphere_index=np.array(picked["index"], int))
 
     def spheres_of(self, leg: int) -> np.ndarray:
         """Indices (into the `sphere_*` arrays) of the spheres of one leg."""
         return np.flatnonzero(self.sphere_leg == leg)
 
-    def sphere_centres(self, leg: int, feet: np.ndarray) -> np.ndarray:
-        """Centres (n, k, 3), base frame, of the leg's k spheres with its foot at `feet` (n, 3), base
-        frame; real or complex (module docstring)."""
+    def _plane(self, leg: int, feet: np.ndarray):
+        """The leg in its abducted plane (module docstring): the foot t relative to the HAA joint,
+        its depth z', (cos α, sin α), the knee (x, z) and b² before its floor; real or complex."""
         t = feet - self.haa[leg]
         w = self.lateral[leg]
         rho2 = t[:, 1] ** 2 + t[:, 2] ** 2
@@ -137,8 +153,27 @@ class PlanarLegs:
         b = np.sqrt(np.where(b2.real > REACH_FLOOR, b2, REACH_FLOOR))
         ux, uz = dx / d, dz / d
         side = self.knee_side[leg]
-        knee_x = hip[0] + a * ux - side * b * uz
-        knee_z = hip[2] + a * uz + side * b * ux
+        return t, depth, cos_a, sin_a, hip[0] + a * ux - side * b * uz, hip[2] + a * uz + side * b * ux, b2
+
+    def joints(self, leg: int, feet: np.ndarray) -> np.ndarray:
+        """The joints (n, 3: HAA, HFE, KFE) that put the leg's foot at `feet` (n, 3, base frame), knee
+        on its nominal side; NaN rows where the foot is out of reach (module docstring)."""
+        with np.errstate(invalid="ignore"):
+            t, depth, cos_a, sin_a, knee_x, knee_z, b2 = self._plane(leg, np.asarray(feet, float))
+        hip, (l1, l2) = self.hip[leg], (self.thigh[leg], self.shank[leg])
+        thigh = _turn(self.thigh_direction[leg], (knee_x - hip[0]) / l1, (knee_z - hip[2]) / l1)
+        shank = _turn(self.shank_direction[leg], (t[:, 0] - knee_x) / l2, (depth - knee_z) / l2)
+        sign, reference = self.axis_sign[leg], self.reference[leg]
+        q = np.stack([reference[0] + sign[0] * np.arctan2(sin_a, cos_a), reference[1] - sign[1] * thigh,
+                      reference[2] - sign[2] * (np.mod(shank - thigh + np.pi, 2.0 * np.pi) - np.pi)], axis=1)
+        q[~(b2 > REACH_FLOOR)] = np.nan  # NaN b² too: the foot within w of the HAA axis
+        return q
+
+    def sphere_centres(self, leg: int, feet: np.ndarray) -> np.ndarray:
+        """Centres (n, k, 3), base frame, of the leg's k spheres with its foot at `feet` (n, 3), base
+        frame; real or complex (module docstring)."""
+        t, depth, cos_a, sin_a, knee_x, knee_z, _ = self._plane(leg, feet)
+        hip, w, l1, l2 = self.hip[leg], self.lateral[leg], self.thigh[leg], self.shank[leg]
         pick = self.spheres_of(leg)
         out = []
         for s in pick:
@@ -156,6 +191,11 @@ class PlanarLegs:
             z = start[2] + sin_p * ox + cos_p * oz
             out.append(np.stack([x, y * cos_a - z * sin_a, y * sin_a + z * cos_a], axis=-1) + self.haa[leg])
         return np.stack(out, axis=1) if out else np.zeros((len(feet), 0, 3), dtype=feet.dtype)
+
+
+def _turn(nominal, x, z):
+    """The angle (from x towards z) from the unit direction `nominal` (x, z) to the unit (x, z)."""
+    return np.arctan2(nominal[0] * z - nominal[1] * x, nominal[0] * x + nominal[1] * z)
 
 
 def _joint_axis(model: pin.Model, data: pin.Data, q: np.ndarray, joint: int, other: pin.Data) -> np.ndarray:

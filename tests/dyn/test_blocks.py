@@ -96,12 +96,19 @@ def test_every_constraint_block_matches_finite_differences(request, problem_name
 
 
 @pytest.mark.parametrize("optimize_phases", [False, True], ids=["fixed_timing", "optimize_phases"])
-def test_joint_torque_block_matches_finite_differences(anymal_torques, step, optimize_phases):
-    """The joint-torque polytope's rows (through the legs' IK) against finite differences, at a
-    perturbed guess of a walk onto the step whose every foot the legs reach (the IK's derivative
-    is that of the torques only where it solves), and bounded by the torque limits less the margin."""
+@pytest.mark.parametrize("closed_form", [True, False], ids=["closed_form_ik", "chain_ik"])
+def test_joint_torque_block_matches_finite_differences(anymal_torques, step, optimize_phases, closed_form):
+    """The joint-torque polytope's rows (through the legs' IK: started from the planar closed form,
+    the default on ANYmal's legs, or the chain's damped Gauss–Newton alone) against finite
+    differences, at a perturbed guess of a walk onto the step whose every foot the legs reach (the
+    IK's derivative is that of the torques only where it solves), and bounded by the torque limits
+    less the margin."""
     from legplan.dyn.constraints import _nodes
+    from legplan.robots import load_robot
 
+    if not closed_form:
+        anymal_torques = replace(anymal_torques, leg_chains=ChainLegs.of_robot(load_robot("anymal"), closed_form=False))
+    assert all((c.closed_form is not None) == closed_form for c in anymal_torques.leg_chains.chains)
     params = replace(PALLET_PARAMS, optimize_phases=optimize_phases)
     problem = build_problem(DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "walk", 2, 3.0), anymal_torques, step, params,
                             heuristic)

@@ -12,6 +12,7 @@ from legplan.dyn.constraints import LegClearanceBlock
 from legplan.dyn.init import heuristic
 from legplan.dyn.legs import ChainLegs
 from legplan.dyn.problem import DynParams, DynTask, build_problem
+from legplan.robots.planar_legs import PlanarLegs, _turn
 from legplan.robots import load_robot
 from legplan.solve import check_jacobian
 
@@ -208,3 +209,115 @@ def test_damped_pinv_as_accurate_as_lapack_near_singular_legs():
         assert np.all(residual(lapack) <= bound) and np.all(residual(ours) <= bound)
         if spread == 1.0:
             np.testing.assert_allclose(_damped_pinv(jac), jt @ lapack, rtol=1e-8, atol=1e-12)
+
+
+def _pinocchio_feet(robot, leg, joints):
+    """The foot (n, 3) in the base frame by pinocchio's FK at a leg's joints (n, 3), base at the origin."""
+    data = robot.model.createData()
+    ids = [robot.model.idx_qs[robot.model.getJointId(n)] for n in leg.joint_names]
+    feet = []
+    for q_leg in joints:
+        q = robot.q_nominal.copy()
+        q[:7] = [0, 0, 0, 0, 0, 0, 1]
+        q[ids] = q_leg
+        pin.framesForwardKinematics(robot.model, data, q)
+        feet.append(data.oMf[leg.foot_frame_id].translation.copy())
+    return np.array(feet)
+
+
+def _targets(chain, planar, k, rng, n=40):
+    """Joints (n·5, 3) the leg takes on its nominal knee side, foot below its HAA axis: spread
+    around the nominal stance, and with the knee a fraction 1e-2, 1e-3, 3e-4, 1e-4 of its nominal
+    bend from straight (the workspace's outer boundary; the last out of the closed form's reach)."""
+    spread = chain.nominal + rng.uniform(-1.0, 1.0, (n, 3)) * [0.3, 0.4, 0.6]
+    straight = planar.reference[k, 2] + planar.axis_sign[k, 2] * _turn(planar.thigh_direction[k], *planar.shank_direction[k])
+    near = []
+    for fraction in (1e-2, 1e-3, 3e-4, 1e-4):
+        q = chain.nominal + rng.uniform(-1.0, 1.0, (n, 3)) * [0.3, 0.4, 0.0]
+        q[:, 2] = straight + fraction * (chain.nominal[2] - straight)
+        near.append(q)
+    return np.vstack([spread, *near])
+
+
+@pytest.mark.parametrize("name", ["anymal", "jueying_mini"])
+def test_closed_form_ik_equals_the_chain_ik_and_pinocchio(name):
+    """`PlanarLegs.joints` puts pinocchio's foot where asked and equals the chain's damped
+    Gauss–Newton from the nominal joints to the IK's resolution: 1e-12 rad inside the workspace,
+    1e-8 with the knee 3e-4 of its bend from straight (there the joints move tolerance / b per metre
+    of foot, b the knee's offset from the hip-foot line). Feet out of its reach are NaN rows, and
+    the chain with the closed form start (the default) gives the pure chain's joints everywhere."""
+    robot = load_robot(name)
+    planar, pure, started = PlanarLegs.of_robot(robot), ChainLegs.of_robot(robot, closed_form=False), ChainLegs.of_robot(robot)
+    assert all(c.closed_form is not None for c in started.chains) and all(c.closed_form is None for c in pure.chains)
+    rng = np.random.default_rng(7)
+    for k, leg in enumerate(robot.legs):
+        chain = pure.chains[k]
+        truth = _targets(chain, planar, k, rng)
+        feet, _ = chain.point(chain.kinematics(truth), chain.foot_joint, chain.foot_offset)
+        np.testing.assert_allclose(feet, _pinocchio_feet(robot, leg, truth), atol=1e-12)  # the chain is the robot's
+        closed = planar.joints(k, feet)
+        reached = np.isfinite(closed).all(axis=1)
+        assert reached[:-40].all() and not reached[-40:].any()  # b² ≤ REACH_FLOOR at 1e-4 of the bend
+        np.testing.assert_allclose(_pinocchio_feet(robot, leg, closed[reached]), feet[reached], atol=1e-12)
+        np.testing.assert_allclose(closed[:40], truth[:40], atol=1e-12)
+        np.testing.assert_allclose(closed[reached], truth[reached], atol=1e-10)
+        by_chain = chain.solve(feet, pure.nominal(k, len(feet)))
+        np.testing.assert_allclose(by_chain[:40], closed[:40], atol=1e-12)
+        np.testing.assert_allclose(by_chain[reached], closed[reached], atol=1e-8)
+        np.testing.assert_allclose(started.chains[k].solve(feet, started.nominal(k, len(feet))), by_chain, atol=1e-12)
+
+
+def test_closed_form_start_takes_the_knee_back_to_the_nominal_side(robot):
+    """A warm start on the flipped knee (the other solution for the same feet, outside the planning
+    limits): the chain re-solves from the nominal joints, the closed form starts on the nominal
+    side; both give the nominal-side joints."""
+    from legplan.dyn.legs import LegIKData
+
+    pure, started = ChainLegs.of_robot(robot, closed_form=False), ChainLegs.of_robot(robot)
+    rng = np.random.default_rng(11)
+    for k in range(4):
+        chain = pure.chains[k]
+        truth = chain.nominal + rng.uniform(-1.0, 1.0, (30, 3)) * [0.3, 0.3, 0.5]
+        feet, _ = chain.point(chain.kinematics(truth), chain.foot_joint, chain.foot_offset)
+        guess = truth * [1.0, 0.0, -1.0]  # the knee bent the other way
+        flipped = chain._iterate(feet, LegIKData(guess))[0]
+        reached, _ = chain.point(chain.kinematics(flipped), chain.foot_joint, chain.foot_offset)
+        assert np.abs(reached - feet).max() < 1e-12  # the premise: the other solution, reaching the feet
+        assert np.all(np.sign(flipped[:, 2]) == -np.sign(chain.nominal[2]))
+        for legs in (pure, started):
+            np.testing.assert_allclose(legs.chains[k].solve(feet, flipped.copy()), truth, atol=1e-11)
+
+
+def test_feet_out_of_reach_keep_the_chains_least_squares_answer(robot):
+    """Feet beyond full reach and within the lateral offset of the HAA axis: the closed form has no
+    joints (NaN), and the chain with it gives what the pure chain gives from the same start (its
+    damped least-squares iterate), the reachable feet in the same batch solved alike."""
+    pure, started, planar = ChainLegs.of_robot(robot, closed_form=False), ChainLegs.of_robot(robot), robot.centroidal.leg_kinematics
+    rng = np.random.default_rng(13)
+    for k in range(4):
+        nominal = robot.centroidal.nominal_feet[k]
+        haa = planar.haa[k]
+        far = haa + 1.6 * (nominal - haa) + rng.uniform(-0.05, 0.05, (10, 3))
+        inside = haa + rng.uniform(-0.03, 0.03, (10, 3)) * [1.0, 0.5, 0.5]
+        near = nominal + rng.uniform(-0.05, 0.05, (10, 3))
+        feet = np.vstack([far, inside, near])
+        closed = planar.joints(k, feet)
+        assert np.isnan(closed[:20]).all() and np.isfinite(closed[20:]).all()
+        start = pure.nominal(k, 30) + 0.1 * rng.standard_normal((30, 3))
+        mine = started.chains[k].solve(feet, start.copy())
+        np.testing.assert_allclose(mine, pure.chains[k].solve(feet, start.copy()), atol=1e-9)
+        np.testing.assert_allclose(mine[20:], closed[20:], atol=1e-12)
+
+
+def test_foot_torques_with_the_closed_form_start_equal_the_pure_chains(robot):
+    """Torques, ∂τ/∂foot and ∂τ/∂force through the closed-form start equal the pure chain's (the
+    derivative by the implicit function theorem does not depend on how the joints were found)."""
+    pure, started = ChainLegs.of_robot(robot, closed_form=False), ChainLegs.of_robot(robot)
+    rng = np.random.default_rng(17)
+    for k in range(4):
+        feet = robot.centroidal.nominal_feet[k] + rng.uniform(-0.12, 0.12, (25, 3))
+        forces = rng.uniform(-60, 60, (25, 3)) + [0, 0, 200]
+        want = pure.foot_torques(k, feet, forces, pure.workspace(k, 25))
+        got = started.foot_torques(k, feet, forces, started.workspace(k, 25))
+        for a, b in zip(got, want):
+            np.testing.assert_allclose(a, b, atol=1e-9)

@@ -47,3 +47,35 @@ def test_closed_form_takes_complex_steps_exactly(anymal):
 def test_legs_of_another_kind_have_no_closed_form():
     """scarab2's legs are no hip-abduction (x), hip and knee flexion (y) chains."""
     assert PlanarLegs.of_robot(load_robot("scarab2")) is None
+
+
+def test_joints_of_published_legs_put_pinocchios_foot_there(published_robots, tmp_path):
+    """HyQ (HAA axes along −x on its left legs) and Go1 as drafted from example-robot-data, spheres
+    on the hips: the closed form of the joints alone applies (`spheres=False`), the sphere-placing
+    one does not, and for joints across the planning limits the closed form gives them back from
+    pinocchio's foot (the chain IK starts there, `ChainLegs.of_robot`)."""
+    import pinocchio as pin
+
+    from legplan.dyn.legs import ChainLegs
+    from legplan.robots.draft import write_draft
+
+    for name, urdf in (("hyq", "hyq_description/robots/hyq_no_sensors.urdf"), ("go1", "go1_description/urdf/go1.urdf")):
+        path, _ = write_draft(published_robots / urdf, tmp_path / name)
+        robot = load_robot(path)
+        legs = PlanarLegs.of_robot(robot, spheres=False)
+        assert PlanarLegs.of_robot(robot) is None and legs is not None and legs.sphere_index.size == 0
+        assert all(c.closed_form is not None for c in ChainLegs.of_robot(robot).chains)
+        model, data = robot.model, robot.model.createData()
+        rng = np.random.default_rng(2)
+        for k, leg in enumerate(robot.legs):
+            ids = [model.idx_qs[model.getJointId(n)] for n in leg.joint_names]
+            lower, upper = robot.lower[np.array(ids) - 7], robot.upper[np.array(ids) - 7]
+            nominal = robot.q_nominal[ids]
+            truth = np.clip(nominal + rng.uniform(-1.0, 1.0, (30, 3)) * [0.2, 0.3, 0.4], lower, upper)
+            feet = []
+            for joints in truth:
+                q = robot.q_nominal.copy()
+                q[:7], q[ids] = [0, 0, 0, 0, 0, 0, 1], joints
+                pin.framesForwardKinematics(model, data, q)
+                feet.append(data.oMf[leg.foot_frame_id].translation.copy())
+            np.testing.assert_allclose(legs.joints(k, np.array(feet)), truth, atol=1e-10)
