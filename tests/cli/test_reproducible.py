@@ -12,7 +12,7 @@ from click.testing import CliRunner
 from legplan.cli.main import cli
 
 MAPS = Path(__file__).resolve().parents[2] / "maps"
-CLOCK = re.compile(r"(^created$|time|timings|seconds)")  # names of values read off the clock
+CLOCK = re.compile(r"(^created$|^wall$|time|timings|seconds)")  # names of values read off the clock
 RUN = {"command", "inputs"}  # root attributes naming this run's files
 
 
