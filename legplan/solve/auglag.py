@@ -91,6 +91,13 @@ class Constraint:
         return np.maximum(np.maximum(c - self.upper, self.lower - c), 0.0)
 
 
+def scaled_violation(constraints: Sequence[Constraint], values: Sequence[np.ndarray]) -> float:
+    """The largest row violation of `constraints` at their values `values` (one array each), each
+    row times its scale (`Constraint.scale`): rows of different units on the solver's one scale."""
+    return max((float(np.max(k.violation(c) * k.scale)) for k, c in zip(constraints, values) if c.size),
+               default=0.0)
+
+
 @dataclass(frozen=True)
 class ALParams(Parameters):
     """Augmented-Lagrangian parameters (module docstring); `inner` are those of every subproblem (its
@@ -137,6 +144,7 @@ class ALResult:
     history: list[dict] = field(default_factory=list)
     timings: Timings = field(default_factory=Timings)
     first_iteration_seconds: float = 0.0
+    scaled_violation: float = float("nan")  # `scaled_violation` of the constraints at `values`
 
     @property
     def success(self) -> bool:
@@ -332,7 +340,7 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
         per_constraint[label] = max(per_constraint.get(label, 0.0), float(k.violation(c).max()) if c.size else 0.0)
     values = {v.name: values[v.name] for v in variables}
     return ALResult(values, status, reason, iterations, len(history), violation, per_constraint, cost,
-                    cost_terms, history, timings, first_iteration)
+                    cost_terms, history, timings, first_iteration, scaled_violation(constraints, c_now))
 
 
 def least_squares_multipliers(problem: Problem, rows: Sequence[_AugmentedRows], theta: np.ndarray,
