@@ -87,6 +87,11 @@ class ReplanParams(Parameters):
         "replanned as later replans reach them (receding horizon without a terminal constraint); "
         "None: the whole rest"))
     max_iterations: int = param(25, "[1, 10000]", doc="LM iterations of a replan, at most")
+    scaled_tolerance: float = param(1e-3, "[0, inf)", doc=(
+        "a replan's row also counts as converged when its violation is within this share of its "
+        "solver scale (`ALParams.scaled_tolerance`, replacing the solver's: forces and torques per the "
+        "robot's weight, where the solver's violation_tolerance asks for 1e-3 N); 0: the solver's "
+        "violation_tolerance alone"))
     geodesic_acceleration: float = param(0.0, "[0, inf)", "α", doc=(
         "the replan's LM geodesic acceleration (`HingedParams.geodesic_acceleration`, replacing the "
         "solver's): each step's curvature probe costs one more residual evaluation; 0: off"))
@@ -544,6 +549,7 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
     setup = time.perf_counter() - wall
     solved = solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints,
                                         replace(solver, max_iterations=settings.max_iterations,
+                                                scaled_tolerance=settings.scaled_tolerance,
                                                 inner=replace(solver.inner,
                                                               geodesic_acceleration=settings.geodesic_acceleration)))
     samples = sample_solution(problem.form, solved.values, com_offset=problem.com_offset)

@@ -396,3 +396,24 @@ def test_the_solvers_scaled_violation_is_the_replans(planned, anymal, flat):
     again = scaled_violation(out.plan.problem.constraints, out.plan.solve.values)
     assert again > 1e-4  # one iteration from a push leaves rows off
     assert out.scaled_violation == pytest.approx(again, rel=1e-12)
+
+
+def test_a_replan_stops_once_every_row_is_within_its_scaled_tolerance(planned, anymal, flat):
+    """`ReplanParams.scaled_tolerance`: a pushed replan converges in fewer iterations than with the
+    solver's 1e-3 in every row's own units (N for the forces), every row within its own tolerance."""
+    from legplan.solve.auglag import row_tolerances
+
+    state = MeasuredState.from_samples(planned.samples, 1.0)
+    pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + [0.0, 0.3, 0.0],
+                           state.base_ang_vel, state.feet_pos)
+    strict = replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(scaled_tolerance=0.0))
+    loose = replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(scaled_tolerance=1e-3))
+    assert strict.success and loose.success, (strict.reason, loose.reason)
+    assert loose.iterations < strict.iterations
+    assert strict.violation <= 1e-3 < loose.violation  # a force row keeps more than 1e-3 N
+    constraints, values = loose.plan.problem.constraints, loose.plan.solve.values
+    tolerances = row_tolerances(constraints, replace(DynParams().projection_solver, scaled_tolerance=1e-3))
+    for k, tolerance in zip(constraints, tolerances):
+        if k.block.size:
+            c = k.block.evaluate([values[v] for v in k.block.variables], False)[0]
+            assert np.all(k.violation(np.asarray(c)) <= tolerance), k.name
