@@ -32,11 +32,20 @@ The base state there is the previous plan's (the terminal constraint), and what 
 previous plan itself, which was feasible. The constraints are sampled only up to `Tail.until`:
 after it every sample reads frozen nodes alone.
 
+Optional sampling window (`ReplanParams.window`, off by default): the constraints are sampled only
+within the first w seconds and nothing is frozen; the nodes no row reads keep the shifted previous
+plan (but for what the knots' continuity rows carry over) until later replans reach them — model
+predictive control without a terminal constraint, which plans myopically: a pushed base's momentum
+is left for after the window.
+
 One solve, no stages: the constraints alone (`DynParams.projection_solver`, "projection") or the
 costs under them (`warm_solver`, "costs") from the shifted guess, capped at
-`ReplanParams.max_iterations` LM iterations. A replan succeeds when every constraint row it
-samples (in its window, with the relaxations above) is within the solver's `violation_tolerance`
-(CONVERGED). What it does not do, and the
+`ReplanParams.max_iterations` LM iterations, without geodesic acceleration
+(`ReplanParams.geodesic_acceleration`: its curvature probe costs a residual evaluation per step). A
+replan succeeds when every constraint row it samples (in its window, with the relaxations above)
+is within the solver's `violation_tolerance` or within `ReplanParams.scaled_tolerance` of its row
+scale (`auglag.row_tolerances`: a force row may keep that share of the robot's weight, where 1e-3 N
+alone asks iterations no tracking controller notices) (CONVERGED). What it does not do, and the
 planner does: the range-of-motion exchange stages and the fallback stages from the heuristic guess;
 the independent check of a whole plan (`legplan.validate`) runs on `dyn replan`'s output, and in
 the simulator the execution judges it.
