@@ -40,8 +40,8 @@ is left for after the window.
 
 One solve, no stages: the constraints alone (`DynParams.projection_solver`, "projection") or the
 costs under them (`warm_solver`, "costs") from the shifted guess, capped at
-`ReplanParams.max_iterations` LM iterations, without geodesic acceleration
-(`ReplanParams.geodesic_acceleration`: its curvature probe costs a residual evaluation per step). A
+`ReplanParams.max_iterations` LM iterations (`ReplanParams.geodesic_acceleration` may switch the
+solver's geodesic acceleration off: its curvature probe costs a residual evaluation per step). A
 replan succeeds when every constraint row it samples (in its window, with the relaxations above)
 is within the solver's `violation_tolerance` or within `ReplanParams.scaled_tolerance` of its row
 scale (`auglag.row_tolerances`: a force row may keep that share of the robot's weight, where 1e-3 N
@@ -101,9 +101,10 @@ class ReplanParams(Parameters):
         "solver scale (`ALParams.scaled_tolerance`, replacing the solver's: forces and torques per the "
         "robot's weight, where the solver's violation_tolerance asks for 1e-3 N); 0: the solver's "
         "violation_tolerance alone"))
-    geodesic_acceleration: float = param(0.0, "[0, inf)", "α", doc=(
-        "the replan's LM geodesic acceleration (`HingedParams.geodesic_acceleration`, replacing the "
-        "solver's): each step's curvature probe costs one more residual evaluation; 0: off"))
+    geodesic_acceleration: float | None = param(None, "[0, inf)", "α", doc=(
+        "the replan's LM geodesic acceleration (`HingedParams.geodesic_acceleration`), replacing the "
+        "solver's: each step's curvature probe costs one more residual evaluation, and without it "
+        "pushed replans land elsewhere (0: off); None: the solver's"))
     track_violation: float = param(float("inf"), "[0, inf]", doc=(
         "closed loop (`legplan.sim.replanning`): the controller also tracks a replan that ran out of "
         "iterations or stalled when its largest constraint violation, each row in the solver's "
@@ -559,8 +560,10 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
     solved = solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints,
                                         replace(solver, max_iterations=settings.max_iterations,
                                                 scaled_tolerance=settings.scaled_tolerance,
-                                                inner=replace(solver.inner,
-                                                              geodesic_acceleration=settings.geodesic_acceleration)))
+                                                inner=replace(solver.inner, geodesic_acceleration=(
+                                                    solver.inner.geodesic_acceleration
+                                                    if settings.geodesic_acceleration is None
+                                                    else settings.geodesic_acceleration))))
     samples = sample_solution(problem.form, solved.values, com_offset=problem.com_offset)
     if airborne.any():  # the hold of a foot in the air is no contact (zero force, off the terrain)
         hold = samples["t"] < gait_rest.durations[0] - 1e-9

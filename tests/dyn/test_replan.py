@@ -360,7 +360,7 @@ def test_a_window_samples_its_rows_within_it_and_keeps_the_rest(planned, anymal,
 
 def test_a_capped_replan_linearizes_once_per_iteration(planned, anymal, flat, monkeypatch):
     """A replan capped at k LM iterations evaluates k Jacobians (none at the point it stops at) and,
-    without geodesic acceleration, one residual per step; with it, one more per step."""
+    with geodesic acceleration off, one residual per step; with the solver's, one more per step."""
     from legplan.solve.problem import Problem
 
     calls = {"jacobian": 0, "residual": 0}
@@ -376,11 +376,13 @@ def test_a_capped_replan_linearizes_once_per_iteration(planned, anymal, flat, mo
                            state.base_ang_vel, state.feet_pos)
     for k in (1, 2):
         calls.update(jacobian=0, residual=0)
-        out = replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(max_iterations=k))
+        out = replan(planned, pushed, anymal, flat, DynParams(),
+                     settings=ReplanParams(max_iterations=k, geodesic_acceleration=0.0))
         assert out.iterations == k and out.status.name == "MAX_ITERATIONS"
         assert calls == {"jacobian": k, "residual": k}
     calls.update(jacobian=0, residual=0)
-    replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(max_iterations=1, geodesic_acceleration=0.75))
+    replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(max_iterations=1))  # the solver's α > 0
+    assert DynParams().projection_solver.inner.geodesic_acceleration > 0
     assert calls == {"jacobian": 1, "residual": 2}
 
 
