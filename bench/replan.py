@@ -15,7 +15,8 @@ p95 ≤ 100 ms, one core).
 * `--runs` repeats the whole set; per run the median and p95 over its replans, reported: the median
   over runs of each. Also the LM iterations and the share that converged.
 
-Writes bench/results/replan.json and replaces the `replan` section of BENCHMARKS.md.
+`--param KEY=VALUE` sets a `ReplanParams` field (e.g. `window=1.5`, `max_iterations=2`); `--result NAME`
+writes bench/results/NAME.json (default replan.json) and replaces the NAME section of BENCHMARKS.md.
 """
 
 from __future__ import annotations
@@ -43,6 +44,9 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=3)
     parser.add_argument("--times", type=int, default=6)
     parser.add_argument("--horizon", type=float, default=None, help="s (ReplanParams.horizon; default: none)")
+    parser.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
+                        help="a ReplanParams field (legplan.dyn.replan), e.g. window=1.5; repeatable")
+    parser.add_argument("--result", default="replan", help="bench/results/<name>.json and the BENCHMARKS.md section")
     parser.add_argument("--no-append", action="store_true", help="do not touch BENCHMARKS.md")
     parser.add_argument("--from-json", action="store_true",
                         help="rewrite the BENCHMARKS.md section from bench/results/replan.json, no runs")
@@ -50,10 +54,10 @@ def main() -> None:
     if args.from_json:
         import json
 
-        result = json.loads((ROOT / "bench" / "results" / "replan.json").read_text())
+        result = json.loads((ROOT / "bench" / "results" / f"{args.result}.json").read_text())
         args.runs, args.times = len(result["runs"]), len(result["runs"][0]["rows"]) // 2
         args.horizon = result.get("horizon")
-        update_benchmarks("replan", markdown(result, args))
+        update_benchmarks(args.result, markdown(result, args))
         return
 
     from legplan.dyn.planner import plan
@@ -63,6 +67,7 @@ def main() -> None:
     from legplan.dyn.tasks import centroidal_model
     from legplan.dyn.terrain import TerrainModel
     from legplan.robots import load_robot
+    from legplan.specio import apply_overrides
     from legplan.terrain.spec import build_map
 
     load_start = load_average()
@@ -76,7 +81,8 @@ def main() -> None:
     print(f"plan: {planned.status.name}, {planned.solve.iterations} iterations, {plan_cpu:.2f} s CPU, "
           f"{footsteps} footsteps", flush=True)
     times = np.linspace(0.3, task.duration - 0.5, args.times)
-    settings = ReplanParams(horizon=args.horizon)
+    settings = apply_overrides(ReplanParams(horizon=args.horizon), dict(item.split("=", 1) for item in args.param),
+                               "--param", "replan")
     runs = []
     for run in range(args.runs):
         rows = []
@@ -88,7 +94,7 @@ def main() -> None:
                 out = replan(planned, measured, model, terrain, PAPER, settings=settings)
                 rows.append({"t": float(state.t), "kind": kind, "cpu_seconds": out.cpu_seconds,
                              "setup_seconds": out.plan.setup_seconds, "iterations": out.iterations,
-                             "success": out.success})
+                             "success": out.success, "scaled_violation": out.scaled_violation})
                 print(f"run {run}: t = {state.t:.2f} s {kind}: {out.status.name}, {out.iterations} iterations, "
                       f"{out.cpu_seconds * 1e3:.0f} ms CPU", flush=True)
         cpu_s = np.array([r["cpu_seconds"] for r in rows])
@@ -102,23 +108,27 @@ def main() -> None:
               "load_start": load_start, "load_end": load_average(), "plan_status": planned.status.name,
               "plan_iterations": int(planned.solve.iterations), "plan_cpu_seconds": plan_cpu,
               "footsteps": int(footsteps), "task": TASK, "push_velocity": PUSH_VELOCITY, "runs": runs,
-              "horizon": args.horizon,
+              "horizon": args.horizon, "replan_settings": vars(settings),
               "median_setup": float(np.median([r["median_setup"] for r in runs])),
               "cpu_per_iteration": float(np.median([r["cpu_per_iteration"] for r in runs])),
               "median": float(np.median([r["median"] for r in runs])),
               "p95": float(np.median([r["p95"] for r in runs])),
               "median_iterations": float(np.median([r["median_iterations"] for r in runs])),
               "converged": float(np.median([r["converged"] for r in runs]))}
-    path = write_result("replan", result)
+    path = write_result(args.result, result)
     print(f"wrote {path}: median {result['median'] * 1e3:.0f} ms, p95 {result['p95'] * 1e3:.0f} ms CPU")
     if not args.no_append:
-        update_benchmarks("replan", markdown(result, args))
+        update_benchmarks(args.result, markdown(result, args))
 
 
 def markdown(r: dict, args) -> str:
     met = "met" if r["median"] <= TARGET_MEDIAN and r["p95"] <= TARGET_P95 else "not met"
     per_run = ", ".join(f"{x['median'] * 1e3:.0f}/{x['p95'] * 1e3:.0f}" for x in r["runs"])
     horizon = "none (the whole rest moves)" if r.get("horizon") is None else f"{r['horizon']} s"
+    chosen = r.get("replan_settings") or {}
+    shown = ", ".join(f"{k} = {chosen[k]}" for k in ("window", "max_iterations", "geodesic_acceleration") if k in chosen)
+    horizon += f"; `ReplanParams` {shown}" if shown else ""
+    left = [x.get("scaled_violation", float("nan")) for run in r["runs"] for x in run["rows"]]
     return f"""## replan — warm replanning of a 16-footstep pallet plan (`bench/replan.py`, {r['date']}, {r['machine']}, code {r['code']}; load average {r['load_start']:.1f} at start, {r['load_end']:.1f} at end: shared machine, other engineers' jobs running, timings noisy)
 
 Single Pallet walk {r['task'][0]} → {r['task'][1]}, 4 strides, {r['footsteps']} footsteps, 5.5 s, the paper's costs;
@@ -135,6 +145,7 @@ CPU = process time of `legplan.dyn.replan.replan` (build + solve), one thread. {
 | median build (wall) | {r.get('median_setup', float('nan')) * 1e3:.0f} ms | | |
 | median CPU per LM iteration | {r.get('cpu_per_iteration', float('nan')) * 1e3:.0f} ms | | |
 | converged | {r['converged'] * 100:.0f} % | | |
+| scaled violation left, median / max | {np.median(left):.1e} / {np.max(left):.1e} | | |
 
 Per run median/p95 (ms): {per_run}. Target {met}; the first plan took
 {r['plan_cpu_seconds'] / max(r['plan_iterations'], 1) * 1e3:.0f} ms CPU per LM iteration.

@@ -32,11 +32,20 @@ The base state there is the previous plan's (the terminal constraint), and what 
 previous plan itself, which was feasible. The constraints are sampled only up to `Tail.until`:
 after it every sample reads frozen nodes alone.
 
+Optional sampling window (`ReplanParams.window`, off by default): the constraints are sampled only
+within the first w seconds and nothing is frozen; the nodes no row reads keep the shifted previous
+plan (but for what the knots' continuity rows carry over) until later replans reach them — model
+predictive control without a terminal constraint, which plans myopically: a pushed base's momentum
+is left for after the window.
+
 One solve, no stages: the constraints alone (`DynParams.projection_solver`, "projection") or the
 costs under them (`warm_solver`, "costs") from the shifted guess, capped at
-`ReplanParams.max_iterations` LM iterations. A replan succeeds when every constraint row it
-samples (in its window, with the relaxations above) is within the solver's `violation_tolerance`
-(CONVERGED). What it does not do, and the
+`ReplanParams.max_iterations` LM iterations (`ReplanParams.geodesic_acceleration` may switch the
+solver's geodesic acceleration off: its curvature probe costs a residual evaluation per step). A
+replan succeeds when every constraint row it samples (in its window, with the relaxations above)
+is within the solver's `violation_tolerance` or within `ReplanParams.scaled_tolerance` of its row
+scale (`auglag.row_tolerances`: a force row may keep that share of the robot's weight, where 1e-3 N
+alone asks iterations no tracking controller notices) (CONVERGED). What it does not do, and the
 planner does: the range-of-motion exchange stages and the fallback stages from the heuristic guess;
 the independent check of a whole plan (`legplan.validate`) runs on `dyn replan`'s output, and in
 the simulator the execution judges it.
@@ -59,6 +68,7 @@ from legplan.dyn.problem import build_problem, gait_formulation
 from legplan.dyn.settings import DynParams
 from legplan.parameters import Parameters, param
 from legplan.solve.auglag import Constraint, solve_augmented_lagrangian
+from legplan.solve.auglag import scaled_violation as max_scaled_violation
 from legplan.solve.lm import Status
 
 AIRBORNE_HOLD = 0.02
@@ -80,7 +90,21 @@ class ReplanParams(Parameters):
         "s after the measured state within which footholds and swings move; the base moves until "
         "their stances end, after that the previous plan is kept (`frozen_tail`, a terminal "
         "constraint); None: the whole rest moves"))
+    window: float | None = param(None, "(0, inf)", doc=(
+        "s after the measured state within which the replan samples its constraints (`ReplanTask."
+        "sample_until`), nothing frozen: the nodes after it keep the shifted previous plan and are "
+        "replanned as later replans reach them (receding horizon without a terminal constraint); "
+        "None: the whole rest"))
     max_iterations: int = param(25, "[1, 10000]", doc="LM iterations of a replan, at most")
+    scaled_tolerance: float = param(1e-3, "[0, inf)", doc=(
+        "a replan's row also counts as converged when its violation is within this share of its "
+        "solver scale (`ALParams.scaled_tolerance`, replacing the solver's: forces and torques per the "
+        "robot's weight, where the solver's violation_tolerance asks for 1e-3 N); 0: the solver's "
+        "violation_tolerance alone"))
+    geodesic_acceleration: float | None = param(None, "[0, inf)", "α", doc=(
+        "the replan's LM geodesic acceleration (`HingedParams.geodesic_acceleration`), replacing the "
+        "solver's: each step's curvature probe costs one more residual evaluation, and without it "
+        "pushed replans land elsewhere (0: off); None: the solver's"))
     track_violation: float = param(float("inf"), "[0, inf]", doc=(
         "closed loop (`legplan.sim.replanning`): the controller also tracks a replan that ran out of "
         "iterations or stalled when its largest constraint violation, each row in the solver's "
@@ -248,13 +272,16 @@ class ReplanTask:
     airborne: np.ndarray
     horizon: float | None = None
     settle: float = ReplanParams.settle
+    window: float | None = None
     strides: int = 0
     tail: Tail | None = None  # set by `setup`
 
     @property
     def sample_until(self) -> float | None:
-        """The last constraint sample time (`build_problem`): where the free nodes stop reaching."""
-        return None if self.tail is None else self.tail.until
+        """The last constraint sample time (`build_problem`): where the free nodes stop reaching,
+        or the end of the sampling window (`ReplanParams.window`), whichever comes first."""
+        ends = [x for x in (None if self.tail is None else self.tail.until, self.window) if x is not None]
+        return min(ends) if ends else None
 
     @property
     def gait(self) -> str:
@@ -522,7 +549,7 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
     if warm_stage not in ("projection", "costs"):
         raise ValueError(f"warm_stage must be 'projection' or 'costs', got {warm_stage!r}")
     gait_rest, airborne = remaining_gait(previous.form.gait, state.t)
-    task = ReplanTask(previous, state, gait_rest, airborne, settings.horizon, settings.settle)
+    task = ReplanTask(previous, state, gait_rest, airborne, settings.horizon, settings.settle, settings.window)
     costs = warm_stage == "costs"
     solver = params.warm_solver if costs else params.projection_solver
     stage_params = replace(params, optimize_phases=False, costs=params.costs if costs else CostWeights())
@@ -531,7 +558,12 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
     problem = build_problem(task, model, terrain, stage_params, guess)
     setup = time.perf_counter() - wall
     solved = solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints,
-                                        replace(solver, max_iterations=settings.max_iterations))
+                                        replace(solver, max_iterations=settings.max_iterations,
+                                                scaled_tolerance=settings.scaled_tolerance,
+                                                inner=replace(solver.inner, geodesic_acceleration=(
+                                                    solver.inner.geodesic_acceleration
+                                                    if settings.geodesic_acceleration is None
+                                                    else settings.geodesic_acceleration))))
     samples = sample_solution(problem.form, solved.values, com_offset=problem.com_offset)
     if airborne.any():  # the hold of a foot in the air is no contact (zero force, off the terrain)
         hold = samples["t"] < gait_rest.durations[0] - 1e-9
@@ -539,7 +571,7 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
     result = PlanResult(problem, [StageOutcome(warm_stage, solved.status, solved, problem, setup)], solved, samples,
                         setup)
     return ReplanResult(state, result, time.process_time() - cpu, time.perf_counter() - wall,
-                        scaled_violation(problem.constraints, solved.values))
+                        solved.scaled_violation)
 
 
 def adapted_step(previous: Previous, task: ReplanTask, model, settings: ReplanParams) -> np.ndarray:
@@ -556,11 +588,8 @@ def adapted_step(previous: Previous, task: ReplanTask, model, settings: ReplanPa
 
 
 def scaled_violation(constraints, values: dict[str, np.ndarray]) -> float:
-    """The largest row violation of `constraints` at `values`, each row times its scale."""
-    worst = 0.0
-    for k in constraints:
-        if not k.block.size:
-            continue
-        c = np.asarray(k.block.evaluate([values[v] for v in k.block.variables], False)[0], float)
-        worst = max(worst, float(np.max(k.violation(c) * k.scale)))
-    return worst
+    """The largest row violation of `constraints` at the variable values `values`, each row times
+    its scale (`auglag.scaled_violation`)."""
+    return max_scaled_violation(constraints, [
+        np.asarray(k.block.evaluate([values[v] for v in k.block.variables], False)[0], float) if k.block.size
+        else np.zeros(0) for k in constraints])

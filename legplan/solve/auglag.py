@@ -20,7 +20,8 @@ a feasible point), as TOWR's feasibility problem, and further outer iterations o
 The costs are typed terms (`CostTerm`: name, residual block, weight), each ½·weight·‖block‖².
 
 Stopping rule (`ALResult.status`, a `legplan.solve.lm.Status`): CONVERGED when the largest
-constraint violation is ≤ `violation_tolerance` and, if there are costs, the cost changed by less
+constraint violation is ≤ `violation_tolerance` (a row may keep up to `scaled_tolerance` of its
+solver scale where that is looser, `row_tolerances`) and, if there are costs, the cost changed by less
 than `cost_tolerance` (relative) over the last outer iteration; MAX_ITERATIONS when the iteration
 budget or `max_outer` is spent first; STALLED when the violation stops falling (`stall_outer` outer
 iterations in a row each keeping more than `stall_decrease` of it, with costs only once μ reached
@@ -91,6 +92,24 @@ class Constraint:
         return np.maximum(np.maximum(c - self.upper, self.lower - c), 0.0)
 
 
+def row_tolerances(constraints: Sequence[Constraint], params: ALParams) -> list[np.ndarray]:
+    """Per row of each constraint the violation within tolerance, in the row's own units: the
+    larger of `violation_tolerance` and `scaled_tolerance` / the row's scale (a force row scaled
+    per the robot's weight may keep that share of the weight)."""
+    out = []
+    for k in constraints:
+        loose = params.scaled_tolerance / np.where(k.scale > 0.0, k.scale, np.inf)
+        out.append(np.maximum(params.violation_tolerance, loose))
+    return out
+
+
+def scaled_violation(constraints: Sequence[Constraint], values: Sequence[np.ndarray]) -> float:
+    """The largest row violation of `constraints` at their values `values` (one array each), each
+    row times its scale (`Constraint.scale`): rows of different units on the solver's one scale."""
+    return max((float(np.max(k.violation(c) * k.scale)) for k, c in zip(constraints, values) if c.size),
+               default=0.0)
+
+
 @dataclass(frozen=True)
 class ALParams(Parameters):
     """Augmented-Lagrangian parameters (module docstring); `inner` are those of every subproblem (its
@@ -115,6 +134,10 @@ class ALParams(Parameters):
     multipliers: str = param("zero", ("zero", "least_squares"), doc="initial multipliers (module docstring)")
     active_tolerance: float = param(1e-4, "[0, inf)", doc=(
         "least_squares: a bound row within this (scaled) of its bound is active"))
+    scaled_tolerance: float = param(0.0, "[0, inf)", doc=(
+        "a row also counts as within tolerance when its violation times its scale (`Constraint.scale`: "
+        "forces per the robot's weight, lengths per 10 cm) is within this, where that is looser than "
+        "violation_tolerance (`row_tolerances`); 0: violation_tolerance alone"))
     exact_rows: bool = param(False, (False, True), doc=(
         "without costs: stop a subproblem once every row is within violation_tolerance (|h_i| ≤ √μ·tol·w_i) "
         "instead of the norm test ‖h‖ ≤ √μ·tol·min(w), which assumes the worst row and solves further: "
@@ -137,6 +160,7 @@ class ALResult:
     history: list[dict] = field(default_factory=list)
     timings: Timings = field(default_factory=Timings)
     first_iteration_seconds: float = 0.0
+    scaled_violation: float = float("nan")  # `scaled_violation` of the constraints at `values`
 
     @property
     def success(self) -> bool:
@@ -267,8 +291,13 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
     # without costs (multipliers 0) a subproblem is done once every row is within tolerance: |h_i| ≤ √μ·tol·w_i
     # (`exact_rows`), for which ‖h‖ ≤ √μ·tol·min(w) suffices
     exact = not costs and params.exact_rows
-    row_scale = np.concatenate([r.constraint.scale[r.pick] for r in rows] or [np.ones(0)]) if exact else None
-    min_scale = min((float(k.scale.min()) for k in constraints if k.block.size), default=1.0)
+    tolerances = row_tolerances(constraints, params)
+    # w_i, times tol_i / violation_tolerance where `scaled_tolerance` loosens row i
+    widen = ([t / params.violation_tolerance for t in tolerances] if params.scaled_tolerance
+             else [1.0] * len(constraints))
+    row_scale = np.concatenate([(r.constraint.scale * f)[r.pick] for r, f in zip(rows, widen)]
+                               or [np.ones(0)]) if exact else None
+    min_scale = min((float((k.scale * f).min()) for k, f in zip(constraints, widen) if k.block.size), default=1.0)
     timings = Timings()
     history: list[dict] = []
     iterations = 0
@@ -310,9 +339,11 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
             break
         cost_settled = (not costs or (last_cost is not None and
                                       abs(last_cost - cost) <= params.cost_tolerance * max(abs(cost), 1e-12)))
-        if violation <= params.violation_tolerance and cost_settled:
+        within = all(np.all(k.violation(c) <= t) for k, c, t in zip(constraints, c_now, tolerances) if c.size)
+        if within and cost_settled:
             status = Status.CONVERGED
             reason = (f"max violation {violation:.2e} ≤ {params.violation_tolerance:.0e}"
+                      + (f" or {params.scaled_tolerance:.0e} of its row scale" if params.scaled_tolerance else "")
                       + (f", cost change ≤ {params.cost_tolerance:.0e} relative" if costs else ""))
             break
         if iterations >= params.max_iterations:
@@ -340,7 +371,7 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
         per_constraint[label] = max(per_constraint.get(label, 0.0), float(k.violation(c).max()) if c.size else 0.0)
     values = {v.name: values[v.name] for v in variables}
     return ALResult(values, status, reason, iterations, len(history), violation, per_constraint, cost,
-                    cost_terms, history, timings, first_iteration)
+                    cost_terms, history, timings, first_iteration, scaled_violation(constraints, c_now))
 
 
 def least_squares_multipliers(problem: Problem, rows: Sequence[_AugmentedRows], theta: np.ndarray,

@@ -164,8 +164,8 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
             theta, norm = trial, trial_norm
             accepted += 1
             hist_h.append(norm), hist_l.append(lam)
-            stop = stopping.after_step(norm, trial_v, decrease)
-            if stop:
+            stop = stopping.after_step(norm, trial_v, decrease) or stopping.spent(it + 1, norm)
+            if stop:  # no linearization at a point no step leaves
                 return finish(stop, it + 1, norm)
             t0 = time.perf_counter()
             v, J = problem.nonzero_jacobian(theta)
@@ -209,6 +209,14 @@ class _Stopping:
         if lam > p.lambda_max:
             return (Status.STALLED, "lambda_max", f"λ = {lam:.3e} exceeded lambda_max: no decrease of ‖h‖ = "
                     f"{norm:.3e} found (local minimum?)")
+        return None
+
+    def spent(self, it: int, norm: float) -> tuple[Status, str, str] | None:
+        """The iteration budget spent after `it` iterations: at an accepted point the budget ends,
+        `at_point`'s gradient test would need a Jacobian no step uses."""
+        p = self.params
+        if it >= p.max_iterations:
+            return Status.MAX_ITERATIONS, "max_iterations", f"reached {p.max_iterations} iterations with ‖h‖ = {norm:.3e}"
         return None
 
     def after_step(self, norm: float, v: np.ndarray, decrease: float) -> tuple[Status, str, str] | None:

@@ -324,3 +324,98 @@ def test_a_pushed_replan_with_step_adaptation_starts_from_the_measured_state(pla
     s = out.plan.samples
     assert np.allclose(s["base_vel"][0], pushed.base_vel, atol=1e-9)
     assert np.allclose(s["base_pos"][-1, :2], planned.samples["base_pos"][-1, :2], atol=1e-6)
+
+
+def test_a_window_samples_its_rows_within_it_and_keeps_the_rest(planned, anymal, flat):
+    """`ReplanParams.window`: no constraint row sampled after the window, nothing frozen; after the
+    window's last knot the plan stays the previous one but for what the knots' continuity rows
+    carry over (fading), before it the plan starts from the pushed state."""
+    state = MeasuredState.from_samples(planned.samples, 0.6)
+    pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + [0.0, 0.2, 0.0],
+                           state.base_ang_vel, state.feet_pos)
+    window = 0.8
+    out = replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(window=window))
+    assert out.success, out.plan.reason
+    problem = out.plan.problem
+    assert problem.task.sample_until == window and problem.task.tail.until is None
+    times = [c.block.times for c in problem.constraints if getattr(c.block, "times", None) is not None]
+    assert times and max(t.max(initial=0.0) for t in times) <= window + 1e-9
+    whole = replan(planned, pushed, anymal, flat, DynParams())
+    assert sum(c.block.size for c in problem.constraints) < 0.6 * sum(c.block.size for c in whole.plan.problem.constraints)
+    knots = problem.form.knots
+    last = knots[np.searchsorted(knots, window - 1e-9) + 1]  # the end of the last polynomial a row reads
+    s = out.plan.samples
+    before = _previous_at(planned, out.plan, state.t)
+    after = s["t"] > last + 1e-9
+    assert after.sum() > 10
+    moved = (s["t"] > 0.05) & (s["t"] < window)
+    change = np.abs(s["base_pos"] - before["base_pos"]).max(axis=1)
+    assert change[moved].max() > 0.01
+    assert change[after].max() < 0.2 * change[moved].max()
+    assert change[s["t"] > s["t"][-1] - 0.5].max() < 1e-4
+    assert np.allclose(s["base_vel"][0], pushed.base_vel, atol=1e-9)
+    both = replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(window=window, horizon=0.4))
+    assert both.plan.problem.task.sample_until == min(window, both.plan.problem.task.tail.until)
+
+
+def test_a_capped_replan_linearizes_once_per_iteration(planned, anymal, flat, monkeypatch):
+    """A replan capped at k LM iterations evaluates k Jacobians (none at the point it stops at) and,
+    with geodesic acceleration off, one residual per step; with the solver's, one more per step."""
+    from legplan.solve.problem import Problem
+
+    calls = {"jacobian": 0, "residual": 0}
+    for name, key in (("nonzero_jacobian", "jacobian"), ("residual", "residual")):
+        original = getattr(Problem, name)
+
+        def counted(self, theta, _original=original, _key=key):
+            calls[_key] += 1
+            return _original(self, theta)
+        monkeypatch.setattr(Problem, name, counted)
+    state = MeasuredState.from_samples(planned.samples, 1.0)
+    pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + [0.0, 0.3, 0.0],
+                           state.base_ang_vel, state.feet_pos)
+    for k in (1, 2):
+        calls.update(jacobian=0, residual=0)
+        out = replan(planned, pushed, anymal, flat, DynParams(),
+                     settings=ReplanParams(max_iterations=k, geodesic_acceleration=0.0))
+        assert out.iterations == k and out.status.name == "MAX_ITERATIONS"
+        assert calls == {"jacobian": k, "residual": k}
+    calls.update(jacobian=0, residual=0)
+    replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(max_iterations=1))  # the solver's α > 0
+    assert DynParams().projection_solver.inner.geodesic_acceleration > 0
+    assert calls == {"jacobian": 1, "residual": 2}
+
+
+def test_the_solvers_scaled_violation_is_the_replans(planned, anymal, flat):
+    """`ReplanResult.scaled_violation` (the solver's, from its last evaluation) equals the rows
+    evaluated again at the replan's values."""
+    from legplan.dyn.replan import scaled_violation
+
+    state = MeasuredState.from_samples(planned.samples, 1.0)
+    pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + [0.0, 0.3, 0.0],
+                           state.base_ang_vel, state.feet_pos)
+    out = replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(max_iterations=1))
+    again = scaled_violation(out.plan.problem.constraints, out.plan.solve.values)
+    assert again > 1e-4  # one iteration from a push leaves rows off
+    assert out.scaled_violation == pytest.approx(again, rel=1e-12)
+
+
+def test_a_replan_stops_once_every_row_is_within_its_scaled_tolerance(planned, anymal, flat):
+    """`ReplanParams.scaled_tolerance`: a pushed replan converges in fewer iterations than with the
+    solver's 1e-3 in every row's own units (N for the forces), every row within its own tolerance."""
+    from legplan.solve.auglag import row_tolerances
+
+    state = MeasuredState.from_samples(planned.samples, 1.0)
+    pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + [0.0, 0.3, 0.0],
+                           state.base_ang_vel, state.feet_pos)
+    strict = replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(scaled_tolerance=0.0))
+    loose = replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(scaled_tolerance=1e-3))
+    assert strict.success and loose.success, (strict.reason, loose.reason)
+    assert loose.iterations < strict.iterations
+    assert strict.violation <= 1e-3 < loose.violation  # a force row keeps more than 1e-3 N
+    constraints, values = loose.plan.problem.constraints, loose.plan.solve.values
+    tolerances = row_tolerances(constraints, replace(DynParams().projection_solver, scaled_tolerance=1e-3))
+    for k, tolerance in zip(constraints, tolerances):
+        if k.block.size:
+            c = k.block.evaluate([values[v] for v in k.block.variables], False)[0]
+            assert np.all(k.violation(np.asarray(c)) <= tolerance), k.name

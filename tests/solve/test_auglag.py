@@ -60,6 +60,31 @@ def test_exact_rows_stops_once_every_row_is_within_tolerance_in_its_own_units():
     assert runs[True].history[-1]["stopped_by"] == "row_tolerance"
 
 
+def test_scaled_tolerance_loosens_only_the_rows_of_a_small_scale():
+    """`scaled_tolerance`: a row scaled by 1e-3 (a force per the robot's weight) may keep 1e-3 / 1e-3 = 1
+    of its units, one scaled by 10 keeps `violation_tolerance`; Gauss-Newton halves each distance
+    per step, so the loosened solve stops earlier, every row within its own tolerance."""
+    def double_roots(x):  # (x0 − 1)², (x1 − 1)²
+        return (x - 1.0) ** 2, [np.diag(2.0 * (x - 1.0))]
+
+    from legplan.solve.auglag import row_tolerances
+
+    def constraints():
+        rows = FunctionBlock(("x",), 2, double_roots)
+        return [Constraint(rows, 0.0, 0.0, scale=np.array([1e-3, 10.0]))]
+
+    loose = ALParams(exact_rows=True, scaled_tolerance=1e-3)
+    assert np.allclose(row_tolerances(constraints(), loose)[0], [1.0, 1e-3])
+    assert np.allclose(row_tolerances(constraints(), ALParams())[0], [1e-3, 1e-3])
+    runs = {p.scaled_tolerance: solve_augmented_lagrangian([VariableBlock("x", [3.0, 1.1])], [], constraints(), p)
+            for p in (ALParams(exact_rows=True), loose)}
+    for tolerance, r in runs.items():
+        c = (r.values["x"] - 1.0) ** 2
+        assert r.success and c[1] <= 1e-3 and c[0] <= max(1e-3, tolerance / 1e-3)
+    assert (runs[1e-3].values["x"][0] - 1.0) ** 2 > 1e-3  # the loosened row kept more than violation_tolerance
+    assert runs[1e-3].iterations < runs[0.0].iterations
+
+
 def test_infeasible_constraints_are_reported_as_failure():
     a = Constraint(LinearBlock(("x",), [np.array([[1.0]])]), 1.0, 1.0, name="a")
     b = Constraint(LinearBlock(("x",), [np.array([[1.0]])]), -np.inf, 0.0, name="b")
