@@ -323,19 +323,37 @@ class DenseSolver(LinearSolver):
         self._matrix = H.toarray() if sp.issparse(H) else np.asarray(H, float)
 
     def refactor(self, beta):
-        import scipy.linalg  # the dense solver only: not imported with the default solver
-
-        A = self._matrix.copy()
-        A[np.diag_indices_from(A)] += beta
-        try:
-            self._cho = scipy.linalg.cho_factor(A, lower=True, check_finite=False)
-        except np.linalg.LinAlgError as exc:
-            raise NotPositiveDefiniteError(str(exc)) from exc
+        potrf, _ = _lapack_cholesky()
+        A = np.array(self._matrix, float, order="F")  # LAPACK's order: factorised in place, no further copy
+        A.flat[::A.shape[0] + 1] += beta
+        if not A.size:
+            self._factor = A
+            return
+        self._factor, info = potrf(A, lower=1, overwrite_a=1, clean=0)
+        if info > 0:
+            raise NotPositiveDefiniteError(f"{info}-th leading minor of the array is not positive definite")
+        if info < 0:
+            raise ValueError(f"LAPACK potrf: illegal value in argument {-info}")
 
     def solve(self, rhs):
-        import scipy.linalg
+        """x of (H + βI) x = rhs from the Cholesky factor (LAPACK potrs, as `scipy.linalg.cho_solve`)."""
+        _, potrs = _lapack_cholesky()
+        rhs = np.asarray(rhs, float)
+        if not rhs.size:
+            return rhs.copy()
+        x, info = potrs(self._factor, rhs, lower=1, overwrite_b=0)
+        if info != 0:
+            raise ValueError(f"LAPACK potrs: illegal value in argument {-info}")
+        return x
 
-        return scipy.linalg.cho_solve(self._cho, rhs, check_finite=False)
+
+@functools.cache
+def _lapack_cholesky():
+    """LAPACK's double Cholesky factorisation and solve (dpotrf, dpotrs), the routines `scipy.linalg.cho_factor`
+    and `cho_solve` call, without their per-call argument handling (the dense solver calls them once per λ)."""
+    from scipy.linalg import lapack  # the dense solver only: not imported with the default solver
+
+    return lapack.dpotrf, lapack.dpotrs
 
 
 def make_solver(name: str = "cholmod", cholmod_mode: str = "simplicial") -> LinearSolver:

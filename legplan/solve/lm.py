@@ -33,7 +33,7 @@ import numpy as np
 import scipy.sparse as sp
 
 from legplan.solve.linsolve import SOLVER_NAMES, LinearSolver, NotPositiveDefiniteError, make_solver
-from legplan.solve.problem import ASSEMBLY_MODES, Problem
+from legplan.solve.problem import ASSEMBLY_MODES, Problem, SchurParts
 from legplan.solve.schur import SchurSolver
 
 log = logging.getLogger(__name__)
@@ -136,6 +136,10 @@ def solve_lm(problem: Problem, params: LMParams = LMParams(), theta0: np.ndarray
     schur = layout.schur_columns() if params.schur else None
     if schur is not None:
         solver = SchurSolver(solver, *schur)
+        # H as the Schur pieces straight from a structured block (`Problem.normal_equations`), where the
+        # reduced system is dense and unscaled: the same steps without a sparse H
+        if not params.marquardt_scaling and (layout.n - schur[0].size) * schur[0].size <= solver.dense_limit:
+            state.schur_parts = schur
     system = None
     while True:
         if system is None and state.must_linearize():
@@ -178,6 +182,7 @@ class _LMState:
     accepted: int = 0
     rejected: int = 0
     timings: Timings = field(default_factory=Timings)
+    schur_parts: tuple[np.ndarray, int] | None = None  # ask `normal_equations` for H as `SchurParts`
 
     @property
     def iterations(self) -> int:
@@ -222,7 +227,7 @@ class _LMState:
 class _DampedSystem:
     """Eq. (13) at one linearisation, as `_damping_system` returns it, loaded into the solver once."""
 
-    matrix: sp.spmatrix  # (scaled) JᵀJ, or (scaled) J when `from_jacobian`
+    matrix: sp.spmatrix | SchurParts  # (scaled) JᵀJ, or (scaled) J when `from_jacobian`, or JᵀJ's Schur pieces
     gradient: np.ndarray
     scale: np.ndarray | None
     from_jacobian: bool
@@ -231,12 +236,17 @@ class _DampedSystem:
 
 def _linearize(state: _LMState) -> _DampedSystem | None:
     """Jacobians and eq. (13) at the current point, updating ‖h‖; None if anything is not finite."""
-    linearization = state.problem.normal_equations(state.theta, state.params.assembly)
+    linearization = state.problem.normal_equations(state.theta, state.params.assembly, state.schur_parts)
     state.timings.evaluate += linearization.evaluate_seconds
     state.timings.assemble += linearization.assemble_seconds
     state.norm = float(np.linalg.norm(linearization.residual))
     if state.iterations == 0:
         state.initial = state.norm
+    parts = linearization.schur_parts
+    if parts is not None:  # no scaling: asked for only without Marquardt scaling
+        if not np.isfinite(state.norm) or not parts.finite():
+            return None
+        return _DampedSystem(parts, linearization.gradient, None, False)
     from_jacobian = linearization.hessian is None  # assembly="jacobian": the solver forms JᵀJ
     matrix = linearization.jacobian if from_jacobian else linearization.hessian
     if not np.isfinite(state.norm) or not np.all(np.isfinite(matrix.data)):
@@ -264,7 +274,9 @@ def _damped_step(solver: LinearSolver, system: _DampedSystem, state: _LMState) -
     t0 = time.perf_counter()
     try:
         if not system.loaded:
-            if system.from_jacobian:
+            if isinstance(system.matrix, SchurParts):
+                solver.set_parts(system.matrix)
+            elif system.from_jacobian:
                 solver.set_jacobian(system.matrix)
             else:
                 solver.set_matrix(system.matrix)

@@ -47,6 +47,23 @@ class NormalEquations:
     evaluate_seconds: float
     assemble_seconds: float
     jacobian: sp.csr_matrix | None = None
+    schur_parts: SchurParts | None = None
+
+
+@dataclass
+class SchurParts:
+    """H = JᵀJ of eq. (13) as the dense pieces of the Schur elimination (`SchurSolver.set_parts`), in θ's
+    order of the kept and the eliminated columns: H = [[A, B], [Bᵀ, blockdiag(D)]]. Every entry is the
+    one the assembled H holds (0 + the block's value, as the sparse sum gives it), so the reduced system,
+    and so every LM step, is the same as from H."""
+
+    kept: np.ndarray  # A (kept × kept)
+    coupling: np.ndarray  # B (kept × eliminated)
+    blocks: np.ndarray  # D (count, m, m), the diagonal blocks of the eliminated columns
+
+    def finite(self) -> bool:
+        return bool(np.isfinite(self.kept).all() and np.isfinite(self.coupling).all()
+                    and np.isfinite(self.blocks).all())
 
 
 class Problem:
@@ -318,9 +335,15 @@ class Problem:
                 rows.append(rr), cols.append(cc), vals.append(vv)
         return _cat(residuals, float), rows, cols, vals
 
-    def normal_equations(self, theta: np.ndarray, assembly: str = "blocks") -> NormalEquations:
+    def normal_equations(self, theta: np.ndarray, assembly: str = "blocks",
+                         schur: tuple[np.ndarray, int] | None = None) -> NormalEquations:
         """h, H = JᵀJ and g = Jᵀh at θ for eq. (13), by the chosen assembly path (J instead of H for
-        ``"jacobian"``)."""
+        ``"jacobian"``).
+
+        `schur` (the eliminated columns and their block size, `VariableLayout.schur_columns`) asks for H
+        as the dense pieces of the Schur elimination (`SchurParts`, H itself None) where the problem is one
+        structured block over a kept and an eliminated variable (`schur_parts_plan`): its dense normal
+        terms go to the solver without a sparse H being assembled and gathered back."""
         if assembly not in ASSEMBLY_MODES:
             raise ValueError(f"assembly must be one of {ASSEMBLY_MODES}, got {assembly!r}")
         if self.row_map() is not None:
@@ -345,6 +368,11 @@ class Problem:
             return self._finish(h, rows, cols, vals, J.T @ h, t1 - t0, t1)
         t0 = time.perf_counter()
         values = layout.values(theta)
+        plan = self.schur_parts_plan(*schur) if schur is not None and assembly == "blocks" else None
+        if plan is not None:
+            direct = self._schur_equations(values, plan, t0)
+            if direct is not None:
+                return direct
         terms = []
         for k, (block, w) in enumerate(self._blocks):
             if isinstance(block, StructuredBlock):
@@ -372,6 +400,51 @@ class Problem:
                     rows.append(cc), cols.append(rr), vals.append(vv)
         h = _cat([nt.residual for nt in terms], float)
         return self._finish(h, rows, cols, vals, g, t1 - t0, t1)
+
+    def schur_parts_plan(self, eliminate: np.ndarray, block: int):
+        """(block, weight, free) if H can be handed over as `SchurParts`: one `StructuredBlock` over two
+        variables, the second exactly the eliminated columns (none fixed, `block` per diagonal block), the
+        first the kept ones (its free entries `free`, in θ's order); else None. Cached per structure."""
+        key = ("schur_parts", int(block), eliminate.tobytes())
+        if key not in self.structure_cache:
+            self.structure_cache[key] = self._schur_parts_plan(np.asarray(eliminate), int(block))
+        return self.structure_cache[key]
+
+    def _schur_parts_plan(self, eliminate: np.ndarray, block: int):
+        layout = self.layout
+        if len(self._blocks) != 1 or not isinstance(self._blocks[0][0], StructuredBlock):
+            return None
+        structured, w = self._blocks[0]
+        if len(structured.variables) != 2 or len(layout.blocks) != 2:
+            return None
+        kept, eliminated = (layout.columns[name] for name in structured.variables)
+        free = np.flatnonzero(kept >= 0)
+        if not (np.array_equal(eliminated, eliminate) and np.array_equal(kept[free], np.arange(free.size))
+                and np.array_equal(eliminate, free.size + np.arange(eliminate.size)) and eliminate.size % block == 0):
+            return None
+        return structured, w, free
+
+    def _schur_equations(self, values, plan, t0) -> NormalEquations | None:
+        """`normal_equations` with H as `SchurParts`; None if the block's terms are not dense (0, 0) and
+        (0, 1) terms and a `BlockDiagonal` (1, 1) term (then H is assembled from them as usual)."""
+        block, w, free = plan
+        nt = block.normal_terms(self._block_values(values, block))
+        nt.residual = w * self._checked(block, nt.residual)
+        if w != 1.0:
+            nt.hessian = {ij: _scaled(t, w * w) for ij, t in nt.hessian.items()}
+            nt.gradient = [w * w * gi for gi in nt.gradient]
+        t1 = time.perf_counter()
+        h00, h01, h11 = (nt.hessian.get(ij) for ij in ((0, 0), (0, 1), (1, 1)))
+        if not (len(nt.hessian) == 3 and isinstance(h00, np.ndarray) and isinstance(h01, np.ndarray)
+                and isinstance(h11, BlockDiagonal)):
+            return None
+        n = self.layout.n
+        g = np.zeros(n)
+        g[:free.size] += np.asarray(nt.gradient[0]).reshape(-1)[free]
+        g[free.size:] += np.asarray(nt.gradient[1]).reshape(-1)
+        # 0 + value, as the sparse sum of the assembled H holds every entry (a −0 becomes +0)
+        parts = SchurParts(h00[np.ix_(free, free)] + 0.0, h01[free] + 0.0, h11.blocks + 0.0)
+        return NormalEquations(nt.residual, None, g, -1, t1 - t0, time.perf_counter() - t1, schur_parts=parts)
 
     def _finish(self, h, rows, cols, vals, g, evaluate_seconds, t_start) -> NormalEquations:
         H = self._hess_assembler.assemble_parts(rows, cols, vals)

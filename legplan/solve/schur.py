@@ -87,6 +87,7 @@ class SchurSolver(LinearSolver):
         if not np.all(np.isfinite(D)):
             raise NotPositiveDefiniteError("an eliminated block is not finite")
         self._e, self._V = np.linalg.eigh(D)  # reads the lower triangle, like a Cholesky factorisation
+        self._e_scale = np.abs(self._e).max(axis=1, initial=0.0)
         slots, kr, ec = self._ke
         aslots = self._aa[0]
         a_values = np.concatenate([H.data[aslots], np.zeros(nk)])
@@ -102,10 +103,35 @@ class SchurSolver(LinearSolver):
         self._U = (self._B @ vblocks).tocsr()
         self._A = self._a_assembler.assemble(self._a_rows, self._a_cols, a_values)
 
+    def set_parts(self, parts) -> None:
+        """`set_matrix` for H given as its dense Schur pieces (`legplan.solve.problem.SchurParts`: A, B and
+        the diagonal blocks D, kept columns first): the same D = V diag(e) Vᵀ, U = B·blockdiag(V) and A as
+        `set_matrix` takes from the assembled H, without H."""
+        A, B, D = parts.kept, parts.coupling, parts.blocks
+        count, m, _ = D.shape
+        nk, ne = B.shape
+        if m != self.block or ne != self.eliminate.size:
+            raise ValueError(f"Schur parts of {ne} eliminated columns in blocks of {m}, expected "
+                             f"{self.eliminate.size} in blocks of {self.block}")
+        if self._pattern is not None or getattr(self, "keep", None) is None or self.keep.size != nk:
+            kept = np.ones(nk + ne, bool)
+            kept[self.eliminate] = False
+            self.keep = np.flatnonzero(kept)
+            self._pattern = None  # a later `set_matrix` analyses its H again
+        self._d_shape = (count, m, m)
+        self.dense = True
+        if not np.all(np.isfinite(D)):
+            raise NotPositiveDefiniteError("an eliminated block is not finite")
+        self._e, self._V = np.linalg.eigh(D)
+        self._e_scale = np.abs(self._e).max(axis=1, initial=0.0)
+        self._B = B
+        self._U = (B.reshape(nk, count, m).transpose(1, 0, 2) @ self._V).transpose(1, 0, 2).reshape(nk, ne)
+        self._A = A
+
     def refactor(self, beta):
         """Factorise the reduced system A + βI − U diag(1/(e+β)) Uᵀ for this β."""
         shifted = self._e + beta
-        scale = np.abs(self._e).max(axis=1, initial=0.0) + abs(beta)
+        scale = self._e_scale + abs(beta)
         if not np.all(shifted > self.block * np.finfo(float).eps * scale[:, None]):
             raise NotPositiveDefiniteError(f"an eliminated {self.block}×{self.block} block is not positive definite")
         self._s = 1.0 / shifted  # (count, m)

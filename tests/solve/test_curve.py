@@ -3,7 +3,12 @@
 import numpy as np
 import pytest
 
-from legplan.solve import LMParams, Status, StructuredBlock, check_jacobian, check_normal_terms, make_solver, solve_lm
+from legplan.solve import (LMParams, Problem, Status, StructuredBlock, check_jacobian, check_normal_terms, make_solver,
+                           solve_lm)
+from legplan.geometry.bezier import bernstein_matrix
+from legplan.solve import VariableBlock
+from legplan.solve.curve import SampledCurveBlock
+from legplan.solve.inequality import hinge
 from legplan.solve.schur import SchurSolver
 import testproblems as tp
 
@@ -90,3 +95,103 @@ def test_early_reject_gives_the_same_lm_iterates(small):
         [(runs[0].accepted_steps, runs[0].rejected_steps, runs[0].status)]
     np.testing.assert_allclose(runs[1].norm_history, runs[0].norm_history, rtol=1e-12, atol=0)
     np.testing.assert_allclose(runs[1].theta, runs[0].theta, rtol=1e-10, atol=1e-13)
+
+
+class _SlackedHinges(SampledCurveBlock):
+    """One block with every kind of row of eq. (12) per sample: sin(A q) − f* − ξ (slacked equalities), a
+    penalty 2ξ on the slacks and hinges max(sin(C (q − q*)) − ½, 0) (the step planner's shape)."""
+
+    def __init__(self, basis, A, C, target):
+        m, c = A.shape[0], C.shape[0]
+        super().__init__(("P", "xi"), basis, A.shape[1], 2 * m + c, slack_dim=m)
+        self.A, self.C, self.target, self.f_target = A, C, target, np.sin(target @ A.T)
+
+    def sample(self, q, xi, jacobians, index):
+        u, v = q @ self.A.T, (q - self.target[index]) @ self.C.T
+        hinged, slope = hinge(np.sin(v) - 0.5)
+        r = np.concatenate([np.sin(u) - self.f_target[index] - xi, 2.0 * xi, hinged], axis=1)
+        if not jacobians:
+            return r, None, None
+        n, m = xi.shape
+        G = np.concatenate([np.cos(u)[:, :, None] * self.A, np.zeros((n, m, self.dim)),
+                            (slope * np.cos(v))[:, :, None] * self.C], axis=1)
+        S = np.concatenate([np.broadcast_to(-np.eye(m), (n, m, m)), np.broadcast_to(2.0 * np.eye(m), (n, m, m)),
+                            np.zeros((n, self.C.shape[0], m))], axis=1)
+        return r, G, S
+
+
+@pytest.fixture(scope="module")
+def one_block():
+    """The step planner's shape: one structured block over the control points (ends fixed) and the slacks."""
+    rng = np.random.default_rng(1)
+    samples, degree, dim, m, c = 12, 4, 5, 3, 4
+    basis = bernstein_matrix(degree, np.linspace(0.0, 1.0, samples))
+    ends = rng.uniform(-1, 1, (2, dim))
+    line = ends[0] + np.linspace(0.0, 1.0, degree + 1)[:, None] * (ends[1] - ends[0])
+    target = basis @ (line + 0.6 * rng.standard_normal(line.shape) * np.r_[0, np.ones(degree - 1), 0][:, None])
+    fixed = np.zeros(line.shape, bool)
+    fixed[[0, -1]] = True
+    problem = Problem([VariableBlock("P", line.ravel(), fixed=fixed.ravel()),
+                       VariableBlock("xi", np.zeros(samples * m), schur_block=m)])
+    problem.add_residual(_SlackedHinges(basis, 2.0 * rng.standard_normal((m, dim)), rng.standard_normal((c, dim)),
+                                        target))
+    return problem
+
+
+def test_one_block_fixture_has_correct_jacobians_and_normal_terms(one_block):
+    values = one_block.layout.values(_point(one_block))
+    assert check_jacobian(one_block.blocks[0], values).max_abs_error < 1e-7
+    assert check_normal_terms(one_block.blocks[0], values) < 1e-12
+
+
+def test_schur_parts_are_the_entries_of_the_assembled_normal_matrix(one_block):
+    theta = _point(one_block)
+    eliminate, block = one_block.layout.schur_columns()
+    direct = one_block.normal_equations(theta, schur=(eliminate, block))
+    assembled = one_block.normal_equations(theta)
+    assert direct.hessian is None and assembled.schur_parts is None
+    H = assembled.hessian.toarray()
+    keep = np.setdiff1d(np.arange(H.shape[0]), eliminate)
+    parts = direct.schur_parts
+    assert np.array_equal(parts.kept, H[np.ix_(keep, keep)])
+    assert np.array_equal(parts.coupling, H[np.ix_(keep, eliminate)])
+    count = eliminate.size // block
+    blocks = np.stack([H[np.ix_(eliminate[i * block:(i + 1) * block], eliminate[i * block:(i + 1) * block])]
+                       for i in range(count)])
+    assert np.array_equal(parts.blocks, blocks)
+    assert np.array_equal(direct.gradient, assembled.gradient)
+    assert np.array_equal(direct.residual, assembled.residual)
+    for beta in (1e-3, 0.5):  # the solver's steps from the pieces and from H: the same bits
+        steps = []
+        for load in (lambda s: s.set_parts(parts), lambda s: s.set_matrix(assembled.hessian)):
+            solver = SchurSolver(make_solver("dense"), eliminate, block)
+            load(solver)
+            solver.refactor(beta)
+            steps.append(solver.solve(assembled.gradient))
+        assert np.array_equal(steps[0], steps[1])
+
+
+def test_schur_parts_only_for_one_structured_block_over_a_kept_and_an_eliminated_variable(small, one_block):
+    eliminate, block = small.layout.schur_columns()
+    assert small.schur_parts_plan(eliminate, block) is None  # two structured blocks (and a function block)
+    assert small.normal_equations(_point(small), schur=(eliminate, block)).schur_parts is None
+    assert one_block.schur_parts_plan(eliminate, block) is not None
+    assert one_block.schur_parts_plan(eliminate[:-block], block) is None  # not the eliminated variable
+
+
+def test_lm_from_the_schur_parts_takes_the_steps_of_the_assembled_system(one_block, monkeypatch):
+    """LM with H handed over as Schur pieces repeats LM on the assembled H bit for bit: same iterates,
+    same ‖h‖ and λ histories, same end point."""
+    theta = one_block.layout.initial()
+    start = theta + 3.0 * np.random.default_rng(5).standard_normal(theta.size)  # far out: many rejections
+    params = LMParams(tolerance=1e-12, max_iterations=60, linear_solver="dense", lambda_init=1e-4)
+    calls = []
+    original = SchurSolver.set_parts
+    monkeypatch.setattr(SchurSolver, "set_parts", lambda self, parts: calls.append(1) or original(self, parts))
+    direct = solve_lm(one_block, params, theta0=start)
+    assert calls  # the pieces' path was taken
+    monkeypatch.setattr(Problem, "schur_parts_plan", lambda self, eliminate, block: None)
+    assembled = solve_lm(one_block, params, theta0=start)
+    assert direct.rejected_steps > 0 and direct.accepted_steps > 0
+    assert direct.norm_history == assembled.norm_history and direct.lambda_history == assembled.lambda_history
+    assert np.array_equal(direct.theta, assembled.theta) and direct.status is assembled.status

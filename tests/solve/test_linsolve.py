@@ -360,3 +360,23 @@ def test_rows_named_by_keys_follow_the_set_by_its_keys():
         solver.refactor_rows(J, jrow[keys], keys)
         assert solver.updates == updates + 1  # three keys changed: rank updates
         np.testing.assert_allclose(solver.solve(b), expect(keys), rtol=1e-9)
+
+
+def test_dense_solver_is_lapack_cholesky_as_scipy_calls_it():
+    """The dense solver calls LAPACK's potrf/potrs itself: the factor and the solution are those of
+    scipy.linalg.cho_factor/cho_solve bit for bit; a matrix that is not positive definite raises."""
+    import scipy.linalg
+
+    H, b = _spd(30, seed=4)
+    dense = H.toarray()
+    solver = make_solver("dense")
+    for beta in (0.0, 1e-6, 2.5):
+        solver.factorize(dense, beta)
+        reference = scipy.linalg.cho_factor(dense + beta * np.eye(30), lower=True, check_finite=False)
+        assert np.array_equal(np.tril(solver._factor), np.tril(reference[0]))
+        assert np.array_equal(solver.solve(b), scipy.linalg.cho_solve(reference, b, check_finite=False))
+    assert np.array_equal(dense, H.toarray())  # the matrix given is not modified
+    with pytest.raises(NotPositiveDefiniteError):
+        solver.factorize(dense, -2.0 * np.linalg.eigvalsh(dense).max())
+    solver.factorize(np.zeros((0, 0)), 1.0)
+    assert solver.solve(np.zeros(0)).shape == (0,)

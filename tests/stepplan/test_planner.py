@@ -98,3 +98,19 @@ def test_stall_window_is_passed_to_solve_lm_and_off_by_default(toy_robot, swing_
     assert plan.degree >= 2 and np.isfinite(plan.norm)
     with pytest.raises(LegplanError):
         StepPlanParams(stall_window=-1)
+
+
+def test_schur_parts_path_plans_the_step_of_the_assembled_system_bit_for_bit(toy_robot, swing_over_hill, monkeypatch):
+    """SolveLM takes the planner's normal equations as dense Schur pieces (`Problem.normal_equations` with
+    `schur`): the same control points, norms, degrees and LM iterations as through the assembled sparse H."""
+    from legplan.solve import Problem
+
+    hill, q0, q1, stance, feet = swing_over_hill
+    params = StepPlanParams(samples=40)
+    direct = plan_step(toy_robot, hill, q0, q1, stance, feet, params)
+    monkeypatch.setattr(Problem, "schur_parts_plan", lambda self, eliminate, block: None)
+    assembled = plan_step(toy_robot, hill, q0, q1, stance, feet, params)
+    assert direct.success and direct.degree >= 2
+    assert np.array_equal(direct.control_points, assembled.control_points) and direct.norm == assembled.norm
+    assert [(d.degree, d.iterations, d.norm, d.status) for d in direct.degrees] == \
+        [(d.degree, d.iterations, d.norm, d.status) for d in assembled.degrees]
