@@ -147,13 +147,24 @@ class SchurSolver(LinearSolver):
         vt = (self._V.transpose(0, 2, 1) @ v[:, :, None])[:, :, 0] * self._s
         return (self._V @ vt[:, :, None])[:, :, 0]
 
+    def _columns(self):
+        """(kept, eliminated) as index arrays, or as slices when the kept columns come first."""
+        if getattr(self, "_sliced", None) is None or self._sliced[0] is not self.keep:
+            nk = self.keep.size
+            first = (np.array_equal(self.keep, np.arange(nk))
+                     and np.array_equal(self.eliminate, nk + np.arange(self.eliminate.size)))
+            self._sliced = (self.keep, (slice(0, nk), slice(nk, nk + self.eliminate.size)) if first
+                            else (self.keep, self.eliminate))
+        return self._sliced[1]
+
     def solve(self, rhs):
-        bk, be = rhs[self.keep], rhs[self.eliminate]
+        kept, eliminated = self._columns()
+        bk, be = rhs[kept], rhs[eliminated]
         count, m, _ = self._d_shape
         vbe = (self._V.transpose(0, 2, 1) @ be.reshape(count, m, 1))[:, :, 0] * self._s
         xk = self.inner.solve(bk - self._U @ vbe.reshape(-1))
         r = (be - self._B.T @ xk).reshape(count, m)
         x = np.empty_like(rhs)
-        x[self.keep] = xk
-        x[self.eliminate] = self._dinv(r).reshape(-1)
+        x[kept] = xk
+        x[eliminated] = self._dinv(r).reshape(-1)
         return x

@@ -183,7 +183,7 @@ class ChainKinematics:
 
     def placements(self, X: np.ndarray) -> np.ndarray:
         """Placements [R | t] (n, slots, 3, 4) of the base (the identity) and every joint in the base frame,
-        in slot order. The local placements are one product per joint of the coefficients (sin q, 1 − cos q,
+        in slot order (a view of an (n, 3, slots, 4) array: row (sample, axis), column (slot, 4) for `points`). The local placements are one product per joint of the coefficients (sin q, 1 − cos q,
         1, q) with the stacked constants (B, C, F, D); a level is placed on its parents by the three
         rank-one terms of the 3 × 3 · 3 × 4 products (a batched matmul of so small matrices costs more),
         formed entry by entry over all joints of the level and all samples at once (layout (3, 4, joints,
@@ -208,17 +208,18 @@ class ChainKinematics:
             world += parent[:, 2, None] * local[2]
             world[:, 3] += parent[:, 3]
             local[...] = world
-        T = np.empty((n, count + 1, 3, 4))
-        T[:, 0] = np.eye(3, 4)
-        T[:, 1:] = entries.transpose(3, 2, 0, 1)
-        return T
+        # one copy into the layout `points` multiplies with, (n, 3, slots, 4); T is a view of it
+        stacked = np.empty((n, 3, count + 1, 4))
+        stacked[:, :, 0] = np.eye(3, 4)
+        stacked[:, :, 1:] = entries.transpose(3, 0, 2, 1)
+        return stacked.transpose(0, 2, 1, 3)
 
     def points(self, X: np.ndarray) -> Points:
         """Feet, sphere centres and CoM at the vectors X (n, nx): the points in the base frame, one product
         of the stacked placements with `_attach`, then placed by the base, p = R(ω) p_b + p_base."""
         T = self.placements(X)
         n = len(X)
-        stacked = T.transpose(0, 2, 1, 3).reshape(n * 3, -1)  # row (sample, axis), column (slot, 4): no copy
+        stacked = T.transpose(0, 2, 1, 3).reshape(n * 3, -1)  # row (sample, axis), column (slot, 4): a view
         base = rotvec_to_matrix(X[:, 3:6])
         attached = (base @ (stacked @ self._attach).reshape(n, 3, -1) + X[:, :3, None]).transpose(0, 2, 1)
         f, p = self._n_feet, self._n_points
