@@ -95,13 +95,14 @@ class SampleConstraints:
         points of X if already at hand (`kinematics.points(X)`)."""
         return self._rows(np.atleast_2d(np.asarray(X, float)), Xi, False, points)[0]
 
-    def linearize(self, X: np.ndarray, Xi: np.ndarray, points=None):
+    def linearize(self, X: np.ndarray, Xi: np.ndarray, points=None, r=None):
         """r (n, m) and the rows with a nonzero Jacobian in compact form (r_c, G_c, S_c) (n, m_c, ·): the
         stance-foot and slack rows, the CoM rows, then per sample its active collision and joint-limit rows
         packed (zero-padded to the largest count). Every row left out has zero G and S, so the products
-        GᵀG, Gᵀr, GᵀS, SᵀS and Sᵀr of the compact rows are those of all rows. `points` as in `residuals`."""
+        GᵀG, Gᵀr, GᵀS, SᵀS and Sᵀr of the compact rows are those of all rows. `points` as in `residuals`;
+        `r`: the rows at X, Xi if already at hand (`residuals`), then only the Jacobians are formed."""
         X = np.atleast_2d(np.asarray(X, float))
-        r, parts = self._rows(X, Xi, True, points)
+        r, parts = self._rows(X, Xi, True, points, r)
         jf, jcom, samples, rows, vectors, direction = parts
         n, nx, k = len(X), self.nx, len(self.legs)
         counts = np.bincount(samples, minlength=n)
@@ -142,15 +143,20 @@ class SampleConstraints:
         for leg in range(k):
             S[:, 3 * k + leg, 3 * leg:3 * leg + 3] = direction[:, leg]
 
-    def _rows(self, X: np.ndarray, Xi: np.ndarray, jacobians: bool, points=None):
+    def _rows(self, X: np.ndarray, Xi: np.ndarray, jacobians: bool, points=None, r=None):
         """r (n, m) and, with `jacobians`, its nonzero Jacobian parts: stance-foot rows (n, 3k, nx), CoM rows
         (n, h, nx), the active collision and joint-limit rows as (samples, rows, vectors (K, nx)), and the
-        unit directions (n, k, 3) of the active slack rows."""
+        unit directions (n, k, 3) of the active slack rows. `r`: the rows at X, Xi if already at hand."""
+        if points is None:
+            points = self.kinematics.points(X)
+        if r is None:
+            r = self._values(X, Xi, points)
+        return r, (self._jacobian_parts(X, Xi, points, r) if jacobians else None)
+
+    def _values(self, X: np.ndarray, Xi: np.ndarray, points) -> np.ndarray:
+        """The rows r (n, m) at X, Xi from the kinematics' `points` of X."""
         n, nx = X.shape
         k = len(self.legs)
-        kin = self.kinematics
-        if points is None:
-            points = kin.points(X)
         f = (points.feet[:, self.legs] - self._footholds).reshape(n, 3 * k) - Xi
         xi = Xi.reshape(n, k, 3)
         norms = np.sqrt(np.einsum("nki,nki->nk", xi, xi))
@@ -160,50 +166,61 @@ class SampleConstraints:
         centres = points.spheres[:, self.checked]
         threshold = self._threshold  # distance from which a collision row is inactive (+ a margin for rounding)
         if self.relaxed_spheres.size:
-            found = nearest_end(centres[:, self.relaxed_rows], self.relax_ends, jacobians)
-            d, unit = found if jacobians else (found, None)
-            margin, ramp = swing_foot_margin(d, self.relax_radii, self.mode.clearance + self.headroom, self.epsilon,
-                                             self.relax_radius)
+            d = nearest_end(centres[:, self.relaxed_rows], self.relax_ends)
+            margin, _ = swing_foot_margin(d, self.relax_radii, self.mode.clearance + self.headroom, self.epsilon,
+                                          self.relax_radius)
             relaxed = margin - self.mode.foot_clearance
             threshold = np.broadcast_to(threshold, (n, len(self.checked))).copy()
             threshold[:, self.relaxed_rows] += relaxed
         bound = np.broadcast_to(threshold, (n, len(self.checked))).reshape(-1)
-        if jacobians:
-            dist, grad = self.sdf.value_and_gradient(centres.reshape(-1, 3), bound=bound)
-        else:
-            dist = self.sdf.values(centres.reshape(-1, 3), bound=bound)
+        dist = self.sdf.values(centres.reshape(-1, 3), bound=bound)
         collision = self._margins - (dist.reshape(n, -1) - self._radii)
         if self.relaxed_spheres.size:
             collision[:, self.relaxed_rows] += relaxed
         joints = X[:, nx - self.robot.n_joints:]
         limits = np.concatenate([joints, -joints], axis=1) + self._limits
-        r = np.concatenate([f, slack, np.maximum(com, 0.0), np.maximum(collision, 0.0), np.maximum(limits, 0.0)],
-                           axis=1)
-        if not jacobians:
-            return r, None
+        return np.concatenate([f, slack, np.maximum(com, 0.0), np.maximum(collision, 0.0), np.maximum(limits, 0.0)],
+                              axis=1)
+
+    def _jacobian_parts(self, X: np.ndarray, Xi: np.ndarray, points, r: np.ndarray):
+        """The nonzero Jacobian parts of `_rows` at X, Xi given its rows r there: a hinge row max(g, 0) has a
+        derivative where r > 0 (g > 0), so the terrain gradient and the swing-foot ramp are formed only for the
+        active collision rows, which are few (the terrain distance of an active row is exact whatever the bound
+        its value was found with, so its gradient is that of the full evaluation)."""
+        n, nx = X.shape
+        k = len(self.legs)
+        kin = self.kinematics
+        polygon = self.mode.polygon
+        h, c = len(polygon.b), len(self.checked)
+        row = 4 * k + h
         jf = kin.jacobians(points, np.repeat(np.arange(n), k), np.tile(self.legs, n)).reshape(n, 3 * k, nx)
         # g = margin − (b − A·com): rows A·J_com where active
-        jcom = np.einsum("hk,nkx->nhx", polygon.A, kin.com_jacobian(points)[:, :2]) * (com > 0)[..., None]
-        row = 4 * k + len(polygon.b)
-        active, sphere = np.nonzero(collision > 0)
-        # d g / d centre = −∇dist, plus the ramp's slope along the unit vector from the nearer end (relaxed rows)
-        direction = -grad.reshape(n, -1, 3)[active, sphere]
-        if self.relaxed_spheres.size and active.size:
-            which = self._relaxed_index[sphere]
-            on = which >= 0
-            direction[on] += ramp[active[on], which[on], None] * unit[active[on], which[on]]
+        jcom = np.einsum("hk,nkx->nhx", polygon.A, kin.com_jacobian(points)[:, :2]) * (r[:, 4 * k:row] > 0)[..., None]
+        active, sphere = np.nonzero(r[:, row:row + c] > 0)
         if active.size:  # most linearisation points have no active collision row
+            centres = points.spheres[active, self.checked[sphere]]
+            # d g / d centre = −∇dist, plus the ramp's slope along the unit vector from the nearer end (relaxed rows)
+            direction = -self.sdf.value_and_gradient(centres)[1]
+            which = self._relaxed_index[sphere] if self.relaxed_spheres.size else np.zeros(0, np.intp)
+            on = np.flatnonzero(which >= 0)
+            if on.size:
+                w = which[on]
+                d, unit = nearest_end(centres[on][None], self.relax_ends[:, w], True)
+                _, ramp = swing_foot_margin(d[0], self.relax_radii[w], self.mode.clearance + self.headroom,
+                                            self.epsilon, self.relax_radius)
+                direction[on] += ramp[:, None] * unit[0]
             vectors = np.einsum("ka,kax->kx", direction, kin.jacobians(points, active, self._sphere_points[sphere]))
         else:
             vectors = np.zeros((0, nx))
-        on_limit, limit = np.nonzero(limits > 0)
+        on_limit, limit = np.nonzero(r[:, row + c:] > 0)
         unit_rows = np.zeros((len(on_limit), nx))
         unit_rows[np.arange(len(on_limit)), nx - self.robot.n_joints + self._joint_rows[limit]] = self._joint_sign[limit]
+        xi = Xi.reshape(n, k, 3)
+        norms = np.sqrt(np.einsum("nki,nki->nk", xi, xi))
         slack_direction = np.where(norms[..., None] > 0, xi / np.maximum(norms, 1e-300)[..., None], 0.0)
-        slack_direction *= (slack > 0)[..., None]
-        return r, (jf, jcom, np.concatenate([active, on_limit]),
-                   np.concatenate([row + sphere, row + len(self.checked) + limit]),
-                   np.concatenate([vectors, unit_rows]), slack_direction)
+        slack_direction *= (r[:, 3 * k:4 * k] > 0)[..., None]
+        return (jf, jcom, np.concatenate([active, on_limit]), np.concatenate([row + sphere, row + c + limit]),
+                np.concatenate([vectors, unit_rows]), slack_direction)
 
 
 class BezierConstraintBlock(SampledCurveBlock):
@@ -214,8 +231,8 @@ class BezierConstraintBlock(SampledCurveBlock):
     (Σ_k kron(b_k b_kᵀ, G_kᵀG_k), …) come from `legplan.solve.SampledCurveBlock`.
 
     A trial point of LM is evaluated at every sample in one call of the rows (`residual_chunks`) and
-    its kinematics kept: an accepted trial is the next linearisation point (`normal_terms`), which
-    then forms only the Jacobians and the terrain gradients.
+    its kinematics and rows kept: an accepted trial is the next linearisation point (`normal_terms`),
+    which then forms only the Jacobians and the terrain gradients of the active rows.
     """
 
     def __init__(self, constraints: SampleConstraints, degree: int, t):
@@ -225,7 +242,7 @@ class BezierConstraintBlock(SampledCurveBlock):
         self.samples = len(self.t)
         super().__init__(("P", "xi"), bernstein_matrix(self.degree, self.t), constraints.nx,
                          constraints.size, constraints.slack_size)
-        self._trial: tuple[np.ndarray, object] | None = None  # control points of the last trial, their points
+        self._trial: tuple | None = None  # control points and slacks of the last trial, their points and rows
 
     def residual_chunks(self, values):
         """The residuals of `sample_groups`, in their order, from one evaluation of every sample.
@@ -237,14 +254,17 @@ class BezierConstraintBlock(SampledCurveBlock):
         q = self.basis @ values[0].reshape(-1, self.dim)
         points = self.constraints.kinematics.points(q)
         r = self.constraints.residuals(q, values[1].reshape(self.samples, self.slack_dim), points)
-        self._trial = (np.array(values[0], float), points)
+        self._trial = (np.array(values[0], float), np.array(values[1], float), points, r)
         for idx in self.sample_groups():
             yield r[idx].reshape(-1)
 
-    def _kept_points(self, P: np.ndarray):
-        """The kinematics of the last trial if it was at control points `P` (then forgotten), else None."""
+    def _kept(self, P: np.ndarray, xi: np.ndarray):
+        """The kinematics and the rows of the last trial (then forgotten): (points, r) if it was at control
+        points `P`, (points, None) if at `P` with other slacks, (None, None) otherwise."""
         trial, self._trial = self._trial, None
-        return trial[1] if trial is not None and np.array_equal(trial[0], P) else None
+        if trial is None or not np.array_equal(trial[0], P):
+            return None, None
+        return trial[2], (trial[3] if np.array_equal(trial[1], xi) else None)
 
     def sample(self, q, xi, jacobians, index):
         if not jacobians:
@@ -256,7 +276,7 @@ class BezierConstraintBlock(SampledCurveBlock):
         (`SampleConstraints.linearize`)."""
         q = self.basis @ values[0].reshape(-1, self.dim)
         r, compact = self.constraints.linearize(q, values[1].reshape(self.samples, self.slack_dim),
-                                                self._kept_points(values[0]))
+                                                *self._kept(values[0], values[1]))
         terms = self.curve_terms(*compact)
         terms.residual = r.reshape(-1)
         return terms

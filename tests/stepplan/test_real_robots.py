@@ -126,3 +126,35 @@ def test_block_jacobian_on_quadruped_matches_finite_differences(scene):
     assert np.count_nonzero(r) > 20
     report = check_jacobian(block, [P.reshape(-1), xi], step=1e-7)
     assert report.ok(atol=1e-5, rtol=1e-3), report
+
+
+def test_linearization_from_the_rows_at_hand_is_the_full_one(scene):
+    """`SampleConstraints.linearize` given the rows it would compute (an accepted LM trial's) forms the
+    terrain gradients and swing-foot ramps of the active collision rows only: the same r, G, S bit for bit,
+    with active rows of relaxed swing-foot spheres and of other spheres among them."""
+    from legplan.geometry.bezier import elevate
+    from legplan.stepplan.block import SampleConstraints
+    from legplan.stepplan.planner import contact_mode, path_vectors
+
+    robot, terrain, _, q, _, footholds = scene
+    params = StepPlanParams()
+    stance = np.array([False, True, True, True])
+    x0, x1 = path_vectors(robot, q[1], q[2])
+    ends = robot.sphere_centres(robot.from_vector(np.stack([x0, x1])))
+    sc = SampleConstraints(robot, terrain_distance(robot, terrain, params), contact_mode(stance, footholds[1], params),
+                           1e-3, swing_ends=ends, relax_radius=params.relax_radius,
+                           headroom=params.sample_clearance - params.clearance)
+    rng = np.random.default_rng(3)
+    X = elevate(np.stack([x0, x1]), 12) + 0.01 * rng.normal(size=(14, robot.nx))
+    X[:, 2] -= np.linspace(0.0, 0.08, 14)  # sinking: more and more spheres within their clearance
+    Xi = 0.002 * rng.normal(size=(14, sc.slack_size))
+    points = sc.kinematics.points(X)
+    r = sc.residuals(X, Xi, points)
+    computed = sc.linearize(X, Xi, points)
+    given = sc.linearize(X, Xi, points, r)
+    collision = r[:, 4 * stance.sum() + len(sc.mode.polygon.b):][:, :len(sc.checked)] > 0
+    assert collision[:, sc.relaxed_rows].any()
+    assert np.delete(collision, sc.relaxed_rows, axis=1).any()
+    assert np.array_equal(computed[0], given[0]) and np.array_equal(computed[0], r)
+    for a, b in zip(computed[1], given[1]):
+        assert np.array_equal(a, b)
