@@ -139,7 +139,7 @@ def nearest_end(centres, ends, direction: bool = False):
     """Distance (n, k) of sphere centres (n, k, 3) to the nearer of their end positions (2, k, 3);
     with `direction`, (distance, unit vector (n, k, 3) from that end to the centre)."""
     diff = np.asarray(centres)[None] - np.asarray(ends)[:, None]     # (2, n, k, 3)
-    dist = np.linalg.norm(diff, axis=-1)
+    dist = np.sqrt(np.add.reduce(diff * diff, axis=-1))  # numpy's norm along the last axis, without its checks
     if not direction:
         return dist.min(axis=0)
     nearest = np.argmin(dist, axis=0)

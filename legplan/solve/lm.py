@@ -236,7 +236,10 @@ class _DampedSystem:
 
 def _linearize(state: _LMState) -> _DampedSystem | None:
     """Jacobians and eq. (13) at the current point, updating ‖h‖; None if anything is not finite."""
-    linearization = state.problem.normal_equations(state.theta, state.params.assembly, state.schur_parts)
+    if state.schur_parts is None:
+        linearization = state.problem.normal_equations(state.theta, state.params.assembly)
+    else:
+        linearization = state.problem.normal_equations(state.theta, state.params.assembly, schur=state.schur_parts)
     state.timings.evaluate += linearization.evaluate_seconds
     state.timings.assemble += linearization.assemble_seconds
     state.norm = float(np.linalg.norm(linearization.residual))
@@ -297,11 +300,16 @@ def _damped_step(solver: LinearSolver, system: _DampedSystem, state: _LMState) -
 def _negligible_step(state: _LMState, trial: np.ndarray) -> tuple[Status, str] | None:
     """STALLED and its reason if the projected step to `trial` is below `step_tolerance`, else None."""
     tolerance = state.params.step_tolerance
-    taken = np.linalg.norm(trial - state.theta)
-    if taken < tolerance * (np.linalg.norm(state.theta) + tolerance):
+    taken = _norm(trial - state.theta)
+    if taken < tolerance * (_norm(state.theta) + tolerance):
         return Status.STALLED, (f"step ‖Δθ‖ = {taken:.3e} below step_tolerance relative to ‖θ‖ "
                                 f"at λ = {state.lam:.3e}; ‖h‖ = {state.norm:.3e}")
     return None
+
+
+def _norm(v: np.ndarray) -> float:
+    """‖v‖ of a vector as `np.linalg.norm` forms it (√(v·v)), without its argument handling (twice per iteration)."""
+    return float(np.sqrt(v.dot(v)))
 
 
 def _trial_norm(state: _LMState, trial: np.ndarray) -> float:

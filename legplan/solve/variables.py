@@ -69,9 +69,12 @@ class VariableLayout:
         self.lower = self._gather(lambda b: b.lower)
         self.upper = self._gather(lambda b: b.upper)
         self.bounded = bool(np.isfinite(self.lower).any() or np.isfinite(self.upper).any())
-        # blocks without fixed entries own a contiguous range of θ: read as a slice, not a gather
+        # blocks without fixed entries own a contiguous range of θ: read as a slice, not a gather; the others
+        # by their free entries and those entries' columns
         self._ranges = {b.name: slice(int(self.columns[b.name][0]), int(self.columns[b.name][-1]) + 1)
                         for b in blocks if b.size and not b.fixed.any()}
+        self._free = {name: (np.flatnonzero(col >= 0), col[col >= 0]) for name, col in self.columns.items()
+                      if name not in self._ranges}
 
     def _gather(self, attr) -> np.ndarray:
         out = np.empty(self.n)
@@ -96,9 +99,8 @@ class VariableLayout:
                 out[name] = theta[self._ranges[name]].copy()
                 continue
             v = b.value.copy()
-            col = self.columns[name]
-            free = col >= 0
-            v[free] = theta[col[free]]
+            free, columns = self._free[name]
+            v[free] = theta[columns]
             out[name] = v
         return out
 

@@ -83,3 +83,18 @@ def test_block_tangent_product_is_the_dense_product_bit_for_bit(scarab):
     for shape in ((9, scarab.nv), (9, 5, 3, scarab.nv), (9, 3, scarab.nv)):
         jac_v = rng.normal(size=shape) * (rng.random(shape) > 0.3)
         assert np.array_equal(block_tangent_product(jac_v, tangent), np.einsum("n...v,nvx->n...x", jac_v, tangent))
+
+
+def test_nearest_end_is_the_distance_numpy_norm_gives_and_its_direction():
+    """Distances to the nearer end bit for bit as `np.linalg.norm` forms them; the unit vector points from
+    that end to the centre."""
+    from legplan.contact.terms import nearest_end
+
+    rng = np.random.default_rng(2)
+    centres, ends = rng.normal(size=(7, 3, 3)), rng.normal(size=(2, 3, 3))
+    norms = np.linalg.norm(centres[None] - ends[:, None], axis=-1)
+    assert np.array_equal(nearest_end(centres, ends), norms.min(axis=0))
+    d, unit = nearest_end(centres, ends, True)
+    assert np.array_equal(d, norms.min(axis=0))
+    nearer = ends[norms.argmin(axis=0), np.arange(3)]
+    np.testing.assert_allclose(nearer + d[..., None] * unit, centres, atol=1e-12)

@@ -163,3 +163,10 @@ def test_jacobian_assembly_takes_the_steps_of_the_blocks_assembly(make, marquard
         (reference.status, reference.iterations, reference.accepted_steps)
     np.testing.assert_allclose(result.norm_history, reference.norm_history, rtol=1e-6, atol=1e-11)
     np.testing.assert_allclose(result.theta, reference.theta, rtol=1e-7, atol=1e-9)
+
+
+def test_step_norm_is_numpys_vector_norm():
+    from legplan.solve.lm import _norm
+
+    v = np.random.default_rng(4).normal(size=1001) * 1e3
+    assert _norm(v) == float(np.linalg.norm(v)) and _norm(np.zeros(0)) == 0.0
