@@ -22,7 +22,7 @@ _HOMES = {
     **dict.fromkeys(("CholmodSolver", "DenseSolver", "LinearSolver", "NotPositiveDefiniteError", "ScipySolver",
                      "make_solver"), "linsolve"),
     **dict.fromkeys(("LMParams", "LMResult", "Status", "Timings", "solve_lm"), "lm"),
-    **dict.fromkeys(("NormalEquations", "Problem"), "problem"),
+    **dict.fromkeys(("NormalEquations", "Problem", "SchurParts"), "problem"),
     "SchurSolver": "schur",
     **dict.fromkeys(("VariableBlock", "VariableLayout"), "variables"),
 }
@@ -31,7 +31,7 @@ __getattr__, __dir__ = lazy_exports(__name__, _HOMES)
 __all__ = [
     "BlockDiagonal", "CholmodSolver", "DenseSolver", "FunctionBlock", "HingeInequality", "IntervalPenalty",
     "JacobianCheck", "LMParams", "LMResult", "LinearSolver", "NormalEquations", "NormalTerms",
-    "NotPositiveDefiniteError", "Problem", "ResidualBlock", "SchurSolver", "ScipySolver", "Status",
+    "NotPositiveDefiniteError", "Problem", "ResidualBlock", "SchurParts", "SchurSolver", "ScipySolver", "Status",
     "StructuredBlock", "Timings", "VariableBlock", "VariableLayout", "check_jacobian", "check_normal_terms",
     "make_solver", "numeric_jacobian", "solve_lm",
 ]

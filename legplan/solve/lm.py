@@ -18,7 +18,9 @@ Options beyond the paper: ``assembly="jacobian"`` (eq. (13) factorised from J by
 never formed in Python; see `Problem.normal_equations`), Marquardt scaling (λ·diag(JᵀJ) instead
 of λI, applied as a column scaling so CHOLMOD's beta = λ refactorisation still applies),
 projection onto box bounds, and Schur elimination of variables declared with
-`VariableBlock.schur_block`.
+`VariableBlock.schur_block` (for one structured block without Marquardt scaling, eq. (13) reaches the
+Schur solver as its dense pieces, `Problem.normal_equations(schur=…)`; the steps are those of the
+assembled H bit for bit).
 """
 
 from __future__ import annotations

@@ -11,7 +11,10 @@ Per linearisation (`set_matrix`) the blocks are eigendecomposed once, D = V diag
 U = B·blockdiag(V) is formed; then for every β (`refactor`, one per LM iteration)
 (D+βI)⁻¹ = V diag(1/(e+β)) Vᵀ and the reduced matrix is A + βI − U diag(1/(e+β)) Uᵀ: one scaled
 product, no per-β block inverses.
-`SchurSolver` is a `LinearSolver` wrapping another one, so LM does not know it is there.
+`SchurSolver` is a `LinearSolver` wrapping another one, so LM does not know it is there. A problem
+of one structured block over a kept and an eliminated variable (the Bézier step) can hand over
+A, B and the blocks of D directly (`set_parts`, `legplan.solve.problem.SchurParts`): the same
+numbers as gathered from the assembled H, without H.
 When B has at most `dense_limit` entries (e.g. few control points coupled to all slacks, as in
 the Bézier planner) B and the reduced matrix are dense and the products go to BLAS; otherwise
 they stay sparse (e.g. bundle adjustment with many poses).

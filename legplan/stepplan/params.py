@@ -34,7 +34,9 @@ Extras (not in Table I, chosen here):
   `bench/swing_stops.py` sets it, and degree-2 passes cut at a fixed iteration (what any early
   termination test of that pass gives), against Algorithm 1 on every whole swing.
 * `linear_solver`, `assembly`: passed to `legplan.solve.LMParams` (`assembly="blocks"` uses the
-  structured JᵀJ of the Bézier block; "stacked" forms JᵀJ from the sparse Jacobian — the general path).
+  structured JᵀJ of the Bézier block, whose dense pieces reach the Schur elimination without a sparse
+  JᵀJ being assembled, `legplan.solve.SchurParts`; "stacked" forms JᵀJ from the sparse Jacobian — the
+  general path).
   `linear_solver="dense"`: LM eliminates the slacks (Schur complement), and what is left, (d − 1)·nx
   control-point unknowns that every sample couples, is a small dense matrix, for which LAPACK's
   Cholesky costs less than CHOLMOD and the conversion to a sparse matrix it needs. The choice of
