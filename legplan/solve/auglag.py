@@ -210,8 +210,8 @@ class _AugmentedRows(ResidualBlock):
         c = np.asarray(c, float)
         factor = np.sqrt(self.mu) * self.sign * self.constraint.scale[self.pick]
         r = factor * (c[self.pick] - self.bound) + self.y / np.sqrt(self.mu)
-        if not jacobians:
-            self._last = (list(values), c)
+        if not jacobians:  # copies: a caller may change its arrays in place, a block reuse its buffers
+            self._last = ([np.array(v, float) for v in values], c.copy())
             return r, None
         pick = self._jacobian_pick
         if not self._pickers:
@@ -235,8 +235,8 @@ class _AugmentedRows(ResidualBlock):
         there another way (complex steps), equal only to rounding."""
         last = self._last
         if last is not None and len(last[0]) == len(values) and all(
-                a is b or np.array_equal(a, b) for a, b in zip(last[0], values)):
-            return last[1]
+                np.array_equal(a, b) for a, b in zip(last[0], values)):
+            return last[1].copy()
         return np.asarray(self.constraint.block.evaluate(values, False)[0], float)
 
     def update(self, c: np.ndarray) -> None:

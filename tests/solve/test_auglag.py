@@ -309,11 +309,13 @@ def test_constraint_values_reuse_the_last_plain_evaluation_at_the_same_values_on
     assert len(calls) == 1
     c = rows.constraint_values([x.copy()])  # equal values, another array
     assert len(calls) == 1 and np.array_equal(c, [x[0] ** 2 + x[1], np.sin(x[1])])
+    x[1] = 0.4  # the caller's array changed in place: its values are new ones
+    assert np.array_equal(rows.constraint_values([x]), [x[0] ** 2 + x[1], np.sin(x[1])]) and len(calls) == 2
     y = np.array([0.3, -0.1])
-    assert np.array_equal(rows.constraint_values([y]), [y[0] ** 2 + y[1], np.sin(y[1])]) and len(calls) == 2
+    assert np.array_equal(rows.constraint_values([y]), [y[0] ** 2 + y[1], np.sin(y[1])]) and len(calls) == 3
     rows.evaluate([y], True)  # a Jacobian evaluation is not reused
     rows.constraint_values([y])
-    assert len(calls) == 4
+    assert len(calls) == 5
 
 
 def test_reported_violations_are_those_of_the_constraints_at_the_solution():
