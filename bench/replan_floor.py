@@ -32,8 +32,8 @@ from dataclasses import replace  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result  # noqa: E402
-from replan import PUSH_VELOCITY, TASK  # noqa: E402
+from common import code_version, load_average, machine, update_benchmarks, write_result  # noqa: E402
+from replan import PUSH_VELOCITY, TASK, pallet_plan  # noqa: E402
 
 
 def main() -> None:
@@ -44,23 +44,15 @@ def main() -> None:
     args = parser.parse_args()
 
     from legplan.dyn.costs import CostWeights
-    from legplan.dyn.planner import plan
-    from legplan.dyn.problem import DynTask, build_problem
+    from legplan.dyn.problem import build_problem
     from legplan.dyn.replan import MeasuredState, Previous, ReplanParams, ReplanTask, ShiftedInit, remaining_gait, replan
     from legplan.dyn.settings import PAPER
-    from legplan.dyn.tasks import centroidal_model
-    from legplan.dyn.terrain import TerrainModel
-    from legplan.robots import load_robot
     from legplan.solve.auglag import _AugmentedRows, row_tolerances
     from legplan.solve.hinged import solve_hinged_lm
     from legplan.solve.problem import Problem
-    from legplan.terrain.spec import build_map
 
     load_start = load_average()
-    model = centroidal_model(load_robot("anymal"), PAPER, "paper")
-    terrain = TerrainModel(build_map(ROOT / "maps" / "single_pallet.yaml"))
-    task = DynTask(*TASK, "walk", 4, 5.5)
-    planned = plan(task, model, terrain, PAPER)
+    model, terrain, task, planned = pallet_plan()
     previous = Previous.from_plan(planned)
     replan(previous, MeasuredState.from_samples(planned.samples, 0.05), model, terrain, PAPER)  # imports, caches
     settings = ReplanParams()

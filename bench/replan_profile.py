@@ -25,8 +25,8 @@ import time  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from common import ROOT, load_average, machine, write_result  # noqa: E402
-from replan import PUSH_VELOCITY, TASK  # noqa: E402
+from common import load_average, machine, write_result  # noqa: E402
+from replan import PUSH_VELOCITY, pallet_plan  # noqa: E402
 
 SPENT: dict[str, float] = collections.defaultdict(float)
 CALLS: collections.Counter = collections.Counter()
@@ -67,20 +67,11 @@ def main() -> None:
     import legplan.solve.hinged as hinged
     import legplan.solve.linsolve as linsolve
     import legplan.solve.problem as problem
-    from legplan.dyn.planner import plan
-    from legplan.dyn.problem import DynTask
     from legplan.dyn.replan import MeasuredState, replan
     from legplan.dyn.settings import PAPER
-    from legplan.dyn.tasks import centroidal_model
-    from legplan.dyn.terrain import TerrainModel
-    from legplan.robots import load_robot
-    from legplan.terrain.spec import build_map
 
     load_start = load_average()
-    model = centroidal_model(load_robot("anymal"), PAPER, "paper")
-    terrain = TerrainModel(build_map(ROOT / "maps" / "single_pallet.yaml"))
-    task = DynTask(*TASK, "walk", 4, 5.5)
-    planned = plan(task, model, terrain, PAPER)
+    model, terrain, task, planned = pallet_plan()
     replan(planned, MeasuredState.from_samples(planned.samples, 0.05), model, terrain, PAPER)  # imports, caches
 
     jacobian = problem.Problem.nonzero_jacobian
