@@ -121,6 +121,24 @@ def main() -> None:
         update_benchmarks(args.result, markdown(result, args))
 
 
+def pallet_plan():
+    """The bench's plan as `main` makes it: the planner's model of ANYmal, the single pallet map, the
+    task (`TASK`, walk, 4 strides, 5.5 s) and its plan with the paper's costs; for the benches that
+    replan the same plan (`bench/replan_floor.py`, `bench/replan_profile.py`)."""
+    from legplan.dyn.planner import plan
+    from legplan.dyn.problem import DynTask
+    from legplan.dyn.settings import PAPER
+    from legplan.dyn.tasks import centroidal_model
+    from legplan.dyn.terrain import TerrainModel
+    from legplan.robots import load_robot
+    from legplan.terrain.spec import build_map
+
+    model = centroidal_model(load_robot("anymal"), PAPER, "paper")
+    terrain = TerrainModel(build_map(ROOT / "maps" / "single_pallet.yaml"))
+    task = DynTask(*TASK, "walk", 4, 5.5)
+    return model, terrain, task, plan(task, model, terrain, PAPER)
+
+
 def markdown(r: dict, args) -> str:
     met = "met" if r["median"] <= TARGET_MEDIAN and r["p95"] <= TARGET_P95 else "not met"
     per_run = ", ".join(f"{x['median'] * 1e3:.0f}/{x['p95'] * 1e3:.0f}" for x in r["runs"])

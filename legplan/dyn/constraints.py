@@ -38,7 +38,7 @@ from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import (PHASES, PhaseTiming, TimedControlPoints, TimedSamples, invalid_timing, phase_jacobian,
                                 refresh)
 from legplan.geometry.hermite import SampledJacobian, hermite_weights, kron_dim
-from legplan.geometry.sparse import wrapped
+from legplan.geometry.sparse import times, wrapped
 from legplan.robots.so3 import skew
 from legplan.solve import ResidualBlock
 from legplan.solve.blocks import LinearBlock
@@ -141,10 +141,10 @@ class DynamicsBlock(ResidualBlock):
         if self.timing is not None and not self._retime(values[4]):
             return invalid_timing(self, jacobians)
         lin, ang, feet, forces = (_nodes(v) for v in values[:4])
-        p0, p1, p2 = (m @ lin for m in self.base)
-        e, ed, edd = (m @ ang for m in self.base)
-        pf = [m @ feet for m in self.feet]
-        f = [m @ forces for m in self.forces]
+        p0, p1, p2 = (times(m, lin) for m in self.base)
+        e, ed, edd = (times(m, ang) for m in self.base)
+        pf = [times(m, feet) for m in self.feet]
+        f = [times(m, forces) for m in self.forces]
         linear = self.mass * p2 - sum(f)
         linear[:, 2] += self.mass * GRAVITY
         if jacobians:
@@ -212,7 +212,7 @@ class RangeOfMotionBlock(ResidualBlock):
         if self.timing is not None and not self._retime(values[3]):
             return None
         lin, ang, feet = (_nodes(v) for v in values[:3])
-        return self.base @ lin, self.base @ ang, self.foot @ feet
+        return times(self.base, lin), times(self.base, ang), times(self.foot, feet)
 
     def _jacobians(self, j_p, j_e, j_q, values) -> list:
         """The block's Jacobians from the per-sample ones (n, rows, 3) w.r.t. p, e and q."""
@@ -355,8 +355,8 @@ class JointTorqueBlock(RangeOfMotionBlock):
         if self.timing is not None and not self._retime(values[4]):
             return invalid_timing(self, jacobians)
         lin, ang, feet, forces = (_nodes(v) for v in values[:4])
-        p, e, q = self.base @ lin, self.base @ ang, self.foot @ feet
-        f = self.force @ forces
+        p, e, q = times(self.base, lin), times(self.base, ang), times(self.foot, feet)
+        f = times(self.force, forces)
         rot = rotation(e)
         b = self._in_base(e, q - p, rot) + self.offset
         g = self._in_base(e, f, rot)
@@ -432,7 +432,7 @@ class FootTerrainBlock(ResidualBlock):
     def evaluate(self, values, jacobians):
         if self.samples is not None and not self._retime(values[1]):
             return invalid_timing(self, jacobians)
-        q = self.matrix @ _nodes(values[0])
+        q = times(self.matrix, _nodes(values[0]))
         if not jacobians:
             return self._row(q), None
         r, j = self._row_jacobian(q)
@@ -523,7 +523,7 @@ class ForceBlock(ResidualBlock):
     def evaluate(self, values, jacobians):
         if self.samples is not None and not self._retime(values[2]):
             return invalid_timing(self, jacobians)
-        q, f = self.foot @ _nodes(values[0]), self.force @ _nodes(values[1])
+        q, f = times(self.foot, _nodes(values[0])), times(self.force, _nodes(values[1]))
         if not jacobians:
             return self._rows(f, q).reshape(-1), None
         r, (j_f, j_q) = complex_step(self._rows, (f, q), (0, 1))
@@ -620,7 +620,7 @@ class BaseAboveFeetBlock(ResidualBlock):
                 return invalid_timing(self, jacobians)
             if changed:
                 self._stack()
-        r = self.base @ values[0] - self.feet @ values[1]
+        r = times(self.base, values[0]) - times(self.feet, values[1])
         if not jacobians:
             return r, None
         out = [self.base, -self.feet]

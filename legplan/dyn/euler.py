@@ -130,4 +130,7 @@ def cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     several times the arithmetic for a few hundred vectors); the same floating-point operations."""
     a0, a1, a2 = a[..., 0], a[..., 1], a[..., 2]
     b0, b1, b2 = b[..., 0], b[..., 1], b[..., 2]
-    return np.stack([a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0], axis=-1)
+    x = a1 * b2 - a2 * b1
+    out = np.empty(x.shape + (3,), np.result_type(a, b))  # as np.stack's, without its checks
+    out[..., 0], out[..., 1], out[..., 2] = x, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+    return out

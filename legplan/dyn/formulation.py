@@ -138,7 +138,12 @@ class Formulation:
     def node_selector(nodes: list[int], total: int, derivative: int = 0) -> sp.csr_matrix:
         """(len(nodes) × 2·total) rows picking node values (derivative 0) or node derivatives."""
         cols = 2 * np.asarray(nodes, int) + derivative
-        return sp.csr_matrix((np.ones(len(nodes)), (np.arange(len(nodes)), cols)), shape=(len(nodes), 2 * total))
+        if cols.size and not 0 <= cols.min() <= cols.max() < 2 * total:
+            raise ValueError(f"node selector: nodes outside 0..{total - 1}")
+        index = np.int32 if 2 * total < np.iinfo(np.int32).max else np.int64  # scipy's choice
+        # one entry per row: the canonical CSR at once, as scipy's COO conversion gives it
+        return wrapped(sp.csr_matrix, np.ones(cols.size), cols.astype(index), np.arange(cols.size + 1, dtype=index),
+                       (cols.size, 2 * total))
 
     # --- variables ----------------------------------------------------------------------------------
     def variables(self, start: Pose, goal: Pose, start_feet: np.ndarray, guess: dict[str, np.ndarray]
@@ -295,5 +300,5 @@ def _foot_nodes(phases: list[FootPhase], motion_offset: int, force_offset: int) 
 def _embed(m: sp.csr_matrix, offset: int, total: int) -> sp.csr_matrix:
     """Shift the columns of a per-foot matrix into the all-feet node array (2 columns per node): the
     same valid index arrays, shifted (`wrapped`: no check of them again)."""
-    m = sp.csr_matrix(m)
+    m = m if type(m) is sp.csr_matrix else sp.csr_matrix(m)
     return wrapped(sp.csr_matrix, m.data, m.indices + 2 * offset, m.indptr, (m.shape[0], 2 * total))

@@ -124,7 +124,8 @@ class NodeSpline:
         a task space samples splines of the same segments at the same times (in profiles of learned
         pallet solves, building them again was 7-9 % of the time)."""
         t = np.ascontiguousarray(times, float).reshape(-1)
-        return _sampling_matrix(tuple(self.segments), self.nodes, t.tobytes(), derivative).copy()
+        m = _sampling_matrix(tuple(self.segments), self.nodes, t.tobytes(), derivative)
+        return wrapped(sp.csr_matrix, m.data.copy(), m.indices.copy(), m.indptr.copy(), m.shape)  # valid: a copy
 
     def _matrix(self, t: np.ndarray, derivative: int) -> sp.csr_matrix:
         seg = self.segment_index(t)
@@ -256,7 +257,7 @@ class SampledJacobian:
     """
 
     def __init__(self, matrices, rows: int, samples: int, columns: int):
-        self.matrices = [sp.csr_matrix(m) for m in matrices]
+        self.matrices = [m if type(m) is sp.csr_matrix else sp.csr_matrix(m) for m in matrices]
         self.rows, self.samples, self.columns = rows, samples, columns
         self.slot = None
 

@@ -189,6 +189,7 @@ class _AugmentedRows(ResidualBlock):
         self.mu = 1.0
         self.y = np.zeros(self.size)
         self._pickers: list[_RowPicker] = []
+        self._last: tuple[list[np.ndarray], np.ndarray] | None = None  # `constraint_values`' reuse
         # Jacobian rows: the equality and upper-bound rows, then the lower-bound rows without an upper
         # bound; a lower-bound row with one shares that row, negated
         before = self.rows[0].size + self.rows[1].size
@@ -206,9 +207,11 @@ class _AugmentedRows(ResidualBlock):
 
     def evaluate(self, values, jacobians):
         c, jacs = self.constraint.block.evaluate(values, jacobians)
+        c = np.asarray(c, float)
         factor = np.sqrt(self.mu) * self.sign * self.constraint.scale[self.pick]
-        r = factor * (np.asarray(c, float)[self.pick] - self.bound) + self.y / np.sqrt(self.mu)
-        if not jacobians:
+        r = factor * (c[self.pick] - self.bound) + self.y / np.sqrt(self.mu)
+        if not jacobians:  # copies: a caller may change its arrays in place, a block reuse its buffers
+            self._last = ([np.array(v, float) for v in values], c.copy())
             return r, None
         pick = self._jacobian_pick
         if not self._pickers:
@@ -223,6 +226,18 @@ class _AugmentedRows(ResidualBlock):
         c = np.asarray(self.constraint.block.residual_rows(values, needed), float)[at]
         factor = np.sqrt(self.mu) * self.sign[rows] * self.constraint.scale[self.pick[rows]]
         return factor * (c - self.bound[rows]) + self.y[rows] / np.sqrt(self.mu)
+
+    def constraint_values(self, values) -> np.ndarray:
+        """c(θ) of the constraint at the variable values `values`: the values of this block's last
+        evaluation without Jacobians when it read these very values (the hinged LM's last trial
+        point is the subproblem's solution, whose constraint values the outer iteration reads
+        next), else evaluated. A Jacobian evaluation is never reused: a block may form its residual
+        there another way (complex steps), equal only to rounding."""
+        last = self._last
+        if last is not None and len(last[0]) == len(values) and all(
+                np.array_equal(a, b) for a, b in zip(last[0], values)):
+            return last[1].copy()
+        return np.asarray(self.constraint.block.evaluate(values, False)[0], float)
 
     def update(self, c: np.ndarray) -> None:
         """First-order multiplier update at the subproblem's solution (of the scaled rows); the
@@ -324,7 +339,7 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
         for name in ("evaluate", "assemble", "factorize", "solve"):
             setattr(timings, name, getattr(timings, name) + getattr(result.timings, name))
         values = problem.layout.values(theta)
-        c_now = [np.asarray(k.block.evaluate([values[v] for v in k.block.variables], False)[0]) for k in constraints]
+        c_now = [r.constraint_values([values[v] for v in r.variables]) for r in rows]
         violation = max((float(k.violation(c).max()) if c.size else 0.0 for k, c in zip(constraints, c_now)),
                         default=0.0)
         cost_terms = evaluate_costs(costs, values)

@@ -15,6 +15,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import scipy.sparse as sp
 
+from legplan.geometry.sparse import times
+
 Matrix = np.ndarray | sp.sparray | sp.spmatrix
 
 
@@ -140,5 +142,5 @@ class LinearBlock(ResidualBlock):
         self.offset = np.broadcast_to(np.asarray(offset, float), (self.size,))
 
     def evaluate(self, values, jacobians):
-        r = sum(m @ np.asarray(v, float) for m, v in zip(self.matrices, values)) - self.offset
+        r = sum(times(m, np.asarray(v, float)) for m, v in zip(self.matrices, values)) - self.offset
         return r, (list(self.matrices) if jacobians else None)

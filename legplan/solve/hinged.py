@@ -64,7 +64,7 @@ from dataclasses import dataclass
 import numpy as np
 import scipy.sparse as sp
 
-from legplan.geometry.sparse import wrapped
+from legplan.geometry.sparse import times, wrapped
 from legplan.parameters import Parameters, param
 from legplan.solve.linsolve import CholmodSolver, NotPositiveDefiniteError
 from legplan.solve.lm import MARQUARDT_FLOOR, LMResult, Status, Timings
@@ -335,7 +335,7 @@ def held_at_bounds(layout, theta: np.ndarray, J, v: np.ndarray, hinged: np.ndarr
 
 def _times(J, d: np.ndarray, rows) -> np.ndarray:
     """J_full d for J_full = diag(sign)·J[jrow] (`rows` = (jrow, sign) of `Problem.row_map`), or J d."""
-    product = J @ d
+    product = times(J, d)
     return product if rows is None else rows[1] * product[rows[0]]
 
 

@@ -204,8 +204,9 @@ class Problem:
             raise ValueError(f"{type(block).__name__} returned {r.size} residuals, declared size {block.size}")
         return r
 
-    def _coo(self, key: tuple, term: Matrix | BlockDiagonal, rowmap: np.ndarray, colmap: np.ndarray):
-        """COO triplets of `term` in θ coordinates (rows via `rowmap`, cols via `colmap`, -1 = drop)."""
+    def _coo(self, key: tuple, term: Matrix | BlockDiagonal, rowmap: np.ndarray | int, colmap: np.ndarray):
+        """COO triplets of `term` in θ coordinates (rows via `rowmap`, or from the first row `rowmap` on
+        when it is an integer; cols via `colmap`; -1 = drop)."""
         if isinstance(term, BlockDiagonal):
             cached = self._index_cache.get(key + ("bd", term.blocks.shape))
             if cached is None:
@@ -237,8 +238,13 @@ class Problem:
 
     @staticmethod
     def _mapped(r, c, rowmap, colmap):
-        rows, cols = rowmap[r], colmap[c]
-        keep = (rows >= 0) & (cols >= 0)
+        """`rowmap` an index array (-1 = drop), or an integer: the block's first row, every row kept."""
+        if isinstance(rowmap, np.ndarray):
+            rows, cols = rowmap[r], colmap[c]
+            keep = (rows >= 0) & (cols >= 0)
+        else:
+            rows, cols = np.asarray(r, np.int64) + rowmap, colmap[c]
+            keep = cols >= 0
         if keep.all():  # no fixed entry: a slice takes the values without copying them
             return rows, cols, slice(None)
         return rows[keep], cols[keep], np.flatnonzero(keep)
@@ -329,9 +335,9 @@ class Problem:
         for k, (block, _) in enumerate(self._blocks):
             r, jacs = self._weighted_linearization(values, k)
             residuals.append(r)
-            rowmap = np.arange(self._jacobian_offsets[k], self._jacobian_offsets[k + 1])
+            first = int(self._jacobian_offsets[k])  # the block's rows: first, first + 1, ...
             for i, (name, jac) in enumerate(zip(block.variables, jacs)):
-                rr, cc, vv = self._coo(("J", k, i), jac, rowmap, layout.columns[name])
+                rr, cc, vv = self._coo(("J", k, i), jac, first, layout.columns[name])
                 rows.append(rr), cols.append(cc), vals.append(vv)
         return _cat(residuals, float), rows, cols, vals
 

@@ -132,3 +132,23 @@ def test_a_slow_trots_pairs_hand_over_at_knots_and_a_walk_keeps_even_knots():
     walk = make_gait("walk", 4, 5.5, line_support=0.343)
     assert not pair_switches(walk).any()
     assert Formulation(walk, 0.1, unloaded_polynomials=8).knots == pytest.approx(np.linspace(0.0, 5.5, 56))
+
+
+def test_node_selector_is_scipys_csr_of_the_picked_columns():
+    """`Formulation.node_selector` (its CSR written down directly) equals scipy's COO → CSR of one 1
+    per row at column 2·node + derivative, array by array, dtypes included; a node outside the
+    spline is refused."""
+    import scipy.sparse as sp
+
+    nodes = [4, 0, 2, 2, 7]
+    for derivative in (0, 1):
+        m = Formulation.node_selector(nodes, 8, derivative)
+        m.check_format(full_check=True)
+        expected = sp.csr_matrix((np.ones(len(nodes)), (np.arange(len(nodes)), 2 * np.array(nodes) + derivative)),
+                                 shape=(len(nodes), 16))
+        for name in ("data", "indices", "indptr"):
+            np.testing.assert_array_equal(getattr(m, name), getattr(expected, name))
+            assert getattr(m, name).dtype == getattr(expected, name).dtype
+    assert Formulation.node_selector([], 3).shape == (0, 6)
+    with pytest.raises(ValueError):
+        Formulation.node_selector([3], 3)

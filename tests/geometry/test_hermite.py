@@ -122,3 +122,26 @@ def test_sampled_jacobian_structure_of_one_pattern_is_the_sorted_one():
             swapped[[k, k + 1]] = swapped[[k + 1, k]]
             assert _one_pattern_structure(rows, samples, 3 * nodes, pattern[0], pattern[1], pattern[2],
                                           swapped.tobytes(), 1) is None
+
+
+def test_sampling_matrix_is_a_valid_copy_of_the_cached_one():
+    """`NodeSpline.matrix` hands out a copy of its cached matrix (built without scipy's checks): it
+    passes scipy's format check, equals the matrix of `matrix_at`, and changing it leaves the next
+    call's matrix as it was."""
+    from legplan.geometry.hermite import NodeSpline, Segment
+
+    spline = NodeSpline([Segment(0, 0.3, 0, 1), Segment(0.3, 0.5, 1), Segment(0.5, 0.9, 1, 2)], 3)
+    t = np.array([0.0, 0.1, 0.3, 0.4, 0.7, 0.9])
+    for derivative in range(3):
+        m = spline.matrix(t, derivative)
+        m.check_format(full_check=True)
+        seg = spline.segment_index(t)
+        expected = spline.matrix_at(seg, np.clip((t - spline.starts[seg]) / (spline.ends - spline.starts)[seg], 0, 1),
+                                    derivative)
+        for name in ("data", "indices", "indptr"):
+            np.testing.assert_array_equal(getattr(m, name), getattr(expected, name))
+        m.data[:] = 7.0
+        m.indices[:] = 0
+        again = spline.matrix(t, derivative)
+        np.testing.assert_array_equal(again.data, expected.data)
+        np.testing.assert_array_equal(again.indices, expected.indices)

@@ -288,3 +288,51 @@ def test_picked_pattern_is_scipys_row_selection():
                   np.repeat(np.arange(pick.size), np.diff(numbers.indptr)))
         for got, want in zip((source, indices, indptr, row), expect):
             assert got.dtype == want.dtype and np.array_equal(got, want)
+
+
+def test_constraint_values_reuse_the_last_plain_evaluation_at_the_same_values_only():
+    """`_AugmentedRows.constraint_values` gives the constraint's values c(θ) of its last evaluation
+    without Jacobians when it is asked at those very values (no evaluation of the block), and
+    evaluates the block otherwise: at other values, and after a Jacobian evaluation only (which a
+    block may form another way)."""
+    from legplan.solve.auglag import _AugmentedRows
+
+    calls = []
+
+    def fn(x):
+        calls.append(x.copy())
+        return np.array([x[0] ** 2 + x[1], np.sin(x[1])]), [np.array([[2 * x[0], 1.0], [0.0, np.cos(x[1])]])]
+
+    rows = _AugmentedRows(Constraint(FunctionBlock(["x"], 2, fn), [-1.0, -np.inf], [1.0, 0.5]))
+    x = np.array([0.3, -0.2])
+    rows.evaluate([x], False)
+    assert len(calls) == 1
+    c = rows.constraint_values([x.copy()])  # equal values, another array
+    assert len(calls) == 1 and np.array_equal(c, [x[0] ** 2 + x[1], np.sin(x[1])])
+    x[1] = 0.4  # the caller's array changed in place: its values are new ones
+    assert np.array_equal(rows.constraint_values([x]), [x[0] ** 2 + x[1], np.sin(x[1])]) and len(calls) == 2
+    y = np.array([0.3, -0.1])
+    assert np.array_equal(rows.constraint_values([y]), [y[0] ** 2 + y[1], np.sin(y[1])]) and len(calls) == 3
+    rows.evaluate([y], True)  # a Jacobian evaluation is not reused
+    rows.constraint_values([y])
+    assert len(calls) == 5
+
+
+def test_reported_violations_are_those_of_the_constraints_at_the_solution():
+    """The solve's violations and scaled violation (from the constraint values it reuses) equal those
+    of the constraints evaluated afresh at the returned values, bit for bit."""
+    from legplan.solve.auglag import scaled_violation
+
+    def circle_fn(x):
+        return np.array([x @ x]), [2 * x[None]]
+
+    def line_fn(x):
+        return np.array([x[0] - 2 * x[1]]), [np.array([[1.0, -2.0]])]
+
+    constraints = [Constraint(FunctionBlock(["x"], 1, circle_fn), 1.0, 1.0, "circle", 10.0),
+                   Constraint(FunctionBlock(["x"], 1, line_fn), -np.inf, 0.1, "line", 0.5)]
+    r = solve_augmented_lagrangian([VariableBlock("x", np.array([1.5, -0.4]))], [], constraints)
+    c = [k.block.evaluate([r.values["x"]], False)[0] for k in constraints]
+    assert r.success
+    assert r.violations == {k.name: float(k.violation(v).max()) for k, v in zip(constraints, c)}
+    assert r.scaled_violation == scaled_violation(constraints, c)
