@@ -592,41 +592,53 @@ def swing_height(form: Formulation) -> LinearBlock:
 
 
 class BaseAboveFeetBlock(ResidualBlock):
-    """Base z minus each foot's z at `times` (legs × times rows, leg after leg): the paper's base
-    clearance. Linear in the nodes; with a `timing` the feet move with the phase durations."""
+    """Base z minus foot `leg`'s z at `times` (one row a time): the paper's base clearance, held
+    leg by leg at that leg's own samples (its swings move fastest). The base is the base frame's
+    origin, where the independent check measures it: p = c − R(e) o (c the planner's CoM spline, o
+    the CoM in the base frame, `Centroidal.com_offset`), so the row is c_z − (R o)_z − p_i,z, linear
+    in the nodes when o = 0 and otherwise through ∂R/∂e. With a `timing` the foot moves with the
+    phase durations."""
 
-    variables = ("base_lin", "feet")
-
-    def __init__(self, form: Formulation, times: np.ndarray, timing: PhaseTiming | None = None):
-        self.n, self.legs = np.asarray(times).size, form.legs
-        self.size = self.n * self.legs
-        self.base = kron_dim(sp.vstack([form.base_matrix(times)] * form.legs))[2::3]
+    def __init__(self, form: Formulation, leg: int, times: np.ndarray, timing: PhaseTiming | None = None,
+                 com_offset=(0.0, 0.0, 0.0)):
+        self.size = self.n = np.asarray(times).size
+        self.offset = np.asarray(com_offset, float)
+        self.turning = bool(self.offset.any())
+        self.variables = ("base_lin",) + (("base_ang",) if self.turning else ()) + ("feet",)
+        self.base = kron_dim(form.base_matrix(times))[2::3]
+        self.angles = kron_dim(form.base_matrix(times)) if self.turning else None
         self.timing = timing
         if timing is None:
-            self.samples = []
-            self.feet = kron_dim(sp.vstack([form.foot_matrix(leg, times) for leg in range(form.legs)]))[2::3]
+            self.sample = None
+            self.feet = kron_dim(form.foot_matrix(leg, times))[2::3]
         else:
-            self.variables = BaseAboveFeetBlock.variables + (PHASES,)
-            self.samples = [TimedSamples(timing, "motion", leg, times) for leg in range(form.legs)]
-            self._stack()
-
-    def _stack(self) -> None:
-        self.feet = kron_dim(sp.vstack([s.matrix for s in self.samples]))[2::3]
+            self.variables = self.variables + (PHASES,)
+            self.sample = TimedSamples(timing, "motion", leg, times)
+            self.feet = kron_dim(self.sample.matrix)[2::3]
 
     def evaluate(self, values, jacobians):
+        base, feet = values[0], values[2 if self.turning else 1]
         if self.timing is not None:
-            changed, valid = refresh(self.samples, values[2])
+            changed, valid = refresh([self.sample], values[-1])
             if not valid:
                 return invalid_timing(self, jacobians)
             if changed:
-                self._stack()
-        r = times(self.base, values[0]) - times(self.feet, values[1])
+                self.feet = kron_dim(self.sample.matrix)[2::3]
+        r = times(self.base, base) - times(self.feet, feet)
+        if self.turning:
+            e = times(self.angles, values[1]).reshape(-1, 3)
+            r = r - rotation(e)[:, 2] @ self.offset
         if not jacobians:
             return r, None
-        out = [self.base, -self.feet]
+        out = [self.base]
+        if self.turning:
+            dz_de = -np.einsum("nlj,j->nl", rotation_derivatives(e)[:, :, 2], self.offset)  # −∂(R o)_z/∂e
+            rows = sp.csr_matrix((dz_de.reshape(-1), np.arange(3 * self.n), np.arange(0, 3 * self.n + 1, 3)),
+                                 shape=(self.n, 3 * self.n))  # row k: ∂row_k/∂e_k
+            out.append((rows @ self.angles).tocsr())
+        out.append(-self.feet)
         if self.timing is not None:
             e_z = np.zeros((self.n, 1, 3))
             e_z[:, 0, 2] = -1.0
-            out.append(sp.vstack([phase_jacobian([(e_z, s, values[1])], self.n, self.timing.size)
-                                  for s in self.samples]).tocsr())
+            out.append(phase_jacobian([(e_z, self.sample, feet)], self.n, self.timing.size).tocsr())
         return r, out

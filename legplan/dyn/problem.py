@@ -411,12 +411,17 @@ def _swing_height(c: BuildContext) -> list[Constraint]:
     return [Constraint(swing_height(form), c.params.swing_height_min, np.inf, name="swing_height", scale=1.0 / LENGTH)]
 
 
-@constraint("base_clearance")
+@constraint("base_clearance", per_leg=True)
 def _base_clearance(c: BuildContext) -> list[Constraint]:
-    if c.params.base_clearance is None:
-        return []
+    """Held at the leg's range-of-motion samples, and with fixed phases also at the plan's samples
+    inside its swings (where the independent check judges `base_above_feet` and a foot rises fastest)."""
     p = c.problem
-    return [Constraint(BaseAboveFeetBlock(p.form, c.times["range"], p.timing), c.params.base_clearance, np.inf,
+    if c.params.base_clearance is None or not c.range_times.size:
+        return []
+    times = c.range_times
+    if p.timing is None and c.swing_times.size:
+        times = np.union1d(times, _window(_grid_times(c.foot, SAMPLE_DT), c.until))
+    return [Constraint(BaseAboveFeetBlock(p.form, c.leg, times, p.timing, p.com_offset), c.params.base_clearance, np.inf,
                        name="base_clearance", scale=1.0 / LENGTH)]
 
 

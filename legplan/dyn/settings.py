@@ -114,7 +114,10 @@ class DynParams(Parameters):
     costs: CostWeights = param(CostWeights(), doc="the paper's cost weights (Sec. III-A-1, III-A-2)")
     swing_height_min: float | None = param(None, "[0, inf)",
                                            doc="m: swing apex above both adjacent footholds (paper); None = off")
-    base_clearance: float | None = param(None, "[0, inf)", doc="m: base z minus every foot's z (paper); None = off")
+    base_clearance: float | None = param(0.005, "[0, inf)", doc=(
+        "m: base z minus every foot's z, leg by leg at its samples (the paper's rows; its preset 0.2): on "
+        "by default, since the independent check judges `base_above_feet` >= 0 on every plan, with a margin "
+        "for the solver's feasibility tolerance; None = off"))
     leg_clearance: float | None = param(0.02, "[0, inf)", doc=(
         "m: the surfaces of the legs' collision spheres (all but the feet) stay this far above the "
         "terrain's envelope at the range-of-motion samples (LegClearanceBlock): on by default, since the "

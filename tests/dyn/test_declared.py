@@ -18,9 +18,10 @@ def test_the_declared_names_are_the_problems_blocks_in_order(anymal, flat):
     plain = build_problem(TASK, anymal, flat, DynParams(), heuristic)
     per_leg = ["range_of_motion", "stance_on_terrain", "stance_off_edges", "swing_above_terrain", "force"]
     assert [k.name for k in plain.constraints] == (["dynamics", "dynamics_between"] + ["acceleration_continuity"] * 2
-                                                   + per_leg * legs)  # a level map: no leg clearance rows
+                                                   + per_leg * legs  # a level map: no leg clearance rows
+                                                   + ["base_clearance"] * legs)  # on by default: the check judges it
     paper = build_problem(TASK, anymal, flat, PAPER, heuristic)
-    assert [k.name for k in paper.constraints][-2:] == ["swing_height", "base_clearance"]
+    assert [k.name for k in paper.constraints][-legs - 1:] == ["swing_height"] + ["base_clearance"] * legs
     assert list(CONSTRAINTS)[:5] == ["last_phase", "dynamics", "dynamics_between", "acceleration_continuity", "swing"]
     assert {k.name for k in paper.constraints} <= set(CONSTRAINTS)
     assert {term.name for term in paper.costs} >= {"swing_height"} and list(COSTS) == ["stair_edge", "stance_width", "swing_height"]
