@@ -138,3 +138,15 @@ def test_capture_falls_back_to_a_temporary_file(monkeypatch):
     with captured_stderr() as captured:
         os.write(2, b"no memfd here\n")
     assert captured.lines == ["no memfd here"]
+
+
+def test_version_imports_neither_ctypes_nor_numpy():
+    code = """
+from legplan.cli.main import cli
+try:
+    cli(["--version"])
+except SystemExit as exit:
+    assert exit.code == 0
+"""
+    loaded = imported_after(code)
+    assert not loaded & {"ctypes", "numpy"}, loaded & {"ctypes", "numpy"}
