@@ -21,7 +21,8 @@ into start-up, solve and the rest is bench/cli.py's (`--cli-result`: that run's 
 rows are quoted in the section).
 
 Writes bench/results/startup.json and replaces the `startup` section of BENCHMARKS.md (not with
---no-append).
+--no-append). With --measured JSON nothing is measured: that earlier run's counts get the
+--cli-result rows, and the section is written from them.
 """
 
 from __future__ import annotations
@@ -60,7 +61,26 @@ def main(argv=None) -> int:
     ap.add_argument("--before-code", default="", help="the revision of --before")
     ap.add_argument("--cli-result", type=Path, help="bench/cli.py's JSON of a side-by-side run with the same --before")
     ap.add_argument("--no-append", action="store_true", help="do not update BENCHMARKS.md")
+    ap.add_argument("--measured", type=Path, help="no measuring: this run's earlier JSON (with its --before), "
+                    "to add --cli-result and write the section")
     args = ap.parse_args(argv)
+    result = json.loads(args.measured.read_text()) if args.measured is not None else measure(args)
+    if args.cli_result is not None:
+        cli = json.loads(args.cli_result.read_text())
+        path = args.cli_result.resolve()
+        result["cli"] = {"file": str(path.relative_to(ROOT) if path.is_relative_to(ROOT) else path),
+                         "date": cli["date"], "code": cli["code"], "load_start": cli["load_start"],
+                         "load_end": cli["load_end"], "repeats": cli["repeats"], "version_cpu": cli["version_cpu"],
+                         "version_cpu_before": cli.get("version_cpu_before"), "floor_cpu": cli["floor_cpu"],
+                         "cases": cli["cases"]}
+    write_result("startup", result)
+    if not args.no_append:
+        update_benchmarks("startup", markdown(result))
+    return 0
+
+
+def measure(args) -> dict:
+    """Every count of the module docstring, both trees."""
     sys.path.insert(0, str(ROOT / "bench"))
     from dyn import CASES
 
@@ -94,18 +114,7 @@ def main(argv=None) -> int:
             result["trees"][side] = entry
             print(f"{side}: {entry}", flush=True)
     result["load_end"] = load_average()
-    if args.cli_result is not None:
-        cli = json.loads(args.cli_result.read_text())
-        result["cli"] = {"file": str(args.cli_result.relative_to(ROOT) if args.cli_result.resolve().is_relative_to(ROOT)
-                                     else args.cli_result),
-                         "date": cli["date"], "code": cli["code"], "load_start": cli["load_start"],
-                         "load_end": cli["load_end"], "repeats": cli["repeats"], "version_cpu": cli["version_cpu"],
-                         "version_cpu_before": cli.get("version_cpu_before"), "floor_cpu": cli["floor_cpu"],
-                         "cases": cli["cases"]}
-    write_result("startup", result)
-    if not args.no_append:
-        update_benchmarks("startup", markdown(result))
-    return 0
+    return result
 
 
 def markdown(result: dict) -> str:
@@ -132,13 +141,14 @@ def markdown(result: dict) -> str:
                   f"code {cli['code']}; load average {cli['load_start']:.1f} → {cli['load_end']:.1f}; medians of "
                   f"{cli['repeats']} runs, the trees alternated):", "",
                   "| case | code | whole [s] | start-up [s] | solve [s] | rest [s] | whole / before |", "|---|---|---|---|---|---|---|"]
-        for key, entry in cli["cases"].items():
-            for side in ("this tree", "before"):
-                e = entry[side]
-                lines.append(f"| {key} | {side} | {e['whole']:.3f} | {e['startup']:.3f} | {e['solve']:.3f} | "
-                             f"{e['rest']:.3f} | {e['whole'] / entry['before']['whole']:.2f} |")
-        lines += ["", f"Same run: `legplan --version` {cli['version_cpu']:.3f} s (before {cli['version_cpu_before']:.3f} s); "
-                  f"the interpreter alone {cli['floor_cpu']['interpreter']:.3f} s, the floor {cli['floor_cpu']['libraries']:.3f} s."]
+        rows = [(key, side, entry[side], entry["before"]["whole"]) for key, entry in cli["cases"].items()
+                for side in ("this tree", "before")]
+        lines.extend(f"| {key} | {side} | {e['whole']:.3f} | {e['startup']:.3f} | {e['solve']:.3f} | {e['rest']:.3f} | "
+                     f"{e['whole'] / reference:.2f} |" for key, side, e, reference in rows)
+        floor = cli["floor_cpu"]
+        lines.append("")
+        lines.append(f"Same run: `legplan --version` {cli['version_cpu']:.3f} s (before {cli['version_cpu_before']:.3f} s); "
+                     f"the interpreter alone {floor['interpreter']:.3f} s, the floor {floor['libraries']:.3f} s.")
     return "\n".join(lines) + "\n"
 
 
