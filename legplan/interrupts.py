@@ -16,7 +16,6 @@ after a signal arrived. `exit_code()` is 130 for SIGINT and 143 for SIGTERM (128
 
 from __future__ import annotations
 
-import ctypes
 import os
 import signal
 import sys
@@ -110,6 +109,8 @@ def die_with_parent(parent: int | None = None) -> None:
     inherited = os.environ.pop(PARENT_ENV, "")  # not passed on to our own children
     if parent is None and inherited:
         parent = int(inherited)
+    import ctypes  # here only: `legplan --version` and the like start without it
+
     try:
         ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
     except (OSError, AttributeError):  # not Linux: nothing to ask for

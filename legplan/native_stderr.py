@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import os
 import sys
-import tempfile
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 
@@ -35,7 +34,7 @@ def captured_stderr():
     captured = CapturedStderr()
     sys.stderr.flush()
     saved = os.dup(2)
-    with tempfile.TemporaryFile(mode="w+b") as sink:
+    with _sink() as sink:
         os.dup2(sink.fileno(), 2)
         try:
             yield captured
@@ -46,3 +45,14 @@ def captured_stderr():
             sink.seek(0)
             text = sink.read().decode("utf-8", errors="replace")
             captured.lines = [line.strip() for line in text.splitlines() if line.strip()]
+
+
+def _sink():
+    """An anonymous temporary file: in memory where the system has `memfd_create` (no file-system
+    entry, and the command does not import `tempfile`), else `tempfile.TemporaryFile`."""
+    try:
+        return os.fdopen(os.memfd_create("legplan-stderr", os.MFD_CLOEXEC), "w+b")
+    except (AttributeError, OSError):
+        import tempfile
+
+        return tempfile.TemporaryFile(mode="w+b")

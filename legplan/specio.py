@@ -6,7 +6,6 @@ given as text, `apply_overrides` for `--param key=value` strings on a parameter 
 
 from __future__ import annotations
 
-import csv
 import dataclasses
 import os
 import types
@@ -192,6 +191,8 @@ def read_csv_table(path: str | os.PathLike, what: str = "CSV file") -> tuple[lis
     """The header (stripped names) and data rows of a CSV file; blank lines and lines starting with
     '#' are skipped. One-line `SpecError`s: not text, no header, a duplicate column, a row whose
     field count differs from the header's (rows are 0-based, after the header)."""
+    import csv  # here only: most commands read no table
+
     lines = [line for line in read_text(path, what).split("\n")
              if line.strip() and not line.lstrip().startswith("#")]
     try:

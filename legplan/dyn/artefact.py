@@ -44,6 +44,7 @@ import numpy as np
 
 from legplan.artefacts import (check_finite, open_artefact, require, require_attrs, write_artefact, write_dataset,
                                write_summary)
+from legplan.geometry.ordered import median as ordered_median
 from legplan.validate.trajectory import MINIMA as CHECK_MINIMA
 
 NAN = float("nan")
@@ -200,7 +201,7 @@ def summary_rows(records: list[dict]) -> dict:
 
     def median(key, rows=records):
         values = [float(r[key]) for r in rows if np.isfinite(r[key])]
-        return float(np.median(values)) if values else NAN
+        return ordered_median(values) if values else NAN
 
     def extreme(values, pick=max):
         return float(pick(values)) if values else NAN
@@ -216,7 +217,7 @@ def summary_rows(records: list[dict]) -> dict:
             "peak_force": (extreme([r["peak_force"] for r in ok]), "N"),
             "peak_roll_pitch_rate": (extreme([r["peak_roll_pitch_rate"] for r in ok]), "rad/s")}
     terms = dict.fromkeys(name for r in ok for name in r["costs"])
-    rows.update({f"cost_{name}": float(np.median([r["costs"][name] for r in ok if name in r["costs"]]))
+    rows.update({f"cost_{name}": ordered_median([r["costs"][name] for r in ok if name in r["costs"]])
                  for name in terms})
     checked = [r["check"] for r in records if "check" in r]
     for name in dict.fromkeys(name for c in checked for name in c["worst"]):

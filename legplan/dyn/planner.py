@@ -51,6 +51,7 @@ from legplan.dyn.problem import (SAMPLE_DT, DynParams, DynProblem, DynTask, buil
                                  range_excess_times)
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import PHASES
+from legplan.geometry.ordered import sorted_difference, sorted_union
 from legplan.solve.auglag import ALParams, ALResult, evaluate_costs, solve_augmented_lagrangian
 from legplan.solve.lm import Status, Timings
 
@@ -291,10 +292,10 @@ def _run_stage(stage: Stage, task: DynTask, model, terrain: TerrainModel, params
     else:
         times = last.problem.range_times
         if stage.start is Start.RANGE_EXCESS:
-            found = np.setdiff1d(range_excess_times(last.problem, last.result.values), times)
+            found = sorted_difference(range_excess_times(last.problem, last.result.values), times)
             if not found.size:
                 return None
-            times = np.union1d(times, found)
+            times = sorted_union(times, found)
         problem = build_problem(task, model, terrain, stage_params, _Previous(last.result.values), times)
     setup = time.perf_counter() - t0
     solver = getattr(params, stage.solver)

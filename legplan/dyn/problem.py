@@ -30,6 +30,7 @@ from legplan.dyn.gait import make_gait
 from legplan.dyn.settings import PAPER, PAPER_COSTS, DynParams  # noqa: F401 (the planner's parameters, re-exported)
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import PHASES, PhaseTiming, TimedControlPoints, TimedSamples
+from legplan.geometry.ordered import sorted_union, sorted_unique
 from legplan.solve import VariableBlock
 from legplan.solve.auglag import Constraint, CostTerm
 
@@ -92,7 +93,7 @@ def range_excess_times(problem: DynProblem, values: dict[str, np.ndarray], above
         excess = np.pad((np.abs(offset) - model.range_of_motion).max(axis=1), 1, constant_values=-np.inf)
         peak = (excess[1:-1] > above) & (excess[1:-1] >= excess[:-2]) & (excess[1:-1] >= excess[2:])
         found.append(t[peak])
-    return np.unique(np.concatenate(found))
+    return sorted_unique(np.concatenate(found))
 
 
 def start_feet(model, pose: Pose, terrain: TerrainModel) -> np.ndarray:
@@ -130,7 +131,7 @@ def about_com(model):
 def sample_times(form: Formulation, params: DynParams) -> dict:
     """Constraint sample times: dynamics at the base knots and at `DynParams.dynamics_points` − 1
     equally spaced points inside every base interval ("between"), range of motion every dt_range."""
-    rom = np.unique(np.append(np.arange(0.0, form.duration, params.dt_range), form.duration))
+    rom = sorted_unique(np.append(np.arange(0.0, form.duration, params.dt_range), form.duration))
     start, width = form.knots[:-1], np.diff(form.knots)
     inside = np.arange(1, params.dynamics_points) / params.dynamics_points
     return {"dynamics": form.knots.copy(), "between": (start[:, None] + width[:, None] * inside).reshape(-1),
@@ -201,7 +202,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
                          com_offset=offset)
     if near_range is not None:
         guess_values = {v.name: v.value for v in problem.variables}
-        problem.range_times = np.union1d(problem.range_times, range_excess_times(problem, guess_values, -near_range))
+        problem.range_times = sorted_union(problem.range_times, range_excess_times(problem, guess_values, -near_range))
     if timing is not None:
         problem.variables.append(timing.variable(durations))
     until = getattr(task, "sample_until", None)  # a replan's window (`legplan.dyn.replan`): no samples after it
@@ -232,7 +233,7 @@ class BuildContext:
     def for_leg(self, leg: int) -> BuildContext:
         foot = self.problem.form.feet[leg]
         swing_t = _window(_swing_times(foot, self.params.swing_dt), self.until)
-        rom_t = np.union1d(np.union1d(self.times["range"], swing_t),  # swing feet move fastest: also between
+        rom_t = sorted_union(sorted_union(self.times["range"], swing_t),  # swing feet move fastest: also between
                            _window(self.problem.range_times, self.until))  # the dt_range points
         return replace(self, leg=leg, foot=foot, swing_times=swing_t, range_times=rom_t)
 
@@ -345,7 +346,7 @@ def _swing_above_terrain(c: BuildContext) -> list[Constraint]:
     if not c.swing_times.size:
         return []
     if p.timing is None:  # fixed phases: also at the samples the plan is written and checked at
-        times = np.union1d(c.swing_times, _window(_grid_times(c.foot, SAMPLE_DT), c.until))
+        times = sorted_union(c.swing_times, _window(_grid_times(c.foot, SAMPLE_DT), c.until))
         swing = p.form.foot_matrix(c.leg, times)
     else:
         swing = TimedSamples(p.timing, "motion", c.leg, c.swing_times, moving=True)  # they move with their swing
@@ -376,7 +377,7 @@ def _joint_torque(c: BuildContext) -> list[Constraint]:
         return []
     if model.leg_chains is None:
         raise ValueError("Centroidal.torque_limits need the legs' chains (Centroidal.leg_chains)")
-    t = np.union1d(c.times["dynamics"], c.times["between"])
+    t = sorted_union(c.times["dynamics"], c.times["between"])
     if p.timing is None:
         inside = np.zeros(t.size, bool)
         for phase in c.foot.phases:

@@ -27,6 +27,7 @@ import scipy.sparse as sp
 from legplan.dyn.formulation import FORCE_POLYNOMIALS, Formulation
 from legplan.dyn.gait import Gait
 from legplan.geometry.hermite import NodeSpline, Segment, hermite_time_partials
+from legplan.geometry.ordered import sorted_unique
 from legplan.solve import VariableBlock
 from legplan.solve.blocks import LinearBlock
 
@@ -110,7 +111,7 @@ class PhaseTiming:
         consecutive foot events (what `Formulation` and the artefact's contact flags read)."""
         bounds = [np.concatenate([[0.0], np.cumsum(self.leg_durations(d, leg)), [self.duration]])
                   for leg in range(len(self.counts))]
-        events = np.unique(np.concatenate(bounds))
+        events = sorted_unique(np.concatenate(bounds))
         events = events[np.concatenate([[True], np.diff(events) > 1e-9])]
         events[-1] = self.duration
         mids = 0.5 * (events[:-1] + events[1:])

@@ -69,7 +69,8 @@ from legplan.errors import LegplanError
 from legplan.robots.model import chain_length
 from legplan.robots.sizing import size_scaled
 from legplan.robots.spec import add_foot_frame
-from legplan.robots.urdf import Primitive, UrdfLinks, UrdfParseError, build_free_flyer_model, read_urdf_links
+from legplan.robots.urdf import Primitive, UrdfLinks, read_urdf_links
+from legplan.robots.urdf_model import UrdfParseError, build_free_flyer_model
 
 MAX_SPHERES_PER_SHAPE = 3
 STANCE_STARTS = 6

@@ -42,7 +42,7 @@ import pinocchio as pin
 from legplan.parameters import LENGTH
 from legplan.robots.centroidal import Centroidal, parse_centroidal
 from legplan.robots.navigation import Navigation, parse_navigation
-from legplan.robots.urdf import UrdfParseError, build_free_flyer_model
+from legplan.robots.urdf_model import UrdfParseError, build_free_flyer_model
 from legplan.specio import FieldReader, read_yaml_mapping
 
 FOOT_HEIGHT_TOLERANCE = 1e-3  # m, |z| of every foot in the nominal stance

@@ -6,13 +6,13 @@ Mesh files are found by `resolve_mesh` (`package://NAME/rest` the ROS way: a fol
 the URDF's ancestors or under a package path, then `ROS_PACKAGE_PATH`) and read with coal's mesh
 loader (assimp: STL, Collada, OBJ), which pinocchio brings; their vertices are read on first use.
 
-`build_free_flyer_model` is the one place a URDF is parsed by pinocchio: urdfdom prints its parse
-errors straight to file descriptor 2, so they are captured and folded into `UrdfParseError`.
+pinocchio's own model of a URDF comes from `legplan.robots.urdf_model.build_free_flyer_model`
+(importable without this module's XML reader and geometry classes, which only `robot init|check` and
+the report's links need).
 """
 
 from __future__ import annotations
 
-import logging
 import os
 import xml.etree.ElementTree as ET
 from dataclasses import dataclass, field
@@ -26,27 +26,6 @@ from legplan.robots.packages import UnresolvedUri, resolve_uri, search_roots
 from legplan.errors import SpecError
 from legplan.native_stderr import captured_stderr
 from legplan.specio import read_text
-
-log = logging.getLogger("legplan.robots")
-
-
-class UrdfParseError(ValueError):
-    """pinocchio cannot build a model from a URDF; the message holds its reason and urdfdom's."""
-
-
-def build_free_flyer_model(path: str | Path) -> pin.Model:
-    """pinocchio's model of the URDF at `path` on a free-flyer root. urdfdom's own stderr lines
-    never reach the terminal: on failure the first is part of the `UrdfParseError`, otherwise they
-    go to the debug log."""
-    try:
-        with captured_stderr() as parser_output:
-            model = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
-    except (RuntimeError, ValueError) as exc:
-        detail = "; ".join([str(exc).splitlines()[0], *parser_output.lines[:1]])
-        raise UrdfParseError(" ".join(detail.split())) from None
-    for line in parser_output.lines:
-        log.debug("urdfdom: %s", line)
-    return model
 
 
 @dataclass(frozen=True)

@@ -155,17 +155,18 @@ def _candidate_table(height, mask, reach_cells: float, keep, origin, r: float):
     np.minimum.at(clear, cells, r * gaps)
     order = np.argsort(cells, kind="stable")
     cells, candidates = cells[order], candidates[order]
-    owners, first, counts = np.unique(cells, return_index=True, return_counts=True)
+    first = np.flatnonzero(np.concatenate(([True], cells[1:] != cells[:-1]))) if cells.size else np.zeros(0, np.intp)
+    owners, counts = cells[first], np.diff(np.append(first, cells.size))  # runs of the sorted cells
     rows = np.full(height.size, -1, np.intp)
     rows[owners] = np.arange(len(owners))
-    row = np.repeat(np.arange(len(owners)), counts)
-    slot = np.arange(len(cells)) - np.repeat(first, counts)
     width = int(counts.max(initial=0))
+    at = np.repeat(np.arange(len(owners)) * width - first, counts) + np.arange(len(cells))  # row · width + slot
     centres = np.full((len(owners), width, 2), 1e9)
     tops = np.zeros((len(owners), width))
-    iy, ix = np.divmod(candidates, height.shape[1])
-    centres[row, slot] = origin + r * np.column_stack([ix, iy])
-    tops[row, slot] = height.reshape(-1)[candidates]
+    ny, nx = height.shape  # each cell's centre, origin + r · (ix, iy), looked up by its flat index
+    centres.reshape(-1, 2)[at, 0] = np.tile(origin[0] + r * np.arange(nx), ny)[candidates]
+    centres.reshape(-1, 2)[at, 1] = np.repeat(origin[1] + r * np.arange(ny), nx)[candidates]
+    tops.reshape(-1)[at] = height.reshape(-1)[candidates]
     return rows, (centres, tops), clear
 
 

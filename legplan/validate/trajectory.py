@@ -77,6 +77,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pinocchio as pin
 
+from legplan.geometry.ordered import median, sorted_unique
 from legplan.robots import leg_reach, torque_limits
 from legplan.terrain.columns import ColumnDistance
 
@@ -226,7 +227,7 @@ def _node_samples(t: np.ndarray, node_times: np.ndarray) -> np.ndarray:
     """Indices of the samples at the node times (within 1 µs)."""
     k = np.clip(np.searchsorted(t, node_times), 1, len(t) - 1)
     nearest = np.where(np.abs(t[k - 1] - node_times) <= np.abs(t[k] - node_times), k - 1, k)
-    return np.unique(nearest[np.abs(t[nearest] - node_times) <= 1e-6])
+    return sorted_unique(nearest[np.abs(t[nearest] - node_times) <= 1e-6])
 
 
 def _euler_world_rates(euler: np.ndarray, rates: np.ndarray) -> np.ndarray:
@@ -378,7 +379,7 @@ def _line_support(t: np.ndarray, contact: np.ndarray) -> float:
     such run, each counted for the sample spacing."""
     if len(t) < 2:
         return 0.0
-    dt = float(np.median(np.diff(t)))
+    dt = median(np.diff(t))
     count = contact.sum(axis=1)
     longest, run = 0, 0
     for k in range(len(t)):

@@ -51,17 +51,21 @@ assert CliRunner().invoke(cli, ["--version"]).exit_code == 0
 
 # What `dyn plan` has no use for: other commands' libraries, scipy subpackages it does not call
 # (rotations come from pinocchio), the numpy submodules scipy's numpy namespace would import
-# (legplan._lazy_numpy_clone; numpy.ma is not among them: numpy's own `np.unique` imports it), a
+# (legplan._lazy_numpy_clone), numpy.ma (numpy's own `np.unique`, `np.union1d`, `np.setdiff1d` and
+# `np.median` import it: legplan.geometry.ordered stands in for them), a
 # process pool with `--jobs 1`, FCL (the trajectory check measures terrain distance without it), the
 # step-sequence and learned-initializer packages, Cython (scipy's test utilities look for it),
 # importlib.resources with zipfile (the shipped robots are a folder of the package), the solvers'
 # Jacobian checker, numpy.strings and the numpy.core shim (scipy's numpy namespace), fractions and decimal
-# (the Hermite Gram matrices are plain divisions), the map specs' parser and primitives (a map.h5 is read).
+# (the Hermite Gram matrices are plain divisions), the map specs' parser and primitives (a map.h5 is read),
+# the URDF links' geometry and its XML parser (`robot init|check` and the report read them) and csv (no
+# tasks table given).
 NOT_FOR_DYN_PLAN = ("matplotlib", "mujoco", "dask", "distributed", "sklearn", "ompl", "proxsuite", "scipy.spatial", "scipy.linalg",
                     "scipy.optimize", "numpy.f2py", "numpy.testing", "unittest", "multiprocessing",
                     "concurrent.futures.process", "fcl", "legplan.stepseq", "legplan.learn.network", "Cython", "cython",
                     "importlib.resources", "zipfile", "legplan.solve.jaccheck", "numpy.strings", "numpy.core",
-                    "fractions", "decimal", "legplan.terrain.spec", "legplan.terrain.primitives")
+                    "fractions", "decimal", "legplan.terrain.spec", "legplan.terrain.primitives", "numpy.ma",
+                    "legplan.robots.urdf", "xml.etree.ElementTree", "pyexpat", "csv")
 # ... and, once a run on the same map has stored the filtered terrain grids (legplan.cache), the
 # filters' library.
 NOT_FOR_DYN_PLAN_AGAIN = ("scipy.ndimage", "scipy.special")
@@ -107,3 +111,42 @@ assert xp.testing is numpy.testing and xp.f2py is numpy.f2py and xp.sum is numpy
 assert (list(numpy.__all__), sorted(dir(numpy))) == before
 """
     imported_after(code)
+
+
+def test_loading_a_robot_captures_urdfdom_without_tempfile():
+    """urdfdom's stderr is captured in an anonymous memory file where the system has one (`dyn plan`
+    on a known map then starts without tempfile; click's test runner imports it, hence this test)."""
+    code = """
+import os, sys
+from legplan.native_stderr import captured_stderr
+from legplan.robots import load_robot
+load_robot("anymal")
+with captured_stderr() as captured:
+    os.write(2, b"urdfdom says\\n\\n  twice \\n")
+assert captured.lines == ["urdfdom says", "twice"], captured.lines
+assert hasattr(os, "memfd_create") == ("tempfile" not in sys.modules)
+"""
+    imported_after(code)
+
+
+def test_capture_falls_back_to_a_temporary_file(monkeypatch):
+    import os
+
+    from legplan.native_stderr import captured_stderr
+
+    monkeypatch.delattr(os, "memfd_create", raising=False)
+    with captured_stderr() as captured:
+        os.write(2, b"no memfd here\n")
+    assert captured.lines == ["no memfd here"]
+
+
+def test_version_imports_neither_ctypes_nor_numpy():
+    code = """
+from legplan.cli.main import cli
+try:
+    cli(["--version"])
+except SystemExit as exit:
+    assert exit.code == 0
+"""
+    loaded = imported_after(code)
+    assert not loaded & {"ctypes", "numpy"}, loaded & {"ctypes", "numpy"}

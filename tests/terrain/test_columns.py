@@ -122,3 +122,44 @@ def test_values_below_a_bound_are_exact_and_the_others_reach_it(scene):
     bounded, bounded_gradient = columns.value_and_gradient(points, bound=bound)
     np.testing.assert_array_equal(bounded, values)
     np.testing.assert_array_equal(bounded_gradient[below], gradient[below])
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_candidate_tables_list_each_cells_candidates_in_offset_order(seed):
+    """The tables of `ColumnDistance`, against their definition written out cell by cell: per cell
+    with candidates one row, its candidates (edge cells whose square is within reach of the cell's,
+    passing the height test) in offset order (dy, then dx, ascending), padded with columns 1e9 m
+    away; `clear` the smallest square distance (m) to a candidate."""
+    from legplan.terrain.columns import _candidate_table, _neighbour_masks
+
+    rng = np.random.default_rng(seed)
+    height = rng.choice([0.0, 0.05, 0.12], size=(9, 11))
+    reach_cells, origin = 2.6, np.array([-0.3, 0.2])
+    ny, nx = height.shape
+    k = int(np.ceil(reach_cells)) + 1
+    for mask, keep in zip(_neighbour_masks(height), (np.greater, np.less)):
+        rows, (centres, tops), clear = _candidate_table(height, mask, reach_cells, keep, origin, R)
+        listed = 0
+        for iy in range(ny):
+            for ix in range(nx):
+                found, gaps = [], []
+                for dy in range(-k, k + 1):
+                    for dx in range(-k, k + 1):
+                        gap = np.hypot(max(abs(dx) - 1, 0), max(abs(dy) - 1, 0))
+                        y, x = iy + dy, ix + dx
+                        if (dx or dy) and gap <= reach_cells and 0 <= y < ny and 0 <= x < nx and mask[y, x] \
+                                and keep(height[y, x], height[iy, ix]):
+                            found.append((y, x))
+                            gaps.append(gap)
+                cell = iy * nx + ix
+                assert clear[cell] == (R * min(gaps) if gaps else np.inf)
+                if not found:
+                    assert rows[cell] == -1
+                    continue
+                assert rows[cell] == listed
+                listed += 1
+                expected = np.array([[origin[0] + R * x, origin[1] + R * y] for y, x in found])
+                assert np.array_equal(centres[rows[cell], :len(found)], expected)
+                assert np.array_equal(tops[rows[cell], :len(found)], [height[y, x] for y, x in found])
+                assert np.all(centres[rows[cell], len(found):] == 1e9)
+        assert listed == len(centres) and listed > 0
