@@ -421,7 +421,7 @@ def _base_clearance(c: BuildContext) -> list[Constraint]:
         return []
     times = c.range_times
     if p.timing is None and c.swing_times.size:
-        times = np.union1d(times, _window(_grid_times(c.foot, SAMPLE_DT), c.until))
+        times = sorted_union(times, _window(_grid_times(c.foot, SAMPLE_DT), c.until))
     return [Constraint(BaseAboveFeetBlock(p.form, c.leg, times, p.timing, p.com_offset), c.params.base_clearance, np.inf,
                        name="base_clearance", scale=1.0 / LENGTH)]
 
