@@ -4,6 +4,7 @@ the one-shot `legplan dyn plan`).
     OMP_NUM_THREADS=1 .venv/bin/python bench/solve_instructions.py --before /path/to/tree [--after .]
         [--cases flat_trot,...] [--rounds 3] [--no-callgrind] [--section solve_instructions]
         [--result-name solve_instructions] [--no-append]
+    .venv/bin/python bench/solve_instructions.py --merge COUNTED... TIMED --result-name NAME --section NAME
 
 * Cases: bench/dyn.py's TOWR cases (`TOWR_CASES`), each planned once in a fresh child process by
   `legplan.dyn.planner.plan` with `DynParams()` from the heuristic on the planner's own model
@@ -162,8 +163,24 @@ def markdown(r: dict) -> str:
         lines.append(f"| {key} | {count(b)} | {count(a)} | {ratio:.3f} | {b['solve_s']:.3f} / {a['solve_s']:.3f} | "
                      f"{b['total_s']:.3f} / {a['total_s']:.3f} | {b['iterations']} / {a['iterations']} | "
                      f"{b['status']} / {a['status']} | {check(b)} / {check(a)} | {row['largest_difference']:.1e} |")
-    lines += ["", f"Median instruction ratio {after}/{before} over the cases counted: {np.nanmedian(ratios):.3f}."]
+    if not np.all(np.isnan(ratios)):
+        lines += ["", f"Median instruction ratio {after}/{before} over the cases counted: {np.nanmedian(ratios):.3f}."]
     return "\n".join(lines)
+
+
+def merged(counted: list[dict], timed: dict) -> dict:
+    """Results of callgrind-only runs (`--rounds 0`, disjoint cases) with the CPU seconds, checks and
+    answers of a CPU-only run (`--no-callgrind`) of the same trees: one table, in the CPU run's order."""
+    out = dict(json.loads(json.dumps(timed)), callgrind=True)
+    for part in counted:
+        for key, row in part["cases"].items():
+            for label in out["labels"]:
+                out["cases"][key][label]["instructions"] = row[label]["instructions"]
+                out["cases"][key][label]["instructions_run"] = {k: row[label][k] for k in ("iterations", "status")}
+    out.update(load_start=min([timed["load_start"]] + [p["load_start"] for p in counted]),
+               load_end=max([timed["load_end"]] + [p["load_end"] for p in counted]),
+               merged_from=[p["section"] for p in counted] + [timed["section"]])
+    return out
 
 
 def main() -> None:
@@ -178,6 +195,9 @@ def main() -> None:
     parser.add_argument("--section", default="solve_instructions")
     parser.add_argument("--result-name", default="solve_instructions")
     parser.add_argument("--no-append", action="store_true")
+    parser.add_argument("--merge", nargs="+", metavar="NAME",
+                        help="no runs: merge callgrind-only results and, last, a CPU-only result (bench/results/NAME.json) "
+                             "into --result-name, --section")
     parser.add_argument("--child", type=Path, help=argparse.SUPPRESS)
     parser.add_argument("--case", help=argparse.SUPPRESS)
     parser.add_argument("--out", type=Path, help=argparse.SUPPRESS)
@@ -185,6 +205,14 @@ def main() -> None:
     args = parser.parse_args()
     if args.child:
         child(args.child, args.case, args.out, args.handshake)
+        return
+    if args.merge:
+        *counted, timed = (json.loads((ROOT / "bench" / "results" / f"{name}.json").read_text()) for name in args.merge)
+        result = dict(merged(counted, timed), section=args.section)
+        write_result(args.result_name, result)
+        print(markdown(result))
+        if not args.no_append:
+            update_benchmarks(args.section, markdown(result))
         return
     if args.before is None:
         parser.error("--before is required")
