@@ -134,7 +134,11 @@ class DynParams(Parameters):
         "share of each joint's torque limit (Centroidal.torque_limits) the planned forces leave free "
         "(JointTorqueBlock): for what the legs' own motion and the controller's corrections need on "
         "top of holding the contact forces, which the independent check judges against the full limit"))
-    solver: ALParams = param(ALParams(), doc="the feasibility stages (the constraints alone)")
+    solver: ALParams = param(
+        ALParams(inner=HingedParams(max_iterations=60, tolerance=0.0, function_tolerance=1e-4, geodesic_acceleration=0.0)),
+        doc="the feasibility stages (the constraints alone); no geodesic acceleration: on these problems "
+            "the curvature probe's acceleration is refused (2‖a‖ > α‖d‖) at the first, strongly curved "
+            "steps and negligible at the later ones, while each probe costs a residual evaluation")
     projection_solver: ALParams = param(ALParams(exact_rows=True), doc=(
         "the 'projection' warm stage: the constraints alone, stopped by the exact per-row test (a "
         "last stage: no next stage profits from more precision)"))

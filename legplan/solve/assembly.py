@@ -154,6 +154,7 @@ class NonzeroPattern:
         before = np.concatenate([[0], np.cumsum(kept, dtype=np.int64)])
         self._indptr = before[indptr].astype(indptr.dtype)
         self._indices = indices[self._take]
+        self._indptr.flags.writeable = self._indices.flags.writeable = False  # shared by every reduced matrix
         self.version += 1
 
 

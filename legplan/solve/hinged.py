@@ -127,13 +127,14 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
     model = None
     held = held_at_bounds(layout, theta, J, v, hinged, rows)
     stopping = _Stopping(params, hinged, row_tolerance, rows)
+    expansion = problem.structure_cache.setdefault("row_expansion", _RowExpansion())
     for it in range(params.max_iterations + 1):
         stop = stopping.at_point(it, norm, v, J, lam, held)
         if stop:
             return finish(stop, it, norm)
         if model is None:
             t0 = time.perf_counter()
-            model = _HingeModel(J, v, hinged, layout.n, held, rows)
+            model = _HingeModel(J, v, hinged, layout.n, held, rows, expansion)
             timings.assemble += time.perf_counter() - t0
         step = model.step(solver, lam, params.active_set_iterations, timings)
         if step is None:
@@ -249,14 +250,15 @@ class _HingeModel:
     product in Python. Later passes update the factor by the rows that changed (`refactor_rows`), and
     a pass whose active set is the last factorized one reuses its factorization and candidate."""
 
-    def __init__(self, J, v: np.ndarray, hinged: np.ndarray, n: int, held: np.ndarray | None = None, rows=None):
-        J = sp.csr_matrix(J)
+    def __init__(self, J, v: np.ndarray, hinged: np.ndarray, n: int, held: np.ndarray | None = None, rows=None,
+                 expansion: _RowExpansion | None = None):
+        J = J if type(J) is sp.csr_matrix else sp.csr_matrix(J)
         self.rows = rows
         if rows is None:
             d2 = np.bincount(J.indices, weights=J.data ** 2, minlength=n)
         else:  # over J_full's entries in its order: a shared row once per residual row it stands for
-            full = J[rows[0]]
-            d2 = np.bincount(full.indices, weights=full.data ** 2, minlength=n)
+            take, indices = (expansion or _RowExpansion()).of(J, rows[0])
+            d2 = np.bincount(indices, weights=J.data[take] ** 2, minlength=n)
         self.scale = np.where(d2 > MARQUARDT_FLOOR * d2.max(initial=0.0), 1.0 / np.sqrt(np.where(d2 > 0, d2, 1.0)), 1.0)
         if held is not None:  # a zero column and a zero scale: the step leaves these variables where they are
             self.scale[held] = 0.0
@@ -320,6 +322,28 @@ class _HingeModel:
         """J_Rᵀ x_R for the rows R alone (the plain and active rows, a small part of J): the same sums
         in the same order as Jᵀ x with x zero off R, without the pass over the other rows."""
         return _rows_transposed_times(self.J, rows, x, self.rows)
+
+
+class _RowExpansion:
+    """Where the entries of J_full = J[jrow] (`Problem.row_map`'s rows, a shared row once per residual
+    row it stands for) sit in J's data, and their column indices: the entries of `J[jrow]` in its
+    order, worked out once per pattern of J and kept while J's index arrays are the same objects (the
+    reduced J of `Problem.nonzero_jacobian` shares them from linearization to linearization while
+    its pattern holds), so the Marquardt scale's sum over J_full is one gather of J's values."""
+
+    def __init__(self):
+        self._key = None
+
+    def of(self, J: sp.csr_matrix, jrow: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """(take, indices): J_full's data is J.data[take], its column indices `indices`."""
+        key = (J.indptr, J.indices, jrow)
+        if self._key is None or any(a is not b for a, b in zip(self._key, key)) or J.indices.flags.writeable:
+            count = np.diff(J.indptr)[jrow].astype(np.int64)
+            start = np.repeat(J.indptr[jrow].astype(np.int64) - np.concatenate(([0], np.cumsum(count)[:-1])), count)
+            self._take = start + np.arange(start.size)
+            self._indices = J.indices[self._take]
+            self._key = key
+        return self._take, self._indices
 
 
 def held_at_bounds(layout, theta: np.ndarray, J, v: np.ndarray, hinged: np.ndarray, rows=None) -> np.ndarray | None:

@@ -33,6 +33,8 @@ from abc import ABC, abstractmethod
 import numpy as np
 import scipy.sparse as sp
 
+from legplan.solve.assembly import kept_indices, same_indices
+
 try:
     from sksparse import cholmod
 except ImportError as exc:  # pragma: no cover - depends on the environment
@@ -154,11 +156,16 @@ class CholmodSolver(LinearSolver):
         canonical form (`_canonical`), from `ANALYSES` or new: the same whatever the cache holds, and
         shared by the Jacobians that differ only by rows repeating another row's pattern (the tasks
         of a task space, and their extra range-of-motion samples, on the pallet tasks)."""
-        A.sort_indices()
-        if self._pattern is None or not (self._pattern[0] == transposed_jacobian and A.shape == self._pattern[1]
-                                         and np.array_equal(self._pattern[2], A.indptr)
-                                         and np.array_equal(self._pattern[3], A.indices)):
-            self._pattern = (transposed_jacobian, A.shape, A.indptr.copy(), A.indices.copy())
+        kept = self._pattern
+        same = lambda: (kept is not None and kept[0] == transposed_jacobian and A.shape == kept[1]
+                        and same_indices(kept[2], (A.indptr, A.indices)))
+        known = same()  # the pattern kept after sorting (the same read-only arrays, or equal ones): sorted
+        if known:
+            A.has_sorted_indices = True
+        else:
+            A.sort_indices()
+        if not (known or same()):
+            self._pattern = (transposed_jacobian, A.shape, kept_indices((A.indptr, A.indices)))
             canonical = _canonical(A) if transposed_jacobian else A
             key = (self.mode, self.ordering_method, transposed_jacobian, canonical.shape,
                    canonical.indptr.copy(), canonical.indices.copy())

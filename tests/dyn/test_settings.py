@@ -86,3 +86,13 @@ def test_dyn_plan_takes_param_overrides_and_refuses_a_bad_one_with_one_line(tmp_
     assert result.exit_code == 0, result.output + str(result.exception)
     with h5py.File(good, "r") as f:
         assert json.loads(f.attrs["params"])["dyn"]["solver"]["inner"]["max_iterations"] == 40
+
+
+def test_the_feasibility_solver_differs_from_the_augmented_lagrangians_defaults_only_by_no_geodesic_acceleration():
+    """`DynParams.solver` (the feasibility and range-of-motion stages) is `ALParams()` with the inner
+    LM's curvature probe off, and `--param` switches it back on."""
+    solver = DynParams().solver
+    assert solver.inner.geodesic_acceleration == 0.0 and ALParams().inner.geodesic_acceleration > 0.0
+    assert solver == dataclasses.replace(ALParams(), inner=dataclasses.replace(ALParams().inner, geodesic_acceleration=0.0))
+    on = dyn_params("none", {"solver.inner.geodesic_acceleration": "0.75"})
+    assert on.solver.inner == ALParams().inner

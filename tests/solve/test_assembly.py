@@ -66,6 +66,7 @@ def test_nonzero_pattern_keeps_every_entry_ever_nonzero_and_grows_only():
     assert later.nnz == 4 and pattern.version == 2
     fresh = pattern.reduced(with_values([0.0, 0.0, 9.0, 0.0, 0.0, 0.0]), structure=2)  # a new structure
     assert fresh.nnz == 1 and pattern.version == 3
+    assert not (fresh.indices.flags.writeable or fresh.indptr.flags.writeable)  # shared: trusted by identity
     np.testing.assert_array_equal(fresh.toarray(), with_values([0, 0, 9.0, 0, 0, 0]).toarray())
 
 

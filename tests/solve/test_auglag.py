@@ -336,3 +336,25 @@ def test_reported_violations_are_those_of_the_constraints_at_the_solution():
     assert r.success
     assert r.violations == {k.name: float(k.violation(v).max()) for k, v in zip(constraints, c)}
     assert r.scaled_violation == scaled_violation(constraints, c)
+
+def test_row_picker_of_every_row_in_order_takes_the_values_as_they_are():
+    """`_RowPicker` of a pick that keeps every entry in its place (every row once, in order: a
+    constraint bounded on both sides, or all equalities) skips the gather and gives scipy's diag(factor)·J[pick] bit for bit, as the
+    picker of any other pick does."""
+    from legplan.solve.auglag import _RowPicker
+
+    rng = np.random.default_rng(11)
+    for _ in range(40):
+        m, n = int(rng.integers(1, 30)), int(rng.integers(1, 20))
+        J = sp.random(m, n, density=rng.uniform(0.0, 0.6), format="csr", random_state=int(rng.integers(1 << 30)))
+        for pick in (np.arange(m), rng.integers(0, m, int(rng.integers(0, 2 * m + 1)))):
+            picker = _RowPicker(pick)
+            factor = rng.normal(size=pick.size)
+            for _ in range(2):  # the pattern worked out, then kept
+                got, want = picker(J, factor), J[pick]
+                assert np.array_equal(got.indptr, want.indptr) and np.array_equal(got.indices, want.indices)
+                assert np.array_equal(got.data, want.data * np.repeat(factor, np.diff(want.indptr)))
+            numbers = sp.csr_matrix((np.arange(J.nnz), J.indices, J.indptr), shape=J.shape)[pick].data
+            assert (picker.pattern[3] is None) == np.array_equal(numbers, np.arange(J.nnz))  # the gather is the identity
+            if np.array_equal(pick, np.arange(m)):
+                assert picker.pattern[3] is None

@@ -228,3 +228,36 @@ def test_a_variable_its_bound_holds_leaves_the_step_to_the_others(start):
     assert r.status is Status.CONVERGED and r.iterations <= 8, r.reason
     a = A[:, 1]
     assert r.values["x"] == pytest.approx([0.0, a @ b / (a @ a)], abs=1e-10)
+
+
+def test_marquardt_scale_of_shared_rows_is_the_sum_over_the_rows_they_stand_for():
+    """`_HingeModel`'s scale over J_full = J[jrow] (a shared row once per residual row) by the cached
+    gather of J's values (`_RowExpansion`) is the scale of J[jrow] built by scipy, bit for bit: the
+    same entries in the same order. The expansion is reused while J's read-only index arrays are the
+    same, and worked out again for another pattern or writeable arrays."""
+    import scipy.sparse as sp
+
+    from legplan.solve.hinged import _HingeModel, _RowExpansion
+    from legplan.solve.lm import MARQUARDT_FLOOR
+
+    rng = np.random.default_rng(3)
+    expansion = _RowExpansion()
+    for trial in range(30):
+        m, n = int(rng.integers(1, 40)), int(rng.integers(1, 25))
+        J = sp.random(m, n, density=rng.uniform(0.0, 0.6), format="csr", random_state=int(rng.integers(1 << 30)))
+        J.indices.flags.writeable = J.indptr.flags.writeable = trial % 3 != 0
+        jrow = np.sort(rng.integers(0, m, int(rng.integers(0, 2 * m + 1))))  # rows repeated, rows left out
+        sign = np.where(rng.random(jrow.size) < 0.5, -1.0, 1.0)
+        v = rng.normal(size=jrow.size)
+        hinged = rng.random(jrow.size) < 0.5
+        for _ in range(2):  # the second call reads the kept expansion where it may
+            model = _HingeModel(J, v, hinged, n, rows=(jrow, sign), expansion=expansion)
+            full = J[jrow]
+            d2 = np.bincount(full.indices, weights=full.data ** 2, minlength=n)
+            scale = np.where(d2 > MARQUARDT_FLOOR * d2.max(initial=0.0), 1.0 / np.sqrt(np.where(d2 > 0, d2, 1.0)), 1.0)
+            assert np.array_equal(model.scale, scale)
+        take, indices = expansion.of(J, jrow)
+        assert np.array_equal(J.data[take], full.data) and np.array_equal(indices, full.indices)
+        kept = expansion._take
+        expansion.of(J, jrow)
+        assert (expansion._take is kept) == (not J.indices.flags.writeable)

@@ -380,3 +380,35 @@ def test_dense_solver_is_lapack_cholesky_as_scipy_calls_it():
         solver.factorize(dense, -2.0 * np.linalg.eigvalsh(dense).max())
     solver.factorize(np.zeros((0, 0)), 1.0)
     assert solver.solve(np.zeros(0)).shape == (0,)
+
+def test_the_same_read_only_pattern_is_taken_without_a_look_and_a_changed_one_is_analysed():
+    """`set_jacobian` of J's that share one read-only pattern (the reduced J of the hinged LM, from
+    linearization to linearization) keeps the analysis and trusts the pattern's sorted indices; equal
+    writeable arrays are compared and kept too; another pattern is analysed; every factorization
+    solves JᵀJ + βI."""
+    rng = np.random.default_rng(7)
+    J = sp.csr_matrix(sp.random(80, 25, density=0.15, random_state=rng) + sp.eye(80, 25))
+    indices, indptr = J.indices.copy(), J.indptr.copy()
+    indices.flags.writeable = indptr.flags.writeable = False
+    solver, b = CholmodSolver(), np.ones(25)
+
+    def check(matrix):
+        dense = matrix.toarray()
+        np.testing.assert_allclose(solver.solve(b), np.linalg.solve(dense.T @ dense + 0.3 * np.eye(25), b), rtol=1e-9)
+
+    for scale in (1.0, 3.0):
+        matrix = sp.csr_matrix((J.data * scale, indices, indptr), shape=J.shape)
+        solver.set_jacobian(matrix)
+        solver.refactor(0.3)
+        check(matrix)
+    assert solver.analyses == 1
+    equal = sp.csr_matrix((J.data * 2.0, J.indices.copy(), J.indptr.copy()), shape=J.shape)  # writeable, equal
+    solver.set_jacobian(equal)
+    solver.refactor(0.3)
+    check(equal)
+    assert solver.analyses == 1
+    other = sp.csr_matrix(J + sp.csr_matrix(([1.0], ([0], [24])), shape=J.shape)) if J[0, 24] == 0 else J[1:]
+    solver.set_jacobian(other)
+    solver.refactor(0.3)
+    check(other)
+    assert solver.analyses == 2
