@@ -80,7 +80,8 @@ class Replanner:
                                   and out.scaled_violation <= self.settings.track_violation)
         self.rows.append({**state.record(), "trigger": trigger, "iterations": out.iterations,
                           "cpu_seconds": out.cpu_seconds, "violation": out.violation,
-                          "scaled_violation": out.scaled_violation, "success": out.success,
+                          "scaled_violation": out.scaled_violation, "recovery": out.recovery,
+                          "success": out.success,
                           "status": out.status.name.lower(), "tracked": tracked})
         if not tracked:
             return None
