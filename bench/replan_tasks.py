@@ -48,7 +48,7 @@ def main() -> None:
     parser.add_argument("--first", type=int, default=0)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--indices", type=int, nargs="+", default=None,
-                        help="run only these task indices (each below --tasks); default: --first to --tasks")
+                        help="run only these task indices (each below --tasks), in this order; default: --first to --tasks")
     parser.add_argument("--loops", nargs="+", choices=("open", "closed"), default=["open", "closed"])
     parser.add_argument("--period", type=float, default=0.25)
     parser.add_argument("--impulse", type=float, nargs=2, default=IMPULSE, metavar=("LOW", "HIGH"),
@@ -81,10 +81,12 @@ def main() -> None:
     model = centroidal_model(robot, params) if args.model == "planner" else robot.centroidal
     settings = apply_overrides(ReplanParams, dict(item.split("=", 1) for item in args.param), "--param", "replan")
     rows = []
-    for index, task, _ in dataset_items(space, args.tasks, args.seed)[args.first:]:
+    items = dataset_items(space, args.tasks, args.seed)[args.first:]
+    if args.indices is not None:  # in the order given
+        chosen = {int(index): (index, task, extra) for index, task, extra in items}
+        items = [chosen[i] for i in args.indices if i in chosen]
+    for index, task, _ in items:
         index = int(index)
-        if args.indices is not None and index not in args.indices:
-            continue
         rng = np.random.default_rng(args.seed + 1000 + index)
         at = float(rng.uniform(0.25, 0.75) * task.duration)
         impulse = float(rng.uniform(*args.impulse))

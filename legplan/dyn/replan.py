@@ -18,6 +18,13 @@ The guess is the previous solution shifted in time (`ShiftedInit`): every node o
 takes the previous splines' value and rate at its own time t + τ, so after the phase holding t the
 new splines are the previous ones.
 
+A pushed base (`ReplanParams.recovery_velocity`: its measured CoM velocity that far from the previous
+plan's) recovers: every foot in the air at t lands within `ReplanParams.recovery_swing` and stands
+until its planned touchdown (`early_touchdown`), the rest of the gait unchanged. With the timing
+fixed, a walk pushed while a diagonal pair carries it tips over about that pair before the third
+foot lands as planned, and no rest of the motion from there converges; a foot down sooner gives
+the capture point (Pratt et al. 2006) a support polygon to stop in, and the replan places it.
+
 What the measured state itself violates is not the replan's to undo at once: a foot outside its
 range-of-motion box at t (tracking error, a push) may stay outside by that excess, shrinking
 linearly to none over `ReplanParams.settle`; what is left of a swing at t has no swing-height rows.

@@ -23,7 +23,9 @@ measured state, where the last reference starts from a state the robot has left 
 further off, or a numerical failure, keeps the last reference. Every replan is recorded: `trigger`
 what started it, `success` convergence, `status` why its solve stopped (converged; max_iterations,
 the `ReplanParams.max_iterations` budget; stalled, the solver's stall test; numerical_failure),
-`tracked` whether the controller took it.
+`tracked` whether the controller took it, `recovery` whether it landed the feet in the air early
+(`ReplanParams.recovery_velocity`, `legplan.dyn.replan.early_touchdown`), as the first replan
+after a push does.
 """
 
 from __future__ import annotations
