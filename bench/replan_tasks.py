@@ -47,6 +47,9 @@ def main() -> None:
     parser.add_argument("--tasks", type=int, default=100)
     parser.add_argument("--first", type=int, default=0)
     parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--indices", type=int, nargs="+", default=None,
+                        help="run only these task indices (each below --tasks), in this order; default: --first to --tasks")
+    parser.add_argument("--loops", nargs="+", choices=("open", "closed"), default=["open", "closed"])
     parser.add_argument("--period", type=float, default=0.25)
     parser.add_argument("--impulse", type=float, nargs=2, default=IMPULSE, metavar=("LOW", "HIGH"),
                         help="N s: the random push's impulse range")
@@ -78,7 +81,11 @@ def main() -> None:
     model = centroidal_model(robot, params) if args.model == "planner" else robot.centroidal
     settings = apply_overrides(ReplanParams, dict(item.split("=", 1) for item in args.param), "--param", "replan")
     rows = []
-    for index, task, _ in dataset_items(space, args.tasks, args.seed)[args.first:]:
+    items = dataset_items(space, args.tasks, args.seed)[args.first:]
+    if args.indices is not None:  # in the order given
+        chosen = {int(index): (index, task, extra) for index, task, extra in items}
+        items = [chosen[i] for i in args.indices if i in chosen]
+    for index, task, _ in items:
         index = int(index)
         rng = np.random.default_rng(args.seed + 1000 + index)
         at = float(rng.uniform(0.25, 0.75) * task.duration)
@@ -89,7 +96,7 @@ def main() -> None:
                "impulse": impulse}
         if planned.success:
             sim_params = SimParams(pushes=((at, 0.0, force, PUSH_DURATION),))
-            for loop in ("open", "closed"):
+            for loop in args.loops:
                 replanner = (Replanner(Previous.from_plan(planned), model, terrain, params, args.period, settings)
                              if loop == "closed" else None)
                 result = simulate(planned.samples, robot, terrain_map, sim_params, goal=task.goal,
@@ -108,7 +115,7 @@ def main() -> None:
         write_result(args.result, {
             "date": datetime.date.today().isoformat(), "machine": machine(), "code": code_version(),
             "load_start": load_start, "load_end": load_average(), "wall": time.perf_counter() - started,
-            "seed": args.seed, "first": args.first, "model": args.model, "period": args.period, "impulse": list(args.impulse),
+            "seed": args.seed, "first": args.first, "indices": args.indices, "loops": args.loops, "model": args.model, "period": args.period, "impulse": list(args.impulse),
             "replan_settings": vars(settings), "push_duration": PUSH_DURATION, "rows": rows, **summary})
     print(summarize(rows))
 
@@ -117,7 +124,8 @@ def summarize(rows: list[dict]) -> dict:
     planned = [r for r in rows if r["planned"]]
     out = {"tasks": len(rows), "planned": len(planned)}
     for loop in ("open", "closed"):
-        out[f"executed_{loop}"] = sum(r[loop]["success"] for r in planned)
+        if all(loop in r for r in planned):
+            out[f"executed_{loop}"] = sum(r[loop]["success"] for r in planned)
     return out
 
 

@@ -18,6 +18,13 @@ The guess is the previous solution shifted in time (`ShiftedInit`): every node o
 takes the previous splines' value and rate at its own time t + τ, so after the phase holding t the
 new splines are the previous ones.
 
+A pushed base (`ReplanParams.recovery_velocity`: its measured CoM velocity that far from the previous
+plan's) recovers: every foot in the air at t lands within `ReplanParams.recovery_swing` and stands
+until its planned touchdown (`early_touchdown`), the rest of the gait unchanged. With the timing
+fixed, a walk pushed while a diagonal pair carries it tips over about that pair before the third
+foot lands as planned, and no rest of the motion from there converges; a foot down sooner gives
+the capture point (Pratt et al. 2006) a support polygon to stop in, and the replan places it.
+
 What the measured state itself violates is not the replan's to undo at once: a foot outside its
 range-of-motion box at t (tracking error, a push) may stay outside by that excess, shrinking
 linearly to none over `ReplanParams.settle`; what is left of a swing at t has no swing-height rows.
@@ -112,6 +119,12 @@ class ReplanParams(Parameters):
         "accelerations per g), is within this; inf (default): every one, since it starts from the "
         "measured state and the last plan from a state the robot has left (a push); 0: converged "
         "replans only"))
+    recovery_velocity: float | None = param(0.2, "(0, inf)", doc=(
+        "m/s: a replan whose measured CoM velocity is this far from the previous plan's at t (a "
+        "push) recovers: every foot in the air lands within `recovery_swing` (`early_touchdown`) "
+        "and stands until its planned lift-off; None: the feet keep their planned swings"))
+    recovery_swing: float = param(0.12, "(0, inf)", doc=(
+        "s: in a recovering replan, what a foot in the air at t has left of its swing, at most"))
     step_adaptation: float = param(0.0, "[0, inf)", doc=(
         "× the capture-point shift of the next foothold of every foot in the replan's guess "
         "(`capture_step` of the CoM's horizontal velocity error against the previous plan at t): a "
@@ -123,7 +136,7 @@ class ReplanParams(Parameters):
         "closed loop (`legplan.sim.replanning`): m, the base's distance from the tracked plan "
         "beyond which a replan starts at once, not only every period (event-triggered model "
         "predictive control); None: off"))
-    tube_velocity: float | None = param(0.3, "(0, inf)", doc=(
+    tube_velocity: float | None = param(0.2, "(0, inf)", doc=(
         "closed loop: m/s, the base's velocity error against the tracked plan beyond which a "
         "replan starts at once (a push shows in the velocity first; the unpushed plans' tracking "
         "stays within it); None: off"))
@@ -242,6 +255,37 @@ class Previous:
         lin = self.values["base_lin"].reshape(-1, 2, 3)
         ang = self.values["base_ang"].reshape(-1, 2, 3)
         return Pose(lin[-1, 0].copy(), ang[-1, 0].copy())
+
+
+def early_touchdown(gait: Gait, airborne: np.ndarray, swing: float) -> Gait:
+    """`gait` (a `remaining_gait`, t at 0) with every foot in the air at t (`airborne`) landing at
+    `swing` s, if it lands later as planned, and standing from there to its planned touchdown (its
+    next stance then goes on as planned): the phase holding `swing` is split there. A pushed base
+    whose capture point leaves the stance feet's support (a walk's diagonal pair while the third
+    foot swings) tips over within the rest of a planned swing; a foot on the ground sooner
+    widens the support it can stop on (capture point, Pratt et al. 2006), and its foothold is the
+    replan's to choose. The total duration, the goal and every later lift-off are unchanged."""
+    ends = np.cumsum(gait.durations)
+    late = []
+    for leg in np.flatnonzero(airborne):
+        later = np.flatnonzero(gait.stance[1:, leg]) + 1  # phase 0 is the hold at its measured position
+        if not later.size or ends[later[0] - 1] > swing + EPS:
+            late.append(leg)
+    if not late:
+        return gait
+    k = int(np.searchsorted(ends, swing, side="right"))
+    durations, stance = gait.durations.copy(), gait.stance.copy()
+    start = ends[k] - durations[k]
+    if swing - start > PHASE_END and ends[k] - swing > PHASE_END:  # split the phase at `swing`
+        durations = np.concatenate([durations[:k], [swing - start, ends[k] - swing], durations[k + 1:]])
+        stance = np.vstack([stance[:k + 1], stance[k:]])
+        k += 1
+    elif ends[k] - swing <= PHASE_END:
+        k += 1
+    for leg in late:
+        lands = k + int(np.argmax(stance[k:, leg])) if stance[k:, leg].any() else len(durations)
+        stance[k:lands, leg] = True
+    return Gait(gait.name, durations, stance)
 
 
 def remaining_gait(gait: Gait, t: float, hold: float = AIRBORNE_HOLD) -> tuple[Gait, np.ndarray]:
@@ -504,6 +548,8 @@ class ReplanResult:
     """The largest constraint violation, each row times its solver scale (`Constraint.scale`):
     rows of different units (N, m, m/s²) on one scale, so that one bound judges how near a
     replan came to feasible (`ReplanParams.track_violation`)."""
+    recovery: bool = False
+    """Whether the replan recovered from a push (`ReplanParams.recovery_velocity`, `early_touchdown`)."""
 
     @property
     def success(self) -> bool:
@@ -531,6 +577,7 @@ class ReplanResult:
         return {**{f"state_{k}": v for k, v in self.state.record().items()}, "iterations": self.iterations,
                 "cpu_seconds": self.cpu_seconds, "wall_seconds": self.wall_seconds, "success": self.success,
                 "violation": self.violation, "scaled_violation": self.scaled_violation,
+                "recovery": self.recovery,
                 "status": self.status.name.lower(), "reason": self.reason}
 
 
@@ -549,12 +596,16 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
     if warm_stage not in ("projection", "costs"):
         raise ValueError(f"warm_stage must be 'projection' or 'costs', got {warm_stage!r}")
     gait_rest, airborne = remaining_gait(previous.form.gait, state.t)
+    error = velocity_error(previous, state)
+    recovers = recovering(error, settings)
+    if recovers:
+        gait_rest = early_touchdown(gait_rest, airborne, settings.recovery_swing)
     task = ReplanTask(previous, state, gait_rest, airborne, settings.horizon, settings.settle, settings.window)
     costs = warm_stage == "costs"
     solver = params.warm_solver if costs else params.projection_solver
     stage_params = replace(params, optimize_phases=False, costs=params.costs if costs else CostWeights())
     cpu, wall = time.process_time(), time.perf_counter()
-    guess = ShiftedInit(previous, state.t, adapted_step(previous, task, model, settings))
+    guess = ShiftedInit(previous, state.t, adapted_step(error, model, settings))
     problem = build_problem(task, model, terrain, stage_params, guess)
     setup = time.perf_counter() - wall
     solved = solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints,
@@ -571,20 +622,32 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
     result = PlanResult(problem, [StageOutcome(warm_stage, solved.status, solved, problem, setup)], solved, samples,
                         setup)
     return ReplanResult(state, result, time.process_time() - cpu, time.perf_counter() - wall,
-                        solved.scaled_violation)
+                        solved.scaled_violation, recovers)
 
 
-def adapted_step(previous: Previous, task: ReplanTask, model, settings: ReplanParams) -> np.ndarray:
+def recovering(error: np.ndarray, settings: ReplanParams) -> bool:
+    """Whether a replan recovers (`early_touchdown`): the horizontal CoM velocity `error` against
+    the previous plan (`velocity_error`) beyond `settings.recovery_velocity`."""
+    return (settings.recovery_velocity is not None
+            and float(np.hypot(error[0], error[1])) > settings.recovery_velocity)
+
+
+def velocity_error(previous: Previous, state: MeasuredState) -> np.ndarray:
+    """The measured CoM velocity (ṗ + ω × R o) less the previous plan's at `state.t` (3,), m/s."""
+    at = np.array([min(state.t, previous.form.duration)])
+    planned = (previous.form.base_matrix(at, 1) @ previous.values["base_lin"].reshape(-1, 3))[0]
+    arm = rotation(state.base_euler[None])[0] @ previous.com_offset
+    return state.base_vel + np.cross(state.base_ang_vel, arm) - planned
+
+
+def adapted_step(error: np.ndarray, model, settings: ReplanParams) -> np.ndarray:
     """The step adaptation of a replan (`ReplanParams.step_adaptation`): `capture_step` of the
-    measured CoM velocity's error against the previous plan's at t, within the range of motion."""
+    measured CoM velocity's `error` against the previous plan's (`velocity_error`), within the
+    range of motion."""
     if settings.step_adaptation == 0.0:
         return np.zeros(3)
-    at = np.array([min(task.state.t, previous.form.duration)])
-    planned = (previous.form.base_matrix(at, 1) @ previous.values["base_lin"].reshape(-1, 3))[0]
-    _, measured, _ = task.com_state()
     limit = np.r_[np.asarray(model.range_of_motion, float)[:2], 0.0]
-    return capture_step(measured - planned, float(np.sqrt(model.base_height / GRAVITY)), limit,
-                        settings.step_adaptation)
+    return capture_step(error, float(np.sqrt(model.base_height / GRAVITY)), limit, settings.step_adaptation)
 
 
 def scaled_violation(constraints, values: dict[str, np.ndarray]) -> float:

@@ -20,7 +20,7 @@ Root attributes: the standard provenance (ARCHITECTURE.md), `params` (the `SimPa
     orientation_error (the base tracking errors of the paper's Fig. 4 (e)-(f)).
     With `dyn simulate --replan`: replans/<name>, one row per replan (`legplan.sim.run.REPLAN_UNITS`):
     t, the measured base_pos, base_euler, base_vel, base_ang_vel, feet_pos, iterations, cpu_seconds,
-    violation, scaled_violation, success, tracked.
+    violation, scaled_violation, recovery, success, tracked.
 `/summary`: tasks, succeeded, success_rate, skipped, falls, median rms position/orientation error,
     worst max errors, peak torque, median saturation, QP failures and held ticks (totals), worst
     joint speed ratio, tasks with unplanned contacts, simulated seconds per wall second.

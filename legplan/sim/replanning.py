@@ -23,7 +23,9 @@ measured state, where the last reference starts from a state the robot has left 
 further off, or a numerical failure, keeps the last reference. Every replan is recorded: `trigger`
 what started it, `success` convergence, `status` why its solve stopped (converged; max_iterations,
 the `ReplanParams.max_iterations` budget; stalled, the solver's stall test; numerical_failure),
-`tracked` whether the controller took it.
+`tracked` whether the controller took it, `recovery` whether it landed the feet in the air early
+(`ReplanParams.recovery_velocity`, `legplan.dyn.replan.early_touchdown`), as the first replan
+after a push does.
 """
 
 from __future__ import annotations
@@ -80,7 +82,8 @@ class Replanner:
                                   and out.scaled_violation <= self.settings.track_violation)
         self.rows.append({**state.record(), "trigger": trigger, "iterations": out.iterations,
                           "cpu_seconds": out.cpu_seconds, "violation": out.violation,
-                          "scaled_violation": out.scaled_violation, "success": out.success,
+                          "scaled_violation": out.scaled_violation, "recovery": out.recovery,
+                          "success": out.success,
                           "status": out.status.name.lower(), "tracked": tracked})
         if not tracked:
             return None

@@ -129,12 +129,13 @@ SERIES_UNITS = {"t": "s", "base_pos": "m", "base_quat": "(x, y, z, w)", "base_ve
                 "foot_forces": "N (world, on the foot)", "position_error": "m", "orientation_error": "rad"}
 REPLAN_UNITS = {"t": "s", "trigger": "", "base_pos": "m", "base_euler": "rad", "base_vel": "m/s (world)",
                 "base_ang_vel": "rad/s (world)", "feet_pos": "m", "iterations": "", "cpu_seconds": "s",
-                "violation": "", "scaled_violation": "", "success": "", "status": "", "tracked": ""}
+                "violation": "", "scaled_violation": "", "recovery": "", "success": "", "status": "", "tracked": ""}
 """The columns of `SimResult.replans`, one row per replan (`legplan.sim.replanning.Replanner`): its
 time and trigger ("period" or "tube"), the measured state it started from, LM iterations, CPU
 seconds, its largest violation (rows in their own units, and in the solver's scale), whether it
-converged, why the solve stopped (`status`: converged, max_iterations, stalled, numerical_failure)
-and whether the controller tracked it."""
+converged, whether it recovered from a push (`recovery`: the feet in the air landed early,
+`legplan.dyn.replan.early_touchdown`), why the solve stopped (`status`: converged, max_iterations,
+stalled, numerical_failure) and whether the controller tracked it."""
 TEXT_COLUMNS = ("trigger", "status")
 """The `REPLAN_UNITS` columns that hold words (bytes in sim.h5)."""
 

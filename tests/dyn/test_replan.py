@@ -420,3 +420,66 @@ def test_a_replan_stops_once_every_row_is_within_its_scaled_tolerance(planned, a
         if k.block.size:
             c = k.block.evaluate([values[v] for v in k.block.variables], False)[0]
             assert np.all(k.violation(np.asarray(c)) <= tolerance), k.name
+
+
+def test_early_touchdown_lands_the_feet_in_the_air_and_keeps_the_rest():
+    """A foot in the air at t lands at `swing` and stands to its planned touchdown: the phase holding
+    `swing` is split there, every other flag, the total duration and every later lift-off unchanged;
+    a foot that lands sooner as planned, or none in the air, leaves the gait as it is."""
+    from legplan.dyn.replan import early_touchdown
+
+    gait = make_gait("walk", 2, 3.0)
+    ends = np.cumsum(gait.durations)
+    k = next(k for k in range(1, len(ends)) if not gait.stance[k].all())
+    rest, airborne = remaining_gait(gait, ends[k - 1] + 0.01)  # just after a lift-off
+    (leg,) = np.flatnonzero(airborne)
+    landed = early_touchdown(rest, airborne, 0.12)
+    assert landed.duration == pytest.approx(rest.duration)
+    assert len(landed.durations) == len(rest.durations) + 1
+    assert landed.contact(np.array([0.119]))[0, leg] == False  # noqa: E712 (numpy bool)
+    hold, swing, stance = rest.foot_phases(leg)[:3]
+    assert hold.stance and not swing.stance and stance.stance
+    planned_touchdown = stance.t0
+    assert landed.contact(np.array([0.121, 0.5 * (0.12 + planned_touchdown)]))[:, leg].all()
+    later = np.linspace(planned_touchdown + 1e-3, rest.duration - 1e-3, 200)
+    assert np.array_equal(landed.contact(later), rest.contact(later))
+    others = np.ones(len(airborne), bool)
+    others[leg] = False
+    every = np.linspace(1e-3, rest.duration - 1e-3, 400)
+    assert np.array_equal(landed.contact(every)[:, others], rest.contact(every)[:, others])
+    late_in_swing, in_air = remaining_gait(gait, ends[k - 1] + 0.01 + planned_touchdown - 0.05)  # lands in 0.05 s
+    assert in_air[leg]
+    times = np.linspace(1e-3, late_in_swing.duration - 1e-3, 400)
+    kept = early_touchdown(late_in_swing, in_air, 0.12).contact(times)[:, leg]
+    assert np.array_equal(kept, late_in_swing.contact(times)[:, leg])
+    standing, none = remaining_gait(gait, 0.5 * ends[0])
+    assert not none.any() and early_touchdown(standing, none, 0.12) is standing
+
+
+def test_a_pushed_replan_recovers_and_an_unpushed_one_does_not(planned, anymal, flat):
+    """`ReplanParams.recovery_velocity`: a measured CoM velocity that far from the plan's lands the foot
+    in the air within `recovery_swing` (its plan in stance from there); just below it, or with the
+    recovery off, the foot keeps its planned swing. Either way the replan ends at the goal."""
+    from legplan.dyn.replan import recovering, velocity_error
+
+    state = _state_in_swing(planned, 0.1)
+    previous = Previous.from_plan(planned)
+    assert np.abs(velocity_error(previous, state)).max() < 0.05  # the plan's own state
+    push = np.array([0.0, 0.3, 0.0])
+    pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + push, state.base_ang_vel,
+                           state.feet_pos)
+    error = velocity_error(previous, pushed)
+    settings = ReplanParams(recovery_velocity=0.2, recovery_swing=0.12)
+    assert recovering(error, settings)
+    assert not recovering(error, replace(settings, recovery_velocity=1.01 * np.hypot(*error[:2])))
+    assert not recovering(error, replace(settings, recovery_velocity=None))
+    (leg,) = np.flatnonzero(remaining_gait(previous.form.gait, state.t)[1])
+    outcomes = {}
+    for name, chosen in (("recovers", settings), ("off", replace(settings, recovery_velocity=None))):
+        out = replan(planned, pushed, anymal, flat, DynParams(), settings=chosen)
+        assert out.success, (name, out.plan.reason)
+        assert out.recovery == (name == "recovers") and out.record()["recovery"] == out.recovery
+        s = out.plan.samples
+        assert np.allclose(s["base_pos"][-1, :2], planned.samples["base_pos"][-1, :2], atol=1e-6)
+        outcomes[name] = s["contact"][np.searchsorted(s["t"], [0.13, 0.2]), leg]
+    assert outcomes["recovers"].all() and not outcomes["off"].any()
