@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import os
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 from pathlib import Path
 
 from legplan.dyn.costs import CostWeights
@@ -135,7 +135,7 @@ class DynParams(Parameters):
         "(JointTorqueBlock): for what the legs' own motion and the controller's corrections need on "
         "top of holding the contact forces, which the independent check judges against the full limit"))
     solver: ALParams = param(
-        ALParams(inner=HingedParams(max_iterations=60, tolerance=0.0, function_tolerance=1e-4, geodesic_acceleration=0.0)),
+        ALParams(inner=replace(ALParams().inner, geodesic_acceleration=0.0)),
         doc="the feasibility stages (the constraints alone); no geodesic acceleration: on these problems "
             "the curvature probe's acceleration is refused (2‖a‖ > α‖d‖) at the first, strongly curved "
             "steps and negligible at the later ones, while each probe costs a residual evaluation")
