@@ -344,11 +344,8 @@ class ReplanTask:
         return self.previous.goal
 
     def com_state(self) -> tuple[Pose, np.ndarray, np.ndarray]:
-        """The CoM's pose, velocity and Euler rates at the measured state."""
-        s = self.state
-        arm = rotation(s.base_euler[None])[0] @ self.previous.com_offset
-        return (Pose(s.base_pos + arm, s.base_euler.copy()), s.base_vel + np.cross(s.base_ang_vel, arm),
-                euler_rates(s.base_euler, s.base_ang_vel))
+        """The CoM's pose, velocity and Euler rates at the measured state (`measured_com`)."""
+        return measured_com(self.state, self.previous.com_offset)
 
     def setup(self, model, terrain, params: DynParams):
         form = gait_formulation(self.gait_rest, params, self.knots(params))
@@ -632,12 +629,19 @@ def recovering(error: np.ndarray, settings: ReplanParams) -> bool:
             and float(np.hypot(error[0], error[1])) > settings.recovery_velocity)
 
 
+def measured_com(state: MeasuredState, com_offset) -> tuple[Pose, np.ndarray, np.ndarray]:
+    """The CoM's pose (p + R o), velocity (ṗ + ω × R o) and Euler rates at a measured base state, o
+    the CoM in the base frame."""
+    arm = rotation(state.base_euler[None])[0] @ np.asarray(com_offset, float)
+    return (Pose(state.base_pos + arm, state.base_euler.copy()), state.base_vel + np.cross(state.base_ang_vel, arm),
+            euler_rates(state.base_euler, state.base_ang_vel))
+
+
 def velocity_error(previous: Previous, state: MeasuredState) -> np.ndarray:
-    """The measured CoM velocity (ṗ + ω × R o) less the previous plan's at `state.t` (3,), m/s."""
+    """The measured CoM velocity (`measured_com`) less the previous plan's at `state.t` (3,), m/s."""
     at = np.array([min(state.t, previous.form.duration)])
     planned = (previous.form.base_matrix(at, 1) @ previous.values["base_lin"].reshape(-1, 3))[0]
-    arm = rotation(state.base_euler[None])[0] @ previous.com_offset
-    return state.base_vel + np.cross(state.base_ang_vel, arm) - planned
+    return measured_com(state, previous.com_offset)[1] - planned
 
 
 def adapted_step(error: np.ndarray, model, settings: ReplanParams) -> np.ndarray:
