@@ -37,7 +37,7 @@ from legplan.dyn.formulation import Formulation
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import (PHASES, PhaseTiming, TimedControlPoints, TimedSamples, invalid_timing, phase_jacobian,
                                 refresh)
-from legplan.geometry.hermite import SampledJacobian, hermite_weights, kron_dim
+from legplan.geometry.hermite import SampledJacobian, hermite_weights, kron_axis, kron_dim
 from legplan.geometry.sparse import times, wrapped
 from legplan.robots.so3 import skew
 from legplan.solve import ResidualBlock
@@ -253,7 +253,7 @@ class LegClearanceBlock(RangeOfMotionBlock):
     distance's gradient (the unit vector from the nearest terrain point)."""
 
     def __init__(self, form: Formulation, leg: int, legs, terrain: TerrainModel, times: np.ndarray,
-                 timing: PhaseTiming | None = None, com_offset=(0.0, 0.0, 0.0)):
+                 timing: PhaseTiming | None = None, com_offset=(0.0, 0.0, 0.0), batch: LegClearanceBatch | None = None):
         super().__init__(form, leg, np.zeros(3), times, timing)
         self.leg, self.legs = leg, legs
         self.offset = np.asarray(com_offset, float)
@@ -264,48 +264,113 @@ class LegClearanceBlock(RangeOfMotionBlock):
         self.joints = legs.workspace(leg, self.n) if hasattr(legs, "workspace") else None  # IK warm start
         self.base_jacobian = SampledJacobian([self.base], self.rows, self.n, self.columns[0])
         self.foot_jacobian = SampledJacobian([self.foot], self.rows, self.n, self.columns[2])
+        self.batch = batch if batch is not None and batch.join(self) else None
 
-    def _spheres(self, b, derivatives: bool = True):
-        """Sphere centres s (n, k, 3) and ∂s/∂b (n, k, 3, 3) in the base frame for feet b (n, 3) (None
-        without `derivatives`: the closed form evaluated once, not by complex step)."""
+    def _spheres(self, legs, b, derivatives: bool = True):
+        """Sphere centres s (n, k, 3) and ∂s/∂b (n, k, 3, 3) in the base frame for feet b (n, 3) of the
+        leg(s) `legs` (this block's, or one per row) (None without `derivatives`); planar legs give
+        both in closed form (`PlanarLegs.sphere_centres_and_jacobian`)."""
         if self.joints is not None:
             centres, jac, _ = self.legs.sphere_centres(self.leg, b, self.joints)
             return centres, jac
         if not derivatives:
-            return self.legs.sphere_centres(self.leg, b), None
-        centres, columns = complex_step(lambda x: self.legs.sphere_centres(self.leg, x).reshape(len(x), -1), (b,), (0,))
-        return centres.reshape(len(b), -1, 3), columns[0].reshape(len(b), -1, 3, 3)
+            return self.legs.sphere_centres(legs, b), None
+        return self.legs.sphere_centres_and_jacobian(legs, b)
 
-    def _clearance(self, c):
+    def _clearance(self, c, radius):
         """d(c) − r for centres c (n, k, 3) and its gradient (n, k, 3): the exact distance to the
-        terrain's columns (`TerrainModel.column_distance`) less the radius."""
-        d, grad = self.distance.value_and_gradient(c.reshape(-1, 3))
-        return (d.reshape(c.shape[:2]) - self.radius), grad.reshape(c.shape)
+        terrain's columns (`TerrainModel.column_distance`) less the radius. The distance saturates
+        at its reach (value the reach, gradient 0), so the search among neighbouring columns is
+        skipped wherever a lower bound of their distance already reaches it (`bound`): the same
+        values and gradients."""
+        points = c.reshape(-1, 3)
+        d, grad = self.distance.value_and_gradient(points, np.full(len(points), self.distance.reach))
+        return (d.reshape(c.shape[:2]) - radius), grad.reshape(c.shape)
+
+    def rows_at(self, legs, p, e, q, radius, jacobians):
+        """The rows (n, k) at samples (p, e, q) (n, 3) each, of the leg(s) `legs` with sphere radii
+        `radius`, and with `jacobians` the per-sample gradients (n, k, 3) w.r.t. p, e and q."""
+        rot = rotation(e)
+        b = self._in_base(e, q - p, rot) + self.offset
+        s, ds = self._spheres(legs, b, jacobians)
+        lever = s - self.offset
+        c = p[:, None] + np.einsum("nij,nkj->nki", rot, lever)
+        value, dh = self._clearance(c, radius)  # and ∂row/∂c
+        if not jacobians:
+            return value, None
+        turns = rotation_derivatives(e)
+        db_de = _in_base_jacobian(turns, q - p)  # (n, 3, 3)
+        # the chain rule vector first (no (n, k, 3, 3) matrix products): g = dh·R·∂s/∂b per sphere, then
+        # ∂row/∂p_i = g Rᵀ, ∂row/∂p = dh − g Rᵀ, ∂row/∂e = dh·(∂R/∂e) v + g ∂b/∂e
+        g_b = (dh @ rot)[:, :, None] @ ds  # (n, k, 1, 3)
+        d_q = (g_b @ np.transpose(rot, (0, 2, 1))[:, None])[:, :, 0]
+        d_e = np.einsum("nki,nlij,nkj->nkl", dh, turns, lever) + (g_b @ db_de[:, None])[:, :, 0]  # v = s − o
+        return value, (dh - d_q, d_e, d_q)
 
     def evaluate(self, values, jacobians):
+        if self.batch is not None:
+            return self.batch.part(self, values, jacobians)
         sampled = self._sampled(values)
         if sampled is None:
             return invalid_timing(self, jacobians)
-        p, e, q = sampled
-        rot = rotation(e)
-        b = self._in_base(e, q - p, rot) + self.offset
-        s, ds = self._spheres(b, jacobians)
-        lever = s - self.offset
-        c = p[:, None] + np.einsum("nij,nkj->nki", rot, lever)
-        value, dh = self._clearance(c)  # and ∂row/∂c
+        value, gradients = self.rows_at(self.leg, *sampled, self.radius, jacobians)
         if not jacobians:
             return value.reshape(-1), None
-        k = self.rows
-        turns = rotation_derivatives(e)
-        db_de = _in_base_jacobian(turns, q - p)  # (n, 3, 3)
-        rt = np.transpose(rot, (0, 2, 1))
-        rds = np.einsum("nij,nkjl->nkil", rot, ds)  # R ∂s/∂b
-        dc_dq = rds @ rt[:, None]
-        dc_dp = np.eye(3) - dc_dq
-        dr_de = np.einsum("nlij,nkj->nkil", turns, lever)  # ∂(R v)/∂e at v = s − o, (n, k, 3, 3)
-        dc_de = dr_de + rds @ db_de[:, None]
-        row = lambda d: np.einsum("nki,nkij->nkj", dh, d)
-        return value.reshape(-1), self._jacobians(row(dc_dp), row(dc_de), row(dc_dq), values)
+        return value.reshape(-1), self._jacobians(*gradients, values)
+
+
+class LegClearanceBatch:
+    """The leg-clearance rows of every leg in one pass: the per-leg `LegClearanceBlock`s of one
+    problem share it (closed-form legs with as many spheres each, fixed phases, one column
+    distance). The first member evaluated at some variable values computes the rows, and with
+    Jacobians their per-sample gradients, of every member at once on the members' samples stacked
+    (each numpy call over the four legs instead of one call per leg; the same operations row by
+    row), and keeps them; the other members take their part while the values are the same, compared
+    entry by entry (a caller may change its arrays in place). The blocks, their rows and their
+    Jacobians' patterns stay those of the legs alone."""
+
+    def __init__(self):
+        self.members: list[LegClearanceBlock] = []
+        self._kept: dict[bool, tuple] = {}
+
+    def join(self, block: LegClearanceBlock) -> bool:
+        """Take `block` as a member if it can be evaluated with the others (else False)."""
+        if block.timing is not None or block.joints is not None or getattr(block.legs, "sphere_slots", None) is None \
+                or block.legs.sphere_slots() is None:
+            return False
+        if self.members:
+            first = self.members[0]
+            if not (block.legs is first.legs and block.distance is first.distance
+                    and np.array_equal(block.offset, first.offset) and block.rows == first.rows):
+                return False
+        block.batch_index = len(self.members)
+        self.members.append(block)
+        self._kept.clear()
+        return True
+
+    def part(self, block: LegClearanceBlock, values, jacobians: bool):
+        """`block.evaluate(values, jacobians)`, from the members' evaluation at these values."""
+        jacobians = bool(jacobians)
+        kept = self._kept.get(jacobians)
+        if kept is None or len(kept[0]) != len(values) or not all(
+                np.array_equal(a, b) for a, b in zip(kept[0], values)):
+            kept = self._kept[jacobians] = ([np.array(v, float) for v in values], self._evaluate(values, jacobians))
+        return kept[1][block.batch_index]
+
+    def _evaluate(self, values, jacobians: bool) -> list:
+        members = self.members
+        sampled = [m._sampled(values) for m in members]
+        count = [m.n for m in members]
+        legs = np.repeat([m.leg for m in members], count)
+        radius = np.concatenate([np.broadcast_to(m.radius, (m.n, m.rows)) for m in members])
+        p, e, q = (np.concatenate([x[k] for x in sampled]) for k in range(3))
+        value, gradients = members[0].rows_at(legs, p, e, q, radius, jacobians)
+        bounds = np.concatenate([[0], np.cumsum(count)])
+        out = []
+        for m, lo, hi in zip(members, bounds[:-1], bounds[1:]):
+            r = value[lo:hi].reshape(-1)
+            out.append((r, m._jacobians(*(g[lo:hi] for g in gradients), values)) if jacobians else (r, None))
+        return out
 
 
 class JointTorqueBlock(RangeOfMotionBlock):
@@ -605,16 +670,17 @@ class BaseAboveFeetBlock(ResidualBlock):
         self.offset = np.asarray(com_offset, float)
         self.turning = bool(self.offset.any())
         self.variables = ("base_lin",) + (("base_ang",) if self.turning else ()) + ("feet",)
-        self.base = kron_dim(form.base_matrix(times))[2::3]
-        self.angles = kron_dim(form.base_matrix(times)) if self.turning else None
+        base = form.base_matrix(times)
+        self.base = kron_axis(base, 2)
+        self.angles = kron_dim(base) if self.turning else None
         self.timing = timing
         if timing is None:
             self.sample = None
-            self.feet = kron_dim(form.foot_matrix(leg, times))[2::3]
+            self.feet = kron_axis(form.foot_matrix(leg, times), 2)
         else:
             self.variables = self.variables + (PHASES,)
             self.sample = TimedSamples(timing, "motion", leg, times)
-            self.feet = kron_dim(self.sample.matrix)[2::3]
+            self.feet = kron_axis(self.sample.matrix, 2)
 
     def evaluate(self, values, jacobians):
         base, feet = values[0], values[2 if self.turning else 1]
@@ -623,7 +689,7 @@ class BaseAboveFeetBlock(ResidualBlock):
             if not valid:
                 return invalid_timing(self, jacobians)
             if changed:
-                self.feet = kron_dim(self.sample.matrix)[2::3]
+                self.feet = kron_axis(self.sample.matrix, 2)
         r = times(self.base, base) - times(self.feet, feet)
         if self.turning:
             e = times(self.angles, values[1]).reshape(-1, 3)

@@ -22,8 +22,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock, ForceBlock, JointTorqueBlock,
-                                     LegClearanceBlock, RangeOfMotionBlock, StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity,
-                                     swing_constraint, swing_height)
+                                     LegClearanceBatch, LegClearanceBlock, RangeOfMotionBlock, StanceSlopeBlock,
+                                     TerrainHeightBlock, acceleration_continuity, swing_constraint, swing_height)
 from legplan.dyn.costs import CostWeights, StairEdgeBlock, StanceWidthBlock, integral_costs
 from legplan.dyn.formulation import Formulation, Pose, dense_knots, unloaded_phases
 from legplan.dyn.gait import make_gait
@@ -229,6 +229,7 @@ class BuildContext:
     swing_times: np.ndarray | None = None
     range_times: np.ndarray | None = None
     until: float | None = None
+    shared: dict = field(default_factory=dict)  # what the legs' builders share (the same dict for every leg)
 
     def for_leg(self, leg: int) -> BuildContext:
         foot = self.problem.form.feet[leg]
@@ -399,8 +400,9 @@ def _leg_clearance(c: BuildContext) -> list[Constraint]:
         return []
     if model.leg_kinematics is None:
         raise ValueError("DynParams.leg_clearance needs the robot's legs (Centroidal.leg_kinematics)")
+    batch = c.shared.setdefault("leg_clearance", LegClearanceBatch())  # the legs evaluated together
     return [Constraint(LegClearanceBlock(p.form, c.leg, model.leg_kinematics, p.terrain, c.range_times, p.timing,
-                                         p.com_offset),
+                                         p.com_offset, batch),
                        c.params.leg_clearance, np.inf, name="leg_clearance", scale=1.0 / LENGTH)]
 
 

@@ -174,6 +174,15 @@ def kron_dim(m: sp.spmatrix, dim: int = 3) -> sp.csr_matrix:
     return sp.kron(sp.csr_matrix(m), sp.identity(dim, format="csr"), format="csr")
 
 
+def kron_axis(m: sp.spmatrix, axis: int, dim: int = 3) -> sp.csr_matrix:
+    """The rows of one `axis` of M ⊗ I_dim (`kron_dim(m)[axis::dim]`): M's entries, in its order, at the
+    columns dim·j + axis; written down from M's CSR arrays instead of the product and a row slice."""
+    m = m if type(m) is sp.csr_matrix else sp.csr_matrix(m)
+    index = np.result_type(m.indices.dtype, np.int32)
+    indices = (dim * m.indices.astype(np.int64) + axis).astype(index)
+    return sp.csr_matrix((m.data.copy(), indices, m.indptr.astype(index)), shape=(m.shape[0], dim * m.shape[1]))
+
+
 @functools.lru_cache(maxsize=512)
 def _jacobian_structure(rows: int, samples: int, columns: int, patterns: tuple) -> tuple:
     """`SampledJacobian`'s structure for its sizes and the (indptr, indices) patterns of its matrices

@@ -26,8 +26,9 @@ form (the leg's inverse kinematics, knee on the side it has in the nominal stanc
   below `REACH_FLOOR`, or the foot within w of the HAA axis), where the chain's least-squares
   answer applies.
 
-Only +, ·, / and √ appear, so the function takes complex arguments and the planner differentiates
-it by complex step. The geometry is read from the robot's URDF at the nominal stance (HAA at 0);
+Only +, ·, / and √ appear, so the function takes complex arguments (a complex step differentiates
+it exactly); `sphere_centres_and_jacobian` gives the centres with their derivative in closed form,
+the chain rule through the steps above, which the planner uses. The geometry is read from the robot's URDF at the nominal stance (HAA at 0);
 `PlanarLegs.of_robot` returns None for a robot whose legs are not of this kind.
 """
 
@@ -135,16 +136,17 @@ class PlanarLegs:
         """Indices (into the `sphere_*` arrays) of the spheres of one leg."""
         return np.flatnonzero(self.sphere_leg == leg)
 
-    def _plane(self, leg: int, feet: np.ndarray):
+    def _plane(self, leg, feet: np.ndarray):
         """The leg in its abducted plane (module docstring): the foot t relative to the HAA joint,
-        its depth z', (cos α, sin α), the knee (x, z) and b² before its floor; real or complex."""
+        its depth z', (cos α, sin α), the knee (x, z) and b² before its floor; real or complex. `leg`
+        one leg, or one per row of `feet` (an int array): the same operations on each row."""
         t = feet - self.haa[leg]
         w = self.lateral[leg]
         rho2 = t[:, 1] ** 2 + t[:, 2] ** 2
         depth = -np.sqrt(rho2 - w ** 2)
         cos_a, sin_a = (w * t[:, 1] + depth * t[:, 2]) / rho2, (w * t[:, 2] - depth * t[:, 1]) / rho2
         hip = self.hip[leg]
-        dx, dz = t[:, 0] - hip[0], depth - hip[2]
+        dx, dz = t[:, 0] - hip[..., 0], depth - hip[..., 2]
         d2 = dx ** 2 + dz ** 2
         d = np.sqrt(d2)
         l1, l2 = self.thigh[leg], self.shank[leg]
@@ -153,7 +155,7 @@ class PlanarLegs:
         b = np.sqrt(np.where(b2.real > REACH_FLOOR, b2, REACH_FLOOR))
         ux, uz = dx / d, dz / d
         side = self.knee_side[leg]
-        return t, depth, cos_a, sin_a, hip[0] + a * ux - side * b * uz, hip[2] + a * uz + side * b * ux, b2
+        return t, depth, cos_a, sin_a, hip[..., 0] + a * ux - side * b * uz, hip[..., 2] + a * uz + side * b * ux, b2
 
     def joints(self, leg: int, feet: np.ndarray) -> np.ndarray:
         """The joints (n, 3: HAA, HFE, KFE) that put the leg's foot at `feet` (n, 3, base frame), knee
@@ -169,28 +171,113 @@ class PlanarLegs:
         q[~(b2 > REACH_FLOOR)] = np.nan  # NaN b² too: the foot within w of the HAA axis
         return q
 
-    def sphere_centres(self, leg: int, feet: np.ndarray) -> np.ndarray:
+    def sphere_centres(self, leg, feet: np.ndarray) -> np.ndarray:
         """Centres (n, k, 3), base frame, of the leg's k spheres with its foot at `feet` (n, 3), base
-        frame; real or complex (module docstring)."""
+        frame; real or complex (module docstring). `leg`: one leg, or one per row (an int array;
+        every leg with as many spheres, `sphere_slots`)."""
         t, depth, cos_a, sin_a, knee_x, knee_z, _ = self._plane(leg, feet)
         hip, w, l1, l2 = self.hip[leg], self.lateral[leg], self.thigh[leg], self.shank[leg]
-        pick = self.spheres_of(leg)
+        pick = self.sphere_slots()[leg].T if np.ndim(leg) else self.spheres_of(leg)  # per sphere: its index (per row)
         out = []
         for s in pick:
-            if self.sphere_link[s] == 0:
-                nominal, start = self.thigh_direction[leg], (hip[0], hip[1], hip[2])
-                now = ((knee_x - hip[0]) / l1, (knee_z - hip[2]) / l1)
-            else:
-                nominal, start = self.shank_direction[leg], (knee_x, w, knee_z)
-                now = ((t[:, 0] - knee_x) / l2, (depth - knee_z) / l2)
-            cos_p = nominal[0] * now[0] + nominal[1] * now[1]
-            sin_p = nominal[0] * now[1] - nominal[1] * now[0]
-            ox, oy, oz = self.sphere_offset[s]
-            x = start[0] + cos_p * ox - sin_p * oz
-            y = np.full_like(x, start[1] + oy)
-            z = start[2] + sin_p * ox + cos_p * oz
+            thigh = self.sphere_link[s] == 0
+            start_x = np.where(thigh, hip[..., 0], knee_x)
+            start_y = np.where(thigh, hip[..., 1], w)
+            start_z = np.where(thigh, hip[..., 2], knee_z)
+            now_x = np.where(thigh, (knee_x - hip[..., 0]) / l1, (t[:, 0] - knee_x) / l2)
+            now_z = np.where(thigh, (knee_z - hip[..., 2]) / l1, (depth - knee_z) / l2)
+            nominal = np.where(np.asarray(thigh)[..., None], self.thigh_direction[leg], self.shank_direction[leg])
+            cos_p = nominal[..., 0] * now_x + nominal[..., 1] * now_z
+            sin_p = nominal[..., 0] * now_z - nominal[..., 1] * now_x
+            offset = self.sphere_offset[s]
+            ox, oy, oz = offset[..., 0], offset[..., 1], offset[..., 2]
+            x = start_x + cos_p * ox - sin_p * oz
+            y = np.broadcast_to(start_y + oy, x.shape)
+            z = start_z + sin_p * ox + cos_p * oz
             out.append(np.stack([x, y * cos_a - z * sin_a, y * sin_a + z * cos_a], axis=-1) + self.haa[leg])
-        return np.stack(out, axis=1) if out else np.zeros((len(feet), 0, 3), dtype=feet.dtype)
+        return np.stack(out, axis=1) if len(out) else np.zeros((len(feet), 0, 3), dtype=feet.dtype)
+
+    def sphere_slots(self) -> np.ndarray | None:
+        """The spheres of every leg (legs, k) when all legs carry the same number k (for rows of
+        several legs at once), else None."""
+        per_leg = [self.spheres_of(leg) for leg in range(len(self.haa))]
+        return np.array(per_leg) if len({p.size for p in per_leg}) == 1 else None
+
+    def sphere_centres_and_jacobian(self, leg, feet: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """`sphere_centres` (n, k, 3) of real feet (n, 3) with ∂centre/∂foot (n, k, 3, 3) in closed
+        form: the chain rule through the module docstring's steps, each differentiated by hand
+        (∂z' = (0, T_y, T_z)/z', ∂a = ∂d²/(2d) − a ∂d/d, ∂b = −a ∂a/b, 0 where b² is floored, as
+        `sphere_centres`' complex step gives it), all spheres at once. `leg`: one leg, or one per
+        row (an int array; every leg with as many spheres, `sphere_slots`)."""
+        feet = np.asarray(feet, float)
+        n = len(feet)
+        if np.ndim(leg):
+            legs, pick = np.asarray(leg), self.sphere_slots()[leg]  # (n,), (n, k)
+        else:
+            legs, pick = np.full(n, leg), np.broadcast_to(self.spheres_of(leg), (n, self.spheres_of(leg).size))
+        if not pick.shape[1]:
+            return np.zeros((n, 0, 3)), np.zeros((n, 0, 3, 3))
+        t, depth, cos_a, sin_a, knee_x, knee_z, b2 = self._plane(legs, feet)
+        hip, w, l1, l2, side = self.hip[legs], self.lateral[legs], self.thigh[legs], self.shank[legs], self.knee_side[legs]
+        col = lambda x: x[:, None]  # a per-row quantity against (n, 3) or (n, k) arrays
+        zero, one = np.zeros(n), np.ones(n)
+        # derivatives w.r.t. the foot (x, y, z), each (n, 3)
+        rho2 = t[:, 1] ** 2 + t[:, 2] ** 2
+        d_depth = np.stack([zero, t[:, 1] / depth, t[:, 2] / depth], axis=1)
+        d_rho2 = np.stack([zero, 2.0 * t[:, 1], 2.0 * t[:, 2]], axis=1)
+        d_cos = (col(t[:, 2]) * d_depth - col(cos_a) * d_rho2) / col(rho2)
+        d_cos[:, 1] += w / rho2
+        d_cos[:, 2] += depth / rho2
+        d_sin = (-col(t[:, 1]) * d_depth - col(sin_a) * d_rho2) / col(rho2)
+        d_sin[:, 1] -= depth / rho2
+        d_sin[:, 2] += w / rho2
+        dx, dz = t[:, 0] - hip[:, 0], depth - hip[:, 2]
+        d = np.sqrt(dx ** 2 + dz ** 2)
+        ux, uz = dx / d, dz / d
+        a = (l1 ** 2 - l2 ** 2 + d ** 2) / (2.0 * d)
+        b = np.sqrt(np.where(b2 > REACH_FLOOR, b2, REACH_FLOOR))
+        d_dx = np.stack([one, zero, zero], axis=1)
+        d_d = col(ux) * d_dx + col(uz) * d_depth
+        d_a = d_d - col(a / d) * d_d  # ∂d²/(2d) = ∂d
+        d_b = np.where(col(b2 > REACH_FLOOR), -col(a / b) * d_a, 0.0)
+        d_ux = (d_dx - col(ux) * d_d) / col(d)
+        d_uz = (d_depth - col(uz) * d_d) / col(d)
+        d_kx = d_a * col(ux) + col(a) * d_ux - col(side) * (d_b * col(uz) + col(b) * d_uz)
+        d_kz = d_a * col(uz) + col(a) * d_uz + col(side) * (d_b * col(ux) + col(b) * d_ux)
+        thigh = self.sphere_link[pick] == 0  # (n, k)
+        # per sphere (n, k): the link's start, its direction now (and their derivatives (n, k, 3))
+        start_x = np.where(thigh, col(hip[:, 0]), col(knee_x))
+        start_y = np.where(thigh, col(hip[:, 1]), col(w))
+        start_z = np.where(thigh, col(hip[:, 2]), col(knee_z))
+        d_start_x = np.where(thigh[..., None], 0.0, d_kx[:, None])
+        d_start_z = np.where(thigh[..., None], 0.0, d_kz[:, None])
+        now_x = np.where(thigh, col((knee_x - hip[:, 0]) / l1), col((t[:, 0] - knee_x) / l2))
+        now_z = np.where(thigh, col((knee_z - hip[:, 2]) / l1), col((depth - knee_z) / l2))
+        d_now_x = np.where(thigh[..., None], (d_kx / col(l1))[:, None], ((d_dx - d_kx) / col(l2))[:, None])
+        d_now_z = np.where(thigh[..., None], (d_kz / col(l1))[:, None], ((d_depth - d_kz) / col(l2))[:, None])
+        nominal = np.where(thigh[..., None], self.thigh_direction[legs][:, None], self.shank_direction[legs][:, None])
+        n0, n1 = nominal[..., 0], nominal[..., 1]  # (n, k)
+        cos_p, sin_p = n0 * now_x + n1 * now_z, n0 * now_z - n1 * now_x
+        d_cos_p = n0[..., None] * d_now_x + n1[..., None] * d_now_z
+        d_sin_p = n0[..., None] * d_now_z - n1[..., None] * d_now_x
+        offset = self.sphere_offset[pick]  # (n, k, 3)
+        ox, oy, oz = offset[..., 0], offset[..., 1], offset[..., 2]
+        x = start_x + cos_p * ox - sin_p * oz
+        y = start_y + oy
+        z = start_z + sin_p * ox + cos_p * oz
+        d_x = d_start_x + d_cos_p * ox[..., None] - d_sin_p * oz[..., None]
+        d_z = d_start_z + d_sin_p * ox[..., None] + d_cos_p * oz[..., None]
+        c, s = col(cos_a), col(sin_a)
+        centres = np.empty((n, pick.shape[1], 3))
+        centres[..., 0] = x
+        centres[..., 1] = y * c - z * s
+        centres[..., 2] = y * s + z * c
+        centres += self.haa[legs][:, None]
+        jac = np.empty((n, pick.shape[1], 3, 3))
+        jac[:, :, 0] = d_x
+        jac[:, :, 1] = y[..., None] * d_cos[:, None] - d_z * s[..., None] - z[..., None] * d_sin[:, None]
+        jac[:, :, 2] = y[..., None] * d_sin[:, None] + d_z * c[..., None] + z[..., None] * d_cos[:, None]
+        return centres, jac
 
 
 def _turn(nominal, x, z):

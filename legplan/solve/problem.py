@@ -223,9 +223,13 @@ class Problem:
             pattern = (term.indptr, term.indices) if term.format != "coo" else (term.row, term.col)
             cached = self._index_cache.get(key + ("sparse",))
             if cached is None or not (cached[0] == term.format and same_indices(cached[1], pattern)):
-                coo = term.tocoo()
+                if term.format == "csr":  # the entries' rows and columns in storage order, as tocoo gives them
+                    r, c = np.repeat(np.arange(term.shape[0]), np.diff(term.indptr)), term.indices
+                else:
+                    coo = term.tocoo()
+                    r, c = coo.row, coo.col
                 cached = self._index_cache[key + ("sparse",)] = (term.format, kept_indices(pattern),
-                                                                  self._mapped(coo.row, coo.col, rowmap, colmap))
+                                                                  self._mapped(r, c, rowmap, colmap))
             rows, cols, keep = cached[2]
             return rows, cols, term.data[keep]
         term = np.asarray(term, float)

@@ -362,3 +362,29 @@ def test_joint_torque_rows_alone_equal_the_whole_evaluation_and_leave_the_worksp
             whole = block.evaluate([moved[v] for v in block.variables], False)[0]
             np.testing.assert_allclose(alone, whole[rows], rtol=1e-9, atol=1e-9)
             assert np.abs(whole[rows]).max() > 1.0  # torques (N m), not zeros
+
+
+def test_leg_clearance_batch_gives_each_leg_its_own_evaluation(pallet_problem, timed_pallet_problem):
+    """The legs' clearance blocks of a fixed-timing problem share one `LegClearanceBatch`: each block's
+    rows are bit for bit those of the leg evaluated alone, its Jacobians those of the leg alone, at
+    the guess and at perturbed values (the batch evaluates again when the values change, also in
+    place), and the rows are active (nonzero gradients) so that the comparison means something;
+    with phases as variables the blocks evaluate alone."""
+    blocks = [k.block for k in pallet_problem.constraints if k.name == "leg_clearance"]
+    assert len(blocks) == 4 and all(b.batch is blocks[0].batch and b.batch is not None for b in blocks)
+    assert all(k.block.batch is None for k in timed_pallet_problem.constraints if k.name == "leg_clearance")
+    values = {v.name: v.value.copy() for v in pallet_problem.variables}
+    args = [values[name] for name in blocks[0].variables]
+    for seed in (None, 1, 2):
+        if seed is not None:  # changed in place: the batch must not serve the last values
+            for a in args:
+                a += 0.02 * np.random.default_rng(seed).standard_normal(a.shape)
+        for b in blocks:
+            value, jacobians = b.evaluate(args, True)
+            plain, _ = b.evaluate(args, False)
+            alone, gradients = b.rows_at(b.leg, *b._sampled(args), b.radius, True)
+            assert np.array_equal(plain, b.rows_at(b.leg, *b._sampled(args), b.radius, False)[0].reshape(-1))
+            assert np.array_equal(value, alone.reshape(-1))
+            for j, k in zip(jacobians, b._jacobians(*gradients, args)):
+                assert np.array_equal(j.toarray(), k.toarray())
+        assert sum(abs(j).sum() for b in blocks for j in b.evaluate(args, True)[1]) > 0.0

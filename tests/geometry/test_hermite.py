@@ -145,3 +145,19 @@ def test_sampling_matrix_is_a_valid_copy_of_the_cached_one():
         again = spline.matrix(t, derivative)
         np.testing.assert_array_equal(again.data, expected.data)
         np.testing.assert_array_equal(again.indices, expected.indices)
+
+
+def test_kron_axis_is_one_axis_of_kron_dim_entry_for_entry():
+    """`kron_axis(m, a)` holds the very arrays (indptr, indices, data, their dtypes) of
+    `kron_dim(m)[a::3]`, explicit zeros included, for sampling matrices and a hand-made one."""
+    from legplan.geometry.hermite import kron_axis, kron_dim
+
+    spline = NodeSpline([Segment(0.0, 0.4, 0, 1), Segment(0.4, 1.0, 1, 2), Segment(1.0, 1.5, 2)], 3)
+    t = np.linspace(0.0, 1.5, 41)
+    zeros = sp.csr_matrix((np.array([0.0, 2.0, -1.0]), np.array([0, 3, 1]), np.array([0, 2, 2, 3])), shape=(3, 5))
+    for m in (spline.matrix(t), spline.matrix(t, 1), spline.matrix(t, 2), zeros):
+        for axis in range(3):
+            a, b = kron_dim(m)[axis::3], kron_axis(m, axis)
+            assert a.shape == b.shape and a.indptr.dtype == b.indptr.dtype and a.indices.dtype == b.indices.dtype
+            assert np.array_equal(a.indptr, b.indptr) and np.array_equal(a.indices, b.indices)
+            assert np.array_equal(a.data, b.data)

@@ -44,6 +44,38 @@ def test_closed_form_takes_complex_steps_exactly(anymal):
         assert np.abs(complex_step - central).max() < 1e-6
 
 
+def test_closed_form_jacobian_equals_the_complex_step_and_central_differences(anymal):
+    """`sphere_centres_and_jacobian`: the centres of `sphere_centres` and ∂centre/∂foot equal to its
+    complex step and to central differences, every leg, across and beyond the range-of-motion boxes
+    (feet past full reach included, where b² is floored and the knee's offset stops moving)."""
+    from legplan.dyn.euler import complex_step
+
+    legs = anymal.centroidal.leg_kinematics
+    feet = _feet_in_range(anymal, 400, seed=2)
+    feet[200:] = feet[:200] + (feet[:200] - anymal.centroidal.nominal_feet[[anymal.centroidal.legs.index(leg.name)
+                                                                           for leg in anymal.legs]][None])
+    floored = 0
+    for leg in range(anymal.n_legs):
+        f = feet[:, leg]
+        _, _, _, _, _, _, b2 = legs._plane(leg, f)
+        floored += int((b2 <= 1e-9).sum())
+        centres, jac = legs.sphere_centres_and_jacobian(leg, f)
+        assert centres.shape == (len(f), legs.spheres_of(leg).size, 3) and jac.shape == centres.shape + (3,)
+        np.testing.assert_allclose(centres, legs.sphere_centres(leg, f), rtol=0, atol=1e-14)
+        value, (columns,) = complex_step(lambda x: legs.sphere_centres(leg, x).reshape(len(x), -1), (f,), (0,))
+        np.testing.assert_allclose(jac, columns.reshape(jac.shape), rtol=0, atol=1e-9)
+        step = 1e-6
+        for axis in range(3):
+            e = np.zeros(3)
+            e[axis] = step
+            central = (legs.sphere_centres(leg, f + e) - legs.sphere_centres(leg, f - e)) / (2 * step)
+            # off full reach (b² ≥ 1e-4 m² on both sides), where the second derivative stays moderate
+            inside = (legs._plane(leg, f + e)[-1] > 1e-4) & (legs._plane(leg, f - e)[-1] > 1e-4)
+            assert inside.sum() > 100
+            assert np.abs(jac[inside, :, :, axis] - central[inside]).max() < 1e-5
+    assert floored > 0  # the floored branch is exercised
+
+
 def test_legs_of_another_kind_have_no_closed_form():
     """scarab2's legs are no hip-abduction (x), hip and knee flexion (y) chains."""
     assert PlanarLegs.of_robot(load_robot("scarab2")) is None
