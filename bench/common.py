@@ -39,6 +39,31 @@ def load_average() -> float:
     return os.getloadavg()[0]
 
 
+def callgrind_instructions(command: list[str], env: dict, tmp: Path, label: str) -> int:
+    """Callgrind's "Collected" count of the part of `command` between its READY and DONE lines: the
+    child runs under `valgrind --tool=callgrind --instr-atstart=no`, says READY and waits for a line,
+    the instrumentation is switched on (`callgrind_control -i on`), the child does the counted work,
+    says DONE and waits, the instrumentation is switched off, the child finishes."""
+    import re
+
+    valgrind = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={tmp / 'callgrind.out'}"]
+    proc = subprocess.Popen(valgrind + command, env=env, stdin=subprocess.PIPE, stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True)
+    for expected, switch in (("READY", "on"), ("DONE", "off")):
+        line = proc.stdout.readline()
+        if line.strip() != expected:
+            proc.kill()
+            raise RuntimeError(f"{label}: expected {expected}, got {line!r}: {proc.stderr.read()[-2000:]}")
+        subprocess.run(["callgrind_control", "-i", switch, str(proc.pid)], check=True, capture_output=True)
+        proc.stdin.write("\n")
+        proc.stdin.flush()
+    _, err = proc.communicate()
+    if proc.returncode != 0:
+        raise RuntimeError(f"{label}: exit {proc.returncode}: {err[-2000:]}")
+    (tmp / "callgrind.out").unlink(missing_ok=True)
+    return int(re.search(r"Collected : (\d+)", err).group(1))
+
+
 def write_result(name: str, result: dict) -> Path:
     """bench/results/<name>.json."""
     path = ROOT / "bench" / "results" / f"{name}.json"

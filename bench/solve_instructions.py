@@ -36,7 +36,6 @@ import argparse  # noqa: E402
 import datetime  # noqa: E402
 import json  # noqa: E402
 import pickle  # noqa: E402
-import re  # noqa: E402
 import subprocess  # noqa: E402
 import sys  # noqa: E402
 import tempfile  # noqa: E402
@@ -44,7 +43,8 @@ from pathlib import Path  # noqa: E402
 
 import numpy as np  # noqa: E402
 
-from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result  # noqa: E402
+from common import (ROOT, callgrind_instructions, code_version, load_average, machine,  # noqa: E402
+                    update_benchmarks, write_result)
 
 TOWR_CASES = ("flat_trot", "flat_walk", "single_walk", "single_trot", "double_walk")
 ALL_CASES = TOWR_CASES + ("flat_trot_2", "stairs_walk")  # bench/dyn.py's `CASES`
@@ -92,25 +92,10 @@ def _command(tree: Path, key: str, out: Path, handshake: bool) -> list[str]:
 def instructions(tree: Path, key: str, tmp: Path) -> dict:
     """Callgrind's instruction count of the `plan` call of one case in `tree` (module docstring)."""
     out = tmp / f"{key}.pkl"
-    env = dict(os.environ, PYTHONPATH=str(tree))
-    valgrind = ["valgrind", "--tool=callgrind", "--instr-atstart=no", f"--callgrind-out-file={tmp / 'callgrind.out'}"]
-    proc = subprocess.Popen(valgrind + _command(tree, key, out, True), env=env, stdin=subprocess.PIPE,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    for expected, switch in (("READY", "on"), ("DONE", "off")):
-        line = proc.stdout.readline()
-        if line.strip() != expected:
-            proc.kill()
-            raise RuntimeError(f"{tree} {key}: expected {expected}, got {line!r}: {proc.stderr.read()[-2000:]}")
-        subprocess.run(["callgrind_control", "-i", switch, str(proc.pid)], check=True, capture_output=True)
-        proc.stdin.write("\n")
-        proc.stdin.flush()
-    _, err = proc.communicate()
-    if proc.returncode != 0:
-        raise RuntimeError(f"{tree} {key}: exit {proc.returncode}: {err[-2000:]}")
-    collected = re.search(r"Collected : (\d+)", err)
+    count = callgrind_instructions(_command(tree, key, out, True), dict(os.environ, PYTHONPATH=str(tree)), tmp,
+                                   f"{tree} {key}")
     result = pickle.loads(out.read_bytes())
-    result["instructions"] = int(collected.group(1))
-    (tmp / "callgrind.out").unlink(missing_ok=True)
+    result["instructions"] = count
     return result
 
 
