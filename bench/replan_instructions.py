@@ -18,7 +18,9 @@ replan of the 16-footstep pallet plan).
   child the median and p95 of the 12 replans' CPU seconds (`ReplanResult.cpu_seconds`), then the
   median over the rounds, with the load average at the start and the end.
 * Answers: per replan the iterations, success and scaled violation of each tree, and the largest
-  difference of any node value between the trees' replans.
+  difference of any node value between the trees' replans; with `--check` also the independent
+  check of every replanned plan (`legplan.validate.trajectory.check_trajectory` on its samples, as
+  `legplan dyn replan` runs it), one more child per tree.
 
 Writes bench/results/<result-name>.json; the BENCHMARKS.md section that cites it is written by hand.
 """
@@ -56,7 +58,7 @@ def make_plan(tree: Path, out: Path) -> None:
                                   "iterations": int(planned.solve.iterations)}))
 
 
-def child(tree: Path, plan: Path, out: Path, handshake: bool) -> None:
+def child(tree: Path, plan: Path, out: Path, handshake: bool, check: bool = False) -> None:
     """Replan the pickled plan 12 times (module docstring); with `handshake` say READY and wait for a
     line before the replans and after them."""
     sys.path.insert(0, str(tree / "bench"))
@@ -69,8 +71,10 @@ def child(tree: Path, plan: Path, out: Path, handshake: bool) -> None:
     from legplan.robots import load_robot
     from legplan.terrain.spec import build_map
 
-    model = centroidal_model(load_robot("anymal"), PAPER, "paper")
-    terrain = TerrainModel(build_map(tree / "maps" / "single_pallet.yaml"))
+    robot = load_robot("anymal")
+    model = centroidal_model(robot, PAPER, "paper")
+    terrain_map = build_map(tree / "maps" / "single_pallet.yaml")
+    terrain = TerrainModel(terrain_map)
     saved = pickle.loads(plan.read_bytes())
     previous, samples = saved["previous"], saved["samples"]
     replan(previous, MeasuredState.from_samples(samples, 0.05), model, terrain, PAPER)  # one-time work
@@ -86,15 +90,21 @@ def child(tree: Path, plan: Path, out: Path, handshake: bool) -> None:
     if handshake:
         print("DONE", flush=True)
         sys.stdin.readline()
-    out.write_bytes(pickle.dumps([{"t": float(o.state.t), "cpu": o.cpu_seconds, "iterations": o.iterations,
-                                   "success": bool(o.success), "scaled_violation": float(o.scaled_violation),
-                                   "values": {k: np.array(v) for k, v in o.plan.solve.values.items()}}
-                                  for o in outs]))
+    rows = [{"t": float(o.state.t), "cpu": o.cpu_seconds, "iterations": o.iterations, "success": bool(o.success),
+             "scaled_violation": float(o.scaled_violation),
+             "values": {k: np.array(v) for k, v in o.plan.solve.values.items()}} for o in outs]
+    if check:
+        from legplan.validate.trajectory import check_trajectory
+
+        for row, o in zip(rows, outs):
+            c = check_trajectory(o.plan.samples, model, terrain_map, robot, node_times=o.plan.problem.form.knots)
+            row["check"] = {"ok": bool(c.ok), "failed": sorted(k for k, ok in c.passed.items() if not ok)}
+    out.write_bytes(pickle.dumps(rows))
 
 
-def _command(tree: Path, plan: Path, out: Path, handshake: bool) -> list[str]:
+def _command(tree: Path, plan: Path, out: Path, handshake: bool, check: bool = False) -> list[str]:
     return [sys.executable, __file__, "--child", str(tree), "--plan", str(plan), "--out", str(out)] + (
-        ["--handshake"] if handshake else [])
+        ["--handshake"] if handshake else []) + (["--check"] if check else [])
 
 
 def instructions(tree: Path, plan: Path, tmp: Path) -> tuple[int, list[dict]]:
@@ -104,9 +114,9 @@ def instructions(tree: Path, plan: Path, tmp: Path) -> tuple[int, list[dict]]:
     return count, pickle.loads(out.read_bytes())
 
 
-def cpu(tree: Path, plan: Path, tmp: Path) -> list[dict]:
+def cpu(tree: Path, plan: Path, tmp: Path, check: bool = False) -> list[dict]:
     out = tmp / "replans.pkl"
-    subprocess.run(_command(tree, plan, out, False), env=dict(os.environ, PYTHONPATH=str(tree)), check=True)
+    subprocess.run(_command(tree, plan, out, False, check), env=dict(os.environ, PYTHONPATH=str(tree)), check=True)
     return pickle.loads(out.read_bytes())
 
 
@@ -131,6 +141,7 @@ def main() -> None:
     parser.add_argument("--after", type=Path, default=ROOT)
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--no-callgrind", action="store_true")
+    parser.add_argument("--check", action="store_true", help="the independent check of every replan (one more child per tree)")
     parser.add_argument("--result-name", default="replan_instructions")
     parser.add_argument("--child", type=Path, help=argparse.SUPPRESS)
     parser.add_argument("--make-plan", action="store_true", help=argparse.SUPPRESS)
@@ -142,7 +153,7 @@ def main() -> None:
         if args.make_plan:
             make_plan(args.child, args.out)
         else:
-            child(args.child, args.plan, args.out, args.handshake)
+            child(args.child, args.plan, args.out, args.handshake, args.check)
         return
     trees = {"before": args.before.resolve(), "after": args.after.resolve()}
     load_start = load_average()
@@ -174,6 +185,14 @@ def main() -> None:
                 print(f"round {k} {label}: median {row[label]['median'] * 1e3:.0f} ms, "
                       f"p95 {row[label]['p95'] * 1e3:.0f} ms", flush=True)
             result["rounds"].append(row)
+        if args.check:
+            result["checks"] = {}
+            for label, tree in trees.items():
+                rows = cpu(tree, plan, tmp, check=True)
+                answers.setdefault(label, rows)
+                result["checks"][label] = [r["check"] for r in rows]
+                print(f"{label}: independent check passed on {sum(c['ok'] for c in result['checks'][label])} "
+                      f"of {len(rows)} replans", flush=True)
     result["answers"] = {label: [{k: v for k, v in r.items() if k != "values"} for r in rows]
                          for label, rows in answers.items()}
     result["largest_difference"] = largest_difference(answers["before"], answers["after"])
