@@ -188,13 +188,29 @@ def markdown(result: dict) -> str:
             s = run[label]["summary"]
             start = "shipped initializer" if run["mode"] == "learned" else "own converged solution"
             lines.append(f"| {run['space']} | {start} | {label} | {s['converged']}/{s['tasks']} "
-                         f"| {s['median_iterations']} ({s['max_iterations']}) | {s['within_4_iterations']} "
-                         f"| {s['max_over_median_cost']:.2f} | {s['median_cost']:.3f} | {s['median_cpu_seconds']:.2f} "
+                         f"| {_number(s['median_iterations'], '.1f')} ({s['max_iterations'] or '—'}) "
+                         f"| {s['within_4_iterations']} | {_number(s['max_over_median_cost'], '.2f')} "
+                         f"| {_number(s['median_cost'], '.3f')} | {_number(s['median_cpu_seconds'], '.2f')} "
                          f"| {s['check_failed_of_converged']} |")
+    lines += ["", "Oracle iterations by stage (median over the tasks whose stage ran; count of tasks):", ""]
+    for run in result["runs"]:
+        if run["mode"] != "oracle":
+            continue
+        for label in ("before", "after"):
+            spent: dict[str, list[int]] = {}
+            for record in run[label]["records"]:
+                for name, _, iterations in record.get("stages", []):
+                    spent.setdefault(name, []).append(iterations)
+            parts = [f"{name} {np.median(its):.1f} ({len(its)})" for name, its in spent.items()]
+            lines.append(f"- {run['space']}, {label}: {'; '.join(parts) or 'none converged'}")
     same = [run["heuristic_same_in_both_trees"] for run in result["runs"] if run["mode"] == "oracle"]
     lines += ["", f"Heuristic plans of the oracle tasks identical in both trees (every variable, bit for bit): "
               f"{'yes' if all(same) else 'no'}."]
     return "\n".join(lines)
+
+
+def _number(value, spec: str) -> str:
+    return "—" if value is None else format(value, spec)
 
 
 if __name__ == "__main__":
