@@ -220,8 +220,9 @@ def test_warm_stage_polish_optimizes_the_costs_only_of_a_projection_above_the_bo
 
 def test_the_schedule_is_declared_as_data():
     """Without a near-solution guess: feasibility, then with costs the costs and a projection back,
-    the same with TOWR's swing constraint switched, then the range refinements; from one: a single
-    stage first (the costs, or the projection and with "polish" its polishing stages)."""
+    the same with TOWR's swing constraint switched, then the range refinements; from one: first the
+    costs, stopped once settled, and a projection after them if that left rows out, or the projection
+    and with "polish" its polishing stages."""
     plain = schedule(DynParams())
     assert [s.name for s in plain] == ["feasibility", "feasibility (with TOWR's swing constraint)",
                                        "without TOWR's swing constraint (with TOWR's swing constraint)",
