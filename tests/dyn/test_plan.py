@@ -98,7 +98,7 @@ class _Replay:
         return self.values
 
 
-def test_a_near_solution_guess_is_solved_in_one_stage(anymal, step):
+def test_a_near_solution_guess_is_solved_from_the_guess_without_the_staged_fallback(anymal, step):
     task = DynTask((-0.2, 0.0, 0.0), (0.8, 0.0, 0.0), "trot", 4, 3.0)
     params = replace(KNOTS_ONLY, costs=PAPER_COSTS)
     first = plan(task, anymal, step, params)
