@@ -15,9 +15,16 @@ N). Every stage that ran is a `StageOutcome` with its `Status`; the plan's statu
 The schedule (the paper's two initializers, Sec. IV):
 
 * From a guess that solves a nearby task (an initializer with ``near_solution`` true: the learned
-  one, A_θ), one stage from the guess: "direct" (the costs under the constraints, by `warm_solver`)
-  or with `DynParams.warm_stage` "projection" the constraints alone (`projection_solver`), with
-  range samples also where the guess's feet come within `GUESS_RANGE_NEAR` of their boxes. With
+  one, A_θ), from the guess: "direct" (the costs under the constraints, by `warm_solver`), which
+  stops once its cost settled (`ALParams.settled_exit`) and, if a row is still outside its
+  tolerance then, "projection after direct" (the constraints alone, `projection_solver`, to the
+  same tolerances); or with `DynParams.warm_stage` "projection" the constraints alone
+  (`projection_solver`); either with range samples also where the guess's feet come within
+  `GUESS_RANGE_NEAR` of their boxes. The projection finishes what the augmented Lagrangian would
+  finish over several outer iterations: from a guess at a solution, the first subproblem's soft
+  penalty on the Newton–Euler rows (scaled per the robot's weight, held to 1e-3 N) lets them drift
+  by about a newton while the cost has already settled, and multiplier updates with μ raised ×10 at a
+  time take one subproblem each to bring them back, a Gauss–Newton projection a few steps. With
   "polish", a projected plan that costs more than the initializer's training filter kept for the
   task (eq. (4), at `polish_tolerance`) gets `POLISH_OUTER` outer iterations of the costs and a
   projection back; the polished plan is kept only if it converged at a lower cost.
@@ -93,7 +100,8 @@ class Stage:
     from, or `DynParams.towr_swing` from the guess); when it runs (`when`) and whether it needs
     iterations of the budget left (`needs_budget`, after another stage); `reserve`: iterations of the
     budget it leaves to the stages after it; `keeps_better`: the plan it polishes stays unless this
-    stage converged at a lower cost."""
+    stage converged at a lower cost; `settled_exit`: a costs stage stops once its cost settled,
+    leaving rows outside their tolerance to the next stage (`ALParams.settled_exit`)."""
 
     name: str
     costs: bool
@@ -105,6 +113,7 @@ class Stage:
     max_outer: int | None = None
     reserve: int = 0
     keeps_better: bool = False
+    settled_exit: bool = False
 
 
 def schedule(params: DynParams, near_solution: bool = False) -> list[Stage]:
@@ -113,7 +122,8 @@ def schedule(params: DynParams, near_solution: bool = False) -> list[Stage]:
     stages = []
     if near_solution and (params.costs.active or params.warm_stage != "costs"):
         if params.warm_stage == "costs":
-            stages.append(Stage("direct", True, "warm_solver", When.START, Start.NEAR_GUESS))
+            stages += [Stage("direct", True, "warm_solver", When.START, Start.NEAR_GUESS, settled_exit=True),
+                       Stage("projection after direct", False, "projection_solver", When.FAILED)]
         else:
             stages.append(Stage("projection", False, "projection_solver", When.START, Start.NEAR_GUESS))
             if params.warm_stage == "polish" and params.costs.active:
@@ -301,6 +311,8 @@ def _run_stage(stage: Stage, task: DynTask, model, terrain: TerrainModel, params
     solver = getattr(params, stage.solver)
     if stage.max_outer is not None:
         solver = replace(solver, max_outer=stage.max_outer)
+    if stage.settled_exit:
+        solver = replace(solver, settled_exit=True)
     result = solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints,
                                         budget.cap(solver, stage.reserve), callback=callback)
     budget.spend(result.iterations)

@@ -328,7 +328,8 @@ def check_space(init_path, trained: dict, space: dict) -> None:
 class LearnedInit:
     """A_θ as an initializer: ``(form, model, terrain, start, goal, start_feet) -> guess`` from init.h5
     (picklable by path: it loads the file again where it is unpickled). Its guesses are solutions of
-    nearby tasks (`near_solution`): `legplan.dyn.planner.plan` solves from them in one stage."""
+    nearby tasks (`near_solution`): `legplan.dyn.planner.plan` solves from them directly (its
+    near-solution stages), not through the heuristic's feasibility stage."""
 
     near_solution = True
 

@@ -22,8 +22,11 @@ The costs are typed terms (`CostTerm`: name, residual block, weight), each ½·w
 Stopping rule (`ALResult.status`, a `legplan.solve.lm.Status`): CONVERGED when the largest
 constraint violation is ≤ `violation_tolerance` (a row may keep up to `scaled_tolerance` of its
 solver scale where that is looser, `row_tolerances`) and, if there are costs, the cost changed by less
-than `cost_tolerance` (relative) over the last outer iteration; MAX_ITERATIONS when the iteration
-budget or `max_outer` is spent first; STALLED when the violation stops falling (`stall_outer` outer
+than `cost_tolerance` (relative) over the last outer iteration — with least-squares multipliers the
+first outer iteration's change counts from the start point (their estimate makes it an iterate of
+the method, nearly stationary; zero multipliers make the first subproblem a different problem);
+MAX_ITERATIONS when the iteration budget or `max_outer` is spent first, or, with `settled_exit`, once
+the cost settled while a row is still outside its tolerance (a stage of constraints alone follows); STALLED when the violation stops falling (`stall_outer` outer
 iterations in a row each keeping more than `stall_decrease` of it, with costs only once μ reached
 `mu_max`: an infeasible local minimum); NUMERICAL_FAILURE when LM fails numerically.
 """
@@ -138,6 +141,10 @@ class ALParams(Parameters):
         "a row also counts as within tolerance when its violation times its scale (`Constraint.scale`: "
         "forces per the robot's weight, lengths per 10 cm) is within this, where that is looser than "
         "violation_tolerance (`row_tolerances`); 0: violation_tolerance alone"))
+    settled_exit: bool = param(False, (False, True), doc=(
+        "with costs: stop (MAX_ITERATIONS) once the cost changed by less than cost_tolerance over an "
+        "outer iteration while a row is still outside its tolerance, for a stage of the constraints "
+        "alone to finish; off: raise μ and update the multipliers until the rows are within"))
     exact_rows: bool = param(False, (False, True), doc=(
         "without costs: stop a subproblem once every row is within violation_tolerance (|h_i| ≤ √μ·tol·w_i) "
         "instead of the norm test ‖h‖ ≤ √μ·tol·min(w), which assumes the worst row and solves further: "
@@ -305,8 +312,11 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
         problem.add_residual(term.block, np.sqrt(term.weight))
     rows = [problem.add_residual(_AugmentedRows(k)) for k in constraints]
     theta = problem.layout.initial()
+    last_cost = None
     if costs and params.multipliers == "least_squares":
         least_squares_multipliers(problem, rows, theta, params.active_tolerance)
+        # the estimate makes the start a point of the outer iteration: the first one's cost change counts
+        last_cost = sum(evaluate_costs(costs, problem.layout.values(theta)).values())
     # without costs (multipliers 0) a subproblem is done once every row is within tolerance: |h_i| ≤ √μ·tol·w_i
     # (`exact_rows`), for which ‖h‖ ≤ √μ·tol·min(w) suffices
     exact = not costs and params.exact_rows
@@ -324,7 +334,6 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
     mu = params.mu_init
     last_violation = np.inf
     stalled = 0
-    last_cost = None
     status, reason = Status.MAX_ITERATIONS, ""
     for outer in range(1, params.max_outer + 1):
         for r in rows:
@@ -364,6 +373,10 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
             reason = (f"max violation {violation:.2e} ≤ {params.violation_tolerance:.0e}"
                       + (f" or {params.scaled_tolerance:.0e} of its row scale" if params.scaled_tolerance else "")
                       + (f", cost change ≤ {params.cost_tolerance:.0e} relative" if costs else ""))
+            break
+        if params.settled_exit and costs and cost_settled:
+            reason = (f"cost settled (change ≤ {params.cost_tolerance:.0e} relative) with max violation "
+                      f"{violation:.2e}: the constraints are left to the next stage")
             break
         if iterations >= params.max_iterations:
             reason = f"iteration budget {params.max_iterations} spent with max violation {violation:.2e}"

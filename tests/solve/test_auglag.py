@@ -143,6 +143,36 @@ def test_least_squares_start_from_the_solution_stays_there():
     assert r.values["x"] == pytest.approx(x, abs=1e-4)
 
 
+def test_least_squares_start_at_the_solution_converges_in_one_outer_iteration():
+    """With estimated multipliers the start is a point of the outer iteration: the first subproblem's
+    cost change is measured from it, so a start at the KKT point needs no second subproblem to confirm."""
+    x = np.array([2.0, 1.0]) / np.sqrt(5)
+    cost = LinearBlock(("x",), [np.eye(2)], np.array([2.0, 1.0]))
+    circle = Constraint(FunctionBlock(("x",), 1, _circle), 1.0, 1.0)
+    r = solve_augmented_lagrangian([VariableBlock("x", x)], [CostTerm("target", cost, 1.0)], [circle],
+                                   ALParams(multipliers="least_squares", mu_init=10.0))
+    assert r.success and r.outer_iterations == 1 and r.iterations == 1
+    zero = solve_augmented_lagrangian([VariableBlock("x", x)], [CostTerm("target", cost, 1.0)], [circle],
+                                      ALParams(mu_init=10.0))
+    assert zero.outer_iterations >= 2  # zero multipliers: the first subproblem's change is no test
+
+
+def test_settled_exit_stops_once_the_cost_settled_and_leaves_the_rows_outside_tolerance():
+    """`settled_exit`: a soft penalty leaves the circle 4e-3 off after the first subproblem while the cost
+    has settled; the solve stops there (not converged, for a constraints-alone stage to finish) instead
+    of raising μ over further outer iterations."""
+    x = 1.002 * np.array([2.0, 1.0]) / np.sqrt(5)
+    cost = LinearBlock(("x",), [np.eye(2)], np.array([2.0, 1.0]))
+    circle = Constraint(FunctionBlock(("x",), 1, _circle), 1.0, 1.0)
+    soft = ALParams(multipliers="least_squares", mu_init=1e-2)
+    stopped = solve_augmented_lagrangian([VariableBlock("x", x)], [CostTerm("target", cost, 1.0)], [circle],
+                                         ALParams(multipliers="least_squares", mu_init=1e-2, settled_exit=True))
+    assert stopped.status is Status.MAX_ITERATIONS and "cost settled" in stopped.reason
+    assert stopped.outer_iterations == 1 and stopped.max_violation > soft.violation_tolerance
+    full = solve_augmented_lagrangian([VariableBlock("x", x)], [CostTerm("target", cost, 1.0)], [circle], soft)
+    assert full.success and full.outer_iterations > 1
+
+
 def test_row_picker_scales_picked_rows_keeping_explicit_zeros_and_follows_a_new_pattern():
     """diag(factor)·J[pick] with rows picked twice (both bounds of a row), explicit zeros kept, and
     recomputed when the Jacobian's pattern changes; dense Jacobians too."""
