@@ -113,7 +113,7 @@ Heuristic with N_h = 100, later ones N_θ = 25; median iterations and costs of t
 |---|---|---|---|---|---|---|
 {training_md}
 
-Held-out tasks solved from a network with N_θ = 25 (`learn dataset --init`):
+Held-out tasks (another seed than the training's), each row's initializer and LM budget in its command:
 
 {held_commands}
 
