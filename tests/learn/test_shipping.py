@@ -174,7 +174,7 @@ def test_a_shipped_initializer_refuses_a_task_outside_its_space(space, tmp_path)
 @pytest.mark.parametrize("space", sorted(SHIPPED_CASES))
 def test_a_shipped_initializer_records_the_training_that_makes_it_again(space):
     """What a shipped network was trained on is the shipped space as it reads today (same map content,
-    robot, gait, timing, costs and ranges: a changed space refuses the stale network), and its
+    robot, gait, timing, costs and ranges: a space changed after its training fails here), and its
     provenance names the command, its seed and the sha256 of every dataset, so the same `learn cycle`
     run again gives the same network (same seed, same network: tests/learn/test_cycle.py)."""
     (record,) = [r for r in shipped_records() if r["name"] == space]
