@@ -15,6 +15,7 @@ from pathlib import Path
 from legplan.artefacts import open_artefact, read_summary
 
 ROOT = Path(__file__).resolve().parents[1]
+SHIPPED_INITIALIZERS = sorted((ROOT / "tasks" / "initializers").glob("*.h5"))
 FLAT_MAP = """name: flat
 resolution: 0.02
 extent: {x: [-0.6, 0.6], y: [-0.5, 0.5]}
@@ -74,6 +75,8 @@ def test_built_wheel_lists_robots_and_plans_outside_the_repository(tmp_path):
     assert "broken" not in listing
     shown = legplan("pipeline", "show", "pallet_climb")  # a shipped pipeline by name, its map beside it
     assert f"map build {(tmp_path / 'venv').resolve()}" in shown and "single_pallet.yaml" in shown
+    shipped = legplan("learn", "shipped")  # every trained initializer of tasks/initializers/ is in the wheel
+    assert {line.split(":")[0] for line in shipped.splitlines()} == {p.stem for p in SHIPPED_INITIALIZERS}
     (work / "flat.yaml").write_text(FLAT_MAP)
     legplan("map", "build", "flat.yaml", "-o", "map.h5", "-q")
     legplan("steps", "generate", "map.h5", "--robot", "scarab2", "--start", "-0.05", "0", "0",

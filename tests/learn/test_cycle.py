@@ -40,6 +40,40 @@ def test_run_cycle_solves_trains_and_solves_again_on_the_same_tasks(tmp_path):
     assert again == rows and (out / "init_1.h5").stat().st_mtime_ns == before
 
 
+def _arrays(path):
+    """Every dataset of an HDF5 file, by name."""
+    arrays = {}
+    with h5py.File(path, "r") as f:
+        f.visititems(lambda name, node: arrays.__setitem__(name, node[()]) if isinstance(node, h5py.Dataset) else None)
+    return arrays
+
+
+def test_the_same_seed_trains_the_same_network_bit_for_bit(tmp_path):
+    """Algorithm 1 run twice with one seed (what the shipped initializers record, `learn shipped`):
+    the same tasks, solutions and network weights, every array bit for bit (clock values aside);
+    another seed draws other tasks and trains another network."""
+    space = tmp_path / "flat.yaml"
+    space.write_text(SPACE)
+    for name, seed in (("a", 1), ("b", 1), ("c", 2)):
+        run_cycle(space, tmp_path / name, count=3, cycles=1, seed=seed, heuristic_iterations=50, hidden=(8, 8),
+                  hidden_later=(8, 8), report=lambda line: None)
+    for artefact in ("dataset_0.h5", "init_1.h5", "dataset_1.h5"):
+        a, b = _arrays(tmp_path / "a" / artefact), _arrays(tmp_path / "b" / artefact)
+        assert a.keys() == b.keys() and len(a) > 3
+        for key in a:
+            if key == "summary":  # name → value, its clock rows (median_seconds) aside
+                a[key], b[key] = ({row["name"]: row["value"] for row in rows if b"seconds" not in row["name"]}
+                                  for rows in (a[key], b[key]))
+                assert a[key].keys() == b[key].keys()
+                a[key], b[key] = (np.array(list(values.values())) for values in (a[key], b[key]))
+            if key != "seconds":  # the solves' clock
+                equal_nan = a[key].dtype.kind == "f"  # NaN marks a value that does not exist, in both
+                assert np.array_equal(a[key], b[key], equal_nan=equal_nan), f"{artefact}:{key}"
+    first, other = LearnedInit(tmp_path / "a" / "init_1.h5"), LearnedInit(tmp_path / "c" / "init_1.h5")
+    assert not np.array_equal(_arrays(tmp_path / "a" / "dataset_0.h5")["x"], _arrays(tmp_path / "c" / "dataset_0.h5")["x"])
+    assert not all(np.array_equal(u, v) for u, v in zip(first.net.weights, other.net.weights))
+
+
 def test_the_init_resolver_hands_the_planner_an_initializer_object(tmp_path):
     assert initializer("heuristic") is heuristic
     for name, message in (("learned", "--init: unknown initializer 'learned'"),

@@ -104,28 +104,98 @@ def test_dyn_plan_refuses_a_task_outside_the_shipped_space_before_writing(traine
 
 
 SHIPPED_CASES = {
-    # space: map, gait, strides, duration, a held-out task's start (tasks of seed 1 by `learn dataset`)
-    "single_pallet_walk": ("single_pallet", "walk", "4", "5.5", ("-0.672", "-0.136", "0.052")),
-    "flat_trot": ("flat", "trot", "4", "3.5", ("-0.455", "-0.136", "0.052")),
+    # space: a held-out task's start (a task of seed 1 by `learn dataset`) that its network converges on
+    "double_pallet_walk": ("-0.535", "-0.148", "-0.214"),
+    "flat_trot": ("-0.455", "-0.136", "0.052"),
+    "single_pallet_walk": ("-0.672", "-0.136", "0.052"),
 }
+
+
+def shipped_space(name):
+    """The shipped task space tasks/NAME.yaml, read as `learn dataset NAME` reads it."""
+    return read_space(legplan.shipped.resolve_shipped(name, "tasks"))
+
+
+def test_every_shipped_initializer_is_planned_here():
+    assert sorted(SHIPPED_CASES) == legplan.shipped.list_shipped_initializers()
 
 
 @pytest.mark.parametrize("space", sorted(SHIPPED_CASES))
 def test_a_shipped_initializer_plans_a_held_out_task_by_name(space, tmp_path):
     """`dyn plan --init SPACE` from a fresh checkout: the shipped network (held-out results of another
     seed in its provenance) plans a held-out task of its space, and the check passes."""
-    map_name, gait, strides, duration, start = SHIPPED_CASES[space]
+    spec = shipped_space(space)
     (record,) = [r for r in shipped_records() if r["name"] == space]
     assert record["held_out"]["tasks"] == 100 and record["held_out"]["seed"] != record["trained"]["seed"]
-    map_path = tmp_path / f"{map_name}.h5"
-    built = CliRunner().invoke(cli, ["map", "build", map_name, "-o", str(map_path), "-q"])
+    map_path = tmp_path / "map.h5"
+    built = CliRunner().invoke(cli, ["map", "build", spec.map, "-o", str(map_path), "-q"])
     assert built.exit_code == 0, built.output
     out = tmp_path / "traj.h5"
-    goal = ("0.6", "0", "0") if space == "single_pallet_walk" else ("0", "0", "0")
-    result = CliRunner().invoke(cli, ["dyn", "plan", str(map_path), "--gait", gait, "--strides", strides, "--duration",
-                                      duration, "--costs", "paper", "--start", *start, "--goal", *goal,
+    goal = [f"{lo:g}" for lo, _ in spec.goal]
+    result = CliRunner().invoke(cli, ["dyn", "plan", str(map_path), "--robot", spec.robot, "--gait", spec.gait,
+                                      "--strides", str(spec.strides), "--duration", str(spec.duration), "--costs",
+                                      spec.costs, "--start", *SHIPPED_CASES[space], "--goal", *goal,
                                       "--init", space, "-o", str(out)])
     assert result.exit_code == 0, result.output
     assert "1/1 tasks planned" in result.output and "check passed" in result.output
     iterations = int(result.output.split(" iterations,")[0].rsplit(" ", 1)[-1])
     assert iterations <= 25  # N_θ, the budget of a learned start (Algorithm 1)
+
+
+@pytest.mark.parametrize("space", sorted(SHIPPED_CASES))
+def test_a_shipped_initializer_refuses_a_task_outside_its_space(space, tmp_path):
+    """A task 5 cm or 0.05 rad past any bound of the shipped space is refused before planning, by the
+    library (each bound) and by `dyn plan --init SPACE` (exit 2, one line, nothing written)."""
+    spec, learned = shipped_space(space), initializer(space)
+    assert learned.space["start"] == [list(r) for r in spec.start] and learned.space["goal"] == [list(r) for r in spec.goal]
+    centre = [[(lo + hi) / 2 for lo, hi in ranges] for ranges in (spec.start, spec.goal)]
+    learned.check_in_space(spec.task(*[[lo for lo, _ in ranges] for ranges in (spec.start, spec.goal)]))  # on them
+    learned.check_in_space(spec.task(*[[hi for _, hi in ranges] for ranges in (spec.start, spec.goal)]))
+    for end, ranges in enumerate((spec.start, spec.goal)):
+        for axis, (lo, hi) in enumerate(ranges):
+            for value in (lo - 0.05, hi + 0.05):
+                pose = [list(c) for c in centre]
+                pose[end][axis] = value
+                with pytest.raises(LegplanError, match=f"{('start', 'goal')[end]} {('x', 'y', 'yaw')[axis]} = "
+                                                        f"{value:g} lies outside the range it was trained on"):
+                    learned.check_in_space(spec.task(*pose))
+    map_path = tmp_path / "map.h5"
+    assert CliRunner().invoke(cli, ["map", "build", spec.map, "-o", str(map_path), "-q"]).exit_code == 0
+    out, far = tmp_path / "traj.h5", spec.start[0][0] - 0.05
+    result = CliRunner().invoke(cli, ["dyn", "plan", str(map_path), "--robot", spec.robot, "--gait", spec.gait,
+                                      "--strides", str(spec.strides), "--duration", str(spec.duration), "--costs",
+                                      spec.costs, "--start", f"{far:g}", *(f"{c:g}" for c in centre[0][1:]),
+                                      "--goal", *(f"{c:g}" for c in centre[1]), "--init", space, "-o", str(out)])
+    assert result.exit_code == 2, result.output
+    assert f"start x = {far:g} lies outside the range it was trained on" in result.output
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("space", sorted(SHIPPED_CASES))
+def test_a_shipped_initializer_records_the_training_that_makes_it_again(space):
+    """What a shipped network was trained on is the shipped space as it reads today (same map content,
+    robot, gait, timing, costs and ranges: a space changed after its training fails here), and its
+    provenance names the command, its seed and the sha256 of every dataset, so the same `learn cycle`
+    run again gives the same network (same seed, same network: tests/learn/test_cycle.py)."""
+    (record,) = [r for r in shipped_records() if r["name"] == space]
+    today = {key: value for key, value in shipped_space(space).record().items() if key != "map"}
+    assert {key: value for key, value in record["space"].items() if key != "map"} == json.loads(json.dumps(today))
+    trained = record["trained"]
+    command = trained["command"]
+    assert command[1:3] == ["learn", "cycle"] and Path(command[3]).name == f"{space}.yaml"
+    assert command[command.index("--seed") + 1] == str(trained["seed"])
+    assert trained["datasets"] and all(len(d["sha256"]) == 64 for d in trained["datasets"])
+    assert record["held_out"]["seed"] != trained["seed"] and len(record["held_out"]["dataset_sha256"]) == 64
+
+
+def test_the_training_pipeline_declares_every_shipped_space():
+    """pipelines/train_initializers.yaml makes every shipped initializer: per space a `learn cycle` of
+    tasks/NAME.yaml, held-out tasks of another seed solved from its last network, and `learn ship`."""
+    from legplan.pipeline import load_pipeline
+
+    pipeline = load_pipeline(ROOT / "pipelines" / "train_initializers.yaml")
+    for name in legplan.shipped.list_shipped_initializers():
+        cycle, held, ship = (pipeline.stage(f"{name}_{part}") for part in ("cycle", "held_out", "ship"))
+        assert list(cycle.command[:2]) == ["learn", "cycle"] and cycle.command[2].endswith(f"/{name}.yaml")
+        assert list(held.command[:2]) == ["learn", "dataset"] and held.params["seed"] != cycle.params["seed"]
+        assert list(ship.command[:2]) == ["learn", "ship"] and ship.provenance.endswith(f"shipped/{name}/{name}.h5")
