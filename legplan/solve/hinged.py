@@ -158,6 +158,8 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
         trial_v = problem.residual(trial)
         trial_norm = hinged_norm(trial_v, hinged)
         timings.evaluate += time.perf_counter() - t0
+        if log.isEnabledFor(logging.DEBUG):
+            _trace_step(it, lam, scaled_step, step, norm, trial_norm, predicted, v, trial_v, hinged, model)
         if trial_norm < norm:
             decrease = 1.0 - (trial_norm / norm) ** 2
             rho = min((norm ** 2 - trial_norm ** 2) / max(predicted, 1e-300), 2.0)
@@ -178,6 +180,23 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
             rejected += 1
             hist_h.append(norm), hist_l.append(lam)
     raise AssertionError("unreachable: the loop returns at it == max_iterations")
+
+
+def _trace_step(it: int, lam: float, scaled_step: np.ndarray, step: np.ndarray, norm: float, trial_norm: float,
+                predicted: float, v: np.ndarray, trial_v: np.ndarray, hinged: np.ndarray, model: _HingeModel) -> None:
+    """One debug line per step: λ, the step (scaled and in the variables), the model's and the actual
+    decrease of ‖h‖², ‖h‖ of the plain and of the hinged rows before and after, and the hinged rows
+    active at the point, in the step's model and at the trial point."""
+    def parts(x):
+        return np.linalg.norm(x[~hinged]), np.linalg.norm(np.maximum(x[hinged], 0.0))
+
+    (plain, hinge), (trial_plain, trial_hinge) = parts(v), parts(trial_v)
+    now, modelled, then = hinged & (v > 0), model.active, hinged & (trial_v > 0)
+    log.debug("step %d: λ=%.2e ‖d‖=%.3e (scaled %.3e) ‖h‖² %.4e → %.4e predicted %.4e actual %.4e; plain ‖h‖ "
+              "%.3e → %.3e, hinged %.3e → %.3e; active %d, model %d (+%d −%d), trial %d (+%d −%d)",
+              it, lam, np.linalg.norm(step), np.linalg.norm(scaled_step), norm ** 2, trial_norm ** 2, predicted,
+              norm ** 2 - trial_norm ** 2, plain, trial_plain, hinge, trial_hinge, now.sum(), modelled.sum(),
+              (modelled & ~now).sum(), (now & ~modelled).sum(), then.sum(), (then & ~now).sum(), (now & ~then).sum())
 
 
 class _Stopping:
