@@ -39,15 +39,15 @@ from legplan.solve.hinged import HingedParams
 from legplan.specio import FieldReader, override, read_yaml_mapping
 
 WARM_STAGES = ("costs", "projection", "polish")
-NEAR_START_DAMPING = 1e-6
-"""λ₀ (`HingedParams.lambda_init`, relative to diag(JᵀJ): the hinged LM's steps are Marquardt-scaled) of
-a projection that starts near a feasible point. Madsen, Nielsen & Tingleff ("Methods for non-linear least
-squares problems", 2004, Sec. 3.2) start λ at τ·max diag(JᵀJ) with τ = 1e-6 when the start is believed
-close to the solution, larger for a rough one. A damped step keeps the share λ/(σ² + λ) of the residual's
-component along each scaled singular value σ of J (eq. (13)), and the gain ratio's update lowers λ by at
-most a factor 3 per step: with λ₀ above the σ² that the dynamics' residual lies along, every step is
-accepted with the model's decrease and still removes only part of the residual. Near a feasible point
-the Gauss-Newton model is accurate, and a small λ₀ takes the nearly undamped step at once."""
+ACCURATE_MODEL_DECREASE = 1e-2
+"""`HingedParams.lambda_decrease` of a projection: λ falls by up to this factor after a step whose gain
+ratio ρ is near 1. Near a feasible point the constraints are nearly linear and the hinge model exact, so
+ρ ≈ 1 at every step, yet Nielsen's update lowers λ by at most a factor 3: a Marquardt-damped step keeps
+the share λ/(σ² + λ) of the residual's component along each scaled singular value σ of J (eq. (13)),
+and where the residual lies along σ² near λ each accepted step removes only part of it. Marquardt's own
+rule divides λ by 10 or more after a success; here the fast decrease is taken only where the model
+predicted the decrease (ρ near 1), while λ₀ stays as it is: the first step from a guess still damps
+the directions J determines weakly, which keeps the guess's shape."""
 
 
 @dataclass(frozen=True)
@@ -149,11 +149,11 @@ class DynParams(Parameters):
             "the curvature probe's acceleration is refused (2‖a‖ > α‖d‖) at the first, strongly curved "
             "steps and negligible at the later ones, while each probe costs a residual evaluation")
     projection_solver: ALParams = param(
-        ALParams(exact_rows=True, inner=replace(ALParams().inner, lambda_init=NEAR_START_DAMPING)), doc=(
+        ALParams(exact_rows=True, inner=replace(ALParams().inner, lambda_decrease=ACCURATE_MODEL_DECREASE)), doc=(
             "the 'projection' warm stage and the projections after a warm costs stage or of a replan: "
             "the constraints alone, stopped by the exact per-row test (a last stage: no next stage "
-            "profits from more precision), from a start near a feasible point with the small initial "
-            "damping of such a start (`NEAR_START_DAMPING`)"))
+            "profits from more precision), from a start near a feasible point: λ falls fast after a step "
+            "the model predicted (`ACCURATE_MODEL_DECREASE`)"))
     optimize_phases: bool = param(False, (False, True), doc=(
         "optimize the phase durations too (2S more variables, `legplan.dyn.timing`); a guess with "
         "durations sets the timing either way (kept fixed without this)"))

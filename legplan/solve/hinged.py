@@ -23,7 +23,9 @@ linearizations, each change one new analysis. The later passes change a few rows
 factor follows by CHOLMOD's rank updates (`CholmodSolver.refactor_rows`), and a pass whose
 active set is the one last factorized reuses that factorization. λ follows the gain ratio
 ρ = actual / model decrease (Nielsen: λ ← λ·max(⅓, 1 − (2ρ − 1)³) on success, λ ← λ·ν, ν ← 2ν on
-failure).
+failure; the ⅓ is `lambda_decrease`, which a problem whose model is nearly exact near its start, a
+projection onto nearly linear constraints, lowers: at ρ ≈ 1 a damped step keeps the share λ/(σ² + λ)
+of the residual along each scaled singular value σ of J, so a λ that falls slowly converges linearly).
 
 Geodesic acceleration (Transtrum & Sethna, "Improvements to the Levenberg-Marquardt algorithm for
 nonlinear least-squares minimization", 2012, eq. (14)): the step d is a velocity along the model;
@@ -81,6 +83,9 @@ class HingedParams(Parameters):
 
     lambda_init: float = param(1e-4, "(0, inf)", "λ₀", "initial damping")
     lambda_max: float = param(1e12, "(0, inf)", doc="stalled once λ exceeds this")
+    lambda_decrease: float = param(1 / 3, "(0, 1)", doc=(
+        "smallest factor of λ after an accepted step (Nielsen's update, module docstring: reached when "
+        "the gain ratio ρ is near 1, the model as good as exact)"))
     max_iterations: int = param(100, "[0, 100000]", doc="LM iterations (each one factorization)")
     tolerance: float = param(1e-10, "[0, inf)", doc="converged once ‖h‖ < this")
     function_tolerance: float = param(0.0, "[0, 1]", doc="converged once an accepted step lowers ‖h‖² by less, relative")
@@ -163,7 +168,7 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
         if trial_norm < norm:
             decrease = 1.0 - (trial_norm / norm) ** 2
             rho = min((norm ** 2 - trial_norm ** 2) / max(predicted, 1e-300), 2.0)
-            lam, nu = max(lam * max(1 / 3, 1 - (2 * rho - 1) ** 3), 1e-20), 2.0
+            lam, nu = max(lam * max(params.lambda_decrease, 1 - (2 * rho - 1) ** 3), 1e-20), 2.0
             theta, norm = trial, trial_norm
             accepted += 1
             hist_h.append(norm), hist_l.append(lam)
