@@ -55,6 +55,10 @@ residual, so the point that meets it costs no Jacobian); an accepted step loweri
 than `function_tolerance` relative, or a gradient ‖Jᵀh‖∞ below `gradient_tolerance` times its
 initial value (converged: the minimum of a problem with costs); `max_iterations`; λ > `lambda_max`
 (stalled); a non-finite residual or Jacobian (numerical failure).
+
+At DEBUG level every step logs λ, the step's size, the model's and the actual decrease of ‖h‖², ‖h‖ of the
+plain and of the hinged rows, and the hinged rows active at the point, in the model and at the trial
+point (`_trace_step`): what tells a damping-limited step (ρ ≈ 1, small decrease) from a hinge change.
 """
 
 from __future__ import annotations
@@ -197,8 +201,8 @@ def _trace_step(it: int, lam: float, scaled_step: np.ndarray, step: np.ndarray, 
 
     (plain, hinge), (trial_plain, trial_hinge) = parts(v), parts(trial_v)
     now, modelled, then = hinged & (v > 0), model.active, hinged & (trial_v > 0)
-    log.debug("step %d: λ=%.2e ‖d‖=%.3e (scaled %.3e) ‖h‖² %.4e → %.4e predicted %.4e actual %.4e; plain ‖h‖ "
-              "%.3e → %.3e, hinged %.3e → %.3e; active %d, model %d (+%d −%d), trial %d (+%d −%d)",
+    log.debug("step %d: λ=%.2e ‖d‖=%.3e (scaled %.3e) ‖h‖² %.4e → %.4e predicted %.4e actual %.4e; "
+              "plain ‖h‖ %.3e → %.3e, hinged %.3e → %.3e; active %d, model %d (+%d −%d), trial %d (+%d −%d)",
               it, lam, np.linalg.norm(step), np.linalg.norm(scaled_step), norm ** 2, trial_norm ** 2, predicted,
               norm ** 2 - trial_norm ** 2, plain, trial_plain, hinge, trial_hinge, now.sum(), modelled.sum(),
               (modelled & ~now).sum(), (now & ~modelled).sum(), then.sum(), (then & ~now).sum(), (now & ~then).sum())
