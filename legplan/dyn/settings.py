@@ -39,6 +39,15 @@ from legplan.solve.hinged import HingedParams
 from legplan.specio import FieldReader, override, read_yaml_mapping
 
 WARM_STAGES = ("costs", "projection", "polish")
+ACCURATE_MODEL_DECREASE = 1e-2
+"""`HingedParams.lambda_decrease` of a projection: λ falls by up to this factor after a step whose gain
+ratio ρ is near 1. Near a feasible point the constraints are nearly linear and the hinge model exact, so
+ρ ≈ 1 at every step, yet Nielsen's update lowers λ by at most a factor 3: a Marquardt-damped step keeps
+the share λ/(σ² + λ) of the residual's component along each scaled singular value σ of J (eq. (13)),
+and where the residual lies along σ² near λ each accepted step removes only part of it. Marquardt's own
+rule divides λ by 10 or more after a success; here the fast decrease is taken only where the model
+predicted the decrease (ρ near 1), while λ₀ stays as it is: the first step from a guess still damps
+the directions J determines weakly, which keeps the guess's shape."""
 
 
 @dataclass(frozen=True)
@@ -139,9 +148,12 @@ class DynParams(Parameters):
         doc="the feasibility stages (the constraints alone); no geodesic acceleration: on these problems "
             "the curvature probe's acceleration is refused (2‖a‖ > α‖d‖) at the first, strongly curved "
             "steps and negligible at the later ones, while each probe costs a residual evaluation")
-    projection_solver: ALParams = param(ALParams(exact_rows=True), doc=(
-        "the 'projection' warm stage: the constraints alone, stopped by the exact per-row test (a "
-        "last stage: no next stage profits from more precision)"))
+    projection_solver: ALParams = param(
+        ALParams(exact_rows=True, inner=replace(ALParams().inner, lambda_decrease=ACCURATE_MODEL_DECREASE)), doc=(
+            "the 'projection' warm stage and the projections after a warm costs stage or of a replan: "
+            "the constraints alone, stopped by the exact per-row test (a last stage: no next stage "
+            "profits from more precision), from a start near a feasible point: λ falls fast after a step "
+            "the model predicted (`ACCURATE_MODEL_DECREASE`)"))
     optimize_phases: bool = param(False, (False, True), doc=(
         "optimize the phase durations too (2S more variables, `legplan.dyn.timing`); a guess with "
         "durations sets the timing either way (kept fixed without this)"))

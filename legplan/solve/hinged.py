@@ -23,7 +23,9 @@ linearizations, each change one new analysis. The later passes change a few rows
 factor follows by CHOLMOD's rank updates (`CholmodSolver.refactor_rows`), and a pass whose
 active set is the one last factorized reuses that factorization. λ follows the gain ratio
 ρ = actual / model decrease (Nielsen: λ ← λ·max(⅓, 1 − (2ρ − 1)³) on success, λ ← λ·ν, ν ← 2ν on
-failure).
+failure; the ⅓ is `lambda_decrease`, which a problem whose model is nearly exact near its start, a
+projection onto nearly linear constraints, lowers: at ρ ≈ 1 a damped step keeps the share λ/(σ² + λ)
+of the residual along each scaled singular value σ of J, so a λ that falls slowly converges linearly).
 
 Geodesic acceleration (Transtrum & Sethna, "Improvements to the Levenberg-Marquardt algorithm for
 nonlinear least-squares minimization", 2012, eq. (14)): the step d is a velocity along the model;
@@ -53,6 +55,10 @@ residual, so the point that meets it costs no Jacobian); an accepted step loweri
 than `function_tolerance` relative, or a gradient ‖Jᵀh‖∞ below `gradient_tolerance` times its
 initial value (converged: the minimum of a problem with costs); `max_iterations`; λ > `lambda_max`
 (stalled); a non-finite residual or Jacobian (numerical failure).
+
+At DEBUG level every step logs λ, the step's size, the model's and the actual decrease of ‖h‖², ‖h‖ of the
+plain and of the hinged rows, and the hinged rows active at the point, in the model and at the trial
+point (`_trace_step`): what tells a damping-limited step (ρ ≈ 1, small decrease) from a hinge change.
 """
 
 from __future__ import annotations
@@ -81,6 +87,9 @@ class HingedParams(Parameters):
 
     lambda_init: float = param(1e-4, "(0, inf)", "λ₀", "initial damping")
     lambda_max: float = param(1e12, "(0, inf)", doc="stalled once λ exceeds this")
+    lambda_decrease: float = param(1 / 3, "(0, 1)", doc=(
+        "smallest factor of λ after an accepted step (Nielsen's update, module docstring: reached when "
+        "the gain ratio ρ is near 1, the model as good as exact)"))
     max_iterations: int = param(100, "[0, 100000]", doc="LM iterations (each one factorization)")
     tolerance: float = param(1e-10, "[0, inf)", doc="converged once ‖h‖ < this")
     function_tolerance: float = param(0.0, "[0, 1]", doc="converged once an accepted step lowers ‖h‖² by less, relative")
@@ -158,10 +167,12 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
         trial_v = problem.residual(trial)
         trial_norm = hinged_norm(trial_v, hinged)
         timings.evaluate += time.perf_counter() - t0
+        if log.isEnabledFor(logging.DEBUG):
+            _trace_step(it, lam, scaled_step, step, norm, trial_norm, predicted, v, trial_v, hinged, model)
         if trial_norm < norm:
             decrease = 1.0 - (trial_norm / norm) ** 2
             rho = min((norm ** 2 - trial_norm ** 2) / max(predicted, 1e-300), 2.0)
-            lam, nu = max(lam * max(1 / 3, 1 - (2 * rho - 1) ** 3), 1e-20), 2.0
+            lam, nu = max(lam * max(params.lambda_decrease, 1 - (2 * rho - 1) ** 3), 1e-20), 2.0
             theta, norm = trial, trial_norm
             accepted += 1
             hist_h.append(norm), hist_l.append(lam)
@@ -178,6 +189,23 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
             rejected += 1
             hist_h.append(norm), hist_l.append(lam)
     raise AssertionError("unreachable: the loop returns at it == max_iterations")
+
+
+def _trace_step(it: int, lam: float, scaled_step: np.ndarray, step: np.ndarray, norm: float, trial_norm: float,
+                predicted: float, v: np.ndarray, trial_v: np.ndarray, hinged: np.ndarray, model: _HingeModel) -> None:
+    """One debug line per step: λ, the step (scaled and in the variables), the model's and the actual
+    decrease of ‖h‖², ‖h‖ of the plain and of the hinged rows before and after, and the hinged rows
+    active at the point, in the step's model and at the trial point."""
+    def parts(x):
+        return np.linalg.norm(x[~hinged]), np.linalg.norm(np.maximum(x[hinged], 0.0))
+
+    (plain, hinge), (trial_plain, trial_hinge) = parts(v), parts(trial_v)
+    now, modelled, then = hinged & (v > 0), model.active, hinged & (trial_v > 0)
+    log.debug("step %d: λ=%.2e ‖d‖=%.3e (scaled %.3e) ‖h‖² %.4e → %.4e predicted %.4e actual %.4e; "
+              "plain ‖h‖ %.3e → %.3e, hinged %.3e → %.3e; active %d, model %d (+%d −%d), trial %d (+%d −%d)",
+              it, lam, np.linalg.norm(step), np.linalg.norm(scaled_step), norm ** 2, trial_norm ** 2, predicted,
+              norm ** 2 - trial_norm ** 2, plain, trial_plain, hinge, trial_hinge, now.sum(), modelled.sum(),
+              (modelled & ~now).sum(), (now & ~modelled).sum(), then.sum(), (then & ~now).sum(), (now & ~then).sum())
 
 
 class _Stopping:

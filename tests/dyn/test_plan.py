@@ -494,3 +494,20 @@ def test_a_slow_trot_through_four_leg_hand_overs_plans_and_passes_its_check():
     assert (result.problem.form.gait.stance.sum(axis=1) == 4).sum() > 2   # the pairs were cut
     check = check_trajectory(result.samples, model, terrain_map, robot, node_times=result.problem.form.knots)
     assert check.ok, check.failures()
+
+
+def test_a_projection_from_near_a_solution_converges_in_few_steps(anymal, flat):
+    """A plan's solution with its forces off by 0.3 % (over a newton of ANYmal's weight on the
+    Newton-Euler rows, whose tolerance is 1e-3 N) projects back within three LM steps (one subproblem),
+    as Gauss-Newton does from near a feasible point: after each step the model predicted, λ falls fast
+    (`ACCURATE_MODEL_DECREASE`) instead of keeping every step damped along J's small singular values."""
+    params = DynParams()
+    task = DynTask((0.0, 0.0, 0.0), (0.6, 0.1, 0.2), "trot", 3, 2.0)
+    solved = plan(task, anymal, flat, params)
+    assert solved.success, solved.reason
+    guess = {name: value.copy() for name, value in solved.solve.values.items()}
+    guess["forces"] *= 1.003
+    projected = plan(task, anymal, flat, replace(params, warm_stage="projection"), _Replay(guess))
+    assert [s.name for s in projected.stages] == ["projection"] and projected.success, projected.reason
+    assert projected.solve.iterations <= 3, projected.solve.history
+    assert projected.stages[0].result.history[0]["iterations"] == projected.solve.iterations  # one subproblem

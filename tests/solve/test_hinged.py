@@ -261,3 +261,35 @@ def test_marquardt_scale_of_shared_rows_is_the_sum_over_the_rows_they_stand_for(
         kept = expansion._take
         expansion.of(J, jrow)
         assert (expansion._take is kept) == (not J.indices.flags.writeable)
+
+
+def test_lambda_falls_by_lambda_decrease_after_an_exact_model_step():
+    """Linear rows with a weakly determined direction (scaled σ² about λ₀): every step is the model's
+    exactly (ρ = 1), and λ falls by `lambda_decrease` per step; at Nielsen's ⅓ each damped step keeps
+    about λ/(σ² + λ) of the residual along that direction: more steps to the tolerance."""
+    runs = {}
+    for decrease in (1 / 3, 1e-2):
+        p = Problem([VariableBlock("x", [0.0, 0.0])])
+        p.add_residual(LinearBlock(("x",), [np.array([[1.0, 1.0], [1.0, 1.02]])], np.array([1.0, 2.0])))
+        runs[decrease] = r = solve_hinged_lm(p, HingedParams(tolerance=1e-10, lambda_decrease=decrease))
+        assert r.status is Status.CONVERGED and r.rejected_steps == 0, r.reason
+        assert r.lambda_history[:3] == pytest.approx([1e-4 * decrease ** k for k in (1, 2, 3)], rel=1e-6)
+    assert runs[1e-2].iterations <= 4 < runs[1 / 3].iterations
+
+
+def test_debug_trace_logs_every_step_with_its_predicted_and_actual_decrease(caplog):
+    """At DEBUG level each step logs λ and the model's and the actual decrease of ‖h‖²: on linear rows
+    the two agree (ρ = 1)."""
+    import logging
+    import re
+
+    p = Problem([VariableBlock("x", [0.0, 0.0])])
+    p.add_residual(LinearBlock(("x",), [np.array([[1.0, 1.0], [1.0, 1.02]])], np.array([1.0, 2.0])))
+    with caplog.at_level(logging.DEBUG, logger="legplan.solve.hinged"):
+        r = solve_hinged_lm(p, HingedParams(tolerance=1e-10))
+    lines = [m for m in caplog.messages if m.startswith("step ")]
+    assert len(lines) == r.iterations
+    for line, lam in zip(lines, [1e-4] + r.lambda_history[:-1]):
+        predicted, actual = (float(x) for x in re.search(r"predicted (\S+) actual (\S+);", line).groups())
+        assert float(re.search(r"λ=(\S+) ", line).group(1)) == pytest.approx(lam, rel=1e-2)
+        assert actual == pytest.approx(predicted, rel=1e-3)
