@@ -1,7 +1,8 @@
 """A first plan from a shipped initializer, and from a perfect one: two source trees side by side (issue 39).
 
     .venv/bin/python bench/learned_start.py --before /tmp/ref_381 --before-code 38107ef
-        [--trot-n 100] [--pallet-n 30] [--oracle-trot 20] [--oracle-pallet 10] [--no-append]
+        [--trot-n 100] [--pallet-n 30] [--double-n 0] [--oracle-trot 20] [--oracle-pallet 10]
+        [--result learned_start] [--no-append]
 
 Every run is a child process per tree (`PYTHONPATH` = that tree, one BLAS thread), the trees
 alternating; each plans through the path `legplan learn dataset --init NAME --iterations 25` takes
@@ -9,8 +10,10 @@ alternating; each plans through the path `legplan learn dataset --init NAME --it
 name resolves to, Algorithm 1's N_θ = 25 LM iterations for the whole plan) and judges every plan
 by the independent check (`legplan.validate.trajectory.check_trajectory`).
 
-* held out: `--trot-n` tasks of tasks/flat_trot.yaml and `--pallet-n` of tasks/single_pallet_walk.yaml
-  (seed 1, the held-out seed of the benchmarks before), planned from the shipped initializer of the
+* held out: `--trot-n` tasks of tasks/flat_trot.yaml, `--pallet-n` of tasks/single_pallet_walk.yaml
+  and `--double-n` of tasks/double_pallet_walk.yaml (a reference tree that does not ship that
+  initializer needs the file copied into its tasks/initializers/), seed 1 (the held-out seed of the
+  benchmarks before), planned from the shipped initializer of the
   space (tasks/initializers/, the same file in both trees): converged share, median LM iterations and
   median CPU seconds (`time.process_time` of `plan`: build, solve, 10 ms sampling) of the converged
   ones, their largest cost over the median, plans whose check failed.
@@ -19,7 +22,7 @@ by the independent check (`legplan.validate.trajectory.check_trajectory`).
   initializer (what a perfect network would give): iterations per stage. The Heuristic's own plans
   are compared between the trees entry by entry (the heuristic path is meant to be the same).
 
-Writes bench/results/learned_start.json and the learned_start section of BENCHMARKS.md.
+Writes bench/results/<result>.json and the <result> section of BENCHMARKS.md.
 """
 
 from __future__ import annotations
@@ -39,7 +42,8 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import numpy as np  # noqa: E402
 from common import ROOT, code_version, load_average, machine, update_benchmarks, write_result  # noqa: E402
 
-SPACES = {"flat_trot": "tasks/flat_trot.yaml", "single_pallet_walk": "tasks/single_pallet_walk.yaml"}
+SPACES = {"flat_trot": "tasks/flat_trot.yaml", "single_pallet_walk": "tasks/single_pallet_walk.yaml",
+          "double_pallet_walk": "tasks/double_pallet_walk.yaml"}
 SEED = 1
 N_THETA = 25
 N_H = 100
@@ -133,8 +137,10 @@ def main() -> None:
     parser.add_argument("--before-code", default="38107ef")
     parser.add_argument("--trot-n", type=int, default=100)
     parser.add_argument("--pallet-n", type=int, default=30)
+    parser.add_argument("--double-n", type=int, default=0)
     parser.add_argument("--oracle-trot", type=int, default=20)
     parser.add_argument("--oracle-pallet", type=int, default=10)
+    parser.add_argument("--result", default="learned_start", help="bench/results/<name>.json and the BENCHMARKS.md section")
     parser.add_argument("--no-append", action="store_true", help="write the JSON only, not BENCHMARKS.md")
     args = parser.parse_args()
     if args.child:
@@ -146,8 +152,11 @@ def main() -> None:
     loads = [load_average()]
     runs = []
     for space, count, mode in (("flat_trot", args.trot_n, "learned"), ("single_pallet_walk", args.pallet_n, "learned"),
+                               ("double_pallet_walk", args.double_n, "learned"),
                                ("flat_trot", args.oracle_trot, "oracle"),
                                ("single_pallet_walk", args.oracle_pallet, "oracle")):
+        if not count:
+            continue
         order = ("before", "after") if len(runs) % 2 == 0 else ("after", "before")
         results = {}
         for label in order:
@@ -163,14 +172,15 @@ def main() -> None:
                      **{label: {"summary": summary(results[label]), "records": results[label]} for label in trees}})
     result = {"date": started.isoformat(timespec="seconds"), "machine": machine(), "code": code_version(),
               "before": str(args.before), "before_code": args.before_code, "load_average": loads, "runs": runs}
-    write_result("learned_start", result)
+    result["section"] = args.result
+    write_result(args.result, result)
     if not args.no_append:
-        update_benchmarks("learned_start", markdown(result))
+        update_benchmarks(args.result, markdown(result))
 
 
 def markdown(result: dict) -> str:
     loads = result["load_average"]
-    lines = [f"## learned_start — a first plan from the shipped initializer and from a perfect one, two trees "
+    lines = [f"## {result.get('section', 'learned_start')} — a first plan from the shipped initializer and from a perfect one, two trees "
              f"side by side (`bench/learned_start.py`, {result['date'][:16].replace('T', ' ')} UTC, {result['machine']}, "
              f"code {result['code']}, load average {min(loads):.1f}–{max(loads):.1f}: shared machine, CPU seconds noisy)",
              "",
