@@ -47,7 +47,9 @@ is left for after the window.
 
 One solve, no stages: the constraints alone (`DynParams.projection_solver`, "projection") or the
 costs under them (`warm_solver`, "costs") from the shifted guess, capped at
-`ReplanParams.max_iterations` LM iterations (`ReplanParams.geodesic_acceleration` may switch the
+`ReplanParams.max_iterations` LM iterations and `ReplanParams.cpu_budget` CPU seconds, whichever
+comes first (an online replanner's bounds: a replan stopped by either ends at the point its solve
+reached, the best so far) (`ReplanParams.geodesic_acceleration` may switch the
 solver's geodesic acceleration off: its curvature probe costs a residual evaluation per step). A
 replan succeeds when every constraint row it samples (in its window, with the relaxations above)
 is within the solver's `violation_tolerance` or within `ReplanParams.scaled_tolerance` of its row
@@ -103,6 +105,11 @@ class ReplanParams(Parameters):
         "replanned as later replans reach them (receding horizon without a terminal constraint); "
         "None: the whole rest"))
     max_iterations: int = param(25, "[1, 10000]", doc="LM iterations of a replan, at most")
+    cpu_budget: float | None = param(2.0, "(0, inf)", doc=(
+        "CPU s of a replan, building included, at most: no LM step starts after it (`Status."
+        "TIME_LIMIT`) and the replan ends where its solve is, as at `max_iterations` (an online "
+        "replanner must answer in time; the iteration budget alone bounds a replan's work, not its "
+        "time). A replan it stops depends on the machine's speed; None: no time limit"))
     scaled_tolerance: float = param(1e-3, "[0, inf)", doc=(
         "a replan's row also counts as converged when its violation is within this share of its "
         "solver scale (`ALParams.scaled_tolerance`, replacing the solver's: forces and torques per the "
@@ -356,13 +363,16 @@ class ReplanTask:
     def knots(self, params: DynParams) -> np.ndarray | None:
         """The previous plan's base knots after t, shifted to start at 0 (a first polynomial shorter
         than `SHORT_FIRST` of `dt` merged into the next, unless it ends where the feet's contacts
-        change: a cubic across a lift-off into a flight cannot follow the forces there and then −g):
-        the shifted guess is then the previous base spline itself after its first polynomial. None
-        (the formulation's own) with `phase_knots`."""
+        change in the rest of the motion, `gait_rest`: a cubic across a lift-off into a flight
+        cannot follow the forces there and then −g): the shifted guess is then the previous base
+        spline itself after its first polynomial. A contact change of the previous plan within
+        `PHASE_END` after t is no change of the rest (`remaining_gait` takes that phase as over),
+        and a polynomial that short would ask accelerations of its dynamics rows no solve can meet.
+        None (the formulation's own) with `phase_knots`."""
         if params.phase_knots:
             return None
         later = self.previous.form.knots[self.previous.form.knots > self.state.t] - self.state.t
-        boundaries = np.cumsum(self.previous.form.gait.durations) - self.state.t
+        boundaries = np.cumsum(self.gait_rest.durations)
         if (later.size > 1 and later[0] < SHORT_FIRST * params.dt
                 and not np.isclose(later[0], boundaries, rtol=0.0, atol=1e-9).any()):
             later = later[1:]
@@ -602,6 +612,7 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
     solver = params.warm_solver if costs else params.projection_solver
     stage_params = replace(params, optimize_phases=False, costs=params.costs if costs else CostWeights())
     cpu, wall = time.process_time(), time.perf_counter()
+    deadline = None if settings.cpu_budget is None else cpu + settings.cpu_budget
     guess = ShiftedInit(previous, state.t, adapted_step(error, model, settings))
     problem = build_problem(task, model, terrain, stage_params, guess)
     setup = time.perf_counter() - wall
@@ -611,7 +622,8 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
                                                 inner=replace(solver.inner, geodesic_acceleration=(
                                                     solver.inner.geodesic_acceleration
                                                     if settings.geodesic_acceleration is None
-                                                    else settings.geodesic_acceleration))))
+                                                    else settings.geodesic_acceleration))),
+                                        deadline=deadline)
     samples = sample_solution(problem.form, solved.values, com_offset=problem.com_offset)
     if airborne.any():  # the hold of a foot in the air is no contact (zero force, off the terrain)
         hold = samples["t"] < gait_rest.durations[0] - 1e-9

@@ -135,7 +135,7 @@ time and trigger ("period" or "tube"), the measured state it started from, LM it
 seconds, its largest violation (rows in their own units, and in the solver's scale), whether it
 converged, whether it recovered from a push (`recovery`: the feet in the air landed early,
 `legplan.dyn.replan.early_touchdown`), why the solve stopped (`status`: converged, max_iterations,
-stalled, numerical_failure) and whether the controller tracked it."""
+time_limit, stalled, numerical_failure) and whether the controller tracked it."""
 TEXT_COLUMNS = ("trigger", "status")
 """The `REPLAN_UNITS` columns that hold words (bytes in sim.h5)."""
 

@@ -122,13 +122,20 @@ def test_a_flying_trot_replans_on_its_short_polynomials(anymal, flat):
 
 
 
-def test_a_replan_just_before_a_flight_keeps_a_knot_at_the_lift_off(anymal, flat):
-    """A replan 20 ms before a trot's support pair lifts off into a flight: the short first base
-    polynomial is not merged into the next (one cubic cannot follow the pair's forces and then −g
-    through the flight), and the replan from the plan's own state converges. (Four strides in 2.4 s:
-    pairs short enough to keep their flights, `DynParams.line_support`.)"""
+@pytest.fixture(scope="module")
+def trot4(anymal, flat):
+    """A flying trot, four strides in 2.4 s: pairs short enough to keep their flights
+    (`DynParams.line_support`); its base knots include every contact change."""
     trot = plan(DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "trot", 4, 2.4), anymal, flat, DynParams())
     assert trot.success, trot.reason
+    return trot
+
+
+def test_a_replan_just_before_a_flight_keeps_a_knot_at_the_lift_off(trot4, anymal, flat):
+    """A replan 20 ms before a trot's support pair lifts off into a flight: the short first base
+    polynomial is not merged into the next (one cubic cannot follow the pair's forces and then −g
+    through the flight), and the replan from the plan's own state converges."""
+    trot = trot4
     gait = trot.problem.form.gait
     ends = np.cumsum(gait.durations)
     lift_off = next(ends[k] for k in range(1, len(ends) - 1) if not gait.stance[k + 1].any())
@@ -136,6 +143,26 @@ def test_a_replan_just_before_a_flight_keeps_a_knot_at_the_lift_off(anymal, flat
     out = replan(trot, state, anymal, flat, DynParams())
     assert out.success, out.plan.reason
     assert np.isclose(out.plan.problem.form.knots, lift_off - state.t, rtol=0.0, atol=1e-9).any()
+
+
+@pytest.mark.parametrize("before", [1e-15, 5e-4])
+def test_a_replan_a_hair_before_a_contact_change_has_no_sliver_polynomial(trot4, anymal, flat, before):
+    """A replan measured a hair before a knot at a contact change (a clock's rounding: a tube-triggered
+    replan lands on the previous replan's phase boundary; or within `PHASE_END` of it): the rest of
+    the motion takes that phase as over, so its first base polynomial does not end there — one of
+    1e-15 s asks accelerations of 1e29 of its dynamics rows and no replan from there converges. The
+    replan from the plan's own state converges with no polynomial shorter than `PHASE_END`."""
+    from legplan.dyn.replan import PHASE_END
+
+    form = trot4.problem.form
+    ends = np.cumsum(form.gait.durations)
+    knot = next(k for k in form.knots[1:-1] if np.isclose(k, ends, rtol=0.0, atol=1e-12).any() and k > 0.5)
+    own = MeasuredState.from_samples(trot4.samples, knot)
+    state = MeasuredState(knot - before, own.base_pos, own.base_euler, own.base_vel, own.base_ang_vel, own.feet_pos)
+    assert state.t < knot
+    out = replan(trot4, state, anymal, flat, DynParams())
+    assert np.diff(out.plan.problem.form.knots).min() >= PHASE_END
+    assert out.success, out.plan.reason
 
 def _state_in_swing(planned, share):
     """The plan's own state `share` of the way through the first phase after the start with a foot in
@@ -420,6 +447,25 @@ def test_a_replan_stops_once_every_row_is_within_its_scaled_tolerance(planned, a
         if k.block.size:
             c = k.block.evaluate([values[v] for v in k.block.variables], False)[0]
             assert np.all(k.violation(np.asarray(c)) <= tolerance), k.name
+
+
+def test_a_replan_out_of_cpu_time_ends_where_its_solve_is(planned, anymal, flat):
+    """`ReplanParams.cpu_budget` spent before the first LM step (building took it): the replan stops
+    with `Status.TIME_LIMIT` and no iteration, its plan the shifted guess from the measured state; a
+    budget of 0 or less is refused."""
+    from legplan.errors import LegplanError
+    from legplan.solve.lm import Status
+
+    state = MeasuredState.from_samples(planned.samples, 1.0)
+    pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + [0.0, 0.3, 0.0],
+                           state.base_ang_vel, state.feet_pos)
+    out = replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(cpu_budget=1e-9))
+    assert out.status is Status.TIME_LIMIT and out.iterations == 0 and not out.success
+    assert out.record()["status"] == "time_limit" and "CPU time" in out.reason
+    assert np.allclose(out.plan.samples["base_vel"][0], pushed.base_vel, atol=1e-9)
+    assert np.allclose(out.plan.samples["base_pos"][0], pushed.base_pos, atol=1e-9)
+    with pytest.raises(LegplanError, match="cpu_budget"):
+        ReplanParams(cpu_budget=0.0)
 
 
 def test_early_touchdown_lands_the_feet_in_the_air_and_keeps_the_rest():

@@ -261,3 +261,13 @@ def test_marquardt_scale_of_shared_rows_is_the_sum_over_the_rows_they_stand_for(
         kept = expansion._take
         expansion.of(J, jrow)
         assert (expansion._take is kept) == (not J.indices.flags.writeable)
+
+
+def test_a_passed_deadline_stops_before_a_step_at_the_start():
+    import time
+
+    p = Problem([VariableBlock("x", [2.0, 2.0])])
+    p.add_residual(LinearBlock(("x",), [np.array([[1.0, 1.0]])], 1.0))
+    r = solve_hinged_lm(p, HingedParams(tolerance=1e-12), deadline=time.process_time())
+    assert r.status is Status.TIME_LIMIT and r.stopped_by == "deadline" and r.iterations == 0
+    assert r.values["x"].tolist() == [2.0, 2.0]
