@@ -27,7 +27,13 @@ stopped (converged; max_iterations, the `ReplanParams.max_iterations` budget; ti
 `cpu_budget`; stalled, the solver's stall test; numerical_failure),
 `tracked` whether the controller took it, `recovery` whether it landed the feet in the air early
 (`ReplanParams.recovery_velocity`, `legplan.dyn.replan.early_touchdown`), as the first replan
-after a push does.
+after a push does, `extension` the seconds of strides a tracked replan inserted
+(`ReplanParams.extension`; the simulation then runs to the longer plan's end).
+
+Bounded: a replan spends at most `ReplanParams.max_iterations` LM iterations and `cpu_budget` CPU
+seconds, and each control tick's QP at most `legplan.sim.controller.QP_MAX_OUTER` ×
+`QP_MAX_INNER` ProxQP iterations; a run lasts its plan, the inserted strides (at most
+`ReplanParams.extension`) and its settle.
 """
 
 from __future__ import annotations
@@ -94,11 +100,12 @@ class Replanner:
         self.rows.append({**state.record(), "trigger": trigger, "iterations": out.iterations,
                           "cpu_seconds": out.cpu_seconds, "violation": out.violation,
                           "scaled_violation": out.scaled_violation, "recovery": out.recovery,
+                          "extension": out.extension if tracked else 0.0,
                           "success": out.success,
                           "status": out.status.name.lower(), "tracked": tracked})
         if not tracked:
             return None
-        self.previous = Previous.from_plan(out.plan)
+        self.previous = Previous.from_plan(out.plan, self.previous.stride, self.previous.extended + out.extension)
         self._origin = t
         samples = dict(out.plan.samples)
         samples["t"] = samples["t"] + t

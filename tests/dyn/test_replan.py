@@ -529,3 +529,66 @@ def test_a_pushed_replan_recovers_and_an_unpushed_one_does_not(planned, anymal, 
         assert np.allclose(s["base_pos"][-1, :2], planned.samples["base_pos"][-1, :2], atol=1e-6)
         outcomes[name] = s["contact"][np.searchsorted(s["t"], [0.13, 0.2]), leg]
     assert outcomes["recovers"].all() and not outcomes["off"].any()
+
+
+def test_a_gaits_stride_is_its_repeated_run_of_phases():
+    from legplan.dyn.replan import gait_stride
+
+    trot = gait_stride(make_gait("trot", 4, 2.4, DynParams().line_support))
+    assert trot.stance.sum(axis=1).tolist() == [2, 0, 2, 0] and trot.duration == pytest.approx(0.6)
+    walk = gait_stride(make_gait("walk", 4, 5.5))
+    assert len(walk.durations) == 8 and walk.duration == pytest.approx(5.5 / 4, rel=0.1)
+    lift_offs = (walk.stance & ~np.roll(walk.stance, -1, axis=0)).sum(axis=0)
+    assert lift_offs.tolist() == [1, 1, 1, 1]  # each foot swings once a stride
+    assert gait_stride(make_gait("walk", 1, 2.0)) is None
+
+
+def test_inserted_strides_keep_the_order_of_steps_and_map_onto_the_stride_before():
+    """Strides go in before the last phase that starts one, so every foot's steps alternate as
+    before; the inserted time maps onto the stride before it, the rest after it onto its own time."""
+    from legplan.dyn.replan import gait_stride, insert_strides
+
+    gait = make_gait("trot", 4, 2.4, DynParams().line_support)
+    stride = gait_stride(gait)
+    rest, _ = remaining_gait(gait, 1.2)
+    longer, ins = insert_strides(rest, stride, 2)
+    assert longer.duration == pytest.approx(rest.duration + 1.2) and ins.length == pytest.approx(1.2)
+    for leg in range(4):  # the same alternation of stance and swing per foot, two more steps
+        before, after = rest.foot_phases(leg), longer.foot_phases(leg)
+        assert len(after) == len(before) + 4 and all(a.stance != b.stance for a, b in zip(after, after[1:]))
+    assert np.array_equal(longer.stance[-2:], rest.stance[-2:])  # the last pair and the Stand stay last
+    times = np.array([0.1, ins.at + 0.05, ins.at + 0.65, ins.at + 1.25])
+    assert ins.previous_time(times) == pytest.approx([0.1, ins.at - 0.55, ins.at - 0.55, ins.at + 0.05])
+    assert insert_strides(rest, stride, 0) == (rest, None)
+
+
+def test_recovery_time_is_the_pendulums_stop_and_walk_back_at_the_feets_reach(anymal):
+    from legplan.dyn.constraints import GRAVITY
+    from legplan.dyn.replan import recovery_time
+
+    reach = anymal.range_of_motion[1]
+    expected = (1 + np.sqrt(2)) * 1.2 * anymal.base_height / (GRAVITY * reach)
+    assert recovery_time(np.array([0.0, -1.2, 0.3]), anymal) == pytest.approx(expected)
+    assert recovery_time(np.array([1.2, 0.0, 0.0]), anymal) < expected  # the box reaches further along x
+    assert recovery_time(np.zeros(3), anymal) == 0.0
+
+
+def test_a_pushed_replan_inserts_strides_within_its_extension(trot4, anymal, flat):
+    """A trot pushed sideways at 1 m/s mid-plan with `extension` 1.2 s: the recovering replan inserts
+    two 0.6 s strides (its `recovery_time` asks more), starts from the measured state, ends at the
+    same goal 1.2 s later and converges; a plan already extended by the whole allowance inserts none."""
+    state = MeasuredState.from_samples(trot4.samples, 1.2)
+    pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + [0.0, 1.0, 0.0],
+                           state.base_ang_vel, state.feet_pos)
+    previous = Previous.from_plan(trot4)
+    out = replan(previous, pushed, anymal, flat, DynParams(), settings=ReplanParams(extension=1.2))
+    assert out.recovery and out.extension == pytest.approx(1.2)
+    s = out.plan.samples
+    assert s["t"][-1] == pytest.approx(2.4 - pushed.t + 1.2)
+    assert np.allclose(s["base_vel"][0], pushed.base_vel, atol=1e-9)
+    assert np.allclose(s["base_pos"][-1, :2], trot4.samples["base_pos"][-1, :2], atol=1e-6)
+    assert np.all(np.diff(out.plan.problem.form.knots) > 0)
+    assert out.status.name in ("CONVERGED", "MAX_ITERATIONS"), out.plan.reason
+    spent = replace(previous, extended=1.2)
+    assert replan(spent, pushed, anymal, flat, DynParams(), settings=ReplanParams(extension=1.2)).extension == 0.0
+    assert replan(previous, pushed, anymal, flat, DynParams()).extension == 0.0  # off by default

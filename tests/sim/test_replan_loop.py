@@ -219,3 +219,29 @@ def test_a_replan_out_of_cpu_time_is_recorded_and_a_non_finite_plan_is_never_tra
     assert trackable(out, np.inf)
     out.plan.samples["forces"][3, 0, 2] = np.nan
     assert not trackable(out, np.inf)
+
+
+def test_a_closed_loop_whose_replan_inserts_strides_runs_to_the_later_end(flat, trot):
+    """`ReplanParams.extension`: the flat trot pushed hard sideways; the recovering replan inserts
+    strides, recorded in sim.h5's `extension` column, and the run goes on to the end of the longer
+    plan and its settle instead of the first plan's."""
+    from legplan.dyn.artefact import read_tasks
+    from legplan.dyn.replan import ReplanParams
+    from legplan.dyn.replan_io import recorded_params
+    from legplan.sim.items import SimWorker, sim_items, simulate_item
+    from legplan.sim.run import CONTROL_DT, SimParams
+
+    attrs, tasks = read_tasks(trot)
+    item = sim_items(tasks)[0]
+    dyn = recorded_params(json.loads(attrs["params"]))
+    params = SimParams(pushes=((1.2, 0.0, 300.0, 0.1),))
+    closed = simulate_item(SimWorker("anymal", str(flat[1]), params, replan=(0.25, dyn, ReplanParams(extension=1.2))),
+                           item)
+    replans = closed["replans"]
+    added = float(replans["extension"].sum())
+    assert 0.5 < added <= 1.2 + 1e-9 and replans["extension"][replans["tracked"]].sum() == added
+    end = tasks[0]["samples"]["t"][-1] + added + params.settle
+    if not closed["fell"]:
+        assert closed["series"]["t"][-1] == pytest.approx(end, abs=2 * CONTROL_DT), closed["reason"]
+    else:
+        assert closed["series"]["t"][-1] > tasks[0]["samples"]["t"][-1] + params.settle, closed["reason"]
