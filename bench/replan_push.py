@@ -125,6 +125,8 @@ def main() -> None:
                        "replans": int(cpu.size), "replans_converged": int(np.sum(replans.get("success", []))),
                        "replans_tracked": int(np.sum(replans.get("tracked", []))),
                        "replans_tube": int(np.sum(np.asarray(replans.get("trigger", []), bytes) == b"tube")),
+                       "replans_time_limit": int(np.sum(np.asarray(replans.get("status", []), bytes) == b"time_limit")),
+                       "extension": float(np.sum(replans.get("extension", []))),
                        "replan_cpu_median": float(np.median(cpu)) if cpu.size else None,
                        "replan_cpu_max": float(cpu.max()) if cpu.size else None, "wall": result.wall}
                 print(f"  {label} {loop} {impulse:.2f} N s: {result.reason}; replans {run['replans_converged']}/"

@@ -106,6 +106,9 @@ def main() -> None:
                              "replans_converged": int(np.sum(result.replans.get("success", []))),
                              "replans_tube": int(np.sum(np.asarray(result.replans.get("trigger", []), bytes)
                                                         == b"tube")),
+                             "replans_time_limit": int(np.sum(np.asarray(result.replans.get("status", []), bytes)
+                                                              == b"time_limit")),
+                             "extension": float(np.sum(result.replans.get("extension", []))),
                              "replan_cpu": cpu.tolist()}
         rows.append(row)
         print(f"task {index}: push {impulse:.1f} N s at {at:.2f} s; planned {row['planned']}"

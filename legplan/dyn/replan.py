@@ -25,6 +25,14 @@ fixed, a walk pushed while a diagonal pair carries it tips over about that pair 
 foot lands as planned, and no rest of the motion from there converges; a foot down sooner gives
 the capture point (Pratt et al. 2006) a support polygon to stop in, and the replan places it.
 
+A base pushed faster than the rest of its steps can stop may need more steps
+(`ReplanParams.extension`, off by default): a recovering replan then inserts whole strides of the
+plan's gait (`gait_stride`, `insert_strides`) before its last one, as many as the linear inverted
+pendulum needs to stop the measured velocity error with its feet at the edge of their range of
+motion and walk back (`recovery_time`), within the extension left; the goal stays, the motion ends
+later. The guess repeats the stride before the inserted ones for the feet and forces and holds the
+base at rest there.
+
 What the measured state itself violates is not the replan's to undo at once: a foot outside its
 range-of-motion box at t (tracking error, a push) may stay outside by that excess, shrinking
 linearly to none over `ReplanParams.settle`; what is left of a swing at t has no swing-height rows.
@@ -47,7 +55,9 @@ is left for after the window.
 
 One solve, no stages: the constraints alone (`DynParams.projection_solver`, "projection") or the
 costs under them (`warm_solver`, "costs") from the shifted guess, capped at
-`ReplanParams.max_iterations` LM iterations (`ReplanParams.geodesic_acceleration` may switch the
+`ReplanParams.max_iterations` LM iterations and `ReplanParams.cpu_budget` CPU seconds, whichever
+comes first (an online replanner's bounds: a replan stopped by either ends at the point its solve
+reached, the best so far) (`ReplanParams.geodesic_acceleration` may switch the
 solver's geodesic acceleration off: its curvature probe costs a residual evaluation per step). A
 replan succeeds when every constraint row it samples (in its window, with the relaxations above)
 is within the solver's `violation_tolerance` or within `ReplanParams.scaled_tolerance` of its row
@@ -103,6 +113,11 @@ class ReplanParams(Parameters):
         "replanned as later replans reach them (receding horizon without a terminal constraint); "
         "None: the whole rest"))
     max_iterations: int = param(25, "[1, 10000]", doc="LM iterations of a replan, at most")
+    cpu_budget: float | None = param(3.0, "(0, inf)", doc=(
+        "CPU s of a replan, building included, at most: no LM step starts after it (`Status."
+        "TIME_LIMIT`) and the replan ends where its solve is, as at `max_iterations` (an online "
+        "replanner must answer in time; the iteration budget alone bounds a replan's work, not its "
+        "time). A replan it stops depends on the machine's speed; None: no time limit"))
     scaled_tolerance: float = param(1e-3, "[0, inf)", doc=(
         "a replan's row also counts as converged when its violation is within this share of its "
         "solver scale (`ALParams.scaled_tolerance`, replacing the solver's: forces and torques per the "
@@ -129,6 +144,12 @@ class ReplanParams(Parameters):
         "× the capture-point shift of the next foothold of every foot in the replan's guess "
         "(`capture_step` of the CoM's horizontal velocity error against the previous plan at t): a "
         "pushed base needs its next steps where they can stop it; 0: the previous footholds"))
+    extension: float = param(0.0, "[0, inf)", doc=(
+        "s: how much later than planned a pushed motion may end, at most, all its replans together: "
+        "a recovering replan inserts whole strides of the plan's gait (`Previous.stride`) before its "
+        "last one, as many as `recovery_time` asks within what is left of this (a base pushed faster "
+        "than the rest of its steps can stop needs more steps to stop and walk back; the goal stays); "
+        "the closed loop runs as long as its plan; 0: the plan's end is fixed"))
     settle: float = param(0.2, "(0, inf)", doc=(
         "s: a measured foot outside its range-of-motion box (tracking error, a push) may stay "
         "outside by its measured excess, shrinking linearly to none over this time"))
@@ -231,12 +252,23 @@ class Previous:
     values: dict[str, np.ndarray]
     goal: tuple[float, float, float]
     com_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
+    stride: Gait | None = None
+    """One stride of the first plan's gait (`gait_stride`), what a recovering replan may insert
+    (`ReplanParams.extension`); None: no stride found, the end stays."""
+    extended: float = 0.0
+    """s: how much later than the first plan this plan ends (inserted strides)."""
+
+    def __post_init__(self):
+        if self.stride is None:
+            object.__setattr__(self, "stride", gait_stride(self.form.gait))
 
     @classmethod
-    def from_plan(cls, result: PlanResult) -> Previous:
+    def from_plan(cls, result: PlanResult, stride: Gait | None = None, extended: float = 0.0) -> Previous:
+        """A plan's solution; `stride` and `extended` those of the plan it replans (a first plan:
+        its own stride, none extended)."""
         p = result.problem
         return cls(p.form, {k: np.asarray(v, float) for k, v in result.solve.values.items()},
-                   tuple(float(v) for v in p.task.goal), np.asarray(p.com_offset, float))
+                   tuple(float(v) for v in p.task.goal), np.asarray(p.com_offset, float), stride, extended)
 
     @classmethod
     def from_record(cls, task: dict, com_offset, dt: float = 0.1) -> Previous:
@@ -255,6 +287,72 @@ class Previous:
         lin = self.values["base_lin"].reshape(-1, 2, 3)
         ang = self.values["base_ang"].reshape(-1, 2, 3)
         return Pose(lin[-1, 0].copy(), ang[-1, 0].copy())
+
+
+def gait_stride(gait: Gait) -> Gait | None:
+    """One stride of `gait`: the shortest run of p phases that the phases between its first and last
+    (the Stands) repeat at once, stance and durations (a gait of two strides or more, `make_gait`);
+    None when there is none."""
+    stance, durations = gait.stance[1:-1], gait.durations[1:-1]
+    for p in range(1, len(durations) // 2 + 1):
+        for a in range(len(durations) - 2 * p + 1):
+            if (np.array_equal(stance[a:a + p], stance[a + p:a + 2 * p])
+                    and np.allclose(durations[a:a + p], durations[a + p:a + 2 * p], rtol=0.0, atol=EPS)):
+                return Gait(gait.name, durations[a:a + p].copy(), stance[a:a + p].copy())
+    return None
+
+
+@dataclass(frozen=True)
+class Insertion:
+    """Strides inserted into the rest of a motion (`insert_strides`): from `at` (s, the rest's
+    clock) `count` strides of `period` s; what follows is the previous plan `count`·`period` later."""
+
+    at: float
+    period: float
+    count: int
+
+    @property
+    def length(self) -> float:
+        return self.count * self.period
+
+    def previous_time(self, times: np.ndarray) -> np.ndarray:
+        """The time on the rest's previous clock (without the strides) each time of the rest stands
+        for: itself before `at`, in the strides the stride before them (one stride repeated), after
+        them itself less `length`."""
+        times = np.asarray(times, float)
+        inside = (times >= self.at) & (times < self.at + self.length)
+        repeat = self.at - self.period + np.mod(times - self.at, self.period)
+        return np.where(times < self.at, times, np.where(inside, repeat, times - self.length))
+
+
+def insert_strides(gait: Gait, stride: Gait, count: int, first: int = 1) -> tuple[Gait, Insertion | None]:
+    """`gait` (a rest, t at 0) with `count` strides `stride` inserted before its last phase at or
+    after `first` that starts a stride — its stance `stride`'s first, the phase before it
+    `stride`'s last — so that the feet's order of steps goes on; unchanged (None) without such a
+    phase or with `count` 0."""
+    at = [k for k in range(max(first, 1), len(gait.durations))
+          if np.array_equal(gait.stance[k], stride.stance[0]) and np.array_equal(gait.stance[k - 1], stride.stance[-1])]
+    if count < 1 or not at:
+        return gait, None
+    k = at[-1]
+    durations = np.concatenate([gait.durations[:k]] + [stride.durations] * count + [gait.durations[k:]])
+    stance = np.vstack([gait.stance[:k]] + [stride.stance] * count + [gait.stance[k:]])
+    return (Gait(gait.name, durations, stance),
+            Insertion(float(gait.durations[:k].sum()), stride.duration, count))
+
+
+def recovery_time(error: np.ndarray, model) -> float:
+    """s a base needs to stop a horizontal CoM velocity error (3,) and walk back to its path: the
+    linear inverted pendulum (τ = √(h/g)) over feet at the edge of their range of motion along the
+    error stops it at a = g·r/h in |e|/a, having drifted |e|²/2a, and walks that back in
+    2·√(|e|²/2a / a) = √2·|e|/a (Pratt et al. 2006's capture point, the feet's reach as its limit)."""
+    e = np.asarray(error, float)[:2]
+    speed = float(np.hypot(*e))
+    if speed == 0.0:
+        return 0.0
+    box = np.asarray(model.range_of_motion, float)[:2]
+    reach = 1.0 / float(np.max(np.abs(e / speed) / box))  # the box's half-extent along e
+    return (1.0 + np.sqrt(2.0)) * speed * model.base_height / (GRAVITY * reach)
 
 
 def early_touchdown(gait: Gait, airborne: np.ndarray, swing: float) -> Gait:
@@ -317,6 +415,7 @@ class ReplanTask:
     horizon: float | None = None
     settle: float = ReplanParams.settle
     window: float | None = None
+    insertion: Insertion | None = None
     strides: int = 0
     tail: Tail | None = None  # set by `setup`
 
@@ -356,16 +455,25 @@ class ReplanTask:
     def knots(self, params: DynParams) -> np.ndarray | None:
         """The previous plan's base knots after t, shifted to start at 0 (a first polynomial shorter
         than `SHORT_FIRST` of `dt` merged into the next, unless it ends where the feet's contacts
-        change: a cubic across a lift-off into a flight cannot follow the forces there and then −g):
-        the shifted guess is then the previous base spline itself after its first polynomial. None
-        (the formulation's own) with `phase_knots`."""
+        change in the rest of the motion, `gait_rest`: a cubic across a lift-off into a flight
+        cannot follow the forces there and then −g): the shifted guess is then the previous base
+        spline itself after its first polynomial. A contact change of the previous plan within
+        `PHASE_END` after t is no change of the rest (`remaining_gait` takes that phase as over),
+        and a polynomial that short would ask accelerations of its dynamics rows no solve can meet.
+        None (the formulation's own) with `phase_knots`."""
         if params.phase_knots:
             return None
         later = self.previous.form.knots[self.previous.form.knots > self.state.t] - self.state.t
-        boundaries = np.cumsum(self.previous.form.gait.durations) - self.state.t
+        boundaries = np.cumsum(self.gait_rest.durations)
         if (later.size > 1 and later[0] < SHORT_FIRST * params.dt
                 and not np.isclose(later[0], boundaries, rtol=0.0, atol=1e-9).any()):
             later = later[1:]
+        if self.insertion is not None:  # the inserted strides repeat the knots of the stride before them
+            ins = self.insertion
+            own = self.previous.form.knots - self.state.t
+            offsets = own[(own >= ins.at - ins.period - EPS) & (own < ins.at - EPS)] - (ins.at - ins.period)
+            block = (ins.at + ins.period * np.arange(ins.count)[:, None] + offsets[None]).reshape(-1)
+            later = np.concatenate([later[later < ins.at - EPS], block, later[later >= ins.at - EPS] + ins.length])
         later[-1] = self.gait_rest.duration
         return np.concatenate([[0.0], later])
 
@@ -464,12 +572,15 @@ def euler_rates(euler: np.ndarray, omega: np.ndarray) -> np.ndarray:
 class ShiftedInit:
     """The previous solution shifted in time as an initializer (`legplan.dyn.init` signature): every
     node of the new splines takes the previous splines' value and rate at its time t + τ (clipped to
-    the previous plan's end). Its guesses solve a nearby problem (`near_solution`)."""
+    the previous plan's end). Its guesses solve a nearby problem (`near_solution`). With strides
+    inserted (`Insertion`) the feet and forces in them repeat the stride before them and the base
+    waits at rest where they start; after them the previous plan goes on."""
 
     near_solution = True
 
-    def __init__(self, previous: Previous, t: float, step: np.ndarray | None = None):
-        self.previous, self.t = previous, float(t)
+    def __init__(self, previous: Previous, t: float, step: np.ndarray | None = None,
+                 insertion: Insertion | None = None):
+        self.previous, self.t, self.insertion = previous, float(t), insertion
         self.step = np.zeros(2) if step is None else np.asarray(step, float)[:2]
 
     def __call__(self, form: Formulation, model, terrain, start, goal, start_feet) -> dict[str, np.ndarray]:
@@ -477,6 +588,14 @@ class ShiftedInit:
         base_t = form.knots
         guess = {name: _sample(lambda times, d: prev.form.base_matrix(times, d), prev.values[name], self._at(base_t))
                  for name in ("base_lin", "base_ang")}
+        if self.insertion is not None:  # the base waits in the inserted strides where they start, at rest
+            ins = self.insertion
+            wait = (base_t >= ins.at - EPS) & (base_t < ins.at + ins.length - EPS)
+            for name in ("base_lin", "base_ang"):
+                start = _sample(lambda times, d: prev.form.base_matrix(times, d), prev.values[name],
+                                np.clip([self.t + ins.at], 0.0, prev.form.duration)).reshape(2, 3)
+                nodes = guess[name].reshape(-1, 2, 3)
+                nodes[wait, 0], nodes[wait, 1] = start[0], 0.0
         feet = np.zeros((form.motion_nodes, 2, 3))
         forces = np.zeros((form.force_nodes, 2, 3))
         for leg, foot in enumerate(form.feet):
@@ -506,7 +625,12 @@ class ShiftedInit:
             feet[foot.swing_nodes[0], 0, :2] += 0.5 * self.step
 
     def _at(self, times: np.ndarray) -> np.ndarray:
-        return np.clip(self.t + np.asarray(times, float), 0.0, self.previous.form.duration)
+        """The previous plan's time of each time of the rest (inserted strides repeat the stride
+        before them, `Insertion.previous_time`)."""
+        times = np.asarray(times, float)
+        if self.insertion is not None:
+            times = self.insertion.previous_time(times)
+        return np.clip(self.t + times, 0.0, self.previous.form.duration)
 
 
 def _sample(matrix, values: np.ndarray, times: np.ndarray) -> np.ndarray:
@@ -547,6 +671,8 @@ class ReplanResult:
     replan came to feasible (`ReplanParams.track_violation`)."""
     recovery: bool = False
     """Whether the replan recovered from a push (`ReplanParams.recovery_velocity`, `early_touchdown`)."""
+    extension: float = 0.0
+    """s by which the replan's strides inserted (`ReplanParams.extension`) made the motion longer."""
 
     @property
     def success(self) -> bool:
@@ -574,7 +700,7 @@ class ReplanResult:
         return {**{f"state_{k}": v for k, v in self.state.record().items()}, "iterations": self.iterations,
                 "cpu_seconds": self.cpu_seconds, "wall_seconds": self.wall_seconds, "success": self.success,
                 "violation": self.violation, "scaled_violation": self.scaled_violation,
-                "recovery": self.recovery,
+                "recovery": self.recovery, "extension": self.extension,
                 "status": self.status.name.lower(), "reason": self.reason}
 
 
@@ -597,12 +723,20 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
     recovers = recovering(error, settings)
     if recovers:
         gait_rest = early_touchdown(gait_rest, airborne, settings.recovery_swing)
-    task = ReplanTask(previous, state, gait_rest, airborne, settings.horizon, settings.settle, settings.window)
+    insertion = None
+    if recovers and previous.stride is not None and settings.extension > previous.extended:
+        period = previous.stride.duration
+        count = min(int(np.ceil(recovery_time(error, model) / period - EPS)),
+                    int(np.floor((settings.extension - previous.extended) / period + EPS)))
+        gait_rest, insertion = insert_strides(gait_rest, previous.stride, count)
+    task = ReplanTask(previous, state, gait_rest, airborne, settings.horizon, settings.settle, settings.window,
+                      insertion)
     costs = warm_stage == "costs"
     solver = params.warm_solver if costs else params.projection_solver
     stage_params = replace(params, optimize_phases=False, costs=params.costs if costs else CostWeights())
     cpu, wall = time.process_time(), time.perf_counter()
-    guess = ShiftedInit(previous, state.t, adapted_step(error, model, settings))
+    deadline = None if settings.cpu_budget is None else cpu + settings.cpu_budget
+    guess = ShiftedInit(previous, state.t, adapted_step(error, model, settings), insertion)
     problem = build_problem(task, model, terrain, stage_params, guess)
     setup = time.perf_counter() - wall
     solved = solve_augmented_lagrangian(problem.variables, problem.costs, problem.constraints,
@@ -611,7 +745,8 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
                                                 inner=replace(solver.inner, geodesic_acceleration=(
                                                     solver.inner.geodesic_acceleration
                                                     if settings.geodesic_acceleration is None
-                                                    else settings.geodesic_acceleration))))
+                                                    else settings.geodesic_acceleration))),
+                                        deadline=deadline)
     samples = sample_solution(problem.form, solved.values, com_offset=problem.com_offset)
     if airborne.any():  # the hold of a foot in the air is no contact (zero force, off the terrain)
         hold = samples["t"] < gait_rest.durations[0] - 1e-9
@@ -619,7 +754,7 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
     result = PlanResult(problem, [StageOutcome(warm_stage, solved.status, solved, problem, setup)], solved, samples,
                         setup)
     return ReplanResult(state, result, time.process_time() - cpu, time.perf_counter() - wall,
-                        solved.scaled_violation, recovers)
+                        solved.scaled_violation, recovers, 0.0 if insertion is None else insertion.length)
 
 
 def recovering(error: np.ndarray, settings: ReplanParams) -> bool:

@@ -19,8 +19,9 @@ Root attributes: the standard provenance (ARCHITECTURE.md), `params` (the `SimPa
     base_quat, base_vel, base_ang_vel, joint_pos, joint_vel, torque, foot_forces, position_error,
     orientation_error (the base tracking errors of the paper's Fig. 4 (e)-(f)).
     With `dyn simulate --replan`: replans/<name>, one row per replan (`legplan.sim.run.REPLAN_UNITS`):
-    t, the measured base_pos, base_euler, base_vel, base_ang_vel, feet_pos, iterations, cpu_seconds,
-    violation, scaled_violation, recovery, success, tracked.
+    t, trigger, the measured base_pos, base_euler, base_vel, base_ang_vel, feet_pos, iterations,
+    cpu_seconds, violation, scaled_violation, recovery, extension, success, status (converged,
+    max_iterations, time_limit, stalled, numerical_failure), tracked.
 `/summary`: tasks, succeeded, success_rate, skipped, falls, median rms position/orientation error,
     worst max errors, peak torque, median saturation, QP failures and held ticks (totals), worst
     joint speed ratio, tasks with unplanned contacts, simulated seconds per wall second.

@@ -42,7 +42,8 @@ rounded to `QP_RESOLUTION_DECIMALS` (accelerations in m/s² and rad/s², forces 
 torque command, far above ProxQP's last bits; the same inputs then give the same run.
 
 Fallback when the QP is not solved (infeasible: the torque limits cannot hold the stance feet still
-and meet the velocity limits; or out of iterations), counted in `qp_failures`: the relaxed QP, in
+and meet the velocity limits; or out of its iterations, `QP_MAX_OUTER` × `QP_MAX_INNER`: a
+controller's tick is bounded in time), counted in `qp_failures`: the relaxed QP, in
 which the stance feet's zero-acceleration equalities become tasks of weight `w_contact` and the
 velocity-limit rows are dropped. It is always feasible (zero joint torques with any force in the
 cones satisfy it), so it fails only numerically; then the last torques are held for the tick
@@ -108,6 +109,15 @@ QP_EPS_PRIMAL_INF = 1e-9
 are not: the same QPs, even the relaxed one that is feasible by construction, solve in a few
 iterations with residuals near 1e-11 at this tolerance."""
 
+QP_MAX_OUTER = 20
+"""ProxQP's outer (proximal) iterations of one tick's QP, at most (its `max_iter`; default 10,000)."""
+QP_MAX_INNER = 100
+"""ProxQP's inner iterations per outer one, at most (its `max_iter_in`; default 1,500). The tick's QPs
+solve in a few iterations; a reference far off (accelerations or forces many orders beyond the
+robot's) makes ProxQP spend thousands of iterations on every tick within its defaults, so a run of
+seconds takes hours. A 400 Hz controller has 2.5 ms a tick: at these bounds the QP is counted as failed and
+the fallback takes over (module docstring)."""
+
 
 QP_RESOLUTION_DECIMALS = 6
 """The QP's solution is rounded to 10^-6 (m/s², rad/s², N): module docstring."""
@@ -118,6 +128,7 @@ def solve_qp(qp: QP):
     solver = proxsuite.proxqp.dense.QP(len(qp.g), len(qp.b), len(qp.l))
     solver.settings.eps_abs = QP_EPS_ABS
     solver.settings.eps_primal_inf = QP_EPS_PRIMAL_INF
+    solver.settings.max_iter, solver.settings.max_iter_in = QP_MAX_OUTER, QP_MAX_INNER
     solver.settings.verbose = False
     solver.init(qp.H, qp.g, qp.A, qp.b, qp.C, qp.l, qp.u)
     solver.solve()

@@ -19,13 +19,21 @@ tick it was measured at); each replan's CPU seconds are recorded so that its lat
 converged replan (`legplan.dyn.replan.replan`) becomes the reference (its samples on the plan's
 clock) and the plan later replans start from; so does one that ran out of iterations or stalled
 near feasible (`ReplanParams.track_violation`, in the solver's row scale): it starts from the
-measured state, where the last reference starts from a state the robot has left (a push). A replan
-further off, or a numerical failure, keeps the last reference. Every replan is recorded: `trigger`
-what started it, `success` convergence, `status` why its solve stopped (converged; max_iterations,
-the `ReplanParams.max_iterations` budget; stalled, the solver's stall test; numerical_failure),
+measured state, where the last reference starts from a state the robot has left (a push); so does
+one stopped by its CPU time (`ReplanParams.cpu_budget`), at the point its solve reached. A replan
+further off, one whose plan is not finite, or a numerical failure keeps the last reference. Every
+replan is recorded: `trigger` what started it, `success` convergence, `status` why its solve
+stopped (converged; max_iterations, the `ReplanParams.max_iterations` budget; time_limit, the
+`cpu_budget`; stalled, the solver's stall test; numerical_failure),
 `tracked` whether the controller took it, `recovery` whether it landed the feet in the air early
 (`ReplanParams.recovery_velocity`, `legplan.dyn.replan.early_touchdown`), as the first replan
-after a push does.
+after a push does, `extension` the seconds of strides a tracked replan inserted
+(`ReplanParams.extension`; the simulation then runs to the longer plan's end).
+
+Bounded: a replan spends at most `ReplanParams.max_iterations` LM iterations and `cpu_budget` CPU
+seconds, and each control tick's QP at most `legplan.sim.controller.QP_MAX_OUTER` ×
+`QP_MAX_INNER` ProxQP iterations; a run lasts its plan, the inserted strides (at most
+`ReplanParams.extension`) and its settle.
 """
 
 from __future__ import annotations
@@ -38,6 +46,16 @@ from legplan.sim.run import REPLAN_UNITS, TEXT_COLUMNS
 from legplan.solve.lm import Status
 
 LAST_REPLAN = 0.3  # s: no replan starts closer than this to the plan's end (the closing Stand)
+
+
+def trackable(out, track_violation: float) -> bool:
+    """Whether the controller takes the replan `out` (module docstring): its plan finite, and
+    converged, or stopped by a budget (iterations, CPU time) or stalled within `track_violation`."""
+    samples = out.plan.samples
+    if not all(np.isfinite(np.asarray(samples[name], float)).all() for name in samples if name != "contact"):
+        return False
+    return out.success or (out.status in (Status.MAX_ITERATIONS, Status.TIME_LIMIT, Status.STALLED)
+                           and out.scaled_violation <= track_violation)
 
 
 class Replanner:
@@ -78,16 +96,16 @@ class Replanner:
             out = replan(self.previous, shifted, self.model, self.terrain, self.params, settings=self.settings)
         except ValueError:  # outside the plan
             return None
-        tracked = out.success or (out.status in (Status.MAX_ITERATIONS, Status.STALLED)
-                                  and out.scaled_violation <= self.settings.track_violation)
+        tracked = trackable(out, self.settings.track_violation)
         self.rows.append({**state.record(), "trigger": trigger, "iterations": out.iterations,
                           "cpu_seconds": out.cpu_seconds, "violation": out.violation,
                           "scaled_violation": out.scaled_violation, "recovery": out.recovery,
+                          "extension": out.extension if tracked else 0.0,
                           "success": out.success,
                           "status": out.status.name.lower(), "tracked": tracked})
         if not tracked:
             return None
-        self.previous = Previous.from_plan(out.plan)
+        self.previous = Previous.from_plan(out.plan, self.previous.stride, self.previous.extended + out.extension)
         self._origin = t
         samples = dict(out.plan.samples)
         samples["t"] = samples["t"] + t

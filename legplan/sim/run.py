@@ -12,7 +12,8 @@ goal without falling. Here:
    them held, clipped to the effort limits. The motors respect the joints' velocity limits the way
    a motor's torque–speed limit does, in its crudest form: at or beyond its limit a joint's motor
    brakes but does not drive it faster (its torque in the direction of motion is cut to zero).
-3. After the plan's duration the controller holds the final pose for `settle` seconds.
+3. After the plan's duration the controller holds the final pose for `settle` seconds (closed loop:
+   after the tracked plan's, which a replan may make longer, `ReplanParams.extension`).
 4. A fall ends the run: the base lower than `fall_height` × the nominal base height above the
    terrain under it, its z axis tilted more than `fall_tilt` from the vertical, or the trunk (a
    robot geom on the root link or a link fixed to it) touching the terrain.
@@ -34,6 +35,7 @@ spent at it, and unplanned contacts (robot geoms other than the feet touching th
 
 from __future__ import annotations
 
+import itertools
 import time
 from dataclasses import dataclass, field
 
@@ -129,13 +131,15 @@ SERIES_UNITS = {"t": "s", "base_pos": "m", "base_quat": "(x, y, z, w)", "base_ve
                 "foot_forces": "N (world, on the foot)", "position_error": "m", "orientation_error": "rad"}
 REPLAN_UNITS = {"t": "s", "trigger": "", "base_pos": "m", "base_euler": "rad", "base_vel": "m/s (world)",
                 "base_ang_vel": "rad/s (world)", "feet_pos": "m", "iterations": "", "cpu_seconds": "s",
-                "violation": "", "scaled_violation": "", "recovery": "", "success": "", "status": "", "tracked": ""}
+                "violation": "", "scaled_violation": "", "recovery": "", "extension": "s", "success": "", "status": "",
+                "tracked": ""}
 """The columns of `SimResult.replans`, one row per replan (`legplan.sim.replanning.Replanner`): its
 time and trigger ("period" or "tube"), the measured state it started from, LM iterations, CPU
 seconds, its largest violation (rows in their own units, and in the solver's scale), whether it
 converged, whether it recovered from a push (`recovery`: the feet in the air landed early,
-`legplan.dyn.replan.early_touchdown`), why the solve stopped (`status`: converged, max_iterations,
-stalled, numerical_failure) and whether the controller tracked it."""
+`legplan.dyn.replan.early_touchdown`), how much later the tracked replan ends than the plan before
+it (`extension`, strides inserted: `ReplanParams.extension`), why the solve stopped (`status`: converged, max_iterations,
+time_limit, stalled, numerical_failure) and whether the controller tracked it."""
 TEXT_COLUMNS = ("trigger", "status")
 """The `REPLAN_UNITS` columns that hold words (bytes in sim.h5)."""
 
@@ -171,7 +175,7 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
     fell, fall_time, reason = False, float("nan"), ""
     tau = np.zeros(robot.n_joints)
     start = reference.t[0]
-    for tick in range(ticks):
+    for tick in itertools.count():  # to the end of the tracked plan + settle (`ticks`), or a fall
         t = start + tick * CONTROL_DT
         q, v = _pinocchio_state(data, sim)
         ref = reference.at(t)
@@ -183,6 +187,7 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
                 if replanned is not None:
                     reference = replanned
                     ref = reference.at(t)
+                    ticks = _extended(ticks, start, reference.t[-1], params.settle)
         if not params.zero_torque:
             tau = controller.torques(q, v, ref, touching(data, sim))
         peak = max(peak, float(np.abs(tau).max()))
@@ -221,6 +226,8 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
             if tick % params.record_every:
                 _record(rows, fall_time, data, sim, q, v, rot, tau, pos_err, rot_err)
             break
+        if tick + 1 >= ticks:
+            break
     series = {name: np.asarray(value) for name, value in rows.items()}
     q, _ = _pinocchio_state(data, sim)
     rot = pin.Quaternion(q[3:7]).normalized().matrix()
@@ -247,6 +254,14 @@ def simulate(samples: dict, robot, terrain_map, params: SimParams = SimParams(),
                      rms_orientation_error=float(np.sqrt(np.mean(oe ** 2))),
                      simulated=float(data.time), wall=time.perf_counter() - started,
                      replans=replanner.columns() if replanner is not None else {})
+
+
+def _extended(ticks: int, start: float, end: float, settle: float) -> int:
+    """The run's ticks once the tracked plan ends at `end` (s): more when it ends later than the
+    ticks reach (a replan inserted strides, `ReplanParams.extension`), never fewer (a replan's end
+    differs from its plan's by rounding)."""
+    needed = int(np.ceil((end - start + settle) / CONTROL_DT - 1e-6))
+    return max(ticks, needed)
 
 
 def _replanned(replanner, t: float, data, sim, q, v, terrain: TerrainModel, lift_rate: float, trigger: str):

@@ -301,10 +301,13 @@ def _picked_pattern(shape, ptr_dtype, ptr, idx_dtype, idx, pick) -> tuple:
 
 def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequence[CostTerm],
                                constraints: Sequence[Constraint], params: ALParams = ALParams(),
-                               callback: Callable[[int, float, float], None] | None = None) -> ALResult:
+                               callback: Callable[[int, float, float], None] | None = None,
+                               deadline: float | None = None) -> ALResult:
     """Solve min Σ w‖r‖² s.t. the constraints from the variables' current values (see module docstring).
 
-    `callback(iteration, violation, cost)` is called after every subproblem.
+    `callback(iteration, violation, cost)` is called after every subproblem. `deadline` (a
+    `time.process_time()` value, or None): no LM step starts after it; the solve stops where it is
+    (`Status.TIME_LIMIT`), as at its iteration budget.
     """
     t_start = time.perf_counter()
     problem = Problem(list(variables))
@@ -344,7 +347,8 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
                         if not costs and not exact else params.inner.tolerance)
         t_lm = time.perf_counter()
         result = solve_hinged_lm(problem, inner, theta0=theta,
-                                 row_tolerance=np.sqrt(mu) * params.violation_tolerance * row_scale if exact else None)
+                                 row_tolerance=np.sqrt(mu) * params.violation_tolerance * row_scale if exact else None,
+                                 deadline=deadline)
         if outer == 1 and result.iterations:
             first_iteration = (time.perf_counter() - t_lm) / result.iterations
         iterations += result.iterations
@@ -380,6 +384,9 @@ def solve_augmented_lagrangian(variables: Sequence[VariableBlock], costs: Sequen
             break
         if iterations >= params.max_iterations:
             reason = f"iteration budget {params.max_iterations} spent with max violation {violation:.2e}"
+            break
+        if result.status is Status.TIME_LIMIT:
+            status, reason = Status.TIME_LIMIT, f"CPU time budget spent with max violation {violation:.2e}"
             break
         no_progress = violation > params.stall_decrease * last_violation and (not costs or mu >= params.mu_max)
         stalled = stalled + 1 if no_progress else 0

@@ -54,7 +54,9 @@ Stops (`_Stopping`, the result's `status` and `stopped_by`): ‖h‖ < `toleranc
 residual, so the point that meets it costs no Jacobian); an accepted step lowering ‖h‖² by less
 than `function_tolerance` relative, or a gradient ‖Jᵀh‖∞ below `gradient_tolerance` times its
 initial value (converged: the minimum of a problem with costs); `max_iterations`; λ > `lambda_max`
-(stalled); a non-finite residual or Jacobian (numerical failure).
+(stalled); a non-finite residual or Jacobian (numerical failure); a `deadline` of CPU time passed
+before a step (time limit: the point reached, the best so far, as every accepted step lowers ‖h‖;
+the budget of a solve that must answer in time, as a replan in closed loop).
 
 At DEBUG level every step logs λ, the step's size, the model's and the actual decrease of ‖h‖², ‖h‖ of the
 plain and of the hinged rows, and the hinged rows active at the point, in the model and at the trial
@@ -104,11 +106,12 @@ def hinged_norm(v: np.ndarray, hinged: np.ndarray) -> float:
 
 
 def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), theta0: np.ndarray | None = None,
-                    row_tolerance: np.ndarray | None = None) -> LMResult:
+                    row_tolerance: np.ndarray | None = None, deadline: float | None = None) -> LMResult:
     """Minimize ‖h(θ)‖ (hinged rows per `problem.hinge_mask()`) from θ0 (see module docstring).
 
     `row_tolerance` (one per row, or None): converged once every |h_i| is within it — the exact test
-    of a root within tolerance per row, where a norm tolerance must assume the worst row."""
+    of a root within tolerance per row, where a norm tolerance must assume the worst row.
+    `deadline` (a `time.process_time()` value, or None): no step starts after it (`Status.TIME_LIMIT`)."""
     t_start = time.perf_counter()
     layout = problem.layout
     hinged = problem.hinge_mask()
@@ -138,7 +141,7 @@ def solve_hinged_lm(problem: Problem, params: HingedParams = HingedParams(), the
     stopping = _Stopping(params, hinged, row_tolerance, rows)
     expansion = problem.structure_cache.setdefault("row_expansion", _RowExpansion())
     for it in range(params.max_iterations + 1):
-        stop = stopping.at_point(it, norm, v, J, lam, held)
+        stop = stopping.at_point(it, norm, v, J, lam, held) or _past(deadline)
         if stop:
             return finish(stop, it, norm)
         if model is None:
@@ -264,6 +267,13 @@ class _Stopping:
         if self.row_tolerance is not None and np.all(np.abs(h) <= self.row_tolerance):
             return Status.CONVERGED, "row_tolerance", f"every row within its tolerance (‖h‖ = {norm:.3e})"
         return None
+
+
+def _past(deadline: float | None) -> tuple[Status, str, str] | None:
+    """The time-limit stop once the CPU clock has passed `deadline` (None: no deadline)."""
+    if deadline is None or time.process_time() < deadline:
+        return None
+    return Status.TIME_LIMIT, "deadline", "CPU time budget spent"
 
 
 GEODESIC_PROBE = 0.1  # h of the finite-difference second directional derivative (Transtrum & Sethna)

@@ -50,6 +50,7 @@ class Status(enum.Enum):
     MAX_ITERATIONS = "max_iterations"
     STALLED = "stalled"
     NUMERICAL_FAILURE = "numerical_failure"
+    TIME_LIMIT = "time_limit"  # a CPU deadline passed (`solve_hinged_lm`'s `deadline`): stopped at the point reached
 
 
 @dataclass(frozen=True)

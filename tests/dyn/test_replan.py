@@ -122,13 +122,20 @@ def test_a_flying_trot_replans_on_its_short_polynomials(anymal, flat):
 
 
 
-def test_a_replan_just_before_a_flight_keeps_a_knot_at_the_lift_off(anymal, flat):
-    """A replan 20 ms before a trot's support pair lifts off into a flight: the short first base
-    polynomial is not merged into the next (one cubic cannot follow the pair's forces and then −g
-    through the flight), and the replan from the plan's own state converges. (Four strides in 2.4 s:
-    pairs short enough to keep their flights, `DynParams.line_support`.)"""
+@pytest.fixture(scope="module")
+def trot4(anymal, flat):
+    """A flying trot, four strides in 2.4 s: pairs short enough to keep their flights
+    (`DynParams.line_support`); its base knots include every contact change."""
     trot = plan(DynTask((0.0, 0.0, 0.0), (0.6, 0.0, 0.0), "trot", 4, 2.4), anymal, flat, DynParams())
     assert trot.success, trot.reason
+    return trot
+
+
+def test_a_replan_just_before_a_flight_keeps_a_knot_at_the_lift_off(trot4, anymal, flat):
+    """A replan 20 ms before a trot's support pair lifts off into a flight: the short first base
+    polynomial is not merged into the next (one cubic cannot follow the pair's forces and then −g
+    through the flight), and the replan from the plan's own state converges."""
+    trot = trot4
     gait = trot.problem.form.gait
     ends = np.cumsum(gait.durations)
     lift_off = next(ends[k] for k in range(1, len(ends) - 1) if not gait.stance[k + 1].any())
@@ -136,6 +143,26 @@ def test_a_replan_just_before_a_flight_keeps_a_knot_at_the_lift_off(anymal, flat
     out = replan(trot, state, anymal, flat, DynParams())
     assert out.success, out.plan.reason
     assert np.isclose(out.plan.problem.form.knots, lift_off - state.t, rtol=0.0, atol=1e-9).any()
+
+
+@pytest.mark.parametrize("before", [1e-15, 5e-4])
+def test_a_replan_a_hair_before_a_contact_change_has_no_sliver_polynomial(trot4, anymal, flat, before):
+    """A replan measured a hair before a knot at a contact change (a clock's rounding: a tube-triggered
+    replan lands on the previous replan's phase boundary; or within `PHASE_END` of it): the rest of
+    the motion takes that phase as over, so its first base polynomial does not end there — one of
+    1e-15 s asks accelerations of 1e29 of its dynamics rows and no replan from there converges. The
+    replan from the plan's own state converges with no polynomial shorter than `PHASE_END`."""
+    from legplan.dyn.replan import PHASE_END
+
+    form = trot4.problem.form
+    ends = np.cumsum(form.gait.durations)
+    knot = next(k for k in form.knots[1:-1] if np.isclose(k, ends, rtol=0.0, atol=1e-12).any() and k > 0.5)
+    own = MeasuredState.from_samples(trot4.samples, knot)
+    state = MeasuredState(knot - before, own.base_pos, own.base_euler, own.base_vel, own.base_ang_vel, own.feet_pos)
+    assert state.t < knot
+    out = replan(trot4, state, anymal, flat, DynParams())
+    assert np.diff(out.plan.problem.form.knots).min() >= PHASE_END
+    assert out.success, out.plan.reason
 
 def _state_in_swing(planned, share):
     """The plan's own state `share` of the way through the first phase after the start with a foot in
@@ -422,6 +449,25 @@ def test_a_replan_stops_once_every_row_is_within_its_scaled_tolerance(planned, a
             assert np.all(k.violation(np.asarray(c)) <= tolerance), k.name
 
 
+def test_a_replan_out_of_cpu_time_ends_where_its_solve_is(planned, anymal, flat):
+    """`ReplanParams.cpu_budget` spent before the first LM step (building took it): the replan stops
+    with `Status.TIME_LIMIT` and no iteration, its plan the shifted guess from the measured state; a
+    budget of 0 or less is refused."""
+    from legplan.errors import LegplanError
+    from legplan.solve.lm import Status
+
+    state = MeasuredState.from_samples(planned.samples, 1.0)
+    pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + [0.0, 0.3, 0.0],
+                           state.base_ang_vel, state.feet_pos)
+    out = replan(planned, pushed, anymal, flat, DynParams(), settings=ReplanParams(cpu_budget=1e-9))
+    assert out.status is Status.TIME_LIMIT and out.iterations == 0 and not out.success
+    assert out.record()["status"] == "time_limit" and "CPU time" in out.reason
+    assert np.allclose(out.plan.samples["base_vel"][0], pushed.base_vel, atol=1e-9)
+    assert np.allclose(out.plan.samples["base_pos"][0], pushed.base_pos, atol=1e-9)
+    with pytest.raises(LegplanError, match="cpu_budget"):
+        ReplanParams(cpu_budget=0.0)
+
+
 def test_early_touchdown_lands_the_feet_in_the_air_and_keeps_the_rest():
     """A foot in the air at t lands at `swing` and stands to its planned touchdown: the phase holding
     `swing` is split there, every other flag, the total duration and every later lift-off unchanged;
@@ -483,3 +529,66 @@ def test_a_pushed_replan_recovers_and_an_unpushed_one_does_not(planned, anymal, 
         assert np.allclose(s["base_pos"][-1, :2], planned.samples["base_pos"][-1, :2], atol=1e-6)
         outcomes[name] = s["contact"][np.searchsorted(s["t"], [0.13, 0.2]), leg]
     assert outcomes["recovers"].all() and not outcomes["off"].any()
+
+
+def test_a_gaits_stride_is_its_repeated_run_of_phases():
+    from legplan.dyn.replan import gait_stride
+
+    trot = gait_stride(make_gait("trot", 4, 2.4, DynParams().line_support))
+    assert trot.stance.sum(axis=1).tolist() == [2, 0, 2, 0] and trot.duration == pytest.approx(0.6)
+    walk = gait_stride(make_gait("walk", 4, 5.5))
+    assert len(walk.durations) == 8 and walk.duration == pytest.approx(5.5 / 4, rel=0.1)
+    lift_offs = (walk.stance & ~np.roll(walk.stance, -1, axis=0)).sum(axis=0)
+    assert lift_offs.tolist() == [1, 1, 1, 1]  # each foot swings once a stride
+    assert gait_stride(make_gait("walk", 1, 2.0)) is None
+
+
+def test_inserted_strides_keep_the_order_of_steps_and_map_onto_the_stride_before():
+    """Strides go in before the last phase that starts one, so every foot's steps alternate as
+    before; the inserted time maps onto the stride before it, the rest after it onto its own time."""
+    from legplan.dyn.replan import gait_stride, insert_strides
+
+    gait = make_gait("trot", 4, 2.4, DynParams().line_support)
+    stride = gait_stride(gait)
+    rest, _ = remaining_gait(gait, 1.2)
+    longer, ins = insert_strides(rest, stride, 2)
+    assert longer.duration == pytest.approx(rest.duration + 1.2) and ins.length == pytest.approx(1.2)
+    for leg in range(4):  # the same alternation of stance and swing per foot, two more steps
+        before, after = rest.foot_phases(leg), longer.foot_phases(leg)
+        assert len(after) == len(before) + 4 and all(a.stance != b.stance for a, b in zip(after, after[1:]))
+    assert np.array_equal(longer.stance[-2:], rest.stance[-2:])  # the last pair and the Stand stay last
+    times = np.array([0.1, ins.at + 0.05, ins.at + 0.65, ins.at + 1.25])
+    assert ins.previous_time(times) == pytest.approx([0.1, ins.at - 0.55, ins.at - 0.55, ins.at + 0.05])
+    assert insert_strides(rest, stride, 0) == (rest, None)
+
+
+def test_recovery_time_is_the_pendulums_stop_and_walk_back_at_the_feets_reach(anymal):
+    from legplan.dyn.constraints import GRAVITY
+    from legplan.dyn.replan import recovery_time
+
+    reach = anymal.range_of_motion[1]
+    expected = (1 + np.sqrt(2)) * 1.2 * anymal.base_height / (GRAVITY * reach)
+    assert recovery_time(np.array([0.0, -1.2, 0.3]), anymal) == pytest.approx(expected)
+    assert recovery_time(np.array([1.2, 0.0, 0.0]), anymal) < expected  # the box reaches further along x
+    assert recovery_time(np.zeros(3), anymal) == 0.0
+
+
+def test_a_pushed_replan_inserts_strides_within_its_extension(trot4, anymal, flat):
+    """A trot pushed sideways at 1 m/s mid-plan with `extension` 1.2 s: the recovering replan inserts
+    two 0.6 s strides (its `recovery_time` asks more), starts from the measured state, ends at the
+    same goal 1.2 s later and converges; a plan already extended by the whole allowance inserts none."""
+    state = MeasuredState.from_samples(trot4.samples, 1.2)
+    pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + [0.0, 1.0, 0.0],
+                           state.base_ang_vel, state.feet_pos)
+    previous = Previous.from_plan(trot4)
+    out = replan(previous, pushed, anymal, flat, DynParams(), settings=ReplanParams(extension=1.2))
+    assert out.recovery and out.extension == pytest.approx(1.2)
+    s = out.plan.samples
+    assert s["t"][-1] == pytest.approx(2.4 - pushed.t + 1.2)
+    assert np.allclose(s["base_vel"][0], pushed.base_vel, atol=1e-9)
+    assert np.allclose(s["base_pos"][-1, :2], trot4.samples["base_pos"][-1, :2], atol=1e-6)
+    assert np.all(np.diff(out.plan.problem.form.knots) > 0)
+    assert out.status.name in ("CONVERGED", "MAX_ITERATIONS"), out.plan.reason
+    spent = replace(previous, extended=1.2)
+    assert replan(spent, pushed, anymal, flat, DynParams(), settings=ReplanParams(extension=1.2)).extension == 0.0
+    assert replan(previous, pushed, anymal, flat, DynParams()).extension == 0.0  # off by default

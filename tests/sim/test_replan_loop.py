@@ -181,3 +181,67 @@ def test_the_worker_hands_its_replan_parameters_to_the_closed_loop(flat, trot):
     assert worker.replanner(tasks[0]).settings == chosen
     default = SimWorker("anymal", str(flat[1]), SimParams(), replan=(0.25, dyn))
     assert default.replanner(tasks[0]).settings == ReplanParams()
+
+
+def test_a_replan_out_of_cpu_time_is_recorded_and_a_non_finite_plan_is_never_tracked(flat, trot):
+    """A replan stopped by `ReplanParams.cpu_budget` before its first LM step: recorded as
+    `time_limit` with no iteration and, from the measured state, handed to the controller as one
+    out of iterations is (`track_violation`); a plan with a value that is not finite is never
+    handed over, whatever `track_violation` allows (the controller keeps its reference)."""
+    import pinocchio as pin
+
+    from legplan.dyn.artefact import read_tasks
+    from legplan.dyn.replan import MeasuredState, Previous, ReplanParams, replan
+    from legplan.dyn.replan_io import recorded_params
+    from legplan.dyn.tasks import centroidal_model
+    from legplan.dyn.terrain import TerrainModel
+    from legplan.robots import load_robot
+    from legplan.sim.replanning import Replanner, trackable
+
+    attrs, tasks = read_tasks(trot)
+    params = recorded_params(json.loads(attrs["params"]))
+    model = centroidal_model(load_robot("anymal"), params)
+    samples = tasks[0]["samples"]
+    k = int(np.argmin(np.abs(samples["t"] - 0.5)))
+    pushed = samples["base_vel"][k] + [0.0, 0.4, 0.0]
+    previous = Previous.from_record(tasks[0], model.com_offset, params.dt)
+    replanner = Replanner(previous, model, TerrainModel(flat[0]), params, 0.5, ReplanParams(cpu_budget=1e-9))
+    handed = replanner(float(samples["t"][k]), samples["base_pos"][k], pin.rpy.rpyToMatrix(*samples["base_euler"][k]),
+                       pushed, samples["base_ang_vel"][k], samples["feet_pos"][k])
+    columns = replanner.columns()
+    assert columns["status"].tolist() == [b"time_limit"] and columns["iterations"].tolist() == [0]
+    assert columns["tracked"].tolist() == [True] and not columns["success"][0]
+    assert handed is not None and np.allclose(handed["base_vel"][0], pushed, atol=1e-9)
+
+    state = MeasuredState(float(samples["t"][k]), samples["base_pos"][k], samples["base_euler"][k], pushed,
+                          samples["base_ang_vel"][k], samples["feet_pos"][k])
+    out = replan(previous, state, model, TerrainModel(flat[0]), params, settings=ReplanParams(max_iterations=1))
+    assert trackable(out, np.inf)
+    out.plan.samples["forces"][3, 0, 2] = np.nan
+    assert not trackable(out, np.inf)
+
+
+def test_a_closed_loop_whose_replan_inserts_strides_runs_to_the_later_end(flat, trot):
+    """`ReplanParams.extension`: the flat trot pushed hard sideways; the recovering replan inserts
+    strides, recorded in sim.h5's `extension` column, and the run goes on to the end of the longer
+    plan and its settle instead of the first plan's."""
+    from legplan.dyn.artefact import read_tasks
+    from legplan.dyn.replan import ReplanParams
+    from legplan.dyn.replan_io import recorded_params
+    from legplan.sim.items import SimWorker, sim_items, simulate_item
+    from legplan.sim.run import CONTROL_DT, SimParams
+
+    attrs, tasks = read_tasks(trot)
+    item = sim_items(tasks)[0]
+    dyn = recorded_params(json.loads(attrs["params"]))
+    params = SimParams(pushes=((1.2, 0.0, 300.0, 0.1),))
+    closed = simulate_item(SimWorker("anymal", str(flat[1]), params, replan=(0.25, dyn, ReplanParams(extension=1.2))),
+                           item)
+    replans = closed["replans"]
+    added = float(replans["extension"].sum())
+    assert 0.5 < added <= 1.2 + 1e-9 and replans["extension"][replans["tracked"]].sum() == added
+    end = tasks[0]["samples"]["t"][-1] + added + params.settle
+    if not closed["fell"]:
+        assert closed["series"]["t"][-1] == pytest.approx(end, abs=2 * CONTROL_DT), closed["reason"]
+    else:
+        assert closed["series"]["t"][-1] > tasks[0]["samples"]["t"][-1] + params.settle, closed["reason"]

@@ -62,16 +62,22 @@ def test_joint_velocity_limits_are_enforced(robot, flat, trot):
     assert free_over >= 0.05 and limited.overspeed_time <= free_over / 4
 
 
-def test_a_failed_qp_falls_back_to_the_relaxed_qp(robot, flat):
-    """A knee at 50 rad/s against its 8 rad/s limit with 1 N m motors: braking it back inside the
-    limit within the velocity horizon needs far more torque, so the QP is infeasible; the relaxed
-    QP (no velocity rows, stance contact as a task) answers within the torque limits; counted."""
+def _standing_tick(robot, flat):
+    """The model, the state (q, v), the reference and the feet touching of a robot standing on `flat`
+    at its first tick."""
     sim = build_model(robot, flat[0], 0.5)
     reference = Reference(standing(robot, 0.2), sim.foot_radius, TerrainModel(flat[0]))
     data = mujoco.MjData(sim.model)
     _initial_state(data, sim, robot, reference)
     q, v = _pinocchio_state(data, sim)
-    ref, feet = reference.at(0.0), touching(data, sim)
+    return sim, q, v, reference.at(0.0), touching(data, sim)
+
+
+def test_a_failed_qp_falls_back_to_the_relaxed_qp(robot, flat):
+    """A knee at 50 rad/s against its 8 rad/s limit with 1 N m motors: braking it back inside the
+    limit within the velocity horizon needs far more torque, so the QP is infeasible; the relaxed
+    QP (no velocity rows, stance contact as a task) answers within the torque limits; counted."""
+    sim, q, v, ref, feet = _standing_tick(robot, flat)
     fast = v.copy()
     fast[6 + robot.joint_names.index("kfe_lf")] = 50.0
     for effort, rates, failures in ((sim.effort, v, 0), (np.full(robot.n_joints, 1.0), fast, 1)):
@@ -80,6 +86,39 @@ def test_a_failed_qp_falls_back_to_the_relaxed_qp(robot, flat):
         assert controller.qp_failures == failures and controller.qp_held == 0
         assert np.abs(tau).max() <= effort.max() + 1e-9
     assert np.abs(tau).max() > 0.5   # the relaxed QP's torques, not zeros
+
+
+def test_a_reference_far_off_costs_the_qp_a_bounded_number_of_iterations(robot, flat, monkeypatch):
+    """A reference ten orders of magnitude beyond the robot (what a diverged replan would hand over):
+    ProxQP stops within `QP_MAX_OUTER` × `QP_MAX_INNER` iterations on each of the tick's QPs (within its
+    defaults it runs thousands on every tick), the QP counts as failed and the torques stay within
+    their limits; a standing reference solves in a few."""
+    from dataclasses import replace
+
+    import proxsuite
+
+    from legplan.sim.controller import QP_MAX_INNER, QP_MAX_OUTER
+
+    solvers = []
+    real = proxsuite.proxqp.dense.QP
+
+    def recorded(*shape):
+        solvers.append(real(*shape))
+        return solvers[-1]
+    monkeypatch.setattr(proxsuite.proxqp.dense, "QP", recorded)
+    sim, q, v, ref, feet = _standing_tick(robot, flat)
+    controller = WholeBodyController(robot, sim.effort, 0.5)
+    controller.torques(q, v, ref, feet)
+    assert len(solvers) == 1 and solvers[0].results.info.iter < 0.1 * QP_MAX_INNER
+    far = replace(ref, acc=ref.acc + [0.0, 1e10, 0.0], omega_dot=ref.omega_dot + [1e10, 0.0, 0.0],
+                  forces=ref.forces + 1e10)
+    solvers.clear()
+    tau = controller.torques(q, v, far, feet)
+    assert controller.qp_failures == 1 and len(solvers) == 2
+    for solver in solvers:
+        assert solver.results.info.iter_ext <= QP_MAX_OUTER
+        assert solver.results.info.iter <= QP_MAX_OUTER * QP_MAX_INNER
+    assert np.all(np.isfinite(tau)) and np.all(np.abs(tau) <= sim.effort + 1e-9)
 
 
 def test_joint_damping_is_compensated(robot, flat):

@@ -388,3 +388,21 @@ def test_row_picker_of_every_row_in_order_takes_the_values_as_they_are():
             assert (picker.pattern[3] is None) == np.array_equal(numbers, np.arange(J.nnz))  # the gather is the identity
             if np.array_equal(pick, np.arange(m)):
                 assert picker.pattern[3] is None
+
+
+def test_a_deadline_stops_the_solve_where_it_is_and_one_ahead_changes_nothing():
+    """`deadline` (CPU clock): passed before the first step, the solve returns its start with
+    `Status.TIME_LIMIT` and no iteration; one far ahead gives the solve without a deadline, bit for bit."""
+    import time
+
+    def solve(deadline):
+        k1 = Constraint(FunctionBlock(("x",), 1, _circle), 4.0, 4.0, scale=1e-3)
+        k2 = Constraint(LinearBlock(("x",), [np.array([[1.0, -1.0]])]), 0.0, np.inf, scale=10.0)
+        return solve_augmented_lagrangian([VariableBlock("x", [3.0, 0.5])], [], [k1, k2], deadline=deadline)
+
+    late = solve(time.process_time())
+    assert late.status is Status.TIME_LIMIT and late.iterations == 0 and not late.success
+    assert late.values["x"].tolist() == [3.0, 0.5] and "CPU time" in late.reason
+    free, ahead = solve(None), solve(time.process_time() + 1e6)
+    assert free.success and ahead.status is free.status
+    assert ahead.values["x"].tolist() == free.values["x"].tolist() and ahead.iterations == free.iterations

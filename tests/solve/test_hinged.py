@@ -293,3 +293,13 @@ def test_debug_trace_logs_every_step_with_its_predicted_and_actual_decrease(capl
         predicted, actual = (float(x) for x in re.search(r"predicted (\S+) actual (\S+);", line).groups())
         assert float(re.search(r"λ=(\S+) ", line).group(1)) == pytest.approx(lam, rel=1e-2)
         assert actual == pytest.approx(predicted, rel=1e-3)
+
+
+def test_a_passed_deadline_stops_before_a_step_at_the_start():
+    import time
+
+    p = Problem([VariableBlock("x", [2.0, 2.0])])
+    p.add_residual(LinearBlock(("x",), [np.array([[1.0, 1.0]])], 1.0))
+    r = solve_hinged_lm(p, HingedParams(tolerance=1e-12), deadline=time.process_time())
+    assert r.status is Status.TIME_LIMIT and r.stopped_by == "deadline" and r.iterations == 0
+    assert r.values["x"].tolist() == [2.0, 2.0]
