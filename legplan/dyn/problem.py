@@ -74,6 +74,10 @@ class DynProblem:
     """The extra range-of-motion sample times (s) it was built with (`build_problem`)."""
     com_offset: np.ndarray = field(default_factory=lambda: np.zeros(3))
     """The CoM in the base frame (m): the base spline is the CoM's, `model` is `about_com`'s."""
+    level_legs: bool = False
+    """Whether the leg-clearance rows hold on a level map too: left out there, since an upright
+    robot's legs stay clear of flat ground, unless a solution's legs touched it
+    (`legs_near_level_ground`, the planner's "range of motion" rounds)."""
 
 
 SAMPLE_DT = 0.01  # s: the plan's samples, written to traj.h5 and judged by the independent check
@@ -94,6 +98,26 @@ def range_excess_times(problem: DynProblem, values: dict[str, np.ndarray], above
         peak = (excess[1:-1] > above) & (excess[1:-1] >= excess[:-2]) & (excess[1:-1] >= excess[2:])
         found.append(t[peak])
     return sorted_unique(np.concatenate(found))
+
+
+def legs_near_level_ground(problem: DynProblem, params: DynParams, values: dict[str, np.ndarray]) -> bool:
+    """Whether, on a level map whose problem leaves the leg-clearance rows out, some leg sphere of
+    the solution `values` touches the ground at a plan sample (`SAMPLE_DT`, where the independent
+    check judges `leg_penetration`): a crouched robot's shanks can, and then the rows must hold
+    there too, with their `DynParams.leg_clearance` margin. An upright robot's legs that stay off
+    the ground, if within the margin, add no rows (nor their cost) to a flat-ground plan."""
+    model = problem.model
+    if (not problem.terrain.level or problem.level_legs or params.leg_clearance is None
+            or model.leg_kinematics is None):
+        return False
+    form = problem.form
+    t = np.append(np.arange(0.0, form.duration, SAMPLE_DT), form.duration)
+    for leg in range(form.legs):
+        block = LegClearanceBlock(form, leg, model.leg_kinematics, problem.terrain, t, problem.timing,
+                                  problem.com_offset)
+        if block.rows and block.evaluate([values[v] for v in block.variables], False)[0].min() < 0.0:
+            return True
+    return False
 
 
 def start_feet(model, pose: Pose, terrain: TerrainModel) -> np.ndarray:
@@ -176,11 +200,13 @@ def sets_timing(initializer) -> bool:
 
 
 def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams, initializer,
-                  range_times: np.ndarray = (), near_range: float | None = None) -> DynProblem:
+                  range_times: np.ndarray = (), near_range: float | None = None,
+                  level_legs: bool = False) -> DynProblem:
     """The constrained least-squares problem of one task (see module docstring); `range_times` are
     extra range-of-motion sample times (s), where the planner found a foot outside its box between
     the regular ones (`range_excess_times`); with `near_range` (m) also those where the
-    initializer's guess comes within that of a box (`planner.GUESS_RANGE_NEAR`)."""
+    initializer's guess comes within that of a box (`planner.GUESS_RANGE_NEAR`); `level_legs`: the
+    leg-clearance rows on a level map too (`DynProblem.level_legs`)."""
     offset = np.asarray(model.com_offset, float)
     if hasattr(task, "setup"):  # a task that states its own gait, start state and feet (`legplan.dyn.replan`)
         form, start, goal, feet0 = task.setup(model, terrain, params)
@@ -199,7 +225,7 @@ def build_problem(task: DynTask, model, terrain: TerrainModel, params: DynParams
     timing = PhaseTiming(form, params.phase_min) if params.optimize_phases else None
     problem = DynProblem(task, form, terrain, model, start, goal, feet0, form.variables(start, goal, feet0, guess),
                          timing=timing, durations=durations, range_times=np.asarray(range_times, float),
-                         com_offset=offset)
+                         com_offset=offset, level_legs=level_legs)
     if near_range is not None:
         guess_values = {v.name: v.value for v in problem.variables}
         problem.range_times = sorted_union(problem.range_times, range_excess_times(problem, guess_values, -near_range))
@@ -394,9 +420,10 @@ def _joint_torque(c: BuildContext) -> list[Constraint]:
 
 @constraint("leg_clearance", per_leg=True)
 def _leg_clearance(c: BuildContext) -> list[Constraint]:
-    """Left out on a level map, where no terrain rises to the legs (the check still judges them)."""
+    """Left out on a level map, where no terrain rises to the legs, unless the problem holds them
+    there too (`DynProblem.level_legs`: a solution's legs touched the ground)."""
     p, model = c.problem, c.problem.model
-    if c.params.leg_clearance is None or p.terrain.level:
+    if c.params.leg_clearance is None or (p.terrain.level and not p.level_legs):
         return []
     if model.leg_kinematics is None:
         raise ValueError("DynParams.leg_clearance needs the robot's legs (Centroidal.leg_kinematics)")

@@ -77,3 +77,26 @@ def test_a_section_that_contradicts_its_urdf_is_refused_naming_the_field(tmp_pat
     with pytest.raises(SpecError, match=r"robot\.yaml: field 'centroidal\.com_offset' is \(0\.000, 0\.000, 0\.000\) m "
                        r"but the URDF's CoM at the nominal stance is at"):
         load_robot(path)
+
+
+def test_jueying_mini_dyn_is_the_navigation_robot_crouched_with_a_consistent_centroidal_model():
+    """robots/jueying_mini_dyn: robots/jueying_mini's URDF, legs, planning limits and spheres in a lower
+    stance, whose centroidal section `robot check` finds consistent with the URDF (no errors), and whose
+    feet move in a box more than 3.8 cm high there (the navigation stance's, too little for a trot)."""
+    from legplan.robots.check import check_robot
+    from legplan.robots.rigid_body import composite_body, reach_box
+
+    nav, dyn = load_robot("jueying_mini"), load_robot("jueying_mini_dyn")
+    assert dyn.urdf_path.resolve() == nav.urdf_path.resolve() and nav.centroidal is None
+    assert [leg.joint_names for leg in dyn.legs] == [leg.joint_names for leg in nav.legs]
+    np.testing.assert_array_equal(dyn.lower, nav.lower)
+    np.testing.assert_array_equal(dyn.upper, nav.upper)
+    assert dyn.spheres.frame_names == nav.spheres.frame_names
+    np.testing.assert_array_equal(dyn.spheres.radii, nav.spheres.radii)
+    np.testing.assert_array_equal(dyn.spheres.offsets, nav.spheres.offsets)
+    assert [f for f in check_robot(dyn) if f.severity == "error"] == []
+    c = dyn.centroidal
+    assert c.base_height < 0.26 < nav.q_nominal[2]
+    np.testing.assert_allclose(c.range_of_motion, reach_box(dyn, c.nominal_feet), atol=1e-3)
+    body = composite_body(nav.model, nav.q_nominal, [leg.foot_frame_id for leg in nav.legs])
+    assert reach_box(nav, body.feet)[2] < 0.04 < c.range_of_motion[2]
