@@ -128,9 +128,13 @@ def summary(rows: list[dict]) -> dict:
 
 
 def largest_difference(a: list[dict], b: list[dict]) -> float:
+    """The largest difference of any node value between the trees' replans of the same state; inf
+    where a replan's layout differs between the trees (other knots: no entry-by-entry comparison)."""
     worst = 0.0
     for x, y in zip(a, b, strict=True):
         for name, value in x["values"].items():
+            if np.shape(value) != np.shape(y["values"][name]):
+                return float("inf")
             worst = max(worst, float(np.max(np.abs(value - y["values"][name]), initial=0.0)))
     return worst
 
