@@ -38,7 +38,7 @@ The schedule (the paper's two initializers, Sec. IV):
   constraints alone are solved again from the plan (an exchange method for the continuous
   constraint; the costs stay out of it, so the plan moves by about the millimetres it is out).
   On a level map, whose problem leaves the leg-clearance rows out, such a stage also runs when a
-  leg sphere of the plan touches the ground at a plan sample (`legs_near_level_ground`: a crouched
+  leg sphere of the plan touches the ground at a plan sample (`legs_touch_level_ground`: a crouched
   robot's shanks), and from then on the rows hold there too, with their margin.
 
 A stage that follows a failure needs budget left; the costs stage runs after a feasible stage even
@@ -58,7 +58,7 @@ from legplan.dyn.euler import rotation, world_rates
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.init import heuristic
 from legplan.dyn.problem import (SAMPLE_DT, DynParams, DynProblem, DynTask, build_problem, cost_blocks,
-                                 legs_near_level_ground, range_excess_times)
+                                 legs_touch_level_ground, range_excess_times)
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import PHASES
 from legplan.geometry.ordered import sorted_difference, sorted_union
@@ -306,10 +306,10 @@ def _run_stage(stage: Stage, task: DynTask, model, terrain: TerrainModel, params
         times, level_legs = last.problem.range_times, last.problem.level_legs
         if stage.start is Start.RANGE_EXCESS:
             found = sorted_difference(range_excess_times(last.problem, last.result.values), times)
-            near_ground = legs_near_level_ground(last.problem, params, last.result.values)
-            if not found.size and not near_ground:
+            touching = legs_touch_level_ground(last.problem, params, last.result.values)
+            if not found.size and not touching:
                 return None
-            times, level_legs = sorted_union(times, found), level_legs or near_ground
+            times, level_legs = sorted_union(times, found), level_legs or touching
         problem = build_problem(task, model, terrain, stage_params, _Previous(last.result.values), times,
                                 level_legs=level_legs)
     setup = time.perf_counter() - t0

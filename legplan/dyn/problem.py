@@ -77,7 +77,7 @@ class DynProblem:
     level_legs: bool = False
     """Whether the leg-clearance rows hold on a level map too: left out there, since an upright
     robot's legs stay clear of flat ground, unless a solution's legs touched it
-    (`legs_near_level_ground`, the planner's "range of motion" rounds)."""
+    (`legs_touch_level_ground`, the planner's "range of motion" rounds)."""
 
 
 SAMPLE_DT = 0.01  # s: the plan's samples, written to traj.h5 and judged by the independent check
@@ -100,7 +100,7 @@ def range_excess_times(problem: DynProblem, values: dict[str, np.ndarray], above
     return sorted_unique(np.concatenate(found))
 
 
-def legs_near_level_ground(problem: DynProblem, params: DynParams, values: dict[str, np.ndarray]) -> bool:
+def legs_touch_level_ground(problem: DynProblem, params: DynParams, values: dict[str, np.ndarray]) -> bool:
     """Whether, on a level map whose problem leaves the leg-clearance rows out, some leg sphere of
     the solution `values` touches the ground at a plan sample (`SAMPLE_DT`, where the independent
     check judges `leg_penetration`): a crouched robot's shanks can, and then the rows must hold

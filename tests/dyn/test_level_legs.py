@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 from legplan.dyn.planner import plan
-from legplan.dyn.problem import DynTask, legs_near_level_ground
+from legplan.dyn.problem import DynTask, legs_touch_level_ground
 from legplan.dyn.settings import dyn_params
 from legplan.dyn.tasks import centroidal_model
 from legplan.dyn.terrain import TerrainModel
@@ -44,7 +44,7 @@ def test_a_crouched_robot_on_flat_ground_plans_with_its_shanks_held_clear(flat_m
     added = next(i for i, s in enumerate(result.stages) if s.problem.level_legs)
     before = result.stages[added - 1]
     assert before.success and not any(k.name == "leg_clearance" for k in before.problem.constraints)
-    assert legs_near_level_ground(before.problem, params, before.result.values)
+    assert legs_touch_level_ground(before.problem, params, before.result.values)
     assert result.stages[added].name == "range of motion"
     assert result.problem.level_legs and any(k.name == "leg_clearance" for k in result.problem.constraints)
     assert check.ok, check.failures()
@@ -58,4 +58,4 @@ def test_an_upright_robot_on_flat_ground_keeps_no_leg_rows(flat_map):
     assert result.success and check.ok, result.reason
     assert not result.problem.level_legs
     assert not any(k.name == "leg_clearance" for k in result.problem.constraints)
-    assert not legs_near_level_ground(result.problem, params, result.solve.values)
+    assert not legs_touch_level_ground(result.problem, params, result.solve.values)
