@@ -58,7 +58,7 @@ from legplan.dyn.euler import rotation, world_rates
 from legplan.dyn.formulation import Formulation
 from legplan.dyn.init import heuristic
 from legplan.dyn.problem import (SAMPLE_DT, DynParams, DynProblem, DynTask, build_problem, cost_blocks,
-                                 legs_touch_level_ground, range_excess_times)
+                                 legs_touch_level_ground, range_excess_times, sample_grid)
 from legplan.dyn.terrain import TerrainModel
 from legplan.dyn.timing import PHASES
 from legplan.geometry.ordered import sorted_difference, sorted_union
@@ -360,7 +360,7 @@ def sample_solution(form: Formulation, values: dict[str, np.ndarray], dt: float 
     contact flags at t = 0, dt, ..., T. The spline is the CoM's; the base origin lies at
     −`com_offset` (the CoM in the base frame) from it: p = c − R o, ṗ = ċ − ω × R o,
     p̈ = c̈ − ω̇ × R o − ω × (ω × R o)."""
-    t = np.append(np.arange(0.0, form.duration - 1e-9, dt), form.duration)
+    t = sample_grid(form.duration, dt)
     lin = values["base_lin"].reshape(-1, 3)
     ang = values["base_ang"].reshape(-1, 3)
     p, v, a = (form.base_matrix(t, d) @ lin for d in range(3))

@@ -84,6 +84,12 @@ SAMPLE_DT = 0.01  # s: the plan's samples, written to traj.h5 and judged by the 
 RANGE_CHECK_DT = 0.001  # s: the grid on which `range_excess_times` looks for a foot outside its box
 
 
+def sample_grid(duration: float, dt: float = SAMPLE_DT) -> np.ndarray:
+    """t = 0, dt, ..., T: the times of a plan's samples (`planner.sample_solution`), where the
+    independent check judges it."""
+    return np.append(np.arange(0.0, duration - 1e-9, dt), duration)
+
+
 def range_excess_times(problem: DynProblem, values: dict[str, np.ndarray], above: float = 0.0) -> np.ndarray:
     """The times on the `RANGE_CHECK_DT` grid at which some foot's excess over its range-of-motion
     box (the model's box, not the planner's margin-reduced one) has a local maximum above `above`
@@ -102,7 +108,7 @@ def range_excess_times(problem: DynProblem, values: dict[str, np.ndarray], above
 
 def legs_touch_level_ground(problem: DynProblem, params: DynParams, values: dict[str, np.ndarray]) -> bool:
     """Whether, on a level map whose problem leaves the leg-clearance rows out, some leg sphere of
-    the solution `values` touches the ground at a plan sample (`SAMPLE_DT`, where the independent
+    the solution `values` touches the ground at a plan sample (`sample_grid`, where the independent
     check judges `leg_penetration`): a crouched robot's shanks can, and then the rows must hold
     there too, with their `DynParams.leg_clearance` margin. An upright robot's legs that stay off
     the ground, if within the margin, add no rows (nor their cost) to a flat-ground plan."""
@@ -111,7 +117,7 @@ def legs_touch_level_ground(problem: DynProblem, params: DynParams, values: dict
             or model.leg_kinematics is None):
         return False
     form = problem.form
-    t = np.append(np.arange(0.0, form.duration, SAMPLE_DT), form.duration)
+    t = sample_grid(form.duration)
     for leg in range(form.legs):
         block = LegClearanceBlock(form, leg, model.leg_kinematics, problem.terrain, t, problem.timing,
                                   problem.com_offset)
