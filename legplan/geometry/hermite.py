@@ -254,6 +254,36 @@ def _one_pattern_structure(rows: int, samples: int, columns: int, ptr_dtype, ptr
     return out
 
 
+def _uniform_structure(rows: int, samples: int, columns: int, matrices) -> tuple | None:
+    """(c, CSR indices, CSR indptr) of `SampledJacobian`'s J when its matrices share one pattern (equal
+    arrays) holding c ≥ 1 entries in every one of its `samples` rows, their columns increasing: row
+    (i, a) of J holds, in order, the 3 columns 3j + b of each entry j of sample i, so the product
+    M[i, j]·G_i[a, b] in the order (i, a, entry, b) is J's data (c·3 entries a row). The arrays are
+    those `_jacobian_structure` gives (read-only, shared by every call). None otherwise."""
+    first = matrices[0]
+    indptr, indices = first.indptr, first.indices
+    if samples < 1 or indptr.size != samples + 1 or indices.size % samples or not indices.size:
+        return None
+    c = indices.size // samples
+    if first.data.dtype != np.float64 or first.data.size != indices.size or not all(
+            m.data.dtype == np.float64 and np.array_equal(m.indptr, indptr) and np.array_equal(m.indices, indices)
+            for m in matrices[1:]):
+        return None
+    if not np.array_equal(indptr, c * np.arange(samples + 1)):
+        return None
+    by_row = indices.reshape(samples, c)
+    if c > 1 and not np.all(by_row[:, 1:] > by_row[:, :-1]):
+        return None
+    size = 3 * rows * indices.size
+    index = np.int32 if max(size, columns, samples * rows) < np.iinfo(np.int32).max else np.int64
+    out_indices = np.empty((samples, rows, c, 3), index)
+    out_indices[...] = (3 * by_row.astype(np.int64))[:, None, :, None] + np.arange(3)
+    out_indices = out_indices.reshape(-1)
+    out_indptr = (3 * c * np.arange(samples * rows + 1, dtype=np.int64)).astype(index)
+    out_indices.flags.writeable = out_indptr.flags.writeable = False
+    return c, out_indices, out_indptr
+
+
 class SampledJacobian:
     """Jacobian of `rows` residuals per sample, J[(i, a), (j, b)] = Σ_terms M[i, j] · G_i[a, b].
 
@@ -262,13 +292,18 @@ class SampledJacobian:
     Terms over the same variable are summed. The pattern depends on the M's only (explicit zeros
     kept), so the entries' places, the merge of coinciding ones and the CSR order are worked out
     once per pattern, at the first call (`_jacobian_structure`; a block evaluated without Jacobians
-    never pays for them); a call multiplies, sums into those places and wraps the CSR arrays.
+    never pays for them); a call multiplies, sums into those places and wraps the CSR arrays. Where
+    every term has one pattern with the same number c of increasing columns in every row (a spline
+    sampled in Hermite segments only, or in constant ones only), the CSR order is the products'
+    own order (sample, row, entry, axis) and nothing is placed (`_uniform_structure`): the products
+    are the CSR data, with the sums of the terms in their order from 0, as the placed sums.
     """
 
     def __init__(self, matrices, rows: int, samples: int, columns: int):
         self.matrices = [m if type(m) is sp.csr_matrix else sp.csr_matrix(m) for m in matrices]
         self.rows, self.samples, self.columns = rows, samples, columns
         self.slot = None
+        self.uniform = None  # the entries per row of `_uniform_structure`, once known; 0: placed instead
 
     def _structure(self) -> None:
         patterns = tuple((m.indptr.dtype.str, m.indptr.tobytes(), m.indices.dtype.str, m.indices.tobytes())
@@ -276,6 +311,17 @@ class SampledJacobian:
         self.entry_rows, self.slot, self.indices, self.indptr = _jacobian_structure(
             self.rows, self.samples, self.columns, patterns)
         self.shape = (self.samples * self.rows, self.columns)
+
+    def _direct(self) -> bool:
+        """Whether the products are the CSR data in their own order (`_uniform_structure`), its
+        arrays taken at the first call."""
+        if self.uniform is None:
+            structure = _uniform_structure(self.rows, self.samples, self.columns, self.matrices)
+            self.uniform = 0
+            if structure is not None:
+                self.uniform, self.indices, self.indptr = structure
+                self.shape = (self.samples * self.rows, self.columns)
+        return self.uniform > 0
 
     def with_matrices(self, matrices) -> SampledJacobian:
         """This Jacobian for new matrices of the same sizes: itself, with their values, when every
@@ -290,6 +336,16 @@ class SampledJacobian:
 
     def __call__(self, blocks) -> sp.csr_matrix:
         """J for the per-sample blocks G of every term, in the order of the matrices."""
+        if self._direct() and not any(np.iscomplexobj(g) for g in blocks):
+            c = self.uniform
+            data = None
+            for m, g in zip(self.matrices, blocks):
+                product = m.data.reshape(self.samples, 1, c, 1) * np.asarray(g)[:, :, None, :]
+                if data is None:  # 0 + the first term, as a sum into zeros gives it (a −0 becomes 0)
+                    data = np.add(product, 0.0, out=product)
+                else:
+                    data += product
+            return wrapped(sp.csr_matrix, data.reshape(-1), self.indices, self.indptr, self.shape)
         if self.slot is None:
             self._structure()
         values = np.concatenate([(m.data[:, None, None] * g[entry_row]).reshape(-1)

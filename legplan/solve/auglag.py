@@ -270,8 +270,11 @@ class _RowPicker:
         jac = jac if jac.format == "csr" else sp.csr_matrix(jac)
         if self.pattern is None or not (self.pattern[0] == jac.shape
                                         and same_indices(self.pattern[1], (jac.indptr, jac.indices))):
-            picked = _picked_pattern(jac.shape, jac.indptr.dtype.str, jac.indptr.tobytes(),
-                                     jac.indices.dtype.str, jac.indices.tobytes(), self.pick.tobytes())
+            if self.pick.size == jac.shape[0] and np.array_equal(self.pick, np.arange(self.pick.size)):
+                picked = _every_row_pattern(jac.shape, jac.indptr, jac.indices)
+            else:
+                picked = _picked_pattern(jac.shape, jac.indptr.dtype.str, jac.indptr.tobytes(),
+                                         jac.indices.dtype.str, jac.indices.tobytes(), self.pick.tobytes())
             source = picked[0]
             if source.size == jac.data.size and np.array_equal(source, np.arange(source.size)):
                 source = None  # every entry in its place (each row picked once, in order): no gather
@@ -279,6 +282,18 @@ class _RowPicker:
         _, _, _, source, indices, indptr, row = self.pattern
         data = jac.data * factor[row] if source is None else jac.data[source] * factor[row]
         return wrapped(sp.csr_matrix, data, indices, indptr, (self.pick.size, jac.shape[1]))
+
+
+def _every_row_pattern(shape, indptr: np.ndarray, indices: np.ndarray) -> tuple:
+    """`_picked_pattern` of a pick of every row in order (a constraint bounded on both sides in every
+    row, the most common): the pattern itself in scipy's index dtype, every entry in its place."""
+    index = np.int32 if max(*shape, indices.size) <= np.iinfo(np.int32).max else np.int64  # scipy's choice
+    count = np.diff(indptr.astype(np.int64))
+    out = (np.arange(indices.size, dtype=np.int64), indices.astype(index), indptr.astype(index),
+           np.repeat(np.arange(shape[0]), count))
+    for a in out:
+        a.flags.writeable = False
+    return out
 
 
 @functools.lru_cache(maxsize=256)
