@@ -196,7 +196,47 @@ def _jacobian_structure(rows: int, samples: int, columns: int, patterns: tuple) 
         direct = _one_pattern_structure(rows, samples, columns, *patterns[0], len(patterns))
         if direct is not None:
             return direct
+    else:
+        merged = _merged_structure(rows, samples, columns, patterns)
+        if merged is not None:
+            return merged
     return _sorted_structure(rows, samples, columns, patterns)
+
+
+def _merged_structure(rows: int, samples: int, columns: int, patterns: tuple) -> tuple | None:
+    """`_jacobian_structure` of matrices of several patterns whose entries, taken term after term,
+    have increasing columns in every row (None otherwise), without a sort: the terms share no entry
+    (the feet or forces of the legs, each on its own nodes), so each term's entries sit in the row of
+    their union at the term's offset there, and the union is one pattern (`_one_pattern_structure`),
+    whose slots the terms' entries take."""
+    arrays = [(np.frombuffer(ptr, ptr_dtype).astype(np.int64), np.frombuffer(idx, idx_dtype))
+              for ptr_dtype, ptr, idx_dtype, idx in patterns]
+    if any(indptr.size != samples + 1 for indptr, _ in arrays):
+        return None
+    counts = np.array([np.diff(indptr) for indptr, _ in arrays])  # (terms, samples)
+    before = np.cumsum(counts, axis=0) - counts  # each term's offset within the union's row
+    union_ptr = np.zeros(samples + 1, np.int64)
+    np.cumsum(counts.sum(axis=0), out=union_ptr[1:])
+    union_indices = np.empty(int(union_ptr[-1]), np.int64)
+    entry_rows, places = [], []
+    for (indptr, indices), offset in zip(arrays, before):
+        entry_row = np.repeat(np.arange(samples), np.diff(indptr))
+        place = union_ptr[entry_row] + offset[entry_row] + (np.arange(indices.size) - indptr[entry_row])
+        union_indices[place] = indices
+        entry_rows.append(entry_row)
+        places.append(place)
+    index = np.int32 if max(union_indices.size, samples) <= np.iinfo(np.int32).max else np.int64
+    union = _one_pattern_structure(rows, samples, columns, np.dtype(index).str, union_ptr.astype(index).tobytes(),
+                                   np.dtype(index).str, union_indices.astype(index).tobytes(), 1)
+    if union is None:
+        return None
+    _, union_slot, out_indices, out_indptr = union
+    by_entry = union_slot.reshape(union_indices.size, 3 * rows)
+    slot = np.concatenate([by_entry[place].reshape(-1) for place in places])
+    slot.flags.writeable = False
+    for entry_row in entry_rows:
+        entry_row.flags.writeable = False
+    return entry_rows, slot, out_indices, out_indptr
 
 
 def _sorted_structure(rows: int, samples: int, columns: int, patterns: tuple) -> tuple:

@@ -29,7 +29,8 @@ class CooAssembler:
     def _analyze(self, rows: np.ndarray, cols: np.ndarray, copy: bool = True) -> None:
         """Pattern and CSC slot of every triplet; keeps (a copy of, unless `copy` is False) the indices."""
         nrows, ncols = self.shape
-        key = cols.astype(np.int64) * nrows + rows
+        key = np.multiply(cols, nrows, dtype=np.int64)
+        key += rows
         if np.all(key[1:] > key[:-1]):  # already in CSC order without duplicates (e.g. one CSR block of Jᵀ)
             self._slot = np.arange(key.size)
             self._in_order = True
@@ -42,11 +43,15 @@ class CooAssembler:
             first = np.empty(ordered.size, bool)
             first[:1] = True
             np.not_equal(ordered[1:], ordered[:-1], out=first[1:])
-            unique = ordered[first]
             self._slot = np.empty(key.size, np.intp)
-            self._slot[order] = np.cumsum(first) - 1
+            if first.all():  # no duplicates (a Jacobian's triplets): each triplet its own slot
+                self._slot[order] = np.arange(key.size)
+                taken = order
+            else:
+                self._slot[order] = np.cumsum(first) - 1
+                taken = order[first]
             self._in_order = False
-            unique_rows, unique_cols = unique % nrows, unique // nrows
+            unique_rows, unique_cols = rows[taken], cols[taken]  # each key's first triplet
         self._indices = unique_rows.astype(np.int32)
         self._indptr = np.zeros(ncols + 1, dtype=np.int32)
         np.cumsum(np.bincount(unique_cols, minlength=ncols), out=self._indptr[1:])

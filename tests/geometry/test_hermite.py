@@ -161,3 +161,85 @@ def test_kron_axis_is_one_axis_of_kron_dim_entry_for_entry():
             assert a.shape == b.shape and a.indptr.dtype == b.indptr.dtype and a.indices.dtype == b.indices.dtype
             assert np.array_equal(a.indptr, b.indptr) and np.array_equal(a.indices, b.indices)
             assert np.array_equal(a.data, b.data)
+
+
+def _placed(jacobian: SampledJacobian, blocks) -> sp.csr_matrix:
+    """`jacobian`'s J by the placed path (`_jacobian_structure`, a sum into zeros), whatever its rows."""
+    jacobian._structure()
+    values = np.concatenate([(m.data[:, None, None] * g[rows]).reshape(-1)
+                             for m, g, rows in zip(jacobian.matrices, blocks, jacobian.entry_rows)])
+    data = np.bincount(jacobian.slot, weights=values, minlength=jacobian.indices.size)
+    return sp.csr_matrix((data, jacobian.indices, jacobian.indptr), shape=jacobian.shape)
+
+
+def test_sampled_jacobian_of_uniform_rows_is_the_placed_one_bit_for_bit():
+    """Matrices of one pattern with c entries in every row (Hermite segments only: 4; constant ones
+    only: 1) give J straight from the products (`_uniform_structure`): array by array, dtype by
+    dtype and bit by bit (a −0 product a 0, as the sum into zeros gives it) the placed J, for one to
+    three terms; a ragged pattern, an empty one and complex blocks (complex steps) take the placed
+    path."""
+    from legplan.geometry.hermite import _uniform_structure
+
+    rng = np.random.default_rng(11)
+    spline = NodeSpline([Segment(0, 0.4, 0, 1), Segment(0.4, 1.0, 1, 2), Segment(1.0, 1.3, 2, 3)], 4)
+    stance = NodeSpline([Segment(0, 0.5, 0), Segment(0.5, 1.0, 1), Segment(1.0, 1.3, 2)], 3)
+    for trial in range(40):
+        samples = int(rng.integers(1, 30))
+        t = np.sort(rng.uniform(0.0, 1.3, samples))
+        if trial % 3 == 2:
+            matrices = [stance.matrix(t)]
+        else:
+            matrices = [spline.matrix(t, d) for d in range(int(rng.integers(1, 4)))]
+        rows = int(rng.integers(1, 10))
+        blocks = [rng.normal(size=(samples, rows, 3)) for _ in matrices]
+        blocks[0][0, 0, 0] = -0.0 if trial % 2 else blocks[0][0, 0, 0]  # a −0 product
+        jacobian = SampledJacobian(matrices, rows, samples, 3 * matrices[0].shape[1])
+        direct = jacobian(blocks)
+        assert jacobian.uniform == (1 if trial % 3 == 2 else 4)
+        placed = _placed(SampledJacobian(matrices, rows, samples, jacobian.columns), blocks)
+        for name in ("data", "indices", "indptr"):
+            a, b = getattr(direct, name), getattr(placed, name)
+            assert a.dtype == b.dtype and a.tobytes() == b.tobytes()
+        again = jacobian([b + 1.0 for b in blocks])  # the structure reused
+        assert np.array_equal(again.toarray(), _placed(jacobian, [b + 1.0 for b in blocks]).toarray())
+        complex_j = jacobian([b * (1 + 1j) for b in blocks])  # complex: the placed path
+        assert np.allclose(complex_j.toarray(), direct.toarray() * (1 + 1j))
+    mixed = NodeSpline([Segment(0, 0.5, 0), Segment(0.5, 1.0, 0, 1)], 2).matrix(np.array([0.2, 0.7, 0.9]))
+    assert _uniform_structure(2, 3, 6, [mixed]) is None  # rows of 1 and 4 entries
+    assert SampledJacobian([mixed], 2, 3, 6)._direct() is False
+    assert _uniform_structure(2, 0, 6, [sp.csr_matrix((0, 2))]) is None
+
+
+def test_sampled_jacobian_structure_of_disjoint_patterns_is_the_sorted_one():
+    """Matrices of several patterns whose entries, term after term, increase in every row (the legs'
+    feet or forces in one block) get their structure without a sort (`_merged_structure`): array by
+    array and dtype by dtype the sorted one; patterns that share a column in a row are refused."""
+    from legplan.geometry.hermite import _merged_structure, _sorted_structure
+
+    rng = np.random.default_rng(12)
+    for _ in range(200):
+        samples, terms = int(rng.integers(1, 20)), int(rng.integers(2, 5))
+        widths = rng.integers(1, 6, terms)
+        matrices, start = [], 0
+        for w in widths:  # each term on its own columns, after the last one's
+            m = sp.random(samples, int(w), density=rng.uniform(0.0, 0.8), format="csr",
+                          random_state=int(rng.integers(1 << 30)))
+            m.sort_indices()
+            matrices.append(sp.csr_matrix((m.data, m.indices + start, m.indptr), shape=(samples, int(widths.sum()))))
+            start += int(w)
+        rows, columns = int(rng.integers(1, 7)), 3 * int(widths.sum())
+        patterns = tuple((m.indptr.dtype.str, m.indptr.tobytes(), m.indices.dtype.str, m.indices.tobytes())
+                         for m in matrices)
+        merged = _merged_structure(rows, samples, columns, patterns)
+        sorted_ = _sorted_structure(rows, samples, columns, patterns)
+        assert len(merged[0]) == terms and all(np.array_equal(a, b) for a, b in zip(merged[0], sorted_[0]))
+        for a, b in zip(merged[1:], sorted_[1:]):
+            assert a.dtype == b.dtype and np.array_equal(a, b)
+    one = sp.csr_matrix(np.array([[1.0, 0.0, 2.0], [0.0, 3.0, 0.0]]))
+    two = sp.csr_matrix(np.array([[0.0, 4.0, 0.0], [0.0, 0.0, 5.0]]))  # row 0: column 1 after the first's 2
+    patterns = tuple((m.indptr.dtype.str, m.indptr.tobytes(), m.indices.dtype.str, m.indices.tobytes())
+                     for m in (one, two))
+    assert _merged_structure(2, 2, 9, patterns) is None
+    assert _merged_structure(2, 2, 9, patterns[:1] * 2) is None  # the same entries twice
+    assert SampledJacobian([one, two], 2, 2, 9)([np.ones((2, 2, 3))] * 2).toarray() == pytest.approx(
+        np.kron((one + two).toarray(), np.ones((2, 3))).reshape(2, 2, 9).reshape(4, 9))

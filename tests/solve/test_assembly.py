@@ -156,3 +156,22 @@ def test_nonzero_gather_gives_the_assembled_and_reduced_matrix():
     other.reduced(sp.csr_matrix((m.data, m.indices, m.indptr), shape=shape[::-1]), doubled.version)
     gather.follow(doubled, other)
     assert gather.reduced(doubled, other, *twice, [np.ones(r.size) for r in twice[0]]) is None  # summed duplicates
+
+
+def test_analysis_without_duplicates_and_with_them_is_the_unique_sort():
+    """The pattern and slots of `CooAssembler` (its analysis) are those of `np.unique` of the keys
+    (col, row), whether every triplet has its own entry (a Jacobian) or some share one (summed)."""
+    rng = np.random.default_rng(4)
+    for duplicates in (False, True):
+        for _ in range(50):
+            shape = (int(rng.integers(1, 30)), int(rng.integers(1, 30)))
+            count = int(rng.integers(1, shape[0] * shape[1] + 1))
+            keys = rng.choice(shape[0] * shape[1], count, replace=duplicates)
+            rows, cols = (keys % shape[0]).astype(np.int64), (keys // shape[0]).astype(np.int64)
+            values = rng.normal(size=count)
+            assembler = CooAssembler(shape)
+            H = assembler.assemble_parts([rows], [cols], [values])
+            unique, slot = np.unique(cols * shape[0] + rows, return_inverse=True)
+            assert np.array_equal(assembler._slot, slot.reshape(-1))
+            assert np.array_equal(H.indices, unique % shape[0]) and H.indices.dtype == np.int32
+            np.testing.assert_allclose(H.toarray(), _reference(shape, [rows], [cols], [values]), rtol=1e-15)

@@ -406,3 +406,24 @@ def test_a_deadline_stops_the_solve_where_it_is_and_one_ahead_changes_nothing():
     free, ahead = solve(None), solve(time.process_time() + 1e6)
     assert free.success and ahead.status is free.status
     assert ahead.values["x"].tolist() == free.values["x"].tolist() and ahead.iterations == free.iterations
+
+
+def test_row_picker_of_every_row_is_the_picked_pattern():
+    """A pick of every row in order (`_every_row_pattern`) gives the arrays `_picked_pattern` gives,
+    dtype by dtype; a picker's J is then J scaled row by row, its entries in place."""
+    from legplan.solve.auglag import _every_row_pattern, _picked_pattern, _RowPicker
+
+    rng = np.random.default_rng(8)
+    for _ in range(100):
+        m, n = int(rng.integers(1, 40)), int(rng.integers(1, 30))
+        J = sp.random(m, n, density=rng.uniform(0.0, 0.5), format="csr", random_state=int(rng.integers(1 << 30)))
+        if rng.random() < 0.3:
+            J.indices, J.indptr = J.indices.astype(np.int64), J.indptr.astype(np.int64)
+        pick = np.arange(m, dtype=np.int64)
+        expect = _picked_pattern.__wrapped__(J.shape, J.indptr.dtype.str, J.indptr.tobytes(), J.indices.dtype.str,
+                                             J.indices.tobytes(), pick.tobytes())
+        for got, want in zip(_every_row_pattern(J.shape, J.indptr, J.indices), expect):
+            assert got.dtype == want.dtype and np.array_equal(got, want) and not got.flags.writeable
+        factor = rng.normal(size=m)
+        picked = _RowPicker(pick)(J, factor)
+        assert np.array_equal(picked.toarray(), factor[:, None] * J.toarray())
