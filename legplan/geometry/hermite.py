@@ -33,6 +33,10 @@ _MONOMIAL = np.array([[1, 0, 0, 0],
                       [2, 1, -2, 1]], dtype=float)
 
 
+_FALLING = [[float(np.prod(np.arange(k - d + 1, k + 1))) if d else 1.0 for k in range(4)] for d in range(4)]
+"""k!/(k−d)! by [d][k]: the factor of d^d/ds^d s^k."""
+
+
 def hermite_weights(s: np.ndarray, h: np.ndarray, derivative: int = 0) -> np.ndarray:
     """(n, 4) weights of (p_a, v_a, p_b, v_b) for the `derivative`-th time derivative at s ∈ [0, 1]
     on segments of duration h (scalar or (n,))."""
@@ -40,8 +44,7 @@ def hermite_weights(s: np.ndarray, h: np.ndarray, derivative: int = 0) -> np.nda
     h = np.broadcast_to(np.asarray(h, float), s.shape)
     powers = np.zeros((s.size, 4))
     for k in range(derivative, 4):  # d^d/ds^d s^k = k!/(k-d)! s^(k-d)
-        factor = np.prod(np.arange(k - derivative + 1, k + 1)) if derivative else 1.0
-        powers[:, k] = factor * s ** (k - derivative)
+        powers[:, k] = _FALLING[derivative][k] * s ** (k - derivative)
     w = powers @ _MONOMIAL / h[:, None] ** derivative
     w[:, 1] *= h
     w[:, 3] *= h
@@ -124,7 +127,10 @@ class NodeSpline:
         a task space samples splines of the same segments at the same times (in profiles of learned
         pallet solves, building them again was 7-9 % of the time)."""
         t = np.ascontiguousarray(times, float).reshape(-1)
-        m = _sampling_matrix(tuple(self.segments), self.nodes, t.tobytes(), derivative)
+        key = self.__dict__.get("_key")
+        if key is None:
+            key = self._key = _SplineKey(self)
+        m = _sampling_matrix(key, t.tobytes(), derivative)
         return wrapped(sp.csr_matrix, m.data.copy(), m.indices.copy(), m.indptr.copy(), m.shape)  # valid: a copy
 
     def _matrix(self, t: np.ndarray, derivative: int) -> sp.csr_matrix:
@@ -144,6 +150,10 @@ class NodeSpline:
         if np.all(a[idx] < b[idx]) and max(frac.size, 2 * self.nodes) < np.iinfo(np.int32).max:
             # every row's columns distinct and increasing: the canonical CSR at once, as scipy's
             # COO conversion would give it (its int32 indices, rows in order), without the sort
+            if idx.size == frac.size:  # Hermite segments only: 4 entries a row, the weights in order
+                indptr = np.arange(0, 4 * frac.size + 1, 4, dtype=np.int32)
+                return wrapped(sp.csr_matrix, w.reshape(-1), cols.reshape(-1).astype(np.int32), indptr,
+                               (frac.size, 2 * self.nodes))
             count = np.where(hermite, 4, 1 if derivative == 0 else 0)
             indptr = np.zeros(frac.size + 1, np.int32)
             np.cumsum(count, out=indptr[1:])
@@ -152,7 +162,7 @@ class NodeSpline:
             indices[slots], data[slots] = cols, w
             const = np.flatnonzero(~hermite) if derivative == 0 else np.zeros(0, int)
             indices[indptr[const]], data[indptr[const]] = 2 * a[const], 1.0
-            return sp.csr_matrix((data, indices, indptr), shape=(frac.size, 2 * self.nodes))
+            return wrapped(sp.csr_matrix, data, indices, indptr, (frac.size, 2 * self.nodes))
         rows, vals = [np.repeat(idx, 4)], [w.reshape(-1)]
         cols = [cols.reshape(-1)]
         if derivative == 0:  # a constant segment holds its node's value; its derivatives vanish
@@ -163,10 +173,29 @@ class NodeSpline:
         return m.tocsr()
 
 
+class _SplineKey:
+    """A spline as a cache key: equal for equal segments and node counts (any spline object), its
+    hash computed once (a tuple of segments hashes every segment at every look-up); it carries the
+    first spline it was made for, whose `_matrix` fills the cache (equal splines sample alike)."""
+
+    __slots__ = ("segments", "nodes", "spline", "_hash")
+
+    def __init__(self, spline: NodeSpline):
+        self.segments, self.nodes, self.spline = tuple(spline.segments), spline.nodes, spline
+        self._hash = hash((self.segments, self.nodes))
+
+    def __hash__(self) -> int:
+        return self._hash
+
+    def __eq__(self, other) -> bool:
+        return self is other or (isinstance(other, _SplineKey) and self._hash == other._hash
+                                 and self.nodes == other.nodes and self.segments == other.segments)
+
+
 @functools.lru_cache(maxsize=256)  # a learned pallet plan samples 48 (spline, times) pairs
-def _sampling_matrix(segments: tuple[Segment, ...], nodes: int, times: bytes, derivative: int) -> sp.csr_matrix:
-    """`NodeSpline.matrix` of the spline (segments, nodes) at the float64 times given as bytes."""
-    return NodeSpline(list(segments), nodes)._matrix(np.frombuffer(times, float), derivative)
+def _sampling_matrix(key: _SplineKey, times: bytes, derivative: int) -> sp.csr_matrix:
+    """`NodeSpline.matrix` of the spline `key` at the float64 times given as bytes."""
+    return key.spline._matrix(np.frombuffer(times, float), derivative)
 
 
 def kron_dim(m: sp.spmatrix, dim: int = 3) -> sp.csr_matrix:
