@@ -197,6 +197,8 @@ class _AugmentedRows(ResidualBlock):
         self.y = np.zeros(self.size)
         self._pickers: list[_RowPicker] = []
         self._last: tuple[list[np.ndarray], np.ndarray] | None = None  # `constraint_values`' reuse
+        self._kept_scaling: tuple | None = None  # `_scaling`
+        self._every_row = self.pick.size == constraint.block.size and np.array_equal(self.pick, np.arange(self.size))
         # Jacobian rows: the equality and upper-bound rows, then the lower-bound rows without an upper
         # bound; a lower-bound row with one shares that row, negated
         before = self.rows[0].size + self.rows[1].size
@@ -212,19 +214,30 @@ class _AugmentedRows(ResidualBlock):
         else:
             self._jacobian_pick = None
 
+    def _scaling(self) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """√μ·sign·w per residual row, y/√μ, and the factor of the Jacobian's rows: kept while μ and
+        the multipliers' array are the ones they were made for (`update` and the solver assign new
+        ones)."""
+        kept = self._kept_scaling
+        if kept is None or kept[0] != self.mu or kept[1] is not self.y:
+            factor = np.sqrt(self.mu) * self.sign * self.constraint.scale[self.pick]
+            pick = self._jacobian_pick
+            kept = self._kept_scaling = (self.mu, self.y, factor, self.y / np.sqrt(self.mu),
+                                         factor if pick is None else factor[pick])
+        return kept[2], kept[3], kept[4]
+
     def evaluate(self, values, jacobians):
         c, jacs = self.constraint.block.evaluate(values, jacobians)
         c = np.asarray(c, float)
-        factor = np.sqrt(self.mu) * self.sign * self.constraint.scale[self.pick]
-        r = factor * (c[self.pick] - self.bound) + self.y / np.sqrt(self.mu)
+        factor, shift, row_factor = self._scaling()
+        r = factor * ((c if self._every_row else c[self.pick]) - self.bound) + shift
         if not jacobians:  # copies: a caller may change its arrays in place, a block reuse its buffers
             self._last = ([np.array(v, float) for v in values], c.copy())
             return r, None
         pick = self._jacobian_pick
         if not self._pickers:
             self._pickers = [_RowPicker(self.pick if pick is None else self.pick[pick]) for _ in jacs]
-        factor = factor if pick is None else factor[pick]
-        return r, [picker(j, factor) for picker, j in zip(self._pickers, jacs)]
+        return r, [picker(j, row_factor) for picker, j in zip(self._pickers, jacs)]
 
     def residual_rows(self, values, rows):
         """`evaluate`'s rows `rows` from the constraint rows they bound alone (a row bounded on both
@@ -250,8 +263,9 @@ class _AugmentedRows(ResidualBlock):
         """First-order multiplier update at the subproblem's solution (of the scaled rows); the
         multipliers of bound rows stay ≥ 0."""
         v = self.sign * self.constraint.scale[self.pick] * (c[self.pick] - self.bound)
-        self.y = self.y + self.mu * v
-        self.y[self.hinged] = np.maximum(self.y[self.hinged], 0.0)
+        y = self.y + self.mu * v
+        y[self.hinged] = np.maximum(y[self.hinged], 0.0)
+        self.y = y  # a new array: `_scaling` takes it
 
 
 class _RowPicker:

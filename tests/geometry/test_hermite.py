@@ -243,3 +243,24 @@ def test_sampled_jacobian_structure_of_disjoint_patterns_is_the_sorted_one():
     assert _merged_structure(2, 2, 9, patterns[:1] * 2) is None  # the same entries twice
     assert SampledJacobian([one, two], 2, 2, 9)([np.ones((2, 2, 3))] * 2).toarray() == pytest.approx(
         np.kron((one + two).toarray(), np.ones((2, 3))).reshape(2, 2, 9).reshape(4, 9))
+
+
+def test_sampling_matrix_cache_tells_splines_apart_by_their_segments():
+    """The cached sampling matrix is keyed by the spline's segments and node count (`_SplineKey`):
+    another spline object with equal segments gets the same matrix, a spline whose segments differ
+    (another knot, another node) gets its own, equal to one computed afresh (`matrix_at`)."""
+    t = np.array([0.1, 0.45, 0.8, 1.2])
+    base = [Segment(0, 0.5, 0, 1), Segment(0.5, 1.0, 1, 2), Segment(1.0, 1.5, 2, 3)]
+    first = NodeSpline(base, 4)
+    m = first.matrix(t, 1)
+    same = NodeSpline(list(base), 4)
+    assert np.array_equal(same.matrix(t, 1).toarray(), m.toarray())
+    for segments, nodes in (([Segment(0, 0.6, 0, 1), Segment(0.6, 1.0, 1, 2), Segment(1.0, 1.5, 2, 3)], 4),
+                            ([Segment(0, 0.5, 0, 1), Segment(0.5, 1.0, 1), Segment(1.0, 1.5, 1, 2)], 3),
+                            (base, 5)):
+        other = NodeSpline(segments, nodes)
+        got = other.matrix(t, 1)
+        seg = other.segment_index(t)
+        fresh = other.matrix_at(seg, np.clip((t - other.starts[seg]) / (other.ends - other.starts)[seg], 0, 1), 1)
+        assert got.shape == (4, 2 * nodes) and np.array_equal(got.toarray(), fresh.toarray())
+        assert not (got.shape == m.shape and np.array_equal(got.toarray(), m.toarray()))

@@ -427,3 +427,36 @@ def test_row_picker_of_every_row_is_the_picked_pattern():
         factor = rng.normal(size=m)
         picked = _RowPicker(pick)(J, factor)
         assert np.array_equal(picked.toarray(), factor[:, None] * J.toarray())
+
+
+def test_augmented_rows_scaling_follows_mu_and_the_multipliers():
+    """The kept row scaling of `_AugmentedRows` (`_scaling`) is made again when μ or the multipliers
+    change: its residual is √μ·(w(c − b)·sign + y/μ) at the current μ and y, every time."""
+    from legplan.solve.auglag import _AugmentedRows
+
+    block = FunctionBlock(["x"], 3, lambda x: (np.array([x[0], x[1] ** 2, x[0] - x[1]]),
+                                               [np.array([[1.0, 0.0], [0.0, 2 * x[1]], [1.0, -1.0]])]))
+    k = Constraint(block, [-1.0, 0.0, 0.5], [1.0, np.inf, 0.5], scale=[2.0, 3.0, 4.0])
+    rows = _AugmentedRows(k)
+    x = np.array([0.7, -1.2])
+    c = block.evaluate([x], False)[0]
+
+    def expected():
+        root = np.sqrt(rows.mu)
+        return root * rows.sign * k.scale[rows.pick] * (c[rows.pick] - rows.bound) + rows.y / root
+
+    for mu, update in ((1.0, False), (10.0, False), (10.0, True), (100.0, True)):
+        rows.mu = mu
+        if update:
+            rows.update(c)
+        r, _ = rows.evaluate([x], False)
+        r_jac, jacs = rows.evaluate([x], True)
+        assert np.array_equal(r, expected()) and np.array_equal(r_jac, expected())
+        full = np.asarray(block.evaluate([x], True)[1][0])
+        picked = np.sqrt(mu) * rows.sign * k.scale[rows.pick]
+        dense = jacs[0].toarray() if sp.issparse(jacs[0]) else np.asarray(jacs[0])
+        want = (picked[:, None] * full[rows.pick]) if rows._jacobian_pick is None else \
+            (picked[rows._jacobian_pick][:, None] * full[rows.pick[rows._jacobian_pick]])
+        assert np.array_equal(dense, want)
+    rows.y = np.ones(rows.size)  # a new multipliers' array, as the solver hands over
+    assert np.array_equal(rows.evaluate([x], False)[0], expected())
