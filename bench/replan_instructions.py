@@ -12,8 +12,9 @@ replan of the 16-footstep pallet plan).
   (imports, caches), as a closed loop's later replans find it.
 * Instructions: the child runs under `valgrind --tool=callgrind --instr-atstart=no`; it builds the
   model and the map and loads the plan uninstrumented, then the parent switches the instrumentation
-  on (`callgrind_control -i on`) for the 12 replans alone. Callgrind's "Collected" count is
-  repeatable under any load.
+  on (`callgrind_control -i on`) for the 12 replans alone, run without their CPU budget
+  (`ReplanParams.cpu_budget` None: under valgrind a replan is some 50 times slower and would stop at
+  its budget). Callgrind's "Collected" count is repeatable under any load.
 * CPU: `--rounds` rounds of one child per tree without valgrind, the trees' order alternating; per
   child the median and p95 of the 12 replans' CPU seconds (`ReplanResult.cpu_seconds`), then the
   median over the rounds, with the load average at the start and the end.
@@ -64,7 +65,7 @@ def child(tree: Path, plan: Path, out: Path, handshake: bool, check: bool = Fals
     sys.path.insert(0, str(tree / "bench"))
     from replan import PUSH_VELOCITY
 
-    from legplan.dyn.replan import MeasuredState, replan
+    from legplan.dyn.replan import MeasuredState, ReplanParams, replan
     from legplan.dyn.settings import PAPER
     from legplan.dyn.tasks import centroidal_model
     from legplan.dyn.terrain import TerrainModel
@@ -83,10 +84,13 @@ def child(tree: Path, plan: Path, out: Path, handshake: bool, check: bool = Fals
         state = MeasuredState.from_samples(samples, t)
         states += [state, MeasuredState(state.t, state.base_pos, state.base_euler,
                                         state.base_vel + [0, PUSH_VELOCITY, 0], state.base_ang_vel, state.feet_pos)]
+    # under callgrind a replan runs some 50 times slower: without its CPU budget, so that it does the
+    # work it does natively (with it, replans stop at the budget after an iteration or none)
+    settings = ReplanParams(cpu_budget=None) if handshake else ReplanParams()
     if handshake:
         print("READY", flush=True)
         sys.stdin.readline()
-    outs = [replan(previous, state, model, terrain, PAPER) for state in states]
+    outs = [replan(previous, state, model, terrain, PAPER, settings=settings) for state in states]
     if handshake:
         print("DONE", flush=True)
         sys.stdin.readline()
