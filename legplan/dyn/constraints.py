@@ -558,7 +558,7 @@ class ForceBlock(ResidualBlock):
     ANGLES = 2 * np.pi * np.arange(FRICTION_FACES) / FRICTION_FACES
 
     def __init__(self, terrain: TerrainModel, friction: float, force: sp.csr_matrix | TimedControlPoints,
-                 foot: sp.csr_matrix):
+                 foot: sp.csr_matrix, batch: ForceBatch | None = None):
         self.terrain, self.mu = terrain, float(friction)
         self.samples = force if isinstance(force, TimedControlPoints) else None
         if self.samples is not None:  # control points moving with the phase durations
@@ -569,6 +569,7 @@ class ForceBlock(ResidualBlock):
         self.size = self.ROWS * self.n
         self.foot_jacobian = SampledJacobian([self.foot], self.ROWS, self.n, 3 * self.foot.shape[1])
         self.force_jacobian = SampledJacobian([self.force], self.ROWS, self.n, 3 * self.force.shape[1])
+        self.batch = batch if batch is not None and batch.join(self) else None
 
     def _retime(self, d: np.ndarray) -> bool:
         changed, valid = refresh([self.samples], d)
@@ -586,6 +587,8 @@ class ForceBlock(ResidualBlock):
         return np.hstack([fn[:, None], faces])
 
     def evaluate(self, values, jacobians):
+        if self.batch is not None:
+            return self.batch.part(self, values, jacobians)
         if self.samples is not None and not self._retime(values[2]):
             return invalid_timing(self, jacobians)
         q, f = times(self.foot, _nodes(values[0])), times(self.force, _nodes(values[1]))
@@ -603,6 +606,54 @@ class ForceBlock(ResidualBlock):
         lower = np.tile([0.0] + [-np.inf] * faces, n)
         upper = np.tile([max_normal_force] + [0.0] * faces, n)
         return lower, upper
+
+
+class ForceBatch:
+    """The friction-pyramid rows of every leg in one pass: the per-leg `ForceBlock`s of one problem
+    share it (fixed phases, one terrain and friction). The first member evaluated at some variable
+    values computes the rows, and with Jacobians their complex-step gradients, of every member at
+    once on the members' force points stacked (the terrain basis and each numpy call over the four
+    legs instead of one call per leg; every row the same operations as alone), and keeps them; the
+    other members take their part while the values are the same, compared entry by entry (a caller
+    may change its arrays in place). The blocks, their rows and their Jacobians' patterns stay those
+    of the legs alone (as `LegClearanceBatch` for the leg clearance)."""
+
+    def __init__(self):
+        self.members: list[ForceBlock] = []
+        self._kept: dict[bool, tuple] = {}
+
+    def join(self, block: ForceBlock) -> bool:
+        """Take `block` as a member if it can be evaluated with the others (else False)."""
+        if block.samples is not None:
+            return False
+        if self.members and not (block.terrain is self.members[0].terrain and block.mu == self.members[0].mu):
+            return False
+        block.batch_index = len(self.members)
+        self.members.append(block)
+        self._kept.clear()
+        return True
+
+    def part(self, block: ForceBlock, values, jacobians: bool):
+        """`block.evaluate(values, jacobians)`, from the members' evaluation at these values."""
+        jacobians = bool(jacobians)
+        kept = self._kept.get(jacobians)
+        if kept is None or len(kept[0]) != len(values) or not all(
+                np.array_equal(a, b) for a, b in zip(kept[0], values)):
+            kept = self._kept[jacobians] = ([np.array(v, float) for v in values], self._evaluate(values, jacobians))
+        return kept[1][block.batch_index]
+
+    def _evaluate(self, values, jacobians: bool) -> list:
+        members = self.members
+        feet, forces = _nodes(values[0]), _nodes(values[1])
+        q = np.concatenate([times(m.foot, feet) for m in members])
+        f = np.concatenate([times(m.force, forces) for m in members])
+        bounds = np.concatenate([[0], np.cumsum([m.n for m in members])])
+        if not jacobians:
+            rows = members[0]._rows(f, q)
+            return [(rows[lo:hi].reshape(-1), None) for lo, hi in zip(bounds[:-1], bounds[1:])]
+        r, (j_f, j_q) = complex_step(members[0]._rows, (f, q), (0, 1))
+        return [(r[lo:hi].reshape(-1), [m.foot_jacobian([j_q[lo:hi]]), m.force_jacobian([j_f[lo:hi]])])
+                for m, lo, hi in zip(members, bounds[:-1], bounds[1:])]
 
 
 def acceleration_continuity(form: Formulation, variable: str) -> LinearBlock:

@@ -21,9 +21,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock, ForceBlock, JointTorqueBlock,
-                                     LegClearanceBatch, LegClearanceBlock, RangeOfMotionBlock, StanceSlopeBlock,
-                                     TerrainHeightBlock, acceleration_continuity, swing_constraint, swing_height)
+from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock, ForceBatch, ForceBlock,
+                                     JointTorqueBlock, LegClearanceBatch, LegClearanceBlock, RangeOfMotionBlock,
+                                     StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity, swing_constraint,
+                                     swing_height)
 from legplan.dyn.costs import CostWeights, StairEdgeBlock, StanceWidthBlock, integral_costs
 from legplan.dyn.formulation import Formulation, Pose, dense_knots, unloaded_phases
 from legplan.dyn.gait import make_gait
@@ -392,8 +393,9 @@ def _force(c: BuildContext) -> list[Constraint]:
     p, model = c.problem, c.problem.model
     points, stance_node = p.form.force_control_points(c.leg)
     lower, upper = ForceBlock.bounds(points.shape[0], model.max_normal_force)
+    batch = c.shared.setdefault("force", ForceBatch())  # the legs evaluated together
     return [Constraint(ForceBlock(p.terrain, model.friction, points if p.timing is None else TimedControlPoints(p.timing, c.leg),
-                                  p.form.node_selector(stance_node, p.form.motion_nodes)),
+                                  p.form.node_selector(stance_node, p.form.motion_nodes), batch),
                        lower, upper, name="force", scale=1.0 / (model.mass * GRAVITY))]
 
 

@@ -388,3 +388,35 @@ def test_leg_clearance_batch_gives_each_leg_its_own_evaluation(pallet_problem, t
             for j, k in zip(jacobians, b._jacobians(*gradients, args)):
                 assert np.array_equal(j.toarray(), k.toarray())
         assert sum(abs(j).sum() for b in blocks for j in b.evaluate(args, True)[1]) > 0.0
+
+
+def test_force_batch_gives_each_leg_its_own_evaluation(pallet_problem, timed_pallet_problem):
+    """The legs' friction-pyramid blocks of a fixed-timing problem share one `ForceBatch`: each block's
+    rows and Jacobians are bit for bit those of the leg evaluated alone (`ForceBlock._rows` and its
+    complex step on the leg's points), at the guess and after the values change in place (the batch
+    evaluates again), with loaded feet (nonzero rows); with phases as variables the blocks evaluate
+    alone. The batched Jacobians also match finite differences."""
+    from legplan.dyn.constraints import _nodes, times
+
+    blocks = [k.block for k in pallet_problem.constraints if k.name == "force"]
+    assert len(blocks) == 4 and all(b.batch is blocks[0].batch and b.batch is not None for b in blocks)
+    assert all(k.block.batch is None for k in timed_pallet_problem.constraints if k.name == "force")
+    values = {v.name: v.value.copy() for v in pallet_problem.variables}
+    args = [values[name] for name in blocks[0].variables]
+    for seed in (None, 1, 2):
+        if seed is not None:  # changed in place: the batch must not serve the last values
+            for a in args:
+                a += 0.5 * np.random.default_rng(seed).standard_normal(a.shape)
+        for b in blocks:
+            value, jacobians = b.evaluate(args, True)
+            plain, _ = b.evaluate(args, False)
+            q, f = times(b.foot, _nodes(args[0])), times(b.force, _nodes(args[1]))
+            assert np.array_equal(plain, b._rows(f, q).reshape(-1))
+            r, (j_f, j_q) = complex_step(b._rows, (f, q), (0, 1))
+            assert np.array_equal(value, r.reshape(-1))
+            for j, k in zip(jacobians, [b.foot_jacobian([j_q]), b.force_jacobian([j_f])]):
+                assert np.array_equal(j.toarray(), k.toarray())
+        assert sum(np.abs(b.evaluate(args, False)[0]).sum() for b in blocks) > 0.0
+    for b in blocks:
+        report = check_jacobian(b, {name: values[name] for name in b.variables})
+        assert report.ok(atol=1e-5, rtol=1e-4), report
