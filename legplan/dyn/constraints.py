@@ -319,7 +319,43 @@ class LegClearanceBlock(RangeOfMotionBlock):
         return value.reshape(-1), self._jacobians(*gradients, values)
 
 
-class LegClearanceBatch:
+class _LegBatch:
+    """What the per-leg batches share: members evaluated together at the same variable values. The
+    first member evaluated at some values computes every member's part (`_evaluate`) and keeps it;
+    the other members take their part while the values are the same, compared entry by entry (a
+    caller may change its arrays in place)."""
+
+    def __init__(self):
+        self.members: list = []
+        self._kept: dict[bool, tuple] = {}
+
+    def _admits(self, block) -> bool:
+        raise NotImplementedError
+
+    def join(self, block) -> bool:
+        """Take `block` as a member if it can be evaluated with the others (else False)."""
+        if not self._admits(block):
+            return False
+        block.batch_index = len(self.members)
+        self.members.append(block)
+        self._kept.clear()
+        return True
+
+    def part(self, block, values, jacobians: bool):
+        """`block.evaluate(values, jacobians)`, from the members' evaluation at these values."""
+        jacobians = bool(jacobians)
+        kept = self._kept.get(jacobians)
+        if kept is None or len(kept[0]) != len(values) or not all(
+                np.array_equal(a, b) for a, b in zip(kept[0], values)):
+            kept = self._kept[jacobians] = ([np.array(v, float) for v in values], self._evaluate(values, jacobians))
+        return kept[1][block.batch_index]
+
+    def _evaluate(self, values, jacobians: bool) -> list:
+        raise NotImplementedError
+
+
+
+class LegClearanceBatch(_LegBatch):
     """The leg-clearance rows of every leg in one pass: the per-leg `LegClearanceBlock`s of one
     problem share it (closed-form legs with as many spheres each, fixed phases, one column
     distance). The first member evaluated at some variable values computes the rows, and with
@@ -329,12 +365,7 @@ class LegClearanceBatch:
     entry by entry (a caller may change its arrays in place). The blocks, their rows and their
     Jacobians' patterns stay those of the legs alone."""
 
-    def __init__(self):
-        self.members: list[LegClearanceBlock] = []
-        self._kept: dict[bool, tuple] = {}
-
-    def join(self, block: LegClearanceBlock) -> bool:
-        """Take `block` as a member if it can be evaluated with the others (else False)."""
+    def _admits(self, block: LegClearanceBlock) -> bool:
         if block.timing is not None or block.joints is not None or getattr(block.legs, "sphere_slots", None) is None \
                 or block.legs.sphere_slots() is None:
             return False
@@ -343,19 +374,7 @@ class LegClearanceBatch:
             if not (block.legs is first.legs and block.distance is first.distance
                     and np.array_equal(block.offset, first.offset) and block.rows == first.rows):
                 return False
-        block.batch_index = len(self.members)
-        self.members.append(block)
-        self._kept.clear()
         return True
-
-    def part(self, block: LegClearanceBlock, values, jacobians: bool):
-        """`block.evaluate(values, jacobians)`, from the members' evaluation at these values."""
-        jacobians = bool(jacobians)
-        kept = self._kept.get(jacobians)
-        if kept is None or len(kept[0]) != len(values) or not all(
-                np.array_equal(a, b) for a, b in zip(kept[0], values)):
-            kept = self._kept[jacobians] = ([np.array(v, float) for v in values], self._evaluate(values, jacobians))
-        return kept[1][block.batch_index]
 
     def _evaluate(self, values, jacobians: bool) -> list:
         members = self.members
@@ -463,6 +482,7 @@ class FootTerrainBlock(ResidualBlock):
     step unless a block gives its gradient)."""
 
     variables = ("feet",)
+    batch = None  # a `FootTerrainBatch` the block joined (`join`)
 
     def __init__(self, terrain: TerrainModel, matrix: sp.csr_matrix | TimedSamples):
         self.terrain = terrain
@@ -473,6 +493,11 @@ class FootTerrainBlock(ResidualBlock):
         self.matrix = sp.csr_matrix(matrix)
         self.size = self.matrix.shape[0]
         self.jacobian = SampledJacobian([self.matrix], 1, self.size, 3 * self.matrix.shape[1])
+
+    def join(self, batch: FootTerrainBatch | None) -> FootTerrainBlock:
+        """This block, evaluated with the other members of `batch` where it can be (itself)."""
+        self.batch = batch if batch is not None and batch.join(self) else None
+        return self
 
     def _retime(self, d: np.ndarray) -> bool:
         changed, valid = refresh([self.samples], d)
@@ -495,6 +520,8 @@ class FootTerrainBlock(ResidualBlock):
         return r[:, 0], j
 
     def evaluate(self, values, jacobians):
+        if self.batch is not None:
+            return self.batch.part(self, values, jacobians)
         if self.samples is not None and not self._retime(values[1]):
             return invalid_timing(self, jacobians)
         q = times(self.matrix, _nodes(values[0]))
@@ -535,6 +562,34 @@ class StanceSlopeBlock(FootTerrainBlock):
     def _row_jacobian(self, q):
         value, gx, gy = self.terrain.stance_slope_gradient(q[:, 0], q[:, 1])
         return value, np.stack([gx, gy, np.zeros_like(gx)], axis=-1)[:, None]
+
+
+class FootTerrainBatch(_LegBatch):
+    """The rows of one terrain constraint (`FootTerrainBlock`: stance on the terrain, swing above it,
+    stance off edges) of every leg in one pass: the per-leg blocks of one problem with fixed phases,
+    of one kind over one terrain function, evaluated on their feet samples stacked (one terrain
+    interpolation for the four legs; every row the same operations as alone). The blocks, their
+    rows and their Jacobians' patterns stay those of the legs alone."""
+
+    def _admits(self, block: FootTerrainBlock) -> bool:
+        if block.samples is not None:
+            return False
+        if not self.members:
+            return True
+        first = self.members[0]
+        return (type(block) is type(first) and block.terrain is first.terrain
+                and getattr(block, "height", None) == getattr(first, "height", None))
+
+    def _evaluate(self, values, jacobians: bool) -> list:
+        members = self.members
+        feet = _nodes(values[0])
+        q = np.concatenate([times(m.matrix, feet) for m in members])
+        bounds = np.concatenate([[0], np.cumsum([m.size for m in members])])
+        if not jacobians:
+            r = members[0]._row(q)
+            return [(r[lo:hi], None) for lo, hi in zip(bounds[:-1], bounds[1:])]
+        r, j = members[0]._row_jacobian(q)
+        return [(r[lo:hi], [m.jacobian([j[lo:hi]])]) for m, lo, hi in zip(members, bounds[:-1], bounds[1:])]
 
 
 FRICTION_FACES = 8
@@ -608,39 +663,17 @@ class ForceBlock(ResidualBlock):
         return lower, upper
 
 
-class ForceBatch:
+class ForceBatch(_LegBatch):
     """The friction-pyramid rows of every leg in one pass: the per-leg `ForceBlock`s of one problem
-    share it (fixed phases, one terrain and friction). The first member evaluated at some variable
-    values computes the rows, and with Jacobians their complex-step gradients, of every member at
-    once on the members' force points stacked (the terrain basis and each numpy call over the four
-    legs instead of one call per leg; every row the same operations as alone), and keeps them; the
-    other members take their part while the values are the same, compared entry by entry (a caller
-    may change its arrays in place). The blocks, their rows and their Jacobians' patterns stay those
-    of the legs alone (as `LegClearanceBatch` for the leg clearance)."""
+    share it (fixed phases, one terrain and friction), evaluated on the members' force points stacked
+    (the terrain basis, the complex step and each numpy call over the four legs instead of one call
+    per leg; every row the same operations as alone). The blocks, their rows and their Jacobians'
+    patterns stay those of the legs alone (as `LegClearanceBatch` for the leg clearance)."""
 
-    def __init__(self):
-        self.members: list[ForceBlock] = []
-        self._kept: dict[bool, tuple] = {}
-
-    def join(self, block: ForceBlock) -> bool:
-        """Take `block` as a member if it can be evaluated with the others (else False)."""
+    def _admits(self, block: ForceBlock) -> bool:
         if block.samples is not None:
             return False
-        if self.members and not (block.terrain is self.members[0].terrain and block.mu == self.members[0].mu):
-            return False
-        block.batch_index = len(self.members)
-        self.members.append(block)
-        self._kept.clear()
-        return True
-
-    def part(self, block: ForceBlock, values, jacobians: bool):
-        """`block.evaluate(values, jacobians)`, from the members' evaluation at these values."""
-        jacobians = bool(jacobians)
-        kept = self._kept.get(jacobians)
-        if kept is None or len(kept[0]) != len(values) or not all(
-                np.array_equal(a, b) for a, b in zip(kept[0], values)):
-            kept = self._kept[jacobians] = ([np.array(v, float) for v in values], self._evaluate(values, jacobians))
-        return kept[1][block.batch_index]
+        return not self.members or (block.terrain is self.members[0].terrain and block.mu == self.members[0].mu)
 
     def _evaluate(self, values, jacobians: bool) -> list:
         members = self.members

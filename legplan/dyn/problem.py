@@ -21,10 +21,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock, ForceBatch, ForceBlock,
-                                     JointTorqueBlock, LegClearanceBatch, LegClearanceBlock, RangeOfMotionBlock,
-                                     StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity, swing_constraint,
-                                     swing_height)
+from legplan.dyn.constraints import (GRAVITY, BaseAboveFeetBlock, DynamicsBlock, FootTerrainBatch, ForceBatch,
+                                     ForceBlock, JointTorqueBlock, LegClearanceBatch, LegClearanceBlock,
+                                     RangeOfMotionBlock, StanceSlopeBlock, TerrainHeightBlock, acceleration_continuity,
+                                     swing_constraint, swing_height)
 from legplan.dyn.costs import CostWeights, StairEdgeBlock, StanceWidthBlock, integral_costs
 from legplan.dyn.formulation import Formulation, Pose, dense_knots, unloaded_phases
 from legplan.dyn.gait import make_gait
@@ -361,7 +361,9 @@ def _range_of_motion(c: BuildContext) -> list[Constraint]:
 @constraint("stance_on_terrain", per_leg=True)
 def _stance_on_terrain(c: BuildContext) -> list[Constraint]:
     form = c.problem.form
-    return [Constraint(TerrainHeightBlock(c.problem.terrain, form.node_selector(c.foot.stance_nodes, form.motion_nodes)),
+    batch = c.shared.setdefault("stance_on_terrain", FootTerrainBatch())  # the legs evaluated together
+    return [Constraint(TerrainHeightBlock(c.problem.terrain, form.node_selector(c.foot.stance_nodes, form.motion_nodes)
+                                          ).join(batch),
                        name="stance_on_terrain", scale=1.0 / LENGTH)]
 
 
@@ -370,7 +372,8 @@ def _stance_off_edges(c: BuildContext) -> list[Constraint]:
     form, nodes = c.problem.form, c.foot.stance_nodes
     if c.params.stance_slope_max is None or len(nodes) <= 1:  # the first is the start
         return []
-    return [Constraint(StanceSlopeBlock(c.problem.terrain, form.node_selector(nodes[1:], form.motion_nodes)),
+    batch = c.shared.setdefault("stance_off_edges", FootTerrainBatch())
+    return [Constraint(StanceSlopeBlock(c.problem.terrain, form.node_selector(nodes[1:], form.motion_nodes)).join(batch),
                        -np.inf, c.params.stance_slope_max, name="stance_off_edges")]
 
 
@@ -384,7 +387,8 @@ def _swing_above_terrain(c: BuildContext) -> list[Constraint]:
         swing = p.form.foot_matrix(c.leg, times)
     else:
         swing = TimedSamples(p.timing, "motion", c.leg, c.swing_times, moving=True)  # they move with their swing
-    return [Constraint(TerrainHeightBlock(p.terrain, swing, envelope=True), c.params.swing_clearance, np.inf,
+    batch = c.shared.setdefault("swing_above_terrain", FootTerrainBatch())
+    return [Constraint(TerrainHeightBlock(p.terrain, swing, envelope=True).join(batch), c.params.swing_clearance, np.inf,
                        name="swing_above_terrain", scale=1.0 / LENGTH)]
 
 

@@ -420,3 +420,40 @@ def test_force_batch_gives_each_leg_its_own_evaluation(pallet_problem, timed_pal
     for b in blocks:
         report = check_jacobian(b, {name: values[name] for name in b.variables})
         assert report.ok(atol=1e-5, rtol=1e-4), report
+
+
+@pytest.mark.parametrize("name", ["stance_on_terrain", "swing_above_terrain", "stance_off_edges"])
+def test_foot_terrain_batch_gives_each_leg_its_own_evaluation(pallet_problem, timed_pallet_problem, name):
+    """The legs' blocks of one terrain constraint of a fixed-timing problem share one
+    `FootTerrainBatch`: each block's rows and Jacobian are bit for bit those of the leg evaluated
+    alone (`_row`, `_row_jacobian` on its own samples), at the guess and after the values change in
+    place, with rows that vary over the pallet; blocks whose samples move with the phases evaluate
+    alone; the batches of two constraints are apart. The batched Jacobians also match finite differences."""
+    from legplan.dyn.constraints import _nodes, times
+
+    blocks = [k.block for k in pallet_problem.constraints if k.name == name]
+    assert len(blocks) == 4 and all(b.batch is blocks[0].batch and b.batch is not None for b in blocks)
+    others = {id(k.block.batch) for k in pallet_problem.constraints
+              if k.name != name and getattr(k.block, "batch", None) is not None}
+    assert id(blocks[0].batch) not in others
+    timed = [k.block for k in timed_pallet_problem.constraints if k.name == name]
+    assert all((b.batch is None) == (PHASES in b.variables) for b in timed)  # samples that move: alone
+    values = {v.name: v.value.copy() for v in pallet_problem.variables}
+    args = [values[v] for v in blocks[0].variables]
+    for seed in (None, 1, 2):
+        if seed is not None:  # changed in place: the batch must not serve the last values
+            for a in args:
+                a += 0.05 * np.random.default_rng(seed).standard_normal(a.shape)
+        rows = []
+        for b in blocks:
+            value, (jacobian,) = b.evaluate(args, True)
+            plain, _ = b.evaluate(args, False)
+            q = times(b.matrix, _nodes(args[0]))
+            assert np.array_equal(plain, b._row(q))
+            r, j = b._row_jacobian(q)
+            assert np.array_equal(value, r) and np.array_equal(jacobian.toarray(), b.jacobian([j]).toarray())
+            rows.append(plain)
+        assert seed is None or np.ptp(np.concatenate(rows)) > 0.0
+    for b in blocks:
+        report = check_jacobian(b, {v: values[v] for v in b.variables})
+        assert report.ok(atol=1e-5, rtol=1e-4), report
