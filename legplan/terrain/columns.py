@@ -109,7 +109,8 @@ class ColumnDistance:
                 near = near[np.minimum(value[near], lower) < bound[near]]
             if near.size:
                 xy = np.minimum(np.maximum(p[near, :2], self._origin), self._far)
-                value[near], found = _nearest(xy, p[near, 2], table, rows[own[near]], value[near], self.resolution)
+                value[near], found = _nearest(xy, p[near, 2], table, rows[own[near]], value[near], self.resolution,
+                                              gradient)
                 if gradient:
                     grad[near] = found
                     grad[near, :2] *= raw[near] == g[near]  # 0 along a direction in which the point was moved
@@ -120,9 +121,10 @@ class ColumnDistance:
                 grad[far] = 0.0
         return value, grad
 
-def _nearest(xy, z, table, rows, own, r: float):
-    """Signed distance and gradient of points (xy (m, 2), z (m,)) over their own column (signed
-    vertical gap `own`) and the candidate columns of their `rows` of `table` (centres, tops)."""
+def _nearest(xy, z, table, rows, own, r: float, gradient: bool = True):
+    """Signed distance and gradient (None without `gradient`) of points (xy (m, 2), z (m,)) over their
+    own column (signed vertical gap `own`) and the candidate columns of their `rows` of `table`
+    (centres, tops)."""
     centres, tops = table
     lateral = xy[:, None, :] - centres[rows]
     gap = np.abs(lateral)
@@ -138,6 +140,8 @@ def _nearest(xy, z, table, rows, own, r: float):
     best = d2[m, k]
     better = best < own ** 2
     dist = np.where(better, np.sqrt(best), np.abs(own))
+    if not gradient:
+        return side * dist, None
     vector = np.zeros((len(k), 3))  # p − q of the nearest point q (own column: straight up/down)
     vector[:, :2] = np.copysign(gap[m, k], lateral[m, k]) * better[:, None]
     vector[:, 2] = np.where(better, side * vertical[m, k], own)

@@ -163,3 +163,17 @@ def test_candidate_tables_list_each_cells_candidates_in_offset_order(seed):
                 assert np.array_equal(tops[rows[cell], :len(found)], [height[y, x] for y, x in found])
                 assert np.all(centres[rows[cell], len(found):] == 1e9)
         assert listed == len(centres) and listed > 0
+
+
+def test_values_without_gradients_are_those_with_them(scene):
+    """`values` (the search without the gradients' arithmetic) gives, bit for bit, the values of
+    `value_and_gradient`, with and without a bound, inside and outside the terrain."""
+    _, _, columns = scene
+    rng = np.random.default_rng(9)
+    points = np.column_stack([rng.uniform(-0.3, 0.3, (5000, 2)), rng.uniform(-0.2, 0.15, 5000)])
+    bound = rng.uniform(0.0, 2 * REACH, 5000)
+    for b in (None, bound):
+        plain = columns.values(points, b)
+        with_gradient, gradient = columns.value_and_gradient(points, b)
+        assert plain.tobytes() == with_gradient.tobytes() and (plain < 0).any() and (plain > 0).any()
+        assert np.isfinite(gradient).all()
