@@ -277,14 +277,17 @@ class LegClearanceBlock(RangeOfMotionBlock):
             return self.legs.sphere_centres(legs, b), None
         return self.legs.sphere_centres_and_jacobian(legs, b)
 
-    def _clearance(self, c, radius):
-        """d(c) − r for centres c (n, k, 3) and its gradient (n, k, 3): the exact distance to the
-        terrain's columns (`TerrainModel.column_distance`) less the radius. The distance saturates
-        at its reach (value the reach, gradient 0), so the search among neighbouring columns is
-        skipped wherever a lower bound of their distance already reaches it (`bound`): the same
-        values and gradients."""
+    def _clearance(self, c, radius, gradient: bool = True):
+        """d(c) − r for centres c (n, k, 3) and its gradient (n, k, 3; None without `gradient`): the
+        exact distance to the terrain's columns (`TerrainModel.column_distance`) less the radius. The
+        distance saturates at its reach (value the reach, gradient 0), so the search among
+        neighbouring columns is skipped wherever a lower bound of their distance already reaches it
+        (`bound`): the same values and gradients."""
         points = c.reshape(-1, 3)
-        d, grad = self.distance.value_and_gradient(points, np.full(len(points), self.distance.reach))
+        bound = np.full(len(points), self.distance.reach)
+        if not gradient:
+            return self.distance.values(points, bound).reshape(c.shape[:2]) - radius, None
+        d, grad = self.distance.value_and_gradient(points, bound)
         return (d.reshape(c.shape[:2]) - radius), grad.reshape(c.shape)
 
     def rows_at(self, legs, p, e, q, radius, jacobians):
@@ -295,7 +298,7 @@ class LegClearanceBlock(RangeOfMotionBlock):
         s, ds = self._spheres(legs, b, jacobians)
         lever = s - self.offset
         c = p[:, None] + np.einsum("nij,nkj->nki", rot, lever)
-        value, dh = self._clearance(c, radius)  # and ∂row/∂c
+        value, dh = self._clearance(c, radius, jacobians)  # and ∂row/∂c
         if not jacobians:
             return value, None
         turns = rotation_derivatives(e)
@@ -317,6 +320,19 @@ class LegClearanceBlock(RangeOfMotionBlock):
         if not jacobians:
             return value.reshape(-1), None
         return value.reshape(-1), self._jacobians(*gradients, values)
+
+    def residual_rows(self, values, rows):
+        """The rows `rows` from the samples that hold them alone (`rows_at` of those samples, each
+        row computed as in `evaluate`): the hinged LM's curvature probe reads the active rows of a
+        bound, a few samples of the leg's; with phases as variables or chain legs (an IK warm-started
+        from the last evaluation), the whole evaluation."""
+        if self.timing is not None or self.joints is not None:
+            return super().residual_rows(values, rows)
+        samples, at = np.unique(rows // self.rows, return_inverse=True)
+        lin, ang, feet = (_nodes(v) for v in values[:3])
+        base, foot = self.base[samples], self.foot[samples]
+        value, _ = self.rows_at(self.leg, times(base, lin), times(base, ang), times(foot, feet), self.radius, False)
+        return value[at, rows % self.rows]
 
 
 class _LegBatch:

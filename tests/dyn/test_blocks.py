@@ -457,3 +457,21 @@ def test_foot_terrain_batch_gives_each_leg_its_own_evaluation(pallet_problem, ti
     for b in blocks:
         report = check_jacobian(b, {v: values[v] for v in b.variables})
         assert report.ok(atol=1e-5, rtol=1e-4), report
+
+
+def test_leg_clearance_rows_of_some_samples_are_those_of_the_whole_evaluation(pallet_problem):
+    """`LegClearanceBlock.residual_rows` (the curvature probe's rows, from their samples alone) gives
+    bit for bit the rows of the whole (batched) evaluation: any subset of rows, in any order, twice,
+    at perturbed values that bring the legs near the pallet (rows below the reach)."""
+    blocks = [k.block for k in pallet_problem.constraints if k.name == "leg_clearance"]
+    values = {v.name: v.value.copy() for v in pallet_problem.variables}
+    rng = np.random.default_rng(21)
+    for seed in range(3):
+        args = [values[v] + (0.03 * rng.standard_normal(values[v].shape) if seed else 0.0)
+                for v in blocks[0].variables]
+        for b in blocks:
+            whole = b.evaluate(args, False)[0]
+            assert whole.min() < b.distance.reach - b.radius.max()  # some sphere within reach
+            for _ in range(4):
+                rows = rng.integers(0, b.size, int(rng.integers(1, 12)))
+                assert np.array_equal(b.residual_rows(args, rows), whole[rows])
