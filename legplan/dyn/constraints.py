@@ -234,6 +234,18 @@ class RangeOfMotionBlock(ResidualBlock):
         rt = np.transpose(rot, (0, 2, 1))
         return (x - self.nominal).reshape(-1), self._jacobians(-rt, j_e, rt, values)
 
+    def residual_rows(self, values, rows):
+        """The rows `rows` from the samples that hold them alone (each computed as in `evaluate`): the
+        hinged LM's curvature probe reads the active rows of the box; with phases as variables, the
+        whole evaluation."""
+        if self.timing is not None:
+            return ResidualBlock.residual_rows(self, values, rows)
+        samples, at = np.unique(rows // 3, return_inverse=True)
+        lin, ang, feet = (_nodes(v) for v in values[:3])
+        base = self.base[samples]
+        p, e, q = times(base, lin), times(base, ang), times(self.foot[samples], feet)
+        return (self._in_base(e, q - p) - self.nominal)[at, rows % 3]
+
 
 class LegClearanceBlock(RangeOfMotionBlock):
     """Per sample time, per collision sphere of leg `leg` (all but its foot): the distance of its
@@ -327,7 +339,7 @@ class LegClearanceBlock(RangeOfMotionBlock):
         bound, a few samples of the leg's; with phases as variables or chain legs (an IK warm-started
         from the last evaluation), the whole evaluation."""
         if self.timing is not None or self.joints is not None:
-            return super().residual_rows(values, rows)
+            return ResidualBlock.residual_rows(self, values, rows)
         samples, at = np.unique(rows // self.rows, return_inverse=True)
         lin, ang, feet = (_nodes(v) for v in values[:3])
         base, foot = self.base[samples], self.foot[samples]
@@ -670,6 +682,16 @@ class ForceBlock(ResidualBlock):
         if self.samples is not None:
             out.append(phase_jacobian([(j_f, self.samples, values[1])], self.size, self.samples.timing.size))
         return r.reshape(-1), out
+
+    def residual_rows(self, values, rows):
+        """The rows `rows` from the force points that hold them alone (each computed as in
+        `evaluate`); with control points that move with the phases, the whole evaluation."""
+        if self.samples is not None:
+            return super().residual_rows(values, rows)
+        points, at = np.unique(rows // self.ROWS, return_inverse=True)
+        q = times(self.foot[points], _nodes(values[0]))
+        f = times(self.force[points], _nodes(values[1]))
+        return self._rows(f, q)[at, rows % self.ROWS]
 
     @staticmethod
     def bounds(n: int, max_normal_force: float) -> tuple[np.ndarray, np.ndarray]:

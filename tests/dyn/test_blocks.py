@@ -459,19 +459,27 @@ def test_foot_terrain_batch_gives_each_leg_its_own_evaluation(pallet_problem, ti
         assert report.ok(atol=1e-5, rtol=1e-4), report
 
 
-def test_leg_clearance_rows_of_some_samples_are_those_of_the_whole_evaluation(pallet_problem):
-    """`LegClearanceBlock.residual_rows` (the curvature probe's rows, from their samples alone) gives
-    bit for bit the rows of the whole (batched) evaluation: any subset of rows, in any order, twice,
-    at perturbed values that bring the legs near the pallet (rows below the reach)."""
-    blocks = [k.block for k in pallet_problem.constraints if k.name == "leg_clearance"]
-    values = {v.name: v.value.copy() for v in pallet_problem.variables}
+@pytest.mark.parametrize("name", ["leg_clearance", "range_of_motion", "force"])
+@both_timings
+def test_rows_of_some_samples_are_those_of_the_whole_evaluation(request, problem_name, name):
+    """`residual_rows` of the leg clearance, range of motion and friction pyramid (the curvature
+    probe's rows, from their samples alone; with phases as variables the whole evaluation) gives bit
+    for bit the rows of the whole (batched) evaluation: any subset of rows, in any order, twice, at
+    the guess and at perturbed values (for the clearance: legs near the pallet, rows below the
+    reach)."""
+    problem = request.getfixturevalue(problem_name)
+    blocks = [k.block for k in problem.constraints if k.name == name]
+    assert len(blocks) == 4
+    values = {v.name: v.value.copy() for v in problem.variables}
     rng = np.random.default_rng(21)
     for seed in range(3):
-        args = [values[v] + (0.03 * rng.standard_normal(values[v].shape) if seed else 0.0)
+        args = [values[v] + (0.03 * rng.standard_normal(values[v].shape) if seed and v != PHASES else 0.0)
                 for v in blocks[0].variables]
         for b in blocks:
             whole = b.evaluate(args, False)[0]
-            assert whole.min() < b.distance.reach - b.radius.max()  # some sphere within reach
+            if name == "leg_clearance":
+                assert whole.min() < b.distance.reach - b.radius.max()  # some sphere within reach
+            assert np.ptp(whole) > 0.0
             for _ in range(4):
                 rows = rng.integers(0, b.size, int(rng.integers(1, 12)))
                 assert np.array_equal(b.residual_rows(args, rows), whole[rows])
