@@ -59,13 +59,14 @@ def make_plan(tree: Path, out: Path) -> None:
                                   "iterations": int(planned.solve.iterations)}))
 
 
-def child(tree: Path, plan: Path, out: Path, handshake: bool, check: bool = False) -> None:
-    """Replan the pickled plan 12 times (module docstring); with `handshake` say READY and wait for a
-    line before the replans and after them."""
+def setup(tree: Path, plan: Path):
+    """In a process whose sys.path starts with `tree`: the robot, its centroidal model, the map and its
+    terrain model, the pickled plan (`Previous`, its samples) and the 12 states of `bench/replan.py`
+    (6 instants, unperturbed and pushed), after one replan at t = 0.05 s (the one-time work)."""
     sys.path.insert(0, str(tree / "bench"))
     from replan import PUSH_VELOCITY
 
-    from legplan.dyn.replan import MeasuredState, ReplanParams, replan
+    from legplan.dyn.replan import MeasuredState, replan
     from legplan.dyn.settings import PAPER
     from legplan.dyn.tasks import centroidal_model
     from legplan.dyn.terrain import TerrainModel
@@ -84,6 +85,16 @@ def child(tree: Path, plan: Path, out: Path, handshake: bool, check: bool = Fals
         state = MeasuredState.from_samples(samples, t)
         states += [state, MeasuredState(state.t, state.base_pos, state.base_euler,
                                         state.base_vel + [0, PUSH_VELOCITY, 0], state.base_ang_vel, state.feet_pos)]
+    return robot, model, terrain_map, terrain, previous, states
+
+
+def child(tree: Path, plan: Path, out: Path, handshake: bool, check: bool = False) -> None:
+    """Replan the pickled plan 12 times (module docstring); with `handshake` say READY and wait for a
+    line before the replans and after them."""
+    robot, model, terrain_map, terrain, previous, states = setup(tree, plan)
+    from legplan.dyn.replan import ReplanParams, replan
+    from legplan.dyn.settings import PAPER
+
     # under callgrind a replan runs some 50 times slower: without its CPU budget, so that it does the
     # work it does natively (with it, replans stop at the budget after an iteration or none)
     settings = ReplanParams(cpu_budget=None) if handshake else ReplanParams()
@@ -143,18 +154,25 @@ def largest_difference(a: list[dict], b: list[dict]) -> float:
     return worst
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+def two_tree_parser(doc: str, result_name: str) -> argparse.ArgumentParser:
+    """The options of a bench that runs two source trees side by side on this plan: the trees, the
+    rounds, the result's name, and the hidden ones of its children."""
+    parser = argparse.ArgumentParser(description=doc.split("\n\n")[0])
     parser.add_argument("--before", type=Path)
     parser.add_argument("--after", type=Path, default=ROOT)
     parser.add_argument("--rounds", type=int, default=3)
-    parser.add_argument("--no-callgrind", action="store_true")
-    parser.add_argument("--check", action="store_true", help="the independent check of every replan (one more child per tree)")
-    parser.add_argument("--result-name", default="replan_instructions")
+    parser.add_argument("--result-name", default=result_name)
     parser.add_argument("--child", type=Path, help=argparse.SUPPRESS)
-    parser.add_argument("--make-plan", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--plan", type=Path, help=argparse.SUPPRESS)
     parser.add_argument("--out", type=Path, help=argparse.SUPPRESS)
+    return parser
+
+
+def main() -> None:
+    parser = two_tree_parser(__doc__, "replan_instructions")
+    parser.add_argument("--no-callgrind", action="store_true")
+    parser.add_argument("--check", action="store_true", help="the independent check of every replan (one more child per tree)")
+    parser.add_argument("--make-plan", action="store_true", help=argparse.SUPPRESS)
     parser.add_argument("--handshake", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.child is not None:

@@ -364,96 +364,66 @@ def test_joint_torque_rows_alone_equal_the_whole_evaluation_and_leave_the_worksp
             assert np.abs(whole[rows]).max() > 1.0  # torques (N m), not zeros
 
 
-def test_leg_clearance_batch_gives_each_leg_its_own_evaluation(pallet_problem, timed_pallet_problem):
-    """The legs' clearance blocks of a fixed-timing problem share one `LegClearanceBatch`: each block's
-    rows are bit for bit those of the leg evaluated alone, its Jacobians those of the leg alone, at
-    the guess and at perturbed values (the batch evaluates again when the values change, also in
-    place), and the rows are active (nonzero gradients) so that the comparison means something;
-    with phases as variables the blocks evaluate alone."""
-    blocks = [k.block for k in pallet_problem.constraints if k.name == "leg_clearance"]
-    assert len(blocks) == 4 and all(b.batch is blocks[0].batch and b.batch is not None for b in blocks)
-    assert all(k.block.batch is None for k in timed_pallet_problem.constraints if k.name == "leg_clearance")
-    values = {v.name: v.value.copy() for v in pallet_problem.variables}
-    args = [values[name] for name in blocks[0].variables]
-    for seed in (None, 1, 2):
-        if seed is not None:  # changed in place: the batch must not serve the last values
-            for a in args:
-                a += 0.02 * np.random.default_rng(seed).standard_normal(a.shape)
-        for b in blocks:
-            value, jacobians = b.evaluate(args, True)
-            plain, _ = b.evaluate(args, False)
-            alone, gradients = b.rows_at(b.leg, *b._sampled(args), b.radius, True)
-            assert np.array_equal(plain, b.rows_at(b.leg, *b._sampled(args), b.radius, False)[0].reshape(-1))
-            assert np.array_equal(value, alone.reshape(-1))
-            for j, k in zip(jacobians, b._jacobians(*gradients, args)):
-                assert np.array_equal(j.toarray(), k.toarray())
-        assert sum(abs(j).sum() for b in blocks for j in b.evaluate(args, True)[1]) > 0.0
+def _clearance_alone(b, args):
+    alone, gradients = b.rows_at(b.leg, *b._sampled(args), b.radius, True)
+    plain = b.rows_at(b.leg, *b._sampled(args), b.radius, False)[0]
+    return plain.reshape(-1), alone.reshape(-1), b._jacobians(*gradients, args)
 
 
-def test_force_batch_gives_each_leg_its_own_evaluation(pallet_problem, timed_pallet_problem):
-    """The legs' friction-pyramid blocks of a fixed-timing problem share one `ForceBatch`: each block's
-    rows and Jacobians are bit for bit those of the leg evaluated alone (`ForceBlock._rows` and its
-    complex step on the leg's points), at the guess and after the values change in place (the batch
-    evaluates again), with loaded feet (nonzero rows); with phases as variables the blocks evaluate
-    alone. The batched Jacobians also match finite differences."""
+def _force_alone(b, args):
     from legplan.dyn.constraints import _nodes, times
 
-    blocks = [k.block for k in pallet_problem.constraints if k.name == "force"]
-    assert len(blocks) == 4 and all(b.batch is blocks[0].batch and b.batch is not None for b in blocks)
-    assert all(k.block.batch is None for k in timed_pallet_problem.constraints if k.name == "force")
-    values = {v.name: v.value.copy() for v in pallet_problem.variables}
-    args = [values[name] for name in blocks[0].variables]
-    for seed in (None, 1, 2):
-        if seed is not None:  # changed in place: the batch must not serve the last values
-            for a in args:
-                a += 0.5 * np.random.default_rng(seed).standard_normal(a.shape)
-        for b in blocks:
-            value, jacobians = b.evaluate(args, True)
-            plain, _ = b.evaluate(args, False)
-            q, f = times(b.foot, _nodes(args[0])), times(b.force, _nodes(args[1]))
-            assert np.array_equal(plain, b._rows(f, q).reshape(-1))
-            r, (j_f, j_q) = complex_step(b._rows, (f, q), (0, 1))
-            assert np.array_equal(value, r.reshape(-1))
-            for j, k in zip(jacobians, [b.foot_jacobian([j_q]), b.force_jacobian([j_f])]):
-                assert np.array_equal(j.toarray(), k.toarray())
-        assert sum(np.abs(b.evaluate(args, False)[0]).sum() for b in blocks) > 0.0
-    for b in blocks:
-        report = check_jacobian(b, {name: values[name] for name in b.variables})
-        assert report.ok(atol=1e-5, rtol=1e-4), report
+    q, f = times(b.foot, _nodes(args[0])), times(b.force, _nodes(args[1]))
+    r, (j_f, j_q) = complex_step(b._rows, (f, q), (0, 1))
+    return b._rows(f, q).reshape(-1), r.reshape(-1), [b.foot_jacobian([j_q]), b.force_jacobian([j_f])]
 
 
-@pytest.mark.parametrize("name", ["stance_on_terrain", "swing_above_terrain", "stance_off_edges"])
-def test_foot_terrain_batch_gives_each_leg_its_own_evaluation(pallet_problem, timed_pallet_problem, name):
-    """The legs' blocks of one terrain constraint of a fixed-timing problem share one
-    `FootTerrainBatch`: each block's rows and Jacobian are bit for bit those of the leg evaluated
-    alone (`_row`, `_row_jacobian` on its own samples), at the guess and after the values change in
-    place, with rows that vary over the pallet; blocks whose samples move with the phases evaluate
-    alone; the batches of two constraints are apart. The batched Jacobians also match finite differences."""
+def _terrain_alone(b, args):
     from legplan.dyn.constraints import _nodes, times
 
+    q = times(b.matrix, _nodes(args[0]))
+    r, j = b._row_jacobian(q)
+    return b._row(q), r, [b.jacobian([j])]
+
+
+LEG_BATCHES = {"leg_clearance": (_clearance_alone, 0.02), "force": (_force_alone, 0.5),
+               "stance_on_terrain": (_terrain_alone, 0.05), "swing_above_terrain": (_terrain_alone, 0.05),
+               "stance_off_edges": (_terrain_alone, 0.05)}
+
+
+@pytest.mark.parametrize("name", list(LEG_BATCHES))
+def test_leg_batch_gives_each_leg_its_own_evaluation(pallet_problem, timed_pallet_problem, name):
+    """The legs' blocks of one constraint of a fixed-timing problem share one batch (`LegClearanceBatch`,
+    `ForceBatch`, `FootTerrainBatch`), one per constraint: each block's rows and Jacobians are bit for
+    bit those of the leg evaluated alone, at the guess and at perturbed values (the batch evaluates
+    again when the values change, also in place), with rows and Jacobians that are not all zero, so
+    that the comparison means something; blocks whose samples move with the phases (phases as
+    variables) evaluate alone. The batched Jacobians also match finite differences."""
+    alone, scale = LEG_BATCHES[name]
     blocks = [k.block for k in pallet_problem.constraints if k.name == name]
     assert len(blocks) == 4 and all(b.batch is blocks[0].batch and b.batch is not None for b in blocks)
     others = {id(k.block.batch) for k in pallet_problem.constraints
               if k.name != name and getattr(k.block, "batch", None) is not None}
     assert id(blocks[0].batch) not in others
     timed = [k.block for k in timed_pallet_problem.constraints if k.name == name]
-    assert all((b.batch is None) == (PHASES in b.variables) for b in timed)  # samples that move: alone
+    assert timed and all((b.batch is None) == (PHASES in b.variables) for b in timed)
     values = {v.name: v.value.copy() for v in pallet_problem.variables}
     args = [values[v] for v in blocks[0].variables]
     for seed in (None, 1, 2):
         if seed is not None:  # changed in place: the batch must not serve the last values
             for a in args:
-                a += 0.05 * np.random.default_rng(seed).standard_normal(a.shape)
+                a += scale * np.random.default_rng(seed).standard_normal(a.shape)
         rows = []
         for b in blocks:
-            value, (jacobian,) = b.evaluate(args, True)
+            value, jacobians = b.evaluate(args, True)
             plain, _ = b.evaluate(args, False)
-            q = times(b.matrix, _nodes(args[0]))
-            assert np.array_equal(plain, b._row(q))
-            r, j = b._row_jacobian(q)
-            assert np.array_equal(value, r) and np.array_equal(jacobian.toarray(), b.jacobian([j]).toarray())
+            expect_plain, expect_value, expect_jacobians = alone(b, args)
+            assert np.array_equal(plain, expect_plain) and np.array_equal(value, expect_value)
+            for j, k in zip(jacobians, expect_jacobians, strict=True):
+                assert np.array_equal(j.toarray(), k.toarray())
             rows.append(plain)
         assert seed is None or np.ptp(np.concatenate(rows)) > 0.0
+        assert sum(abs(j).sum() for b in blocks for j in b.evaluate(args, True)[1]) > 0.0
     for b in blocks:
         report = check_jacobian(b, {v: values[v] for v in b.variables})
         assert report.ok(atol=1e-5, rtol=1e-4), report

@@ -297,6 +297,15 @@ def test_two_sided_rows_with_a_variable_held_at_its_box_solve_as_the_bounds_give
     assert runs[0].iterations == runs[1].iterations
 
 
+def _random_jacobian(rng) -> sp.csr_matrix:
+    """A random sparse J (CSR, up to 40 × 30, empty rows likely), with 64-bit index arrays at times."""
+    m, n = int(rng.integers(1, 40)), int(rng.integers(1, 30))
+    J = sp.random(m, n, density=rng.uniform(0.0, 0.5), format="csr", random_state=int(rng.integers(1 << 30)))
+    if rng.random() < 0.3:
+        J.indices, J.indptr = J.indices.astype(np.int64), J.indptr.astype(np.int64)
+    return J
+
+
 def test_picked_pattern_is_scipys_row_selection():
     """`_picked_pattern` (each picked row's run of entries, written down) gives what scipy's row
     indexing J[pick] gives, array by array and dtype by dtype: the entry numbers (J's entries
@@ -306,10 +315,8 @@ def test_picked_pattern_is_scipys_row_selection():
 
     rng = np.random.default_rng(5)
     for _ in range(200):
-        m, n = int(rng.integers(1, 40)), int(rng.integers(1, 30))
-        J = sp.random(m, n, density=rng.uniform(0.0, 0.5), format="csr", random_state=int(rng.integers(1 << 30)))
-        if rng.random() < 0.3:
-            J.indices, J.indptr = J.indices.astype(np.int64), J.indptr.astype(np.int64)
+        J = _random_jacobian(rng)
+        m = J.shape[0]
         pick = rng.integers(0, m, int(rng.integers(0, 2 * m + 1))).astype(np.int64)
         source, indices, indptr, row = _picked_pattern.__wrapped__(
             J.shape, J.indptr.dtype.str, J.indptr.tobytes(), J.indices.dtype.str, J.indices.tobytes(), pick.tobytes())
@@ -415,10 +422,8 @@ def test_row_picker_of_every_row_is_the_picked_pattern():
 
     rng = np.random.default_rng(8)
     for _ in range(100):
-        m, n = int(rng.integers(1, 40)), int(rng.integers(1, 30))
-        J = sp.random(m, n, density=rng.uniform(0.0, 0.5), format="csr", random_state=int(rng.integers(1 << 30)))
-        if rng.random() < 0.3:
-            J.indices, J.indptr = J.indices.astype(np.int64), J.indptr.astype(np.int64)
+        J = _random_jacobian(rng)
+        m = J.shape[0]
         pick = np.arange(m, dtype=np.int64)
         expect = _picked_pattern.__wrapped__(J.shape, J.indptr.dtype.str, J.indptr.tobytes(), J.indices.dtype.str,
                                              J.indices.tobytes(), pick.tobytes())
