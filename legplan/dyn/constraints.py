@@ -382,7 +382,6 @@ class _LegBatch:
         raise NotImplementedError
 
 
-
 class LegClearanceBatch(_LegBatch):
     """The leg-clearance rows of every leg in one pass: the per-leg `LegClearanceBlock`s of one
     problem share it (closed-form legs with as many spheres each, fixed phases, one column
