@@ -82,16 +82,17 @@ class Replanner:
         return "tube" if outside and t - self._last >= s.trigger_gap - 1e-9 else None
 
     def __call__(self, t: float, base_pos, base_rot, base_vel, base_ang_vel, feet_pos,
-                 trigger: str = "period") -> dict | None:
-        """Replan from the measured state (world frame; `feet_pos` the contact points under the feet)
-        for `trigger` (`due`); the new plan's samples on the plan's clock, or None when the replan
-        failed or was not tracked (the controller keeps its reference)."""
+                 trigger: str = "period", contact=None) -> dict | None:
+        """Replan from the measured state (world frame; `feet_pos` the contact points under the feet,
+        `contact` which feet touch the terrain, None: not sensed) for `trigger` (`due`); the new
+        plan's samples on the plan's clock, or None when the replan failed or was not tracked (the
+        controller keeps its reference)."""
         self.next = self.next + self.period if trigger == "period" else t + self.period
         self._last = t
-        state = MeasuredState(t, base_pos, pin.rpy.matrixToRpy(base_rot), base_vel, base_ang_vel, feet_pos)
+        state = MeasuredState(t, base_pos, pin.rpy.matrixToRpy(base_rot), base_vel, base_ang_vel, feet_pos, contact)
         offset = t - self._origin
         shifted = MeasuredState(offset, state.base_pos, state.base_euler, state.base_vel, state.base_ang_vel,
-                                state.feet_pos)
+                                state.feet_pos, state.contact)
         try:
             out = replan(self.previous, shifted, self.model, self.terrain, self.params, settings=self.settings)
         except ValueError:  # outside the plan
