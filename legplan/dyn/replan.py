@@ -787,14 +787,14 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
     recovers = recovering(error, settings)
     if recovers:
         gait_rest = early_touchdown(gait_rest, airborne, settings.recovery_swing)
-        if settings.recovery_support:
-            gait_rest = grounded_flights(gait_rest)
     insertion = None
     if recovers and previous.stride is not None and settings.extension > previous.extended:
         period = previous.stride.duration
         count = min(int(np.ceil(recovery_time(error, model) / period - EPS)),
                     int(np.floor((settings.extension - previous.extended) / period + EPS)))
         gait_rest, insertion = insert_strides(gait_rest, previous.stride, count)
+    if recovers and settings.recovery_support:  # after the strides: they are found by the gait's own phases
+        gait_rest = grounded_flights(gait_rest)
     task = ReplanTask(previous, state, gait_rest, airborne, settings.horizon, settings.settle, settings.window,
                       insertion)
     costs = warm_stage == "costs"
