@@ -24,6 +24,17 @@ until its planned touchdown (`early_touchdown`), the rest of the gait unchanged.
 fixed, a walk pushed while a diagonal pair carries it tips over about that pair before the third
 foot lands as planned, and no rest of the motion from there converges; a foot down sooner gives
 the capture point (Pratt et al. 2006) a support polygon to stop in, and the replan places it.
+A recovering replan also stands every flight of the rest on every foot (`grounded_flights`,
+`ReplanParams.recovery_support`): a flying trot pushed sideways would otherwise spend its flights
+with no force to stop the base, and the pair landing while the other pair still stands gives the
+capture point the whole support polygon.
+
+A foot the plan has in stance at t that the robot senses off the ground, above the terrain (a late
+touchdown: `MeasuredState.contact`, `lifted_feet`, `ReplanParams.touchdown_height`), is in the air
+at t as a swing foot is: held where it is with no force, it swings down within
+`ReplanParams.late_swing` and stands from there to its planned lift-off. Taken as in stance, the
+replan would stand it on the terrain at once, centimetres from where it is, and push on it: a
+support the robot does not have.
 
 A base pushed faster than the rest of its steps can stop may need more steps
 (`ReplanParams.extension`, off by default): a recovering replan then inserts whole strides of the

@@ -594,6 +594,28 @@ def test_a_pushed_replan_inserts_strides_within_its_extension(trot4, anymal, fla
     assert replan(previous, pushed, anymal, flat, DynParams()).extension == 0.0  # off by default
 
 
+def test_a_pushed_trot_replans_without_flights(trot4, anymal, flat):
+    """`ReplanParams.recovery_support`: a flying trot pushed sideways at 1 m/s recovers on a rest
+    without a flight (every phase stands on some foot), its strides still inserted with `extension`
+    and its end and goal kept; with it off, or unpushed, the rest keeps the plan's flights."""
+    state = MeasuredState.from_samples(trot4.samples, 1.2)
+    pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + [0.0, 1.0, 0.0],
+                           state.base_ang_vel, state.feet_pos)
+
+    def flights(out):
+        return int((~out.plan.problem.form.gait.stance.any(axis=1)).sum())
+
+    grounded = replan(trot4, pushed, anymal, flat, DynParams())
+    assert grounded.recovery and flights(grounded) == 0
+    assert grounded.plan.samples["t"][-1] == pytest.approx(2.4 - pushed.t)
+    assert np.allclose(grounded.plan.samples["base_pos"][-1, :2], trot4.samples["base_pos"][-1, :2], atol=1e-6)
+    assert grounded.status.name in ("CONVERGED", "MAX_ITERATIONS"), grounded.plan.reason
+    extended = replan(trot4, pushed, anymal, flat, DynParams(), settings=ReplanParams(extension=1.2))
+    assert extended.extension == pytest.approx(1.2) and flights(extended) == 0
+    assert flights(replan(trot4, pushed, anymal, flat, DynParams(), settings=ReplanParams(recovery_support=False))) > 0
+    assert flights(replan(trot4, state, anymal, flat, DynParams())) > 0
+
+
 def test_grounded_flights_stand_every_flight_of_the_rest():
     """`grounded_flights`: every phase after the first with no foot down stands on every foot, the
     durations and every other phase unchanged; a rest without flights (a walk) is left as it is, and
