@@ -438,10 +438,10 @@ def remaining_gait(gait: Gait, t: float, hold: float = AIRBORNE_HOLD, lifted: np
 
     `lifted` (legs,) marks feet the plan has in stance at t that stand above the terrain (a late
     touchdown, `lifted_feet`): they are in the air at t too, held, then swing down for `late_swing`
-    s and stand from there to their planned lift-off (the current phase split there); with less
-    than that left of their stance they swing on to their next planned touchdown. A stance whose
-    foot is not on the terrain is no stance a plan can keep: its foot cannot push, and the replan's
-    terrain rows cannot hold a foot fixed in the air."""
+    s and stand from there on as planned (the phase under way split there); with less than that
+    left of the phase under way they swing through it. A foot in the air cannot push: taken as
+    standing, the replan would stand it on the terrain at once, away from where it is, and count
+    on its force."""
     ends = np.cumsum(gait.durations)
     if not 0.0 <= t < ends[-1] - PHASE_END:
         raise ValueError(f"replan time {t:g} s outside the plan [0, {ends[-1]:g}) s")

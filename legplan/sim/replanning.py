@@ -9,9 +9,10 @@ controller the new plan as its reference.
 `legplan.sim.run.simulate` asks `due(t, position_error, velocity_error)` every control tick (the
 base's distance and velocity error against the tracked reference) and, when due, calls the
 replanner with the simulated state, the feet it has in contact among it (a robot's contact sensing:
-a foot planned down that has not landed is replanned as in the air, `legplan.dyn.replan.lifted_feet`). A replan is due every `period` s ("period") and, event-triggered
-model predictive control, as soon as the base leaves the tube `ReplanParams.tube_position` /
-`tube_velocity` around the tracked plan ("tube"; at most every `trigger_gap` s): a push is answered
+a foot planned down that has not landed is replanned as in the air, `legplan.dyn.replan.lifted_feet`).
+A replan is due every `period` s ("period") and, event-triggered model predictive control, as soon
+as the base leaves the tube `ReplanParams.tube_position` / `tube_velocity` around the tracked plan
+("tube"; at most every `trigger_gap` s): a push is answered
 when it happens, not up to a period later, while the period still bounds how long a slow drift
 goes unanswered. The periods restart at a triggered replan.
 
