@@ -10,8 +10,10 @@ shows.
 
     OMP_NUM_THREADS=1 .venv/bin/python bench/replan_push.py [--cases flat_trot pallet_walk] [--period 0.25]
         [--loops open closed] [--track-violation X] [--step-adaptation G] [--param KEY=VALUE ...]
-        [--model planner|scalar] [--result NAME]
+        [--model planner|scalar] [--impulses X Y ...] [--result NAME]
 
+`--impulses` runs the listed impulses instead of bracketing (a survival grid: brackets move by a
+few N s with any change of a replan's arithmetic, a grid counts survivals over a range).
 `--track-violation`, `--step-adaptation` and `--param` (any `ReplanParams` field, e.g.
 `tube_velocity=0.3` for event-triggered replans) set the closed loop's `ReplanParams` (recorded in
 the JSON as `replan_settings`); each run records its replans' triggers.
@@ -81,6 +83,8 @@ def main() -> None:
                         help="a ReplanParams field (legplan.dyn.replan), e.g. tube_velocity=0.3; repeatable")
     parser.add_argument("--model", choices=("planner", "scalar"), default="planner",
                         help="planner: centroidal_model (torque rows), as the CLI; scalar: robot.centroidal")
+    parser.add_argument("--impulses", type=float, nargs="+", default=None,
+                        help="N s: run these impulses (a survival grid) instead of bracketing")
     parser.add_argument("--result", default="replan_push", help="bench/results/<name>.json")
     args = parser.parse_args()
 
@@ -132,6 +136,11 @@ def main() -> None:
                 print(f"  {label} {loop} {impulse:.2f} N s: {result.reason}; replans {run['replans_converged']}/"
                       f"{run['replans']} (tracked {run['replans_tracked']})", file=sys.stderr, flush=True)
                 return run
+            if args.impulses:
+                runs = [survives(impulse) for impulse in args.impulses]
+                rows.append({"case": label, "loop": loop, "planned": bool(planned.success), "push_at": duration / 2,
+                             "survived_count": sum(run["success"] for run in runs), "runs": runs})
+                continue
             low, high, runs = bracket(survives, resolution, args.most)
             rows.append({"case": label, "loop": loop, "planned": bool(planned.success), "push_at": duration / 2,
                          "survived": low, "failed": high, "runs": runs})
@@ -140,6 +149,10 @@ def main() -> None:
         "load_start": load_start, "load_end": load_average(), "wall": time.perf_counter() - started,
         "period": args.period, "model": args.model, "replan_settings": vars(settings), "push_duration": PUSH_DURATION, "rows": rows})
     for row in rows:
+        if "survived_count" in row:
+            print(f"{row['case']}, {row['loop']} loop: survived {row['survived_count']} of {len(row['runs'])} impulses: "
+                  + " ".join(f"{run['impulse']:g}{'+' if run['success'] else '-'}" for run in row["runs"]))
+            continue
         print(f"{row['case']}, {row['loop']} loop: survived {row['survived']:.2f} N s, failed {row['failed']:.2f} N s")
     print(f"wrote {path}")
 

@@ -24,6 +24,17 @@ until its planned touchdown (`early_touchdown`), the rest of the gait unchanged.
 fixed, a walk pushed while a diagonal pair carries it tips over about that pair before the third
 foot lands as planned, and no rest of the motion from there converges; a foot down sooner gives
 the capture point (Pratt et al. 2006) a support polygon to stop in, and the replan places it.
+A recovering replan also stands every flight of the rest on every foot (`grounded_flights`,
+`ReplanParams.recovery_support`): a flying trot pushed sideways would otherwise spend its flights
+with no force to stop the base, and the pair landing while the other pair still stands gives the
+capture point the whole support polygon.
+
+A foot the plan has in stance at t that the robot senses off the ground, above the terrain (a late
+touchdown: `MeasuredState.contact`, `lifted_feet`, `ReplanParams.touchdown_height`), is in the air
+at t as a swing foot is: held where it is with no force, it swings down within
+`ReplanParams.late_swing` and stands from there to its planned lift-off. Taken as in stance, the
+replan would stand it on the terrain at once, centimetres from where it is, and push on it: a
+support the robot does not have.
 
 A base pushed faster than the rest of its steps can stop may need more steps
 (`ReplanParams.extension`, off by default): a recovering replan then inserts whole strides of the
@@ -140,6 +151,18 @@ class ReplanParams(Parameters):
         "and stands until its planned lift-off; None: the feet keep their planned swings"))
     recovery_swing: float = param(0.12, "(0, inf)", doc=(
         "s: in a recovering replan, what a foot in the air at t has left of its swing, at most"))
+    recovery_support: bool = param(True, (False, True), doc=(
+        "in a recovering replan, every flight of the rest (no foot down, a flying trot's) stands on "
+        "every foot instead (`grounded_flights`): a pushed base is stopped by forces, and a flight "
+        "has none; False: the gait's flights stay"))
+    touchdown_height: float | None = param(0.01, "(0, inf)", doc=(
+        "m: a foot the plan has in stance at t that the measured state senses out of contact "
+        "(`MeasuredState.contact`) with its contact point more than this above the terrain is in the "
+        "air (a late touchdown, `lifted_feet`): it lands within `late_swing`; None: every foot as "
+        "its plan says"))
+    late_swing: float = param(0.05, "(0, inf)", doc=(
+        "s: what a late foot (`touchdown_height`) swings after its hold before it stands, at most "
+        "(its stance then goes on as planned)"))
     step_adaptation: float = param(0.0, "[0, inf)", doc=(
         "× the capture-point shift of the next foothold of every foot in the replan's guess "
         "(`capture_step` of the CoM's horizontal velocity error against the previous plan at t): a "
@@ -223,6 +246,9 @@ class MeasuredState:
     base_vel: np.ndarray
     base_ang_vel: np.ndarray
     feet_pos: np.ndarray
+    contact: np.ndarray | None = None
+    """(legs,) bool: which feet the robot senses on the ground (a simulator's contacts, a robot's
+    contact sensing); None: not sensed, every foot as its plan says (`lifted_feet`)."""
 
     def __post_init__(self):
         # copies: a simulator hands views of its live state (MuJoCo's qvel), which move on after the replan
@@ -230,6 +256,8 @@ class MeasuredState:
             object.__setattr__(self, name, np.array(getattr(self, name), float).reshape(3))
         object.__setattr__(self, "feet_pos", np.array(self.feet_pos, float).reshape(-1, 3))
         object.__setattr__(self, "t", float(self.t))
+        if self.contact is not None:
+            object.__setattr__(self, "contact", np.array(self.contact, bool).reshape(self.feet_pos.shape[0]))
 
     @classmethod
     def from_samples(cls, samples: dict[str, np.ndarray], t: float) -> MeasuredState:
@@ -386,21 +414,67 @@ def early_touchdown(gait: Gait, airborne: np.ndarray, swing: float) -> Gait:
     return Gait(gait.name, durations, stance)
 
 
-def remaining_gait(gait: Gait, t: float, hold: float = AIRBORNE_HOLD) -> tuple[Gait, np.ndarray]:
+def grounded_flights(gait: Gait) -> Gait:
+    """`gait` (a rest, t at 0) with every phase after its first in which no foot stands (a flying
+    trot's flight) standing on every foot instead, durations unchanged: the feet landing at its
+    start land at once and those lifting at its end stand until then. A pushed base in flight has
+    no force to stop it with, and a landing pair that touches down while the other pair still
+    stands gives the capture point (Pratt et al. 2006) the whole support polygon; the plan's goal,
+    end and order of steps are unchanged, its swings shorter by the flights. The first phase is the
+    one under way (or the hold of a foot in the air, already standing)."""
+    stance = gait.stance.copy()
+    flight = ~stance.any(axis=1)
+    flight[0] = False
+    if not flight.any():
+        return gait
+    stance[flight] = True
+    return Gait(gait.name, gait.durations.copy(), stance)
+
+
+def remaining_gait(gait: Gait, t: float, hold: float = AIRBORNE_HOLD, lifted: np.ndarray | None = None,
+                   late_swing: float = 0.0) -> tuple[Gait, np.ndarray]:
     """The phases of `gait` after t on a time axis starting at t, and which feet are in the air at t
-    (those get a first stance of `hold`, at most half of what is left of the current phase)."""
+    (those get a first stance of `hold`, at most half of what is left of the current phase).
+
+    `lifted` (legs,) marks feet the plan has in stance at t that stand above the terrain (a late
+    touchdown, `lifted_feet`): they are in the air at t too, held, then swing down for `late_swing`
+    s and stand from there on as planned (the phase under way split there); with less than that
+    left of the phase under way they swing through it. A foot in the air cannot push: taken as
+    standing, the replan would stand it on the terrain at once, away from where it is, and count
+    on its force."""
     ends = np.cumsum(gait.durations)
     if not 0.0 <= t < ends[-1] - PHASE_END:
         raise ValueError(f"replan time {t:g} s outside the plan [0, {ends[-1]:g}) s")
     k = int(np.searchsorted(ends, t + PHASE_END, side="right"))
     durations = np.concatenate([[ends[k] - t], gait.durations[k + 1:]])
     stance = gait.stance[k:].copy()
-    airborne = ~stance[0]
+    late = np.zeros(stance.shape[1], bool) if lifted is None else np.asarray(lifted, bool) & stance[0]
+    airborne = ~stance[0] | late
     if airborne.any():
         first = min(hold, 0.5 * durations[0])
         durations = np.concatenate([[first, durations[0] - first], durations[1:]])
         stance = np.vstack([np.ones((1, stance.shape[1]), bool), stance])
+    if late.any():
+        if durations[1] - late_swing > PHASE_END and late_swing > PHASE_END:  # lands within the phase
+            durations = np.concatenate([durations[:1], [late_swing, durations[1] - late_swing], durations[2:]])
+            stance = np.vstack([stance[:2], stance[1:]])
+        stance[1, late] = False
     return Gait(gait.name, durations, stance), airborne
+
+
+def lifted_feet(gait: Gait, state: MeasuredState, terrain, height: float | None) -> np.ndarray:
+    """Which feet (legs,) `gait` has in stance at `state.t` while the measured state senses them out
+    of contact (`MeasuredState.contact`) and their contact points stand more than `height` m above
+    the terrain under them (a late touchdown: the foot has not reached the ground its plan stands
+    on); none with `height` None or no contact sensed."""
+    lifted = np.zeros(state.feet_pos.shape[0], bool)
+    if height is None or state.contact is None:
+        return lifted
+    ends = np.cumsum(gait.durations)
+    k = min(int(np.searchsorted(ends, state.t + PHASE_END, side="right")), len(ends) - 1)
+    feet = state.feet_pos
+    ground = np.asarray(terrain.height(feet[:, 0], feet[:, 1]), float)
+    return gait.stance[k] & ~state.contact & (feet[:, 2] - ground > height)
 
 
 @dataclass
@@ -718,7 +792,8 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
         raise ValueError(f"measured state: {state.feet_pos.shape[0]} feet, the plan has {previous.form.legs}")
     if warm_stage not in ("projection", "costs"):
         raise ValueError(f"warm_stage must be 'projection' or 'costs', got {warm_stage!r}")
-    gait_rest, airborne = remaining_gait(previous.form.gait, state.t)
+    lifted = lifted_feet(previous.form.gait, state, terrain, settings.touchdown_height)
+    gait_rest, airborne = remaining_gait(previous.form.gait, state.t, lifted=lifted, late_swing=settings.late_swing)
     error = velocity_error(previous, state)
     recovers = recovering(error, settings)
     if recovers:
@@ -729,6 +804,8 @@ def replan(previous: Previous | PlanResult, state: MeasuredState, model, terrain
         count = min(int(np.ceil(recovery_time(error, model) / period - EPS)),
                     int(np.floor((settings.extension - previous.extended) / period + EPS)))
         gait_rest, insertion = insert_strides(gait_rest, previous.stride, count)
+    if recovers and settings.recovery_support:  # after the strides: they are found by the gait's own phases
+        gait_rest = grounded_flights(gait_rest)
     task = ReplanTask(previous, state, gait_rest, airborne, settings.horizon, settings.settle, settings.window,
                       insertion)
     costs = warm_stage == "costs"

@@ -8,9 +8,11 @@ controller the new plan as its reference.
 
 `legplan.sim.run.simulate` asks `due(t, position_error, velocity_error)` every control tick (the
 base's distance and velocity error against the tracked reference) and, when due, calls the
-replanner with the simulated state. A replan is due every `period` s ("period") and, event-triggered
-model predictive control, as soon as the base leaves the tube `ReplanParams.tube_position` /
-`tube_velocity` around the tracked plan ("tube"; at most every `trigger_gap` s): a push is answered
+replanner with the simulated state, the feet it has in contact among it (a robot's contact sensing:
+a foot planned down that has not landed is replanned as in the air, `legplan.dyn.replan.lifted_feet`).
+A replan is due every `period` s ("period") and, event-triggered model predictive control, as soon
+as the base leaves the tube `ReplanParams.tube_position` / `tube_velocity` around the tracked plan
+("tube"; at most every `trigger_gap` s): a push is answered
 when it happens, not up to a period later, while the period still bounds how long a slow drift
 goes unanswered. The periods restart at a triggered replan.
 
@@ -82,16 +84,17 @@ class Replanner:
         return "tube" if outside and t - self._last >= s.trigger_gap - 1e-9 else None
 
     def __call__(self, t: float, base_pos, base_rot, base_vel, base_ang_vel, feet_pos,
-                 trigger: str = "period") -> dict | None:
-        """Replan from the measured state (world frame; `feet_pos` the contact points under the feet)
-        for `trigger` (`due`); the new plan's samples on the plan's clock, or None when the replan
-        failed or was not tracked (the controller keeps its reference)."""
+                 trigger: str = "period", contact=None) -> dict | None:
+        """Replan from the measured state (world frame; `feet_pos` the contact points under the feet,
+        `contact` which feet touch the terrain, None: not sensed) for `trigger` (`due`); the new
+        plan's samples on the plan's clock, or None when the replan failed or was not tracked (the
+        controller keeps its reference)."""
         self.next = self.next + self.period if trigger == "period" else t + self.period
         self._last = t
-        state = MeasuredState(t, base_pos, pin.rpy.matrixToRpy(base_rot), base_vel, base_ang_vel, feet_pos)
+        state = MeasuredState(t, base_pos, pin.rpy.matrixToRpy(base_rot), base_vel, base_ang_vel, feet_pos, contact)
         offset = t - self._origin
         shifted = MeasuredState(offset, state.base_pos, state.base_euler, state.base_vel, state.base_ang_vel,
-                                state.feet_pos)
+                                state.feet_pos, state.contact)
         try:
             out = replan(self.previous, shifted, self.model, self.terrain, self.params, settings=self.settings)
         except ValueError:  # outside the plan

@@ -271,7 +271,7 @@ def _replanned(replanner, t: float, data, sim, q, v, terrain: TerrainModel, lift
     centres = data.geom_xpos[sim.foot_geoms]
     normal = terrain.basis(centres[:, 0], centres[:, 1])[0]
     feet = centres - np.asarray(sim.foot_radius, float)[:, None] * normal
-    samples = replanner(t, q[:3], rot, data.qvel[:3], rot @ v[3:6], feet, trigger)
+    samples = replanner(t, q[:3], rot, data.qvel[:3], rot @ v[3:6], feet, trigger, touching(data, sim))
     return None if samples is None else Reference(samples, sim.foot_radius, terrain, lift_rate)
 
 

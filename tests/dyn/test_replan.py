@@ -9,8 +9,8 @@ from legplan.dyn.planner import plan
 from legplan.dyn.problem import DynParams, DynTask
 from dataclasses import replace
 
-from legplan.dyn.replan import (MeasuredState, Previous, ReplanParams, ShiftedInit, euler_rates, frozen_tail,
-                                remaining_gait, replan)
+from legplan.dyn.replan import (AIRBORNE_HOLD, MeasuredState, Previous, ReplanParams, ShiftedInit, euler_rates,
+                                frozen_tail, remaining_gait, replan)
 
 TASK = DynTask((0.0, 0.0, 0.0), (0.5, 0.1, 0.1), "walk", 2, 3.0)
 
@@ -592,3 +592,129 @@ def test_a_pushed_replan_inserts_strides_within_its_extension(trot4, anymal, fla
     spent = replace(previous, extended=1.2)
     assert replan(spent, pushed, anymal, flat, DynParams(), settings=ReplanParams(extension=1.2)).extension == 0.0
     assert replan(previous, pushed, anymal, flat, DynParams()).extension == 0.0  # off by default
+
+
+def test_a_pushed_trot_replans_without_flights(trot4, anymal, flat):
+    """`ReplanParams.recovery_support`: a flying trot pushed sideways at 1 m/s recovers on a rest
+    without a flight (every phase stands on some foot), its strides still inserted with `extension`
+    and its end and goal kept; with it off, or unpushed, the rest keeps the plan's flights."""
+    state = MeasuredState.from_samples(trot4.samples, 1.2)
+    pushed = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel + [0.0, 1.0, 0.0],
+                           state.base_ang_vel, state.feet_pos)
+
+    def flights(out):
+        return int((~out.plan.problem.form.gait.stance.any(axis=1)).sum())
+
+    grounded = replan(trot4, pushed, anymal, flat, DynParams())
+    assert grounded.recovery and flights(grounded) == 0
+    assert grounded.plan.samples["t"][-1] == pytest.approx(2.4 - pushed.t)
+    assert np.allclose(grounded.plan.samples["base_pos"][-1, :2], trot4.samples["base_pos"][-1, :2], atol=1e-6)
+    assert grounded.status.name in ("CONVERGED", "MAX_ITERATIONS"), grounded.plan.reason
+    extended = replan(trot4, pushed, anymal, flat, DynParams(), settings=ReplanParams(extension=1.2))
+    assert extended.extension == pytest.approx(1.2) and flights(extended) == 0
+    assert flights(replan(trot4, pushed, anymal, flat, DynParams(), settings=ReplanParams(recovery_support=False))) > 0
+    assert flights(replan(trot4, state, anymal, flat, DynParams())) > 0
+
+
+def test_grounded_flights_stand_every_flight_of_the_rest():
+    """`grounded_flights`: every phase after the first with no foot down stands on every foot, the
+    durations and every other phase unchanged; a rest without flights (a walk) is left as it is, and
+    so is a first phase in the air."""
+    from legplan.dyn.replan import grounded_flights
+
+    gait = make_gait("trot", 4, 2.4)
+    ends = np.cumsum(gait.durations)
+    flights = np.flatnonzero(~gait.stance.any(axis=1))
+    assert flights.size >= 3
+    rest, _ = remaining_gait(gait, ends[flights[0]] + 0.01)  # just after the first pair lands
+    grounded = grounded_flights(rest)
+    assert np.array_equal(grounded.durations, rest.durations)
+    flying = ~rest.stance.any(axis=1)
+    assert flying[1:].any() and grounded.stance[flying].all()
+    assert np.array_equal(grounded.stance[~flying], rest.stance[~flying])
+    assert not (~grounded.stance.any(axis=1)).any()
+    in_flight, _ = remaining_gait(gait, ends[flights[0] - 1] + 0.01)  # in a flight: its hold stands
+    assert in_flight.stance[0].all()
+    walk, _ = remaining_gait(make_gait("walk", 2, 3.0), 0.5)
+    assert grounded_flights(walk) is walk
+
+
+def test_a_late_foot_swings_down_and_stands_to_its_planned_lift_off():
+    """`remaining_gait(lifted=...)`: a foot its plan has in stance at t but which is in the air (a
+    late touchdown) is held, swings `late_swing` and stands from there to its planned lift-off; the
+    other feet, the total duration and everything after that lift-off are unchanged. With less than
+    `late_swing` left of its stance it swings on into its planned swing."""
+    gait = make_gait("trot", 4, 2.4)
+    ends = np.cumsum(gait.durations)
+    k = next(k for k in range(1, len(ends)) if 0 < gait.stance[k].sum() < 4)  # the first pair's stance
+    t = ends[k - 1] + 0.05
+    (leg, other) = np.flatnonzero(gait.stance[k])
+    lifted = np.zeros(4, bool)
+    lifted[leg] = True
+    rest, airborne = remaining_gait(gait, t, hold=0.02, lifted=lifted, late_swing=0.05)
+    plain, _ = remaining_gait(gait, t, hold=0.02)
+    assert np.array_equal(airborne, lifted | ~gait.stance[k])
+    assert rest.duration == pytest.approx(plain.duration)
+    assert rest.stance[0].all() and rest.durations[0] == pytest.approx(0.02)
+    lift_off = ends[k] - t
+    contact = rest.contact(np.array([0.021, 0.069, 0.071, lift_off - 1e-3, lift_off + 1e-3]))[:, leg]
+    assert list(contact) == [False, False, True, True, False]
+    after = np.linspace(0.02 + 1e-3, rest.duration - 1e-3, 500)
+    assert np.array_equal(rest.contact(after)[:, other], plain.contact(after)[:, other])
+    later = after[after > lift_off + 1e-3]
+    assert np.array_equal(rest.contact(later), plain.contact(later))
+    short, _ = remaining_gait(gait, ends[k] - 0.04, hold=0.01, lifted=lifted, late_swing=0.05)
+    times = np.linspace(0.01 + 1e-3, 0.1, 50)
+    assert not short.contact(times)[:, leg].any()
+
+
+def test_lifted_feet_are_planned_down_sensed_up_and_above_the_terrain(flat):
+    """`lifted_feet`: a stance foot the measured state senses out of contact and above the terrain
+    by more than the height; not a foot in contact, not one within the height, not a swing foot,
+    and none without sensing or with the height None."""
+    from legplan.dyn.replan import lifted_feet
+
+    gait = make_gait("trot", 4, 2.4)
+    ends = np.cumsum(gait.durations)
+    k = next(k for k in range(1, len(ends)) if 0 < gait.stance[k].sum() < 4)
+    t = ends[k - 1] + 0.05
+    feet = np.array([[0.3, 0.2, 0.0], [0.3, -0.2, 0.0], [-0.3, 0.2, 0.0], [-0.3, -0.2, 0.0]])
+    feet[:, 2] = [0.05, 0.005, 0.05, 0.05]
+    sensed = np.array([False, False, True, False])
+    state = MeasuredState(t, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), feet, sensed)
+    expected = gait.stance[k] & ~sensed & (feet[:, 2] > 0.01)
+    assert expected.any()
+    assert np.array_equal(lifted_feet(gait, state, flat, 0.01), expected)
+    assert not lifted_feet(gait, state, flat, None).any()
+    unsensed = MeasuredState(t, np.zeros(3), np.zeros(3), np.zeros(3), np.zeros(3), feet)
+    assert not lifted_feet(gait, unsensed, flat, 0.01).any()
+
+
+def test_a_replan_lands_a_late_foot_from_where_it_is(planned, anymal, flat):
+    """A walk's foot measured 4 cm above its foothold and out of contact while its plan stands on it
+    (a late touchdown). Taken as in stance (`touchdown_height` None) the replan stands it on the
+    terrain at once, 4 cm from where it is, and pushes on it from t: a support the robot does not
+    have. Taken as in the air it starts where it is with no force, swings down within `late_swing`
+    and stands on the terrain from there; the replan converges."""
+    gait = planned.problem.form.gait
+    state = MeasuredState.from_samples(planned.samples, 0.05)  # every foot down, the first to lift at 0.256 s
+    leg = 3
+    assert gait.contact(np.array([0.05, 0.3]))[:, leg].all()
+    feet = state.feet_pos.copy()
+    feet[leg, 2] += 0.04
+    contact = np.ones(4, bool)
+    contact[leg] = False
+    late = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel, state.base_ang_vel, feet, contact)
+    landing = AIRBORNE_HOLD + ReplanParams.late_swing
+    stays = replan(planned, late, anymal, flat, DynParams(), settings=ReplanParams(touchdown_height=None)).plan.samples
+    early = stays["t"] < landing - 1e-6
+    assert stays["contact"][early, leg].all() and abs(stays["feet_pos"][0, leg, 2]) < 1e-3
+    assert stays["forces"][early, leg, 2].max() > 10.0
+    out = replan(planned, late, anymal, flat, DynParams(), settings=ReplanParams())
+    assert out.success, out.plan.reason
+    s = out.plan.samples
+    early = s["t"] < landing - 1e-6
+    assert np.allclose(s["feet_pos"][0, leg], feet[leg], atol=1e-6)
+    assert not s["contact"][early, leg].any() and np.abs(s["forces"][early, leg]).max() < 1e-6
+    down = s["contact"][:, leg] & ~early
+    assert down.any() and np.abs(s["feet_pos"][down, leg, 2]).max() < 1e-3

@@ -44,7 +44,7 @@ def json_replan(path):
 
 
 def test_closed_loop_survives_a_push_the_open_loop_fails_under(flat, trot):
-    """The 1 m flat trot pushed sideways at half its duration (22 N s): executed as planned it
+    """The 1 m flat trot pushed sideways at half its duration (30 N s): executed as planned it
     fails (falls, or is pushed off its goal's heading); replanned every 0.25 s and at once when the push drives the base out of the default
     velocity tube, every replan tracked (the ones that did not converge too: they start from where
     the push left the robot; every one before the push converges), it reaches the goal."""
@@ -55,7 +55,7 @@ def test_closed_loop_survives_a_push_the_open_loop_fails_under(flat, trot):
 
     attrs, tasks = read_tasks(trot)
     item = sim_items(tasks)[0]
-    params = SimParams(pushes=((1.2, 0.0, 220.0, 0.1),))
+    params = SimParams(pushes=((1.2, 0.0, 300.0, 0.1),))
     dyn = recorded_params(json.loads(attrs["params"]))
     opened = simulate_item(SimWorker("anymal", str(flat[1]), params), item)
     closed = simulate_item(SimWorker("anymal", str(flat[1]), params, replan=(0.25, dyn)), item)
@@ -245,3 +245,33 @@ def test_a_closed_loop_whose_replan_inserts_strides_runs_to_the_later_end(flat, 
         assert closed["series"]["t"][-1] == pytest.approx(end, abs=2 * CONTROL_DT), closed["reason"]
     else:
         assert closed["series"]["t"][-1] > tasks[0]["samples"]["t"][-1] + params.settle, closed["reason"]
+
+
+def test_the_simulator_hands_a_replan_the_feet_it_senses_on_the_ground(flat, trot):
+    """`simulate` gives the replanner the feet the simulation has in contact (`MeasuredState.contact`,
+    what `legplan.dyn.replan.lifted_feet` reads): mid-stance of the trot's first pair, that pair."""
+    from legplan.dyn.artefact import read_tasks
+    from legplan.robots import load_robot
+    from legplan.sim.run import SimParams, simulate
+
+    _, tasks = read_tasks(trot)
+    samples = tasks[0]["samples"]
+    sensed = []
+
+    class Stop(Exception):
+        pass
+
+    class Recorder:
+        def due(self, t, position_error=0.0, velocity_error=0.0):
+            return "period" if t >= 0.3 else None
+
+        def __call__(self, t, base_pos, base_rot, base_vel, base_ang_vel, feet_pos, trigger="period", contact=None):
+            sensed.append((t, contact))
+            raise Stop
+
+    with pytest.raises(Stop):
+        simulate(samples, load_robot("anymal"), flat[0], SimParams(), replanner=Recorder())
+    (t, contact), = sensed
+    k = int(np.argmin(np.abs(samples["t"] - t)))
+    planned = np.asarray(samples["contact"][k], bool)
+    assert 0 < planned.sum() < 4 and np.array_equal(contact, planned)
