@@ -45,7 +45,9 @@ def main() -> None:
 
     from legplan.dyn.costs import CostWeights
     from legplan.dyn.problem import build_problem
-    from legplan.dyn.replan import MeasuredState, Previous, ReplanParams, ReplanTask, ShiftedInit, remaining_gait, replan
+    from legplan.dyn.replan import MeasuredState, Previous, ReplanParams, ReplanTask, replan
+    from legplan.dyn.rest_gait import remaining_gait
+    from legplan.dyn.shifted_init import ShiftedInit
     from legplan.dyn.settings import PAPER
     from legplan.solve.auglag import _AugmentedRows, row_tolerances
     from legplan.solve.hinged import solve_hinged_lm

@@ -86,6 +86,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from legplan.dyn.capture import capture_step, recovery_time
 from legplan.dyn.constraints import GRAVITY
 from legplan.dyn.costs import CostWeights
 from legplan.dyn.euler import rotation, world_rates
@@ -93,19 +94,16 @@ from legplan.dyn.formulation import Formulation, Pose
 from legplan.dyn.gait import Gait
 from legplan.dyn.planner import PlanResult, StageOutcome, sample_solution
 from legplan.dyn.problem import build_problem, gait_formulation
+from legplan.dyn.rest_gait import (EPS, PHASE_END, Insertion, early_touchdown, gait_stride, grounded_flights,
+                                   insert_strides, remaining_gait)
 from legplan.dyn.settings import DynParams
+from legplan.dyn.shifted_init import ShiftedInit
 from legplan.parameters import Parameters, param
 from legplan.solve.auglag import Constraint, solve_augmented_lagrangian
 from legplan.solve.auglag import scaled_violation as max_scaled_violation
 from legplan.solve.lm import Status
 
-AIRBORNE_HOLD = 0.02
-"""s: the stance a foot in the air at the replan time holds at its measured position before the rest
-of its swing (at most half of what is left of the current phase)."""
 SHORT_FIRST = 0.3  # share of dt: a shorter first base polynomial of a replan is merged into the next
-PHASE_END = 1e-3  # s: a phase with less than this left at the replan time is taken as over
-NODE_INSIDE = 1e-9  # share of a segment: where a node's value and rate are read from the previous splines
-EPS = 1e-9  # s: times closer than this are equal
 
 
 @dataclass(frozen=True)
@@ -317,151 +315,6 @@ class Previous:
         return Pose(lin[-1, 0].copy(), ang[-1, 0].copy())
 
 
-def gait_stride(gait: Gait) -> Gait | None:
-    """One stride of `gait`: the shortest run of p phases that the phases between its first and last
-    (the Stands) repeat at once, stance and durations (a gait of two strides or more, `make_gait`);
-    None when there is none."""
-    stance, durations = gait.stance[1:-1], gait.durations[1:-1]
-    for p in range(1, len(durations) // 2 + 1):
-        for a in range(len(durations) - 2 * p + 1):
-            if (np.array_equal(stance[a:a + p], stance[a + p:a + 2 * p])
-                    and np.allclose(durations[a:a + p], durations[a + p:a + 2 * p], rtol=0.0, atol=EPS)):
-                return Gait(gait.name, durations[a:a + p].copy(), stance[a:a + p].copy())
-    return None
-
-
-@dataclass(frozen=True)
-class Insertion:
-    """Strides inserted into the rest of a motion (`insert_strides`): from `at` (s, the rest's
-    clock) `count` strides of `period` s; what follows is the previous plan `count`·`period` later."""
-
-    at: float
-    period: float
-    count: int
-
-    @property
-    def length(self) -> float:
-        return self.count * self.period
-
-    def previous_time(self, times: np.ndarray) -> np.ndarray:
-        """The time on the rest's previous clock (without the strides) each time of the rest stands
-        for: itself before `at`, in the strides the stride before them (one stride repeated), after
-        them itself less `length`."""
-        times = np.asarray(times, float)
-        inside = (times >= self.at) & (times < self.at + self.length)
-        repeat = self.at - self.period + np.mod(times - self.at, self.period)
-        return np.where(times < self.at, times, np.where(inside, repeat, times - self.length))
-
-
-def insert_strides(gait: Gait, stride: Gait, count: int, first: int = 1) -> tuple[Gait, Insertion | None]:
-    """`gait` (a rest, t at 0) with `count` strides `stride` inserted before its last phase at or
-    after `first` that starts a stride — its stance `stride`'s first, the phase before it
-    `stride`'s last — so that the feet's order of steps goes on; unchanged (None) without such a
-    phase or with `count` 0."""
-    at = [k for k in range(max(first, 1), len(gait.durations))
-          if np.array_equal(gait.stance[k], stride.stance[0]) and np.array_equal(gait.stance[k - 1], stride.stance[-1])]
-    if count < 1 or not at:
-        return gait, None
-    k = at[-1]
-    durations = np.concatenate([gait.durations[:k]] + [stride.durations] * count + [gait.durations[k:]])
-    stance = np.vstack([gait.stance[:k]] + [stride.stance] * count + [gait.stance[k:]])
-    return (Gait(gait.name, durations, stance),
-            Insertion(float(gait.durations[:k].sum()), stride.duration, count))
-
-
-def recovery_time(error: np.ndarray, model) -> float:
-    """s a base needs to stop a horizontal CoM velocity error (3,) and walk back to its path: the
-    linear inverted pendulum (τ = √(h/g)) over feet at the edge of their range of motion along the
-    error stops it at a = g·r/h in |e|/a, having drifted |e|²/2a, and walks that back in
-    2·√(|e|²/2a / a) = √2·|e|/a (Pratt et al. 2006's capture point, the feet's reach as its limit)."""
-    e = np.asarray(error, float)[:2]
-    speed = float(np.hypot(*e))
-    if speed == 0.0:
-        return 0.0
-    box = np.asarray(model.range_of_motion, float)[:2]
-    reach = 1.0 / float(np.max(np.abs(e / speed) / box))  # the box's half-extent along e
-    return (1.0 + np.sqrt(2.0)) * speed * model.base_height / (GRAVITY * reach)
-
-
-def early_touchdown(gait: Gait, airborne: np.ndarray, swing: float) -> Gait:
-    """`gait` (a `remaining_gait`, t at 0) with every foot in the air at t (`airborne`) landing at
-    `swing` s, if it lands later as planned, and standing from there to its planned touchdown (its
-    next stance then goes on as planned): the phase holding `swing` is split there. A pushed base
-    whose capture point leaves the stance feet's support (a walk's diagonal pair while the third
-    foot swings) tips over within the rest of a planned swing; a foot on the ground sooner
-    widens the support it can stop on (capture point, Pratt et al. 2006), and its foothold is the
-    replan's to choose. The total duration, the goal and every later lift-off are unchanged."""
-    ends = np.cumsum(gait.durations)
-    late = []
-    for leg in np.flatnonzero(airborne):
-        later = np.flatnonzero(gait.stance[1:, leg]) + 1  # phase 0 is the hold at its measured position
-        if not later.size or ends[later[0] - 1] > swing + EPS:
-            late.append(leg)
-    if not late:
-        return gait
-    k = int(np.searchsorted(ends, swing, side="right"))
-    durations, stance = gait.durations.copy(), gait.stance.copy()
-    start = ends[k] - durations[k]
-    if swing - start > PHASE_END and ends[k] - swing > PHASE_END:  # split the phase at `swing`
-        durations = np.concatenate([durations[:k], [swing - start, ends[k] - swing], durations[k + 1:]])
-        stance = np.vstack([stance[:k + 1], stance[k:]])
-        k += 1
-    elif ends[k] - swing <= PHASE_END:
-        k += 1
-    for leg in late:
-        lands = k + int(np.argmax(stance[k:, leg])) if stance[k:, leg].any() else len(durations)
-        stance[k:lands, leg] = True
-    return Gait(gait.name, durations, stance)
-
-
-def grounded_flights(gait: Gait) -> Gait:
-    """`gait` (a rest, t at 0) with every phase after its first in which no foot stands (a flying
-    trot's flight) standing on every foot instead, durations unchanged: the feet landing at its
-    start land at once and those lifting at its end stand until then. A pushed base in flight has
-    no force to stop it with, and a landing pair that touches down while the other pair still
-    stands gives the capture point (Pratt et al. 2006) the whole support polygon; the plan's goal,
-    end and order of steps are unchanged, its swings shorter by the flights. The first phase is the
-    one under way (or the hold of a foot in the air, already standing)."""
-    stance = gait.stance.copy()
-    flight = ~stance.any(axis=1)
-    flight[0] = False
-    if not flight.any():
-        return gait
-    stance[flight] = True
-    return Gait(gait.name, gait.durations.copy(), stance)
-
-
-def remaining_gait(gait: Gait, t: float, hold: float = AIRBORNE_HOLD, lifted: np.ndarray | None = None,
-                   late_swing: float = 0.0) -> tuple[Gait, np.ndarray]:
-    """The phases of `gait` after t on a time axis starting at t, and which feet are in the air at t
-    (those get a first stance of `hold`, at most half of what is left of the current phase).
-
-    `lifted` (legs,) marks feet the plan has in stance at t that stand above the terrain (a late
-    touchdown, `lifted_feet`): they are in the air at t too, held, then swing down for `late_swing`
-    s and stand from there on as planned (the phase under way split there); with less than that
-    left of the phase under way they swing through it. A foot in the air cannot push: taken as
-    standing, the replan would stand it on the terrain at once, away from where it is, and count
-    on its force."""
-    ends = np.cumsum(gait.durations)
-    if not 0.0 <= t < ends[-1] - PHASE_END:
-        raise ValueError(f"replan time {t:g} s outside the plan [0, {ends[-1]:g}) s")
-    k = int(np.searchsorted(ends, t + PHASE_END, side="right"))
-    durations = np.concatenate([[ends[k] - t], gait.durations[k + 1:]])
-    stance = gait.stance[k:].copy()
-    late = np.zeros(stance.shape[1], bool) if lifted is None else np.asarray(lifted, bool) & stance[0]
-    airborne = ~stance[0] | late
-    if airborne.any():
-        first = min(hold, 0.5 * durations[0])
-        durations = np.concatenate([[first, durations[0] - first], durations[1:]])
-        stance = np.vstack([np.ones((1, stance.shape[1]), bool), stance])
-    if late.any():
-        if durations[1] - late_swing > PHASE_END and late_swing > PHASE_END:  # lands within the phase
-            durations = np.concatenate([durations[:1], [late_swing, durations[1] - late_swing], durations[2:]])
-            stance = np.vstack([stance[:2], stance[1:]])
-        stance[1, late] = False
-    return Gait(gait.name, durations, stance), airborne
-
-
 def lifted_feet(gait: Gait, state: MeasuredState, terrain, height: float | None) -> np.ndarray:
     """Which feet (legs,) `gait` has in stance at `state.t` while the measured state senses them out
     of contact (`MeasuredState.contact`) and their contact points stand more than `height` m above
@@ -626,108 +479,10 @@ class ReplanTask:
         return out
 
 
-def capture_step(error, time_constant: float, limit, gain: float = 1.0) -> np.ndarray:
-    """The horizontal shift (3,) of a foothold for a base velocity error (3,) (m/s): `gain` × the
-    capture-point offset τ·e of the linear inverted pendulum (τ = √(h/g); Pratt et al. 2006,
-    Raibert's foot placement), each horizontal axis within `limit` (the range of motion's
-    half-widths), none vertically. The controller's foothold feedback and the replan's step
-    adaptation both place feet by it."""
-    shift = gain * time_constant * np.asarray(error, float)
-    shift[2] = 0.0
-    return np.clip(shift, -np.asarray(limit, float), np.asarray(limit, float))
-
-
 def euler_rates(euler: np.ndarray, omega: np.ndarray) -> np.ndarray:
     """ė of a world angular velocity ω at Euler angles e (`euler.world_rates` is linear in ė)."""
     m = np.column_stack([world_rates(euler[None], np.eye(3)[k][None])[0] for k in range(3)])
     return np.linalg.solve(m, omega)
-
-
-class ShiftedInit:
-    """The previous solution shifted in time as an initializer (`legplan.dyn.init` signature): every
-    node of the new splines takes the previous splines' value and rate at its time t + τ (clipped to
-    the previous plan's end). Its guesses solve a nearby problem (`near_solution`). With strides
-    inserted (`Insertion`) the feet and forces in them repeat the stride before them and the base
-    waits at rest where they start; after them the previous plan goes on."""
-
-    near_solution = True
-
-    def __init__(self, previous: Previous, t: float, step: np.ndarray | None = None,
-                 insertion: Insertion | None = None):
-        self.previous, self.t, self.insertion = previous, float(t), insertion
-        self.step = np.zeros(2) if step is None else np.asarray(step, float)[:2]
-
-    def __call__(self, form: Formulation, model, terrain, start, goal, start_feet) -> dict[str, np.ndarray]:
-        prev = self.previous
-        base_t = form.knots
-        guess = {name: _sample(lambda times, d: prev.form.base_matrix(times, d), prev.values[name], self._at(base_t))
-                 for name in ("base_lin", "base_ang")}
-        if self.insertion is not None:  # the base waits in the inserted strides where they start, at rest
-            ins = self.insertion
-            wait = (base_t >= ins.at - EPS) & (base_t < ins.at + ins.length - EPS)
-            for name in ("base_lin", "base_ang"):
-                start = _sample(lambda times, d: prev.form.base_matrix(times, d), prev.values[name],
-                                np.clip([self.t + ins.at], 0.0, prev.form.duration)).reshape(2, 3)
-                nodes = guess[name].reshape(-1, 2, 3)
-                nodes[wait, 0], nodes[wait, 1] = start[0], 0.0
-        feet = np.zeros((form.motion_nodes, 2, 3))
-        forces = np.zeros((form.force_nodes, 2, 3))
-        for leg, foot in enumerate(form.feet):
-            for spline, offset, out, matrix, values in (
-                    (foot.motion, foot.motion_offset, feet, prev.form.foot_matrix, prev.values["feet"]),
-                    (foot.force, foot.force_offset, forces, prev.form.force_matrix, prev.values["forces"])):
-                nodes, times = _node_times(spline)
-                out[offset + nodes] = _sample(lambda tt, d: matrix(leg, tt, d), values,
-                                              self._at(times)).reshape(-1, 2, 3)
-        if self.step.any():
-            self._adapt_steps(form, terrain, feet)
-        guess["feet"], guess["forces"] = feet.reshape(-1), forces.reshape(-1)
-        return guess
-
-    def _adapt_steps(self, form: Formulation, terrain, feet: np.ndarray) -> None:
-        """Move every foot's next foothold (its second stance: the first is where it stands or is
-        held) horizontally by `step` onto the terrain there, and the apex of the swing before it
-        by half that (the capture point, Pratt et al. 2006: one step there stops the pushed base;
-        later steps keep the previous plan's, which lead to the goal)."""
-        for foot in form.feet:
-            if len(foot.stance_nodes) < 2:
-                continue
-            node = foot.stance_nodes[1]
-            xy = feet[node, 0, :2] + self.step
-            feet[node, 0, :2] = xy
-            feet[node, 0, 2] = float(terrain.height(xy[:1], xy[1:])[0])
-            feet[foot.swing_nodes[0], 0, :2] += 0.5 * self.step
-
-    def _at(self, times: np.ndarray) -> np.ndarray:
-        """The previous plan's time of each time of the rest (inserted strides repeat the stride
-        before them, `Insertion.previous_time`)."""
-        times = np.asarray(times, float)
-        if self.insertion is not None:
-            times = self.insertion.previous_time(times)
-        return np.clip(self.t + times, 0.0, self.previous.form.duration)
-
-
-def _sample(matrix, values: np.ndarray, times: np.ndarray) -> np.ndarray:
-    """(n, value|rate, xyz) flattened: a spline's value and first derivative at `times`."""
-    nodes = values.reshape(-1, 3)
-    return np.stack([matrix(times, 0) @ nodes, matrix(times, 1) @ nodes], axis=1).reshape(-1)
-
-
-def _node_times(spline) -> tuple[np.ndarray, np.ndarray]:
-    """Each node of a spline and the time it stands for: the middle of a constant segment (a stance
-    foot, a swing's zero force), else the end of a segment it is (first end met wins), read from
-    just inside that segment (a force node at a lift-off is the stance's end, not the swing's)."""
-    times: dict[int, float] = {}
-    for seg in spline.segments:
-        if seg.constant:
-            times.setdefault(seg.a, 0.5 * (seg.t0 + seg.t1))
-    for seg in spline.segments:  # just inside the segment: a node's rate is its own segment's
-        if not seg.constant:
-            inside = NODE_INSIDE * (seg.t1 - seg.t0)
-            times.setdefault(seg.a, seg.t0 + inside)
-            times.setdefault(seg.b, seg.t1 - inside)
-    nodes = np.array(sorted(times), int)
-    return nodes, np.array([times[n] for n in nodes])
 
 
 @dataclass

@@ -60,7 +60,7 @@ def _numbers(reader: FieldReader, value, field: str, size: int) -> list[float]:
 
 def check_state_time(path, state: MeasuredState, duration: float) -> None:
     """A one-line error naming the state file's field 't' unless t lies inside the plan."""
-    from legplan.dyn.replan import PHASE_END
+    from legplan.dyn.rest_gait import PHASE_END
 
     if not state.t < duration - PHASE_END:
         raise LegplanError(f"{path}: field 't' {state.t:g} s is not inside the plan's [0, {duration:g}) s")

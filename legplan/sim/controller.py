@@ -58,7 +58,7 @@ import numpy as np
 import pinocchio as pin
 import proxsuite
 
-from legplan.dyn.replan import capture_step
+from legplan.dyn.capture import capture_step
 
 LWA = pin.ReferenceFrame.LOCAL_WORLD_ALIGNED
 FACETS = [(np.cos(a), np.sin(a)) for a in np.arange(8) * np.pi / 4]

@@ -28,7 +28,7 @@ replan is recorded: `trigger` what started it, `success` convergence, `status` w
 stopped (converged; max_iterations, the `ReplanParams.max_iterations` budget; time_limit, the
 `cpu_budget`; stalled, the solver's stall test; numerical_failure),
 `tracked` whether the controller took it, `recovery` whether it landed the feet in the air early
-(`ReplanParams.recovery_velocity`, `legplan.dyn.replan.early_touchdown`), as the first replan
+(`ReplanParams.recovery_velocity`, `legplan.dyn.rest_gait.early_touchdown`), as the first replan
 after a push does, `extension` the seconds of strides a tracked replan inserted
 (`ReplanParams.extension`; the simulation then runs to the longer plan's end).
 
@@ -43,7 +43,8 @@ from __future__ import annotations
 import numpy as np
 import pinocchio as pin
 
-from legplan.dyn.replan import PHASE_END, MeasuredState, Previous, ReplanParams, replan
+from legplan.dyn.replan import MeasuredState, Previous, ReplanParams, replan
+from legplan.dyn.rest_gait import PHASE_END
 from legplan.sim.run import REPLAN_UNITS, TEXT_COLUMNS
 from legplan.solve.lm import Status
 

@@ -137,7 +137,7 @@ REPLAN_UNITS = {"t": "s", "trigger": "", "base_pos": "m", "base_euler": "rad", "
 time and trigger ("period" or "tube"), the measured state it started from, LM iterations, CPU
 seconds, its largest violation (rows in their own units, and in the solver's scale), whether it
 converged, whether it recovered from a push (`recovery`: the feet in the air landed early,
-`legplan.dyn.replan.early_touchdown`), how much later the tracked replan ends than the plan before
+`legplan.dyn.rest_gait.early_touchdown`), how much later the tracked replan ends than the plan before
 it (`extension`, strides inserted: `ReplanParams.extension`), why the solve stopped (`status`: converged, max_iterations,
 time_limit, stalled, numerical_failure) and whether the controller tracked it."""
 TEXT_COLUMNS = ("trigger", "status")

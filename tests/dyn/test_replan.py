@@ -9,8 +9,9 @@ from legplan.dyn.planner import plan
 from legplan.dyn.problem import DynParams, DynTask
 from dataclasses import replace
 
-from legplan.dyn.replan import (AIRBORNE_HOLD, MeasuredState, Previous, ReplanParams, ShiftedInit, euler_rates,
-                                frozen_tail, remaining_gait, replan)
+from legplan.dyn.replan import MeasuredState, Previous, ReplanParams, euler_rates, frozen_tail, replan
+from legplan.dyn.rest_gait import AIRBORNE_HOLD, remaining_gait
+from legplan.dyn.shifted_init import ShiftedInit
 
 TASK = DynTask((0.0, 0.0, 0.0), (0.5, 0.1, 0.1), "walk", 2, 3.0)
 
@@ -152,7 +153,7 @@ def test_a_replan_a_hair_before_a_contact_change_has_no_sliver_polynomial(trot4,
     the motion takes that phase as over, so its first base polynomial does not end there — one of
     1e-15 s asks accelerations of 1e29 of its dynamics rows and no replan from there converges. The
     replan from the plan's own state converges with no polynomial shorter than `PHASE_END`."""
-    from legplan.dyn.replan import PHASE_END
+    from legplan.dyn.rest_gait import PHASE_END
 
     form = trot4.problem.form
     ends = np.cumsum(form.gait.durations)
@@ -306,7 +307,7 @@ def test_scaled_violation_weighs_every_row_by_its_scale():
 
 
 def test_capture_step_is_the_pendulum_offset_within_the_box():
-    from legplan.dyn.replan import capture_step
+    from legplan.dyn.capture import capture_step
 
     tau = np.sqrt(0.42 / 9.81)
     limit = np.array([0.15, 0.10, 0.0])
@@ -472,7 +473,7 @@ def test_early_touchdown_lands_the_feet_in_the_air_and_keeps_the_rest():
     """A foot in the air at t lands at `swing` and stands to its planned touchdown: the phase holding
     `swing` is split there, every other flag, the total duration and every later lift-off unchanged;
     a foot that lands sooner as planned, or none in the air, leaves the gait as it is."""
-    from legplan.dyn.replan import early_touchdown
+    from legplan.dyn.rest_gait import early_touchdown
 
     gait = make_gait("walk", 2, 3.0)
     ends = np.cumsum(gait.durations)
@@ -532,7 +533,7 @@ def test_a_pushed_replan_recovers_and_an_unpushed_one_does_not(planned, anymal, 
 
 
 def test_a_gaits_stride_is_its_repeated_run_of_phases():
-    from legplan.dyn.replan import gait_stride
+    from legplan.dyn.rest_gait import gait_stride
 
     trot = gait_stride(make_gait("trot", 4, 2.4, DynParams().line_support))
     assert trot.stance.sum(axis=1).tolist() == [2, 0, 2, 0] and trot.duration == pytest.approx(0.6)
@@ -546,7 +547,7 @@ def test_a_gaits_stride_is_its_repeated_run_of_phases():
 def test_inserted_strides_keep_the_order_of_steps_and_map_onto_the_stride_before():
     """Strides go in before the last phase that starts one, so every foot's steps alternate as
     before; the inserted time maps onto the stride before it, the rest after it onto its own time."""
-    from legplan.dyn.replan import gait_stride, insert_strides
+    from legplan.dyn.rest_gait import gait_stride, insert_strides
 
     gait = make_gait("trot", 4, 2.4, DynParams().line_support)
     stride = gait_stride(gait)
@@ -564,7 +565,7 @@ def test_inserted_strides_keep_the_order_of_steps_and_map_onto_the_stride_before
 
 def test_recovery_time_is_the_pendulums_stop_and_walk_back_at_the_feets_reach(anymal):
     from legplan.dyn.constraints import GRAVITY
-    from legplan.dyn.replan import recovery_time
+    from legplan.dyn.capture import recovery_time
 
     reach = anymal.range_of_motion[1]
     expected = (1 + np.sqrt(2)) * 1.2 * anymal.base_height / (GRAVITY * reach)
@@ -620,7 +621,7 @@ def test_grounded_flights_stand_every_flight_of_the_rest():
     """`grounded_flights`: every phase after the first with no foot down stands on every foot, the
     durations and every other phase unchanged; a rest without flights (a walk) is left as it is, and
     so is a first phase in the air."""
-    from legplan.dyn.replan import grounded_flights
+    from legplan.dyn.rest_gait import grounded_flights
 
     gait = make_gait("trot", 4, 2.4)
     ends = np.cumsum(gait.durations)
