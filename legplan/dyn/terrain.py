@@ -11,9 +11,11 @@ terrain edge: cells whose height differs from a 4-neighbour by more than `edge_s
 Euclidean distance transform of the non-edge cells, bilinear again, gives that distance.
 
 `stance_slope` is the slope |∇(G_σ * h)| of the heightmap smoothed by a Gaussian of σ =
-`SLOPE_SMOOTHING`, bilinear: near a step it rises smoothly toward the edge (a 16.5 cm pallet edge on
-the 1 cm grid: 3.1 on it, 1.5 at 2.5 cm, 0.76 at 3.5 cm, 0.30 at 4.5 cm), so a bound on it keeps stance feet off edges
-with a gradient that points away from them, where the raw heightmap's one-cell ramp has none.
+`SLOPE_SMOOTHING`, sampled at the cells' corners (`corner_slope`) and bilinear between them: near a
+step it rises smoothly toward the edge (a 16.5 cm pallet edge on the 1 cm grid: 3.3 on it, 1.5 at
+2.5 cm, 0.76 at 3.5 cm, 0.30 at 4.5 cm), so a bound on it keeps stance feet off edges with a gradient
+that points away from them, where the raw heightmap's one-cell ramp has none, up to the edge itself:
+the step lies on a line of corners, where the slope peaks in one sample.
 """
 
 from __future__ import annotations
@@ -21,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from legplan.cache import filtered
-from legplan.terrain import TerrainMap
+from legplan.terrain import Grid2D, TerrainMap
 
 EDGE_STEP = 0.02  # m: a height jump between neighbouring cells that makes both an edge
 SLOPE_SMOOTHING = 0.02  # m: σ of the Gaussian under `stance_slope`
@@ -48,8 +50,7 @@ class TerrainModel:
         self.has_edges = bool(edge.any())
         self.level = not np.ptp(h) > 0  # no terrain rises anywhere (read by every build of a problem)
         smooth = filtered("gaussian_filter", h, SLOPE_SMOOTHING / self.resolution, mode="nearest")
-        gy, gx = np.gradient(smooth, self.resolution)
-        self.slope_grid = np.hypot(gx, gy)
+        self.slope_grid, self.slope_corners = corner_slope(smooth, terrain.grid)
         if self.has_edges:
             self.edge_distance_grid = filtered("distance_transform_edt", ~edge) * self.resolution
         else:
@@ -62,16 +63,17 @@ class TerrainModel:
         hi = self.origin + self.resolution * (np.array(self.shape[::-1]) - 1)
         return np.all((xy >= lo) & (xy <= hi), axis=1)
 
-    def _bilinear(self, grid: np.ndarray, x, y, gradient: bool = False):
-        """`Grid2D.bilinear` of one of this model's grids at arrays x, y (real or complex), shaped as x.
-        A grid of one finite value (a level map's height, envelope and slope) is that value with zero
-        gradient everywhere, without the interpolation (whose weights sum to one up to rounding)."""
+    def _bilinear(self, grid: np.ndarray, x, y, gradient: bool = False, frame: Grid2D | None = None):
+        """`Grid2D.bilinear` of one of this model's grids at arrays x, y (real or complex), shaped as x,
+        on the map's cells or on `frame` (the slope's corner grid). A grid of one finite value (a
+        level map's height, envelope and slope) is that value with zero gradient everywhere, without
+        the interpolation (whose weights sum to one up to rounding)."""
         shape = np.shape(x)
         constant = self._constant_value(grid)
         if constant is not None:
             value = np.full(shape, constant, dtype=np.result_type(x, y, float))
             return (value, np.zeros(shape), np.zeros(shape)) if gradient else value
-        out = self.grid.bilinear(grid, np.stack([np.ravel(x), np.ravel(y)], axis=-1), gradient)
+        out = (frame or self.grid).bilinear(grid, np.stack([np.ravel(x), np.ravel(y)], axis=-1), gradient)
         if not gradient:
             return out.reshape(shape)
         value, g = out
@@ -150,13 +152,33 @@ class TerrainModel:
 
     def stance_slope(self, x, y):
         """Slope of the Gaussian-smoothed heightmap at (x, y) (module docstring), real or complex."""
-        return self._bilinear(self.slope_grid, x, y)
+        return self._bilinear(self.slope_grid, x, y, frame=self.slope_corners)
 
     def stance_slope_gradient(self, x, y):
         """(slope, ∂/∂x, ∂/∂y) of `stance_slope` at (x, y), real."""
-        return self._bilinear(self.slope_grid, x, y, gradient=True)
+        return self._bilinear(self.slope_grid, x, y, gradient=True, frame=self.slope_corners)
 
     def edge_distance(self, x, y):
         """Distance (m) from (x, y) to the nearest edge cell (inf on a map without edges)."""
         return self._bilinear(self.edge_distance_grid, x, y)
 
+
+
+def corner_slope(smooth: np.ndarray, grid: Grid2D) -> tuple[np.ndarray, Grid2D]:
+    """|∇s| of a cell-centred field s (the smoothed heightmap) at the cells' corners, and the grid of
+    those corners (module docstring): each component the mean of the two differences of s across the
+    corner along its axis, the field repeated one cell beyond the border (the smoothing's "nearest"
+    mode, so nothing slopes across the border). A heightmap's step lies between two cell centres,
+    on a line of corners, and its smoothed slope peaks there: sampled at the corners the peak is one
+    sample and the interpolated slope falls away from it on both sides, where samples at the two
+    centres beside the step hold the same value and their interpolation is flat over the cell
+    between them, a crest with no gradient off it."""
+    r = float(grid.resolution)
+    padded = np.pad(np.asarray(smooth, float), 1, mode="edge")
+    dx = np.diff(padded, axis=1) / r
+    dy = np.diff(padded, axis=0) / r
+    gx = 0.5 * (dx[1:] + dx[:-1])
+    gy = 0.5 * (dy[:, 1:] + dy[:, :-1])
+    corners = Grid2D(origin=(grid.origin[0] - 0.5 * r, grid.origin[1] - 0.5 * r), resolution=r,
+                     shape=(grid.shape[0] + 1, grid.shape[1] + 1))
+    return np.hypot(gx, gy), corners

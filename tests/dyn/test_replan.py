@@ -280,6 +280,64 @@ def test_a_foot_standing_to_the_end_off_its_planned_foothold_still_replans(plann
     assert all(np.allclose(c.upper[-3:], nominal) for c in boxes[1:])
 
 
+def _standing(planned, t):
+    """The plan's state at t and the legs in stance there (none in the air)."""
+    state = MeasuredState.from_samples(planned.samples, t)
+    _, airborne = remaining_gait(planned.problem.form.gait, state.t)
+    return state, np.flatnonzero(~airborne)
+
+
+def test_a_standing_foot_stays_where_it_was_measured(planned, anymal, flat):
+    """A foot standing at t measured 3 cm above the terrain model (on a corner the map does not
+    have): the replan keeps it where it stands, its terrain row allowing it anywhere up to those
+    3 cm (the solve starts there); it converges. Its next footholds stand on the terrain again."""
+    state, standing = _standing(planned, 1.0)
+    leg = int(standing[0])
+    feet = state.feet_pos.copy()
+    feet[leg, 2] += 0.03
+    raised = MeasuredState(state.t, state.base_pos, state.base_euler, state.base_vel, state.base_ang_vel, feet)
+    out = replan(planned, raised, anymal, flat, DynParams())
+    assert out.success, out.plan.reason
+    form = out.plan.problem.form
+    nodes = out.plan.solve.values["feet"].reshape(-1, 2, 3)
+    first = nodes[form.feet[leg].stance_nodes[0], 0]
+    assert np.array_equal(first[:2], feet[leg, :2]) and -1e-6 <= first[2] <= feet[leg, 2] + 1e-6
+    assert np.allclose(nodes[form.feet[leg].stance_nodes[1:], 0, 2], 0.0, atol=1e-3)
+    on_terrain = [c for c in out.plan.problem.constraints if c.name == "stance_on_terrain"][leg]
+    assert on_terrain.upper[0] == pytest.approx(feet[leg, 2], abs=1e-12) and on_terrain.lower[0] == 0.0
+    assert np.all(on_terrain.upper[1:] == 0.0) and np.all(on_terrain.lower[1:] == 0.0)
+
+
+def test_a_leg_standing_by_a_wall_keeps_its_clearance_deficit_through_its_stance(planned, anymal):
+    """A pillar measured 1 cm beside a standing foot (outside it): the shank's spheres cannot clear it
+    while the foot stands, so the leg's clearance rows keep the deficit the measured state has at t
+    through that stance (the spheres where they were measured meet them) and the plain bound after its
+    lift-off; the other legs' rows are the plain ones."""
+    from legplan.dyn.terrain import TerrainModel
+    from legplan.terrain import Grid2D, terrain_from_heightmap
+
+    state, standing = _standing(planned, 1.0)
+    leg = int(standing[-1])  # a hind leg: its shank leans out over the pillar
+    foot = state.feet_pos[leg]
+    side = np.sign(anymal.nominal_feet[leg, 1])
+    grid = Grid2D(origin=(-1.5, -1.0), resolution=0.01, shape=(201, 351))
+    x, y = grid.centres()
+    pillar = (np.abs(x - foot[0]) < 0.05) & (side * (y - foot[1]) > 0.01) & (side * (y - foot[1]) < 0.08)
+    wall = TerrainModel(terrain_from_heightmap(np.where(pillar, 0.3, 0.0), grid, name="pillar"))
+    out = replan(planned, state, anymal, wall, DynParams())
+    rows = [c for c in out.plan.problem.constraints if c.name == "leg_clearance"]
+    assert len(rows) == 4
+    bound = DynParams().leg_clearance
+    c = rows[leg]
+    times = c.block.times
+    lower = np.asarray(c.lower, float).reshape(times.size, -1)
+    lift_off = out.plan.problem.form.feet[leg].phases[0].t1
+    assert lower[0].min() < bound - 0.005  # a deficit at t
+    assert np.all(lower[times <= lift_off + 1e-9] == lower[0])  # kept through the stance
+    assert np.all(lower[times > lift_off + 1e-9] == bound)
+    assert all(np.all(np.asarray(k.lower) == bound) for i, k in enumerate(rows) if i != leg)
+
+
 class _Rows:
     """A residual block c(x) = x on one variable, for the scaled violation."""
 

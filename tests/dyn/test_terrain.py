@@ -40,6 +40,40 @@ def test_stance_slope_gradient_points_away_from_the_edge_where_the_raw_ramp_has_
     assert np.ptp(hx) == pytest.approx(0.0, abs=1e-9) and hx[0] > 10.0
 
 
+def test_stance_slope_falls_away_from_the_crest_of_an_edge_on_both_sides(pallet_edge):
+    """Within a cell of the edge, where the smoothed slope peaks, its gradient (exact: central
+    differences agree) still points away from the edge on either side: a foothold on the crest has a
+    direction off it, where an interpolation flat over the crest's cell leaves the solver none."""
+    d = np.array([-0.008, -0.004, -0.001, 0.001, 0.004, 0.008])
+    value, gx, gy = pallet_edge.stance_slope_gradient(EDGE + d, np.zeros_like(d))
+    assert np.all(np.sign(gx) == -np.sign(d)) and np.abs(gx).min() > 10.0 and not gy.any()
+    h = 1e-7
+    np.testing.assert_allclose(gx, (_slope(pallet_edge, d + h) - _slope(pallet_edge, d - h)) / (2 * h), rtol=1e-6)
+    assert value.max() < _slope(pallet_edge, [0.0])[0]  # the crest itself is the largest value
+
+
+def test_a_foothold_on_the_crest_of_an_edge_is_moved_off_it(pallet_edge):
+    """The `stance_off_edges` row alone (`StanceSlopeBlock` ≤ `DynParams.stance_slope_max`) on a
+    foothold in the cell of the edge: the replans' projection solver moves it off the edge to the
+    bound and converges, where a row without gradient there stalls at the crest's value."""
+    from legplan.dyn.constraints import StanceSlopeBlock
+    from legplan.dyn.formulation import Formulation
+    from legplan.dyn.settings import DynParams
+    from legplan.solve.auglag import Constraint, solve_augmented_lagrangian
+    from legplan.solve.lm import Status
+    from legplan.solve.variables import VariableBlock
+
+    params = DynParams()
+    for d in (-0.002, 0.003):
+        feet = VariableBlock("feet", [EDGE + d, 0.0, 0.1, 0.0, 0.0, 0.0])
+        row = Constraint(StanceSlopeBlock(pallet_edge, Formulation.node_selector([0], 1)), -np.inf,
+                         params.stance_slope_max, name="stance_off_edges")
+        out = solve_augmented_lagrangian([feet], [], [row], params.projection_solver)
+        assert out.status is Status.CONVERGED, out.reason
+        x = out.values["feet"][0]
+        assert np.sign(x - EDGE) == np.sign(d) and _slope(pallet_edge, [x - EDGE])[0] <= params.stance_slope_max + 1e-3
+
+
 @pytest.mark.parametrize("radius", [0.0, 0.03, 0.06])
 def test_envelope_within_a_radius_bounds_every_column_that_reaches_within_it(radius):
     """On random blocks, at random points: h̄_r is at least the height of every cell whose square
@@ -94,14 +128,15 @@ def test_a_level_map_gives_its_height_and_zero_gradients_as_the_interpolation_do
     grid = Grid2D(origin=(-0.3, -0.2), resolution=0.02, shape=(21, 31))
     level = TerrainModel(terrain_from_heightmap(np.full(grid.shape, ground), grid, name="level"))
     x, y = np.linspace(-0.5, 0.5, 23), np.linspace(-0.3, 0.3, 23)  # some outside, some on cell centres
-    interpolated = lambda g, xs, ys, d=False: grid.bilinear(g, np.stack([xs, ys], axis=-1), d)
-    for name, function, g in (("height", level.height, level.height_grid), ("slope", level.stance_slope, level.slope_grid),
-                              ("envelope", level.envelope, level._envelope_grid(0.0))):
+    interpolated = lambda g, xs, ys, d=False, frame=grid: frame.bilinear(g, np.stack([xs, ys], axis=-1), d)
+    for name, function, g, frame in (("height", level.height, level.height_grid, grid),
+                                     ("slope", level.stance_slope, level.slope_grid, level.slope_corners),
+                                     ("envelope", level.envelope, level._envelope_grid(0.0), grid)):
         got = function(x.reshape(1, -1), y.reshape(1, -1))
         assert got.shape == (1, 23) and got.dtype == float, name
-        np.testing.assert_allclose(got[0], interpolated(g, x, y), rtol=1e-15, atol=0.0)
+        np.testing.assert_allclose(got[0], interpolated(g, x, y, frame=frame), rtol=1e-15, atol=0.0)
         if ground == 0.0:
-            np.testing.assert_array_equal(got[0], interpolated(g, x, y))
+            np.testing.assert_array_equal(got[0], interpolated(g, x, y, frame=frame))
         stepped = function(x + 1e-20j, y)
         assert stepped.dtype == complex and np.all(stepped.imag == 0.0) and np.all(stepped.real == got[0])
     for (h, hx, hy), value in ((level.height_gradient(x, y), ground), (level.envelope_gradient(x, y), ground),
