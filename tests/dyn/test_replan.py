@@ -751,9 +751,9 @@ def test_lifted_feet_are_planned_down_sensed_up_and_above_the_terrain(flat):
 
 def test_a_replan_lands_a_late_foot_from_where_it_is(planned, anymal, flat):
     """A walk's foot measured 4 cm above its foothold and out of contact while its plan stands on it
-    (a late touchdown). Taken as in stance (`touchdown_height` None) the replan stands it on the
-    terrain at once, 4 cm from where it is, and pushes on it from t: a support the robot does not
-    have. Taken as in the air it starts where it is with no force, swings down within `late_swing`
+    (a late touchdown). Taken as in stance (`touchdown_height` None) the replan stands it from t
+    (a standing foot's height anywhere between the terrain's and its measured one) and pushes on
+    it: a support the robot does not have. Taken as in the air it starts where it is with no force, swings down within `late_swing`
     and stands on the terrain from there; the replan converges."""
     gait = planned.problem.form.gait
     state = MeasuredState.from_samples(planned.samples, 0.05)  # every foot down, the first to lift at 0.256 s
@@ -767,8 +767,8 @@ def test_a_replan_lands_a_late_foot_from_where_it_is(planned, anymal, flat):
     landing = AIRBORNE_HOLD + ReplanParams.late_swing
     stays = replan(planned, late, anymal, flat, DynParams(), settings=ReplanParams(touchdown_height=None)).plan.samples
     early = stays["t"] < landing - 1e-6
-    assert stays["contact"][early, leg].all() and abs(stays["feet_pos"][0, leg, 2]) < 1e-3
-    assert stays["forces"][early, leg, 2].max() > 10.0
+    assert stays["contact"][early, leg].all()  # taken as standing, up to its measured height
+    assert stays["forces"][early, leg, 2].max() > 10.0  # and pushing on the air
     out = replan(planned, late, anymal, flat, DynParams(), settings=ReplanParams())
     assert out.success, out.plan.reason
     s = out.plan.samples
