@@ -47,10 +47,9 @@ base at rest there.
 What the measured state itself violates is not the replan's to undo at once: a foot outside its
 range-of-motion box at t (tracking error, a push) may stay outside by that excess, shrinking
 linearly to none over `ReplanParams.settle`; what is left of a swing at t has no swing-height rows.
-A foot standing at t stands where it was measured, its height anywhere between the terrain model's
-and the measured one (a foot on a step's corner), and through the stance under way each leg sphere
-may keep the clearance deficit the measured state has (a foot at the foot of a step's side)
-(`ReplanTask._stance_under_way`).
+A foot standing at t stands where it was measured, and through the stance under way each of its
+leg's spheres may keep the clearance deficit the measured state has (a foot at the foot of a step's
+side) (`ReplanTask._stance_under_way`).
 
 Optional receding horizon (`ReplanParams.horizon`, off by default: freezing the tail leaves the
 free part less room and the solve converges no faster), model predictive control with a terminal
@@ -436,7 +435,7 @@ class ReplanTask:
             lower, upper = c.lower.copy(), c.upper.copy()
             lower[0], upper[0] = -np.inf, np.inf  # the first stance node, in the air
             problem.constraints[on_terrain[leg]] = Constraint(c.block, lower, upper, c.name, c.scale)
-        self._stance_under_way(problem, on_terrain)
+        self._stance_under_way(problem)
         self._settle_range(problem)
         heights = [i for i, c in enumerate(problem.constraints) if c.name == "swing_height"]
         if heights and self.airborne.any():
@@ -447,30 +446,15 @@ class ReplanTask:
                 lower[first[leg]:first[leg] + 2] = -np.inf
             problem.constraints[heights[0]] = Constraint(c.block, lower, c.upper, c.name, c.scale)
 
-
-    def _stance_under_way(self, problem, on_terrain: list[int]) -> None:
-        """Every foot standing at t stands where it was measured (the stance under way is no plan's
-        to move; `Formulation.variables` fixes its x, y), its height between the terrain model's and
-        the measured one (a foot on a step's corner the heightmap's one-cell ramp does not hold; a
-        foot measured above the ground it is about to press on), starting from the measured one; and
-        through that stance each leg sphere keeps the clearance deficit the measured state has at t
-        (a foot at the foot of a step's side: the shank there cannot clear it while the foot stands).
-        Without them the solve lifts a standing foot off the ground to clear the rows, a plan the
+    def _stance_under_way(self, problem) -> None:
+        """Through the stance under way each standing leg's spheres keep the clearance deficit the
+        measured state has at t (a foot at the foot of a step's side: the shank there cannot clear
+        it while the foot stands where it was measured, `Formulation.variables` fixes its x, y).
+        Without it the solve lifts the standing foot off the ground to clear the rows, a plan the
         robot cannot follow, and stalls there."""
         standing = np.flatnonzero(~self.airborne)
         if not standing.size:
             return
-        blocks = {v.name: v for v in problem.variables}
-        feet = blocks["feet"]
-        xyz = self.state.feet_pos
-        for leg in standing:
-            node = problem.form.feet[leg].stance_nodes[0]
-            feet.value.reshape(-1, 2, 3)[node, 0, 2] = xyz[leg, 2]
-            c = problem.constraints[on_terrain[leg]]
-            off = float(xyz[leg, 2] - problem.terrain.height(xyz[leg, :1], xyz[leg, 1:2])[0])
-            lower, upper = c.lower.copy(), c.upper.copy()
-            lower[0], upper[0] = min(lower[0], off), max(upper[0], off)
-            problem.constraints[on_terrain[leg]] = Constraint(c.block, lower, upper, c.name, c.scale)
         clearance = [i for i, c in enumerate(problem.constraints) if c.name == "leg_clearance"]
         if len(clearance) != problem.form.legs:
             return

@@ -44,7 +44,7 @@ def json_replan(path):
 
 
 def test_closed_loop_survives_a_push_the_open_loop_fails_under(flat, trot):
-    """The 1 m flat trot pushed sideways at half its duration (26 N s): executed as planned it
+    """The 1 m flat trot pushed sideways at half its duration (30 N s): executed as planned it
     fails (falls, or is pushed off its goal's heading); replanned every 0.25 s and at once when the push drives the base out of the default
     velocity tube, every replan tracked (the ones that did not converge too: they start from where
     the push left the robot; every one before the push converges), it reaches the goal. No replan
@@ -57,7 +57,7 @@ def test_closed_loop_survives_a_push_the_open_loop_fails_under(flat, trot):
 
     attrs, tasks = read_tasks(trot)
     item = sim_items(tasks)[0]
-    params = SimParams(pushes=((1.2, 0.0, 260.0, 0.1),))
+    params = SimParams(pushes=((1.2, 0.0, 300.0, 0.1),))
     dyn = recorded_params(json.loads(attrs["params"]))
     opened = simulate_item(SimWorker("anymal", str(flat[1]), params), item)
     closed = simulate_item(SimWorker("anymal", str(flat[1]), params, replan=(0.25, dyn)), item)
