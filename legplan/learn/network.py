@@ -18,6 +18,11 @@
   vary in the training tasks, e.g. near-fixed nodes, dominate the loss). scikit-learn's
   `MLPRegressor` (squared loss, tanh, Adam: its L-BFGS line search fails on outputs of this size) is
   fitted on standardized x and on √w_c/σ_c-scaled centred y, which is exactly that loss. A random `validation` fraction is held out.
+  `FitParams` adds what a fit on few tasks needs against fitting their noise: the L2 penalty α on
+  the weights, σ per category and node order (`scale` "order": a node category's values and its
+  derivatives, whose units differ, N against N/s, each at its own spread) and an ensemble of K
+  networks on the same split averaged (`parallel`: saved as one network of K parallel blocks, so
+  init.h5 and `Network` stay as they are). The defaults are the fit as it was.
 * init.h5 (kind "init"): the layers' weights and biases and the input/output normalization as plain
   HDF5 arrays (no pickle), the layout and the task space; `Network` evaluates it in numpy, so
   planning with it needs no training library. `LearnedInit` is an initializer (`legplan.dyn.init`).
@@ -35,6 +40,7 @@ from pathlib import Path
 import numpy as np
 
 from legplan.errors import LegplanError, SpecError
+from legplan.parameters import Parameters, param
 from legplan.learn.layout import CATEGORIES, category_index, check_layout, layout_of, read_layout, split
 from legplan.learn.space import X_NAMES, task_vector
 
@@ -191,6 +197,52 @@ class Network:
         return y[0] if x.ndim == 1 else y
 
 
+@dataclass(frozen=True)
+class FitParams(Parameters):
+    """How eq. (3) is fitted (module docstring); the defaults are the fit without them."""
+
+    what = "fit"
+
+    alpha: float = param(1e-4, "[0, 100]", "α", "L2 penalty on the network's weights (scikit-learn's alpha)")
+    scale: str = param("category", ("category", "order"), "σ_c",
+                       "output normalization: one σ per category, or per category and node order (values, derivatives)")
+    ensemble: int = param(1, "[1, 8]", "K", "networks fitted on the same split (seeds K·seed … K·seed + K − 1), averaged")
+
+
+def parallel(nets: list[Network]) -> Network:
+    """The mean of networks of the same shape, activation and normalization as one network: hidden
+    layers side by side (the first layer's weights stacked by column, later ones block-diagonal) and
+    the output layer summing the blocks' outputs over their count."""
+    if len(nets) == 1:
+        return nets[0]
+    first, count = nets[0], len(nets)
+    weights = [np.hstack([n.weights[0] for n in nets])]
+    for k in range(1, len(first.weights) - 1):
+        block = np.zeros((sum(n.weights[k].shape[0] for n in nets), sum(n.weights[k].shape[1] for n in nets)))
+        rows = cols = 0
+        for n in nets:
+            w = n.weights[k]
+            block[rows:rows + w.shape[0], cols:cols + w.shape[1]] = w
+            rows, cols = rows + w.shape[0], cols + w.shape[1]
+        weights.append(block)
+    weights.append(np.vstack([n.weights[-1] for n in nets]) / count)
+    biases = [np.concatenate([n.biases[k] for n in nets]) for k in range(len(first.biases) - 1)]
+    biases.append(sum(n.biases[-1] for n in nets) / count)
+    return Network(weights, biases, first.activation, first.in_offset, first.in_scale, first.out_offset, first.out_scale)
+
+
+def output_groups(layout: dict[str, int], scale: str) -> tuple[np.ndarray, np.ndarray]:
+    """Per entry of y the group whose spread σ normalizes it (`FitParams.scale`) and the index of its
+    category: a category, or a category's value or derivative nodes (the node categories are
+    (nodes, value|derivative, xyz) flat; the phase durations one group)."""
+    cats = category_index(layout)
+    if scale == "category":
+        return cats, cats
+    order = np.concatenate([np.tile(np.repeat([0, 1], 3), layout[c] // 6) if c != "phases" else np.zeros(layout[c], int)
+                            for c in CATEGORIES])
+    return 2 * cats + order, cats
+
+
 def _scale(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Mean and standard deviation per column (1 for a constant column)."""
     std = a.std(axis=0)
@@ -198,38 +250,46 @@ def _scale(a: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def fit(x: np.ndarray, y: np.ndarray, layout: dict[str, int], weights: dict[str, float], hidden: tuple[int, ...],
-        seed: int, validation: float = 0.2, max_iter: int = 1000):
-    """Fit eq. (3) on (x, y) (module docstring); returns the `Network` and a report of the fit
-    (weighted mean squared error on the training and validation tasks, RMS error per category)."""
+        seed: int, validation: float = 0.2, max_iter: int = 1000, params: FitParams = FitParams()):
+    """Fit eq. (3) on (x, y) (module docstring); returns the `Network`, a report of the fit
+    (weighted mean squared error on the training and validation tasks, RMS error per category) and
+    the last fitted scikit-learn model."""
     from sklearn.exceptions import ConvergenceWarning
     from sklearn.neural_network import MLPRegressor
     from threadpoolctl import threadpool_limits
 
     from legplan.budget import check_size
 
-    check_size("weights", weight_count(x.shape[1], hidden, y.shape[1]), "--hidden")
+    check_size("weights", weight_count(x.shape[1], tuple(params.ensemble * h for h in hidden), y.shape[1]), "--hidden")
     rng = np.random.default_rng(seed)
     order = rng.permutation(len(x))
     n_val = int(round(validation * len(x))) if len(x) >= 5 else 0
     val, train = order[:n_val], order[n_val:]
     in_offset, in_scale = _scale(x[train])
     y_mean = y[train].mean(axis=0)
-    cats = category_index(layout)
-    counts = np.maximum(np.bincount(cats, None, len(CATEGORIES)), 1)  # an empty category: no outputs
-    sigma = np.sqrt(np.bincount(cats, y[train].var(axis=0), len(CATEGORIES)) / counts)
+    groups, group_cats = output_groups(layout, params.scale)
+    size = 2 * len(CATEGORIES)  # enough for either grouping; an empty group: no outputs
+    counts = np.maximum(np.bincount(groups, None, size), 1)
+    sigma = np.sqrt(np.bincount(groups, y[train].var(axis=0), size) / counts)
     sigma = np.where(sigma > 0, sigma, 1.0)
-    out_scale = (sigma / np.sqrt([weights[c] for c in CATEGORIES]))[cats]
-    model = MLPRegressor(hidden_layer_sizes=hidden, activation="tanh", solver="adam", max_iter=max_iter,
-                         alpha=1e-4, random_state=int(seed), tol=1e-6, n_iter_no_change=20, batch_size=min(32, len(train)))
-    # one BLAS thread: a multi-threaded product sums in another order, and the fit's epochs carry that
-    # rounding into the weights, so the same datasets and seed would not always give the same network
-    with warnings.catch_warnings(record=True) as caught, threadpool_limits(limits=1):
-        warnings.simplefilter("always", ConvergenceWarning)
-        model.fit((x[train] - in_offset) / in_scale, (y[train] - y_mean) / out_scale)
-    for warning in caught:  # reaching max_iter epochs is no error: the validation loss tells the fit
-        log.info("fit: %s", str(warning.message).splitlines()[0])
-    net = Network([np.asarray(w, float) for w in model.coefs_], [np.asarray(b, float) for b in model.intercepts_],
-                  "tanh", in_offset, in_scale, y_mean, out_scale)
+    w_c = np.array([weights[c] for c in CATEGORIES])[group_cats]
+    out_scale = sigma[groups] / np.sqrt(w_c)
+    members = []
+    for j in range(params.ensemble):
+        model = MLPRegressor(hidden_layer_sizes=hidden, activation="tanh", solver="adam", max_iter=max_iter,
+                             alpha=params.alpha, random_state=int(seed) * params.ensemble + j, tol=1e-6,
+                             n_iter_no_change=20, batch_size=min(32, len(train)))
+        # one BLAS thread: a multi-threaded product sums in another order, and the fit's epochs carry that
+        # rounding into the weights, so the same datasets and seed would not always give the same network
+        with warnings.catch_warnings(record=True) as caught, threadpool_limits(limits=1):
+            warnings.simplefilter("always", ConvergenceWarning)
+            model.fit((x[train] - in_offset) / in_scale, (y[train] - y_mean) / out_scale)
+        for warning in caught:  # reaching max_iter epochs is no error: the validation loss tells the fit
+            log.info("fit: %s", str(warning.message).splitlines()[0])
+        members.append(Network([np.asarray(w, float) for w in model.coefs_],
+                               [np.asarray(b, float) for b in model.intercepts_], "tanh", in_offset, in_scale, y_mean,
+                               out_scale))
+    net = parallel(members)
 
     def weighted_mse(rows):
         return float(np.mean(((net.predict(x[rows]) - y[rows]) / out_scale) ** 2)) if len(rows) else np.nan
