@@ -253,6 +253,38 @@ def test_the_weight_penalty_shrinks_the_weights():
 
 
 def test_fit_parameters_out_of_range_are_one_line_errors():
-    for bad in ({"ensemble": 0}, {"ensemble": 9}, {"alpha": -1.0}, {"scale": "node"}):
+    for bad in ({"ensemble": 0}, {"ensemble": 9}, {"alpha": -1.0}, {"scale": "node"}, {"model": "tree"}, {"degree": 5},
+                {"ridge": 0.0}):
         with pytest.raises(LegplanError, match=f"fit parameter '{next(iter(bad))}' out of range"):
             FitParams(**bad)
+
+
+def test_a_polynomial_fit_recovers_a_cubic_map_and_reloads_from_plain_arrays(tmp_path):
+    """The polynomial A_θ (FitParams.model): a map cubic in x is fitted to rounding on tasks it never
+    saw, saved as a network without hidden layers whose input layer forms the monomials."""
+    rng = np.random.default_rng(6)
+    x = np.column_stack([rng.uniform(-1.2, -0.3, 80), rng.uniform(-0.7, 0.7, 80), rng.uniform(-0.5, 0.5, 80),
+                         np.zeros((80, 3))])  # the goal fixed: constant columns, as in a task space
+    coef = rng.normal(size=(3, 3, 8))
+
+    def truth(x):
+        a, b, c = x[:, 0], x[:, 1], x[:, 2]
+        return np.column_stack([a * b, c ** 3, a ** 2 * c, b, np.ones_like(a), a * b * c, a ** 3, b ** 2]) @ np.diag(
+            [1, 2, 3, 0.1, 500.0, 1, 1, 1]) + x[:, :3] @ coef[0]
+
+    y = truth(x)
+    net, report, model = fit(x, y, LAYOUT, DEFAULT_WEIGHTS, (256, 256), 0, params=FitParams(model="polynomial"))
+    assert model is None and report["fit_iterations"] == 1 and len(net.weights) == 1 and net.degree == 3
+    fresh = np.column_stack([rng.uniform(-1.1, -0.4, 20), rng.uniform(-0.6, 0.6, 20), rng.uniform(-0.4, 0.4, 20),
+                             np.zeros((20, 3))])
+    assert np.max(np.abs(net.predict(fresh) - truth(fresh))) < 1e-3
+    quadratic = fit(x, y, LAYOUT, DEFAULT_WEIGHTS, (), 0, params=FitParams(model="polynomial", degree=2))[0]
+    assert np.max(np.abs(quadratic.predict(fresh) - truth(fresh))) > 1e-2  # a cubic map is no quadratic
+    path = tmp_path / "init.h5"
+    save_init(path, net, LAYOUT, {"map": "m.yaml"}, report, {}, 0, [], False)
+    loaded = load_init(path)[0]
+    assert loaded.degree == 3 and np.array_equal(loaded.predict(fresh), net.predict(fresh))
+    with h5py.File(path, "a") as f:
+        f.attrs["degree"] = 7
+    with pytest.raises(LegplanError, match="field 'degree'"):
+        load_init(path)
