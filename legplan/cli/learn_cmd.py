@@ -203,13 +203,14 @@ def _filtered(report: dict) -> str:
 @click.option("--weights", "weights_path", type=click.Path(dir_okay=False), default=None,
               help="YAML of W per category, eq. (3).")
 @optimize_phases_opt
+@param_opt("A fit parameter of every cycle's training (legplan.learn.network.FitParams), as for learn train.")
 @click.option("-o", "--output", required=True, type=OutputPath(file_okay=False, files=CYCLE_FILES),
               help="Directory of the cycle's artefacts: dataset_0.h5, init_1.h5, dataset_1.h5, ..., cycles.json.")
 @overwrite_opt
 @batch_opts
 @verbosity_opts
 def cycle_cmd(space_path, cycles, count, seed, heuristic_iterations, learned_iterations, g_max, hidden, hidden_later,
-              weights_path, optimize_phases, output, overwrite, jobs, scheduler, resume):
+              weights_path, optimize_phases, params, output, overwrite, jobs, scheduler, resume):
     """Algorithm 1 (TRAININITIALIZER): Y ← solve(A_h(X); N_h), then K times filter, train, Y ← solve(A_θ(X); N_θ).
 
     Each cycle trains on every task's best converged outcome so far (all earlier datasets), so a
@@ -218,8 +219,12 @@ def cycle_cmd(space_path, cycles, count, seed, heuristic_iterations, learned_ite
     time of converged tasks and their cost quantiles. --resume reuses the
     artefacts already written and continues an interrupted dataset."""
     from legplan.learn.cycle import run_cycle
+    from legplan.learn.network import FitParams
+    from legplan.specio import apply_overrides
 
+    fit_params = apply_overrides(FitParams, params, "--param", "fit")
     run_cycle(space_path, output, count=count, cycles=cycles, seed=seed, heuristic_iterations=heuristic_iterations,
               learned_iterations=learned_iterations, g_max=g_max, hidden=hidden, hidden_later=hidden_later,
-              weights_path=weights_path, optimize_phases=optimize_phases, overwrite=overwrite, resume=resume,
+              weights_path=weights_path, optimize_phases=optimize_phases, fit_params=fit_params, overwrite=overwrite,
+              resume=resume,
               run=_runner(jobs, scheduler, resume, overwrite), report=status)
