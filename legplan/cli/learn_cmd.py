@@ -109,8 +109,9 @@ def _hidden(ctx, param, value):
               help="YAML of W per category (base_lin, base_ang, feet, forces, phases; > 0), eq. (3).")
 @click.option("--validation", type=number("[0, 0.5]"), default=0.2, show_default=True,
               help="Fraction of the filtered tasks held out for validation.")
-@param_opt("A fit parameter (legplan.learn.network.FitParams): alpha (L2 penalty), scale (category|order: "
-           "output normalization), ensemble (networks averaged), e.g. --param ensemble=4.")
+@param_opt("A fit parameter (legplan.learn.network.FitParams): model (network|polynomial), degree and ridge "
+           "(the polynomial's), alpha (the network's L2 penalty), scale (category|order: output normalization), "
+           "ensemble (networks averaged), e.g. --param model=polynomial --param degree=3.")
 @seed_opt
 @output_opt
 @overwrite_opt
