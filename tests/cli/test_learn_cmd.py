@@ -129,7 +129,9 @@ def test_train_fit_parameters_give_an_ensemble_recorded_in_the_provenance(traine
     assert result.exit_code == 0, result.output + str(result.exception)
     with h5py.File(tmp_path / "e.h5", "r") as f:
         assert f["network/layer_1/weights"].shape == (16, 16)
-        assert json.loads(f.attrs["params"])["fit"] == {"alpha": 1e-4, "scale": "order", "ensemble": 2}
+        fit = json.loads(f.attrs["params"])["fit"]
+        assert {key: fit[key] for key in ("alpha", "scale", "ensemble", "model")} == {
+            "alpha": 1e-4, "scale": "order", "ensemble": 2, "model": "network"}
 
 
 @pytest.mark.parametrize("stage", ["projection", "polish"])
