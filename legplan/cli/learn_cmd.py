@@ -14,7 +14,7 @@ import click
 from legplan.cli.console import status, stderr_line
 from legplan.cli.main import EXIT_ITEMS_FAILED
 from legplan.cli.options import (OutputPath, ShippedPath, batch_opts, init_opt, input_artefact, number, optimize_phases_opt,
-                                 output_opt, overwrite_opt, seed_opt, verbosity_opts, warm_stage_opt)
+                                 output_opt, overwrite_opt, param_opt, seed_opt, verbosity_opts, warm_stage_opt)
 from legplan.cli.options import count as count_option
 from legplan.parameters import COST
 from legplan.errors import LegplanError
@@ -109,22 +109,28 @@ def _hidden(ctx, param, value):
               help="YAML of W per category (base_lin, base_ang, feet, forces, phases; > 0), eq. (3).")
 @click.option("--validation", type=number("[0, 0.5]"), default=0.2, show_default=True,
               help="Fraction of the filtered tasks held out for validation.")
+@param_opt("A fit parameter (legplan.learn.network.FitParams): model (network|polynomial), degree and ridge "
+           "(the polynomial's), alpha (the network's L2 penalty), scale (category|order: output normalization), "
+           "ensemble (networks averaged), e.g. --param model=polynomial --param degree=3.")
 @seed_opt
 @output_opt
 @overwrite_opt
 @verbosity_opts
-def train_cmd(dataset_paths, g_max, hidden, weights_path, validation, seed, output, overwrite):
+def train_cmd(dataset_paths, g_max, hidden, weights_path, validation, params, seed, output, overwrite):
     """Filter DATASET by g(y) <= g_max, fit the network of eq. (3), write init.h5 (numpy-readable).
 
     Several datasets of the same tasks (a cycle's) are trained on each task's best converged outcome."""
     from legplan.artefacts import check_output
+    from legplan.learn.network import FitParams
     from legplan.learn.train import train_initializer
+    from legplan.specio import apply_overrides
 
+    fit_params = apply_overrides(FitParams, params, "--param", "fit")
     check_output(output, overwrite)
     if weights_path is not None and not os.path.isfile(weights_path):
         raise LegplanError(f"--weights: '{weights_path}' is not a file")
     report = train_initializer(dataset_paths, output, g_max=g_max, hidden=hidden, weights_path=weights_path,
-                               seed=seed, validation=validation, overwrite=overwrite)
+                               seed=seed, validation=validation, overwrite=overwrite, fit_params=fit_params)
     status(f"wrote {output}: {report['good']}/{report['tasks']} tasks with {_filtered(report)} "
            f"({report['converged']} converged); validation loss {report['validation_loss']:.3g} "
            f"(train {report['train_loss']:.3g}) on {report['validation_tasks']} held-out tasks")
@@ -198,13 +204,14 @@ def _filtered(report: dict) -> str:
 @click.option("--weights", "weights_path", type=click.Path(dir_okay=False), default=None,
               help="YAML of W per category, eq. (3).")
 @optimize_phases_opt
+@param_opt("A fit parameter of every cycle's training (legplan.learn.network.FitParams), as for learn train.")
 @click.option("-o", "--output", required=True, type=OutputPath(file_okay=False, files=CYCLE_FILES),
               help="Directory of the cycle's artefacts: dataset_0.h5, init_1.h5, dataset_1.h5, ..., cycles.json.")
 @overwrite_opt
 @batch_opts
 @verbosity_opts
 def cycle_cmd(space_path, cycles, count, seed, heuristic_iterations, learned_iterations, g_max, hidden, hidden_later,
-              weights_path, optimize_phases, output, overwrite, jobs, scheduler, resume):
+              weights_path, optimize_phases, params, output, overwrite, jobs, scheduler, resume):
     """Algorithm 1 (TRAININITIALIZER): Y ← solve(A_h(X); N_h), then K times filter, train, Y ← solve(A_θ(X); N_θ).
 
     Each cycle trains on every task's best converged outcome so far (all earlier datasets), so a
@@ -213,8 +220,12 @@ def cycle_cmd(space_path, cycles, count, seed, heuristic_iterations, learned_ite
     time of converged tasks and their cost quantiles. --resume reuses the
     artefacts already written and continues an interrupted dataset."""
     from legplan.learn.cycle import run_cycle
+    from legplan.learn.network import FitParams
+    from legplan.specio import apply_overrides
 
+    fit_params = apply_overrides(FitParams, params, "--param", "fit")
     run_cycle(space_path, output, count=count, cycles=cycles, seed=seed, heuristic_iterations=heuristic_iterations,
               learned_iterations=learned_iterations, g_max=g_max, hidden=hidden, hidden_later=hidden_later,
-              weights_path=weights_path, optimize_phases=optimize_phases, overwrite=overwrite, resume=resume,
+              weights_path=weights_path, optimize_phases=optimize_phases, fit_params=fit_params, overwrite=overwrite,
+              resume=resume,
               run=_runner(jobs, scheduler, resume, overwrite), report=status)

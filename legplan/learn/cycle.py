@@ -55,13 +55,14 @@ def write_cycles(path: Path, rows: list[dict]) -> None:
 def run_cycle(space_path, output, *, count: int, cycles: int = 3, seed: int = 0, heuristic_iterations: int = 100,
               learned_iterations: int = 25, g_max: float | str = "auto", hidden: tuple[int, ...] = (256, 256),
               hidden_later: tuple[int, ...] = (256, 256, 256), weights_path=None, optimize_phases: bool = False,
-              overwrite: bool = False, resume: bool = False, run=run_in_process,
+              fit_params=None, overwrite: bool = False, resume: bool = False, run=run_in_process,
               report: Callable[[str], None] = log.info) -> list[dict]:
     """Algorithm 1 on the task space `space_path`, its artefacts in the directory `output`
     (`cycle_paths`): Y ← solve(A_h(X); N_h) on `count` tasks X drawn with `seed`, then `cycles` times
     filter (eq. (4)) and train (eq. (3)) A_θ on each task's best converged outcome so far and
     Y ← solve(A_θ(X); N_θ) on the same X. The first network has `hidden` layers, the later ones
-    `hidden_later` (more tasks pass the filter). Returns the rows of cycles.json (`cycle_row`).
+    `hidden_later` (more tasks pass the filter); `fit_params` (`legplan.learn.network.FitParams`, None:
+    its defaults) how every one is fitted. Returns the rows of cycles.json (`cycle_row`).
 
     Existing artefacts are refused (one line) unless `overwrite`, or reused with `resume` (an
     interrupted dataset continues from its work file). `run` runs each dataset's batch
@@ -70,7 +71,7 @@ def run_cycle(space_path, output, *, count: int, cycles: int = 3, seed: int = 0,
     from legplan.learn.space import read_space
     from legplan.learn.train import train_initializer
     from legplan.learn.dataset import check_space_sizes
-    from legplan.learn.network import filter_rule, read_weights
+    from legplan.learn.network import FitParams, filter_rule, read_weights
 
     space = read_space(space_path)
     check_space_sizes(space, space_path, "costs", optimize_phases)
@@ -95,7 +96,7 @@ def run_cycle(space_path, output, *, count: int, cycles: int = 3, seed: int = 0,
             if not done(init):
                 trained = train_initializer(paths[0:2 * k - 1:2], init, g_max=g_max,
                                             hidden=hidden if k == 1 else hidden_later, weights_path=weights_path,
-                                            seed=seed, overwrite=overwrite)
+                                            seed=seed, overwrite=overwrite, fit_params=fit_params or FitParams())
                 report(f"wrote {init}: {trained['good']}/{trained['tasks']} tasks with "
                        f"{filter_rule(trained['g_max'], bool(trained['g_max_conditional']))}, "
                        f"validation loss {trained['validation_loss']:.3g}")

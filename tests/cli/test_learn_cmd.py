@@ -116,7 +116,22 @@ def test_bad_space_and_foreign_init_are_exit_2_with_no_output(trained):
     assert result.exit_code == 2 and "field 'space.strides'" in result.output
     result = invoke("learn", "train", tmp / "d0.h5", "--g-max", "-1", "-o", tmp / "x.h5")
     assert result.exit_code == 2
+    result = invoke("learn", "train", tmp / "d0.h5", "--param", "ensemble=0", "-o", tmp / "x.h5")
+    assert result.exit_code == 2 and "--param: fit parameters: field 'ensemble'" in result.output
+    assert len(result.output.strip().splitlines()) == 1
     assert not (tmp / "x.h5").exists()
+
+
+def test_train_fit_parameters_give_an_ensemble_recorded_in_the_provenance(trained, tmp_path):
+    tmp, _ = trained
+    result = invoke("learn", "train", tmp / "d0.h5", "--hidden", "8,8", "--param", "ensemble=2", "--param",
+                    "scale=order", "-o", tmp_path / "e.h5", "-q")
+    assert result.exit_code == 0, result.output + str(result.exception)
+    with h5py.File(tmp_path / "e.h5", "r") as f:
+        assert f["network/layer_1/weights"].shape == (16, 16)
+        fit = json.loads(f.attrs["params"])["fit"]
+        assert {key: fit[key] for key in ("alpha", "scale", "ensemble", "model")} == {
+            "alpha": 1e-4, "scale": "order", "ensemble": 2, "model": "network"}
 
 
 @pytest.mark.parametrize("stage", ["projection", "polish"])

@@ -11,7 +11,7 @@ from legplan.dyn.init import heuristic
 from legplan.errors import LegplanError
 from legplan.learn.cycle import run_cycle
 from legplan.learn.initializers import check_warm_stage, initializer
-from legplan.learn.network import LearnedInit
+from legplan.learn.network import FitParams, LearnedInit
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -72,6 +72,22 @@ def test_the_same_seed_trains_the_same_network_bit_for_bit(tmp_path):
     first, other = LearnedInit(tmp_path / "a" / "init_1.h5"), LearnedInit(tmp_path / "c" / "init_1.h5")
     assert not np.array_equal(_arrays(tmp_path / "a" / "dataset_0.h5")["x"], _arrays(tmp_path / "c" / "dataset_0.h5")["x"])
     assert not all(np.array_equal(u, v) for u, v in zip(first.net.weights, other.net.weights))
+
+
+def test_a_cycle_of_polynomial_fits_records_them_and_repeats_bit_for_bit(tmp_path):
+    """`fit_params` reach every cycle's training: a polynomial A_θ, in init.h5 and its provenance;
+    the same seed again gives the same polynomial."""
+    space = tmp_path / "flat.yaml"
+    space.write_text(SPACE)
+    polynomial = FitParams(model="polynomial", degree=2)
+    for name in ("a", "b"):
+        run_cycle(space, tmp_path / name, count=3, cycles=1, seed=1, heuristic_iterations=50, fit_params=polynomial,
+                  report=lambda line: None)
+    first, again = (LearnedInit(tmp_path / name / "init_1.h5") for name in ("a", "b"))
+    assert first.net.degree == 2 and len(first.net.weights) == 1
+    assert all(np.array_equal(u, v) for u, v in zip(first.net.weights + first.net.biases, again.net.weights + again.net.biases))
+    with h5py.File(tmp_path / "a" / "init_1.h5", "r") as f:
+        assert json.loads(f.attrs["params"])["fit"] == polynomial.as_dict()
 
 
 def test_the_init_resolver_hands_the_planner_an_initializer_object(tmp_path):

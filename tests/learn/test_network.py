@@ -6,8 +6,8 @@ import pytest
 
 from legplan.errors import LegplanError
 from legplan.learn.layout import CATEGORIES, check_layout, join, split
-from legplan.learn.network import (DEFAULT_WEIGHTS, Network, auto_g_max, filter_good, fit, load_bound, load_init,
-                                   save_init)
+from legplan.learn.network import (DEFAULT_WEIGHTS, FitParams, Network, auto_g_max, filter_good, fit, load_bound,
+                                   load_init, output_groups, parallel, save_init)
 
 LAYOUT = {"base_lin": 3, "base_ang": 2, "feet": 2, "forces": 1, "phases": 0}
 WITH_PHASES = {**LAYOUT, "phases": 2}
@@ -194,3 +194,97 @@ def test_init_h5_holds_plain_arrays_and_reloads_to_the_same_predictions(linear, 
     assert set(kinds) <= {"f", "i", "V"}  # floats, ints, the /summary table; no opaque or object data
     raw = path.read_bytes()
     assert b"\x80\x04\x95" not in raw and b"\x80\x05\x95" not in raw and b"sklearn" not in raw
+
+
+NODES = {"base_lin": 12, "base_ang": 6, "feet": 6, "forces": 12, "phases": 2}  # (nodes, value|derivative, xyz) flat
+
+
+def _node_data(seed=5, n=60):
+    """Tasks whose outputs are smooth in x, a node category's derivatives 100× its values (N against N/s)."""
+    rng = np.random.default_rng(seed)
+    x = rng.uniform(-1, 1, (n, 3))
+    y = np.tanh(x @ rng.normal(size=(3, sum(NODES.values()))))
+    _, cats = output_groups(NODES, "category")
+    groups, _ = output_groups(NODES, "order")
+    return x, y * np.where(groups % 2 == 1, 100.0, 1.0) * np.where(cats == 3, 50.0, 1.0)
+
+
+def test_output_groups_split_node_categories_into_values_and_derivatives():
+    groups, cats = output_groups(NODES, "order")
+    assert groups[:12].tolist() == [0, 0, 0, 1, 1, 1] * 2 and groups[18:24].tolist() == [4, 4, 4, 5, 5, 5]
+    assert groups[-2:].tolist() == [8, 8] and np.array_equal(cats, output_groups(NODES, "category")[0])
+    x, y = _node_data()
+    by_category = fit(x, y, NODES, DEFAULT_WEIGHTS, (8,), 0, max_iter=5)[0]
+    by_order = fit(x, y, NODES, DEFAULT_WEIGHTS, (8,), 0, max_iter=5, params=FitParams(scale="order"))[0]
+    values, derivatives = by_order.out_scale[groups == 6], by_order.out_scale[groups == 7]  # forces
+    assert np.allclose(values, values[0]) and derivatives[0] > 50 * values[0]  # each at its own spread
+    assert np.allclose(by_category.out_scale[groups == 6], by_category.out_scale[groups == 7])  # one σ per category
+
+
+def test_an_ensemble_is_one_network_that_predicts_its_members_mean():
+    x, y = _node_data()
+    members = [fit(x, y, NODES, DEFAULT_WEIGHTS, (6, 5), seed, max_iter=20)[0] for seed in (0, 1, 2)]
+    for net in members[1:]:  # the same split and normalization, other weights (other fits' seeds)
+        net.in_offset, net.in_scale = members[0].in_offset, members[0].in_scale
+        net.out_offset, net.out_scale = members[0].out_offset, members[0].out_scale
+    joined = parallel(members)
+    assert [w.shape for w in joined.weights] == [(3, 18), (18, 15), (15, y.shape[1])]
+    assert np.allclose(joined.predict(x), np.mean([m.predict(x) for m in members], axis=0), rtol=1e-12, atol=1e-12)
+    net = fit(x, y, NODES, DEFAULT_WEIGHTS, (6, 5), 3, max_iter=20, params=FitParams(ensemble=3))[0]
+    assert net.weights[1].shape == (18, 15) and np.count_nonzero(net.weights[1][:6, 5:]) == 0  # blocks apart
+
+
+@pytest.mark.parametrize("params", [FitParams(), FitParams(alpha=0.1, scale="order", ensemble=2)])
+def test_the_same_data_and_seed_give_the_same_network_bit_for_bit(params):
+    x, y = _node_data()
+    one, two = (fit(x, y, NODES, DEFAULT_WEIGHTS, (8, 8), 7, max_iter=30, params=params)[0] for _ in range(2))
+    assert all(np.array_equal(a, b) for a, b in zip(one.weights + one.biases, two.weights + two.biases))
+    assert np.array_equal(one.out_scale, two.out_scale)
+    other = fit(x, y, NODES, DEFAULT_WEIGHTS, (8, 8), 8, max_iter=30, params=params)[0]
+    assert not np.array_equal(one.weights[0], other.weights[0])
+
+
+def test_the_weight_penalty_shrinks_the_weights():
+    x, y = _node_data()
+    norms = [sum(float(np.sum(w ** 2)) for w in fit(x, y, NODES, DEFAULT_WEIGHTS, (16, 16), 0, max_iter=200,
+                                                    params=FitParams(alpha=alpha))[0].weights)
+             for alpha in (1e-4, 30.0)]
+    assert norms[1] < 0.5 * norms[0]
+
+
+def test_fit_parameters_out_of_range_are_one_line_errors():
+    for bad in ({"ensemble": 0}, {"ensemble": 9}, {"alpha": -1.0}, {"scale": "node"}, {"model": "tree"}, {"degree": 5},
+                {"ridge": 0.0}):
+        with pytest.raises(LegplanError, match=f"fit parameter '{next(iter(bad))}' out of range"):
+            FitParams(**bad)
+
+
+def test_a_polynomial_fit_recovers_a_cubic_map_and_reloads_from_plain_arrays(tmp_path):
+    """The polynomial A_θ (FitParams.model): a map cubic in x is fitted to rounding on tasks it never
+    saw, saved as a network without hidden layers whose input layer forms the monomials."""
+    rng = np.random.default_rng(6)
+    x = np.column_stack([rng.uniform(-1.2, -0.3, 80), rng.uniform(-0.7, 0.7, 80), rng.uniform(-0.5, 0.5, 80),
+                         np.zeros((80, 3))])  # the goal fixed: constant columns, as in a task space
+    coef = rng.normal(size=(3, 3, 8))
+
+    def truth(x):
+        a, b, c = x[:, 0], x[:, 1], x[:, 2]
+        return np.column_stack([a * b, c ** 3, a ** 2 * c, b, np.ones_like(a), a * b * c, a ** 3, b ** 2]) @ np.diag(
+            [1, 2, 3, 0.1, 500.0, 1, 1, 1]) + x[:, :3] @ coef[0]
+
+    y = truth(x)
+    net, report, model = fit(x, y, LAYOUT, DEFAULT_WEIGHTS, (256, 256), 0, params=FitParams(model="polynomial"))
+    assert model is None and report["fit_iterations"] == 1 and len(net.weights) == 1 and net.degree == 3
+    fresh = np.column_stack([rng.uniform(-1.1, -0.4, 20), rng.uniform(-0.6, 0.6, 20), rng.uniform(-0.4, 0.4, 20),
+                             np.zeros((20, 3))])
+    assert np.max(np.abs(net.predict(fresh) - truth(fresh))) < 1e-3
+    quadratic = fit(x, y, LAYOUT, DEFAULT_WEIGHTS, (), 0, params=FitParams(model="polynomial", degree=2))[0]
+    assert np.max(np.abs(quadratic.predict(fresh) - truth(fresh))) > 1e-2  # a cubic map is no quadratic
+    path = tmp_path / "init.h5"
+    save_init(path, net, LAYOUT, {"map": "m.yaml"}, report, {}, 0, [], False)
+    loaded = load_init(path)[0]
+    assert loaded.degree == 3 and np.array_equal(loaded.predict(fresh), net.predict(fresh))
+    with h5py.File(path, "a") as f:
+        f.attrs["degree"] = 7
+    with pytest.raises(LegplanError, match="field 'degree'"):
+        load_init(path)
