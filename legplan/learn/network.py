@@ -338,14 +338,16 @@ def fit(x: np.ndarray, y: np.ndarray, layout: dict[str, int], weights: dict[str,
 
 
 def _polynomial(x, target, in_offset, in_scale, out_offset, out_scale, params: FitParams) -> Network:
-    """The polynomial A_θ (module docstring): ridge least squares of the scaled, centred `target` on
-    the centred monomials of the standardized x (the intercept unpenalized, in the bias)."""
+    """The polynomial A_θ (module docstring): ridge least squares (scikit-learn's `Ridge`, penalty
+    `params.ridge` per task) of the scaled `target` on the `monomials` of the standardized x, the
+    intercept unpenalized, in the bias; the features are the ones `Network.predict` forms."""
+    from sklearn.linear_model import Ridge
+
     features = monomials((x - in_offset) / in_scale, params.degree)
-    mean = features.mean(axis=0)
-    centred = features - mean
-    gram = centred.T @ centred + params.ridge * len(x) * np.eye(features.shape[1])
-    coef = np.linalg.solve(gram, centred.T @ target)
-    return Network([coef], [-mean @ coef], "identity", in_offset, in_scale, out_offset, out_scale, params.degree)
+    model = Ridge(alpha=params.ridge * len(x), fit_intercept=True, solver="cholesky").fit(features, target)
+    coef = np.asarray(model.coef_, float).reshape(target.shape[1], -1).T.copy()
+    bias = np.asarray(model.intercept_, float).reshape(-1)
+    return Network([coef], [bias], "identity", in_offset, in_scale, out_offset, out_scale, params.degree)
 
 
 def save_init(path, net: Network, layout: dict[str, int], space: dict, report: dict, settings: dict, seed: int,
