@@ -5,10 +5,13 @@ seeds, each network judged on the same held-out tasks.
                                                            [--n 100] [--cycles 2] [--held-out 100]
                                                            [--held-out-seed 1] [--out outputs/learn_seeds]
                                                            [--jobs 1] [--summary-only]
+                                                           [--param model=polynomial --param degree=3]
+                                                           [--name learn_seeds_flat_trot]
 
 Per training seed S (none may equal the held-out seed, whose tasks the networks must not have seen):
-1. `legplan learn cycle SPACE --n N --cycles K --seed S --resume -o OUT/<space>/seed_S/cycle`
-   (Algorithm 1: the Heuristic's dataset, then K times filter, train, solve from the network);
+1. `legplan learn cycle SPACE --n N --cycles K --seed S [--param KEY=VALUE ...] --resume
+   -o OUT/<space>/seed_S/cycle` (Algorithm 1: the Heuristic's dataset, then K times filter, train, solve
+   from A_θ; the `--param`s are the fit's, `legplan.learn.network.FitParams`, e.g. the polynomial model);
 2. `legplan learn dataset SPACE --n H --seed HELD --init .../init_K.h5 --iterations 25`: the held-out
    tasks solved from the last network with the paper's N_θ = 25 (reused when present).
 Per seed: the held-out converged %, the median LM iterations of the converged tasks and their
@@ -16,7 +19,8 @@ max/median cost (the paper's Fig. 6 quantities); then the spread, largest minus 
 against the issue's bounds: ±2 points, ±1 iteration, ±0.2 (read as: every two seeds within them, so
 the spread at most that). Same seed, same network bit for bit is tested in tests/learn.
 
-Writes bench/results/learn_seeds_<space>.json and its BENCHMARKS.md section.
+Writes bench/results/NAME.json and its BENCHMARKS.md section (NAME: --name, default learn_seeds_<space>).
+legplan runs as `python -m legplan` with this interpreter, so PYTHONPATH chooses the tree measured.
 """
 
 from __future__ import annotations
@@ -78,13 +82,20 @@ def main() -> None:
     parser.add_argument("--jobs", type=int, default=1)
     parser.add_argument("--out", default=str(ROOT / "outputs" / "learn_seeds"))
     parser.add_argument("--summary-only", action="store_true", help="only read what the runs wrote")
+    parser.add_argument("--param", action="append", default=[], metavar="KEY=VALUE",
+                        help="a fit parameter passed to every `learn cycle` (legplan.learn.network.FitParams)")
+    parser.add_argument("--name", default=None, help="result and BENCHMARKS.md section (default learn_seeds_<space>)")
     args = parser.parse_args()
     if args.held_out_seed in args.seeds:
         sys.exit("a training seed equals --held-out-seed: the networks would be judged on tasks they saw")
 
-    legplan = str(Path(sys.executable).with_name("legplan"))
+    if any("=" not in p for p in args.param):
+        sys.exit("--param takes KEY=VALUE")
+    legplan = [sys.executable, "-m", "legplan"]
+    params = [word for p in args.param for word in ("--param", p)]
     space = Path(args.space)
     name = space.stem
+    result_name = args.name or f"learn_seeds_{name}"
     started = datetime.datetime.now(datetime.timezone.utc)
     load_start = load_average()
     seeds = []
@@ -97,12 +108,12 @@ def main() -> None:
         if not args.summary_only:
             if not init.exists():
                 t = time.time()
-                cpu["cycle"] = run([legplan, "learn", "cycle", str(space), "--n", str(args.n), "--cycles",
-                                    str(args.cycles), "--seed", str(seed), "--jobs", str(args.jobs), "--resume",
-                                    "-o", str(cycle)], where / "cycle.log")
+                cpu["cycle"] = run([*legplan, "learn", "cycle", str(space), "--n", str(args.n), "--cycles",
+                                    str(args.cycles), "--seed", str(seed), *params, "--jobs", str(args.jobs),
+                                    "--resume", "-o", str(cycle)], where / "cycle.log")
                 print(f"seed {seed}: cycle {time.time() - t:.0f} s", flush=True)
             if not held.exists():
-                cpu["held_out"] = run([legplan, "learn", "dataset", str(space), "--n", str(args.held_out), "--seed",
+                cpu["held_out"] = run([*legplan, "learn", "dataset", str(space), "--n", str(args.held_out), "--seed",
                                        str(args.held_out_seed), "--init", str(init), "--iterations",
                                        str(LEARNED_ITERATIONS), "--jobs", str(args.jobs), "-o", str(held)],
                                       where / "held_out.log")
@@ -117,19 +128,20 @@ def main() -> None:
         spread[key] = {"spread": width, "bound": bound, "met": width is not None and width <= bound}
     result = {"date": started.date().isoformat(), "machine": machine(), "code": code_version(),
               "load_average_start": load_start, "load_average_end": load_average(), "space": args.space,
-              "train_tasks": args.n, "cycles": args.cycles, "held_out_tasks": args.held_out,
+              "train_tasks": args.n, "cycles": args.cycles, "fit_params": args.param, "held_out_tasks": args.held_out,
               "held_out_seed": args.held_out_seed, "seeds": seeds, "spread": spread}
-    write_result(f"learn_seeds_{name}", result)
+    write_result(result_name, result)
 
     rows = "\n".join(
         f"| {s['seed']} | {s['converged']}/{s['tasks']} ({s['converged_percent']:.0f} %) | "
         f"{s['median_iterations']} | {s['max_over_median_cost']:.2f} | {s['median_seconds']:.2f} |" for s in seeds)
     spreads = "; ".join(f"{k.replace('_', ' ')} {v['spread']:.2f} (bound {v['bound']}: {'met' if v['met'] else 'missed'})"
                         for k, v in spread.items() if v["spread"] is not None)
-    update_benchmarks(f"learn_seeds_{name}", f"""
+    fit = "".join(f" --param {p}" for p in args.param)
+    update_benchmarks(result_name, f"""
 ## learn_seeds — Algorithm 1's spread over training seeds, {name} (`bench/learn_seeds.py`, {result['date']}, {machine()}, code {result['code']}; load average {load_start:.1f} at start, {result['load_average_end']:.1f} at end)
 
-`legplan learn cycle {args.space} --n {args.n} --cycles {args.cycles} --seed S` per seed, then the same
+`legplan learn cycle {args.space} --n {args.n} --cycles {args.cycles} --seed S{fit}` per seed, then the same
 {args.held_out} held-out tasks (seed {args.held_out_seed}) solved from each last network with N_θ = {LEARNED_ITERATIONS}
 (`learn dataset --init`). Converged tasks' median LM iterations, their largest cost over the median, and
 median solve seconds (wall inside a one-thread worker, load as above).
