@@ -27,7 +27,7 @@ round-off); the rest analytically.
 
 from __future__ import annotations
 
-from abc import abstractmethod
+from abc import ABC, abstractmethod
 
 import numpy as np
 import scipy.sparse as sp
@@ -347,7 +347,7 @@ class LegClearanceBlock(RangeOfMotionBlock):
         return value[at, rows % self.rows]
 
 
-class _LegBatch:
+class _LegBatch(ABC):
     """What the per-leg batches share: members evaluated together at the same variable values. The
     first member evaluated at some values computes every member's part (`_evaluate`) and keeps it;
     the other members take their part while the values are the same, compared entry by entry (a
@@ -357,8 +357,10 @@ class _LegBatch:
         self.members: list = []
         self._kept: dict[bool, tuple] = {}
 
+    @abstractmethod
     def _admits(self, block) -> bool:
-        raise NotImplementedError
+        """Whether `block` can be evaluated in one pass with the members (fixed phases, and the same
+        models and settings as theirs)."""
 
     def join(self, block) -> bool:
         """Take `block` as a member if it can be evaluated with the others (else False)."""
@@ -378,8 +380,9 @@ class _LegBatch:
             kept = self._kept[jacobians] = ([np.array(v, float) for v in values], self._evaluate(values, jacobians))
         return kept[1][block.batch_index]
 
+    @abstractmethod
     def _evaluate(self, values, jacobians: bool) -> list:
-        raise NotImplementedError
+        """Every member's `evaluate` result at these values, in member order."""
 
 
 class LegClearanceBatch(_LegBatch):
