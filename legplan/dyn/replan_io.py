@@ -1,6 +1,6 @@
 """The inputs of `legplan dyn replan`: the measured state file and the previous plan in a traj.h5.
 
-A state file is a YAML (or JSON) mapping, every field required but `task`:
+A state file is a YAML (or JSON) mapping, every field required but `task` and `contact`:
 
     t: 1.2                        # s, on the plan's clock: inside [0, duration) of the task
     task: 0                       # which task of TRAJ (its index; default 0)
@@ -9,6 +9,9 @@ A state file is a YAML (or JSON) mapping, every field required but `task`:
     base_vel: [0.30, 0.05, 0.0]   # m/s
     base_ang_vel: [0.0, 0.0, 0.1] # rad/s, world frame
     feet_pos: [[...], [...], [...], [...]]  # m, one xyz per leg in TRAJ's `legs` order
+    contact: [true, true, false, true]      # the feet the robot senses on the ground, per leg (default:
+                                            # not sensed; a planned stance foot sensed off the ground
+                                            # above the terrain is a late touchdown, `lifted_feet`)
 
 Every problem is one line naming the file and the field (`legplan.specio.FieldReader`).
 """
@@ -26,7 +29,7 @@ from legplan.errors import LegplanError
 from legplan.specio import FieldReader, read_yaml_mapping
 
 VECTORS = ("base_pos", "base_euler", "base_vel", "base_ang_vel")
-STATE_FIELDS = ("t", "task", *VECTORS, "feet_pos")
+STATE_FIELDS = ("t", "task", *VECTORS, "feet_pos", "contact")
 
 
 def read_state(path, legs: int) -> tuple[int, MeasuredState]:
@@ -45,7 +48,11 @@ def read_state(path, legs: int) -> tuple[int, MeasuredState]:
     if len(feet) != legs:
         reader.fail("feet_pos", f"must list {legs} feet (one xyz each), got {len(feet)}")
     feet_pos = np.array([_numbers(reader, foot, f"feet_pos[{k}]", 3) for k, foot in enumerate(feet)])
-    return task, MeasuredState(t, feet_pos=feet_pos, **vectors)
+    contact = reader.get(data, "contact", "contact", default=None)
+    if contact is not None and (not isinstance(contact, list) or len(contact) != legs
+                                or not all(isinstance(c, bool) for c in contact)):
+        reader.fail("contact", f"must list {legs} booleans (one per leg, true: on the ground), got {contact!r}")
+    return task, MeasuredState(t, feet_pos=feet_pos, contact=contact, **vectors)
 
 
 def _vector(reader: FieldReader, data: dict, name: str, size: int) -> np.ndarray:

@@ -66,7 +66,37 @@ BAD = [
     ("task", 4, "'task'"),
     ("task", -1, "'task'"),
     ("velocity", [1, 2, 3], "'velocity'"),
+    ("contact", [True, True, False], "'contact'"),
+    ("contact", [1, 1, 0, 1], "'contact'"),
+    ("contact", "yes", "'contact'"),
 ]
+
+
+def test_sensed_contacts_make_a_late_foot_land_from_where_it_is(planned):
+    """The state file's `contact`: a foot its plan stands on at t, sensed off the ground 4 cm above
+    the terrain, starts the rest in the air where it was measured (`lifted_feet`) with no force;
+    without `contact` it stands on the terrain from t."""
+    tmp, map_path, traj, state = planned
+    with h5py.File(traj, "r") as f:
+        standing = f["tasks/0000/samples/contact"][()]
+        times = f["tasks/0000/samples/t"][()]
+    k = int(np.argmin(np.abs(times - state["t"])))
+    leg = int(np.flatnonzero(standing[k])[0])
+    lifted = {**state, "feet_pos": [list(p) for p in state["feet_pos"]]}
+    lifted["feet_pos"][leg][2] += 0.04
+    firsts = {}
+    for name, extra in (("sensed", {"contact": [i != leg for i in range(4)]}), ("plain", {})):
+        out = tmp / f"rest_{name}.h5"
+        result = invoke("dyn", "replan", traj, _state_file(tmp, {**lifted, **extra}, f"{name}.yaml"), "--map",
+                        map_path, "-o", out, "-q")
+        assert result.exit_code == 0, result.output + str(result.exception)
+        with h5py.File(out, "r") as f:
+            firsts[name] = (f["tasks/0000/samples/feet_pos"][0, leg], f["tasks/0000/samples/contact"][0, leg],
+                            f["tasks/0000/samples/forces"][0, leg])
+    feet, contact, force = firsts["sensed"]
+    assert np.allclose(feet, lifted["feet_pos"][leg], atol=1e-6) and not contact and np.abs(force).max() < 1e-6
+    feet, contact, _ = firsts["plain"]
+    assert contact and abs(feet[2]) < 1e-3
 
 
 @pytest.mark.parametrize("field, value, named", BAD)
