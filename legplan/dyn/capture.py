@@ -21,7 +21,6 @@ def capture_step(error, time_constant: float, limit, gain: float = 1.0) -> np.nd
     return np.clip(shift, -np.asarray(limit, float), np.asarray(limit, float))
 
 
-
 def recovery_time(error: np.ndarray, model) -> float:
     """s a base needs to stop a horizontal CoM velocity error (3,) and walk back to its path: the
     linear inverted pendulum (τ = √(h/g)) over feet at the edge of their range of motion along the

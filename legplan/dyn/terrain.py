@@ -163,7 +163,6 @@ class TerrainModel:
         return self._bilinear(self.edge_distance_grid, x, y)
 
 
-
 def corner_slope(smooth: np.ndarray, grid: Grid2D) -> tuple[np.ndarray, Grid2D]:
     """|∇s| of a cell-centred field s (the smoothed heightmap) at the cells' corners, and the grid of
     those corners (module docstring): each component the mean of the two differences of s across the

@@ -122,7 +122,6 @@ def test_a_flying_trot_replans_on_its_short_polynomials(anymal, flat):
     assert check.passed["newton_euler_force"] and check.passed["newton_euler_torque"], check.failures()
 
 
-
 @pytest.fixture(scope="module")
 def trot4(anymal, flat):
     """A flying trot, four strides in 2.4 s: pairs short enough to keep their flights

@@ -42,7 +42,6 @@ def json_replan(path):
         return json.loads(handle.attrs["params"])["replan"]
 
 
-
 def test_closed_loop_survives_a_push_the_open_loop_fails_under(flat, trot):
     """The 1 m flat trot pushed sideways at half its duration (30 N s): executed as planned it
     fails (falls, or is pushed off its goal's heading); replanned every 0.25 s and at once when the push drives the base out of the default
